@@ -1,0 +1,28 @@
+/* 64-bit digests of arrays (XXH3-64) used to prove determinism.
+ *
+ * Every engine records the digest of its final output in summary.json as a
+ * 16-digit hex string; determinism and restart tests compare these. Data are
+ * hashed as raw bytes in the host's (little-endian) layout.
+ */
+#ifndef GEOSYNTH_DIGEST_H
+#define GEOSYNTH_DIGEST_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct gs_digest {
+    void *state; /* XXH3_state_t, opaque */
+} gs_digest;
+
+uint64_t gs_digest_bytes(const void *data, size_t n);
+
+/* Streaming digest: init, update any number of times, final (frees state).
+ * Returns 0 from init only when the state cannot be allocated. */
+int gs_digest_init(gs_digest *d);
+void gs_digest_update(gs_digest *d, const void *data, size_t n);
+uint64_t gs_digest_final(gs_digest *d);
+
+/* Writes 16 lowercase hex digits and a NUL into out[17]. */
+void gs_digest_hex(uint64_t h, char out[17]);
+
+#endif

@@ -1,0 +1,72 @@
+/* MPI runtime basics: start-up, the one place errors end up, collective
+ * status agreement, broadcasts of text.
+ *
+ * Error policy (see STYLE.md): functions return gs_err up to main(), which
+ * calls gs_fatal(). Two cases:
+ *  - collective failures (every rank reached the same point and knows it
+ *    failed, e.g. a bad config that rank 0 validated and announced): rank 0
+ *    prints the message once, every rank finalizes and exits with the code;
+ *  - local failures (one rank failed on its own): that rank prints its
+ *    message with a "[rank N]" prefix and calls MPI_Abort, which stops every
+ *    rank; nobody is left waiting in a collective.
+ * gs_par_agree() turns a local status into a collective one at points where
+ * every rank is known to arrive.
+ *
+ * MPI calls use MPI_ERRORS_RETURN and are wrapped in GS_MPI(...) so an MPI
+ * failure is an ordinary gs_err with MPI's own message.
+ */
+#ifndef GEOSYNTH_PAR_H
+#define GEOSYNTH_PAR_H
+
+#include <mpi.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+
+/* Initializes MPI (if not yet), sets MPI_ERRORS_RETURN on MPI_COMM_WORLD,
+ * tells the logger the rank and installs SIGTERM/SIGINT/SIGUSR1 handlers that
+ * set the interrupt flag (Slurm sends SIGTERM before killing a job). */
+gs_err gs_par_init(int *argc, char ***argv);
+/* Finalizes MPI if gs_par_init started it. */
+void gs_par_finalize(void);
+
+int gs_par_rank(void);
+int gs_par_size(void);
+
+/* Reports the current error and ends the program with exit code = code.
+ * collective != 0: every rank calls this with the same code; only rank 0
+ * prints; all exit cleanly. collective == 0: this rank prints with its rank
+ * prefix and aborts every rank with MPI_Abort. Never returns. */
+_Noreturn void gs_fatal(gs_err code, int collective);
+
+/* Collective: combines each rank's status. Returns GS_OK when every rank
+ * passed GS_OK. Otherwise every rank gets the highest failing code; a rank
+ * whose own status was OK gets an error record naming the lowest failed rank
+ * ("rank 2 failed: ..."), whose message is broadcast from that rank. */
+gs_err gs_par_agree(MPI_Comm comm, gs_err local);
+
+/* Collective debug check that v is the same on every rank (catches
+ * divergent configuration before it becomes a deadlock). */
+gs_err gs_par_check_same_i64(MPI_Comm comm, int64_t v, const char *what);
+
+/* Collective: broadcasts a NUL-terminated string from root. On non-root
+ * ranks *s must be NULL on entry and receives a gs_malloc'ed copy (free with
+ * gs_free). */
+gs_err gs_par_bcast_string(MPI_Comm comm, char **s, int root);
+
+/* Interrupt flag set by SIGTERM/SIGINT/SIGUSR1 (async-signal-safe).
+ * gs_par_interrupted_all() is collective: true on every rank if any rank
+ * was signalled, so all ranks can checkpoint and stop together. */
+int gs_par_interrupted(void);
+int gs_par_interrupted_all(MPI_Comm comm);
+
+/* Wraps one MPI call: raises GS_ERR_MPI with MPI's message on failure. */
+gs_err gs_mpi_error(int rc, const char *call, const char *file, int line, const char *func);
+#define GS_MPI(call)                                                          \
+    do {                                                                      \
+        int gs_mpi_rc_ = (call);                                              \
+        if (gs_mpi_rc_ != MPI_SUCCESS)                                        \
+            return gs_mpi_error(gs_mpi_rc_, #call, __FILE__, __LINE__, __func__); \
+    } while (0)
+
+#endif
