@@ -37,12 +37,12 @@ selected() { [[ -z "$T" || "$1" == *"$T"* ]]; }
 run_unit() {
   for exe in "$BUILD"/tests/unit/test_*; do
     [[ -x "$exe" ]] || continue
-    name=$(basename "$GS_ROOT/$exe")
+    name=$(basename "$exe")
     selected "$name" || continue
     log="$log_dir/$name.log"
     if [[ -n "$VALGRIND" ]]; then
       cmd=(valgrind --quiet --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite
-           --suppressions=tests/valgrind.supp "$GS_ROOT/$exe")
+           --suppressions=$GS_ROOT/tests/valgrind.supp "$GS_ROOT/$exe")
     else
       cmd=("$GS_ROOT/$exe")
     fi
@@ -62,7 +62,7 @@ run_unit() {
 run_mpi() {
   for exe in "$BUILD"/tests/mpi/*; do
     [[ -x "$exe" && ! -d "$exe" ]] || continue
-    name=$(basename "$GS_ROOT/$exe")
+    name=$(basename "$exe")
     selected "$name" || continue
     src=tests/mpi/$name.c
     nps=$(grep -Eo 'np: [0-9 ]+' "$src" 2>/dev/null | head -1 | cut -d: -f2)
@@ -111,7 +111,7 @@ run_e2e() {
 run_fuzz() {
   for exe in build-fuzz/fuzz_*; do
     [[ -x "$exe" && "$exe" != *.o && "$exe" != *.d ]] || continue
-    name=$(basename "$GS_ROOT/$exe")
+    name=$(basename "$exe")
     selected "$name" || continue
     corpus=tests/fuzz/corpus/${name#fuzz_}
     log="$log_dir/$name.log"
