@@ -1,0 +1,76 @@
+/* A run: its directory, phase timings, metrics and final summary.
+ *
+ * Every engine run (fresh or resumed) opens one gs_run. It owns RUN_DIR and
+ * the two machine-readable files analysis and benchmark campaigns read:
+ *   RUN_DIR/metrics.jsonl  one JSON object per finished phase (appended)
+ *   RUN_DIR/summary.json   written atomically at the end: engine, program
+ *                          version, rank count, seed, resolved config,
+ *                          per-phase seconds (min/avg/max over ranks), peak
+ *                          memory (max over ranks), quality metrics, outputs
+ *                          and "digest" (hex of the output's 64-bit digest).
+ * Rank 0 writes the files; phase ends and finish are collective.
+ */
+#ifndef GEOSYNTH_RUN_H
+#define GEOSYNTH_RUN_H
+
+#include <mpi.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/json.h"
+
+#define GS_RUN_MAX_PHASES 64
+
+typedef struct gs_run_phase {
+    char name[48];
+    double start;
+    double seconds;   /* this rank */
+    double min, avg, max;
+} gs_run_phase;
+
+typedef struct gs_run {
+    MPI_Comm comm;
+    int rank, size;
+    char *dir;              /* absolute run directory */
+    char engine[32];
+    char *config_text;      /* resolved config (owned copy) */
+    uint64_t seed;
+    int resumed;            /* 1 when continuing from a checkpoint */
+    double start;
+    gs_run_phase phases[GS_RUN_MAX_PHASES];
+    int nphases;
+    int open_phase;         /* index of the running phase or -1 */
+    gs_json metrics;        /* quality metrics for summary.json (rank 0) */
+    gs_json outputs;        /* output files written (rank 0) */
+} gs_run;
+
+/* Collective. Creates dir (and parents) on rank 0, checks it is writable,
+ * agrees the status over comm. On error every rank returns the same code. */
+gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *dir,
+                   const char *config_text, uint64_t seed, int resumed);
+
+/* Local: starts timing a phase. Phases may not nest. */
+void gs_run_phase_begin(gs_run *run, const char *name);
+
+/* Collective: ends the running phase, reduces its time over ranks and appends
+ * a line to metrics.jsonl (rank 0): {"phase","seconds":{min,avg,max},
+ * "mem_peak_bytes", plus the members of extra (a JSON object text, or NULL)}. */
+gs_err gs_run_phase_end(gs_run *run, const char *extra_json);
+
+/* Rank 0 records quality metrics that go into summary.json ("metrics"). */
+void gs_run_metric_f64(gs_run *run, const char *key, double value);
+void gs_run_metric_i64(gs_run *run, const char *key, int64_t value);
+void gs_run_metric_str(gs_run *run, const char *key, const char *value);
+/* Records an output file (path relative to the run dir or absolute). */
+void gs_run_output(gs_run *run, const char *kind, const char *path);
+
+/* Path inside the run directory: writes "RUN_DIR/name" into out. */
+void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len);
+
+/* Collective: writes summary.json with the digest and prints the RESULTS
+ * section on rank 0. */
+gs_err gs_run_finish(gs_run *run, uint64_t digest);
+
+void gs_run_close(gs_run *run);
+
+#endif

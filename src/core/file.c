@@ -1,0 +1,209 @@
+/* File helpers; see include/geosynth/file.h. */
+#include "geosynth/file.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "geosynth/mem.h"
+
+static gs_err fsync_dir_of(const char *path)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash == dir)
+        slash[1] = '\0';
+    else if (slash)
+        *slash = '\0';
+    else
+        snprintf(dir, sizeof dir, ".");
+    int fd = open(dir, O_RDONLY | O_DIRECTORY);
+    if (fd < 0)
+        return GS_OK; /* best effort: some file systems refuse */
+    fsync(fd);
+    close(fd);
+    return GS_OK;
+}
+
+gs_err gs_file_commit(const char *tmp, const char *path)
+{
+    int fd = open(tmp, O_RDONLY);
+    GS_CHECK(fd >= 0, GS_ERR_IO, "%s: cannot reopen for fsync: %s", tmp, strerror(errno));
+    int rc = fsync(fd);
+    int saved = errno;
+    close(fd);
+    GS_CHECK(rc == 0, GS_ERR_IO, "%s: fsync failed: %s", tmp, strerror(saved));
+    GS_CHECK(rename(tmp, path) == 0, GS_ERR_IO, "cannot rename %s to %s: %s", tmp, path,
+             strerror(errno));
+    return fsync_dir_of(path);
+}
+
+gs_err gs_file_write_atomic(const char *path, const void *data, size_t len)
+{
+    char tmp[PATH_MAX];
+    GS_CHECK(snprintf(tmp, sizeof tmp, "%s.tmp", path) < (int)sizeof tmp, GS_ERR_ARG,
+             "path too long: %s", path);
+    FILE *f = fopen(tmp, "wb");
+    GS_CHECK(f != NULL, GS_ERR_IO, "cannot write %s: %s", tmp, strerror(errno));
+    size_t wrote = len ? fwrite(data, 1, len, f) : 0;
+    int flush_rc = fflush(f);
+    int saved = errno;
+    int close_rc = fclose(f);
+    if (wrote != len || flush_rc != 0 || close_rc != 0) {
+        remove(tmp);
+        GS_RAISE(GS_ERR_IO, "cannot write %s: %s", tmp, strerror(saved ? saved : EIO));
+    }
+    gs_err err = gs_file_commit(tmp, path);
+    if (err)
+        remove(tmp);
+    return err;
+}
+
+gs_err gs_file_read_all(const char *path, size_t max_bytes, char **data, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    GS_CHECK(f != NULL, GS_ERR_IO, "cannot open %s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || S_ISDIR(st.st_mode)) {
+        fclose(f);
+        GS_RAISE(GS_ERR_IO, "%s: is a directory or cannot be examined", path);
+    }
+    size_t cap = 4096, n = 0;
+    char *buf = gs_malloc(cap);
+    if (!buf) {
+        fclose(f);
+        GS_RAISE(GS_ERR_MEM, "%s: cannot allocate read buffer", path);
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            if (cap > max_bytes) {
+                gs_free(buf);
+                fclose(f);
+                GS_RAISE(GS_ERR_ARG, "%s: larger than the %zu bytes allowed for this kind of file",
+                         path, max_bytes);
+            }
+            char *nb = gs_realloc(buf, cap * 2);
+            if (!nb) {
+                gs_free(buf);
+                fclose(f);
+                GS_RAISE(GS_ERR_MEM, "%s: cannot allocate %zu bytes", path, cap * 2);
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        n += got;
+        if (got == 0)
+            break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad || n > max_bytes) {
+        gs_free(buf);
+        GS_RAISE(bad ? GS_ERR_IO : GS_ERR_ARG, "%s: %s", path,
+                 bad ? "read error" : "file too large");
+    }
+    buf[n] = '\0';
+    *data = buf;
+    if (len)
+        *len = n;
+    return GS_OK;
+}
+
+gs_err gs_mkdir_p(const char *path)
+{
+    char buf[PATH_MAX];
+    GS_CHECK(strlen(path) > 0 && strlen(path) < sizeof buf, GS_ERR_ARG,
+             "directory path '%s' is empty or too long", path);
+    snprintf(buf, sizeof buf, "%s", path);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+            GS_RAISE(GS_ERR_IO, "cannot create directory %s: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+        GS_RAISE(GS_ERR_IO, "cannot create directory %s: %s", buf, strerror(errno));
+    struct stat st;
+    GS_CHECK(stat(buf, &st) == 0 && S_ISDIR(st.st_mode), GS_ERR_IO,
+             "%s exists and is not a directory", buf);
+    return GS_OK;
+}
+
+gs_err gs_dir_check_writable(const char *dir)
+{
+    char probe[PATH_MAX];
+    snprintf(probe, sizeof probe, "%s/.geosynth-write-probe-%ld", dir, (long)getpid());
+    FILE *f = fopen(probe, "wb");
+    GS_CHECK(f != NULL, GS_ERR_IO, "output directory %s is not writable: %s", dir,
+             strerror(errno));
+    fclose(f);
+    remove(probe);
+    return GS_OK;
+}
+
+gs_err gs_path_absolute(const char *path, const char *base_dir, char **out)
+{
+    char joined[PATH_MAX * 2];
+    if (path[0] == '/') {
+        snprintf(joined, sizeof joined, "%s", path);
+    } else {
+        char cwd[PATH_MAX];
+        const char *base = base_dir;
+        if (!base || base[0] != '/') {
+            GS_CHECK(getcwd(cwd, sizeof cwd) != NULL, GS_ERR_IO, "cannot get current directory");
+            if (base && base[0]) {
+                size_t l = strlen(cwd);
+                snprintf(cwd + l, sizeof cwd - l, "/%s", base);
+            }
+            base = cwd;
+        }
+        snprintf(joined, sizeof joined, "%s/%s", base, path);
+    }
+    /* Normalize: drop "." and empty components, resolve ".." lexically. */
+    char *norm = gs_malloc(strlen(joined) + 2);
+    GS_CHECK(norm != NULL, GS_ERR_MEM, "out of memory");
+    size_t n = 0;
+    const char *p = joined;
+    while (*p) {
+        while (*p == '/')
+            p++;
+        if (!*p)
+            break;
+        const char *e = p;
+        while (*e && *e != '/')
+            e++;
+        size_t len = (size_t)(e - p);
+        if (len == 1 && p[0] == '.') {
+        } else if (len == 2 && p[0] == '.' && p[1] == '.') {
+            while (n > 0 && norm[n - 1] != '/')
+                n--;
+            if (n > 0)
+                n--;
+        } else {
+            norm[n++] = '/';
+            memcpy(norm + n, p, len);
+            n += len;
+        }
+        p = e;
+    }
+    if (n == 0)
+        norm[n++] = '/';
+    norm[n] = '\0';
+    *out = norm;
+    return GS_OK;
+}
+
+int gs_file_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}

@@ -1,0 +1,217 @@
+/* Run directory, phases, metrics.jsonl and summary.json; see run.h. */
+#include "geosynth/run.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/file.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/par.h"
+#include "geosynth/version.h"
+
+static char *dup_str(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = gs_malloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+static gs_err open_dir_rank0(gs_run *run, const char *dir)
+{
+    GS_CALL(gs_path_absolute(dir, NULL, &run->dir));
+    GS_CALL(gs_mkdir_p(run->dir));
+    GS_CALL(gs_dir_check_writable(run->dir));
+    return GS_OK;
+}
+
+gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *dir,
+                   const char *config_text, uint64_t seed, int resumed)
+{
+    memset(run, 0, sizeof *run);
+    run->comm = comm;
+    GS_MPI(MPI_Comm_rank(comm, &run->rank));
+    GS_MPI(MPI_Comm_size(comm, &run->size));
+    snprintf(run->engine, sizeof run->engine, "%s", engine);
+    run->seed = seed;
+    run->resumed = resumed;
+    run->open_phase = -1;
+    run->start = gs_time_now();
+    gs_json_init(&run->metrics);
+    gs_json_init(&run->outputs);
+    gs_json_begin_object(&run->metrics, NULL);
+    gs_json_begin_array(&run->outputs, NULL);
+    run->config_text = dup_str(config_text ? config_text : "");
+    gs_err err = run->config_text ? GS_OK : GS_ERR_MEM;
+    if (!err && run->rank == 0)
+        err = open_dir_rank0(run, dir);
+    GS_CALL(gs_par_agree(comm, err));
+    if (run->rank != 0)
+        GS_CALL(gs_path_absolute(dir, NULL, &run->dir));
+    return GS_OK;
+}
+
+void gs_run_phase_begin(gs_run *run, const char *name)
+{
+    if (run->nphases >= GS_RUN_MAX_PHASES)
+        return;
+    gs_run_phase *p = &run->phases[run->nphases];
+    memset(p, 0, sizeof *p);
+    snprintf(p->name, sizeof p->name, "%s", name);
+    p->start = gs_time_now();
+    run->open_phase = run->nphases++;
+    gs_log_section(name);
+}
+
+void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len)
+{
+    snprintf(out, out_len, "%s/%s", run->dir, name);
+}
+
+static gs_err append_line(const char *path, const char *line)
+{
+    FILE *f = fopen(path, "a");
+    GS_CHECK(f != NULL, GS_ERR_IO, "cannot append to %s", path);
+    int ok = fputs(line, f) >= 0 && fputc('\n', f) != EOF;
+    ok = (fclose(f) == 0) && ok;
+    GS_CHECK(ok, GS_ERR_IO, "cannot append to %s", path);
+    return GS_OK;
+}
+
+gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
+{
+    GS_CHECK(run->open_phase >= 0, GS_ERR_INTERNAL, "gs_run_phase_end without a running phase");
+    gs_run_phase *p = &run->phases[run->open_phase];
+    run->open_phase = -1;
+    p->seconds = gs_time_now() - p->start;
+    double mine[2] = {p->seconds, -p->seconds}, ext[2], sum;
+    GS_MPI(MPI_Allreduce(mine, ext, 2, MPI_DOUBLE, MPI_MAX, run->comm));
+    GS_MPI(MPI_Allreduce(&p->seconds, &sum, 1, MPI_DOUBLE, MPI_SUM, run->comm));
+    p->max = ext[0];
+    p->min = -ext[1];
+    p->avg = sum / run->size;
+    unsigned long long peak = gs_mem_peak(), peak_max;
+    GS_MPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    if (run->rank != 0)
+        return GS_OK;
+    gs_json j;
+    gs_json_init(&j);
+    gs_json_begin_object(&j, NULL);
+    gs_json_str(&j, "phase", p->name);
+    gs_json_i64(&j, "ranks", run->size);
+    gs_json_begin_object(&j, "seconds");
+    gs_json_f64(&j, "min", p->min);
+    gs_json_f64(&j, "avg", p->avg);
+    gs_json_f64(&j, "max", p->max);
+    gs_json_end_object(&j);
+    gs_json_u64(&j, "mem_peak_bytes", peak_max);
+    if (extra_json)
+        gs_json_merge(&j, extra_json);
+    gs_json_end_object(&j);
+    char path[PATH_MAX];
+    gs_run_path(run, "metrics.jsonl", path, sizeof path);
+    gs_err err = j.failed ? GS_ERR_MEM : append_line(path, j.buf);
+    gs_json_free(&j);
+    GS_CALL(err);
+    gs_log(GS_LOG_INFO, "%s: %.3f s (max over ranks)", p->name, p->max);
+    return GS_OK;
+}
+
+void gs_run_metric_f64(gs_run *run, const char *key, double value)
+{
+    gs_json_f64(&run->metrics, key, value);
+}
+
+void gs_run_metric_i64(gs_run *run, const char *key, int64_t value)
+{
+    gs_json_i64(&run->metrics, key, value);
+}
+
+void gs_run_metric_str(gs_run *run, const char *key, const char *value)
+{
+    gs_json_str(&run->metrics, key, value);
+}
+
+void gs_run_output(gs_run *run, const char *kind, const char *path)
+{
+    gs_json_begin_object(&run->outputs, NULL);
+    gs_json_str(&run->outputs, "kind", kind);
+    gs_json_str(&run->outputs, "path", path);
+    gs_json_end_object(&run->outputs);
+}
+
+gs_err gs_run_finish(gs_run *run, uint64_t digest)
+{
+    unsigned long long peak = gs_mem_peak(), peak_max, rss = gs_mem_rss_peak(), rss_max;
+    GS_MPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    GS_MPI(MPI_Allreduce(&rss, &rss_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    gs_err err = GS_OK;
+    if (run->rank == 0) {
+        char hex[17];
+        gs_digest_hex(digest, hex);
+        gs_json j;
+        gs_json_init(&j);
+        gs_json_begin_object(&j, NULL);
+        gs_json_str(&j, "engine", run->engine);
+        gs_json_str(&j, "program_version", GS_VERSION_STRING);
+        gs_json_i64(&j, "ranks", run->size);
+        gs_json_u64(&j, "seed", run->seed);
+        gs_json_bool(&j, "resumed", run->resumed);
+        gs_json_f64(&j, "wall_seconds", gs_time_now() - run->start);
+        gs_json_begin_array(&j, "phases");
+        for (int i = 0; i < run->nphases; i++) {
+            const gs_run_phase *p = &run->phases[i];
+            gs_json_begin_object(&j, NULL);
+            gs_json_str(&j, "name", p->name);
+            gs_json_f64(&j, "min", p->min);
+            gs_json_f64(&j, "avg", p->avg);
+            gs_json_f64(&j, "max", p->max);
+            gs_json_end_object(&j);
+        }
+        gs_json_end_array(&j);
+        gs_json_u64(&j, "mem_peak_bytes", peak_max);
+        gs_json_u64(&j, "rss_peak_bytes", rss_max);
+        gs_json_end_object(&run->metrics);
+        gs_json_raw(&j, "metrics", run->metrics.buf ? run->metrics.buf : "{}");
+        gs_json_end_array(&run->outputs);
+        gs_json_raw(&j, "outputs", run->outputs.buf ? run->outputs.buf : "[]");
+        gs_json_str(&j, "config", run->config_text);
+        gs_json_str(&j, "digest", hex);
+        gs_json_end_object(&j);
+        char path[PATH_MAX];
+        gs_run_path(run, "summary.json", path, sizeof path);
+        if (j.failed) {
+            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "summary too large");
+        } else {
+            size_t n = j.len;
+            j.buf[n] = '\n';
+            err = gs_file_write_atomic(path, j.buf, n + 1);
+            j.buf[n] = '\0';
+        }
+        gs_json_free(&j);
+        if (!err) {
+            gs_log_section("RESULTS");
+            gs_log(GS_LOG_INFO, "run directory: %s", run->dir);
+            gs_log(GS_LOG_INFO, "wall time: %.2f s on %d rank%s, peak memory %.1f MiB",
+                   gs_time_now() - run->start, run->size, run->size > 1 ? "s" : "",
+                   (double)peak_max / 1048576.0);
+            gs_log(GS_LOG_INFO, "digest: %s", hex);
+        }
+    }
+    GS_CALL(gs_par_agree(run->comm, err));
+    return GS_OK;
+}
+
+void gs_run_close(gs_run *run)
+{
+    gs_free(run->dir);
+    gs_free(run->config_text);
+    gs_json_free(&run->metrics);
+    gs_json_free(&run->outputs);
+    memset(run, 0, sizeof *run);
+}
