@@ -41,7 +41,7 @@ run_unit() {
     selected "$name" || continue
     log="$log_dir/$name.log"
     if [[ -n "$VALGRIND" ]]; then
-      cmd=(valgrind --quiet --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite
+      cmd=(valgrind --quiet --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite --num-callers=50
            --suppressions=$GS_ROOT/tests/valgrind.supp "$GS_ROOT/$exe")
     else
       cmd=("$GS_ROOT/$exe")
