@@ -6,6 +6,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -313,31 +314,38 @@ static int section_known(const gs_cfg_table *t, const char *section)
     return 0;
 }
 
-/* Case-insensitive edit distance of a[0..na) and b[0..nb); names longer
- * than 64 bytes get no suggestion. */
+/* Case-insensitive edit distance (Levenshtein plus adjacent transpositions,
+ * so "feild" is one edit from "field") of a[0..na) and b[0..nb); names
+ * longer than 64 bytes get no suggestion. */
 static size_t edit_distance(const char *a, size_t na, const char *b, size_t nb)
 {
     if (na > 64 || nb > 64)
         return SIZE_MAX;
-    size_t row[65];
+    size_t rows[3][65];
+    size_t *prev2 = rows[0], *prev = rows[1], *cur = rows[2];
     for (size_t j = 0; j <= nb; j++)
-        row[j] = j;
+        prev[j] = j;
     for (size_t i = 1; i <= na; i++) {
-        size_t diag = row[0];
-        row[0] = i;
+        cur[0] = i;
+        int ai = tolower((unsigned char)a[i - 1]);
         for (size_t j = 1; j <= nb; j++) {
-            size_t up = row[j];
-            size_t cost = tolower((unsigned char)a[i - 1]) != tolower((unsigned char)b[j - 1]);
-            size_t best = diag + cost;
-            if (up + 1 < best)
-                best = up + 1;
-            if (row[j - 1] + 1 < best)
-                best = row[j - 1] + 1;
-            row[j] = best;
-            diag = up;
+            int bj = tolower((unsigned char)b[j - 1]);
+            size_t best = prev[j - 1] + (ai != bj);
+            if (prev[j] + 1 < best)
+                best = prev[j] + 1;
+            if (cur[j - 1] + 1 < best)
+                best = cur[j - 1] + 1;
+            if (i > 1 && j > 1 && ai == tolower((unsigned char)b[j - 2]) &&
+                tolower((unsigned char)a[i - 2]) == bj && prev2[j - 2] + 1 < best)
+                best = prev2[j - 2] + 1;
+            cur[j] = best;
         }
+        size_t *t = prev2;
+        prev2 = prev;
+        prev = cur;
+        cur = t;
     }
-    return row[nb];
+    return prev[nb];
 }
 
 /* Largest distance still worth suggesting for a name of n bytes. */
@@ -370,9 +378,10 @@ static void suggest_key(const gs_cfg_table *t, const char *section, const char *
             besti = i;
         }
     }
-    out[0] = '\0';
-    if (best == SIZE_MAX)
+    if (best == SIZE_MAX) {
+        snprintf(out, outlen, " (see geosynth %s --help)", t->engine);
         return;
+    }
     const char *name = t->keys[besti].name;
     if (same_section(name, section))
         snprintf(out, outlen, "; did you mean '%s'?", key_part(name));
@@ -422,9 +431,10 @@ static void suggest_full(const gs_cfg_table *t, const char *full, char *out, siz
             besti = i;
         }
     }
-    out[0] = '\0';
     if (best != SIZE_MAX)
         snprintf(out, outlen, "; did you mean '%s'?", t->keys[besti].name);
+    else
+        snprintf(out, outlen, " (see geosynth %s --help)", t->engine);
 }
 
 /* --------------------------------------------------------------- values */
@@ -441,6 +451,8 @@ static int64_t bound_i64(double v)
 static int is_pow2(int64_t v) { return v > 0 && (v & (v - 1)) == 0; }
 
 /* What a key accepts, with an article: "an integer in [2, 64]". */
+static void format_real(double v, char *out, size_t outlen);
+
 static void describe(const gs_cfg_key *k, char *out, size_t outlen)
 {
     long long lo = (long long)bound_i64(k->lo), hi = (long long)bound_i64(k->hi);
@@ -454,15 +466,11 @@ static void describe(const gs_cfg_key *k, char *out, size_t outlen)
         else
             snprintf(range, sizeof range, " in [%lld, %lld]", lo, hi);
     } else {
-        snprintf(range, sizeof range, " in %c%.17g, %.17g]",
-                 (k->flags & GS_CFG_OPEN_LO) ? '(' : '[', k->lo, k->hi);
-        /* %.17g shows bounds exactly; shorten the common round ones */
         char a[40], b[40];
-        snprintf(a, sizeof a, "%g", k->lo);
-        snprintf(b, sizeof b, "%g", k->hi);
-        if (strtod(a, NULL) == k->lo && strtod(b, NULL) == k->hi)
-            snprintf(range, sizeof range, " in %c%s, %s]",
-                     (k->flags & GS_CFG_OPEN_LO) ? '(' : '[', a, b);
+        format_real(k->lo, a, sizeof a);
+        format_real(k->hi, b, sizeof b);
+        snprintf(range, sizeof range, " in %c%s, %s]", (k->flags & GS_CFG_OPEN_LO) ? '(' : '[',
+                 a, b);
     }
     switch (k->type) {
     case GS_CFG_INT: snprintf(out, outlen, "an integer%s%s", p2, range); break;
@@ -472,11 +480,11 @@ static void describe(const gs_cfg_key *k, char *out, size_t outlen)
     case GS_CFG_PATH: snprintf(out, outlen, "a path"); break;
     case GS_CFG_ENUM: snprintf(out, outlen, "one of %s", k->choices ? k->choices : "?"); break;
     case GS_CFG_INT3:
-        snprintf(out, outlen, "one or three integers%s%s (like 64 or 64x32x16)",
+        snprintf(out, outlen, "one or three integers%s%s, like 64 or 64x32x16",
                  *p2 ? " (powers of two)" : "", range);
         break;
     case GS_CFG_REAL_LIST:
-        snprintf(out, outlen, "a list of numbers%s (separated by commas or blanks)", range);
+        snprintf(out, outlen, "a list of numbers%s, separated by commas or blanks", range);
         break;
     default: snprintf(out, outlen, "?"); break;
     }
@@ -782,7 +790,7 @@ static int parse_value(const gs_cfg_key *k, const char *value, const char *base,
             char tok[64], what[96];
             snprintf(tok, sizeof tok, "%.*s", (int)(te[i] - tb[i]), tb[i]);
             if (n == 3)
-                snprintf(what, sizeof what, ", element %d is '%s'", i + 1, tok);
+                snprintf(what, sizeof what, "; element %d is '%s'", i + 1, tok);
             else
                 what[0] = '\0';
             if (te[i] - tb[i] >= 60) {
@@ -807,16 +815,16 @@ static int parse_value(const gs_cfg_key *k, const char *value, const char *base,
         if (n == -2)
             snprintf(why, wl, "out of memory");
         else if (n < 0)
-            snprintf(why, wl, "expected %s, found an empty element", exp);
+            snprintf(why, wl, "expected %s; found an empty element", exp);
         else if (n > GS_CFG_MAX_LIST)
-            snprintf(why, wl, "expected %s, at most %d of them", exp, GS_CFG_MAX_LIST);
+            snprintf(why, wl, "expected %s; at most %d of them", exp, GS_CFG_MAX_LIST);
         else {
             ok = 1;
             for (int i = 0; i < n && ok; i++) {
                 char tok[64], what[96];
                 snprintf(tok, sizeof tok, "%.*s", (int)(te[i] - tb[i] < 60 ? te[i] - tb[i] : 60),
                          tb[i]);
-                snprintf(what, sizeof what, ", element %d is '%s'", i + 1, tok);
+                snprintf(what, sizeof what, "; element %d is '%s'", i + 1, tok);
                 if (te[i] - tb[i] >= 60) {
                     ok = 0;
                     snprintf(why, wl, "expected %s%s... (too long)", exp, what);
@@ -849,14 +857,20 @@ done:
     return ok;
 }
 
-/* Shortest "%.Ng" that reads back as exactly v. */
+/* Shortest decimal text that reads back as exactly v, without an exponent
+ * for magnitudes in [1e-4, 1e17) ("300", not "3e+02"). */
 static void format_real(double v, char *out, size_t outlen)
 {
-    for (int prec = 1; prec <= 17; prec++) {
+    int prec = 1;
+    for (; prec < 17; prec++) {
         snprintf(out, outlen, "%.*g", prec, v);
         if (strtod(out, NULL) == v)
-            return;
+            break;
     }
+    int exp10 = v != 0 ? (int)floor(log10(fabs(v))) : 0;
+    if (exp10 >= 0 && exp10 < 17 && prec < exp10 + 1)
+        prec = exp10 + 1;
+    snprintf(out, outlen, "%.*g", prec, v);
 }
 
 /* The member's value as INI text (gs_malloc'ed), or NULL. */
