@@ -68,7 +68,8 @@
  * An empty file (or only comments) is valid: every key takes its default and
  * only required keys are reported missing. A file containing a NUL byte is
  * "not a text file" (one problem). Overrides beat the file; when the same key
- * is overridden twice the last --set wins.
+ * is overridden twice the last --set wins. A bad value in the file is still
+ * reported when a --set replaces it (the file itself is wrong).
  *
  * Memory: STRING/PATH/ENUM members and REAL_LIST arrays are gs_malloc'ed and
  * owned by the struct: release with gs_config_free(). Cost: linear in the
@@ -230,7 +231,11 @@ typedef struct gs_run_config {
 
 /* ---- key constructors (compile-time checked member types) ---- */
 
-#define GS_CFG_OFFSET_(st, m, T) _Generic(((st *)0)->m, T: offsetof(st, m))
+/* The type of an INT3 member. */
+typedef int64_t gs_cfg_int3[3];
+
+/* offsetof(st, m), or a compile error when m is not of type T. */
+#define GS_CFG_OFFSET_(st, m, T) _Generic(&((st *)0)->m, T *: offsetof(st, m))
 
 #define GS_CFG_KEY_INT(st, m, name, lo, hi, flags, def, help) \
     {(name), GS_CFG_INT, (lo), (hi), (def), GS_CFG_OFFSET_(st, m, int64_t), (help), NULL, (flags)}
@@ -244,9 +249,8 @@ typedef struct gs_run_config {
     {(name), GS_CFG_PATH, 0, 0, (def), GS_CFG_OFFSET_(st, m, char *), (help), NULL, 0}
 #define GS_CFG_KEY_ENUM(st, m, name, choices, def, help) \
     {(name), GS_CFG_ENUM, 0, 0, (def), GS_CFG_OFFSET_(st, m, char *), (help), (choices), 0}
-/* m is an int64_t[3] member (it decays to int64_t * in the check). */
 #define GS_CFG_KEY_INT3(st, m, name, lo, hi, flags, def, help) \
-    {(name), GS_CFG_INT3, (lo), (hi), (def), GS_CFG_OFFSET_(st, m, int64_t *), (help), NULL, (flags)}
+    {(name), GS_CFG_INT3, (lo), (hi), (def), GS_CFG_OFFSET_(st, m, gs_cfg_int3), (help), NULL, (flags)}
 #define GS_CFG_KEY_REAL_LIST(st, m, name, lo, hi, flags, def, help)                          \
     {(name), GS_CFG_REAL_LIST, (lo), (hi), (def), GS_CFG_OFFSET_(st, m, gs_cfg_real_list), \
      (help), NULL, (flags)}

@@ -1339,7 +1339,8 @@ static void visit_resolved(void *user, const gs_cfg_key *k, int first)
         r->bad = 1;
         r->badkey = k->name;
     }
-    sb_add(&r->b, "# %s (%s; %s)\n%s = %s\n", k->help, exp, def, key_part(k->name), v);
+    sb_add(&r->b, "# %s (%s; %s)\n%s =%s%s\n", k->help, exp, def, key_part(k->name),
+           v[0] ? " " : "", v);
     gs_free(v);
 }
 

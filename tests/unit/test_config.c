@@ -566,7 +566,7 @@ static void test_round_trip(void **state)
     assert_non_null(strstr(t1, "\nsize = 7x7x7\n"));
     assert_non_null(strstr(t1, "\nsmooth = true\n"));
     assert_non_null(strstr(t1, "\nhist = 1e-300, 0.3333333333333333, 0\n"));
-    assert_non_null(strstr(t1, "\nmask = \n"));
+    assert_non_null(strstr(t1, "\nmask =\n"));
     assert_non_null(strstr(t1, "\n[field.pyramid]\n"));
     assert_non_null(strstr(t1, "\nseed = 123456789012345\n"));
     /* Parsed again from another directory base: the identical struct and text. */
