@@ -86,6 +86,24 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
     return GS_OK;
 }
 
+gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
+                            const double x[3], gs_points *scratch, float o[4])
+{
+    gs_points_mls_result r;
+    GS_CALL(gs_points_mls_project(g, R, max_reach, x, scratch, &r));
+    if (r.ok || r.dist != 0 || r.n[0] != 0 || r.n[1] != 0 || r.n[2] != 0) {
+        double d = r.dist / trunc;
+        o[0] = (float)(d > 1 ? 1 : d < -1 ? -1 : d);
+        o[1] = (float)r.n[0];
+        o[2] = (float)r.n[1];
+        o[3] = (float)r.n[2];
+    } else {
+        o[0] = 1;
+        o[1] = o[2] = o[3] = 0;
+    }
+    return GS_OK;
+}
+
 gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double max_reach,
                        const double lo[3], const double step[3], int nx, int ny, int nz,
                        float *out)
@@ -98,19 +116,8 @@ gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double m
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
                 double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
-                gs_points_mls_result r;
-                GS_TRY(err, gs_points_mls_project(g, R, max_reach, x, &scratch, &r), done);
                 float *o = out + 4 * (((size_t)k * ny + j) * nx + i);
-                if (r.ok || r.dist != 0 || r.n[0] != 0 || r.n[1] != 0 || r.n[2] != 0) {
-                    double d = r.dist / trunc;
-                    o[0] = (float)(d > 1 ? 1 : d < -1 ? -1 : d);
-                    o[1] = (float)r.n[0];
-                    o[2] = (float)r.n[1];
-                    o[3] = (float)r.n[2];
-                } else {
-                    o[0] = 1;
-                    o[1] = o[2] = o[3] = 0;
-                }
+                GS_TRY(err, gs_points_field_node(g, R, trunc, max_reach, x, &scratch, o), done);
             }
 done:
     gs_points_free(&scratch);

@@ -64,6 +64,10 @@ double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], dou
 gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
                               gs_points *scratch, gs_opoint *out, int *found);
 
+/* One node of a distance field (see gs_points_field). */
+gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
+                            const double x[3], gs_points *scratch, float o[4]);
+
 /* Pairing of the warp (eq. 1-3): see warp.c. */
 typedef struct gs_points_pairing_in {
     const gs_opoint *S; const double *Sv; size_t ns;   /* source points + variation */
