@@ -312,7 +312,8 @@ gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_poi
     double a = gp->size[0] / cells;
     int i0, i1, j0, j1;
     lattice_range(gp, a, 0, &i0, &i1);
-    lattice_range(gp, a, 1, &j0, &j1);
+    double ay = 0.6 * a; /* rows overlap so rings interlock */
+    lattice_range(gp, ay, 1, &j0, &j1);
     size_t n = (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
     GS_CHECK(n < 100000, GS_ERR_ARG, "chain mail: %zu rings, expected < 100000", n);
     prim *prims = NULL;
@@ -324,7 +325,7 @@ gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_poi
             prim_identity(pr);
             pr->kind = PRIM_TORUS;
             pr->c[0] = i * a + ((j & 1) ? 0.5 * a : 0);
-            pr->c[1] = j * a * 0.5 * 1.2;
+            pr->c[1] = j * ay;
             pr->c[2] = 0;
             pr->a = 0.36 * a;
             pr->b = 0.075 * a;
