@@ -267,7 +267,8 @@ typedef struct gs_points_params {
     double max_variation; /* max |v_s - v_q| */
     double coherence_sigma; /* theta width, world units */
     int greedy_iterations;
-    int cluster_max;      /* points per cluster of Q */
+    int cluster_max;      /* points per cluster of Q (at least) */
+    int max_pairs;        /* clusters grow so |Q| stays near this (spline size) */
     double variation_radius;
     double tps_lambda;
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */

@@ -41,7 +41,7 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
     double c[3], y[3], a[3], n[3];
     memcpy(c, x, sizeof c);
     scratch->n = 0;
-    GS_CALL(gs_points_grid_query(g, c, 1.5 * R, scratch));
+    GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
     int near = 0;
     for (size_t i = 0; i < scratch->n && !near; i++)
         near = v3_dist2(scratch->v[i].p, x) < R * R;
@@ -53,7 +53,7 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
             return GS_OK;
         memcpy(c, nearest.p, sizeof c);
         scratch->n = 0;
-        GS_CALL(gs_points_grid_query(g, c, 1.5 * R, scratch));
+        GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
         /* Fallback answer if the projection below finds no surface. */
         double d[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
         double len = sqrt(v3_dot(d, d));
@@ -64,10 +64,10 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
     memcpy(y, c, sizeof y);
     double tol2 = 1e-8 * R * R;
     for (int it = 0; it < 12; it++) {
-        if (v3_dist2(y, c) > 0.25 * R * R) {
+        if (v3_dist2(y, c) > 0.0625 * R * R) {
             memcpy(c, y, sizeof c);
             scratch->n = 0;
-            GS_CALL(gs_points_grid_query(g, c, 1.5 * R, scratch));
+            GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
         }
         if (gs_points_mls_frame(scratch, R, y, a, n) <= 0)
             return GS_OK; /* keep the nearest-sample fallback (or ok = 0) */

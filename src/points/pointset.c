@@ -149,9 +149,12 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
         for (int j = lo[1]; j <= hi[1]; j++)
             for (int i = lo[0]; i <= hi[0]; i++) {
                 const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                if (cl->n == 0)
+                    continue;
+                GS_CALL(gs_points_reserve(out, out->n + cl->n));
                 for (size_t q = 0; q < cl->n; q++)
                     if (v3_dist2(cl->v[q].p, c) <= r2)
-                        GS_CALL(gs_points_append(out, &cl->v[q], 1));
+                        out->v[out->n++] = cl->v[q];
             }
     return GS_OK;
 }

@@ -76,6 +76,7 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
     p->greedy_iterations = 3;
     p->cluster_max = 12;
+    p->max_pairs = 48;
     p->variation_radius = 2.5 * s;
     p->tps_lambda = 0;
     p->ray_blend = 1;
@@ -124,6 +125,8 @@ static gs_err check_params(const gs_points_params *p, double s)
              "points: greedy_iterations = %d, expected 0..100", p->greedy_iterations);
     GS_CHECK(p->cluster_max >= 1 && p->cluster_max <= 100000, GS_ERR_ARG,
              "points: cluster_max = %d, expected >= 1", p->cluster_max);
+    GS_CHECK(p->max_pairs >= 4 && p->max_pairs <= 5000, GS_ERR_ARG,
+             "points: max_pairs = %d, expected 4..5000", p->max_pairs);
     GS_CHECK(p->relax_iterations >= 0 && p->relax_iterations <= 100, GS_ERR_ARG,
              "points: relax_iterations = %d, expected 0..100", p->relax_iterations);
     GS_CHECK(p->mls_radius >= s, GS_ERR_ARG,
@@ -489,7 +492,10 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
     GS_TRY(err, gs_alloc_array((void **)&reps, nq_all, sizeof *reps, "clusters"), done);
     for (size_t i = 0; i < nq_all; i++)
         k[i].idx = i;
-    cluster(s->Qall.v, k, nq_all, p->cluster_max, reps, &nreps);
+    size_t nmax = (nq_all + (size_t)p->max_pairs - 1) / (size_t)p->max_pairs;
+    if (nmax < (size_t)p->cluster_max)
+        nmax = (size_t)p->cluster_max;
+    cluster(s->Qall.v, k, nq_all, (int)nmax, reps, &nreps);
     GS_TRY(err, gs_alloc_array((void **)&qv, nreps, sizeof *qv, "target variation"), done);
     for (size_t i = 0; i < nreps; i++) {
         GS_TRY(err, gs_points_append(&Q, &s->Qall.v[reps[i]], 1), done);
@@ -612,7 +618,7 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
             double y[3], n[3];
             int ok = 0;
             if (p->ray_blend)
-                GS_CALL(ray_hit(s, q.p, q.n, R, y, n, &ok));
+                GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
             if (!ok) {
                 gs_points_mls_result r;
                 GS_CALL(gs_points_mls_project(s->out, R, R, q.p, &s->scratch, &r));
@@ -745,7 +751,7 @@ static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_point
     for (size_t i = 0; i < all.n; i++) {
         gs_opoint q = all.v[i];
         nb.n = 0;
-        GS_TRY(err, gs_points_grid_query(g, q.p, 1.5 * R, &nb), done);
+        GS_TRY(err, gs_points_grid_query(g, q.p, 1.25 * R, &nb), done);
         double push[3] = {0, 0, 0};
         for (size_t j = 0; j < nb.n; j++) {
             double d2 = v3_dist2(nb.v[j].p, q.p);
@@ -759,7 +765,7 @@ static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_point
         double x[3];
         for (int c = 0; c < 3; c++)
             x[c] = q.p[c] + 0.25 * sp * (push[c] - pn * q.n[c]);
-        /* Two projection steps with the gathered set (x moved < 0.5 R). */
+        /* Two projection steps with the gathered set (x moved < 0.25 R). */
         double y[3], a[3], n[3];
         memcpy(y, x, sizeof y);
         int ok = 1;
