@@ -1,0 +1,337 @@
+/* points engine core: patch-based synthesis of geometry textures on
+ * point-set surfaces (Duranleau and Poulin, "Patch-based Synthesis of
+ * Geometry Textures with Point-set Surfaces",
+ * ../shared/papers/duranleau-poulin-pointset-patch-synthesis.txt).
+ *
+ * Pure C, no MPI and no file I/O: the CLI, checkpoints and the distributed
+ * search runtime call into this module.
+ *
+ * Conventions
+ *  - Positions and normals are double (the output digest is over doubles;
+ *    the search fields are float, as in the paper).
+ *  - The reference plane is z = const: a texture's box is axis-aligned, its
+ *    height is its z extent, synthesis runs over x and y. An example with a
+ *    different reference plane is permuted by the caller before it gets here.
+ *  - Normals are unit length and point out of the solid (up for height
+ *    fields). The MLS signed distance is positive on the normal side.
+ *  - Scan-line order: patch k sits at column k % cols, row k / cols; columns
+ *    grow along +x, rows along +y, so the overlap of a patch with earlier
+ *    output is its left strip (x low) and/or bottom strip (y low).
+ *  - Input textures must carry geometry beyond every side of their box
+ *    (paper section 3); gs_points_texture_check() says which side is short.
+ *
+ * Memory: a gs_points owns its array (gs_points_free); a synthesizer owns
+ * copies of everything it needs (the texture may be freed after create).
+ * Cost per patch: O(patches * overlap samples) search, O(pairs^3) spline
+ * solve, O(points in the patch * pairs) warp, O(overlap points) blend.
+ */
+#ifndef GEOSYNTH_POINTS_H
+#define GEOSYNTH_POINTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/rng.h"
+
+/* ---------------------------------------------------------------- point set */
+
+/* One oriented sample: position and unit normal. */
+typedef struct gs_opoint {
+    double p[3];
+    double n[3];
+} gs_opoint;
+
+/* A growable oriented point set (array of gs_opoint). Zero-initialize, then
+ * push; free with gs_points_free. */
+typedef struct gs_points {
+    gs_opoint *v;
+    size_t n, cap;
+} gs_points;
+
+gs_err gs_points_reserve(gs_points *s, size_t cap);
+gs_err gs_points_push(gs_points *s, const double p[3], const double n[3]);
+gs_err gs_points_append(gs_points *s, const gs_opoint *v, size_t n);
+void gs_points_free(gs_points *s);
+/* XXH3 of the raw array (the value determinism tests compare). */
+uint64_t gs_points_digest(const gs_points *s);
+
+/* --------------------------------------------------------------- bucket grid */
+
+/* Uniform grid of buckets over fixed bounds, for adding, removing and
+ * finding points quickly. Points outside the bounds go to the border
+ * buckets, so queries stay exact everywhere (only slower far outside).
+ * Within a bucket points keep insertion order; every traversal goes over
+ * buckets in x-fastest order, so results are deterministic. */
+typedef struct gs_points_grid gs_points_grid;
+typedef gs_points_grid *gs_points_grid_t;
+
+/* cell > 0; lo < hi componentwise. On error *out is unchanged. */
+gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell,
+                             gs_points_grid_t *out);
+void gs_points_grid_destroy(gs_points_grid_t *g);
+gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt);
+/* Removes every point with lo[0] <= x < hi[0] and lo[1] <= y < hi[1]
+ * (all heights: regions are extruded along z). Returns how many. */
+size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const double hi[2]);
+/* Appends to out every point within radius r of c (|p - c| <= r). */
+gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out);
+/* Appends every point with lo <= p < hi in x and y (any z). */
+gs_err gs_points_grid_query_xy(const gs_points_grid *g, const double lo[2], const double hi[2],
+                               gs_points *out);
+size_t gs_points_grid_count(const gs_points_grid *g);
+/* Appends all points in bucket order. */
+gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out);
+
+/* ------------------------------------------------------------ input texture */
+
+/* An input geometry texture T_in: uniformly sampled oriented points, its
+ * box B_Tin (z range = the texture's height) and the sampling spacing
+ * (Poisson-disk radius: no two points closer than spacing). */
+typedef struct gs_points_texture {
+    gs_points pts;
+    double box_lo[3], box_hi[3];
+    double spacing;
+} gs_points_texture;
+
+void gs_points_texture_free(gs_points_texture *t);
+
+/* Checks that geometry continues at least `need` past each of the four
+ * sides of the box: the strip beyond each side, and its outer half, must
+ * hold at least a quarter of the box's points per unit area. Raises
+ * GS_ERR_ARG naming the side, how far geometry reaches and what is needed. */
+gs_err gs_points_texture_check(const gs_points_texture *t, double need);
+
+/* Generators of the paper's kinds of example (figures 4, 5, 7, 8). The box
+ * is [0, size_x] x [0, size_y] x [z range of the geometry]; geometry covers
+ * [-pad, size + pad] in x and y. Points are a dart-throwing Poisson-disk
+ * sampling (radius spacing) of the union of the primitives (samples inside
+ * another primitive are dropped), with analytic orientation of normals.
+ * Randomness: gs_rng(seed, stream per generator). */
+typedef struct gs_points_gen_params {
+    double size[2];   /* box extent in x and y, > 0 */
+    double pad;       /* geometry beyond each side, >= 0 */
+    double spacing;   /* sampling radius, > 0 */
+    uint64_t seed;
+} gs_points_gen_params;
+
+/* Height field from an image of w x h pixels (x fastest, row 0 at y low),
+ * given as uint8 (u8 != NULL) or float (f32 != NULL, exactly one of them).
+ * The image is stretched over [-pad, size+pad]^2, bilinearly interpolated;
+ * pixel value v maps to height v * height_scale (uint8 values are /255). */
+gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
+                                 const uint8_t *u8, const float *f32, double height_scale,
+                                 gs_points_texture *out);
+/* Chain mail: tori on a square lattice (cells across the box) leaning
+ * alternately, with small bumps around the tube. */
+gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_points_texture *out);
+/* Plain weave of round threads along x and y (cells threads across). */
+gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_texture *out);
+/* Disconnected flowers (center ball + petals) scattered with minimum
+ * distance size/cells. */
+gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out);
+
+/* -------------------------------------------------------- MLS point surface */
+
+/* Adamson-Alexa point-set surface with explicit normals: weighted average
+ * a(x) and normalized weighted normal n(x), weights (1 - r^2/R^2)^4 within
+ * radius R (a compactly supported stand-in for their Gaussian, h ~ R/2),
+ * surface {x : n(x).(x - a(x)) = 0}. Projection is their almost orthogonal
+ * projection y <- x - ((x - a(y)).n(y)) n(y), iterated from start. */
+typedef struct gs_points_mls_result {
+    double y[3];     /* projected point */
+    double n[3];     /* surface normal at y */
+    double dist;     /* signed distance (x - a(y)).n(y) */
+    int iterations;
+    int ok;          /* 0: no points within R of the iterate */
+} gs_points_mls_result;
+
+/* Projects x onto the surface of the points in g (radius R). scratch is a
+ * reusable buffer (may be empty). Far points (nothing within R) start from
+ * their nearest sample within max_reach. */
+gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach,
+                             const double x[3], gs_points *scratch,
+                             gs_points_mls_result *res);
+
+/* Signed distance and its gradient (normal at the projection) sampled on
+ * nodes lo + (i*step[0], j*step[1], k*step[2]), i < nx fastest. Distance is
+ * divided by trunc and clamped to [-1, 1]. out has 4 floats per node
+ * (d, gx, gy, gz). Nodes with no geometry within max_reach get (1, 0, 0, 0). */
+gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double max_reach,
+                       const double lo[3], const double step[3], int nx, int ny, int nz,
+                       float *out);
+
+/* Surface variation lambda0 / (lambda0 + lambda1 + lambda2) of the
+ * covariance of the points within radius r of c (Pauly et al.), in
+ * [0, 1/3]; 0 when fewer than 3 points. */
+double gs_points_surface_variation(const gs_points *nbrs, const double c[3], double r);
+
+/* ----------------------------------------------------- thin-plate spline 3D */
+
+/* W(x) = A x + b + sum_i w_i |x - c_i| (the 3D biharmonic kernel), solved
+ * with LAPACK dgesv so that W(src_i) = dst_i (+ lambda smoothing on the
+ * diagonal; lambda = 0 interpolates exactly). Needs >= 4 non-coplanar
+ * sources. */
+typedef struct gs_points_tps {
+    int n;
+    double *c;   /* 3n control points */
+    double *w;   /* 3n kernel weights */
+    double A[9]; /* row-major */
+    double b[3];
+} gs_points_tps;
+
+/* On error *out is unchanged (GS_ERR_ARG for a singular system). */
+gs_err gs_points_tps_fit(const double *src, const double *dst, int n, double lambda,
+                         gs_points_tps *out);
+void gs_points_tps_free(gs_points_tps *t);
+/* y = W(x); J (row-major 3x3 Jacobian) when J != NULL. */
+void gs_points_tps_eval(const gs_points_tps *t, const double x[3], double y[3], double J[9]);
+/* Normal through the spline: (J u x J v) / |J u x J v| with u, v tangents of n. */
+void gs_points_tps_normal(const double J[9], const double n[3], double out[3]);
+
+/* ------------------------------------------------------------------ search */
+
+/* Overlap modes of a patch with the output so far. */
+enum { GS_POINTS_OVERLAP_LEFT = 1, GS_POINTS_OVERLAP_BOTTOM = 2, GS_POINTS_OVERLAP_BOTH = 3 };
+
+/* Layout of one patch's overlap field (same for every patch and for the
+ * query): the nodes (a, b, k) of the patch-local grid with a < oc or b < oc,
+ * packed as [corner a<oc,b<oc | left a<oc,b>=oc | bottom a>=oc,b<oc], each
+ * node 4 floats, within a block k (z) fastest, then a, then b. */
+typedef struct gs_points_layout {
+    int pc, oc, nz;              /* patch cells, overlap cells, z nodes */
+    size_t n_corner, n_left, n_bottom; /* floats in each block */
+} gs_points_layout;
+
+void gs_points_layout_init(gs_points_layout *l, int pc, int oc, int nz);
+size_t gs_points_layout_floats(const gs_points_layout *l);
+/* Patch-local node (a, b) of packed node index i (for building queries). */
+void gs_points_layout_node(const gs_points_layout *l, size_t node, int *a, int *b, int *k);
+
+/* A share of the candidates: patches [first, first + count) of the input
+ * field, their overlap fields unpacked (precomputed) for a fast scan. Each
+ * rank of a distributed search holds one share. */
+typedef struct gs_points_bank gs_points_bank;
+typedef gs_points_bank *gs_points_bank_t;
+
+/* field: nx*ny*nz*4 floats (gs_points_field of the input box); patch index
+ * = j * (nx - pc) + i for the patch whose corner node is (i, j). */
+gs_err gs_points_bank_create(const float *field, int nx, int ny, const gs_points_layout *l,
+                             size_t first, size_t count, gs_points_bank_t *out);
+void gs_points_bank_destroy(gs_points_bank_t *b);
+size_t gs_points_bank_total(int nx, int ny, const gs_points_layout *l);
+
+typedef struct gs_points_cand {
+    double dist;
+    uint64_t index;
+} gs_points_cand;
+
+typedef struct gs_points_cands {
+    gs_points_cand *v;
+    size_t n, cap;
+    double best; /* +inf when empty */
+} gs_points_cands;
+
+void gs_points_cands_free(gs_points_cands *c);
+
+/* Local search over this share: squared distance between the query and
+ * each patch over the overlap blocks of `mode`, keeping every patch within
+ * (1 + eps) * best seen (bound: best known elsewhere, +inf if none; used to
+ * prune partial sums). Each distance is summed in a fixed order, so a
+ * patch's value does not depend on how candidates are partitioned. */
+gs_err gs_points_search_local(const gs_points_bank *b, const float *query, int mode, double eps,
+                              double bound, gs_points_cands *out);
+/* Merges shares (as gathered from ranks), keeps dist <= (1+eps)*global best,
+ * sorted by (dist, index): exactly the serial candidate set Psi_k. */
+gs_err gs_points_search_merge(const gs_points_cands *parts, int nparts, double eps,
+                              gs_points_cands *out);
+/* Chooses one candidate uniformly with r. */
+uint64_t gs_points_search_pick(const gs_points_cands *c, gs_rng *r);
+
+/* --------------------------------------------------------------- synthesis */
+
+typedef struct gs_points_params {
+    double out_size[2];   /* final output extent in x, y */
+    double field_step;    /* node spacing of the distance fields */
+    int patch_cells;      /* patch edge in field steps */
+    int overlap_cells;    /* overlap strip width in field steps */
+    int extra_cells;      /* w_E in field steps */
+    double mls_radius;    /* R of the MLS weights */
+    double trunc;         /* distance truncation of the fields */
+    double eps;           /* candidate tolerance */
+    double warp_margin;   /* F_k extension before warping */
+    /* pairing (eq. 2 and g): positions measured in units of spacing */
+    double w_p, w_n, w_v, w_l, w_d;
+    double max_pair_dist; /* world units */
+    double max_normal;    /* max (1 - n.n)/2 */
+    double max_variation; /* max |v_s - v_q| */
+    double coherence_sigma; /* theta width, world units */
+    int greedy_iterations;
+    int cluster_max;      /* points per cluster of Q (at least) */
+    int max_pairs;        /* clusters grow so |Q| stays near this (spline size) */
+    double variation_radius;
+    double tps_lambda;
+    int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
+    int relax_iterations;
+    uint64_t seed;
+} gs_points_params;
+
+/* Defaults scaled to an example box of lx x ly and sampling spacing
+ * (output 2x the box side, chain mail weights of table 1). */
+void gs_points_params_default(double lx, double ly, double spacing, gs_points_params *p);
+/* How far geometry must extend past the example's box for these params. */
+double gs_points_params_padding(const gs_points_params *p);
+
+typedef struct gs_points_patch_metrics {
+    uint64_t chosen;       /* input patch index */
+    double best_dist;      /* min d over patches (0 for the seed patch) */
+    double chosen_dist;
+    uint32_t candidates;   /* |Psi_k| */
+    uint32_t pairs;        /* pairs used by the warp (without anchors) */
+    double pair_gap;       /* mean |s - q| before warping */
+    double warp_residual;  /* mean |MLS distance| of warped overlap points to N_k */
+} gs_points_patch_metrics;
+
+typedef struct gs_points_times {
+    double search, warp, blend, other, relax;
+} gs_points_times;
+
+typedef struct gs_points_synth gs_points_synth;
+typedef gs_points_synth *gs_points_synth_t;
+
+/* Precomputes D(T_in), the patch bank and surface variations. Checks the
+ * parameters and the example's padding (names what is wrong). */
+gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
+                              gs_points_synth_t *out);
+void gs_points_synth_destroy(gs_points_synth_t *s);
+uint64_t gs_points_synth_total(const gs_points_synth *s);  /* patches to place */
+uint64_t gs_points_synth_cursor(const gs_points_synth *s); /* patches placed */
+/* Places the next patch (search, warp, blend, paste). */
+gs_err gs_points_synth_step(gs_points_synth_t s);
+/* Steps until cursor == total. */
+gs_err gs_points_synth_run(gs_points_synth_t s);
+/* After the last step: relaxation, border trimming (w_E), translation to
+ * [0, out_size]. Appends the result to out. Does not change the state. */
+gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out);
+
+const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s, size_t *n);
+gs_points_times gs_points_synth_times(const gs_points_synth *s);
+/* Points per unit area (xy) of the example inside its box. */
+double gs_points_synth_input_density(const gs_points_synth *s);
+size_t gs_points_synth_input_patches(const gs_points_synth *s);
+
+/* Everything needed to resume exactly: with the same texture and params,
+ * resume(save(s)) continues bit-identically. */
+typedef struct gs_points_synth_state {
+    uint64_t cursor;
+    gs_rng_state rng;
+    gs_points out;                   /* output points in bucket order */
+    gs_points_patch_metrics *metrics; /* cursor entries */
+} gs_points_synth_state;
+
+gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st);
+void gs_points_synth_state_free(gs_points_synth_state *st);
+gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
+                              const gs_points_synth_state *st, gs_points_synth_t *out);
+
+#endif

@@ -1,0 +1,495 @@
+/* Example geometry textures of the paper's kinds (height field, chain mail,
+ * weave, flowers) as Poisson-disk samplings of unions of parametric
+ * primitives, and the padding check; see include/geosynth/points.h. */
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "points/points_impl.h"
+
+enum { PRIM_HEIGHT, PRIM_TORUS, PRIM_TUBE_X, PRIM_TUBE_Y, PRIM_ELLIPSOID };
+
+typedef struct hf_image {
+    int w, h;
+    const uint8_t *u8;
+    const float *f32;
+    double scale;
+} hf_image;
+
+typedef struct prim {
+    int kind;
+    double c[3];   /* center (torus, ellipsoid) or line offset (tubes) */
+    double R[9];   /* local -> world rotation, row-major */
+    double a, b, e; /* torus: major, tube radius, bump height; ellipsoid: semi-axes;
+                       tube: radius, amplitude, period */
+    double phase;
+    double lo[2], hi[2]; /* parameter domain in world units (height field, tubes) */
+    const hf_image *img;
+    double bound_r;      /* bounding sphere radius around c (inside test culling) */
+} prim;
+
+static void rot_zy(double az, double ay, double R[9])
+{
+    double cz = cos(az), sz = sin(az), cy = cos(ay), sy = sin(ay);
+    /* Rz * Ry */
+    double M[9] = {cz * cy, -sz, cz * sy, sz * cy, cz, sz * sy, -sy, 0, cy};
+    memcpy(R, M, sizeof M);
+}
+
+static void to_world(const prim *pr, const double l[3], double w[3])
+{
+    for (int d = 0; d < 3; d++)
+        w[d] = pr->c[d] + pr->R[3 * d] * l[0] + pr->R[3 * d + 1] * l[1] + pr->R[3 * d + 2] * l[2];
+}
+
+static void to_local(const prim *pr, const double w[3], double l[3])
+{
+    double e[3] = {w[0] - pr->c[0], w[1] - pr->c[1], w[2] - pr->c[2]};
+    for (int d = 0; d < 3; d++)
+        l[d] = pr->R[d] * e[0] + pr->R[3 + d] * e[1] + pr->R[6 + d] * e[2];
+}
+
+static double hf_value(const hf_image *im, double fx, double fy)
+{
+    /* fx, fy in [0, 1]: pixel centers at (i + 0.5) / w */
+    double x = fx * im->w - 0.5, y = fy * im->h - 0.5;
+    int x0 = (int)floor(x), y0 = (int)floor(y);
+    double tx = x - x0, ty = y - y0;
+    double v[4];
+    for (int k = 0; k < 4; k++) {
+        int xi = x0 + (k & 1), yi = y0 + (k >> 1);
+        xi = xi < 0 ? 0 : xi >= im->w ? im->w - 1 : xi;
+        yi = yi < 0 ? 0 : yi >= im->h ? im->h - 1 : yi;
+        size_t i = (size_t)yi * im->w + xi;
+        v[k] = im->u8 ? im->u8[i] / 255.0 : (double)im->f32[i];
+    }
+    return im->scale * ((v[0] * (1 - tx) + v[1] * tx) * (1 - ty) + (v[2] * (1 - tx) + v[3] * tx) * ty);
+}
+
+/* Point at parameters (u, v) in [0,1)^2 and a reference point the outward
+ * normal points away from. */
+static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
+{
+    switch (pr->kind) {
+    case PRIM_HEIGHT: {
+        double x = pr->lo[0] + u * (pr->hi[0] - pr->lo[0]);
+        double y = pr->lo[1] + v * (pr->hi[1] - pr->lo[1]);
+        p[0] = x;
+        p[1] = y;
+        p[2] = hf_value(pr->img, u, v);
+        ref[0] = x;
+        ref[1] = y;
+        ref[2] = p[2] - 1;
+        return;
+    }
+    case PRIM_TORUS: {
+        double U = 2 * GS_PI * u, V = 2 * GS_PI * v;
+        double bu = cos(12 * U), bv = cos(3 * V);
+        bu = bu > 0 ? bu * bu : 0;
+        bv = bv > 0 ? bv * bv : 0;
+        double rt = pr->b + pr->e * bu * bv;
+        double l[3] = {(pr->a + rt * cos(V)) * cos(U), (pr->a + rt * cos(V)) * sin(U), rt * sin(V)};
+        double lc[3] = {pr->a * cos(U), pr->a * sin(U), 0};
+        to_world(pr, l, p);
+        to_world(pr, lc, ref);
+        return;
+    }
+    case PRIM_TUBE_X:
+    case PRIM_TUBE_Y: {
+        int ax = pr->kind == PRIM_TUBE_X ? 0 : 1;
+        double t = pr->lo[0] + u * (pr->hi[0] - pr->lo[0]);
+        double ph = GS_PI * t / pr->e + pr->phase;
+        double z = pr->c[2] + pr->a * 0 + pr->b * cos(ph);
+        double dz = -pr->b * GS_PI / pr->e * sin(ph);
+        double T[3] = {0, 0, dz}, N1[3] = {0, 0, 0}, N2[3];
+        T[ax] = 1;
+        N1[1 - ax] = 1;
+        v3_normalize(T);
+        v3_cross(T, N1, N2);
+        double cc[3];
+        cc[ax] = t;
+        cc[1 - ax] = pr->c[1 - ax];
+        cc[2] = z;
+        double phi = 2 * GS_PI * v;
+        for (int d = 0; d < 3; d++) {
+            p[d] = cc[d] + pr->a * (cos(phi) * N1[d] + sin(phi) * N2[d]);
+            ref[d] = cc[d];
+        }
+        return;
+    }
+    default: { /* ellipsoid */
+        double th = GS_PI * v, ph = 2 * GS_PI * u;
+        double l[3] = {pr->a * sin(th) * cos(ph), pr->b * sin(th) * sin(ph), pr->e * cos(th)};
+        to_world(pr, l, p);
+        memcpy(ref, pr->c, 3 * sizeof *ref);
+        return;
+    }
+    }
+}
+
+/* 1 when p is inside the solid bounded by pr (with a small margin). */
+static int prim_inside(const prim *pr, const double p[3])
+{
+    if (pr->kind == PRIM_HEIGHT || pr->kind == PRIM_TUBE_X || pr->kind == PRIM_TUBE_Y)
+        return 0; /* never overlap another primitive by construction */
+    if (v3_dist2(p, pr->c) > pr->bound_r * pr->bound_r)
+        return 0;
+    double l[3];
+    to_local(pr, p, l);
+    if (pr->kind == PRIM_TORUS) {
+        double rr = sqrt(l[0] * l[0] + l[1] * l[1]) - pr->a;
+        return rr * rr + l[2] * l[2] < 0.97 * pr->b * pr->b;
+    }
+    double s = l[0] * l[0] / (pr->a * pr->a) + l[1] * l[1] / (pr->b * pr->b) +
+               l[2] * l[2] / (pr->e * pr->e);
+    return s < 0.97;
+}
+
+static double prim_frame(const prim *pr, double u, double v, double p[3], double n[3])
+{
+    double ref[3], pu[3], pv[3], r2[3];
+    const double h = 1e-5;
+    prim_eval(pr, u, v, p, ref);
+    prim_eval(pr, u + h, v, pu, r2);
+    prim_eval(pr, u, v + h, pv, r2);
+    for (int d = 0; d < 3; d++) {
+        pu[d] = (pu[d] - p[d]) / h;
+        pv[d] = (pv[d] - p[d]) / h;
+    }
+    v3_cross(pu, pv, n);
+    double dA = v3_normalize(n);
+    double out[3] = {p[0] - ref[0], p[1] - ref[1], p[2] - ref[2]};
+    if (v3_dot(n, out) < 0)
+        for (int d = 0; d < 3; d++)
+            n[d] = -n[d];
+    return dA;
+}
+
+static int any_within(const struct gs_points_grid *g, const double c[3], double r)
+{
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = grid_coord(g, a, c[a] - r);
+        hi[a] = grid_coord(g, a, c[a] + r);
+    }
+    double r2 = r * r;
+    for (int k = lo[2]; k <= hi[2]; k++)
+        for (int j = lo[1]; j <= hi[1]; j++)
+            for (int i = lo[0]; i <= hi[0]; i++) {
+                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                for (size_t q = 0; q < cl->n; q++)
+                    if (v3_dist2(cl->v[q].p, c) < r2)
+                        return 1;
+            }
+    return 0;
+}
+
+/* Dart throwing over the union of prims, then the texture's box. */
+static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, int np,
+                           uint32_t kind, gs_points_texture *out)
+{
+    GS_CHECK(gp->size[0] > 0 && gp->size[1] > 0 && gp->spacing > 0 && gp->pad >= 0, GS_ERR_ARG,
+             "point generator: size %g x %g, spacing %g, pad %g: expected positive sizes and "
+             "spacing, pad >= 0", gp->size[0], gp->size[1], gp->spacing, gp->pad);
+    double s = gp->spacing;
+    double lo[3] = {-gp->pad - s, -gp->pad - s, -1e300}, hi[3] = {gp->size[0] + gp->pad + s,
+                                                                 gp->size[1] + gp->pad + s, 1e300};
+    /* z bounds from a coarse scan of every primitive. */
+    double zmin = INFINITY, zmax = -INFINITY;
+    for (int i = 0; i < np; i++)
+        for (int a = 0; a <= 16; a++)
+            for (int b = 0; b <= 16; b++) {
+                double p[3], r[3];
+                prim_eval(&prims[i], a / 16.0, b / 16.0, p, r);
+                zmin = fmin(zmin, p[2]);
+                zmax = fmax(zmax, p[2]);
+            }
+    GS_CHECK(np > 0 && zmax >= zmin, GS_ERR_INTERNAL, "point generator: no geometry");
+    lo[2] = zmin - 2 * s;
+    hi[2] = zmax + 2 * s;
+    gs_points_grid_t grid = NULL;
+    GS_CALL(gs_points_grid_create(lo, hi, s, &grid));
+    gs_rng rng;
+    gs_rng_init(&rng, gp->seed, gs_rng_stream_id(0x50544753u, kind, 0, 0));
+    gs_err err = GS_OK;
+    const int scan = 48;
+    for (int i = 0; i < np && err == GS_OK; i++) {
+        const prim *pr = &prims[i];
+        double area = 0, max_dA = 0, p[3], n[3];
+        for (int a = 0; a < scan; a++)
+            for (int b = 0; b < scan; b++) {
+                double dA = prim_frame(pr, (a + 0.5) / scan, (b + 0.5) / scan, p, n);
+                area += dA / (scan * scan);
+                max_dA = fmax(max_dA, dA);
+            }
+        max_dA *= 1.25;
+        double want = 6.0 * area / (s * s);
+        uint64_t tries = (uint64_t)(want * 1.25 * 1.25) + 16; /* x acceptance of the rejection */
+        for (uint64_t t = 0; t < tries; t++) {
+            double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng), acc = gs_rng_uniform(&rng);
+            double dA = prim_frame(pr, u, v, p, n);
+            if (acc * max_dA > dA)
+                continue;
+            if (p[0] < lo[0] + s || p[0] > hi[0] - s || p[1] < lo[1] + s || p[1] > hi[1] - s)
+                continue;
+            int inside = 0;
+            for (int j = 0; j < np && !inside; j++)
+                inside = j != i && prim_inside(&prims[j], p);
+            if (inside || any_within(grid, p, s))
+                continue;
+            gs_opoint op;
+            memcpy(op.p, p, sizeof op.p);
+            memcpy(op.n, n, sizeof op.n);
+            GS_TRY(err, gs_points_grid_add(grid, &op), done);
+        }
+    }
+    memset(out, 0, sizeof *out);
+    GS_TRY(err, gs_points_grid_collect(grid, &out->pts), done);
+    out->box_lo[0] = 0;
+    out->box_lo[1] = 0;
+    out->box_hi[0] = gp->size[0];
+    out->box_hi[1] = gp->size[1];
+    out->box_lo[2] = INFINITY;
+    out->box_hi[2] = -INFINITY;
+    for (size_t i = 0; i < out->pts.n; i++) {
+        out->box_lo[2] = fmin(out->box_lo[2], out->pts.v[i].p[2]);
+        out->box_hi[2] = fmax(out->box_hi[2], out->pts.v[i].p[2]);
+    }
+    out->box_lo[2] -= 0.5 * s;
+    out->box_hi[2] += 0.5 * s;
+    out->spacing = s;
+done:
+    if (err != GS_OK)
+        gs_points_free(&out->pts);
+    gs_points_grid_destroy(&grid);
+    return err;
+}
+
+static void prim_identity(prim *p)
+{
+    memset(p, 0, sizeof *p);
+    rot_zy(0, 0, p->R);
+}
+
+gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
+                                 const uint8_t *u8, const float *f32, double height_scale,
+                                 gs_points_texture *out)
+{
+    GS_CHECK(w >= 2 && h >= 2 && w <= 65536 && h <= 65536, GS_ERR_ARG,
+             "height field image: %d x %d pixels, expected 2..65536 on each side", w, h);
+    GS_CHECK((u8 != NULL) != (f32 != NULL), GS_ERR_ARG,
+             "height field image: give exactly one of the uint8 and float arrays");
+    GS_CHECK(isfinite(height_scale), GS_ERR_ARG, "height field: scale %g is not finite",
+             height_scale);
+    if (f32)
+        for (size_t i = 0; i < (size_t)w * h; i++)
+            GS_CHECK(isfinite(f32[i]), GS_ERR_ARG,
+                     "height field image: pixel (%zu, %zu) is not finite", i % (size_t)w,
+                     i / (size_t)w);
+    hf_image im = {w, h, u8, f32, height_scale};
+    prim pr;
+    prim_identity(&pr);
+    pr.kind = PRIM_HEIGHT;
+    pr.img = &im;
+    pr.lo[0] = -gp->pad;
+    pr.lo[1] = -gp->pad;
+    pr.hi[0] = gp->size[0] + gp->pad;
+    pr.hi[1] = gp->size[1] + gp->pad;
+    GS_CALL(sample_prims(gp, &pr, 1, 1, out));
+    return GS_OK;
+}
+
+/* Lattice sites (i, j) covering [-pad - a, size + pad + a]. */
+static void lattice_range(const gs_points_gen_params *gp, double a, int axis, int *i0, int *i1)
+{
+    *i0 = (int)floor((-gp->pad - a) / a);
+    *i1 = (int)ceil((gp->size[axis] + gp->pad + a) / a);
+}
+
+gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "chain mail: %d cells, expected 1..64", cells);
+    GS_CHECK(gp->size[0] > 0 && gp->spacing > 0, GS_ERR_ARG, "chain mail: bad size or spacing");
+    double a = gp->size[0] / cells;
+    int i0, i1, j0, j1;
+    lattice_range(gp, a, 0, &i0, &i1);
+    double ay = 0.6 * a; /* rows overlap so rings interlock */
+    lattice_range(gp, ay, 1, &j0, &j1);
+    size_t n = (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
+    GS_CHECK(n < 100000, GS_ERR_ARG, "chain mail: %zu rings, expected < 100000", n);
+    prim *prims = NULL;
+    GS_CALL(gs_alloc_array((void **)&prims, n, sizeof *prims, "chain mail rings"));
+    int np = 0;
+    for (int j = j0; j <= j1; j++)
+        for (int i = i0; i <= i1; i++) {
+            prim *pr = &prims[np++];
+            prim_identity(pr);
+            pr->kind = PRIM_TORUS;
+            pr->c[0] = i * a + ((j & 1) ? 0.5 * a : 0);
+            pr->c[1] = j * ay;
+            pr->c[2] = 0;
+            pr->a = 0.36 * a;
+            pr->b = 0.075 * a;
+            pr->e = 0.03 * a;
+            pr->bound_r = pr->a + pr->b + pr->e;
+            rot_zy(0, ((i + j) & 1) ? 0.45 : -0.45, pr->R);
+        }
+    gs_err err = sample_prims(gp, prims, np, 2, out);
+    gs_free(prims);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "weave: %d cells, expected 1..64", cells);
+    GS_CHECK(gp->size[0] > 0 && gp->spacing > 0, GS_ERR_ARG, "weave: bad size or spacing");
+    double a = gp->size[0] / cells;
+    int i0, i1, j0, j1;
+    lattice_range(gp, a, 0, &i0, &i1);
+    lattice_range(gp, a, 1, &j0, &j1);
+    int n = (i1 - i0 + 1) + (j1 - j0 + 1);
+    prim *prims = NULL;
+    GS_CALL(gs_alloc_array((void **)&prims, (size_t)n, sizeof *prims, "weave threads"));
+    int np = 0;
+    double r = 0.2 * a, amp = 1.3 * r;
+    for (int j = j0; j <= j1; j++) { /* threads along x at y = j a */
+        prim *pr = &prims[np++];
+        prim_identity(pr);
+        pr->kind = PRIM_TUBE_X;
+        pr->c[1] = j * a;
+        pr->a = r;
+        pr->b = amp;
+        pr->e = a;
+        pr->phase = GS_PI * j;
+        pr->lo[0] = -gp->pad - 2 * r;
+        pr->hi[0] = gp->size[0] + gp->pad + 2 * r;
+    }
+    for (int i = i0; i <= i1; i++) { /* threads along y at x = i a, opposite phase */
+        prim *pr = &prims[np++];
+        prim_identity(pr);
+        pr->kind = PRIM_TUBE_Y;
+        pr->c[0] = i * a;
+        pr->a = r;
+        pr->b = -amp;
+        pr->e = a;
+        pr->phase = GS_PI * i;
+        pr->lo[0] = -gp->pad - 2 * r;
+        pr->hi[0] = gp->size[1] + gp->pad + 2 * r;
+    }
+    gs_err err = sample_prims(gp, prims, np, 3, out);
+    gs_free(prims);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "flowers: %d cells, expected 1..64", cells);
+    GS_CHECK(gp->size[0] > 0 && gp->size[1] > 0 && gp->spacing > 0, GS_ERR_ARG,
+             "flowers: bad size or spacing");
+    double dmin = gp->size[0] / cells;
+    double ext[2] = {gp->size[0] + 2 * gp->pad, gp->size[1] + 2 * gp->pad};
+    size_t max_fl = (size_t)(2.0 * ext[0] * ext[1] / (dmin * dmin)) + 8;
+    GS_CHECK(max_fl < 20000, GS_ERR_ARG, "flowers: %zu flowers, expected < 20000", max_fl);
+    double *centers = NULL;
+    prim *prims = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&centers, max_fl, 3 * sizeof *centers, "flower centers"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&prims, max_fl * 8, sizeof *prims, "flower parts"), done);
+    gs_rng rng;
+    gs_rng_init(&rng, gp->seed, gs_rng_stream_id(0x50544753u, 4, 1, 0));
+    size_t nf = 0;
+    for (size_t t = 0; t < 40 * max_fl && nf < max_fl; t++) {
+        double c[3] = {-gp->pad + ext[0] * gs_rng_uniform(&rng),
+                       -gp->pad + ext[1] * gs_rng_uniform(&rng), 0.08 * dmin * gs_rng_normal(&rng)};
+        int ok = 1;
+        for (size_t k = 0; k < nf && ok; k++) {
+            double dx = c[0] - centers[3 * k], dy = c[1] - centers[3 * k + 1];
+            ok = dx * dx + dy * dy >= dmin * dmin;
+        }
+        if (ok)
+            memcpy(centers + 3 * nf++, c, sizeof c);
+    }
+    int np = 0;
+    for (size_t f = 0; f < nf; f++) {
+        const double *c = centers + 3 * f;
+        prim *ball = &prims[np++];
+        prim_identity(ball);
+        ball->kind = PRIM_ELLIPSOID;
+        memcpy(ball->c, c, sizeof ball->c);
+        ball->a = ball->b = ball->e = 0.11 * dmin;
+        ball->bound_r = ball->a;
+        int petals = 5 + (int)gs_rng_below(&rng, 3);
+        double a0 = 2 * GS_PI * gs_rng_uniform(&rng);
+        for (int k = 0; k < petals; k++) {
+            double al = a0 + 2 * GS_PI * k / petals;
+            prim *pe = &prims[np++];
+            prim_identity(pe);
+            pe->kind = PRIM_ELLIPSOID;
+            pe->c[0] = c[0] + 0.24 * dmin * cos(al);
+            pe->c[1] = c[1] + 0.24 * dmin * sin(al);
+            pe->c[2] = c[2] + 0.05 * dmin;
+            pe->a = 0.19 * dmin;
+            pe->b = 0.09 * dmin;
+            pe->e = 0.04 * dmin;
+            pe->bound_r = pe->a;
+            rot_zy(al, -0.35, pe->R);
+        }
+    }
+    GS_TRY(err, sample_prims(gp, prims, np, 4, out), done);
+done:
+    gs_free(centers);
+    gs_free(prims);
+    return err;
+}
+
+void gs_points_texture_free(gs_points_texture *t)
+{
+    gs_points_free(&t->pts);
+}
+
+gs_err gs_points_texture_check(const gs_points_texture *t, double need)
+{
+    const double *lo = t->box_lo, *hi = t->box_hi;
+    GS_CHECK(hi[0] > lo[0] && hi[1] > lo[1] && hi[2] >= lo[2], GS_ERR_ARG,
+             "input texture: box [%g, %g] x [%g, %g] x [%g, %g] is empty", lo[0], hi[0], lo[1],
+             hi[1], lo[2], hi[2]);
+    GS_CHECK(t->spacing > 0, GS_ERR_ARG, "input texture: spacing %g must be > 0", t->spacing);
+    size_t inside = 0;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        inside += p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1];
+    }
+    GS_CHECK(inside >= 16, GS_ERR_ARG, "input texture: only %zu points inside the box", inside);
+    double density = inside / ((hi[0] - lo[0]) * (hi[1] - lo[1]));
+    static const char *names[4] = {"-x", "+x", "-y", "+y"};
+    for (int side = 0; side < 4; side++) {
+        int ax = side / 2, other = 1 - ax, up = side & 1;
+        double edge = up ? hi[ax] : lo[ax];
+        size_t strip = 0, outer = 0;
+        double reach = 0;
+        for (size_t i = 0; i < t->pts.n; i++) {
+            const double *p = t->pts.v[i].p;
+            if (p[other] < lo[other] || p[other] >= hi[other])
+                continue;
+            double beyond = up ? p[ax] - edge : edge - p[ax];
+            if (beyond < 0)
+                continue;
+            reach = fmax(reach, beyond);
+            if (beyond < need) {
+                strip++;
+                outer += beyond >= 0.5 * need;
+            }
+        }
+        double area = need * (hi[other] - lo[other]);
+        double ds = strip / area, dout = outer / (0.5 * area);
+        GS_CHECK(ds >= 0.25 * density && dout >= 0.25 * density, GS_ERR_ARG,
+                 "input texture: geometry on side %s reaches %g past the bounding box with %.0f%% "
+                 "of the box's density in [0, %g] (%.0f%% in the outer half); the method needs "
+                 "geometry to continue at least %g beyond every side of the box (paper section 3): "
+                 "pad the example or shrink the box", names[side], reach, 100 * ds / density, need,
+                 100 * dout / density, need);
+    }
+    return GS_OK;
+}

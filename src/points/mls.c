@@ -1,0 +1,178 @@
+/* Adamson-Alexa point-set surface: frames, projection, distance fields and
+ * surface variation; see include/geosynth/points.h. */
+#include <float.h>
+#include <string.h>
+
+#include "points/points_impl.h"
+
+double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], double a[3],
+                           double n[3])
+{
+    double inv_r2 = 1.0 / (R * R);
+    double sw = 0, sa[3] = {0, 0, 0}, sn[3] = {0, 0, 0};
+    for (size_t i = 0; i < nb->n; i++) {
+        const gs_opoint *q = &nb->v[i];
+        double t = 1.0 - v3_dist2(q->p, y) * inv_r2;
+        if (t <= 0)
+            continue;
+        t *= t;
+        double w = t * t;
+        sw += w;
+        for (int c = 0; c < 3; c++) {
+            sa[c] += w * q->p[c];
+            sn[c] += w * q->n[c];
+        }
+    }
+    if (sw <= 0)
+        return 0;
+    for (int c = 0; c < 3; c++) {
+        a[c] = sa[c] / sw;
+        n[c] = sn[c];
+    }
+    if (v3_normalize(n) <= 0)
+        return 0; /* opposing normals cancel: no defined surface here */
+    return sw;
+}
+
+gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach,
+                             const double x[3], gs_points *scratch, gs_points_mls_result *res)
+{
+    memset(res, 0, sizeof *res);
+    double c[3], y[3], a[3], n[3];
+    memcpy(c, x, sizeof c);
+    scratch->n = 0;
+    GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
+    int near = 0;
+    for (size_t i = 0; i < scratch->n && !near; i++)
+        near = v3_dist2(scratch->v[i].p, x) < R * R;
+    if (!near) {
+        gs_opoint nearest;
+        int found;
+        GS_CALL(gs_points_grid_nearest(g, x, max_reach, scratch, &nearest, &found));
+        if (!found)
+            return GS_OK;
+        memcpy(c, nearest.p, sizeof c);
+        scratch->n = 0;
+        GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
+        /* Fallback answer if the projection below finds no surface. */
+        double d[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
+        double len = sqrt(v3_dot(d, d));
+        memcpy(res->y, c, sizeof res->y);
+        memcpy(res->n, nearest.n, sizeof res->n);
+        res->dist = v3_dot(d, nearest.n) >= 0 ? len : -len;
+    }
+    memcpy(y, c, sizeof y);
+    double tol2 = 1e-8 * R * R;
+    for (int it = 0; it < 12; it++) {
+        if (v3_dist2(y, c) > 0.0625 * R * R) {
+            memcpy(c, y, sizeof c);
+            scratch->n = 0;
+            GS_CALL(gs_points_grid_query(g, c, 1.25 * R, scratch));
+        }
+        if (gs_points_mls_frame(scratch, R, y, a, n) <= 0)
+            return GS_OK; /* keep the nearest-sample fallback (or ok = 0) */
+        double d = (x[0] - a[0]) * n[0] + (x[1] - a[1]) * n[1] + (x[2] - a[2]) * n[2];
+        double ny[3] = {x[0] - d * n[0], x[1] - d * n[1], x[2] - d * n[2]};
+        double moved = v3_dist2(ny, y);
+        memcpy(y, ny, sizeof y);
+        memcpy(res->y, y, sizeof res->y);
+        memcpy(res->n, n, sizeof res->n);
+        res->dist = d;
+        res->iterations = it + 1;
+        res->ok = 1;
+        if (moved < tol2)
+            break;
+    }
+    return GS_OK;
+}
+
+gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
+                            const double x[3], gs_points *scratch, float o[4])
+{
+    gs_points_mls_result r;
+    GS_CALL(gs_points_mls_project(g, R, max_reach, x, scratch, &r));
+    if (r.ok || r.dist != 0 || r.n[0] != 0 || r.n[1] != 0 || r.n[2] != 0) {
+        double d = r.dist / trunc;
+        o[0] = (float)(d > 1 ? 1 : d < -1 ? -1 : d);
+        o[1] = (float)r.n[0];
+        o[2] = (float)r.n[1];
+        o[3] = (float)r.n[2];
+    } else {
+        o[0] = 1;
+        o[1] = o[2] = o[3] = 0;
+    }
+    return GS_OK;
+}
+
+gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double max_reach,
+                       const double lo[3], const double step[3], int nx, int ny, int nz,
+                       float *out)
+{
+    GS_CHECK(trunc > 0 && R > 0, GS_ERR_ARG, "distance field: trunc %g and radius %g must be > 0",
+             trunc, R);
+    gs_points scratch = {0};
+    gs_err err = GS_OK;
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
+                float *o = out + 4 * (((size_t)k * ny + j) * nx + i);
+                GS_TRY(err, gs_points_field_node(g, R, trunc, max_reach, x, &scratch, o), done);
+            }
+done:
+    gs_points_free(&scratch);
+    return err;
+}
+
+/* Smallest eigenvalue of a symmetric 3x3 matrix (trigonometric method). */
+static double sym3_min_eigen(const double m[6]) /* xx yy zz xy xz yz */
+{
+    double p1 = m[3] * m[3] + m[4] * m[4] + m[5] * m[5];
+    double q = (m[0] + m[1] + m[2]) / 3.0;
+    if (p1 <= 1e-300) {
+        double e = m[0] < m[1] ? m[0] : m[1];
+        return e < m[2] ? e : m[2];
+    }
+    double p2 = (m[0] - q) * (m[0] - q) + (m[1] - q) * (m[1] - q) + (m[2] - q) * (m[2] - q) +
+                2 * p1;
+    double p = sqrt(p2 / 6.0);
+    double b[6] = {(m[0] - q) / p, (m[1] - q) / p, (m[2] - q) / p, m[3] / p, m[4] / p, m[5] / p};
+    double detb = b[0] * (b[1] * b[2] - b[5] * b[5]) - b[3] * (b[3] * b[2] - b[5] * b[4]) +
+                  b[4] * (b[3] * b[5] - b[1] * b[4]);
+    double r = detb / 2.0;
+    double phi = r <= -1 ? GS_PI / 3.0 : r >= 1 ? 0 : acos(r) / 3.0;
+    return q + 2 * p * cos(phi + 2.0 * GS_PI / 3.0);
+}
+
+double gs_points_surface_variation(const gs_points *nbrs, const double c[3], double r)
+{
+    double r2 = r * r, mean[3] = {0, 0, 0};
+    size_t cnt = 0;
+    for (size_t i = 0; i < nbrs->n; i++)
+        if (v3_dist2(nbrs->v[i].p, c) <= r2) {
+            for (int a = 0; a < 3; a++)
+                mean[a] += nbrs->v[i].p[a];
+            cnt++;
+        }
+    if (cnt < 3)
+        return 0;
+    for (int a = 0; a < 3; a++)
+        mean[a] /= (double)cnt;
+    double m[6] = {0, 0, 0, 0, 0, 0};
+    for (size_t i = 0; i < nbrs->n; i++)
+        if (v3_dist2(nbrs->v[i].p, c) <= r2) {
+            double d[3] = {nbrs->v[i].p[0] - mean[0], nbrs->v[i].p[1] - mean[1],
+                           nbrs->v[i].p[2] - mean[2]};
+            m[0] += d[0] * d[0];
+            m[1] += d[1] * d[1];
+            m[2] += d[2] * d[2];
+            m[3] += d[0] * d[1];
+            m[4] += d[0] * d[2];
+            m[5] += d[1] * d[2];
+        }
+    double tr = m[0] + m[1] + m[2];
+    if (tr <= 0)
+        return 0;
+    double v = sym3_min_eigen(m) / tr;
+    return v < 0 ? 0 : v > 1.0 / 3.0 ? 1.0 / 3.0 : v;
+}

@@ -1,0 +1,82 @@
+/* Internal helpers shared by the points engine files (not public API). */
+#ifndef GEOSYNTH_POINTS_IMPL_H
+#define GEOSYNTH_POINTS_IMPL_H
+
+#include <math.h>
+#include <stddef.h>
+
+#include "geosynth/points.h"
+
+#define GS_PI 3.14159265358979323846
+
+struct gs_points_grid {
+    double lo[3];
+    double inv_cell;
+    double cell;
+    int dim[3];
+    gs_points *cells; /* dim[0]*dim[1]*dim[2], x fastest */
+    size_t count;
+};
+
+/* Cell coordinate of x along axis a, clamped to the grid. */
+static inline int grid_coord(const struct gs_points_grid *g, int a, double x)
+{
+    double f = (x - g->lo[a]) * g->inv_cell;
+    if (!(f >= 0))
+        return 0;
+    if (f >= g->dim[a] - 1)
+        return g->dim[a] - 1;
+    return (int)f;
+}
+
+static inline double v3_dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline double v3_dist2(const double a[3], const double b[3])
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+static inline void v3_cross(const double a[3], const double b[3], double c[3])
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+static inline double v3_normalize(double a[3])
+{
+    double l = sqrt(v3_dot(a, a));
+    if (l > 0) {
+        a[0] /= l;
+        a[1] /= l;
+        a[2] /= l;
+    }
+    return l;
+}
+
+/* MLS evaluation over a gathered neighbour set: weighted average a and
+ * normalized weighted normal n at y. Returns the weight sum (0: none). */
+double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], double a[3],
+                           double n[3]);
+
+/* Nearest point of g to x within max_reach; *found = 0 when none. */
+gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
+                              gs_points *scratch, gs_opoint *out, int *found);
+
+/* One node of a distance field (see gs_points_field). */
+gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
+                            const double x[3], gs_points *scratch, float o[4]);
+
+/* Pairing of the warp (eq. 1-3): see warp.c. */
+typedef struct gs_points_pairing_in {
+    const gs_opoint *S; const double *Sv; size_t ns;   /* source points + variation */
+    const gs_opoint *Q; const double *Qv; size_t nq;   /* target points + variation */
+    const gs_points_params *p;
+    double spacing;
+} gs_points_pairing_in;
+
+/* pair[i] = index in S paired with Q[i], or -1 when none. */
+gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair);
+
+#endif

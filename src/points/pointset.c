@@ -1,0 +1,222 @@
+/* Oriented point sets and the bucket grid; see include/geosynth/points.h. */
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/mem.h"
+#include "points/points_impl.h"
+
+gs_err gs_points_reserve(gs_points *s, size_t cap)
+{
+    if (cap <= s->cap)
+        return GS_OK;
+    size_t want = s->cap ? s->cap : 16;
+    while (want < cap) {
+        GS_CHECK(want <= SIZE_MAX / 2, GS_ERR_MEM, "point set of %zu points overflows", cap);
+        want *= 2;
+    }
+    size_t bytes;
+    GS_CHECK(gs_mul_size(want, sizeof(gs_opoint), &bytes), GS_ERR_MEM,
+             "point set of %zu points overflows", want);
+    gs_opoint *v = gs_realloc(s->v, bytes);
+    GS_CHECK(v != NULL, GS_ERR_MEM, "cannot grow a point set to %zu points (%.1f MiB)", want,
+             (double)bytes / 1048576.0);
+    s->v = v;
+    s->cap = want;
+    return GS_OK;
+}
+
+gs_err gs_points_push(gs_points *s, const double p[3], const double n[3])
+{
+    if (s->n == s->cap)
+        GS_CALL(gs_points_reserve(s, s->n + 1));
+    gs_opoint *o = &s->v[s->n++];
+    memcpy(o->p, p, sizeof o->p);
+    memcpy(o->n, n, sizeof o->n);
+    return GS_OK;
+}
+
+gs_err gs_points_append(gs_points *s, const gs_opoint *v, size_t n)
+{
+    if (n == 0)
+        return GS_OK;
+    GS_CALL(gs_points_reserve(s, s->n + n));
+    memcpy(s->v + s->n, v, n * sizeof *v);
+    s->n += n;
+    return GS_OK;
+}
+
+void gs_points_free(gs_points *s)
+{
+    gs_free(s->v);
+    s->v = NULL;
+    s->n = s->cap = 0;
+}
+
+uint64_t gs_points_digest(const gs_points *s)
+{
+    return gs_digest_bytes(s->v, s->n * sizeof(gs_opoint));
+}
+
+gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell,
+                             gs_points_grid_t *out)
+{
+    GS_CHECK(cell > 0 && isfinite(cell), GS_ERR_ARG, "bucket grid: cell size %g must be > 0", cell);
+    size_t total = 1;
+    int dim[3];
+    for (int a = 0; a < 3; a++) {
+        GS_CHECK(isfinite(lo[a]) && isfinite(hi[a]) && hi[a] > lo[a], GS_ERR_ARG,
+                 "bucket grid: bounds [%g, %g] on axis %d: expected lo < hi", lo[a], hi[a], a);
+        double d = ceil((hi[a] - lo[a]) / cell);
+        GS_CHECK(d < 1e6, GS_ERR_ARG,
+                 "bucket grid: %g cells on axis %d (extent %g / cell %g): expected < 1e6", d, a,
+                 hi[a] - lo[a], cell);
+        dim[a] = d < 1 ? 1 : (int)d;
+        GS_CHECK(gs_mul_size(total, (size_t)dim[a], &total), GS_ERR_MEM, "bucket grid too large");
+    }
+    struct gs_points_grid *g = gs_calloc(1, sizeof *g);
+    GS_CHECK(g != NULL, GS_ERR_MEM, "bucket grid: out of memory");
+    gs_err err = gs_alloc_array((void **)&g->cells, total, sizeof(gs_points), "bucket grid cells");
+    if (err != GS_OK) {
+        gs_free(g);
+        GS_CALL(err);
+    }
+    memcpy(g->lo, lo, sizeof g->lo);
+    memcpy(g->dim, dim, sizeof g->dim);
+    g->cell = cell;
+    g->inv_cell = 1.0 / cell;
+    *out = g;
+    return GS_OK;
+}
+
+void gs_points_grid_destroy(gs_points_grid_t *gp)
+{
+    struct gs_points_grid *g = *gp;
+    if (!g)
+        return;
+    size_t total = (size_t)g->dim[0] * g->dim[1] * g->dim[2];
+    for (size_t i = 0; i < total; i++)
+        gs_points_free(&g->cells[i]);
+    gs_free(g->cells);
+    gs_free(g);
+    *gp = NULL;
+}
+
+static size_t cell_index(const struct gs_points_grid *g, const double p[3])
+{
+    int i = grid_coord(g, 0, p[0]), j = grid_coord(g, 1, p[1]), k = grid_coord(g, 2, p[2]);
+    return ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
+}
+
+gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt)
+{
+    GS_CALL(gs_points_append(&g->cells[cell_index(g, pt->p)], pt, 1));
+    g->count++;
+    return GS_OK;
+}
+
+size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const double hi[2])
+{
+    int i0 = grid_coord(g, 0, lo[0]), i1 = grid_coord(g, 0, hi[0]);
+    int j0 = grid_coord(g, 1, lo[1]), j1 = grid_coord(g, 1, hi[1]);
+    size_t removed = 0;
+    for (int k = 0; k < g->dim[2]; k++)
+        for (int j = j0; j <= j1; j++)
+            for (int i = i0; i <= i1; i++) {
+                gs_points *c = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                size_t w = 0;
+                for (size_t r = 0; r < c->n; r++) {
+                    const double *p = c->v[r].p;
+                    if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
+                        continue;
+                    c->v[w++] = c->v[r];
+                }
+                removed += c->n - w;
+                c->n = w;
+            }
+    g->count -= removed;
+    return removed;
+}
+
+gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out)
+{
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = grid_coord(g, a, c[a] - r);
+        hi[a] = grid_coord(g, a, c[a] + r);
+    }
+    double r2 = r * r;
+    for (int k = lo[2]; k <= hi[2]; k++)
+        for (int j = lo[1]; j <= hi[1]; j++)
+            for (int i = lo[0]; i <= hi[0]; i++) {
+                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                if (cl->n == 0)
+                    continue;
+                GS_CALL(gs_points_reserve(out, out->n + cl->n));
+                for (size_t q = 0; q < cl->n; q++)
+                    if (v3_dist2(cl->v[q].p, c) <= r2)
+                        out->v[out->n++] = cl->v[q];
+            }
+    return GS_OK;
+}
+
+gs_err gs_points_grid_query_xy(const gs_points_grid *g, const double lo[2], const double hi[2],
+                               gs_points *out)
+{
+    int i0 = grid_coord(g, 0, lo[0]), i1 = grid_coord(g, 0, hi[0]);
+    int j0 = grid_coord(g, 1, lo[1]), j1 = grid_coord(g, 1, hi[1]);
+    for (int k = 0; k < g->dim[2]; k++)
+        for (int j = j0; j <= j1; j++)
+            for (int i = i0; i <= i1; i++) {
+                const gs_points *c = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                for (size_t r = 0; r < c->n; r++) {
+                    const double *p = c->v[r].p;
+                    if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
+                        GS_CALL(gs_points_append(out, &c->v[r], 1));
+                }
+            }
+    return GS_OK;
+}
+
+size_t gs_points_grid_count(const gs_points_grid *g)
+{
+    return g->count;
+}
+
+gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
+{
+    size_t total = (size_t)g->dim[0] * g->dim[1] * g->dim[2];
+    GS_CALL(gs_points_reserve(out, out->n + g->count));
+    for (size_t i = 0; i < total; i++)
+        GS_CALL(gs_points_append(out, g->cells[i].v, g->cells[i].n));
+    return GS_OK;
+}
+
+gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
+                              gs_points *scratch, gs_opoint *out, int *found)
+{
+    double r = g->cell;
+    *found = 0;
+    for (;;) {
+        if (r > max_reach)
+            r = max_reach;
+        scratch->n = 0;
+        GS_CALL(gs_points_grid_query(g, x, r, scratch));
+        if (scratch->n > 0) {
+            size_t best = 0;
+            double bd = v3_dist2(scratch->v[0].p, x);
+            for (size_t i = 1; i < scratch->n; i++) {
+                double d = v3_dist2(scratch->v[i].p, x);
+                if (d < bd) {
+                    bd = d;
+                    best = i;
+                }
+            }
+            *out = scratch->v[best];
+            *found = 1;
+            return GS_OK;
+        }
+        if (r >= max_reach)
+            return GS_OK;
+        r *= 2;
+    }
+}

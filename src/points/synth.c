@@ -1,0 +1,883 @@
+/* The synthesis loop (paper section 4): seed patch, scan-line order, search,
+ * warp, blend, paste; border trimming, relaxation, metrics and exact resume.
+ * See include/geosynth/points.h. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "points/points_impl.h"
+
+#define RNG_DOMAIN_SYNTH 0x50545359u /* "PTSY" */
+
+/* Input points bucketed by xy columns, with their indices (so per-point
+ * precomputed surface variation follows a point into a patch). */
+typedef struct columns {
+    double lo[2], cell;
+    int nx, ny;
+    size_t *start; /* nx*ny + 1 */
+    uint32_t *idx;
+} columns;
+
+struct gs_points_synth {
+    gs_points_params p;
+    double spacing;
+    double box_lo[3], box_hi[3];
+    gs_points in;
+    double *in_var;
+    gs_points_grid_t in_grid;
+    columns cols_in;
+    double in_density;
+    /* fields */
+    int nx, ny, nz, npx;
+    double g, gz, reach;
+    float *field_in;
+    gs_points_layout lay;
+    gs_points_bank_t bank;
+    size_t npatch;
+    /* output */
+    double ps, ow, we, m, step;
+    int cols, rows;
+    gs_points_grid_t out;
+    uint64_t cursor, total;
+    gs_rng rng;
+    gs_points_patch_metrics *metrics;
+    gs_points_times times;
+    /* scratch */
+    float *query;
+    gs_points scratch, scratch2, F, Fw, Fb, Qall, S;
+    double *Fv;
+    size_t Fv_cap;
+};
+
+void gs_points_params_default(double lx, double ly, double s, gs_points_params *p)
+{
+    memset(p, 0, sizeof *p);
+    double L = fmin(lx, ly);
+    p->out_size[0] = 2 * lx;
+    p->out_size[1] = 2 * ly;
+    p->field_step = fmax(1.5 * s, L / 40.0);
+    int pc = (int)lround(0.4 * L / p->field_step);
+    p->patch_cells = pc < 4 ? 4 : pc;
+    p->overlap_cells = p->patch_cells / 4 < 2 ? 2 : p->patch_cells / 4;
+    p->extra_cells = (p->patch_cells + 3) / 4;
+    p->mls_radius = 3 * s;
+    p->trunc = 2 * p->field_step;
+    p->eps = 0.1;
+    p->warp_margin = fmax(3 * s, p->field_step);
+    p->w_p = 1;
+    p->w_n = 1;
+    p->w_v = 10;
+    p->w_l = 8;
+    p->w_d = 6;
+    p->max_pair_dist = fmax(3 * s, 0.5 * p->overlap_cells * p->field_step);
+    p->max_normal = 0.5;
+    p->max_variation = 0.1;
+    p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
+    p->greedy_iterations = 3;
+    p->cluster_max = 12;
+    p->max_pairs = 48;
+    p->variation_radius = 2.5 * s;
+    p->tps_lambda = 0;
+    p->ray_blend = 1;
+    p->relax_iterations = 1;
+    p->seed = 1;
+}
+
+double gs_points_params_padding(const gs_points_params *p)
+{
+    return p->extra_cells * p->field_step + p->warp_margin + p->mls_radius;
+}
+
+static gs_err check_params(const gs_points_params *p, double s)
+{
+#define POS(x) GS_CHECK((x) > 0 && isfinite(x), GS_ERR_ARG, "points: " #x " = %g, expected > 0", (double)(x))
+#define NONNEG(x) GS_CHECK((x) >= 0 && isfinite(x), GS_ERR_ARG, "points: " #x " = %g, expected >= 0", (double)(x))
+    POS(p->out_size[0]);
+    POS(p->out_size[1]);
+    POS(p->field_step);
+    POS(p->mls_radius);
+    POS(p->trunc);
+    POS(p->max_pair_dist);
+    POS(p->coherence_sigma);
+    POS(p->variation_radius);
+    NONNEG(p->eps);
+    NONNEG(p->warp_margin);
+    NONNEG(p->w_p);
+    NONNEG(p->w_n);
+    NONNEG(p->w_v);
+    NONNEG(p->w_l);
+    NONNEG(p->w_d);
+    NONNEG(p->max_normal);
+    NONNEG(p->max_variation);
+    NONNEG(p->tps_lambda);
+#undef POS
+#undef NONNEG
+    GS_CHECK(p->patch_cells >= 3 && p->patch_cells <= 1024, GS_ERR_ARG,
+             "points: patch_cells = %d, expected 3..1024", p->patch_cells);
+    GS_CHECK(p->overlap_cells >= 1 && p->overlap_cells < p->patch_cells, GS_ERR_ARG,
+             "points: overlap_cells = %d, expected 1..patch_cells-1 (%d)", p->overlap_cells,
+             p->patch_cells - 1);
+    GS_CHECK(p->extra_cells >= 1 && p->extra_cells <= p->patch_cells, GS_ERR_ARG,
+             "points: extra_cells = %d, expected 1..patch_cells (%d)", p->extra_cells,
+             p->patch_cells);
+    GS_CHECK(p->greedy_iterations >= 0 && p->greedy_iterations <= 100, GS_ERR_ARG,
+             "points: greedy_iterations = %d, expected 0..100", p->greedy_iterations);
+    GS_CHECK(p->cluster_max >= 1 && p->cluster_max <= 100000, GS_ERR_ARG,
+             "points: cluster_max = %d, expected >= 1", p->cluster_max);
+    GS_CHECK(p->max_pairs >= 4 && p->max_pairs <= 5000, GS_ERR_ARG,
+             "points: max_pairs = %d, expected 4..5000", p->max_pairs);
+    GS_CHECK(p->relax_iterations >= 0 && p->relax_iterations <= 100, GS_ERR_ARG,
+             "points: relax_iterations = %d, expected 0..100", p->relax_iterations);
+    GS_CHECK(p->mls_radius >= s, GS_ERR_ARG,
+             "points: mls_radius = %g is below the sampling spacing %g: the surface would have "
+             "holes", p->mls_radius, s);
+    return GS_OK;
+}
+
+static gs_err columns_build(columns *c, const gs_points *pts, double cell)
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (size_t i = 0; i < pts->n; i++)
+        for (int a = 0; a < 2; a++) {
+            lo[a] = fmin(lo[a], pts->v[i].p[a]);
+            hi[a] = fmax(hi[a], pts->v[i].p[a]);
+        }
+    c->lo[0] = lo[0];
+    c->lo[1] = lo[1];
+    c->cell = cell;
+    c->nx = (int)((hi[0] - lo[0]) / cell) + 1;
+    c->ny = (int)((hi[1] - lo[1]) / cell) + 1;
+    size_t nc = (size_t)c->nx * c->ny;
+    GS_CALL(gs_alloc_array((void **)&c->start, nc + 1, sizeof *c->start, "input columns"));
+    GS_CALL(gs_alloc_array((void **)&c->idx, pts->n ? pts->n : 1, sizeof *c->idx, "input columns"));
+    for (size_t i = 0; i < pts->n; i++) {
+        int x = (int)((pts->v[i].p[0] - lo[0]) / cell), y = (int)((pts->v[i].p[1] - lo[1]) / cell);
+        c->start[(size_t)y * c->nx + x + 1]++;
+    }
+    for (size_t i = 0; i < nc; i++)
+        c->start[i + 1] += c->start[i];
+    size_t *fill = NULL;
+    GS_CALL(gs_alloc_array((void **)&fill, nc, sizeof *fill, "input columns"));
+    for (size_t i = 0; i < pts->n; i++) {
+        int x = (int)((pts->v[i].p[0] - lo[0]) / cell), y = (int)((pts->v[i].p[1] - lo[1]) / cell);
+        size_t ci = (size_t)y * c->nx + x;
+        c->idx[c->start[ci] + fill[ci]++] = (uint32_t)i;
+    }
+    gs_free(fill);
+    return GS_OK;
+}
+
+static void columns_free(columns *c)
+{
+    GS_FREE(c->start);
+    GS_FREE(c->idx);
+}
+
+void gs_points_synth_destroy(gs_points_synth_t *sp)
+{
+    struct gs_points_synth *s = *sp;
+    if (!s)
+        return;
+    gs_points_free(&s->in);
+    gs_free(s->in_var);
+    gs_points_grid_destroy(&s->in_grid);
+    columns_free(&s->cols_in);
+    gs_free(s->field_in);
+    gs_points_bank_destroy(&s->bank);
+    gs_points_grid_destroy(&s->out);
+    gs_free(s->metrics);
+    gs_free(s->query);
+    gs_points_free(&s->scratch);
+    gs_points_free(&s->scratch2);
+    gs_points_free(&s->F);
+    gs_points_free(&s->Fw);
+    gs_points_free(&s->Fb);
+    gs_points_free(&s->Qall);
+    gs_points_free(&s->S);
+    gs_free(s->Fv);
+    gs_free(s);
+    *sp = NULL;
+}
+
+static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *tex,
+                          const gs_points_params *p)
+{
+    GS_CALL(check_params(p, tex->spacing));
+    s->p = *p;
+    s->spacing = tex->spacing;
+    memcpy(s->box_lo, tex->box_lo, sizeof s->box_lo);
+    memcpy(s->box_hi, tex->box_hi, sizeof s->box_hi);
+    GS_CALL(gs_points_texture_check(tex, gs_points_params_padding(p)));
+    GS_CHECK(tex->pts.n < UINT32_MAX, GS_ERR_ARG, "points: %zu input points, expected < 2^32",
+             tex->pts.n);
+    GS_CALL(gs_points_append(&s->in, tex->pts.v, tex->pts.n));
+    double R = p->mls_radius;
+    s->g = p->field_step;
+    double bx = s->box_hi[0] - s->box_lo[0], by = s->box_hi[1] - s->box_lo[1];
+    double bz = s->box_hi[2] - s->box_lo[2];
+    s->nx = (int)floor(bx / s->g + 1e-9) + 1;
+    s->ny = (int)floor(by / s->g + 1e-9) + 1;
+    GS_CHECK(s->nx > p->patch_cells && s->ny > p->patch_cells, GS_ERR_ARG,
+             "points: the example box (%g x %g) holds %d x %d field nodes, too few for a patch of "
+             "%d cells of %g: use a smaller patch or field step", bx, by, s->nx, s->ny,
+             p->patch_cells, s->g);
+    s->nz = (int)ceil(bz / s->g - 1e-9) + 1;
+    if (s->nz < 2)
+        s->nz = 2;
+    s->gz = bz / (s->nz - 1);
+    s->reach = bz + 2 * R;
+    /* Input grid, surface variation, columns. */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < s->in.n; i++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], s->in.v[i].p[a]);
+            hi[a] = fmax(hi[a], s->in.v[i].p[a]);
+        }
+    for (int a = 0; a < 3; a++) {
+        lo[a] -= R;
+        hi[a] += R;
+    }
+    GS_CALL(gs_points_grid_create(lo, hi, R, &s->in_grid));
+    for (size_t i = 0; i < s->in.n; i++)
+        GS_CALL(gs_points_grid_add(s->in_grid, &s->in.v[i]));
+    GS_CALL(gs_alloc_array((void **)&s->in_var, s->in.n, sizeof *s->in_var, "surface variation"));
+    for (size_t i = 0; i < s->in.n; i++) {
+        s->scratch.n = 0;
+        GS_CALL(gs_points_grid_query(s->in_grid, s->in.v[i].p, p->variation_radius, &s->scratch));
+        s->in_var[i] = gs_points_surface_variation(&s->scratch, s->in.v[i].p, p->variation_radius);
+    }
+    GS_CALL(columns_build(&s->cols_in, &s->in, s->g));
+    size_t inside = 0;
+    for (size_t i = 0; i < s->in.n; i++) {
+        const double *q = s->in.v[i].p;
+        inside += q[0] >= s->box_lo[0] && q[0] < s->box_hi[0] && q[1] >= s->box_lo[1] &&
+                  q[1] < s->box_hi[1];
+    }
+    s->in_density = inside / (bx * by);
+    /* D(T_in) and the patch bank (every patch: one share). */
+    size_t nodes = (size_t)s->nx * s->ny * s->nz;
+    GS_CALL(gs_alloc_array((void **)&s->field_in, nodes, 4 * sizeof(float), "input field"));
+    double step[3] = {s->g, s->g, s->gz};
+    GS_CALL(gs_points_field(s->in_grid, R, p->trunc, s->reach, s->box_lo, step, s->nx, s->ny,
+                            s->nz, s->field_in));
+    gs_points_layout_init(&s->lay, p->patch_cells, p->overlap_cells, s->nz);
+    s->npatch = gs_points_bank_total(s->nx, s->ny, &s->lay);
+    s->npx = s->nx - p->patch_cells;
+    GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, 0, s->npatch, &s->bank));
+    GS_CALL(gs_alloc_array((void **)&s->query, gs_points_layout_floats(&s->lay), sizeof(float),
+                           "search query"));
+    /* Output layout: patches of ps every step, covering out_size + 2 w_E. */
+    s->ps = p->patch_cells * s->g;
+    s->ow = p->overlap_cells * s->g;
+    s->we = p->extra_cells * s->g;
+    s->m = p->warp_margin;
+    s->step = s->ps - s->ow;
+    double need[2] = {p->out_size[0] + 2 * s->we, p->out_size[1] + 2 * s->we};
+    s->cols = need[0] <= s->ps ? 1 : (int)ceil((need[0] - s->ps) / s->step - 1e-9) + 1;
+    s->rows = need[1] <= s->ps ? 1 : (int)ceil((need[1] - s->ps) / s->step - 1e-9) + 1;
+    GS_CHECK((double)s->cols * s->rows < 1e8, GS_ERR_ARG,
+             "points: output %g x %g needs %d x %d patches, expected < 1e8", p->out_size[0],
+             p->out_size[1], s->cols, s->rows);
+    s->total = (uint64_t)s->cols * s->rows;
+    double olo[3] = {-s->m - R, -s->m - R, s->box_lo[2] - 2 * R};
+    double ohi[3] = {(s->cols - 1) * s->step + s->ps + s->we + s->m + R,
+                     (s->rows - 1) * s->step + s->ps + s->we + s->m + R, s->box_hi[2] + 2 * R};
+    GS_CALL(gs_points_grid_create(olo, ohi, R, &s->out));
+    GS_CALL(gs_alloc_array((void **)&s->metrics, s->total, sizeof *s->metrics, "patch metrics"));
+    gs_rng_init(&s->rng, p->seed, gs_rng_stream_id(RNG_DOMAIN_SYNTH, 0, 0, 0));
+    return GS_OK;
+}
+
+gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
+                              gs_points_synth_t *out)
+{
+    struct gs_points_synth *s = gs_calloc(1, sizeof *s);
+    GS_CHECK(s != NULL, GS_ERR_MEM, "points: out of memory");
+    gs_err err = synth_setup(s, tex, p);
+    if (err != GS_OK) {
+        gs_points_synth_destroy(&s);
+        GS_CALL(err);
+    }
+    *out = s;
+    return GS_OK;
+}
+
+uint64_t gs_points_synth_total(const gs_points_synth *s) { return s->total; }
+uint64_t gs_points_synth_cursor(const gs_points_synth *s) { return s->cursor; }
+gs_points_times gs_points_synth_times(const gs_points_synth *s) { return s->times; }
+double gs_points_synth_input_density(const gs_points_synth *s) { return s->in_density; }
+size_t gs_points_synth_input_patches(const gs_points_synth *s) { return s->npatch; }
+
+const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s, size_t *n)
+{
+    *n = (size_t)s->cursor;
+    return s->metrics;
+}
+
+/* --------------------------------------------------------------- clustering */
+
+typedef struct keyed {
+    double key;
+    size_t idx;
+} keyed;
+
+static int keyed_cmp(const void *pa, const void *pb)
+{
+    const keyed *a = pa, *b = pb;
+    if (a->key != b->key)
+        return a->key < b->key ? -1 : 1;
+    return a->idx < b->idx ? -1 : a->idx > b->idx;
+}
+
+/* Adaptive hierarchical clustering (after Pauly et al.): split along the
+ * longest extent at the median until at most nmax points; each cluster is
+ * represented by its point nearest to the centroid. */
+static void cluster(const gs_opoint *pts, keyed *k, size_t n, int nmax, size_t *reps,
+                    size_t *nreps)
+{
+    if (n == 0)
+        return;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double c[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double v = pts[k[i].idx].p[a];
+            lo[a] = fmin(lo[a], v);
+            hi[a] = fmax(hi[a], v);
+            c[a] += v;
+        }
+    if (n <= (size_t)nmax) {
+        for (int a = 0; a < 3; a++)
+            c[a] /= (double)n;
+        size_t best = k[0].idx;
+        double bd = INFINITY;
+        for (size_t i = 0; i < n; i++) {
+            double d = v3_dist2(pts[k[i].idx].p, c);
+            if (d < bd || (d == bd && k[i].idx < best)) {
+                bd = d;
+                best = k[i].idx;
+            }
+        }
+        reps[(*nreps)++] = best;
+        return;
+    }
+    int ax = 0;
+    for (int a = 1; a < 3; a++)
+        if (hi[a] - lo[a] > hi[ax] - lo[ax])
+            ax = a;
+    for (size_t i = 0; i < n; i++)
+        k[i].key = pts[k[i].idx].p[ax];
+    qsort(k, n, sizeof *k, keyed_cmp);
+    cluster(pts, k, n / 2, nmax, reps, nreps);
+    cluster(pts, k + n / 2, n - n / 2, nmax, reps, nreps);
+}
+
+/* ------------------------------------------------------------------- steps */
+
+static int in_xy(const double p[3], const double lo[2], const double hi[2])
+{
+    return p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1];
+}
+
+/* Input points with xy in [lo, hi) translated by t; variations into s->Fv. */
+static gs_err gather_patch(struct gs_points_synth *s, const double lo[2], const double hi[2],
+                           const double t[2])
+{
+    const columns *c = &s->cols_in;
+    s->F.n = 0;
+    int x0 = (int)floor((lo[0] - c->lo[0]) / c->cell), x1 = (int)floor((hi[0] - c->lo[0]) / c->cell);
+    int y0 = (int)floor((lo[1] - c->lo[1]) / c->cell), y1 = (int)floor((hi[1] - c->lo[1]) / c->cell);
+    x0 = x0 < 0 ? 0 : x0;
+    y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 >= c->nx ? c->nx - 1 : x1;
+    y1 = y1 >= c->ny ? c->ny - 1 : y1;
+    size_t nv = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            size_t ci = (size_t)y * c->nx + x;
+            for (size_t k = c->start[ci]; k < c->start[ci + 1]; k++) {
+                const gs_opoint *q = &s->in.v[c->idx[k]];
+                if (!in_xy(q->p, lo, hi))
+                    continue;
+                gs_opoint o = *q;
+                o.p[0] += t[0];
+                o.p[1] += t[1];
+                GS_CALL(gs_points_append(&s->F, &o, 1));
+                if (nv == s->Fv_cap) {
+                    size_t cap = s->Fv_cap ? 2 * s->Fv_cap : 4096;
+                    double *v = gs_realloc(s->Fv, cap * sizeof *v);
+                    GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (patch variation)");
+                    s->Fv = v;
+                    s->Fv_cap = cap;
+                }
+                s->Fv[nv++] = s->in_var[c->idx[k]];
+            }
+        }
+    return GS_OK;
+}
+
+/* Blend weight (fig. 3c): 1 on the outer edge of an active overlap strip,
+ * 0 at its inner edge and beyond. */
+static double blend_weight(const struct gs_points_synth *s, int mode, const double o[2],
+                           const double p[3])
+{
+    double t = 0;
+    if (mode & GS_POINTS_OVERLAP_LEFT)
+        t = fmax(t, 1.0 - (p[0] - o[0]) / s->ow);
+    if (mode & GS_POINTS_OVERLAP_BOTTOM)
+        t = fmax(t, 1.0 - (p[1] - o[1]) / s->ow);
+    return t < 0 ? 0 : t > 1 ? 1 : t;
+}
+
+/* Limited ray intersection (Adamson-Alexa 2003 style): Newton steps on the
+ * MLS implicit function along the line x + l d, |l| <= L. */
+static gs_err ray_hit(struct gs_points_synth *s, const double x[3], const double d[3], double L,
+                      double y[3], double n[3], int *ok)
+{
+    double R = s->p.mls_radius;
+    *ok = 0;
+    s->scratch2.n = 0;
+    GS_CALL(gs_points_grid_query(s->out, x, L + R, &s->scratch2));
+    double a[3];
+    memcpy(y, x, 3 * sizeof *y);
+    for (int it = 0; it < 8; it++) {
+        if (gs_points_mls_frame(&s->scratch2, R, y, a, n) <= 0)
+            return GS_OK;
+        double f = n[0] * (y[0] - a[0]) + n[1] * (y[1] - a[1]) + n[2] * (y[2] - a[2]);
+        double den = v3_dot(n, d);
+        if (fabs(den) < 0.3)
+            return GS_OK;
+        double l = f / den;
+        for (int c = 0; c < 3; c++)
+            y[c] -= l * d[c];
+        if (v3_dist2(y, x) > L * L)
+            return GS_OK;
+        if (fabs(f) < 1e-6 * R) {
+            *ok = v3_dot(n, d) > 0.3;
+            return GS_OK;
+        }
+    }
+    return GS_OK;
+}
+
+static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
+                         gs_points_patch_metrics *met)
+{
+    const gs_points_params *p = &s->p;
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    /* Q: output points in the active overlap strips, clustered. */
+    s->Qall.n = 0;
+    if (mode & GS_POINTS_OVERLAP_LEFT) {
+        double hi[2] = {o[0] + s->ow, bhi[1]};
+        GS_CALL(gs_points_grid_query_xy(s->out, blo, hi, &s->Qall));
+    }
+    if (mode & GS_POINTS_OVERLAP_BOTTOM) {
+        double lo[2] = {(mode & GS_POINTS_OVERLAP_LEFT) ? o[0] + s->ow : o[0], o[1]};
+        double hi[2] = {bhi[0], o[1] + s->ow};
+        GS_CALL(gs_points_grid_query_xy(s->out, lo, hi, &s->Qall));
+    }
+    size_t nq_all = s->Qall.n;
+    if (nq_all < 4)
+        return GS_OK;
+    keyed *k = NULL;
+    size_t *reps = NULL, nreps = 0, *smap = NULL;
+    double *qv = NULL, *src = NULL, *dst = NULL;
+    long *pair = NULL;
+    gs_points Q = {0};
+    gs_points_tps tps = {0};
+    int have_tps = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&k, nq_all, sizeof *k, "clusters"), done);
+    GS_TRY(err, gs_alloc_array((void **)&reps, nq_all, sizeof *reps, "clusters"), done);
+    for (size_t i = 0; i < nq_all; i++)
+        k[i].idx = i;
+    size_t nmax = (nq_all + (size_t)p->max_pairs - 1) / (size_t)p->max_pairs;
+    if (nmax < (size_t)p->cluster_max)
+        nmax = (size_t)p->cluster_max;
+    cluster(s->Qall.v, k, nq_all, (int)nmax, reps, &nreps);
+    GS_TRY(err, gs_alloc_array((void **)&qv, nreps, sizeof *qv, "target variation"), done);
+    for (size_t i = 0; i < nreps; i++) {
+        GS_TRY(err, gs_points_append(&Q, &s->Qall.v[reps[i]], 1), done);
+        s->scratch.n = 0;
+        GS_TRY(err, gs_points_grid_query(s->out, Q.v[i].p, p->variation_radius, &s->scratch), done);
+        qv[i] = gs_points_surface_variation(&s->scratch, Q.v[i].p, p->variation_radius);
+    }
+    /* S: patch points near the strips (pairing candidates). */
+    s->S.n = 0;
+    GS_TRY(err, gs_alloc_array((void **)&smap, s->F.n ? s->F.n : 1, sizeof *smap, "pairing map"),
+           done);
+    double *sv = NULL;
+    GS_TRY(err, gs_alloc_array((void **)&sv, s->F.n ? s->F.n : 1, sizeof *sv, "pairing map"), done);
+    double md = p->max_pair_dist;
+    for (size_t i = 0; i < s->F.n; i++) {
+        const double *q = s->F.v[i].p;
+        int near = ((mode & GS_POINTS_OVERLAP_LEFT) && q[0] < o[0] + s->ow + md) ||
+                   ((mode & GS_POINTS_OVERLAP_BOTTOM) && q[1] < o[1] + s->ow + md);
+        if (!near || q[0] < o[0] - md || q[1] < o[1] - md)
+            continue;
+        smap[s->S.n] = i;
+        sv[s->S.n] = s->Fv[i];
+        err = gs_points_append(&s->S, &s->F.v[i], 1);
+        if (err != GS_OK) {
+            gs_free(sv);
+            GS_TRY(err, err, done);
+        }
+    }
+    GS_TRY(err, gs_alloc_array((void **)&pair, nreps, sizeof *pair, "pairing"), done);
+    gs_points_pairing_in pin = {s->S.v, sv, s->S.n, Q.v, qv, nreps, p, s->spacing};
+    err = gs_points_pairing(&pin, pair);
+    gs_free(sv);
+    GS_TRY(err, err, done);
+    /* Controls: pairs, then anchors mapping to themselves in far corner
+     * regions, at two heights so the controls are never coplanar. */
+    size_t npairs = 0;
+    for (size_t i = 0; i < nreps; i++)
+        npairs += pair[i] >= 0;
+    met->pairs = (uint32_t)npairs;
+    if (npairs < 3)
+        goto done;
+    GS_TRY(err, gs_alloc_array((void **)&src, 3 * (npairs + 16), sizeof *src, "spline controls"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&dst, 3 * (npairs + 16), sizeof *dst, "spline controls"),
+           done);
+    size_t nc = 0;
+    double gap = 0;
+    for (size_t i = 0; i < nreps; i++) {
+        if (pair[i] < 0)
+            continue;
+        memcpy(src + 3 * nc, s->S.v[pair[i]].p, 3 * sizeof *src);
+        memcpy(dst + 3 * nc, Q.v[i].p, 3 * sizeof *dst);
+        gap += sqrt(v3_dist2(src + 3 * nc, dst + 3 * nc));
+        nc++;
+    }
+    met->pair_gap = gap / (double)npairs;
+    double elo[2] = {o[0] - s->m, o[1] - s->m}, ehi[2] = {bhi[0] + s->m, bhi[1] + s->m};
+    double zs[2] = {s->box_lo[2] - p->mls_radius, s->box_hi[2] + p->mls_radius};
+    for (int ay = 0; ay < 3; ay++)
+        for (int ax = 0; ax < 3; ax++) {
+            if (ax == 1 && ay == 1)
+                continue;
+            double x = elo[0] + 0.5 * ax * (ehi[0] - elo[0]), y = elo[1] + 0.5 * ay * (ehi[1] - elo[1]);
+            double dl = (mode & GS_POINTS_OVERLAP_LEFT) ? x - (o[0] + s->ow) : INFINITY;
+            double db = (mode & GS_POINTS_OVERLAP_BOTTOM) ? y - (o[1] + s->ow) : INFINITY;
+            if (fmin(dl, db) < 0.5 * s->ps)
+                continue;
+            for (int h = 0; h < 2; h++) {
+                double a[3] = {x, y, zs[h]};
+                memcpy(src + 3 * nc, a, sizeof a);
+                memcpy(dst + 3 * nc, a, sizeof a);
+                nc++;
+            }
+        }
+    err = gs_points_tps_fit(src, dst, (int)nc, p->tps_lambda, &tps);
+    if (err == GS_ERR_ARG) { /* degenerate pairing: keep the patch unwarped */
+        gs_error_clear();
+        err = GS_OK;
+        met->pairs = 0;
+        goto done;
+    }
+    GS_TRY(err, err, done);
+    have_tps = 1;
+    for (size_t i = 0; i < s->F.n; i++) {
+        double y[3], J[9], n[3];
+        gs_points_tps_eval(&tps, s->F.v[i].p, y, J);
+        gs_points_tps_normal(J, s->F.v[i].n, n);
+        memcpy(s->F.v[i].p, y, sizeof y);
+        memcpy(s->F.v[i].n, n, sizeof n);
+    }
+done:
+    if (have_tps)
+        gs_points_tps_free(&tps);
+    gs_free(k);
+    gs_free(reps);
+    gs_free(smap);
+    gs_free(qv);
+    gs_free(src);
+    gs_free(dst);
+    gs_free(pair);
+    gs_points_free(&Q);
+    return err;
+}
+
+static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double o[2],
+                              gs_points_patch_metrics *met)
+{
+    const gs_points_params *p = &s->p;
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    double R = p->mls_radius;
+    s->Fb.n = 0;
+    double resid = 0;
+    size_t nres = 0;
+    for (size_t i = 0; i < s->F.n; i++) {
+        gs_opoint q = s->F.v[i];
+        if (!in_xy(q.p, blo, bhi))
+            continue;
+        double t = mode ? blend_weight(s, mode, o, q.p) : 0;
+        if (t > 0) {
+            double y[3], n[3];
+            int ok = 0;
+            if (p->ray_blend)
+                GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
+            if (!ok) {
+                gs_points_mls_result r;
+                GS_CALL(gs_points_mls_project(s->out, R, R, q.p, &s->scratch, &r));
+                ok = r.ok;
+                memcpy(y, r.y, sizeof y);
+                memcpy(n, r.n, sizeof n);
+            }
+            if (ok) {
+                resid += sqrt(v3_dist2(y, q.p));
+                nres++;
+                for (int c = 0; c < 3; c++) {
+                    q.p[c] = (1 - t) * q.p[c] + t * y[c];
+                    q.n[c] = (1 - t) * q.n[c] + t * n[c];
+                }
+                if (v3_normalize(q.n) <= 0)
+                    continue;
+                if (!in_xy(q.p, blo, bhi))
+                    continue;
+            }
+        }
+        GS_CALL(gs_points_append(&s->Fb, &q, 1));
+    }
+    met->warp_residual = nres ? resid / (double)nres : 0;
+    gs_points_grid_remove_xy(s->out, blo, bhi);
+    for (size_t i = 0; i < s->Fb.n; i++)
+        GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
+    return GS_OK;
+}
+
+gs_err gs_points_synth_step(gs_points_synth_t s)
+{
+    GS_CHECK(s->cursor < s->total, GS_ERR_ARG, "points: all %llu patches are placed",
+             (unsigned long long)s->total);
+    const gs_points_params *p = &s->p;
+    uint64_t k = s->cursor;
+    int c = (int)(k % (uint64_t)s->cols), r = (int)(k / (uint64_t)s->cols);
+    double o[2] = {c * s->step, r * s->step};
+    int mode = (c > 0 ? GS_POINTS_OVERLAP_LEFT : 0) | (r > 0 ? GS_POINTS_OVERLAP_BOTTOM : 0);
+    gs_points_patch_metrics met;
+    memset(&met, 0, sizeof met);
+    double t0 = gs_time_now();
+    uint64_t chosen;
+    if (mode == 0) {
+        chosen = gs_rng_below(&s->rng, s->npatch);
+        met.candidates = 1;
+    } else {
+        const gs_points_layout *l = &s->lay;
+        size_t b0 = 0, e0, b1 = 0, e1 = 0;
+        if (mode == GS_POINTS_OVERLAP_LEFT) {
+            e0 = l->n_corner + l->n_left;
+        } else if (mode == GS_POINTS_OVERLAP_BOTTOM) {
+            e0 = l->n_corner;
+            b1 = l->n_corner + l->n_left;
+            e1 = b1 + l->n_bottom;
+        } else {
+            e0 = gs_points_layout_floats(l);
+        }
+        for (int range = 0; range < 2; range++) {
+            size_t b = range ? b1 : b0, e = range ? e1 : e0;
+            for (size_t f = b; f < e; f += 4) {
+                int a, bb, kz;
+                gs_points_layout_node(l, f / 4, &a, &bb, &kz);
+                double x[3] = {o[0] + a * s->g, o[1] + bb * s->g, s->box_lo[2] + kz * s->gz};
+                GS_CALL(gs_points_field_node(s->out, p->mls_radius, p->trunc, s->reach, x,
+                                             &s->scratch, s->query + f));
+            }
+        }
+        gs_points_cands local = {0}, all = {0};
+        gs_err err = gs_points_search_local(s->bank, s->query, mode, p->eps, INFINITY, &local);
+        if (err == GS_OK)
+            err = gs_points_search_merge(&local, 1, p->eps, &all);
+        if (err == GS_OK) {
+            if (all.n == 0)
+                err = gs_error_raise(GS_ERR_INTERNAL, __FILE__, __LINE__, __func__,
+                                     "points: patch %llu found no candidate",
+                                     (unsigned long long)k);
+        }
+        if (err == GS_OK) {
+            chosen = gs_points_search_pick(&all, &s->rng);
+            met.best_dist = all.v[0].dist;
+            met.candidates = (uint32_t)all.n;
+            for (size_t i = 0; i < all.n; i++)
+                if (all.v[i].index == chosen)
+                    met.chosen_dist = all.v[i].dist;
+        }
+        gs_points_cands_free(&local);
+        gs_points_cands_free(&all);
+        GS_CALL(err);
+    }
+    met.chosen = chosen;
+    double t1 = gs_time_now();
+    /* F_k = tr(P_k U E_k), extended by the warp margin. */
+    int pi = (int)(chosen % (uint64_t)s->npx), pj = (int)(chosen / (uint64_t)s->npx);
+    double pin[2] = {s->box_lo[0] + pi * s->g, s->box_lo[1] + pj * s->g};
+    double glo[2] = {pin[0] - s->m, pin[1] - s->m};
+    double ghi[2] = {pin[0] + s->ps + s->we + s->m, pin[1] + s->ps + s->we + s->m};
+    double tr[2] = {o[0] - pin[0], o[1] - pin[1]};
+    GS_CALL(gather_patch(s, glo, ghi, tr));
+    double t2 = gs_time_now();
+    if (mode)
+        GS_CALL(warp_patch(s, mode, o, &met));
+    double t3 = gs_time_now();
+    GS_CALL(blend_and_paste(s, mode, o, &met));
+    double t4 = gs_time_now();
+    s->times.search += t1 - t0;
+    s->times.other += t2 - t1;
+    s->times.warp += t3 - t2;
+    s->times.blend += t4 - t3;
+    s->metrics[k] = met;
+    s->cursor++;
+    return GS_OK;
+}
+
+gs_err gs_points_synth_run(gs_points_synth_t s)
+{
+    while (s->cursor < s->total)
+        GS_CALL(gs_points_synth_step(s));
+    return GS_OK;
+}
+
+/* One Jacobi relaxation pass: tangential repulsion from neighbours closer
+ * than 1.5 spacing, then MLS projection back onto the (frozen) surface. */
+static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_points *out)
+{
+    double R = s->p.mls_radius, sp = s->spacing, rr = 1.5 * sp;
+    gs_points all = {0}, nb = {0};
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_points_grid_collect(g, &all), done);
+    GS_TRY(err, gs_points_reserve(out, out->n + all.n), done);
+    for (size_t i = 0; i < all.n; i++) {
+        gs_opoint q = all.v[i];
+        nb.n = 0;
+        GS_TRY(err, gs_points_grid_query(g, q.p, 1.25 * R, &nb), done);
+        double push[3] = {0, 0, 0};
+        for (size_t j = 0; j < nb.n; j++) {
+            double d2 = v3_dist2(nb.v[j].p, q.p);
+            if (d2 >= rr * rr || d2 <= 0)
+                continue;
+            double d = sqrt(d2), w = (rr - d) / (rr * d);
+            for (int c = 0; c < 3; c++)
+                push[c] += w * (q.p[c] - nb.v[j].p[c]);
+        }
+        double pn = v3_dot(push, q.n);
+        double x[3];
+        for (int c = 0; c < 3; c++)
+            x[c] = q.p[c] + 0.25 * sp * (push[c] - pn * q.n[c]);
+        /* Two projection steps with the gathered set (x moved < 0.25 R). */
+        double y[3], a[3], n[3];
+        memcpy(y, x, sizeof y);
+        int ok = 1;
+        for (int it = 0; it < 2 && ok; it++) {
+            if (gs_points_mls_frame(&nb, R, y, a, n) <= 0) {
+                ok = 0;
+                break;
+            }
+            double d = (x[0] - a[0]) * n[0] + (x[1] - a[1]) * n[1] + (x[2] - a[2]) * n[2];
+            for (int c = 0; c < 3; c++)
+                y[c] = x[c] - d * n[c];
+        }
+        if (ok && v3_dot(n, q.n) > 0) {
+            memcpy(q.p, y, sizeof y);
+            memcpy(q.n, n, sizeof n);
+        }
+        out->v[out->n++] = q;
+    }
+done:
+    gs_points_free(&all);
+    gs_points_free(&nb);
+    return err;
+}
+
+gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out)
+{
+    double t0 = gs_time_now();
+    gs_points cur = {0};
+    gs_points_grid_t g = NULL;
+    gs_err err = GS_OK;
+    if (s->p.relax_iterations == 0) {
+        GS_TRY(err, gs_points_grid_collect(s->out, &cur), done);
+    }
+    for (int it = 0; it < s->p.relax_iterations; it++) {
+        gs_points next = {0};
+        err = relax_once(s, it == 0 ? s->out : g, &next);
+        gs_points_free(&cur);
+        cur = next;
+        GS_TRY(err, err, done);
+        if (it + 1 < s->p.relax_iterations) {
+            gs_points_grid_destroy(&g);
+            double lo[3] = {s->out->lo[0], s->out->lo[1], s->out->lo[2]};
+            double hi[3];
+            for (int a = 0; a < 3; a++)
+                hi[a] = lo[a] + s->out->dim[a] * s->out->cell;
+            GS_TRY(err, gs_points_grid_create(lo, hi, s->out->cell, &g), done);
+            for (size_t i = 0; i < cur.n; i++)
+                GS_TRY(err, gs_points_grid_add(g, &cur.v[i]), done);
+        }
+    }
+    /* Trim w_E along every border and move the result to the origin. */
+    double lo[2] = {s->we, s->we}, hi[2] = {s->we + s->p.out_size[0], s->we + s->p.out_size[1]};
+    for (size_t i = 0; i < cur.n; i++) {
+        gs_opoint q = cur.v[i];
+        if (!in_xy(q.p, lo, hi))
+            continue;
+        q.p[0] -= s->we;
+        q.p[1] -= s->we;
+        GS_TRY(err, gs_points_append(out, &q, 1), done);
+    }
+done:
+    gs_points_free(&cur);
+    gs_points_grid_destroy(&g);
+    s->times.relax += gs_time_now() - t0;
+    return err;
+}
+
+gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st)
+{
+    gs_points_synth_state t;
+    memset(&t, 0, sizeof t);
+    t.cursor = s->cursor;
+    t.rng = gs_rng_save(&s->rng);
+    GS_CALL(gs_points_grid_collect(s->out, &t.out));
+    gs_err err = gs_alloc_array((void **)&t.metrics, s->cursor ? s->cursor : 1,
+                                sizeof *t.metrics, "saved metrics");
+    if (err != GS_OK) {
+        gs_points_free(&t.out);
+        GS_CALL(err);
+    }
+    memcpy(t.metrics, s->metrics, s->cursor * sizeof *t.metrics);
+    *st = t;
+    return GS_OK;
+}
+
+void gs_points_synth_state_free(gs_points_synth_state *st)
+{
+    gs_points_free(&st->out);
+    GS_FREE(st->metrics);
+}
+
+gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
+                              const gs_points_synth_state *st, gs_points_synth_t *out)
+{
+    gs_points_synth_t s = NULL;
+    GS_CALL(gs_points_synth_create(tex, p, &s));
+    gs_err err = GS_OK;
+    GS_TRY_CHECK(err, st->cursor <= s->total, GS_ERR_ARG, fail,
+                 "points: saved cursor %llu is beyond the %llu patches of this configuration",
+                 (unsigned long long)st->cursor, (unsigned long long)s->total);
+    GS_TRY_CHECK(err, st->rng.seed == p->seed, GS_ERR_ARG, fail,
+                 "points: saved state has seed %llu, the parameters say %llu",
+                 (unsigned long long)st->rng.seed, (unsigned long long)p->seed);
+    for (size_t i = 0; i < st->out.n; i++)
+        GS_TRY(err, gs_points_grid_add(s->out, &st->out.v[i]), fail);
+    if (st->cursor)
+        memcpy(s->metrics, st->metrics, st->cursor * sizeof *s->metrics);
+    s->cursor = st->cursor;
+    gs_rng_restore(&s->rng, st->rng);
+    *out = s;
+    return GS_OK;
+fail:
+    gs_points_synth_destroy(&s);
+    return err;
+}

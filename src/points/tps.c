@@ -1,0 +1,119 @@
+/* 3D thin-plate spline (biharmonic kernel |r|) solved with LAPACK dgesv;
+ * see include/geosynth/points.h. */
+#include <lapacke.h>
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "points/points_impl.h"
+
+gs_err gs_points_tps_fit(const double *src, const double *dst, int n, double lambda,
+                         gs_points_tps *out)
+{
+    GS_CHECK(n >= 4, GS_ERR_ARG, "thin-plate spline: %d control pairs, expected >= 4", n);
+    GS_CHECK(n <= 20000, GS_ERR_ARG, "thin-plate spline: %d control pairs, expected <= 20000", n);
+    int N = n + 4;
+    double *A = NULL, *B = NULL, *c = NULL, *w = NULL;
+    lapack_int *ipiv = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&A, (size_t)N * N, sizeof *A, "spline matrix"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&B, (size_t)N * 3, sizeof *B, "spline right-hand side"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&ipiv, (size_t)N, sizeof *ipiv, "spline pivots"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&c, (size_t)n * 3, sizeof *c, "spline centers"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&w, (size_t)n * 3, sizeof *w, "spline weights"), fail);
+    /* Column-major [K P; P^T 0]; symmetric, so the layout does not matter. */
+    for (int i = 0; i < n; i++) {
+        for (int j = 0; j < n; j++)
+            A[(size_t)j * N + i] = sqrt(v3_dist2(src + 3 * i, src + 3 * j));
+        A[(size_t)i * N + i] += lambda;
+        double row[4] = {1, src[3 * i], src[3 * i + 1], src[3 * i + 2]};
+        for (int k = 0; k < 4; k++) {
+            A[(size_t)(n + k) * N + i] = row[k];
+            A[(size_t)i * N + n + k] = row[k];
+        }
+        for (int d = 0; d < 3; d++)
+            B[(size_t)d * N + i] = dst[3 * i + d];
+    }
+    lapack_int info = LAPACKE_dgesv(LAPACK_COL_MAJOR, N, 3, A, N, ipiv, B, N);
+    GS_TRY_CHECK(err, info >= 0, GS_ERR_LIB, fail, "thin-plate spline: dgesv argument %d invalid",
+                 (int)-info);
+    GS_TRY_CHECK(err, info == 0, GS_ERR_ARG, fail,
+                 "thin-plate spline: singular system with %d pairs (coincident or coplanar "
+                 "control points)", n);
+    for (int i = 0; i < 3 * n; i++)
+        if (!isfinite(B[i % n + (size_t)(i / n) * N]))
+            info = 1;
+    GS_TRY_CHECK(err, info == 0, GS_ERR_ARG, fail, "thin-plate spline: ill-conditioned system");
+    memcpy(c, src, (size_t)n * 3 * sizeof *c);
+    for (int i = 0; i < n; i++)
+        for (int d = 0; d < 3; d++)
+            w[3 * i + d] = B[(size_t)d * N + i];
+    out->n = n;
+    out->c = c;
+    out->w = w;
+    for (int d = 0; d < 3; d++) {
+        out->b[d] = B[(size_t)d * N + n];
+        for (int k = 0; k < 3; k++)
+            out->A[3 * d + k] = B[(size_t)d * N + n + 1 + k];
+    }
+    gs_free(A);
+    gs_free(B);
+    gs_free(ipiv);
+    return GS_OK;
+fail:
+    gs_free(A);
+    gs_free(B);
+    gs_free(ipiv);
+    gs_free(c);
+    gs_free(w);
+    return err;
+}
+
+void gs_points_tps_free(gs_points_tps *t)
+{
+    gs_free(t->c);
+    gs_free(t->w);
+    t->c = t->w = NULL;
+    t->n = 0;
+}
+
+void gs_points_tps_eval(const gs_points_tps *t, const double x[3], double y[3], double J[9])
+{
+    for (int d = 0; d < 3; d++)
+        y[d] = t->b[d] + t->A[3 * d] * x[0] + t->A[3 * d + 1] * x[1] + t->A[3 * d + 2] * x[2];
+    if (J)
+        memcpy(J, t->A, 9 * sizeof *J);
+    for (int i = 0; i < t->n; i++) {
+        const double *c = t->c + 3 * i, *w = t->w + 3 * i;
+        double e[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
+        double r = sqrt(v3_dot(e, e));
+        for (int d = 0; d < 3; d++)
+            y[d] += w[d] * r;
+        if (J && r > 0) {
+            double inv = 1.0 / r;
+            for (int d = 0; d < 3; d++)
+                for (int k = 0; k < 3; k++)
+                    J[3 * d + k] += w[d] * e[k] * inv;
+        }
+    }
+}
+
+void gs_points_tps_normal(const double J[9], const double n[3], double out[3])
+{
+    /* Tangents: u orthogonal to n (built from the smallest component), v = n x u. */
+    double u[3], v[3];
+    double ax = fabs(n[0]), ay = fabs(n[1]), az = fabs(n[2]);
+    double e[3] = {0, 0, 0};
+    e[(ax <= ay && ax <= az) ? 0 : (ay <= az ? 1 : 2)] = 1;
+    v3_cross(n, e, u);
+    v3_normalize(u);
+    v3_cross(n, u, v);
+    double ju[3], jv[3];
+    for (int d = 0; d < 3; d++) {
+        ju[d] = J[3 * d] * u[0] + J[3 * d + 1] * u[1] + J[3 * d + 2] * u[2];
+        jv[d] = J[3 * d] * v[0] + J[3 * d + 1] * v[1] + J[3 * d + 2] * v[2];
+    }
+    v3_cross(ju, jv, out);
+    if (v3_normalize(out) <= 0)
+        memcpy(out, n, 3 * sizeof *out);
+}

@@ -1,0 +1,370 @@
+/* Unit tests for the points engine building blocks: bucket grid, MLS
+ * surface, thin-plate spline, generators and their padding check, search. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/error.h"
+#include "geosynth/mem.h"
+#include "geosynth/points.h"
+#include "geosynth/rng.h"
+
+static void random_points(gs_points *s, size_t n, uint64_t seed)
+{
+    gs_rng r;
+    gs_rng_init(&r, seed, 7);
+    for (size_t i = 0; i < n; i++) {
+        double p[3] = {gs_rng_uniform(&r) * 10 - 1, gs_rng_uniform(&r) * 8, gs_rng_uniform(&r) * 3};
+        double nn[3] = {0, 0, 1};
+        assert_int_equal(gs_points_push(s, p, nn), GS_OK);
+    }
+}
+
+static int cmp_opoint(const void *a, const void *b)
+{
+    return memcmp(a, b, sizeof(gs_opoint));
+}
+
+static void test_grid_vs_brute_force(void **state)
+{
+    (void)state;
+    gs_points pts = {0}, got = {0};
+    random_points(&pts, 3000, 1);
+    double lo[3] = {0, 0, 0}, hi[3] = {8, 8, 3}; /* some points lie outside: border buckets */
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.7, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    assert_int_equal(gs_points_grid_count(g), 3000);
+    gs_rng r;
+    gs_rng_init(&r, 3, 3);
+    for (int t = 0; t < 200; t++) {
+        double c[3] = {gs_rng_uniform(&r) * 12 - 2, gs_rng_uniform(&r) * 10 - 1,
+                       gs_rng_uniform(&r) * 5 - 1};
+        double rad = 0.1 + 1.5 * gs_rng_uniform(&r);
+        got.n = 0;
+        assert_int_equal(gs_points_grid_query(g, c, rad, &got), GS_OK);
+        size_t expect = 0;
+        for (size_t i = 0; i < pts.n; i++) {
+            double dx = pts.v[i].p[0] - c[0], dy = pts.v[i].p[1] - c[1], dz = pts.v[i].p[2] - c[2];
+            expect += dx * dx + dy * dy + dz * dz <= rad * rad;
+        }
+        assert_int_equal(got.n, expect);
+    }
+    /* Remove an xy box, compare with brute force; the rest survives intact. */
+    double blo[2] = {2, 1.5}, bhi[2] = {5.5, 4};
+    size_t inbox = 0;
+    for (size_t i = 0; i < pts.n; i++)
+        inbox += pts.v[i].p[0] >= 2 && pts.v[i].p[0] < 5.5 && pts.v[i].p[1] >= 1.5 &&
+                 pts.v[i].p[1] < 4;
+    assert_true(inbox > 100);
+    assert_int_equal(gs_points_grid_remove_xy(g, blo, bhi), inbox);
+    got.n = 0;
+    assert_int_equal(gs_points_grid_collect(g, &got), GS_OK);
+    assert_int_equal(got.n, 3000 - inbox);
+    gs_points keep = {0};
+    for (size_t i = 0; i < pts.n; i++)
+        if (!(pts.v[i].p[0] >= 2 && pts.v[i].p[0] < 5.5 && pts.v[i].p[1] >= 1.5 &&
+              pts.v[i].p[1] < 4))
+            assert_int_equal(gs_points_append(&keep, &pts.v[i], 1), GS_OK);
+    qsort(keep.v, keep.n, sizeof *keep.v, cmp_opoint);
+    qsort(got.v, got.n, sizeof *got.v, cmp_opoint);
+    assert_memory_equal(keep.v, got.v, keep.n * sizeof *keep.v);
+    got.n = 0;
+    assert_int_equal(gs_points_grid_query_xy(g, blo, bhi, &got), GS_OK);
+    assert_int_equal(got.n, 0);
+    gs_points_grid_destroy(&g);
+    assert_null(g);
+    gs_points_free(&pts);
+    gs_points_free(&got);
+    gs_points_free(&keep);
+}
+
+/* Points on a sphere of radius rad (Fibonacci lattice), outward normals. */
+static void sphere_points(gs_points *s, int n, double rad)
+{
+    for (int i = 0; i < n; i++) {
+        double z = 1 - (2.0 * i + 1) / n, r = sqrt(1 - z * z), phi = i * 2.399963229728653;
+        double nn[3] = {r * cos(phi), r * sin(phi), z};
+        double p[3] = {rad * nn[0], rad * nn[1], rad * nn[2]};
+        assert_int_equal(gs_points_push(s, p, nn), GS_OK);
+    }
+}
+
+static void test_mls_projection_plane_sphere(void **state)
+{
+    (void)state;
+    /* Plane z = 0.3 sampled on a jittered grid. */
+    gs_points pts = {0}, scratch = {0};
+    gs_rng r;
+    gs_rng_init(&r, 5, 5);
+    for (int j = 0; j < 40; j++)
+        for (int i = 0; i < 40; i++) {
+            double p[3] = {i * 0.1 + 0.03 * gs_rng_uniform(&r), j * 0.1 + 0.03 * gs_rng_uniform(&r),
+                           0.3};
+            double nn[3] = {0, 0, 1};
+            assert_int_equal(gs_points_push(&pts, p, nn), GS_OK);
+        }
+    double lo[3] = {-1, -1, -1}, hi[3] = {5, 5, 2};
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.35, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    for (int t = 0; t < 20; t++) {
+        double x[3] = {1 + 2 * gs_rng_uniform(&r), 1 + 2 * gs_rng_uniform(&r),
+                       0.3 + 0.6 * (gs_rng_uniform(&r) - 0.5)};
+        gs_points_mls_result res;
+        assert_int_equal(gs_points_mls_project(g, 0.3, 2.0, x, &scratch, &res), GS_OK);
+        assert_true(res.ok);
+        assert_true(fabs(res.y[2] - 0.3) < 1e-9);
+        assert_true(fabs(res.y[0] - x[0]) < 1e-9 && fabs(res.y[1] - x[1]) < 1e-9);
+        assert_true(fabs(res.dist - (x[2] - 0.3)) < 1e-9);
+        assert_true(res.n[2] > 0.999999);
+    }
+    /* Far above the plane: sign and gradient from the nearest sample. */
+    double far[3] = {2, 2, 1.9};
+    gs_points_mls_result fr;
+    assert_int_equal(gs_points_mls_project(g, 0.3, 3.0, far, &scratch, &fr), GS_OK);
+    assert_true(fr.dist > 1.0);
+    gs_points_grid_destroy(&g);
+    gs_points_free(&pts);
+
+    /* Sphere of radius 1: projections converge close to the sphere. */
+    sphere_points(&pts, 4000, 1.0);
+    double slo[3] = {-2, -2, -2}, shi[3] = {2, 2, 2};
+    assert_int_equal(gs_points_grid_create(slo, shi, 0.2, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    double worst = 0, worst_sd = 0;
+    for (int t = 0; t < 50; t++) {
+        double d[3] = {gs_rng_normal(&r), gs_rng_normal(&r), gs_rng_normal(&r)};
+        double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        double rr = 0.85 + 0.3 * gs_rng_uniform(&r);
+        double x[3] = {rr * d[0] / l, rr * d[1] / l, rr * d[2] / l};
+        gs_points_mls_result res;
+        assert_int_equal(gs_points_mls_project(g, 0.2, 2.0, x, &scratch, &res), GS_OK);
+        assert_true(res.ok);
+        double ry = sqrt(res.y[0] * res.y[0] + res.y[1] * res.y[1] + res.y[2] * res.y[2]);
+        worst = fmax(worst, fabs(ry - 1));
+        worst_sd = fmax(worst_sd, fabs(res.dist - (rr - 1)));
+        double ndot = (res.n[0] * res.y[0] + res.n[1] * res.y[1] + res.n[2] * res.y[2]) / ry;
+        assert_true(ndot > 0.999);
+    }
+    assert_true(worst < 0.01);     /* MLS shrinks a sphere slightly */
+    assert_true(worst_sd < 0.015);
+    /* Distance field inside/outside signs. */
+    float f[4 * 3];
+    double flo[3] = {0, 0, 0.5}, step[3] = {1, 1, 0.5};
+    assert_int_equal(gs_points_field(g, 0.2, 0.25, 2.0, flo, step, 1, 1, 3, f), GS_OK);
+    assert_true(f[0] < -0.99f);                     /* z = 0.5: inside, clamped */
+    assert_true(fabs(f[4]) < 0.05f && f[7] > 0.99f); /* z = 1: on the surface, normal +z */
+    assert_true(f[8] > 0.99f);                      /* z = 1.5: outside */
+    gs_points_grid_destroy(&g);
+    gs_points_free(&pts);
+    gs_points_free(&scratch);
+}
+
+static void test_tps_interpolates_and_affine(void **state)
+{
+    (void)state;
+    gs_rng r;
+    gs_rng_init(&r, 11, 1);
+    enum { N = 30 };
+    double src[3 * N], dst[3 * N];
+    for (int i = 0; i < 3 * N; i++)
+        src[i] = gs_rng_uniform(&r) * 4;
+    for (int i = 0; i < 3 * N; i++)
+        dst[i] = src[i] + 0.3 * gs_rng_normal(&r);
+    gs_points_tps t;
+    assert_int_equal(gs_points_tps_fit(src, dst, N, 0.0, &t), GS_OK);
+    for (int i = 0; i < N; i++) {
+        double y[3];
+        gs_points_tps_eval(&t, src + 3 * i, y, NULL);
+        for (int d = 0; d < 3; d++)
+            assert_true(fabs(y[d] - dst[3 * i + d]) < 1e-8);
+    }
+    gs_points_tps_free(&t);
+    /* An affine map is reproduced everywhere, Jacobian = its matrix. */
+    const double M[9] = {1.1, 0.2, -0.1, 0.05, 0.9, 0.3, -0.2, 0.1, 1.3}, b[3] = {0.5, -1, 2};
+    for (int i = 0; i < N; i++)
+        for (int d = 0; d < 3; d++)
+            dst[3 * i + d] = b[d] + M[3 * d] * src[3 * i] + M[3 * d + 1] * src[3 * i + 1] +
+                             M[3 * d + 2] * src[3 * i + 2];
+    assert_int_equal(gs_points_tps_fit(src, dst, N, 0.0, &t), GS_OK);
+    for (int k = 0; k < 20; k++) {
+        double x[3] = {gs_rng_uniform(&r) * 6 - 1, gs_rng_uniform(&r) * 6 - 1,
+                       gs_rng_uniform(&r) * 6 - 1};
+        double y[3], J[9];
+        gs_points_tps_eval(&t, x, y, J);
+        for (int d = 0; d < 3; d++) {
+            double e = b[d] + M[3 * d] * x[0] + M[3 * d + 1] * x[1] + M[3 * d + 2] * x[2];
+            assert_true(fabs(y[d] - e) < 1e-7);
+        }
+        for (int i = 0; i < 9; i++)
+            assert_true(fabs(J[i] - M[i]) < 1e-7);
+    }
+    /* Normals transform like the inverse transpose. */
+    double n[3] = {0, 0.6, 0.8}, nt[3], J[9], y[3];
+    double x0[3] = {1, 1, 1};
+    gs_points_tps_eval(&t, x0, y, J);
+    gs_points_tps_normal(J, n, nt);
+    /* tangent u = (1,0,0) maps to J u; must stay orthogonal to the new normal */
+    double ju[3] = {J[0], J[3], J[6]};
+    assert_true(fabs(ju[0] * nt[0] + ju[1] * nt[1] + ju[2] * nt[2]) < 1e-9);
+    assert_true(nt[0] * n[0] + nt[1] * n[1] + nt[2] * n[2] > 0.5);
+    gs_points_tps_free(&t);
+    /* Coplanar controls: clear error, output untouched. */
+    for (int i = 0; i < N; i++)
+        src[3 * i + 2] = 0;
+    gs_points_tps t2 = {0};
+    assert_int_equal(gs_points_tps_fit(src, src, N, 0.0, &t2), GS_ERR_ARG);
+    assert_null(t2.c);
+    gs_error_clear();
+}
+
+static void test_generators_and_padding_check(void **state)
+{
+    (void)state;
+    enum { W = 32 };
+    uint8_t img[W * W];
+    for (int j = 0; j < W; j++)
+        for (int i = 0; i < W; i++)
+            img[j * W + i] = (uint8_t)(127.5 + 127 * sin(i * 0.6) * cos(j * 0.45));
+    gs_points_gen_params gp = {{4, 4}, 1.0, 0.1, 42};
+    gs_points_texture t;
+    assert_int_equal(gs_points_gen_heightfield(&gp, W, W, img, NULL, 0.5, &t), GS_OK);
+    assert_true(t.pts.n > 1500);
+    /* Poisson-disk: no two points closer than the spacing; unit normals pointing up. */
+    double lo[3] = {-1.5, -1.5, -1}, hi[3] = {5.5, 5.5, 2};
+    gs_points_grid_t g = NULL;
+    gs_points nb = {0};
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.1, &g), GS_OK);
+    for (size_t i = 0; i < t.pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &t.pts.v[i]), GS_OK);
+    for (size_t i = 0; i < t.pts.n; i += 7) {
+        nb.n = 0;
+        assert_int_equal(gs_points_grid_query(g, t.pts.v[i].p, 0.0999, &nb), GS_OK);
+        assert_int_equal(nb.n, 1);
+        const double *n = t.pts.v[i].n;
+        assert_true(fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1) < 1e-9);
+        assert_true(n[2] > 0);
+    }
+    gs_points_grid_destroy(&g);
+    gs_points_free(&nb);
+    assert_int_equal(gs_points_texture_check(&t, 0.8), GS_OK);
+    /* Needing more than the padding is reported with the side and the numbers. */
+    assert_int_equal(gs_points_texture_check(&t, 1.6), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "past the bounding box"));
+    gs_error_clear();
+    gs_points_texture_free(&t);
+    gp.pad = 0;
+    assert_int_equal(gs_points_gen_heightfield(&gp, W, W, img, NULL, 0.5, &t), GS_OK);
+    assert_int_equal(gs_points_texture_check(&t, 0.5), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "side -x"));
+    gs_error_clear();
+    gs_points_texture_free(&t);
+    /* Bad image arguments. */
+    assert_int_equal(gs_points_gen_heightfield(&gp, W, W, NULL, NULL, 0.5, &t), GS_ERR_ARG);
+    gs_error_clear();
+
+    /* The other kinds: non-empty, padded, with the expected outward normals. */
+    gs_points_gen_params gq = {{3, 3}, 0.8, 0.06, 9};
+    gs_err (*gens[3])(const gs_points_gen_params *, int, gs_points_texture *) = {
+        gs_points_gen_chainmail, gs_points_gen_weave, gs_points_gen_flowers};
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(gens[k](&gq, 3, &t), GS_OK);
+        printf("generator %d: %zu points, z [%g, %g]\n", k, t.pts.n, t.box_lo[2], t.box_hi[2]);
+        assert_true(t.pts.n > 1000);
+        assert_true(t.box_hi[2] > t.box_lo[2]);
+        assert_int_equal(gs_points_texture_check(&t, 0.6), GS_OK);
+        /* normals point away from the mean surface: the top-most point faces up */
+        size_t top = 0;
+        for (size_t i = 1; i < t.pts.n; i++)
+            if (t.pts.v[i].p[2] > t.pts.v[top].p[2])
+                top = i;
+        assert_true(t.pts.v[top].n[2] > 0.8);
+        gs_points_texture_free(&t);
+    }
+}
+
+static void test_search_partition_matches_serial(void **state)
+{
+    (void)state;
+    int nx = 20, ny = 18, nz = 3;
+    gs_points_layout l;
+    gs_points_layout_init(&l, 6, 2, nz);
+    float *field = gs_malloc(sizeof(float) * 4 * nx * ny * nz);
+    gs_rng r;
+    gs_rng_init(&r, 2, 2);
+    for (int i = 0; i < 4 * nx * ny * nz; i++)
+        field[i] = (float)gs_rng_uniform(&r);
+    size_t total = gs_points_bank_total(nx, ny, &l);
+    assert_int_equal(total, 14 * 12);
+    /* Query = the field of patch 37 plus a little noise. */
+    gs_points_bank_t all = NULL;
+    assert_int_equal(gs_points_bank_create(field, nx, ny, &l, 0, total, &all), GS_OK);
+    size_t nf = gs_points_layout_floats(&l);
+    float *q = gs_malloc(nf * sizeof *q);
+    for (size_t i = 0; i < nf; i++) {
+        int a, b, k;
+        gs_points_layout_node(&l, i / 4, &a, &b, &k);
+        int pi = 37 % 14, pj = 37 / 14;
+        q[i] = field[4 * ((k * ny + pj + b) * nx + pi + a) + i % 4] + 0.2f * (float)gs_rng_normal(&r);
+    }
+    for (int mode = 1; mode <= 3; mode++) {
+        gs_points_cands serial = {0}, merged = {0}, parts[3] = {{0}};
+        assert_int_equal(gs_points_search_local(all, q, mode, 6.0, INFINITY, &serial), GS_OK);
+        gs_points_cands ser_sorted = {0};
+        assert_int_equal(gs_points_search_merge(&serial, 1, 6.0, &ser_sorted), GS_OK);
+        assert_int_equal(ser_sorted.v[0].index, 37);
+        assert_true(ser_sorted.n > 1);
+        /* Three uneven shares with a shared bound, merged: same list. */
+        size_t cut[4] = {0, 50, 51, total};
+        double bound = INFINITY;
+        for (int s = 0; s < 3; s++) {
+            gs_points_bank_t b = NULL;
+            assert_int_equal(gs_points_bank_create(field, nx, ny, &l, cut[s], cut[s + 1] - cut[s], &b),
+                             GS_OK);
+            assert_int_equal(gs_points_search_local(b, q, mode, 6.0, bound, &parts[s]), GS_OK);
+            bound = fmin(bound, parts[s].best);
+            gs_points_bank_destroy(&b);
+        }
+        assert_int_equal(gs_points_search_merge(parts, 3, 6.0, &merged), GS_OK);
+        assert_int_equal(merged.n, ser_sorted.n);
+        for (size_t i = 0; i < merged.n; i++) {
+            assert_true(merged.v[i].index == ser_sorted.v[i].index);
+            assert_true(merged.v[i].dist == ser_sorted.v[i].dist);
+            assert_true(merged.v[i].dist <= 7.0 * merged.v[0].dist);
+        }
+        gs_rng pick;
+        gs_rng_init(&pick, 1, 1);
+        uint64_t c = gs_points_search_pick(&merged, &pick);
+        assert_true(c < total);
+        gs_points_cands_free(&serial);
+        gs_points_cands_free(&ser_sorted);
+        gs_points_cands_free(&merged);
+        for (int s = 0; s < 3; s++)
+            gs_points_cands_free(&parts[s]);
+    }
+    gs_points_bank_destroy(&all);
+    gs_free(field);
+    gs_free(q);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_grid_vs_brute_force),
+        cmocka_unit_test(test_mls_projection_plane_sphere),
+        cmocka_unit_test(test_tps_interpolates_and_affine),
+        cmocka_unit_test(test_generators_and_padding_check),
+        cmocka_unit_test(test_search_partition_matches_serial),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

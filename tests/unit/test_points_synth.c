@@ -1,0 +1,181 @@
+/* Unit tests for the points synthesis loop: determinism by seed, exact
+ * resume from a saved state, output density, metrics, parameter errors. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/error.h"
+#include "geosynth/points.h"
+
+enum { IMG = 48 };
+static float image[IMG * IMG];
+static gs_points_texture tex;
+static gs_points_params params;
+
+static int setup(void **state)
+{
+    (void)state;
+    for (int j = 0; j < IMG; j++)
+        for (int i = 0; i < IMG; i++) {
+            double x = i * 0.15, y = j * 0.15;
+            image[j * IMG + i] = (float)(0.5 + 0.3 * sin(2 * x + sin(1.5 * y)) * cos(1.7 * y));
+        }
+    double L = 3, s = 0.06;
+    gs_points_params_default(L, L, s, &params);
+    params.out_size[0] = params.out_size[1] = 1.6 * L;
+    gs_points_gen_params gp = {{L, L}, 1.2 * gs_points_params_padding(&params), s, 3};
+    return gs_points_gen_heightfield(&gp, IMG, IMG, NULL, image, 0.5, &tex) == GS_OK ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    gs_points_texture_free(&tex);
+    return 0;
+}
+
+static uint64_t synthesize(uint64_t seed, gs_points *out)
+{
+    gs_points_params p = params;
+    p.seed = seed;
+    gs_points_synth_t s = NULL;
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_OK);
+    assert_int_equal(gs_points_synth_run(s), GS_OK);
+    assert_int_equal(gs_points_synth_cursor(s), gs_points_synth_total(s));
+    assert_int_equal(gs_points_synth_finish(s, out), GS_OK);
+    gs_points_synth_destroy(&s);
+    assert_null(s);
+    return gs_digest_bytes(out->v, out->n * sizeof(gs_opoint));
+}
+
+static void test_deterministic_by_seed(void **state)
+{
+    (void)state;
+    gs_points a = {0}, b = {0}, c = {0};
+    uint64_t da = synthesize(5, &a), db = synthesize(5, &b), dc = synthesize(6, &c);
+    assert_true(a.n > 1000);
+    assert_true(da == db);
+    assert_int_equal(a.n, b.n);
+    assert_true(da != dc);
+    assert_true(gs_points_digest(&a) == da);
+    gs_points_free(&a);
+    gs_points_free(&b);
+    gs_points_free(&c);
+}
+
+static void test_resume_is_identical(void **state)
+{
+    (void)state;
+    gs_points full = {0}, resumed = {0};
+    uint64_t d_full = synthesize(9, &full);
+    gs_points_params p = params;
+    p.seed = 9;
+    gs_points_synth_t s = NULL;
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_OK);
+    uint64_t half = gs_points_synth_total(s) / 2 + 1;
+    for (uint64_t k = 0; k < half; k++)
+        assert_int_equal(gs_points_synth_step(s), GS_OK);
+    gs_points_synth_state st;
+    assert_int_equal(gs_points_synth_save(s, &st), GS_OK);
+    assert_int_equal(st.cursor, half);
+    gs_points_synth_destroy(&s);
+    /* A different seed in the parameters is refused. */
+    gs_points_params wrong = p;
+    wrong.seed = 10;
+    assert_int_equal(gs_points_synth_resume(&tex, &wrong, &st, &s), GS_ERR_ARG);
+    assert_null(s);
+    gs_error_clear();
+    assert_int_equal(gs_points_synth_resume(&tex, &p, &st, &s), GS_OK);
+    assert_int_equal(gs_points_synth_cursor(s), half);
+    assert_int_equal(gs_points_synth_run(s), GS_OK);
+    assert_int_equal(gs_points_synth_finish(s, &resumed), GS_OK);
+    assert_true(gs_points_digest(&resumed) == d_full);
+    size_t nm;
+    const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
+    assert_int_equal(nm, gs_points_synth_total(s));
+    assert_memory_equal(m, st.metrics, half * sizeof *m);
+    gs_points_synth_state_free(&st);
+    gs_points_synth_destroy(&s);
+    gs_points_free(&full);
+    gs_points_free(&resumed);
+}
+
+static void test_density_and_metrics(void **state)
+{
+    (void)state;
+    gs_points_params p = params;
+    gs_points_synth_t s = NULL;
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_OK);
+    assert_int_equal(gs_points_synth_run(s), GS_OK);
+    gs_points out = {0};
+    assert_int_equal(gs_points_synth_finish(s, &out), GS_OK);
+    double din = gs_points_synth_input_density(s);
+    double dout = out.n / (p.out_size[0] * p.out_size[1]);
+    printf("density in %.1f out %.1f (%zu points)\n", din, dout, out.n);
+    assert_true(fabs(dout / din - 1) < 0.1);
+    /* Every point inside the output box, unit normals facing up (height field). */
+    for (size_t i = 0; i < out.n; i++) {
+        const gs_opoint *q = &out.v[i];
+        assert_true(q->p[0] >= 0 && q->p[0] < p.out_size[0] && q->p[1] >= 0 &&
+                    q->p[1] < p.out_size[1]);
+        assert_true(fabs(q->n[0] * q->n[0] + q->n[1] * q->n[1] + q->n[2] * q->n[2] - 1) < 1e-6);
+        assert_true(q->n[2] > 0);
+    }
+    size_t nm;
+    const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
+    size_t warped = 0;
+    for (size_t i = 1; i < nm; i++) {
+        assert_true(m[i].candidates >= 1);
+        assert_true(m[i].chosen_dist >= m[i].best_dist);
+        assert_true(m[i].chosen_dist <= (1 + p.eps) * m[i].best_dist);
+        assert_true(m[i].chosen < gs_points_synth_input_patches(s));
+        warped += m[i].pairs > 0;
+        /* the warp pulls the patch onto the neighbourhood: residual below the pair gap */
+        if (m[i].pairs > 0)
+            assert_true(m[i].warp_residual < m[i].pair_gap + 0.5 * tex.spacing);
+    }
+    assert_true(warped > nm / 2);
+    gs_points_times t = gs_points_synth_times(s);
+    assert_true(t.search > 0 && t.warp > 0 && t.blend > 0);
+    gs_points_free(&out);
+    gs_points_synth_destroy(&s);
+}
+
+static void test_bad_parameters(void **state)
+{
+    (void)state;
+    gs_points_params p = params;
+    gs_points_synth_t s = NULL;
+    p.overlap_cells = p.patch_cells;
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "overlap_cells"));
+    assert_null(s);
+    gs_error_clear();
+    p = params;
+    p.patch_cells = 200; /* no room in the example box */
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "too few for a patch"));
+    gs_error_clear();
+    p = params;
+    p.extra_cells = p.patch_cells; /* needs more padding than the example has */
+    assert_int_equal(gs_points_synth_create(&tex, &p, &s), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "past the bounding box"));
+    gs_error_clear();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_deterministic_by_seed),
+        cmocka_unit_test(test_resume_is_identical),
+        cmocka_unit_test(test_density_and_metrics),
+        cmocka_unit_test(test_bad_parameters),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
