@@ -1,0 +1,321 @@
+/* field engine core: distance-field geometry synthesis after Lagae, Dumont,
+ * Dutré, "Geometry Synthesis" (KU Leuven CW 381, 2004).
+ *
+ * Conventions (all arrays in this module):
+ *  - index order x fastest: v[x + nx*(y + ny*z)]; the same for blocks
+ *    (B^3 samples, b[i + B*(j + B*k)]) and for block indices (below);
+ *  - distances are signed, negative inside the geometry; spacing is the edge
+ *    of one cell in world units, origin the world position of sample (0,0,0);
+ *  - quantization maps [lo, hi] linearly onto 0..255 with rounding, values
+ *    outside clamp (the paper quantizes to 256 levels); a quantized sample q
+ *    stands for lo + q*(hi-lo)/255, and it is "inside" when that is < 0.
+ *
+ * Source blocks. For block size B (a power of two, 2..32) the candidate
+ * blocks of a quantized source of size nx*ny*nz are all B^3 windows at
+ * positions p = (px,py,pz), 0 <= p < n - B + 1, overlapping; the block index
+ * is px + bx*(py + by*pz) with bx = nx-B+1, by = ny-B+1. Ties in distance
+ * are always broken by the lowest block index.
+ *
+ * Distance (paper eq. 1, without the 1/N^3 factor so it is an exact integer):
+ *   dist(q, b) = sum over samples s known in the query of (q[s] - b[s])^2.
+ * A query is a B^3 block of quantized samples plus an optional "known" mask
+ * (NULL = all known). Unknown samples do not contribute.
+ *
+ * Global pyramid (gs_field_pyramid_*): level m holds, for every position x,
+ * the SUM of the 2^m-cube of quantized samples starting at x (kept as exact
+ * integers, i.e. the paper's averages times 8^m, so the bounds below are
+ * exact). Level m is stored at the stride of the source (positions within
+ * 2^m of the upper faces are unused). Block pyramid level k (paper level
+ * k+1, 0 = one cell of B^3 samples, log2 B = L = single samples) of the
+ * block at p has (2^k)^3 cells of side s = B/2^k = 2^m, m = L-k, and cell
+ * (i,j,l) of that level is entry p + s*(i,j,l) of global level m. So one
+ * global pyramid serves every overlapping block position exactly; nothing is
+ * stored per block.
+ *
+ * Level lower bound (paper eq. 2): with S the cell sums and c = s^3,
+ *   lb_k(q, b) = sum over cells of level k whose samples are all known of
+ *                (Sq - Sb)^2 / c  <=  lb_{k+1}  <=  dist(q, b) = lb_L.
+ * (Cauchy-Schwarz on the known samples; cells with unknown samples add 0.)
+ *
+ * Search tree (gs_field_tree_*): the blocks' pyramids are refined
+ * coarse-to-fine in a fixed sequence of steps: step 0 reveals the level-0
+ * sum quantized to 256 values (the paper's quantized mean: at most 256
+ * nodes at the first level), step 1 the exact level-0 sum, then each further
+ * step refines one cell of level k into its 8 cells of level k+1 (levels in
+ * order, cells of a level in Morton order). Blocks with identical content up
+ * to a step share one node (the paper's merging of identical nodes); a node
+ * that ends inside a level is one of the paper's extra parents for partially
+ * identical nodes, which cut the branching factor; nodes with one child are
+ * merged into it (path compression). Leaves are the distinct full-resolution
+ * blocks and list every source block index with that content. Nodes refer
+ * to the global pyramid through a representative block index; no block data
+ * is copied.
+ *
+ * Best-first search (paper fig. 4): a priority queue of (lower bound, lowest
+ * block index below, node, step) in this total order; a popped entry is
+ * refined step by step (the incremental distance evaluation of paper 4.4)
+ * while it stays at the front; the first complete leaf to reach the front
+ * is the exact best match with the lowest index among equals.
+ *
+ * Costs: pyramid 1 + 4*L bytes per source sample; tree build O(M log M)
+ * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
+ * about 20 bytes per node (< 2 per distinct block) + 4 bytes per block.
+ * Search workspace per searcher: O(B^3) + the queue.
+ */
+#ifndef GEOSYNTH_FIELD_H
+#define GEOSYNTH_FIELD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/rng.h"
+
+/* ---------------------------------------------------------------- fields */
+
+/* Dense float field. Owns v (nx*ny*nz floats, x fastest). */
+typedef struct gs_field {
+    int64_t nx, ny, nz;
+    double origin[3];
+    double spacing;
+    float *v;
+} gs_field;
+
+/* Creates a zeroed field with origin 0 and spacing 1. Sizes in [1, 4096].
+ * Caller frees with gs_field_destroy(). On error *out is unchanged. */
+gs_err gs_field_create(int64_t nx, int64_t ny, int64_t nz, gs_field **out);
+void gs_field_destroy(gs_field **f);
+
+/* Quantized field: 256 levels over [lo, hi]. Owns q (x fastest). */
+typedef struct gs_qfield {
+    int64_t nx, ny, nz;
+    double lo, hi;
+    double origin[3];
+    double spacing;
+    uint8_t *q;
+} gs_qfield;
+
+gs_err gs_qfield_create(int64_t nx, int64_t ny, int64_t nz, double lo, double hi,
+                        gs_qfield **out);
+void gs_qfield_destroy(gs_qfield **q);
+
+/* Quantizes f over [lo, hi] (lo < hi, both finite): round((v-lo)/(hi-lo)*255)
+ * clamped to 0..255. NaN samples are an error naming the first index. */
+gs_err gs_field_quantize(const gs_field *f, double lo, double hi, gs_qfield **out);
+/* Distance value a quantized sample stands for. */
+double gs_qfield_value(const gs_qfield *q, uint8_t level);
+/* The float field of the quantized values (same geometry). */
+gs_err gs_qfield_dequantize(const gs_qfield *q, gs_field **out);
+/* Averages factor^3 cubes (factor a power of two dividing every size), rounding
+ * to nearest: the paper's subsampling of the source for coarse iterations.
+ * Spacing is multiplied by factor. */
+gs_err gs_qfield_downsample(const gs_qfield *q, int factor, gs_qfield **out);
+
+/* Analytic test geometry (signed distance, spacing 1, negative inside),
+ * n^3 samples. Deterministic in (kind, n, seed). */
+typedef enum gs_field_shape {
+    GS_FIELD_SPHERES = 0,   /* a few random spheres */
+    GS_FIELD_GRID = 1,      /* cylinders along x, y, z on a jittered grid, balls at crossings */
+    GS_FIELD_CHAINMAIL = 2, /* rows of tori in alternating orientation, linked */
+    GS_FIELD_BALLS = 3      /* many random non-overlapping-ish balls ("dropped balls") */
+} gs_field_shape;
+gs_err gs_field_make_shape(gs_field_shape kind, int64_t n, uint64_t seed, gs_field **out);
+const char *gs_field_shape_name(gs_field_shape kind);
+
+/* ------------------------------------------------------- global pyramid */
+
+typedef struct gs_field_pyramid *gs_field_pyramid_t;
+
+/* Builds levels 0..levels-1 (levels in [1, 6]) of the global sum pyramid of
+ * src (see top). The pyramid keeps a pointer to src: src must outlive it and
+ * stay unchanged. Cost O(levels * samples). */
+gs_err gs_field_pyramid_create(const gs_qfield *src, int levels, gs_field_pyramid_t *out);
+void gs_field_pyramid_destroy(gs_field_pyramid_t *p);
+/* Sum of the 2^m cube at (x,y,z) (0 <= m < levels, cube inside the field). */
+uint32_t gs_field_pyramid_sum(gs_field_pyramid_t p, int m, int64_t x, int64_t y, int64_t z);
+/* Bytes held by the pyramid. */
+size_t gs_field_pyramid_bytes(gs_field_pyramid_t p);
+
+/* Block pyramid level k of source block `index` for block size B, scaled by
+ * 8^L so it is an integer: returns lb_k(query, block) * 8^L (lb_L * 8^L =
+ * dist * 8^L). The pyramid needs at least L+1 levels. For tests and tools;
+ * the tree computes the same quantities incrementally. */
+typedef struct gs_field_query {
+    int block;               /* B, power of two in [2, 32] */
+    const uint8_t *values;   /* B^3 quantized samples, x fastest */
+    const uint8_t *known;    /* B^3 flags, nonzero = known; NULL = all known */
+} gs_field_query;
+gs_err gs_field_level_bound(gs_field_pyramid_t p, int64_t index, const gs_field_query *q,
+                            int level, uint64_t *out);
+
+/* Number of candidate blocks of size B in src (0 when B exceeds a size). */
+int64_t gs_field_block_count(const gs_qfield *src, int block);
+/* Position of block `index`. */
+void gs_field_block_position(const gs_qfield *src, int block, int64_t index, int64_t pos[3]);
+/* Copies block `index` into out[B^3]. */
+void gs_field_block_copy(const gs_qfield *src, int block, int64_t index, uint8_t *out);
+/* dist(q, block index) as defined at top. */
+uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_field_query *q);
+
+/* ------------------------------------------------------------ matching */
+
+typedef struct gs_field_match {
+    int found;          /* 0: nothing within the bound */
+    int64_t index;      /* best source block index (lowest among equals) */
+    uint64_t dist;      /* its distance (sum of squared differences) */
+    int64_t known;      /* number of known query samples */
+    uint64_t pops;      /* queue entries popped (tree) / blocks scanned (brute) */
+    uint64_t pushes;    /* queue entries pushed (tree) */
+    uint64_t refinements; /* refinement steps evaluated (tree) */
+    size_t queue_peak;  /* largest queue size (tree) */
+} gs_field_match;
+
+/* Reference: linear scan over blocks [begin, end) of src in index order,
+ * keeping the first block with the smallest distance. Blocks whose distance
+ * exceeds *bound are ignored; on return *bound = min(*bound, best). */
+gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
+                             int64_t end, uint64_t *bound, gs_field_match *out);
+
+typedef struct gs_field_tree *gs_field_tree_t;
+
+typedef struct gs_field_tree_info {
+    int block, levels;              /* B and L+1 */
+    int64_t blocks;                 /* candidate blocks M */
+    int64_t distinct;               /* distinct blocks = leaves */
+    int64_t nodes;                  /* all nodes incl. leaves and root */
+    int64_t top;                    /* top-level subtrees (see search) */
+    int64_t level_full[7];          /* nodes ending exactly at pyramid level k (k = 0..L) */
+    int64_t level_partial[7];       /* extra parents ending inside the refinement to level k */
+    int64_t steps;                  /* refinement steps from root to leaf */
+    int source_step_max;            /* largest |difference| of 6-neighbours in the source */
+    size_t tree_bytes;              /* nodes + member lists */
+    size_t pyramid_bytes;           /* the global pyramid */
+    double build_seconds;           /* pyramid + hashing + sorting + linking */
+    double pyramid_seconds, dedup_seconds, sort_seconds;
+} gs_field_tree_info;
+
+/* Builds the search tree of all blocks of size B (power of two, 2..32) in src
+ * (at most 2^31 blocks). Keeps a pointer to src: src must outlive the tree.
+ * Caller frees with gs_field_tree_destroy(). On error *out is unchanged. */
+gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out);
+void gs_field_tree_destroy(gs_field_tree_t *t);
+void gs_field_tree_get_info(gs_field_tree_t t, gs_field_tree_info *info);
+const gs_qfield *gs_field_tree_source(gs_field_tree_t t);
+int gs_field_tree_block(gs_field_tree_t t);
+
+/* Top-level subtrees: the children of the root (the root itself when all
+ * blocks are identical), numbered 0..top-1 in content order. They are the
+ * units to split over MPI ranks; gs_field_tree_top_blocks gives the number
+ * of source blocks under each (for balancing). */
+int64_t gs_field_tree_top_count(gs_field_tree_t t);
+int64_t gs_field_tree_top_blocks(gs_field_tree_t t, int64_t top);
+
+/* Searcher: per-thread query workspace (query pyramid, queue). */
+typedef struct gs_field_searcher *gs_field_searcher_t;
+gs_err gs_field_searcher_create(gs_field_tree_t t, gs_field_searcher_t *out);
+void gs_field_searcher_destroy(gs_field_searcher_t *s);
+
+typedef struct gs_field_search_opts {
+    /* Queue pruning with an upper bound (paper eq. 3): for a cell of side s
+     * whose samples differ from their mean by at most d, dist over the cell
+     * <= (Sq-Sb)^2/c + c*(dq+db)^2, and d <= 3(s-1)*K where K is the largest
+     * difference of 6-neighbours. The paper takes K from the source and
+     * assumes the query is a distance field too, which is false while the
+     * query holds random seed samples; here K is measured on the source and
+     * on the query separately, so the bound is always valid (with random
+     * seeds it is merely too loose to prune). Applied only to fully known
+     * queries. Results are identical with or without it. */
+    int use_upper_bound;
+    /* Called every poll_every pops (when poll != NULL) with the shared bound;
+     * it may lower *bound (e.g. to the best distance other ranks found). */
+    void (*poll)(void *ctx, uint64_t *bound);
+    void *poll_ctx;
+    uint64_t poll_every;
+} gs_field_search_opts;
+
+/* Exact best match of q among the blocks under top-level subtrees
+ * [top_begin, top_end), considering only distances <= *bound (pass
+ * UINT64_MAX for none). Pruning is strictly "lower bound > *bound", so
+ * candidates tied with the bound survive; on return *bound = min(*bound,
+ * best found, upper bounds met). out->found = 0 when no block is within the
+ * bound. Reducing the (dist, index) pairs of disjoint ranges in
+ * lexicographic order gives exactly the answer of the whole range, for any
+ * split and any exchange of bounds between ranges: this is the contract the
+ * MPI layer builds on. opts may be NULL. */
+gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t top_end,
+                            const gs_field_query *q, const gs_field_search_opts *opts,
+                            uint64_t *bound, gs_field_match *out);
+/* Whole tree, no bound. */
+gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
+                                const gs_field_search_opts *opts, gs_field_match *out);
+
+/* ----------------------------------------------------------- synthesis */
+
+#define GS_FIELD_MAX_ITER 6
+
+typedef struct gs_field_synth_config {
+    int iterations;                  /* 1..GS_FIELD_MAX_ITER (paper: 3) */
+    int64_t target[3];               /* final target size; each divisible by 2^(iterations-1) */
+    int block[GS_FIELD_MAX_ITER];    /* block size per iteration, coarse to fine (paper: last 16) */
+    uint64_t seed;                   /* seeds the random source samples of iteration 0 */
+    int mask_unsynthesized;          /* 0 (paper): match whole blocks, seed values included;
+                                        1: unsynthesized samples are unknown in the query */
+    int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
+} gs_field_synth_config;
+
+/* Paper setting: 3 iterations, blocks 8, 8, 16, target = 2x source size. */
+void gs_field_synth_config_default(gs_field_synth_config *c, const gs_qfield *src);
+
+/* Everything needed to resume a synthesis exactly (with the same source and
+ * config): the checkpoint writes these fields and gs_field_synth_resume()
+ * takes them back. target/mask are owned by the synthesis. */
+typedef struct gs_field_synth_state {
+    int iteration;                   /* current iteration (== iterations: finished) */
+    int64_t cursor;                  /* next block of the iteration's visit order */
+    int64_t blocks_in_iteration;     /* length of the visit order */
+    int64_t tn[3];                   /* current target size */
+    uint8_t *target;                 /* tn[0]*tn[1]*tn[2] quantized samples */
+    uint8_t *mask;                   /* 1 = synthesized in this iteration */
+    /* per-block match statistics of each iteration (normalized distance =
+     * dist / known samples, in squared quantization levels) */
+    int64_t stat_count[GS_FIELD_MAX_ITER];
+    double stat_sum[GS_FIELD_MAX_ITER];
+    double stat_min[GS_FIELD_MAX_ITER];
+    double stat_max[GS_FIELD_MAX_ITER];
+    uint64_t stat_pops[GS_FIELD_MAX_ITER];
+} gs_field_synth_state;
+
+typedef struct gs_field_synth *gs_field_synth_t;
+
+/* Validates the config (errors name the key: "field.block[2] = 12: expected
+ * a power of two in [2, 32] not larger than the source at that iteration")
+ * and seeds iteration 0. src must outlive the synthesis. */
+gs_err gs_field_synth_create(const gs_qfield *src, const gs_field_synth_config *c,
+                             gs_field_synth_t *out);
+/* Recreates a synthesis from a saved state (copied). */
+gs_err gs_field_synth_resume(const gs_qfield *src, const gs_field_synth_config *c,
+                             const gs_field_synth_state *st, gs_field_synth_t *out);
+void gs_field_synth_destroy(gs_field_synth_t *s);
+/* Synthesizes up to max_blocks blocks (< 0: until finished), crossing
+ * iterations as needed. *finished = 1 when the last iteration is complete. */
+gs_err gs_field_synth_run(gs_field_synth_t s, int64_t max_blocks, int *finished);
+/* Current state (pointers into the synthesis; valid until the next run). */
+const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s);
+/* Copy of the final (or current) target as a quantized field with the
+ * source's range, spacing and origin 0. */
+gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out);
+
+/* Quality metrics of an output against its source. */
+typedef struct gs_field_quality {
+    double volume_fraction_out, volume_fraction_src;      /* share of inside samples */
+    double surface_per_volume_out, surface_per_volume_src; /* sign changes between 6-neighbours
+                                                              per sample / spacing (area per volume) */
+    double coherence;        /* mean over output blocks (grid of stride B) of the
+                                normalized distance to the nearest source block */
+    int64_t coherence_blocks;
+} gs_field_quality;
+/* tree: built on src with the block size to measure coherence with. */
+gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
+                                gs_field_quality *q);
+
+#endif

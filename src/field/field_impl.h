@@ -1,0 +1,65 @@
+/* Internal layout of the field engine's handles (see include/geosynth/field.h). */
+#ifndef GEOSYNTH_FIELD_IMPL_H
+#define GEOSYNTH_FIELD_IMPL_H
+
+#include "geosynth/field.h"
+
+#define GS_FIELD_MAX_LEVEL 5 /* log2 of the largest block size (32) */
+
+struct gs_field_pyramid {
+    const gs_qfield *src;
+    int levels;
+    int64_t nx, ny, nz;
+    uint32_t *sum[GS_FIELD_MAX_LEVEL + 1]; /* sum[0] unused: level 0 is src->q */
+    size_t bytes;
+};
+
+/* Value of global pyramid level m at linear position x (x fastest, source
+ * stride). */
+static inline uint32_t gs_pyr_at(const struct gs_field_pyramid *p, int m, int64_t x)
+{
+    return m == 0 ? p->src->q[x] : p->sum[m][x];
+}
+
+/* Tree node: all blocks below share content for steps [0, end). rep is the
+ * lowest block index below (also the representative whose content the node
+ * reads from the pyramid). Internal: children nodes [first, first+count);
+ * leaf (end == steps): member block indices [first, first+count) ascending. */
+typedef struct gs_tree_node {
+    uint32_t end;
+    uint32_t rep;
+    uint32_t first;
+    uint32_t count;
+} gs_tree_node;
+
+/* Block-relative layout of the step sequence, shared by tree and searcher. */
+typedef struct gs_step_layout {
+    int B, L;
+    int64_t steps;                 /* 2 + (8^L - 1)/7 */
+    int64_t level_first[GS_FIELD_MAX_LEVEL + 2]; /* first refinement step revealing level k (k >= 1) */
+    int64_t *cell_off[GS_FIELD_MAX_LEVEL + 1];   /* per level k: source offsets of cells (Morton) */
+    int64_t *qcell_off[GS_FIELD_MAX_LEVEL + 1];  /* per level k: block-relative offsets (B stride) */
+} gs_step_layout;
+
+struct gs_field_tree {
+    const gs_qfield *src;
+    struct gs_field_pyramid *pyr;
+    gs_step_layout lay;
+    int64_t bx, by, bz, blocks;
+    gs_tree_node *nodes;
+    int64_t nnodes;
+    uint32_t root;
+    uint32_t *members;             /* leaf member lists */
+    uint32_t *top;                 /* top-level subtree node ids */
+    int64_t *top_blocks;
+    int64_t ntop;
+    int source_step_max;
+    gs_field_tree_info info;
+};
+
+/* Step of the sequence (see field.h): 0 quantized level-0 sum, 1 exact
+ * level-0 sum, 2 + r refinement r. Helpers in tree.c. */
+gs_err gs_step_layout_init(gs_step_layout *lay, int B, int64_t nx, int64_t ny);
+void gs_step_layout_free(gs_step_layout *lay);
+
+#endif

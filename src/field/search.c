@@ -1,0 +1,412 @@
+/* Best-first tree search (paper fig. 4 with incremental evaluation, 4.4)
+ * and the brute-force reference; see include/geosynth/field.h.
+ *
+ * Bounds are kept as exact integers scaled by 8^L: a level-k cell of c =
+ * 8^(L-k) samples contributes (Sq - Sb)^2 / c, i.e. (Sq - Sb)^2 * 8^k
+ * scaled, and a leaf sample (k = L) (q - b)^2 * 8^L, so the bound of a
+ * complete leaf is exactly dist * 8^L and comparisons involve no rounding. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "field_impl.h"
+#include "geosynth/mem.h"
+
+typedef struct entry {
+    uint64_t lb;    /* scaled lower bound after `step` steps */
+    uint32_t rep;   /* lowest block index below the node */
+    uint32_t node;
+    uint32_t step;
+    uint32_t pad;
+} entry;
+
+struct gs_field_searcher {
+    struct gs_field_tree *tree;
+    uint32_t *qsum[GS_FIELD_MAX_LEVEL + 1];  /* query cell sums per level, Morton order */
+    uint8_t *qfull[GS_FIELD_MAX_LEVEL + 1];  /* 1 = every sample of the cell known */
+    entry *heap;
+    size_t heap_n, heap_cap;
+    int64_t known;
+    int query_step_max;
+    /* upper bound extra per level-boundary state, unscaled (see ub_extra) */
+    uint64_t samples_dev2[GS_FIELD_MAX_LEVEL + 1]; /* per-sample (3(s_k-1)K)^2 */
+};
+
+static inline int entry_less(const entry *a, const entry *b)
+{
+    if (a->lb != b->lb)
+        return a->lb < b->lb;
+    if (a->rep != b->rep)
+        return a->rep < b->rep;
+    return a->node < b->node;
+}
+
+static gs_err heap_push(struct gs_field_searcher *s, entry e)
+{
+    if (s->heap_n == s->heap_cap) {
+        size_t cap = s->heap_cap ? 2 * s->heap_cap : 1024;
+        entry *h = gs_realloc(s->heap, cap * sizeof *h);
+        GS_CHECK(h, GS_ERR_MEM, "out of memory for a search queue of %zu entries", cap);
+        s->heap = h;
+        s->heap_cap = cap;
+    }
+    size_t i = s->heap_n++;
+    while (i > 0) {
+        size_t p = (i - 1) / 2;
+        if (!entry_less(&e, &s->heap[p]))
+            break;
+        s->heap[i] = s->heap[p];
+        i = p;
+    }
+    s->heap[i] = e;
+    return GS_OK;
+}
+
+static entry heap_pop(struct gs_field_searcher *s)
+{
+    entry top = s->heap[0];
+    entry last = s->heap[--s->heap_n];
+    size_t n = s->heap_n, i = 0;
+    for (;;) {
+        size_t c = 2 * i + 1;
+        if (c >= n)
+            break;
+        if (c + 1 < n && entry_less(&s->heap[c + 1], &s->heap[c]))
+            c++;
+        if (!entry_less(&s->heap[c], &last))
+            break;
+        s->heap[i] = s->heap[c];
+        i = c;
+    }
+    if (n > 0)
+        s->heap[i] = last;
+    return top;
+}
+
+gs_err gs_field_searcher_create(gs_field_tree_t t, gs_field_searcher_t *out)
+{
+    struct gs_field_searcher *s = gs_calloc(1, sizeof *s);
+    GS_CHECK(s, GS_ERR_MEM, "out of memory for a searcher");
+    s->tree = t;
+    gs_err err = GS_OK;
+    for (int k = 0; k <= t->lay.L; k++) {
+        size_t cells = (size_t)1 << (3 * k);
+        GS_TRY(err, gs_alloc_array((void **)&s->qsum[k], cells, sizeof(uint32_t), "query pyramid"),
+               fail);
+        GS_TRY(err, gs_alloc_array((void **)&s->qfull[k], cells, 1, "query pyramid"), fail);
+    }
+    *out = s;
+    return GS_OK;
+fail:
+    gs_field_searcher_destroy(&s);
+    return err;
+}
+
+void gs_field_searcher_destroy(gs_field_searcher_t *sp)
+{
+    if (!sp || !*sp)
+        return;
+    for (int k = 0; k <= GS_FIELD_MAX_LEVEL; k++) {
+        gs_free((*sp)->qsum[k]);
+        gs_free((*sp)->qfull[k]);
+    }
+    gs_free((*sp)->heap);
+    GS_FREE(*sp);
+}
+
+/* Query block pyramid in Morton order, known counts and step maximum. */
+static void prepare_query(struct gs_field_searcher *s, const gs_field_query *q)
+{
+    const gs_step_layout *lay = &s->tree->lay;
+    int L = lay->L, B = lay->B;
+    int64_t n = (int64_t)1 << (3 * L);
+    s->known = 0;
+    for (int64_t j = 0; j < n; j++) {
+        int64_t o = lay->qcell_off[L][j];
+        s->qsum[L][j] = q->values[o];
+        s->qfull[L][j] = q->known ? q->known[o] != 0 : 1;
+        s->known += s->qfull[L][j];
+    }
+    for (int k = L - 1; k >= 0; k--) {
+        int64_t cells = (int64_t)1 << (3 * k);
+        for (int64_t j = 0; j < cells; j++) {
+            uint32_t sum = 0;
+            uint8_t full = 1;
+            for (int c = 0; c < 8; c++) {
+                sum += s->qsum[k + 1][8 * j + c];
+                full &= s->qfull[k + 1][8 * j + c];
+            }
+            s->qsum[k][j] = sum;
+            s->qfull[k][j] = full;
+        }
+    }
+    int kmax = 0;
+    for (int z = 0; z < B; z++)
+        for (int y = 0; y < B; y++)
+            for (int x = 0; x < B; x++) {
+                int i = x + B * (y + B * z), v = q->values[i], d;
+                if (x + 1 < B && (d = abs(v - q->values[i + 1])) > kmax)
+                    kmax = d;
+                if (y + 1 < B && (d = abs(v - q->values[i + B])) > kmax)
+                    kmax = d;
+                if (z + 1 < B && (d = abs(v - q->values[i + B * B])) > kmax)
+                    kmax = d;
+            }
+    s->query_step_max = kmax;
+    uint64_t K = (uint64_t)(kmax + s->tree->source_step_max);
+    for (int k = 0; k <= L; k++) {
+        uint64_t dev = 3 * (((uint64_t)B >> k) - 1) * K;
+        s->samples_dev2[k] = dev * dev;
+    }
+}
+
+static inline uint64_t sq_scaled(int64_t d, int k)
+{
+    return (uint64_t)(d * d) << (3 * k);
+}
+
+/* Scaled term of the level-0 bucket (quantized mean) of the block at base. */
+static inline uint64_t bucket_term(const struct gs_field_searcher *s, uint32_t s0)
+{
+    if (!s->qfull[0][0])
+        return 0;
+    int L = s->tree->lay.L;
+    int64_t lo = (int64_t)(s0 >> (3 * L)) << (3 * L), hi = lo + ((int64_t)1 << (3 * L)) - 1;
+    int64_t q = s->qsum[0][0];
+    int64_t d = q < lo ? lo - q : q > hi ? q - hi : 0;
+    return (uint64_t)(d * d);
+}
+
+/* Advances e by one step for the block at base; returns the new bound. */
+static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, const entry *e)
+{
+    const struct gs_field_tree *t = s->tree;
+    const gs_step_layout *lay = &t->lay;
+    const struct gs_field_pyramid *p = t->pyr;
+    int L = lay->L;
+    uint64_t lb = e->lb;
+    if (e->step == 0)
+        return lb + bucket_term(s, gs_pyr_at(p, L, base));
+    uint32_t s0 = gs_pyr_at(p, L, base);
+    if (e->step == 1) {
+        lb -= bucket_term(s, s0);
+        if (s->qfull[0][0])
+            lb += sq_scaled((int64_t)s->qsum[0][0] - s0, 0);
+        return lb;
+    }
+    int64_t r = (int64_t)e->step - 2;
+    int k = 0; /* refinement r splits a cell of level k */
+    while (r >= lay->level_first[k + 2])
+        k++;
+    int64_t j = r - lay->level_first[k + 1];
+    int m = L - k;
+    if (s->qfull[k][j])
+        lb -= sq_scaled((int64_t)s->qsum[k][j] - gs_pyr_at(p, m, base + lay->cell_off[k][j]), k);
+    const int64_t *off = lay->cell_off[k + 1] + 8 * j;
+    const uint32_t *qs = s->qsum[k + 1] + 8 * j;
+    const uint8_t *qf = s->qfull[k + 1] + 8 * j;
+    if (m == 1) {
+        const uint8_t *v = t->src->q + base;
+        for (int c = 0; c < 8; c++)
+            if (qf[c])
+                lb += sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
+    } else {
+        const uint32_t *v = p->sum[m - 1] + base;
+        for (int c = 0; c < 8; c++)
+            if (qf[c])
+                lb += sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
+    }
+    return lb;
+}
+
+/* Valid upper bound (unscaled) on dist of every block below an entry at
+ * `step` with scaled bound lb, for fully known queries (see field.h). */
+static uint64_t upper_bound(const struct gs_field_searcher *s, uint64_t lb, uint32_t step)
+{
+    const gs_step_layout *lay = &s->tree->lay;
+    int L = lay->L;
+    int64_t R = (int64_t)step - 2;
+    if (R >= lay->level_first[L + 1])
+        return lb >> (3 * L); /* complete: exact */
+    int k = 0;
+    while (R >= lay->level_first[k + 2])
+        k++;
+    /* frontier: level-k cells not yet refined, and level-(k+1) cells from the
+     * refinements done inside level k */
+    int64_t done_in_k = R - lay->level_first[k + 1];
+    int64_t cells_k = ((int64_t)1 << (3 * k)) - done_in_k;
+    int64_t samples_per_k = (int64_t)1 << (3 * (L - k));
+    uint64_t extra = (uint64_t)(cells_k * samples_per_k) * s->samples_dev2[k];
+    extra += (uint64_t)(done_in_k * samples_per_k) * s->samples_dev2[k + 1];
+    return (lb >> (3 * L)) + extra;
+}
+
+static int64_t block_base(const struct gs_field_tree *t, uint32_t idx)
+{
+    int64_t px = idx % t->bx, py = idx / t->bx % t->by, pz = idx / (t->bx * t->by);
+    return px + t->src->nx * (py + t->src->ny * pz);
+}
+
+gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t top_end,
+                            const gs_field_query *q, const gs_field_search_opts *opts,
+                            uint64_t *bound, gs_field_match *out)
+{
+    struct gs_field_tree *t = s->tree;
+    const gs_step_layout *lay = &t->lay;
+    int L = lay->L;
+    GS_CHECK(q->block == lay->B, GS_ERR_ARG, "query block %d: the tree holds blocks of %d",
+             q->block, lay->B);
+    GS_CHECK(top_begin >= 0 && top_begin <= top_end && top_end <= t->ntop, GS_ERR_ARG,
+             "top-level range [%lld, %lld): expected within [0, %lld]", (long long)top_begin,
+             (long long)top_end, (long long)t->ntop);
+    gs_field_search_opts none = {0};
+    if (!opts)
+        opts = &none;
+    prepare_query(s, q);
+    int use_ub = opts->use_upper_bound && s->known == ((int64_t)1 << (3 * L));
+    memset(out, 0, sizeof *out);
+    out->known = s->known;
+    uint64_t bnd = *bound;
+    const uint64_t inf = UINT64_MAX;
+#define SCALED(b) ((b) > (inf >> (3 * L)) ? inf : (b) << (3 * L))
+    uint64_t bnd_scaled = SCALED(bnd);
+    s->heap_n = 0;
+    for (int64_t i = top_begin; i < top_end; i++) {
+        uint32_t id = t->top[i];
+        GS_CALL(heap_push(s, (entry){0, t->nodes[id].rep, id, 0, 0}));
+        out->pushes++;
+    }
+    uint64_t steps_total = (uint64_t)lay->steps;
+    while (s->heap_n > 0) {
+        if (s->heap_n > out->queue_peak)
+            out->queue_peak = s->heap_n;
+        if (opts->poll && opts->poll_every && out->pops % opts->poll_every == 0 && out->pops) {
+            opts->poll(opts->poll_ctx, &bnd);
+            bnd_scaled = SCALED(bnd);
+        }
+        entry e = heap_pop(s);
+        out->pops++;
+        if (e.lb > bnd_scaled)
+            break; /* everything left is worse */
+        const gs_tree_node *nd = &t->nodes[e.node];
+        int64_t base = block_base(t, e.rep);
+        int requeued = 0, dropped = 0;
+        while (e.step < nd->end) {
+            e.lb = refine(s, base, &e);
+            e.step++;
+            out->refinements++;
+            if (e.lb > bnd_scaled) {
+                dropped = 1;
+                break;
+            }
+            if (s->heap_n > 0 && entry_less(&s->heap[0], &e)) {
+                GS_CALL(heap_push(s, e));
+                out->pushes++;
+                requeued = 1;
+                break;
+            }
+        }
+        if (requeued || dropped)
+            continue;
+        if (nd->end == steps_total) {
+            out->found = 1;
+            out->index = e.rep;
+            out->dist = e.lb >> (3 * L);
+            if (out->dist < bnd)
+                bnd = out->dist;
+            break;
+        }
+        if (use_ub && e.step >= 2) {
+            uint64_t ub = upper_bound(s, e.lb, e.step);
+            if (ub < bnd) {
+                bnd = ub;
+                bnd_scaled = SCALED(bnd);
+            }
+        }
+        for (uint32_t c = 0; c < nd->count; c++) {
+            uint32_t id = nd->first + c;
+            GS_CALL(heap_push(s, (entry){e.lb, t->nodes[id].rep, id, e.step, 0}));
+            out->pushes++;
+        }
+    }
+#undef SCALED
+    *bound = bnd;
+    return GS_OK;
+}
+
+gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
+                                const gs_field_search_opts *opts, gs_field_match *out)
+{
+    uint64_t bound = UINT64_MAX;
+    GS_CALL(gs_field_tree_search(s, 0, s->tree->ntop, q, opts, &bound, out));
+    GS_CHECK(out->found, GS_ERR_INTERNAL, "tree search without a bound found no block");
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------- brute force */
+
+/* Sum of squared differences of one block; B fixed per instantiation so the
+ * inner loop vectorizes. */
+#define DEFINE_SSD(NAME, BB)                                                                       \
+    static uint64_t NAME(const uint8_t *src, int64_t nx, int64_t nxy, const uint8_t *q,           \
+                         const uint8_t *known, int B_)                                             \
+    {                                                                                              \
+        const int B = (BB) ? (BB) : B_;                                                            \
+        uint64_t d = 0;                                                                            \
+        for (int k = 0; k < B; k++)                                                                \
+            for (int j = 0; j < B; j++) {                                                          \
+                const uint8_t *row = src + nx * j + nxy * k;                                       \
+                const uint8_t *qr = q + B * (j + B * k);                                           \
+                uint32_t acc = 0;                                                                  \
+                if (known) {                                                                       \
+                    const uint8_t *kr = known + B * (j + B * k);                                   \
+                    for (int i = 0; i < B; i++) {                                                  \
+                        int e = (int)qr[i] - (int)row[i];                                          \
+                        acc += (uint32_t)(e * e) * (kr[i] != 0);                                   \
+                    }                                                                              \
+                } else {                                                                           \
+                    for (int i = 0; i < B; i++) {                                                  \
+                        int e = (int)qr[i] - (int)row[i];                                          \
+                        acc += (uint32_t)(e * e);                                                  \
+                    }                                                                              \
+                }                                                                                  \
+                d += acc;                                                                          \
+            }                                                                                      \
+        return d;                                                                                  \
+    }
+DEFINE_SSD(ssd_any, 0)
+DEFINE_SSD(ssd_8, 8)
+DEFINE_SSD(ssd_16, 16)
+DEFINE_SSD(ssd_32, 32)
+
+gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
+                             int64_t end, uint64_t *bound, gs_field_match *out)
+{
+    int B = q->block;
+    int64_t M = gs_field_block_count(src, B);
+    GS_CHECK(M > 0, GS_ERR_ARG, "query block %d does not fit the source", B);
+    GS_CHECK(begin >= 0 && begin <= end && end <= M, GS_ERR_ARG,
+             "block range [%lld, %lld): expected within [0, %lld]", (long long)begin,
+             (long long)end, (long long)M);
+    uint64_t (*ssd)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *, int) =
+        B == 8 ? ssd_8 : B == 16 ? ssd_16 : B == 32 ? ssd_32 : ssd_any;
+    memset(out, 0, sizeof *out);
+    int64_t known = 0;
+    for (int64_t i = 0; i < (int64_t)B * B * B; i++)
+        known += q->known ? q->known[i] != 0 : 1;
+    out->known = known;
+    int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;
+    uint64_t best = *bound;
+    for (int64_t idx = begin; idx < end; idx++) {
+        int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
+        uint64_t d = ssd(src->q + px + src->nx * py + nxy * pz, src->nx, nxy, q->values, q->known, B);
+        if (d <= best && (!out->found || d < out->dist)) {
+            out->found = 1;
+            out->index = idx;
+            out->dist = d;
+            best = d;
+        }
+    }
+    out->pops = (uint64_t)(end - begin);
+    *bound = best;
+    return GS_OK;
+}

@@ -1,0 +1,380 @@
+/* Single- and multi-resolution synthesis (paper 5.1, 5.2) and quality
+ * metrics; see include/geosynth/field.h.
+ *
+ * Iteration i of I works at 1/2^(I-1-i) of the final resolution: the
+ * source is subsampled by averaging (gs_qfield_downsample), the target has
+ * target/2^(I-1-i) samples. Iteration 0 seeds the target with random source
+ * samples (one gs_rng stream keyed by the seed); later iterations seed it
+ * with the previous result upsampled by 2 (nearest). Blocks are visited in a
+ * raster (x fastest) at a stride of B/2, the last position of each axis
+ * clamped to the target edge, so after the first row each new block has one
+ * unsynthesized octant (paper: "1/8th of the block"). The best match of the
+ * whole block (paper) -- or of its synthesized samples only, with
+ * mask_unsynthesized -- is copied into the unsynthesized samples.
+ *
+ * The paper reuses one tree for all iterations by dropping leaves; with
+ * every overlapping block position in the tree, the subsampled source has
+ * different block positions, so each iteration builds its (small) tree. */
+#include <string.h>
+
+#include "field_impl.h"
+#include "geosynth/mem.h"
+
+#define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
+
+struct gs_field_synth {
+    const gs_qfield *src;
+    gs_field_synth_config cfg;
+    gs_field_synth_state st;
+    gs_qfield *level_src;         /* source at the current iteration's resolution */
+    gs_field_tree_t tree;
+    gs_field_searcher_t searcher;
+    int64_t pos[3][4096];         /* visit positions per axis */
+    int64_t npos[3];
+    uint8_t *qval, *qknown;
+};
+
+void gs_field_synth_config_default(gs_field_synth_config *c, const gs_qfield *src)
+{
+    memset(c, 0, sizeof *c);
+    c->iterations = 3;
+    c->block[0] = 8, c->block[1] = 8, c->block[2] = 16;
+    for (int i = 3; i < GS_FIELD_MAX_ITER; i++)
+        c->block[i] = 16;
+    c->target[0] = 2 * src->nx, c->target[1] = 2 * src->ny, c->target[2] = 2 * src->nz;
+    c->seed = 1;
+}
+
+static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
+{
+    GS_CHECK(c->iterations >= 1 && c->iterations <= GS_FIELD_MAX_ITER, GS_ERR_ARG,
+             "field.iterations = %d: expected 1..%d", c->iterations, GS_FIELD_MAX_ITER);
+    int64_t f = (int64_t)1 << (c->iterations - 1);
+    const int64_t sn[3] = {src->nx, src->ny, src->nz};
+    for (int a = 0; a < 3; a++) {
+        GS_CHECK(c->target[a] % f == 0 && c->target[a] >= f && c->target[a] <= 4096, GS_ERR_ARG,
+                 "field.target[%d] = %lld: expected a multiple of %lld (2^(iterations-1)) in [%lld, 4096]",
+                 a, (long long)c->target[a], (long long)f, (long long)f);
+        GS_CHECK(sn[a] % f == 0, GS_ERR_ARG,
+                 "source size %lld along axis %d: expected a multiple of %lld for %d iterations",
+                 (long long)sn[a], a, (long long)f, c->iterations);
+    }
+    for (int i = 0; i < c->iterations; i++) {
+        int B = c->block[i];
+        int64_t fi = (int64_t)1 << (c->iterations - 1 - i);
+        int ok = B >= 2 && B <= 32 && (B & (B - 1)) == 0;
+        for (int a = 0; a < 3 && ok; a++)
+            ok = B <= sn[a] / fi && B <= c->target[a] / fi;
+        GS_CHECK(ok, GS_ERR_ARG,
+                 "field.block[%d] = %d: expected a power of two in [2, 32] not larger than the "
+                 "source (%lld) or target (%lld) at that iteration",
+                 i, B, (long long)(sn[0] / fi), (long long)(c->target[0] / fi));
+    }
+    return GS_OK;
+}
+
+/* Builds the level source, tree, searcher and visit order of st.iteration. */
+static gs_err enter_iteration(struct gs_field_synth *s)
+{
+    gs_field_searcher_destroy(&s->searcher);
+    gs_field_tree_destroy(&s->tree);
+    gs_qfield_destroy(&s->level_src);
+    int it = s->st.iteration;
+    if (it >= s->cfg.iterations)
+        return GS_OK;
+    int64_t f = (int64_t)1 << (s->cfg.iterations - 1 - it);
+    int B = s->cfg.block[it];
+    GS_CALL(gs_qfield_downsample(s->src, (int)f, &s->level_src));
+    GS_CALL(gs_field_tree_build(s->level_src, B, &s->tree));
+    GS_CALL(gs_field_searcher_create(s->tree, &s->searcher));
+    for (int a = 0; a < 3; a++) {
+        int64_t T = s->cfg.target[a] / f, n = 0;
+        for (int64_t p = 0; p + B < T; p += B / 2)
+            s->pos[a][n++] = p;
+        s->pos[a][n++] = T - B;
+        s->npos[a] = n;
+    }
+    s->st.blocks_in_iteration = s->npos[0] * s->npos[1] * s->npos[2];
+    gs_free(s->qval);
+    gs_free(s->qknown);
+    s->qval = gs_malloc((size_t)B * B * B);
+    s->qknown = gs_malloc((size_t)B * B * B);
+    GS_CHECK(s->qval && s->qknown, GS_ERR_MEM, "out of memory for a query block of %d^3", B);
+    return GS_OK;
+}
+
+static gs_err alloc_state(struct gs_field_synth *s, const int64_t tn[3])
+{
+    size_t n = (size_t)(tn[0] * tn[1] * tn[2]);
+    gs_free(s->st.target);
+    gs_free(s->st.mask);
+    s->st.target = s->st.mask = NULL;
+    GS_CALL(gs_alloc_array((void **)&s->st.target, n, 1, "synthesis target"));
+    GS_CALL(gs_alloc_array((void **)&s->st.mask, n, 1, "synthesis mask"));
+    memcpy(s->st.tn, tn, sizeof s->st.tn);
+    return GS_OK;
+}
+
+static gs_err synth_new(const gs_qfield *src, const gs_field_synth_config *c, struct gs_field_synth **out)
+{
+    GS_CALL(validate(src, c));
+    struct gs_field_synth *s = gs_calloc(1, sizeof *s);
+    GS_CHECK(s, GS_ERR_MEM, "out of memory for a synthesis");
+    s->src = src;
+    s->cfg = *c;
+    *out = s;
+    return GS_OK;
+}
+
+gs_err gs_field_synth_create(const gs_qfield *src, const gs_field_synth_config *c,
+                             gs_field_synth_t *out)
+{
+    struct gs_field_synth *s = NULL;
+    GS_CALL(synth_new(src, c, &s));
+    gs_err err = GS_OK;
+    int64_t f = (int64_t)1 << (c->iterations - 1);
+    int64_t tn[3] = {c->target[0] / f, c->target[1] / f, c->target[2] / f};
+    GS_TRY(err, alloc_state(s, tn), fail);
+    for (int i = 0; i < GS_FIELD_MAX_ITER; i++)
+        s->st.stat_min[i] = 1e300;
+    GS_TRY(err, enter_iteration(s), fail);
+    /* paper 5.1: every target sample starts as a random source sample */
+    gs_rng r;
+    gs_rng_init(&r, c->seed, gs_rng_stream_id(SYNTH_SEED_DOMAIN, 0, 0, 0));
+    const gs_qfield *ls = s->level_src;
+    uint64_t ns = (uint64_t)(ls->nx * ls->ny * ls->nz);
+    int64_t n = tn[0] * tn[1] * tn[2];
+    for (int64_t i = 0; i < n; i++)
+        s->st.target[i] = ls->q[gs_rng_below(&r, ns)];
+    *out = s;
+    return GS_OK;
+fail:
+    gs_field_synth_destroy(&s);
+    return err;
+}
+
+gs_err gs_field_synth_resume(const gs_qfield *src, const gs_field_synth_config *c,
+                             const gs_field_synth_state *st, gs_field_synth_t *out)
+{
+    struct gs_field_synth *s = NULL;
+    GS_CALL(synth_new(src, c, &s));
+    gs_err err = GS_OK;
+    GS_TRY_CHECK(err, st->iteration >= 0 && st->iteration <= c->iterations, GS_ERR_ARG, fail,
+                 "checkpoint iteration %d: expected 0..%d", st->iteration, c->iterations);
+    int it = st->iteration < c->iterations ? st->iteration : c->iterations - 1;
+    int64_t f = (int64_t)1 << (c->iterations - 1 - it);
+    for (int a = 0; a < 3; a++)
+        GS_TRY_CHECK(err, st->tn[a] == c->target[a] / f, GS_ERR_ARG, fail,
+                     "checkpoint target size %lld along axis %d: expected %lld for iteration %d",
+                     (long long)st->tn[a], a, (long long)(c->target[a] / f), st->iteration);
+    gs_field_synth_state keep = *st;
+    keep.target = keep.mask = NULL;
+    s->st = keep;
+    GS_TRY(err, alloc_state(s, st->tn), fail);
+    size_t n = (size_t)(st->tn[0] * st->tn[1] * st->tn[2]);
+    memcpy(s->st.target, st->target, n);
+    memcpy(s->st.mask, st->mask, n);
+    GS_TRY(err, enter_iteration(s), fail);
+    GS_TRY_CHECK(err, s->st.iteration >= c->iterations || (st->cursor >= 0 && st->cursor <= s->st.blocks_in_iteration),
+                 GS_ERR_ARG, fail, "checkpoint cursor %lld: expected 0..%lld", (long long)st->cursor,
+                 (long long)s->st.blocks_in_iteration);
+    *out = s;
+    return GS_OK;
+fail:
+    gs_field_synth_destroy(&s);
+    return err;
+}
+
+void gs_field_synth_destroy(gs_field_synth_t *sp)
+{
+    if (!sp || !*sp)
+        return;
+    struct gs_field_synth *s = *sp;
+    gs_field_searcher_destroy(&s->searcher);
+    gs_field_tree_destroy(&s->tree);
+    gs_qfield_destroy(&s->level_src);
+    gs_free(s->st.target);
+    gs_free(s->st.mask);
+    gs_free(s->qval);
+    gs_free(s->qknown);
+    GS_FREE(*sp);
+}
+
+/* Next iteration: upsample the result by 2 as the new seed. */
+static gs_err advance_iteration(struct gs_field_synth *s)
+{
+    int next = s->st.iteration + 1;
+    if (next >= s->cfg.iterations) {
+        s->st.iteration = next;
+        s->st.cursor = 0;
+        return enter_iteration(s);
+    }
+    int64_t old[3];
+    memcpy(old, s->st.tn, sizeof old);
+    uint8_t *prev = s->st.target;
+    s->st.target = NULL;
+    int64_t tn[3] = {old[0] * 2, old[1] * 2, old[2] * 2};
+    gs_err err = alloc_state(s, tn);
+    if (err != GS_OK) {
+        gs_free(prev);
+        GS_CALL(err);
+    }
+    for (int64_t z = 0; z < tn[2]; z++)
+        for (int64_t y = 0; y < tn[1]; y++)
+            for (int64_t x = 0; x < tn[0]; x++)
+                s->st.target[x + tn[0] * (y + tn[1] * z)] = prev[x / 2 + old[0] * (y / 2 + old[1] * (z / 2))];
+    gs_free(prev);
+    s->st.iteration = next;
+    s->st.cursor = 0;
+    GS_CALL(enter_iteration(s));
+    return GS_OK;
+}
+
+static gs_err synth_block(struct gs_field_synth *s)
+{
+    int it = s->st.iteration, B = s->cfg.block[it];
+    int64_t c = s->st.cursor;
+    int64_t px = s->pos[0][c % s->npos[0]], py = s->pos[1][c / s->npos[0] % s->npos[1]],
+            pz = s->pos[2][c / (s->npos[0] * s->npos[1])];
+    int64_t tx = s->st.tn[0], txy = s->st.tn[0] * s->st.tn[1];
+    int64_t any_known = 0;
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++) {
+            int64_t o = px + tx * (py + j) + txy * (pz + k);
+            memcpy(s->qval + B * (j + B * k), s->st.target + o, (size_t)B);
+            memcpy(s->qknown + B * (j + B * k), s->st.mask + o, (size_t)B);
+            for (int i = 0; i < B; i++)
+                any_known += s->st.mask[o + i];
+        }
+    /* with masking, the first block (nothing known yet) is matched on its seeds */
+    int masked = s->cfg.mask_unsynthesized && any_known > 0;
+    gs_field_query q = {B, s->qval, masked ? s->qknown : NULL};
+    gs_field_search_opts opts = {0};
+    opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
+    gs_field_match m;
+    GS_CALL(gs_field_tree_best_match(s->searcher, &q, &opts, &m));
+    int64_t bp[3];
+    gs_field_block_position(s->level_src, B, m.index, bp);
+    const gs_qfield *ls = s->level_src;
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++) {
+            int64_t o = px + tx * (py + j) + txy * (pz + k);
+            const uint8_t *from = ls->q + bp[0] + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k));
+            for (int i = 0; i < B; i++)
+                if (!s->st.mask[o + i]) {
+                    s->st.target[o + i] = from[i];
+                    s->st.mask[o + i] = 1;
+                }
+        }
+    double nd = m.known ? (double)m.dist / (double)m.known : 0;
+    s->st.stat_count[it]++;
+    s->st.stat_sum[it] += nd;
+    if (nd < s->st.stat_min[it])
+        s->st.stat_min[it] = nd;
+    if (nd > s->st.stat_max[it])
+        s->st.stat_max[it] = nd;
+    s->st.stat_pops[it] += m.pops;
+    s->st.cursor++;
+    return GS_OK;
+}
+
+gs_err gs_field_synth_run(gs_field_synth_t s, int64_t max_blocks, int *finished)
+{
+    int64_t done = 0;
+    while (s->st.iteration < s->cfg.iterations && (max_blocks < 0 || done < max_blocks)) {
+        if (s->st.cursor >= s->st.blocks_in_iteration) {
+            GS_CALL(advance_iteration(s));
+            continue;
+        }
+        GS_CALL(synth_block(s));
+        done++;
+    }
+    if (s->st.iteration < s->cfg.iterations && s->st.cursor >= s->st.blocks_in_iteration &&
+        s->st.iteration == s->cfg.iterations - 1)
+        GS_CALL(advance_iteration(s));
+    *finished = s->st.iteration >= s->cfg.iterations;
+    return GS_OK;
+}
+
+const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s)
+{
+    return &s->st;
+}
+
+gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out)
+{
+    gs_qfield *r = NULL;
+    GS_CALL(gs_qfield_create(s->st.tn[0], s->st.tn[1], s->st.tn[2], s->src->lo, s->src->hi, &r));
+    memcpy(r->q, s->st.target, (size_t)(s->st.tn[0] * s->st.tn[1] * s->st.tn[2]));
+    int64_t f = s->cfg.target[0] / s->st.tn[0];
+    r->spacing = s->src->spacing * (double)f;
+    *out = r;
+    return GS_OK;
+}
+
+/* ------------------------------------------------------------- quality */
+
+static void sign_stats(const gs_qfield *q, double *vf, double *spv)
+{
+    uint8_t inside[256];
+    for (int i = 0; i < 256; i++)
+        inside[i] = gs_qfield_value(q, (uint8_t)i) < 0;
+    int64_t nx = q->nx, nxy = q->nx * q->ny, n = nxy * q->nz, in = 0, changes = 0;
+    for (int64_t z = 0; z < q->nz; z++)
+        for (int64_t y = 0; y < q->ny; y++)
+            for (int64_t x = 0; x < nx; x++) {
+                int64_t i = x + nx * y + nxy * z;
+                uint8_t a = inside[q->q[i]];
+                in += a;
+                if (x + 1 < nx)
+                    changes += a != inside[q->q[i + 1]];
+                if (y + 1 < q->ny)
+                    changes += a != inside[q->q[i + nx]];
+                if (z + 1 < q->nz)
+                    changes += a != inside[q->q[i + nxy]];
+            }
+    *vf = (double)in / (double)n;
+    /* each sign change stands for about one cell face of surface: area spacing^2
+     * per volume n*spacing^3 */
+    *spv = (double)changes / ((double)n * q->spacing);
+}
+
+gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
+                                gs_field_quality *qm)
+{
+    memset(qm, 0, sizeof *qm);
+    sign_stats(out, &qm->volume_fraction_out, &qm->surface_per_volume_out);
+    sign_stats(src, &qm->volume_fraction_src, &qm->surface_per_volume_src);
+    int B = gs_field_tree_block(tree);
+    GS_CHECK(out->nx >= B && out->ny >= B && out->nz >= B, GS_ERR_ARG,
+             "coherence with blocks of %d needs an output of at least %d^3", B, B);
+    gs_field_searcher_t s = NULL;
+    GS_CALL(gs_field_searcher_create(tree, &s));
+    uint8_t *val = gs_malloc((size_t)B * B * B);
+    if (!val) {
+        gs_field_searcher_destroy(&s);
+        GS_RAISE(GS_ERR_MEM, "out of memory for a block of %d^3", B);
+    }
+    double sum = 0;
+    int64_t cnt = 0;
+    gs_err err = GS_OK;
+    for (int64_t z = 0; z + B <= out->nz; z += B)
+        for (int64_t y = 0; y + B <= out->ny; y += B)
+            for (int64_t x = 0; x + B <= out->nx; x += B) {
+                for (int k = 0; k < B; k++)
+                    for (int j = 0; j < B; j++)
+                        memcpy(val + B * (j + B * k), out->q + x + out->nx * (y + j + out->ny * (z + k)),
+                               (size_t)B);
+                gs_field_query q = {B, val, NULL};
+                gs_field_match m;
+                GS_TRY(err, gs_field_tree_best_match(s, &q, NULL, &m), done);
+                sum += (double)m.dist / (double)m.known;
+                cnt++;
+            }
+    qm->coherence = cnt ? sum / (double)cnt : 0;
+    qm->coherence_blocks = cnt;
+done:
+    gs_free(val);
+    gs_field_searcher_destroy(&s);
+    return err;
+}

@@ -1,0 +1,295 @@
+/* Benchmark of the field engine core: per-query matching time of the search
+ * tree against brute force on the same quantized data (paper table 1), by
+ * query kind, plus the whole default synthesis on one core. JSON on stdout,
+ * progress on stderr.
+ *
+ * usage: bench_field [--sizes 64/8,128/16,256/32] [--queries N] [--brute N]
+ *                    [--brute-max-blocks N] [--synth 0|1] [--shape balls]
+ * Brute force over more than --brute-max-blocks candidates is timed on the
+ * first --brute-max-blocks blocks and extrapolated linearly (its cost is
+ * exactly proportional to the block count); the JSON says so per case. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/field.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/parse.h"
+#include "geosynth/rng.h"
+
+enum { K_SOURCE, K_PERTURBED, K_SEEDED, K_SEEDED_COARSE, K_MASKED, K_COUNT };
+static const char *kind_name[K_COUNT] = {"source", "perturbed", "seeded_octant", "coarse_seeded_octant",
+                                         "masked_octant"};
+
+/* Synthesis-like queries: 7 octants of a source block; the 8th octant holds
+ * random source samples (iteration 0 of the paper), or a coarse (2x
+ * subsampled) copy of another source region (later iterations), or is
+ * unknown (masked). */
+static void make_query(gs_rng *r, const gs_qfield *src, int B, int kind, uint8_t *val, uint8_t *known)
+{
+    int64_t M = gs_field_block_count(src, B), n = (int64_t)B * B * B;
+    gs_field_block_copy(src, B, (int64_t)gs_rng_below(r, (uint64_t)M), val);
+    memset(known, 1, (size_t)n);
+    int h = B / 2;
+    int64_t srcn = src->nx * src->ny * src->nz;
+    uint8_t *other = malloc((size_t)n);
+    gs_field_block_copy(src, B, (int64_t)gs_rng_below(r, (uint64_t)M), other);
+    for (int z = 0; z < h; z++)
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < h; x++) {
+                int64_t i = h + x + B * (h + y + B * (h + z));
+                if (kind == K_PERTURBED) {
+                    continue;
+                } else if (kind == K_SEEDED) {
+                    val[i] = src->q[gs_rng_below(r, (uint64_t)srcn)];
+                } else if (kind == K_SEEDED_COARSE) {
+                    val[i] = other[(x & ~1) + B * ((y & ~1) + B * (z & ~1))];
+                } else if (kind == K_MASKED) {
+                    known[i] = 0;
+                }
+            }
+    if (kind == K_PERTURBED)
+        for (int64_t i = 0; i < n; i++)
+            if (gs_rng_below(r, 4) == 0) {
+                int v = val[i] + (int)gs_rng_below(r, 9) - 4;
+                val[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+            }
+    free(other);
+}
+
+static int parse_int_arg(const char *s, int64_t lo, int64_t hi, int64_t *out, const char *what)
+{
+    char why[128];
+    if (!gs_parse_i64(s, lo, hi, out, why, sizeof why)) {
+        fprintf(stderr, "bench_field: %s = '%s': %s\n", what, s, why);
+        return 0;
+    }
+    return 1;
+}
+
+static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t brute_max,
+                    gs_field_shape shape, int first)
+{
+    gs_field *f = NULL;
+    gs_qfield *src = NULL;
+    if (gs_field_make_shape(shape, n, 1, &f) != GS_OK || gs_field_quantize(f, -3, 3, &src) != GS_OK) {
+        gs_error_report("bench_field: ");
+        return 0;
+    }
+    gs_field_destroy(&f);
+    size_t mem0 = gs_mem_current();
+    gs_field_tree_t tree = NULL;
+    fprintf(stderr, "bench_field: building tree %lld^3 / %d\n", (long long)n, B);
+    if (gs_field_tree_build(src, B, &tree) != GS_OK) {
+        gs_error_report("bench_field: ");
+        return 0;
+    }
+    size_t tree_mem = gs_mem_current() - mem0;
+    gs_field_tree_info info;
+    gs_field_tree_get_info(tree, &info);
+    gs_field_searcher_t s = NULL;
+    if (gs_field_searcher_create(tree, &s) != GS_OK)
+        return 0;
+    printf("%s    {\"source\": %lld, \"block\": %d, \"shape\": \"%s\", \"blocks\": %lld, "
+           "\"distinct\": %lld, \"nodes\": %lld, \"top\": %lld,\n",
+           first ? "" : ",\n", (long long)n, B, gs_field_shape_name(shape), (long long)info.blocks,
+           (long long)info.distinct, (long long)info.nodes, (long long)info.top);
+    printf("     \"nodes_full_per_level\": [");
+    for (int k = 0; k < info.levels; k++)
+        printf("%s%lld", k ? ", " : "", (long long)info.level_full[k]);
+    printf("], \"nodes_partial_per_level\": [");
+    for (int k = 0; k < info.levels; k++)
+        printf("%s%lld", k ? ", " : "", (long long)info.level_partial[k]);
+    printf("],\n     \"tree_bytes\": %zu, \"pyramid_bytes\": %zu, \"build_bytes_held\": %zu, "
+           "\"peak_bytes\": %zu, \"build_s\": %.3f, \"pyramid_s\": %.3f, \"dedup_s\": %.3f, "
+           "\"sort_s\": %.3f,\n     \"queries\": {",
+           info.tree_bytes, info.pyramid_bytes, tree_mem, gs_mem_peak(), info.build_seconds,
+           info.pyramid_seconds, info.dedup_seconds, info.sort_seconds);
+    int64_t nb = (int64_t)B * B * B;
+    uint8_t *val = gs_malloc((size_t)nb), *known = gs_malloc((size_t)nb);
+    int ok = 1;
+    for (int kind = 0; kind < K_COUNT; kind++) {
+        gs_rng r;
+        gs_rng_init(&r, 99, gs_rng_stream_id(5, (uint64_t)kind, (uint64_t)n, (uint64_t)B));
+        double tree_time = 0, brute_time = 0;
+        uint64_t pops = 0, refinements = 0;
+        size_t qpeak = 0;
+        int brute_done = 0, agree = 0, extrapolated = 0;
+        for (int t = 0; t < queries; t++) {
+            make_query(&r, src, B, kind, val, known);
+            gs_field_query q = {B, val, kind == K_MASKED ? known : NULL};
+            gs_field_match mt, mb;
+            double t0 = gs_time_now();
+            if (gs_field_tree_best_match(s, &q, NULL, &mt) != GS_OK) {
+                gs_error_report("bench_field: ");
+                return 0;
+            }
+            tree_time += gs_time_now() - t0;
+            pops += mt.pops;
+            refinements += mt.refinements;
+            if (mt.queue_peak > qpeak)
+                qpeak = mt.queue_peak;
+            if (t < brute_queries) {
+                int64_t end = info.blocks < brute_max ? info.blocks : brute_max;
+                uint64_t bound = UINT64_MAX;
+                t0 = gs_time_now();
+                gs_field_brute_search(src, &q, 0, end, &bound, &mb);
+                double bt = gs_time_now() - t0;
+                if (end < info.blocks) {
+                    extrapolated = 1;
+                    bt *= (double)info.blocks / (double)end;
+                } else {
+                    agree += mb.index == mt.index && mb.dist == mt.dist;
+                }
+                brute_time += bt;
+                brute_done++;
+            }
+        }
+        double tq = tree_time / queries, bq = brute_done ? brute_time / brute_done : 0;
+        printf("%s\n       \"%s\": {\"n\": %d, \"tree_s\": %.6f, \"brute_s\": %.6f, \"speedup\": %.1f, "
+               "\"brute_n\": %d, \"brute_extrapolated\": %s, \"agree\": %d, \"pops\": %.0f, "
+               "\"refinements\": %.0f, \"queue_peak\": %zu}",
+               kind ? "," : "", kind_name[kind], queries, tq, bq, tq > 0 ? bq / tq : 0, brute_done,
+               extrapolated ? "true" : "false", agree, (double)pops / queries,
+               (double)refinements / queries, qpeak);
+        fflush(stdout);
+        if (!extrapolated && agree != brute_done)
+            ok = 0;
+        fprintf(stderr, "bench_field: %lld/%d %s tree %.4f s brute %.4f s\n", (long long)n, B,
+                kind_name[kind], tq, bq);
+    }
+    printf("}}");
+    gs_free(val);
+    gs_free(known);
+    gs_field_searcher_destroy(&s);
+    gs_field_tree_destroy(&tree);
+    gs_qfield_destroy(&src);
+    return ok;
+}
+
+static int run_synthesis(gs_field_shape shape)
+{
+    gs_field *f = NULL;
+    gs_qfield *src = NULL;
+    if (gs_field_make_shape(shape, 64, 1, &f) != GS_OK || gs_field_quantize(f, -3, 3, &src) != GS_OK)
+        return 0;
+    gs_field_destroy(&f);
+    gs_field_synth_config cfg;
+    gs_field_synth_config_default(&cfg, src);
+    gs_field_synth_t syn = NULL;
+    double t0 = gs_time_now();
+    if (gs_field_synth_create(src, &cfg, &syn) != GS_OK) {
+        gs_error_report("bench_field: ");
+        return 0;
+    }
+    int finished = 0;
+    int64_t blocks = 0;
+    while (!finished) {
+        if (gs_field_synth_run(syn, 64, &finished) != GS_OK) {
+            gs_error_report("bench_field: ");
+            return 0;
+        }
+        blocks += 64;
+        const gs_field_synth_state *st = gs_field_synth_get_state(syn);
+        fprintf(stderr, "\rbench_field: synthesis iteration %d block %lld/%lld   ", st->iteration,
+                (long long)st->cursor, (long long)st->blocks_in_iteration);
+    }
+    fprintf(stderr, "\n");
+    double synth_s = gs_time_now() - t0;
+    const gs_field_synth_state *st = gs_field_synth_get_state(syn);
+    gs_qfield *res = NULL;
+    gs_field_synth_result(syn, &res);
+    gs_field_tree_t tree = NULL;
+    gs_field_tree_build(src, cfg.block[cfg.iterations - 1], &tree);
+    gs_field_quality qm;
+    t0 = gs_time_now();
+    gs_field_quality_measure(res, src, tree, &qm);
+    double quality_s = gs_time_now() - t0;
+    printf(",\n  \"synthesis\": {\"source\": 64, \"target\": %lld, \"iterations\": %d, \"blocks\": [",
+           (long long)cfg.target[0], cfg.iterations);
+    for (int i = 0; i < cfg.iterations; i++)
+        printf("%s%d", i ? ", " : "", cfg.block[i]);
+    printf("], \"seconds_one_core\": %.2f, \"per_iteration\": [", synth_s);
+    for (int i = 0; i < cfg.iterations; i++)
+        printf("%s{\"matches\": %lld, \"mean_dist\": %.2f, \"max_dist\": %.2f, \"mean_pops\": %.0f}",
+               i ? ", " : "", (long long)st->stat_count[i],
+               st->stat_count[i] ? st->stat_sum[i] / st->stat_count[i] : 0, st->stat_max[i],
+               st->stat_count[i] ? (double)st->stat_pops[i] / st->stat_count[i] : 0);
+    printf("],\n    \"volume_fraction_out\": %.4f, \"volume_fraction_src\": %.4f, "
+           "\"surface_per_volume_out\": %.4f, \"surface_per_volume_src\": %.4f, "
+           "\"coherence\": %.2f, \"coherence_blocks\": %lld, \"quality_s\": %.2f}",
+           qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
+           qm.surface_per_volume_src, qm.coherence, (long long)qm.coherence_blocks, quality_s);
+    gs_field_tree_destroy(&tree);
+    gs_qfield_destroy(&res);
+    gs_field_synth_destroy(&syn);
+    gs_qfield_destroy(&src);
+    return 1;
+}
+
+int main(int argc, char **argv)
+{
+    const char *sizes = "64/8,128/16,256/32";
+    int64_t queries = 40, brute = 3, brute_max = 2000000, synth = 1;
+    gs_field_shape shape = GS_FIELD_BALLS;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!v) {
+            fprintf(stderr, "bench_field: %s needs a value\n", a);
+            return 1;
+        }
+        i++;
+        if (!strcmp(a, "--sizes"))
+            sizes = v;
+        else if (!strcmp(a, "--queries")) {
+            if (!parse_int_arg(v, 1, 1000000, &queries, a))
+                return 1;
+        } else if (!strcmp(a, "--brute")) {
+            if (!parse_int_arg(v, 0, 1000000, &brute, a))
+                return 1;
+        } else if (!strcmp(a, "--brute-max-blocks")) {
+            if (!parse_int_arg(v, 1, INT64_MAX, &brute_max, a))
+                return 1;
+        } else if (!strcmp(a, "--synth")) {
+            if (!parse_int_arg(v, 0, 1, &synth, a))
+                return 1;
+        } else if (!strcmp(a, "--shape")) {
+            int found = 0;
+            for (int k = 0; k < 4; k++)
+                if (!strcmp(v, gs_field_shape_name((gs_field_shape)k)))
+                    shape = (gs_field_shape)k, found = 1;
+            if (!found) {
+                fprintf(stderr, "bench_field: --shape %s: expected spheres, grid, chainmail or balls\n", v);
+                return 1;
+            }
+        } else {
+            fprintf(stderr, "bench_field: unknown option %s\n", a);
+            return 1;
+        }
+    }
+    printf("{\"bench\": \"field\", \"cases\": [\n");
+    int ok = 1, first = 1;
+    const char *p = sizes;
+    while (*p) {
+        int64_t n, b;
+        if (!gs_scan_i64(&p, 2, 4096, &n) || *p != '/') {
+            fprintf(stderr, "bench_field: --sizes '%s': expected N/B[,N/B...]\n", sizes);
+            return 1;
+        }
+        p++;
+        if (!gs_scan_i64(&p, 2, 32, &b) || (*p && *p != ',')) {
+            fprintf(stderr, "bench_field: --sizes '%s': expected N/B[,N/B...]\n", sizes);
+            return 1;
+        }
+        if (*p == ',')
+            p++;
+        ok &= run_case(n, (int)b, (int)queries, (int)brute, brute_max, shape, first);
+        first = 0;
+    }
+    printf("\n  ]");
+    if (synth)
+        ok &= run_synthesis(shape);
+    printf(",\n  \"ok\": %s}\n", ok ? "true" : "false");
+    return ok ? 0 : 1;
+}
