@@ -30,6 +30,10 @@
 
 #include "geosynth/error.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define GS_MESH_MAX_ELEMS ((size_t)1 << 30) /* vertices or triangles per mesh */
 
 typedef struct gs_mesh {
@@ -97,4 +101,7 @@ gs_err gs_mesh_weld(gs_mesh *m, float tol);
 double gs_mesh_area(const gs_mesh *m);
 double gs_mesh_volume(const gs_mesh *m);
 
+#ifdef __cplusplus
+}
+#endif
 #endif
