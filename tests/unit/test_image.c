@@ -129,12 +129,13 @@ static void test_heightmap16(void **state)
         distinct16 += im.data16[i] != im.data16[i - 1];
     }
     assert_true(distinct16 > distinct8);
+    gs_image_destroy(&im8);
     assert_int_equal(gs_image_from_gray(w, h, v, 1.0f, 1.0f, 16, &im8), GS_ERR_ARG);
+    assert_null(im8.data16);
     gs_error_clear();
     free(v);
     gs_free(g);
     gs_image_destroy(&im);
-    gs_image_destroy(&im8);
     gs_image_destroy(&r);
 }
 
