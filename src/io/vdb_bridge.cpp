@@ -1,9 +1,468 @@
 // The one C++ file: every OpenVDB include lives here, behind extern "C".
-#include <openvdb/openvdb.h>
+// See include/geosynth/vdb.h. Every entry point wraps its body in
+// GS_VDB_GUARD so no C++ exception crosses into C.
+// Imath half conversions without the lookup table: the table lives in
+// libImath, which is not on the link line (only libopenvdb is).
+#define IMATH_HALF_NO_LOOKUP_TABLE
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <new>
+#include <string>
+#include <vector>
 
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Dense.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+// error.h and mem.h are plain C headers without extern "C" guards.
+extern "C" {
+#include "geosynth/error.h"
+#include "geosynth/mem.h"
+}
 #include "geosynth/vdb.h"
 
-extern "C" const char *gs_vdb_library_version(void)
+struct gs_vdb_grid {
+    openvdb::FloatGrid::Ptr grid;
+    std::string name; // getName() returns a copy; gs_vdb_grid_name hands out this one
+};
+
+namespace {
+
+std::once_flag vdb_once;
+
+void vdb_init() { std::call_once(vdb_once, [] { openvdb::initialize(); }); }
+
+// Converts the exception in flight into a raised gs_err.
+gs_err raise_current(const char *func, const char *what)
 {
-    return openvdb::getLibraryVersionString();
+    try {
+        throw;
+    } catch (const openvdb::IoError &e) {
+        return gs_error_raise(GS_ERR_IO, __FILE__, __LINE__, func, "%s: OpenVDB I/O: %s", what,
+                              e.what());
+    } catch (const std::bad_alloc &) {
+        return gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, func,
+                              "%s: out of memory inside OpenVDB", what);
+    } catch (const std::exception &e) {
+        return gs_error_raise(GS_ERR_LIB, __FILE__, __LINE__, func, "%s: OpenVDB: %s", what,
+                              e.what());
+    } catch (...) {
+        return gs_error_raise(GS_ERR_LIB, __FILE__, __LINE__, func,
+                              "%s: unknown C++ exception in OpenVDB", what);
+    }
+}
+
+#define GS_VDB_GUARD(what, ...)                                                             \
+    do {                                                                                      \
+        try {                                                                                 \
+            vdb_init();                                                                       \
+            __VA_ARGS__                                                                       \
+        } catch (...) {                                                                       \
+            return raise_current(__func__, (what));                                           \
+        }                                                                                     \
+    } while (0)
+
+using DenseXYZ = openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ>;
+
+openvdb::math::Transform::Ptr make_transform(double voxel, const double origin[3])
+{
+    auto xf = openvdb::math::Transform::createLinearTransform(voxel);
+    xf->postTranslate(openvdb::Vec3d(origin[0], origin[1], origin[2]));
+    return xf;
+}
+
+openvdb::CoordBBox dense_bbox(const gs_vdb_dense *d)
+{
+    return openvdb::CoordBBox(openvdb::Coord(0, 0, 0),
+                              openvdb::Coord((int)d->nx - 1, (int)d->ny - 1, (int)d->nz - 1));
+}
+
+gs_err check_dense(const gs_vdb_dense *d, const char *what)
+{
+    GS_CHECK(d && d->v, GS_ERR_ARG, "%s: dense field has no data", what);
+    GS_CHECK(d->nx >= 1 && d->ny >= 1 && d->nz >= 1 && d->nx <= INT32_MAX && d->ny <= INT32_MAX &&
+                 d->nz <= INT32_MAX,
+             GS_ERR_ARG, "%s: dense field of %zux%zux%zu samples: expected sizes in [1, 2^31)",
+             what, d->nx, d->ny, d->nz);
+    GS_CHECK(std::isfinite(d->voxel) && d->voxel > 0, GS_ERR_ARG,
+             "%s: voxel size %g: expected a finite value > 0", what, d->voxel);
+    for (int k = 0; k < 3; k++)
+        GS_CHECK(std::isfinite(d->origin[k]), GS_ERR_ARG, "%s: origin is not finite", what);
+    return GS_OK;
+}
+
+// Grid over the dense box, stored box in metadata.
+openvdb::FloatGrid::Ptr grid_from_dense(const gs_vdb_dense *d, float tolerance)
+{
+    auto grid = openvdb::FloatGrid::create(d->background);
+    grid->setTransform(make_transform(d->voxel, d->origin));
+    DenseXYZ dense(dense_bbox(d), d->v);
+    openvdb::tools::copyFromDense(dense, *grid, tolerance);
+    grid->insertMeta("gs_dense_min", openvdb::Vec3IMetadata(openvdb::Vec3i(0, 0, 0)));
+    grid->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
+                                         (int)d->nx - 1, (int)d->ny - 1, (int)d->nz - 1)));
+    return grid;
+}
+
+gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_dense *out)
+{
+    const openvdb::math::Transform &xf = grid.transform();
+    openvdb::Vec3d vs = xf.voxelSize();
+    const auto &mt = xf.mapType();
+    namespace vm = openvdb::math;
+    bool axis_aligned = mt == vm::UniformScaleMap::mapType() ||
+                        mt == vm::UniformScaleTranslateMap::mapType() ||
+                        mt == vm::ScaleMap::mapType() || mt == vm::ScaleTranslateMap::mapType() ||
+                        mt == vm::TranslationMap::mapType();
+    GS_CHECK(axis_aligned &&
+                 std::fabs(vs[0] - vs[1]) <= 1e-9 * vs[0] &&
+                 std::fabs(vs[0] - vs[2]) <= 1e-9 * vs[0],
+             GS_ERR_FORMAT,
+             "%s: grid '%s' has a %s transform with voxel size %g x %g x %g: expected a "
+             "uniform axis-aligned linear transform",
+             what, grid.getName().c_str(), xf.mapType().c_str(), vs[0], vs[1], vs[2]);
+    openvdb::CoordBBox box;
+    auto mn = grid.getMetadata<openvdb::Vec3IMetadata>("gs_dense_min");
+    auto mx = grid.getMetadata<openvdb::Vec3IMetadata>("gs_dense_max");
+    if (mn && mx) {
+        box = openvdb::CoordBBox(openvdb::Coord(mn->value()), openvdb::Coord(mx->value()));
+    } else {
+        box = grid.evalActiveVoxelBoundingBox();
+    }
+    GS_CHECK(!box.empty(), GS_ERR_FORMAT, "%s: grid '%s' has no active voxels", what,
+             grid.getName().c_str());
+    openvdb::Coord dim = box.dim();
+    GS_CALL(gs_vdb_dense_alloc(out, (size_t)dim.x(), (size_t)dim.y(), (size_t)dim.z()));
+    openvdb::Vec3d o = xf.indexToWorld(box.min());
+    out->origin[0] = o[0];
+    out->origin[1] = o[1];
+    out->origin[2] = o[2];
+    out->voxel = vs[0];
+    out->background = grid.background();
+    DenseXYZ dense(box, out->v);
+    openvdb::tools::copyToDense(grid, dense);
+    return GS_OK;
+}
+
+} // namespace
+
+extern "C" const char *gs_vdb_library_version(void) { return openvdb::getLibraryVersionString(); }
+
+extern "C" gs_err gs_vdb_dense_alloc(gs_vdb_dense *d, size_t nx, size_t ny, size_t nz)
+{
+    std::memset(d, 0, sizeof *d);
+    size_t n;
+    GS_CHECK(nx >= 1 && ny >= 1 && nz >= 1 && gs_mul_size(nx, ny, &n) && gs_mul_size(n, nz, &n) &&
+                 n <= GS_VDB_MAX_SAMPLES,
+             GS_ERR_ARG, "dense field of %zux%zux%zu samples: expected 1 to %zu samples", nx, ny,
+             nz, GS_VDB_MAX_SAMPLES);
+    void *v = nullptr;
+    GS_CALL(gs_alloc_array(&v, n, sizeof(float), "dense field"));
+    d->v = static_cast<float *>(v);
+    d->nx = nx;
+    d->ny = ny;
+    d->nz = nz;
+    d->voxel = 1.0;
+    return GS_OK;
+}
+
+extern "C" void gs_vdb_dense_destroy(gs_vdb_dense *d)
+{
+    if (!d)
+        return;
+    gs_free(d->v);
+    std::memset(d, 0, sizeof *d);
+}
+
+extern "C" gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
+                                         gs_vdb_grid_t *out)
+{
+    GS_CALL(check_dense(d, name ? name : "grid"));
+    GS_VDB_GUARD(name ? name : "grid", {
+        auto g = grid_from_dense(d, tolerance);
+        g->setName(name ? name : "");
+        *out = new gs_vdb_grid{g, g->getName()};
+        return GS_OK;
+    });
+}
+
+extern "C" gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
+{
+    GS_CHECK(g && g->grid, GS_ERR_ARG, "no grid");
+    GS_VDB_GUARD(g->name.c_str(), {
+        GS_CALL(dense_from_grid(*g->grid, "grid", out));
+        return GS_OK;
+    });
+}
+
+extern "C" void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
+{
+    if (g && *g) {
+        delete *g;
+        *g = nullptr;
+    }
+}
+
+extern "C" const char *gs_vdb_grid_name(gs_vdb_grid_t g)
+{
+    return g ? g->name.c_str() : "";
+}
+
+extern "C" size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g)
+{
+    return g && g->grid ? (size_t)g->grid->activeVoxelCount() : 0;
+}
+
+extern "C" gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)
+{
+    GS_CHECK(path && path[0], GS_ERR_ARG, "vdb output path is empty");
+    GS_CHECK(n >= 1 && grids, GS_ERR_ARG, "%s: no grid to write", path);
+    for (int i = 0; i < n; i++)
+        GS_CHECK(grids[i] && grids[i]->grid, GS_ERR_ARG, "%s: grid %d is missing", path, i);
+    std::string tmp = std::string(path) + ".tmp";
+    GS_VDB_GUARD(path, {
+        openvdb::GridPtrVec vec;
+        for (int i = 0; i < n; i++)
+            vec.push_back(grids[i]->grid);
+        try {
+            openvdb::io::File file(tmp);
+            file.write(vec);
+            file.close();
+        } catch (...) {
+            std::remove(tmp.c_str());
+            throw;
+        }
+        if (std::rename(tmp.c_str(), path) != 0) {
+            int e = errno;
+            std::remove(tmp.c_str());
+            GS_RAISE(GS_ERR_IO, "%s: cannot rename temporary file into place: %s", path,
+                     std::strerror(e));
+        }
+        return GS_OK;
+    });
+}
+
+extern "C" gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out)
+{
+    GS_CHECK(path && path[0], GS_ERR_ARG, "vdb path is empty");
+    FILE *f = std::fopen(path, "rb");
+    GS_CHECK(f, GS_ERR_IO, "%s: cannot open VDB file: %s", path, std::strerror(errno));
+    std::fclose(f);
+    GS_VDB_GUARD(path, {
+        openvdb::io::File file(path);
+        file.open();
+        auto metas = file.readAllGridMetadata();
+        std::string avail, pick;
+        for (const auto &m : *metas) {
+            avail += (avail.empty() ? "" : ", ") + std::string("'") + m->getName() + "' (" +
+                     m->type() + ")";
+            bool is_float = m->type() == openvdb::FloatGrid::gridType();
+            if (pick.empty() && is_float && (!name || m->getName() == name))
+                pick = m->getName();
+            if (name && m->getName() == name && !is_float) {
+                file.close();
+                GS_RAISE(GS_ERR_FORMAT, "%s: grid '%s' is a %s: expected a float grid", path,
+                         name, m->type().c_str());
+            }
+        }
+        if (pick.empty()) {
+            file.close();
+            if (name)
+                GS_RAISE(GS_ERR_ARG, "%s: no grid named '%s'; the file holds: %s", path, name,
+                         avail.empty() ? "no grids" : avail.c_str());
+            GS_RAISE(GS_ERR_FORMAT, "%s: no float grid; the file holds: %s", path,
+                     avail.empty() ? "no grids" : avail.c_str());
+        }
+        auto base = file.readGrid(pick);
+        file.close();
+        auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+        GS_CHECK(grid, GS_ERR_FORMAT, "%s: grid '%s' is not a float grid", path, pick.c_str());
+        *out = new gs_vdb_grid{grid, grid->getName()};
+        return GS_OK;
+    });
+}
+
+extern "C" gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense *d)
+{
+    gs_vdb_grid_t g = nullptr;
+    GS_CALL(gs_vdb_grid_from_dense(d, name, 0.0f, &g));
+    gs_err err = gs_vdb_write(path, &g, 1);
+    gs_vdb_grid_destroy(&g);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+extern "C" gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out)
+{
+    std::memset(out, 0, sizeof *out);
+    gs_vdb_grid_t g = nullptr;
+    GS_CALL(gs_vdb_read(path, name, &g));
+    gs_err err = GS_OK;
+    try {
+        err = dense_from_grid(*g->grid, path, out);
+    } catch (...) {
+        err = raise_current(__func__, path);
+    }
+    gs_vdb_grid_destroy(&g);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+namespace {
+
+// Upper bound of the distance from any point of the box [lo, hi] to the
+// mesh: distance to a vertex subset bounds the distance to the surface from
+// above, measured on a coarse lattice and widened by the lattice half-diagonal
+// (distance is 1-Lipschitz).
+double max_distance_bound(const gs_mesh *m, const double lo[3], const double hi[3])
+{
+    const int c = 12;
+    size_t stride = m->nverts > 2048 ? m->nverts / 2048 : 1;
+    double step[3], maxd = 0;
+    for (int k = 0; k < 3; k++)
+        step[k] = (hi[k] - lo[k]) / (c - 1);
+    for (int iz = 0; iz < c; iz++)
+        for (int iy = 0; iy < c; iy++)
+            for (int ix = 0; ix < c; ix++) {
+                double p[3] = {lo[0] + ix * step[0], lo[1] + iy * step[1], lo[2] + iz * step[2]};
+                double best = HUGE_VAL;
+                for (size_t i = 0; i < m->nverts; i += stride) {
+                    const float *v = m->pos + 3 * i;
+                    double dx = v[0] - p[0], dy = v[1] - p[1], dz = v[2] - p[2];
+                    best = std::min(best, dx * dx + dy * dy + dz * dz);
+                }
+                maxd = std::max(maxd, best);
+            }
+    double half = 0.5 * std::sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
+    return std::sqrt(maxd) + half;
+}
+
+} // namespace
+
+extern "C" gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
+                                          const gs_vdb_distance_opts *opts, gs_vdb_dense *out)
+{
+    const char *w = what ? what : "mesh";
+    std::memset(out, 0, sizeof *out);
+    GS_CHECK(opts && opts->samples >= 4 && opts->samples <= 4096, GS_ERR_ARG,
+             "%s: distance field resolution %d: expected samples along the longest axis in "
+             "[4, 4096]",
+             w, opts ? opts->samples : 0);
+    GS_CHECK(std::isfinite(opts->margin), GS_ERR_ARG, "%s: margin is not finite", w);
+    GS_CALL(gs_mesh_validate(m, w));
+    GS_CHECK(m->ntris > 0, GS_ERR_ARG, "%s: mesh has no triangles", w);
+    if (opts->is_signed)
+        GS_CALL(gs_mesh_require_closed(m, w, "signed distance field"));
+    float flo[3], fhi[3];
+    gs_mesh_bbox(m, flo, fhi);
+    double longest = 0;
+    for (int k = 0; k < 3; k++)
+        longest = std::max(longest, (double)fhi[k] - flo[k]);
+    GS_CHECK(longest > 0, GS_ERR_ARG, "%s: mesh bounding box is a single point", w);
+    double margin = opts->margin < 0 ? 0.1 * longest : opts->margin;
+    double voxel = (longest + 2 * margin) / (opts->samples - 1);
+    size_t n[3];
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; k++) {
+        lo[k] = flo[k] - margin;
+        double ext = (double)fhi[k] - flo[k] + 2 * margin;
+        n[k] = (size_t)std::ceil(ext / voxel - 1e-9) + 1;
+        n[k] = std::max<size_t>(n[k], 2);
+        hi[k] = lo[k] + (n[k] - 1) * voxel;
+    }
+    GS_CALL(gs_vdb_dense_alloc(out, n[0], n[1], n[2]));
+    for (int k = 0; k < 3; k++)
+        out->origin[k] = lo[k];
+    out->voxel = voxel;
+    double bound = max_distance_bound(m, lo, hi);
+    float band = (float)(std::ceil(bound / voxel) + 3.0);
+    try {
+        vdb_init();
+        auto xf = make_transform(voxel, lo);
+        std::vector<openvdb::Vec3s> pts(m->nverts);
+        for (size_t i = 0; i < m->nverts; i++)
+            pts[i] = openvdb::Vec3s(m->pos[3 * i], m->pos[3 * i + 1], m->pos[3 * i + 2]);
+        std::vector<openvdb::Vec3I> tris(m->ntris);
+        for (size_t t = 0; t < m->ntris; t++)
+            tris[t] = openvdb::Vec3I(m->tris[3 * t], m->tris[3 * t + 1], m->tris[3 * t + 2]);
+        std::vector<openvdb::Vec4I> quads;
+        openvdb::FloatGrid::Ptr grid;
+        if (opts->is_signed)
+            grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(*xf, pts, tris,
+                                                                                 quads, band, band);
+        else
+            grid = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(*xf, pts, tris,
+                                                                                   quads, band);
+        out->background = grid->background();
+        DenseXYZ dense(dense_bbox(out), out->v);
+        openvdb::tools::copyToDense(*grid, dense);
+    } catch (...) {
+        gs_err e = raise_current(__func__, w);
+        gs_vdb_dense_destroy(out);
+        return e;
+    }
+    size_t clamped = 0, total = n[0] * n[1] * n[2];
+    float limit = std::fabs(out->background) * (1.0f - 1e-6f);
+    for (size_t i = 0; i < total; i++)
+        clamped += std::fabs(out->v[i]) >= limit;
+    if (clamped) {
+        gs_vdb_dense_destroy(out);
+        GS_RAISE(GS_ERR_INTERNAL,
+                 "%s: %zu of %zu distance samples are clamped at the band limit %g (band %g "
+                 "voxels, bound %g)",
+                 w, clamped, total, (double)limit, (double)band, bound);
+    }
+    return GS_OK;
+}
+
+extern "C" gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
+                                       gs_mesh *out)
+{
+    std::memset(out, 0, sizeof *out);
+    GS_CALL(check_dense(d, "dense field"));
+    GS_CHECK(std::isfinite(isovalue) && adaptivity >= 0 && adaptivity <= 1, GS_ERR_ARG,
+             "isovalue %g / adaptivity %g: expected a finite isovalue and adaptivity in [0, 1]",
+             isovalue, adaptivity);
+    std::vector<openvdb::Vec3s> pts;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    GS_VDB_GUARD("volume to mesh", {
+        auto grid = grid_from_dense(d, -1.0f); // every sample active
+        openvdb::tools::volumeToMesh(*grid, pts, tris, quads, isovalue, adaptivity);
+    });
+    size_t nt = tris.size() + 2 * quads.size();
+    GS_CALL(gs_mesh_alloc(out, pts.size(), nt, 0));
+    for (size_t i = 0; i < pts.size(); i++)
+        for (int k = 0; k < 3; k++)
+            out->pos[3 * i + k] = pts[i][k];
+    // OpenVDB winds polygons with normals towards larger values (outward for
+    // a level set; tests/unit/test_vdb.c checks the enclosed volume is
+    // positive). Quads are split along their shorter diagonal.
+    size_t t = 0;
+    auto emit = [&](uint32_t a, uint32_t b, uint32_t c) {
+        out->tris[3 * t] = a;
+        out->tris[3 * t + 1] = b;
+        out->tris[3 * t + 2] = c;
+        t++;
+    };
+    for (const auto &tr : tris)
+        emit(tr[0], tr[1], tr[2]);
+    for (const auto &q : quads) {
+        double d02 = (pts[q[0]] - pts[q[2]]).lengthSqr(), d13 = (pts[q[1]] - pts[q[3]]).lengthSqr();
+        if (d02 <= d13) {
+            emit(q[0], q[1], q[2]);
+            emit(q[0], q[2], q[3]);
+        } else {
+            emit(q[0], q[1], q[3]);
+            emit(q[1], q[2], q[3]);
+        }
+    }
+    return GS_OK;
 }

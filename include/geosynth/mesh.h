@@ -1,0 +1,107 @@
+/* Triangle meshes: read (OBJ, PLY, STL, OFF via assimp), write (OBJ, binary
+ * PLY), bounding box, closedness check, normals, welding.
+ *
+ * gs_mesh is a plain struct the caller may fill directly (or with
+ * gs_mesh_alloc); every array is allocated with gs_malloc and owned by the
+ * struct; gs_mesh_destroy frees them all and zeroes the struct.
+ * Vertex i is pos[3i..3i+2]; triangle t is tris[3t..3t+2] (counter-clockwise
+ * seen from outside = outward normal by the right-hand rule).
+ *
+ * Reading: assimp with triangulation, identical-vertex joining and
+ * pre-transformed node hierarchies; only triangle faces are kept (points and
+ * lines are dropped). Because assimp splits a vertex when its normals or UVs
+ * differ, the result is welded by exact position afterwards, so topology
+ * checks see the real connectivity. File normals are discarded; normals is
+ * NULL after reading (call gs_mesh_compute_normals when needed).
+ * Errors name the file and what is wrong: missing/unreadable file (GS_ERR_IO),
+ * not a mesh / no triangles / NaN or infinite coordinates / more than
+ * GS_MESH_MAX_ELEMS vertices or triangles (GS_ERR_FORMAT).
+ *
+ * Writing is atomic (path.tmp + rename). OBJ: v, vn (when normals), f (1-based,
+ * v//vn with normals). PLY: binary little endian, x y z float, optional
+ * nx ny nz float, optional one per-vertex property (scalar: float, label:
+ * uchar), faces as "list uchar int vertex_indices".
+ */
+#ifndef GEOSYNTH_MESH_H
+#define GEOSYNTH_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define GS_MESH_MAX_ELEMS ((size_t)1 << 30) /* vertices or triangles per mesh */
+
+typedef struct gs_mesh {
+    size_t nverts, ntris;
+    float *pos;       /* 3*nverts */
+    float *normals;   /* 3*nverts or NULL */
+    uint32_t *tris;   /* 3*ntris */
+    float *scalar;    /* nverts per-vertex value (output property) or NULL */
+    uint8_t *label;   /* nverts per-vertex label (output property) or NULL */
+} gs_mesh;
+
+/* Allocates a zeroed mesh of nverts/ntris (normals too when with_normals).
+ * On error *m is zeroed. */
+gs_err gs_mesh_alloc(gs_mesh *m, size_t nverts, size_t ntris, int with_normals);
+
+/* Frees every array and zeroes *m. Safe on a zeroed struct. */
+void gs_mesh_destroy(gs_mesh *m);
+
+/* Checks sizes, index ranges and finite coordinates; what names the mesh. */
+gs_err gs_mesh_validate(const gs_mesh *m, const char *what);
+
+/* Reads a triangle mesh (see above). On error *out is zeroed. */
+gs_err gs_mesh_read(const char *path, gs_mesh *out);
+
+/* Writes OBJ / PLY (atomically). prop_name names the PLY per-vertex property
+ * written from m->scalar (float) or else m->label (uchar); NULL or an absent
+ * array writes none. gs_mesh_write picks the format from the extension
+ * (.obj or .ply, case-insensitive). */
+gs_err gs_mesh_write_obj(const char *path, const gs_mesh *m);
+gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_name);
+gs_err gs_mesh_write(const char *path, const gs_mesh *m, const char *prop_name);
+
+/* Axis-aligned bounding box (lo = hi = 0 for an empty mesh). */
+void gs_mesh_bbox(const gs_mesh *m, float lo[3], float hi[3]);
+
+typedef struct gs_mesh_topology {
+    size_t edges;              /* distinct undirected edges */
+    size_t boundary_edges;     /* used by exactly one triangle */
+    size_t nonmanifold_edges;  /* used by three or more triangles */
+    size_t misoriented_edges;  /* used twice in the same direction */
+    size_t degenerate_tris;    /* repeated vertex index (skipped in the counts) */
+    int closed;                /* all of the above zero (watertight, oriented) */
+} gs_mesh_topology;
+
+/* Edge census of m. O(ntris log ntris) time, 48 bytes per triangle scratch. */
+gs_err gs_mesh_topology_check(const gs_mesh *m, gs_mesh_topology *topo);
+
+/* GS_OK when m is closed; otherwise GS_ERR_ARG with a message naming what
+ * (e.g. the file), the counts, and purpose ("signed distance field"). */
+gs_err gs_mesh_require_closed(const gs_mesh *m, const char *what, const char *purpose);
+
+/* Area-weighted vertex normals (unit length; zero for isolated vertices).
+ * Allocates m->normals when NULL. */
+gs_err gs_mesh_compute_normals(gs_mesh *m);
+
+/* Merges vertices closer than tol (tol = 0: identical positions), keeping
+ * the first vertex of each cluster (and its scalar/label), drops triangles
+ * that become degenerate and vertices no triangle uses; recomputes normals
+ * when m had them. Greedy in vertex order, hence deterministic.
+ * O(nverts) expected with a hash grid. On error m is unchanged. */
+gs_err gs_mesh_weld(gs_mesh *m, float tol);
+
+/* Total surface area and signed enclosed volume (positive for outward
+ * orientation of a closed mesh). */
+double gs_mesh_area(const gs_mesh *m);
+double gs_mesh_volume(const gs_mesh *m);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,569 @@
+/* Triangle mesh I/O and topology helpers; see include/geosynth/mesh.h. */
+#include "geosynth/mesh.h"
+
+#include <assimp/cimport.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "io/fileio.h"
+
+void gs_mesh_destroy(gs_mesh *m)
+{
+    if (!m)
+        return;
+    gs_free(m->pos);
+    gs_free(m->normals);
+    gs_free(m->tris);
+    gs_free(m->scalar);
+    gs_free(m->label);
+    memset(m, 0, sizeof *m);
+}
+
+gs_err gs_mesh_alloc(gs_mesh *m, size_t nverts, size_t ntris, int with_normals)
+{
+    memset(m, 0, sizeof *m);
+    GS_CHECK(nverts <= GS_MESH_MAX_ELEMS && ntris <= GS_MESH_MAX_ELEMS, GS_ERR_ARG,
+             "mesh of %zu vertices and %zu triangles exceeds the %zu supported", nverts, ntris,
+             GS_MESH_MAX_ELEMS);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&m->pos, nverts * 3, sizeof(float), "mesh vertices"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&m->tris, ntris * 3, sizeof(uint32_t), "mesh triangles"),
+           fail);
+    if (with_normals)
+        GS_TRY(err,
+               gs_alloc_array((void **)&m->normals, nverts * 3, sizeof(float), "mesh normals"),
+               fail);
+    m->nverts = nverts;
+    m->ntris = ntris;
+    return GS_OK;
+fail:
+    gs_mesh_destroy(m);
+    return err;
+}
+
+gs_err gs_mesh_validate(const gs_mesh *m, const char *what)
+{
+    const char *w = what ? what : "mesh";
+    GS_CHECK(m->nverts <= GS_MESH_MAX_ELEMS && m->ntris <= GS_MESH_MAX_ELEMS, GS_ERR_FORMAT,
+             "%s: %zu vertices and %zu triangles: at most %zu of each are supported", w,
+             m->nverts, m->ntris, GS_MESH_MAX_ELEMS);
+    GS_CHECK((m->pos || !m->nverts) && (m->tris || !m->ntris), GS_ERR_ARG,
+             "%s: vertex or triangle array missing", w);
+    for (size_t i = 0; i < 3 * m->nverts; i++)
+        GS_CHECK(isfinite(m->pos[i]), GS_ERR_FORMAT,
+                 "%s: vertex %zu has a non-finite coordinate (%g): expected finite numbers", w,
+                 i / 3, (double)m->pos[i]);
+    for (size_t i = 0; i < 3 * m->ntris; i++)
+        GS_CHECK(m->tris[i] < m->nverts, GS_ERR_FORMAT,
+                 "%s: triangle %zu uses vertex %u but the mesh has %zu vertices", w, i / 3,
+                 m->tris[i], m->nverts);
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------------- reading */
+
+static gs_err mesh_from_scene(const char *path, const struct aiScene *sc, gs_mesh *out)
+{
+    size_t nv = 0, nt = 0;
+    for (unsigned i = 0; i < sc->mNumMeshes; i++) {
+        const struct aiMesh *am = sc->mMeshes[i];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE))
+            continue;
+        nv += am->mNumVertices;
+        for (unsigned f = 0; f < am->mNumFaces; f++)
+            nt += am->mFaces[f].mNumIndices == 3;
+    }
+    GS_CHECK(nt > 0, GS_ERR_FORMAT,
+             "%s: no triangles (the file holds %u mesh part(s) with only points, lines or "
+             "nothing): expected a triangle mesh",
+             path, sc->mNumMeshes);
+    GS_CHECK(nv <= GS_MESH_MAX_ELEMS && nt <= GS_MESH_MAX_ELEMS, GS_ERR_FORMAT,
+             "%s: %zu vertices and %zu triangles: at most %zu of each are supported", path, nv,
+             nt, GS_MESH_MAX_ELEMS);
+    GS_CALL(gs_mesh_alloc(out, nv, nt, 0));
+    size_t v0 = 0, t = 0;
+    for (unsigned i = 0; i < sc->mNumMeshes; i++) {
+        const struct aiMesh *am = sc->mMeshes[i];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE))
+            continue;
+        for (unsigned k = 0; k < am->mNumVertices; k++) {
+            out->pos[3 * (v0 + k) + 0] = am->mVertices[k].x;
+            out->pos[3 * (v0 + k) + 1] = am->mVertices[k].y;
+            out->pos[3 * (v0 + k) + 2] = am->mVertices[k].z;
+        }
+        for (unsigned f = 0; f < am->mNumFaces; f++) {
+            const struct aiFace *fc = &am->mFaces[f];
+            if (fc->mNumIndices != 3)
+                continue;
+            for (int c = 0; c < 3; c++)
+                out->tris[3 * t + c] = (uint32_t)(v0 + fc->mIndices[c]);
+            t++;
+        }
+        v0 += am->mNumVertices;
+    }
+    return GS_OK;
+}
+
+gs_err gs_mesh_read(const char *path, gs_mesh *out)
+{
+    memset(out, 0, sizeof *out);
+    GS_CHECK(path && path[0], GS_ERR_ARG, "mesh path is empty");
+    FILE *f = fopen(path, "rb");
+    GS_CHECK(f, GS_ERR_IO, "%s: cannot open mesh file: %s", path, strerror(errno));
+    fclose(f);
+    const struct aiScene *sc =
+        aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                               aiProcess_SortByPType | aiProcess_PreTransformVertices |
+                               aiProcess_ValidateDataStructure);
+    GS_CHECK(sc, GS_ERR_FORMAT, "%s: not a readable mesh (assimp: %s)", path,
+             aiGetErrorString());
+    gs_err err = GS_OK;
+    GS_TRY(err, mesh_from_scene(path, sc, out), fail);
+    GS_TRY(err, gs_mesh_validate(out, path), fail);
+    /* assimp splits vertices by normal/uv: weld by position for true connectivity */
+    GS_TRY(err, gs_mesh_weld(out, 0.0f), fail);
+    GS_TRY_CHECK(err, out->ntris > 0, GS_ERR_FORMAT, fail,
+                 "%s: every triangle is degenerate (repeated vertex): expected a triangle mesh",
+                 path);
+    aiReleaseImport(sc);
+    return GS_OK;
+fail:
+    aiReleaseImport(sc);
+    gs_mesh_destroy(out);
+    return err;
+}
+
+/* ---------------------------------------------------------------- writing */
+
+gs_err gs_mesh_write_obj(const char *path, const gs_mesh *m)
+{
+    GS_CALL(gs_mesh_validate(m, path));
+    gs_atomic_file af;
+    GS_CALL(gs_atomic_begin(path, &af));
+    FILE *f = af.f;
+    fprintf(f, "# geosynth mesh: %zu vertices, %zu triangles\n", m->nverts, m->ntris);
+    for (size_t i = 0; i < m->nverts; i++)
+        fprintf(f, "v %.9g %.9g %.9g\n", (double)m->pos[3 * i], (double)m->pos[3 * i + 1],
+                (double)m->pos[3 * i + 2]);
+    if (m->normals)
+        for (size_t i = 0; i < m->nverts; i++)
+            fprintf(f, "vn %.9g %.9g %.9g\n", (double)m->normals[3 * i],
+                    (double)m->normals[3 * i + 1], (double)m->normals[3 * i + 2]);
+    for (size_t t = 0; t < m->ntris; t++) {
+        unsigned long a = m->tris[3 * t] + 1UL, b = m->tris[3 * t + 1] + 1UL,
+                      c = m->tris[3 * t + 2] + 1UL;
+        if (m->normals)
+            fprintf(f, "f %lu//%lu %lu//%lu %lu//%lu\n", a, a, b, b, c, c);
+        else
+            fprintf(f, "f %lu %lu %lu\n", a, b, c);
+    }
+    GS_CALL(gs_atomic_commit(&af));
+    return GS_OK;
+}
+
+static void le32(uint8_t *p, uint32_t u)
+{
+    p[0] = (uint8_t)u;
+    p[1] = (uint8_t)(u >> 8);
+    p[2] = (uint8_t)(u >> 16);
+    p[3] = (uint8_t)(u >> 24);
+}
+
+static void lef32(uint8_t *p, float v)
+{
+    uint32_t u;
+    memcpy(&u, &v, sizeof u);
+    le32(p, u);
+}
+
+static int ply_name_ok(const char *s)
+{
+    if (!s[0])
+        return 0;
+    for (const char *p = s; *p; p++)
+        if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') ||
+              *p == '_'))
+            return 0;
+    return 1;
+}
+
+gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_name)
+{
+    GS_CALL(gs_mesh_validate(m, path));
+    int prop = 0; /* 0 none, 1 float scalar, 2 uchar label */
+    if (prop_name && m->scalar)
+        prop = 1;
+    else if (prop_name && m->label)
+        prop = 2;
+    GS_CHECK(!prop || ply_name_ok(prop_name), GS_ERR_ARG,
+             "%s: PLY property name '%s' must be letters, digits and '_'", path, prop_name);
+    gs_atomic_file af;
+    GS_CALL(gs_atomic_begin(path, &af));
+    FILE *f = af.f;
+    fprintf(f, "ply\nformat binary_little_endian 1.0\ncomment geosynth\n");
+    fprintf(f, "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n",
+            m->nverts);
+    if (m->normals)
+        fprintf(f, "property float nx\nproperty float ny\nproperty float nz\n");
+    if (prop)
+        fprintf(f, "property %s %s\n", prop == 1 ? "float" : "uchar", prop_name);
+    fprintf(f, "element face %zu\nproperty list uchar int vertex_indices\nend_header\n",
+            m->ntris);
+    uint8_t rec[32];
+    for (size_t i = 0; i < m->nverts; i++) {
+        size_t n = 0;
+        for (int c = 0; c < 3; c++, n += 4)
+            lef32(rec + n, m->pos[3 * i + c]);
+        if (m->normals)
+            for (int c = 0; c < 3; c++, n += 4)
+                lef32(rec + n, m->normals[3 * i + c]);
+        if (prop == 1) {
+            lef32(rec + n, m->scalar[i]);
+            n += 4;
+        } else if (prop == 2) {
+            rec[n++] = m->label[i];
+        }
+        fwrite(rec, 1, n, f);
+    }
+    for (size_t t = 0; t < m->ntris; t++) {
+        rec[0] = 3;
+        for (int c = 0; c < 3; c++)
+            le32(rec + 1 + 4 * c, m->tris[3 * t + c]);
+        fwrite(rec, 1, 13, f);
+    }
+    GS_CALL(gs_atomic_commit(&af));
+    return GS_OK;
+}
+
+gs_err gs_mesh_write(const char *path, const gs_mesh *m, const char *prop_name)
+{
+    char ext[8];
+    gs_path_ext(path, ext, sizeof ext);
+    if (!strcmp(ext, "obj"))
+        GS_CALL(gs_mesh_write_obj(path, m));
+    else if (!strcmp(ext, "ply"))
+        GS_CALL(gs_mesh_write_ply(path, m, prop_name));
+    else
+        GS_RAISE(GS_ERR_ARG, "%s: unknown mesh extension '.%s': expected .obj or .ply", path, ext);
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------------- geometry */
+
+void gs_mesh_bbox(const gs_mesh *m, float lo[3], float hi[3])
+{
+    for (int c = 0; c < 3; c++)
+        lo[c] = hi[c] = m->nverts ? m->pos[c] : 0.0f;
+    for (size_t i = 1; i < m->nverts; i++)
+        for (int c = 0; c < 3; c++) {
+            float v = m->pos[3 * i + c];
+            lo[c] = v < lo[c] ? v : lo[c];
+            hi[c] = v > hi[c] ? v : hi[c];
+        }
+}
+
+static void tri_cross(const gs_mesh *m, size_t t, double n[3])
+{
+    const float *a = m->pos + 3 * (size_t)m->tris[3 * t], *b = m->pos + 3 * (size_t)m->tris[3 * t + 1],
+                *c = m->pos + 3 * (size_t)m->tris[3 * t + 2];
+    double u[3], v[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = (double)b[k] - a[k];
+        v[k] = (double)c[k] - a[k];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+}
+
+double gs_mesh_area(const gs_mesh *m)
+{
+    double s = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        double n[3];
+        tri_cross(m, t, n);
+        s += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    }
+    return s;
+}
+
+double gs_mesh_volume(const gs_mesh *m)
+{
+    double s = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const float *a = m->pos + 3 * (size_t)m->tris[3 * t];
+        double n[3];
+        tri_cross(m, t, n);
+        s += (a[0] * n[0] + a[1] * n[1] + a[2] * n[2]) / 6.0;
+    }
+    return s;
+}
+
+gs_err gs_mesh_compute_normals(gs_mesh *m)
+{
+    double *acc = NULL;
+    GS_CALL(gs_alloc_array((void **)&acc, m->nverts * 3, sizeof(double), "normal accumulator"));
+    if (!m->normals) {
+        gs_err err = gs_alloc_array((void **)&m->normals, m->nverts * 3, sizeof(float),
+                                    "mesh normals");
+        if (err) {
+            gs_free(acc);
+            GS_CALL(err);
+        }
+    }
+    for (size_t t = 0; t < m->ntris; t++) {
+        double n[3]; /* |cross| = 2 * area: area weighting for free */
+        tri_cross(m, t, n);
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                acc[3 * (size_t)m->tris[3 * t + c] + k] += n[k];
+    }
+    for (size_t i = 0; i < m->nverts; i++) {
+        double *a = acc + 3 * i;
+        double l = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        for (int k = 0; k < 3; k++)
+            m->normals[3 * i + k] = l > 0 ? (float)(a[k] / l) : 0.0f;
+    }
+    gs_free(acc);
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------------- topology */
+
+typedef struct half_edge {
+    uint64_t key; /* min << 32 | max */
+    uint32_t forward; /* 1 when stored as min -> max */
+} half_edge;
+
+static int half_edge_cmp(const void *a, const void *b)
+{
+    const half_edge *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return (x->forward > y->forward) - (x->forward < y->forward);
+}
+
+gs_err gs_mesh_topology_check(const gs_mesh *m, gs_mesh_topology *topo)
+{
+    memset(topo, 0, sizeof *topo);
+    half_edge *he = NULL;
+    GS_CALL(gs_alloc_array((void **)&he, m->ntris * 3, sizeof *he, "edge list"));
+    size_t n = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const uint32_t *v = m->tris + 3 * t;
+        if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) {
+            topo->degenerate_tris++;
+            continue;
+        }
+        for (int c = 0; c < 3; c++) {
+            uint32_t a = v[c], b = v[(c + 1) % 3];
+            uint32_t lo = a < b ? a : b, hi = a < b ? b : a;
+            he[n++] = (half_edge){(uint64_t)lo << 32 | hi, a < b};
+        }
+    }
+    qsort(he, n, sizeof *he, half_edge_cmp);
+    for (size_t i = 0; i < n;) {
+        size_t j = i, fwd = 0;
+        while (j < n && he[j].key == he[i].key)
+            fwd += he[j++].forward;
+        size_t cnt = j - i;
+        topo->edges++;
+        if (cnt == 1)
+            topo->boundary_edges++;
+        else if (cnt > 2)
+            topo->nonmanifold_edges++;
+        else if (fwd != 1)
+            topo->misoriented_edges++;
+        i = j;
+    }
+    gs_free(he);
+    topo->closed = m->ntris > 0 && !topo->boundary_edges && !topo->nonmanifold_edges &&
+                   !topo->misoriented_edges && !topo->degenerate_tris;
+    return GS_OK;
+}
+
+gs_err gs_mesh_require_closed(const gs_mesh *m, const char *what, const char *purpose)
+{
+    gs_mesh_topology t;
+    GS_CALL(gs_mesh_topology_check(m, &t));
+    GS_CHECK(t.closed, GS_ERR_ARG,
+             "%s: a %s needs a closed, consistently oriented triangle mesh, but this one has "
+             "%zu boundary edges, %zu non-manifold edges, %zu inconsistently oriented edges "
+             "and %zu degenerate triangles (of %zu triangles)%s",
+             what ? what : "mesh", purpose ? purpose : "signed distance field",
+             t.boundary_edges, t.nonmanifold_edges, t.misoriented_edges, t.degenerate_tris,
+             m->ntris, t.boundary_edges ? ": fill the holes or ask for an unsigned distance" : "");
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------------- welding */
+
+static uint64_t mix64(uint64_t x)
+{
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdULL;
+    x ^= x >> 33;
+    x *= 0xc4ceb9fe1a85ec53ULL;
+    x ^= x >> 33;
+    return x;
+}
+
+typedef struct weld_grid {
+    uint32_t *slot; /* representative vertex or UINT32_MAX */
+    int64_t *cell;  /* 3 per slot */
+    size_t mask;
+} weld_grid;
+
+static uint64_t cell_hash(const int64_t c[3])
+{
+    return mix64((uint64_t)c[0] * 0x9E3779B97F4A7C15ULL ^ mix64((uint64_t)c[1] + 0x632BE59BD9B4E019ULL) ^
+                 mix64((uint64_t)c[2] * 0x85EBCA77C2B2AE63ULL + 1));
+}
+
+static gs_err weld_cell_of(const float *p, float tol, int64_t c[3])
+{
+    for (int k = 0; k < 3; k++) {
+        float v = p[k] + 0.0f; /* -0 == +0 */
+        if (tol > 0) {
+            double q = floor((double)v / tol);
+            GS_CHECK(fabs(q) < 4.0e18, GS_ERR_ARG,
+                     "weld tolerance %g is too small for coordinate %g", (double)tol, (double)v);
+            c[k] = (int64_t)q;
+        } else {
+            uint32_t u;
+            memcpy(&u, &v, sizeof u);
+            c[k] = u;
+        }
+    }
+    return GS_OK;
+}
+
+gs_err gs_mesh_weld(gs_mesh *m, float tol)
+{
+    GS_CHECK(tol >= 0 && isfinite(tol), GS_ERR_ARG, "weld tolerance %g must be >= 0",
+             (double)tol);
+    size_t nv = m->nverts;
+    if (nv == 0)
+        return GS_OK;
+    gs_err err = GS_OK;
+    weld_grid g = {NULL, NULL, 0};
+    uint32_t *rep = NULL, *newidx = NULL, *tris = NULL;
+    float *pos = NULL, *scalar = NULL;
+    uint8_t *label = NULL;
+    size_t cap = 16;
+    while (cap < 2 * nv)
+        cap *= 2;
+    g.mask = cap - 1;
+    GS_TRY(err, gs_alloc_array((void **)&g.slot, cap, sizeof(uint32_t), "weld table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&g.cell, cap * 3, sizeof(int64_t), "weld table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&rep, nv, sizeof(uint32_t), "weld map"), done);
+    memset(g.slot, 0xff, cap * sizeof(uint32_t));
+    double tol2 = (double)tol * tol;
+    for (size_t i = 0; i < nv; i++) {
+        const float *p = m->pos + 3 * i;
+        int64_t c[3];
+        GS_TRY(err, weld_cell_of(p, tol, c), done);
+        uint32_t found = UINT32_MAX;
+        int r = tol > 0 ? 1 : 0;
+        for (int dz = -r; dz <= r && found == UINT32_MAX; dz++)
+            for (int dy = -r; dy <= r && found == UINT32_MAX; dy++)
+                for (int dx = -r; dx <= r && found == UINT32_MAX; dx++) {
+                    int64_t q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+                    for (size_t s = cell_hash(q) & g.mask; g.slot[s] != UINT32_MAX;
+                         s = (s + 1) & g.mask) {
+                        const int64_t *sc = g.cell + 3 * s;
+                        if (sc[0] != q[0] || sc[1] != q[1] || sc[2] != q[2])
+                            continue;
+                        const float *o = m->pos + 3 * (size_t)g.slot[s];
+                        double d2 = 0;
+                        for (int k = 0; k < 3; k++)
+                            d2 += ((double)o[k] - p[k]) * ((double)o[k] - p[k]);
+                        if (d2 <= tol2) {
+                            found = g.slot[s];
+                            break;
+                        }
+                    }
+                }
+        if (found == UINT32_MAX) {
+            size_t s = cell_hash(c) & g.mask;
+            while (g.slot[s] != UINT32_MAX)
+                s = (s + 1) & g.mask;
+            g.slot[s] = (uint32_t)i;
+            memcpy(g.cell + 3 * s, c, sizeof c);
+            found = (uint32_t)i;
+        }
+        rep[i] = found;
+    }
+    /* remap triangles, drop degenerate ones, keep used representatives */
+    GS_TRY(err, gs_alloc_array((void **)&tris, m->ntris * 3, sizeof(uint32_t), "weld triangles"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&newidx, nv, sizeof(uint32_t), "weld map"), done);
+    size_t nt = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        uint32_t a = rep[m->tris[3 * t]], b = rep[m->tris[3 * t + 1]], c = rep[m->tris[3 * t + 2]];
+        if (a == b || b == c || a == c)
+            continue;
+        tris[3 * nt] = a;
+        tris[3 * nt + 1] = b;
+        tris[3 * nt + 2] = c;
+        nt++;
+    }
+    for (size_t i = 0; i < nv; i++)
+        newidx[i] = m->ntris == 0 && rep[i] == i; /* point sets keep every representative */
+    for (size_t k = 0; k < 3 * nt; k++)
+        newidx[tris[k]] = 1;
+    size_t nn = 0;
+    for (size_t i = 0; i < nv; i++)
+        newidx[i] = newidx[i] ? (uint32_t)nn++ : UINT32_MAX;
+    GS_TRY(err, gs_alloc_array((void **)&pos, nn * 3, sizeof(float), "weld vertices"), done);
+    if (m->scalar)
+        GS_TRY(err, gs_alloc_array((void **)&scalar, nn, sizeof(float), "weld scalars"), done);
+    if (m->label)
+        GS_TRY(err, gs_alloc_array((void **)&label, nn, 1, "weld labels"), done);
+    for (size_t i = 0; i < nv; i++) {
+        if (newidx[i] == UINT32_MAX)
+            continue;
+        memcpy(pos + 3 * (size_t)newidx[i], m->pos + 3 * i, 3 * sizeof(float));
+        if (scalar)
+            scalar[newidx[i]] = m->scalar[i];
+        if (label)
+            label[newidx[i]] = m->label[i];
+    }
+    for (size_t k = 0; k < 3 * nt; k++)
+        tris[k] = newidx[tris[k]];
+    int had_normals = m->normals != NULL;
+    gs_free(m->pos);
+    gs_free(m->tris);
+    gs_free(m->scalar);
+    gs_free(m->label);
+    GS_FREE(m->normals);
+    m->pos = pos;
+    m->tris = tris;
+    m->scalar = scalar;
+    m->label = label;
+    m->nverts = nn;
+    m->ntris = nt;
+    pos = NULL;
+    tris = NULL;
+    scalar = NULL;
+    label = NULL;
+    if (had_normals)
+        GS_TRY(err, gs_mesh_compute_normals(m), done);
+done:
+    gs_free(g.slot);
+    gs_free(g.cell);
+    gs_free(rep);
+    gs_free(newidx);
+    gs_free(tris);
+    gs_free(pos);
+    gs_free(scalar);
+    gs_free(label);
+    return err;
+}

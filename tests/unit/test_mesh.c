@@ -1,0 +1,262 @@
+/* Unit tests for src/io/mesh.c: reading the real meshes, closedness,
+ * welding, normals, OBJ/PLY writers, error messages. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "geosynth/mem.h"
+#include "geosynth/mesh.h"
+
+static char tmpdir[64];
+
+static const char *shared_path(const char *rel, char *buf, size_t n)
+{
+    const char *root = getenv("GS_SHARED");
+    snprintf(buf, n, "%s/%s", root ? root : "../../shared", rel);
+    return buf;
+}
+
+static const char *tmp_path(const char *name, char *buf, size_t n)
+{
+    snprintf(buf, n, "%s/%s", tmpdir, name);
+    return buf;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(text, f);
+    fclose(f);
+}
+
+typedef struct expect {
+    const char *file;
+    size_t nverts, ntris, boundary;
+    int closed;
+} expect;
+
+/* Counts checked by Euler: closed genus-0 meshes satisfy V - E + F = 2. */
+static void test_real_meshes(void **state)
+{
+    (void)state;
+    static const expect cases[] = {
+        {"data/meshes/spot.obj", 2930, 5856, 0, 1},
+        {"data/meshes/stanford-bunny.obj", 34834, 69451, 223, 0},
+        {"data/meshes/bunny-closed.off", 3485, 6966, 0, 1},
+        {"data/meshes/armadillo.obj", 43243, 86482, 0, 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char path[512];
+        gs_mesh m;
+        assert_int_equal(gs_mesh_read(shared_path(cases[i].file, path, sizeof path), &m), GS_OK);
+        gs_mesh_topology t;
+        assert_int_equal(gs_mesh_topology_check(&m, &t), GS_OK);
+        printf("%s: %zu vertices, %zu triangles, %zu edges, %zu boundary, %zu non-manifold, "
+               "closed %d\n",
+               cases[i].file, m.nverts, m.ntris, t.edges, t.boundary_edges, t.nonmanifold_edges,
+               t.closed);
+        assert_int_equal(m.nverts, cases[i].nverts);
+        assert_int_equal(m.ntris, cases[i].ntris);
+        assert_int_equal(t.boundary_edges, cases[i].boundary);
+        assert_int_equal(t.closed, cases[i].closed);
+        assert_int_equal(t.nonmanifold_edges, 0);
+        if (t.closed) {
+            assert_int_equal((long)m.nverts - (long)t.edges + (long)m.ntris, 2);
+            assert_true(gs_mesh_volume(&m) > 0); /* outward orientation */
+            assert_int_equal(gs_mesh_require_closed(&m, path, NULL), GS_OK);
+        } else {
+            assert_int_equal(gs_mesh_require_closed(&m, path, "signed distance field"),
+                             GS_ERR_ARG);
+            assert_non_null(strstr(gs_error_message(), "223 boundary edges"));
+            gs_error_clear();
+        }
+        gs_mesh_destroy(&m);
+        assert_null(m.pos);
+    }
+}
+
+static void test_read_errors(void **state)
+{
+    (void)state;
+    gs_mesh m;
+    char path[256];
+    assert_int_equal(gs_mesh_read("/nonexistent/mesh.obj", &m), GS_ERR_IO);
+    assert_non_null(strstr(gs_error_message(), "/nonexistent/mesh.obj"));
+    assert_null(m.pos);
+
+    tmp_path("notamesh.obj", path, sizeof path);
+    write_text(path, "\x01\x02 this is not a mesh at all\n");
+    gs_err e = gs_mesh_read(path, &m);
+    assert_int_equal(e, GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "notamesh.obj"));
+
+    tmp_path("lines.obj", path, sizeof path);
+    write_text(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
+    assert_int_equal(gs_mesh_read(path, &m), GS_ERR_FORMAT);
+    printf("lines only: %s\n", gs_error_message());
+    assert_non_null(strstr(gs_error_message(), "lines.obj"));
+
+    tmp_path("nan.obj", path, sizeof path);
+    write_text(path, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+    e = gs_mesh_read(path, &m);
+    printf("nan: %s\n", gs_error_message());
+    assert_int_equal(e, GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "nan.obj"));
+
+    tmp_path("degenerate.off", path, sizeof path);
+    write_text(path, "OFF\n3 1 0\n0 0 0\n0 0 0\n1 1 1\n3 0 1 2\n");
+    e = gs_mesh_read(path, &m);
+    printf("degenerate: %s\n", gs_error_message());
+    assert_int_equal(e, GS_ERR_FORMAT);
+    gs_error_clear();
+}
+
+/* A quad split in two with duplicated vertices (as assimp produces when
+ * normals differ), plus welding with a tolerance. */
+static void test_weld_and_normals(void **state)
+{
+    (void)state;
+    gs_mesh m;
+    assert_int_equal(gs_mesh_alloc(&m, 6, 2, 0), GS_OK);
+    const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1.0004f, 0}};
+    const uint32_t t[2][3] = {{0, 1, 2}, {3, 4, 5}};
+    memcpy(m.pos, p, sizeof p);
+    memcpy(m.tris, t, sizeof t);
+    assert_int_equal(gs_mesh_weld(&m, 0.0f), GS_OK);
+    assert_int_equal(m.nverts, 4);
+    assert_int_equal(m.ntris, 2);
+    gs_mesh_topology topo;
+    assert_int_equal(gs_mesh_topology_check(&m, &topo), GS_OK);
+    assert_int_equal(topo.edges, 5);
+    assert_int_equal(topo.boundary_edges, 4);
+    assert_false(topo.closed);
+    assert_int_equal(gs_mesh_compute_normals(&m), GS_OK);
+    for (size_t i = 0; i < m.nverts; i++)
+        assert_true(fabsf(m.normals[3 * i + 2] - 1.0f) < 1e-6f);
+    assert_true(fabs(gs_mesh_area(&m) - 1.0) < 1e-3);
+    /* tolerance weld collapses the second triangle onto a segment */
+    float lo[3], hi[3];
+    gs_mesh_bbox(&m, lo, hi);
+    assert_true(lo[0] == 0 && hi[0] == 1 && hi[1] > 1.0f);
+    assert_int_equal(gs_mesh_weld(&m, 1.5f), GS_OK);
+    assert_int_equal(m.ntris, 0);
+    assert_int_equal(gs_mesh_weld(&m, -1.0f), GS_ERR_ARG);
+    gs_error_clear();
+    gs_mesh_destroy(&m);
+}
+
+static void test_misoriented_and_nonmanifold(void **state)
+{
+    (void)state;
+    gs_mesh m;
+    /* tetrahedron with one face flipped */
+    assert_int_equal(gs_mesh_alloc(&m, 4, 4, 0), GS_OK);
+    const float p[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const uint32_t t[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 2, 3}};
+    memcpy(m.pos, p, sizeof p);
+    memcpy(m.tris, t, sizeof t);
+    gs_mesh_topology topo;
+    assert_int_equal(gs_mesh_topology_check(&m, &topo), GS_OK);
+    assert_int_equal(topo.boundary_edges, 0);
+    assert_int_equal(topo.misoriented_edges, 3);
+    assert_false(topo.closed);
+    m.tris[9] = 0, m.tris[10] = 3, m.tris[11] = 2; /* fix it */
+    assert_int_equal(gs_mesh_topology_check(&m, &topo), GS_OK);
+    assert_true(topo.closed);
+    assert_true(gs_mesh_volume(&m) > 0);
+    gs_mesh_destroy(&m);
+    /* three triangles on one edge */
+    assert_int_equal(gs_mesh_alloc(&m, 5, 3, 0), GS_OK);
+    const uint32_t f[3][3] = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+    memcpy(m.tris, f, sizeof f);
+    assert_int_equal(gs_mesh_topology_check(&m, &topo), GS_OK);
+    assert_int_equal(topo.nonmanifold_edges, 1);
+    gs_mesh_destroy(&m);
+}
+
+static void test_write_read_roundtrip(void **state)
+{
+    (void)state;
+    char src[512], path[256];
+    gs_mesh m, r;
+    assert_int_equal(gs_mesh_read(shared_path("data/meshes/spot.obj", src, sizeof src), &m),
+                     GS_OK);
+    assert_int_equal(gs_mesh_compute_normals(&m), GS_OK);
+    assert_int_equal(gs_alloc_array((void **)&m.scalar, m.nverts, sizeof(float), "s"), GS_OK);
+    for (size_t i = 0; i < m.nverts; i++)
+        m.scalar[i] = m.pos[3 * i + 2] * 2;
+    const char *names[] = {"spot.obj", "spot.ply"};
+    for (int k = 0; k < 2; k++) {
+        tmp_path(names[k], path, sizeof path);
+        assert_int_equal(gs_mesh_write(path, &m, "height"), GS_OK);
+        char tmp[300];
+        snprintf(tmp, sizeof tmp, "%s.tmp", path);
+        assert_int_equal(access(tmp, F_OK), -1);
+        assert_int_equal(gs_mesh_read(path, &r), GS_OK);
+        assert_int_equal(r.nverts, m.nverts);
+        assert_int_equal(r.ntris, m.ntris);
+        /* same vertex order and exact float positions (OBJ writes %.9g) */
+        assert_memory_equal(r.pos, m.pos, 3 * m.nverts * sizeof(float));
+        assert_memory_equal(r.tris, m.tris, 3 * m.ntris * sizeof(uint32_t));
+        gs_mesh_destroy(&r);
+    }
+    /* the PLY header declares what we wrote */
+    tmp_path("spot.ply", path, sizeof path);
+    FILE *f = fopen(path, "rb");
+    char head[512] = {0};
+    assert_true(fread(head, 1, sizeof head - 1, f) > 0);
+    fclose(f);
+    assert_non_null(strstr(head, "format binary_little_endian 1.0"));
+    assert_non_null(strstr(head, "property float nx"));
+    assert_non_null(strstr(head, "property float height"));
+    /* uchar label property */
+    GS_FREE(m.scalar);
+    assert_int_equal(gs_alloc_array((void **)&m.label, m.nverts, 1, "l"), GS_OK);
+    tmp_path("labels.ply", path, sizeof path);
+    assert_int_equal(gs_mesh_write_ply(path, &m, "label"), GS_OK);
+    assert_int_equal(gs_mesh_read(path, &r), GS_OK);
+    assert_int_equal(r.ntris, m.ntris);
+    gs_mesh_destroy(&r);
+    assert_int_equal(gs_mesh_write_ply(path, &m, "bad name"), GS_ERR_ARG);
+    assert_int_equal(gs_mesh_write("/nonexistent/dir/x.obj", &m, NULL), GS_ERR_IO);
+    assert_int_equal(gs_mesh_write(tmp_path("x.stl", path, sizeof path), &m, NULL), GS_ERR_ARG);
+    m.tris[5] = (uint32_t)m.nverts; /* out of range index is refused */
+    assert_int_equal(gs_mesh_write_obj(tmp_path("y.obj", path, sizeof path), &m), GS_ERR_FORMAT);
+    gs_error_clear();
+    gs_mesh_destroy(&m);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/gs-test-mesh-XXXXXX");
+    return mkdtemp(tmpdir) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_real_meshes),
+        cmocka_unit_test(test_read_errors),
+        cmocka_unit_test(test_weld_and_normals),
+        cmocka_unit_test(test_misoriented_and_nonmanifold),
+        cmocka_unit_test(test_write_read_roundtrip),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
