@@ -120,6 +120,9 @@ build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ) $(BRIDGE_OBJ)
 
 fuzz: $(FUZZ_BIN)
 
+# Keep the fuzz build's objects (they are intermediates of the fuzz programs).
+.SECONDARY: $(FUZZ_LIB_OBJ)
+
 # `make test` is the whole set-up on a fresh Debian 12 machine: it installs what
 # is missing, builds, and runs every suite, ending with "N passed, N failed".
 test: deps

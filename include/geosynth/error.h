@@ -27,6 +27,10 @@
 
 #include <stddef.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum gs_err {
     GS_OK = 0,
     GS_ERR_USAGE = 1,       /* wrong command line */
@@ -124,6 +128,10 @@ void gs_error_clear(void);
 void gs_assert_fail(const char *expr, const char *file, int line, const char *func);
 #define GS_ASSERT(cond) \
     ((cond) ? (void)0 : gs_assert_fail(#cond, __FILE__, __LINE__, __func__))
+#endif
+
+#ifdef __cplusplus
+}
 #endif
 
 #endif

@@ -9,8 +9,30 @@
 #define GEOSYNTH_FILE_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "geosynth/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Streaming atomic writes: gs_atomic_begin opens "PATH.tmp" for writing into
+ * af->f; gs_atomic_commit flushes, fsyncs, closes and renames it over PATH
+ * (then fsyncs the directory); gs_atomic_abort closes and removes the
+ * temporary (call it on every error path after begin). */
+typedef struct gs_atomic_file {
+    FILE *f;
+    char *tmp_path;   /* gs_malloc'ed "<path>.tmp" */
+    const char *path; /* borrowed */
+} gs_atomic_file;
+
+gs_err gs_atomic_begin(const char *path, gs_atomic_file *af);
+gs_err gs_atomic_commit(gs_atomic_file *af);
+void gs_atomic_abort(gs_atomic_file *af);
+
+/* Lower-case extension of path without the dot ("" when none) into ext. */
+void gs_path_ext(const char *path, char *ext, size_t ext_len);
 
 gs_err gs_file_write_atomic(const char *path, const void *data, size_t len);
 
@@ -33,5 +55,9 @@ gs_err gs_dir_check_writable(const char *dir);
 gs_err gs_path_absolute(const char *path, const char *base_dir, char **out);
 
 int gs_file_exists(const char *path);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -12,6 +12,10 @@
 
 #include "geosynth/error.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Allocate n bytes (zeroed when zero != 0). Returns NULL on failure or n == 0
  * is treated as 1 byte. Free with gs_free(). */
 void *gs_malloc(size_t n);
@@ -34,5 +38,9 @@ size_t gs_mem_current(void);
 size_t gs_mem_peak(void);
 /* Peak resident set size of the process in bytes (from /proc), 0 if unknown. */
 size_t gs_mem_rss_peak(void);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -1,6 +1,7 @@
 /* File helpers; see include/geosynth/file.h. */
 #include "geosynth/file.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -44,25 +45,85 @@ gs_err gs_file_commit(const char *tmp, const char *path)
     return fsync_dir_of(path);
 }
 
+gs_err gs_atomic_begin(const char *path, gs_atomic_file *af)
+{
+    GS_CHECK(path && path[0], GS_ERR_ARG, "output path is empty");
+    size_t n = strlen(path) + 5;
+    char *tmp = gs_malloc(n);
+    GS_CHECK(tmp, GS_ERR_MEM, "%s: cannot allocate path", path);
+    snprintf(tmp, n, "%s.tmp", path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        int e = errno;
+        gs_free(tmp);
+        GS_RAISE(GS_ERR_IO, "cannot write %s (temporary file %s.tmp): %s", path, path,
+                 strerror(e));
+    }
+    af->f = f;
+    af->tmp_path = tmp;
+    af->path = path;
+    return GS_OK;
+}
+
+void gs_atomic_abort(gs_atomic_file *af)
+{
+    if (af->f)
+        fclose(af->f);
+    if (af->tmp_path)
+        remove(af->tmp_path);
+    af->f = NULL;
+    GS_FREE(af->tmp_path);
+}
+
+gs_err gs_atomic_commit(gs_atomic_file *af)
+{
+    int bad = ferror(af->f) != 0;
+    int e = 0;
+    if (!bad && fflush(af->f) != 0) {
+        bad = 1;
+        e = errno;
+    }
+    if (fclose(af->f) != 0 && !bad) {
+        bad = 1;
+        e = errno;
+    }
+    af->f = NULL;
+    if (bad) {
+        gs_atomic_abort(af);
+        GS_RAISE(GS_ERR_IO, "%s: write failed: %s", af->path, e ? strerror(e) : "stream error");
+    }
+    gs_err err = gs_file_commit(af->tmp_path, af->path);
+    if (err) {
+        gs_atomic_abort(af);
+        return err;
+    }
+    GS_FREE(af->tmp_path);
+    return GS_OK;
+}
+
 gs_err gs_file_write_atomic(const char *path, const void *data, size_t len)
 {
-    char tmp[PATH_MAX];
-    GS_CHECK(snprintf(tmp, sizeof tmp, "%s.tmp", path) < (int)sizeof tmp, GS_ERR_ARG,
-             "path too long: %s", path);
-    FILE *f = fopen(tmp, "wb");
-    GS_CHECK(f != NULL, GS_ERR_IO, "cannot write %s: %s", tmp, strerror(errno));
-    size_t wrote = len ? fwrite(data, 1, len, f) : 0;
-    int flush_rc = fflush(f);
-    int saved = errno;
-    int close_rc = fclose(f);
-    if (wrote != len || flush_rc != 0 || close_rc != 0) {
-        remove(tmp);
-        GS_RAISE(GS_ERR_IO, "cannot write %s: %s", tmp, strerror(saved ? saved : EIO));
+    gs_atomic_file af;
+    GS_CALL(gs_atomic_begin(path, &af));
+    if (len && fwrite(data, 1, len, af.f) != len) {
+        int e = errno;
+        gs_atomic_abort(&af);
+        GS_RAISE(GS_ERR_IO, "%s: write of %zu bytes failed: %s", path, len, strerror(e));
     }
-    gs_err err = gs_file_commit(tmp, path);
-    if (err)
-        remove(tmp);
-    return err;
+    GS_CALL(gs_atomic_commit(&af));
+    return GS_OK;
+}
+
+void gs_path_ext(const char *path, char *ext, size_t ext_len)
+{
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    size_t i = 0;
+    if (dot && (!slash || dot > slash))
+        for (const char *p = dot + 1; *p && i + 1 < ext_len; p++)
+            ext[i++] = (char)tolower((unsigned char)*p);
+    if (ext_len)
+        ext[i] = '\0';
 }
 
 gs_err gs_file_read_all(const char *path, size_t max_bytes, char **data, size_t *len)

@@ -15,7 +15,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
-#include "io/fileio.h"
+#include "geosynth/file.h"
 
 #define STBI_MALLOC(sz) gs_malloc(sz)
 #define STBI_REALLOC(p, sz) gs_realloc(p, sz)

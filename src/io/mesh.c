@@ -11,7 +11,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
-#include "io/fileio.h"
+#include "geosynth/file.h"
 
 void gs_mesh_destroy(gs_mesh *m)
 {

@@ -22,10 +22,8 @@
 #include <openvdb/tools/VolumeToMesh.h>
 
 // error.h and mem.h are plain C headers without extern "C" guards.
-extern "C" {
 #include "geosynth/error.h"
 #include "geosynth/mem.h"
-}
 #include "geosynth/vdb.h"
 
 struct gs_vdb_grid {

@@ -13,7 +13,7 @@
 
 #include "geosynth/mem.h"
 #include "geosynth/parse.h"
-#include "io/fileio.h"
+#include "geosynth/file.h"
 
 #define VOX_MAX_FILE ((size_t)1 << 30)
 #define VOX_MAX_GRAPH_DEPTH 64
@@ -570,7 +570,7 @@ gs_err gs_vox_read(const char *path, gs_vox *out)
     memset(out, 0, sizeof *out);
     uint8_t *buf = NULL;
     size_t len = 0;
-    GS_CALL(gs_file_read_all(path, VOX_MAX_FILE, "voxel", &buf, &len));
+    GS_CALL(gs_file_read_all(path, VOX_MAX_FILE, (char **)&buf, &len));
     gs_err err = gs_vox_parse(buf, len, path, out);
     gs_free(buf);
     GS_CALL(err);
@@ -808,7 +808,7 @@ gs_err gs_vox_write(const char *path, const gs_vox *v)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
     }
-    err = gs_file_write_all(path, buf, len);
+    err = gs_file_write_atomic(path, buf, len);
     gs_free(buf);
     GS_CALL(err);
     return GS_OK;
