@@ -143,13 +143,15 @@ typedef struct gs_model_params {
     int min_changes;    /* accepted regions each active cell must be part of */
     int max_passes;     /* sweeps at most */
     int fix_z_faces;    /* keep bottom/top layers of the initial model (nz >= 3) */
+    int backtracks;     /* undo budget per attempt (AC-3 only); 0 = none, as in the paper */
     gs_model_order order;
     gs_model_weights weights;
     gs_model_ac ac;
 } gs_model_params;
 
 /* Defaults: whole grid, attempts 20, min_changes 1, max_passes 4,
- * fix_z_faces 1, order ENTROPY, weights UNIFORM, AC3, seed 1. */
+ * fix_z_faces 1, backtracks 1000, order ENTROPY, weights UNIFORM, AC3,
+ * seed 1. */
 void gs_model_params_default(gs_model_params *p);
 
 /* ---- initial model -------------------------------------------------------- */
@@ -195,6 +197,7 @@ typedef struct gs_model_region_result {
     int ok;               /* 1 = new labels in out, 0 = gave up (out = old labels) */
     int attempts;         /* tries used (1 .. params.attempts) */
     uint64_t choices;     /* labels picked at random (over all attempts) */
+    uint64_t backtracks;  /* decisions undone (over all attempts) */
 } gs_model_region_result;
 
 /* Synthesizes one region: reads lat (box and its one-cell shell), writes
@@ -215,6 +218,7 @@ typedef struct gs_model_stats {
     uint64_t failed;     /* regions that kept their old content after all attempts */
     uint64_t attempts;   /* tries over all regions (retries = attempts - regions) */
     uint64_t choices;    /* random label choices */
+    uint64_t backtracks; /* decisions undone */
     int passes;          /* sweeps done */
     uint64_t min_coverage; /* fewest accepted regions over any active cell */
     double seconds;

@@ -53,6 +53,26 @@ struct gs_model_solver {
     uint64_t *weights; /* [L] choice weights */
     gs_model_weights weights_kind;
     uint64_t revisions; /* statistics: cells processed by propagation */
+    uint64_t backtracks_done; /* statistics: decisions undone */
+    /* chronological backtracking (AC-3 only): a cell's candidates are saved
+     * on the trail the first time they change at a decision level */
+    int trail_on;
+    uint32_t level, level_counter;
+    uint32_t *stamp;      /* [n] level at which the cell was last saved */
+    int32_t *trail_cell;
+    uint16_t *trail_size;
+    uint64_t *trail_dom;  /* [trail_cap][W] */
+    size_t trail_len, trail_cap;
+    struct gs_model_decision *dec;
+    size_t ndec, dec_cap;
+};
+
+struct gs_model_decision {
+    int32_t cell;
+    int label;
+    size_t mark;     /* trail length before the decision */
+    uint32_t level;  /* level id of the decision */
+    size_t pos;      /* position in the visit order (scan/random) */
 };
 
 /* Prepares the solver for a problem of n cells (grows buffers). */

@@ -45,6 +45,7 @@ gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n)
         GS_CALL(grow((void **)&s->inq, n, 1, "propagation flags"));
         GS_CALL(grow((void **)&s->tie, n, sizeof *s->tie, "tie keys"));
         GS_CALL(grow((void **)&s->order, n, sizeof *s->order, "cell order"));
+        GS_CALL(grow((void **)&s->stamp, n, sizeof *s->stamp, "trail stamps"));
         s->cap = n;
     }
     if (s->ac == GS_MODEL_AC4 && n > s->support_cap) {
@@ -92,6 +93,11 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->support);
     gs_free(s->heap);
     gs_free(s->weights);
+    gs_free(s->stamp);
+    gs_free(s->trail_cell);
+    gs_free(s->trail_size);
+    gs_free(s->trail_dom);
+    gs_free(s->dec);
     gs_free(s);
     *ps = NULL;
 }
@@ -118,6 +124,11 @@ gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int r
             }
     memset(s->inq, 0, n);
     memset(s->pending, 0, n * W * 8);
+    memset(s->stamp, 0, n * sizeof *s->stamp);
+    s->trail_on = 0;
+    s->level = s->level_counter = 1;
+    s->trail_len = 0;
+    s->ndec = 0;
     s->qhead = s->qlen = 0;
     s->heap_on = 0;
     s->heap_len = 0;
@@ -182,6 +193,56 @@ static uint64_t heap_pop(struct gs_model_solver *s)
     if (n)
         s->heap[i] = last;
     return top;
+}
+
+/* ---- trail ------------------------------------------------------------------------- */
+
+/* Saves cell c's candidates before their first change at the current level.
+ * Returns 0 when the trail cannot grow. */
+static int trail_save(struct gs_model_solver *s, int32_t c)
+{
+    if (!s->trail_on || s->stamp[c] == s->level)
+        return 1;
+    const size_t W = (size_t)s->W;
+    if (s->trail_len == s->trail_cap) {
+        size_t ncap = s->trail_cap ? 2 * s->trail_cap : 4096;
+        int32_t *tc = gs_realloc(s->trail_cell, ncap * sizeof *tc);
+        if (!tc)
+            return 0;
+        s->trail_cell = tc;
+        uint16_t *ts = gs_realloc(s->trail_size, ncap * sizeof *ts);
+        if (!ts)
+            return 0;
+        s->trail_size = ts;
+        uint64_t *td = gs_realloc(s->trail_dom, ncap * W * 8);
+        if (!td)
+            return 0;
+        s->trail_dom = td;
+        s->trail_cap = ncap;
+    }
+    size_t t = s->trail_len++;
+    s->trail_cell[t] = c;
+    s->trail_size[t] = s->size[c];
+    memcpy(s->trail_dom + t * W, s->dom + (size_t)c * W, W * 8);
+    s->stamp[c] = s->level;
+    return 1;
+}
+
+static int heap_push(struct gs_model_solver *s, int32_t c);
+
+/* Undoes every change recorded after mark (newest first). */
+static int trail_restore(struct gs_model_solver *s, size_t mark)
+{
+    const size_t W = (size_t)s->W;
+    while (s->trail_len > mark) {
+        size_t t = --s->trail_len;
+        int32_t c = s->trail_cell[t];
+        s->size[c] = s->trail_size[t];
+        memcpy(s->dom + (size_t)c * W, s->trail_dom + t * W, W * 8);
+        if (s->heap_on && s->size[c] > 1 && !heap_push(s, c))
+            return 0;
+    }
+    return 1;
 }
 
 /* ---- propagation ----------------------------------------------------------------- */
@@ -259,15 +320,19 @@ static int ac3_run(struct gs_model_solver *s)
             uint64_t *du = s->dom + (size_t)u * W;
             const uint64_t *sd = use + (size_t)d * W;
             uint64_t diff = 0;
-            int k = 0;
-            for (size_t w = 0; w < W; w++) {
-                uint64_t nv = du[w] & sd[w];
-                diff |= nv ^ du[w];
-                du[w] = nv;
-                k += popcount64(nv);
-            }
+            for (size_t w = 0; w < W; w++)
+                diff |= du[w] & ~sd[w];
             if (!diff)
                 continue;
+            if (!trail_save(s, u)) {
+                ok = 0;
+                goto out;
+            }
+            int k = 0;
+            for (size_t w = 0; w < W; w++) {
+                du[w] &= sd[w];
+                k += popcount64(du[w]);
+            }
             s->size[u] = (uint16_t)k;
             if (k == 0) {
                 ok = 0;
@@ -400,6 +465,8 @@ int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k)
 {
     const size_t W = (size_t)s->W;
     uint64_t *dc = s->dom + (size_t)c * W;
+    if (!trail_save(s, c))
+        return 0;
     if (s->ac == GS_MODEL_AC4) {
         uint64_t *pc = s->pending + (size_t)c * W;
         for (size_t w = 0; w < W; w++)
@@ -411,6 +478,19 @@ int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k)
     s->size[c] = 1;
     enqueue(s, c);
     return s->ac == GS_MODEL_AC4 ? ac4_run(s) : ac3_run(s);
+}
+
+/* Removes label k from cell c (a refuted decision) and propagates (AC-3). */
+static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
+{
+    const size_t W = (size_t)s->W;
+    if (!trail_save(s, c))
+        return 0;
+    s->dom[(size_t)c * W + (size_t)(k >> 6)] &= ~((uint64_t)1 << (k & 63));
+    if (--s->size[c] == 0)
+        return 0;
+    enqueue(s, c);
+    return ac3_run(s);
 }
 
 /* ---- one region ------------------------------------------------------------------- */
@@ -505,7 +585,8 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
     if (!*ok)
         return GS_OK;
     const int32_t n = (int32_t)s->n;
-    if (p->order == GS_MODEL_ORDER_ENTROPY) {
+    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY;
+    if (entropy) {
         for (int32_t c = 0; c < n; c++)
             s->tie[c] = gs_rng_u32(rng);
         s->heap_len = 0;
@@ -513,46 +594,85 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
             if (s->size[c] > 1 && !heap_push(s, c))
                 GS_RAISE(GS_ERR_MEM, "region heap: cannot allocate");
         s->heap_on = 1;
-        while (s->heap_len) {
-            uint64_t key = heap_pop(s);
-            int32_t c = (int32_t)(uint32_t)key;
-            unsigned k = s->size[c] > 255 ? 255u : s->size[c];
-            if (s->size[c] <= 1 || (unsigned)(key >> 56) != k)
-                continue; /* decided, or a newer entry exists */
-            int label = choose_label(s, c, rng);
-            (*choices)++;
-            if (label < 0 || !gs_model_ac_assign(s, c, label)) {
-                *ok = 0;
-                break;
+    } else {
+        const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+        int32_t k = 0;
+        for (int x = 0; x < rx; x++) /* the author's scan: z fastest, then y, then x */
+            for (int y = 0; y < ry; y++)
+                for (int z = 0; z < rz; z++)
+                    s->order[k++] = (uint32_t)(x + rx * (y + ry * z));
+        if (p->order == GS_MODEL_ORDER_RANDOM)
+            for (int32_t i = n - 1; i > 0; i--) {
+                int32_t j = (int32_t)gs_rng_below(rng, (uint64_t)i + 1);
+                uint32_t t = s->order[i];
+                s->order[i] = s->order[j];
+                s->order[j] = t;
             }
-        }
-        s->heap_on = 0;
-        return GS_OK;
     }
-    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
-    int32_t k = 0;
-    for (int x = 0; x < rx; x++) /* the author's scan: z fastest, then y, then x */
-        for (int y = 0; y < ry; y++)
-            for (int z = 0; z < rz; z++)
-                s->order[k++] = (uint32_t)(x + rx * (y + ry * z));
-    if (p->order == GS_MODEL_ORDER_RANDOM)
-        for (int32_t i = n - 1; i > 0; i--) {
-            int32_t j = (int32_t)gs_rng_below(rng, (uint64_t)i + 1);
-            uint32_t t = s->order[i];
-            s->order[i] = s->order[j];
-            s->order[j] = t;
+    const int budget = s->ac == GS_MODEL_AC3 ? p->backtracks : 0;
+    s->trail_on = budget > 0;
+    int backtracks = 0;
+    size_t pos = 0;
+    *ok = 0;
+    for (;;) {
+        /* next undecided cell */
+        int32_t c = -1;
+        if (entropy) {
+            while (s->heap_len) {
+                uint64_t key = heap_pop(s);
+                int32_t cand = (int32_t)(uint32_t)key;
+                unsigned k = s->size[cand] > 255 ? 255u : s->size[cand];
+                if (s->size[cand] > 1 && (unsigned)(key >> 56) == k) {
+                    c = cand;
+                    break;
+                }
+            }
+        } else {
+            while (pos < (size_t)n && s->size[s->order[pos]] <= 1)
+                pos++;
+            if (pos < (size_t)n)
+                c = (int32_t)s->order[pos];
         }
-    for (int32_t i = 0; i < n; i++) {
-        int32_t c = (int32_t)s->order[i];
-        if (s->size[c] <= 1)
-            continue;
-        int label = choose_label(s, c, rng);
-        (*choices)++;
-        if (label < 0 || !gs_model_ac_assign(s, c, label)) {
-            *ok = 0;
+        if (c < 0) {
+            *ok = 1;
             break;
         }
+        int label = choose_label(s, c, rng);
+        (*choices)++;
+        if (label < 0)
+            break;
+        if (budget) {
+            if (s->ndec == s->dec_cap) {
+                size_t ncap = s->dec_cap ? 2 * s->dec_cap : 256;
+                struct gs_model_decision *d = gs_realloc(s->dec, ncap * sizeof *d);
+                GS_CHECK(d != NULL, GS_ERR_MEM, "decision stack: cannot allocate");
+                s->dec = d;
+                s->dec_cap = ncap;
+            }
+            struct gs_model_decision *d = &s->dec[s->ndec++];
+            d->cell = c;
+            d->label = label;
+            d->mark = s->trail_len;
+            d->level = ++s->level_counter;
+            d->pos = pos;
+            s->level = d->level;
+        }
+        int good = gs_model_ac_assign(s, c, label);
+        while (!good) {
+            if (!budget || s->ndec == 0 || backtracks >= budget)
+                goto done;
+            struct gs_model_decision d = s->dec[--s->ndec];
+            backtracks++;
+            GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM, "region heap: cannot allocate");
+            s->level = s->ndec ? s->dec[s->ndec - 1].level : 1;
+            pos = d.pos;
+            good = ac_refute(s, d.cell, d.label);
+        }
     }
+done:
+    s->heap_on = 0;
+    s->trail_on = 0;
+    s->backtracks_done += (uint64_t)backtracks;
     return GS_OK;
 }
 
@@ -574,6 +694,7 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);
+    const uint64_t bt0 = s->backtracks_done;
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
     for (int attempt = 0; attempt < p->attempts && !res->ok; attempt++) {
         gs_rng rng;
@@ -584,6 +705,7 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
         res->attempts = attempt + 1;
         res->ok = ok;
     }
+    res->backtracks = s->backtracks_done - bt0;
     const size_t W = (size_t)s->W;
     size_t c = 0;
     for (int z = 0; z < rz; z++)

@@ -15,6 +15,7 @@ void gs_model_params_default(gs_model_params *p)
     p->min_changes = 1;
     p->max_passes = 4;
     p->fix_z_faces = 1;
+    p->backtracks = 1000;
     p->order = GS_MODEL_ORDER_ENTROPY;
     p->weights = GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = GS_MODEL_AC3;
@@ -28,6 +29,7 @@ static gs_err check_params(const gs_model_params *p)
                  p->region[a]);
     GS_CHECK(p->attempts >= 1 && p->attempts <= 100000, GS_ERR_ARG,
              "model.attempts = %d: expected an integer in [1, 100000]", p->attempts);
+    GS_CHECK(p->backtracks >= 0, GS_ERR_ARG, "model.backtracks = %d: expected >= 0", p->backtracks);
     GS_CHECK(p->min_changes >= 0 && p->min_changes <= 1000, GS_ERR_ARG,
              "model.min_changes = %d: expected an integer in [0, 1000]", p->min_changes);
     GS_CHECK(p->max_passes >= 1 && p->max_passes <= 100000, GS_ERR_ARG,
@@ -173,6 +175,7 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
             st.regions++;
             st.attempts += (uint64_t)res.attempts;
             st.choices += res.choices;
+            st.backtracks += res.backtracks;
             if (!res.ok) {
                 st.failed++;
                 continue;

@@ -61,9 +61,9 @@ static int parse_int(const char *s, int lo, int hi, int *out)
 }
 
 static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order order, gs_model_ac ac,
-                       gs_model_weights weights, int attempts, int seeds)
+                       gs_model_weights weights, int attempts, int backtracks, int seeds)
 {
-    char path[4096];
+    char path[4352];
     snprintf(path, sizeof path, "%s/%s", dir, bc->file);
     gs_model_lattice ex = {0}, out = {0};
     gs_model_rules_t rules = NULL;
@@ -74,7 +74,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
     double exrun[3];
     gs_model_run_lengths(&ex, exrun);
     double secs = 0, run_ratio[3] = {0, 0, 0};
-    uint64_t regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
+    uint64_t nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
     int seeds_clean = 0;
     for (int seed = 1; seed <= seeds; seed++) {
         gs_model_params p;
@@ -86,6 +86,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         p.ac = ac;
         p.weights = weights;
         p.attempts = attempts;
+        p.backtracks = backtracks;
         GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
         gs_model_stats st;
         GS_TRY(err, gs_model_synthesize(rules, &p, &out, &st), done);
@@ -96,6 +97,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         accepted += st.accepted;
         failed += st.failed;
         tries += st.attempts;
+        nback += st.backtracks;
         violations += nviol;
         seeds_clean += st.failed == 0 && nviol == 0;
         double run[3];
@@ -105,15 +107,15 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
     }
     double cells = (double)bc->nx * bc->ny * bc->nz * seeds;
     printf("{\"sample\": \"%s\", \"size\": [%d, %d, %d], \"region\": [%d, %d], \"scale\": %d, "
-           "\"order\": \"%s\", \"ac\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
+           "\"order\": \"%s\", \"ac\": %d, \"backtrack_budget\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
            "\"seconds_per_run\": %.4f, \"cells_per_s\": %.0f, \"regions\": %llu, "
            "\"accepted\": %llu, \"failed\": %llu, \"retries\": %llu, \"violations\": %llu, "
-           "\"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
-           bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac,
+           "\"backtracks\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
+           bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac, backtracks,
            weights == GS_MODEL_WEIGHTS_UNIFORM ? "uniform" : "frequency", attempts, seeds,
            secs / seeds, cells / secs, (unsigned long long)regions, (unsigned long long)accepted,
            (unsigned long long)failed, (unsigned long long)(tries - regions),
-           (unsigned long long)violations, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
+           (unsigned long long)violations, (unsigned long long)nback, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
     fflush(stdout);
 done:
     gs_model_lattice_destroy(&ex);
@@ -128,7 +130,7 @@ int main(int argc, char **argv)
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
              shared ? shared : "../shared");
-    int seeds = 5, attempts = 20, scale = 1, order_sel = GS_MODEL_ORDER_ENTROPY, ac_sel = 3;
+    int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = GS_MODEL_ORDER_ENTROPY, ac_sel = 3;
     gs_model_weights weights = GS_MODEL_WEIGHTS_UNIFORM;
     const char *only = NULL;
     for (int i = 1; i < argc; i++) {
@@ -145,6 +147,9 @@ int main(int argc, char **argv)
                 return 1;
         } else if (!strcmp(a, "--attempts")) {
             if (!parse_int(v, 1, 100000, &attempts))
+                return 1;
+        } else if (!strcmp(a, "--backtracks")) {
+            if (!parse_int(v, 0, 100000000, &backtracks))
                 return 1;
         } else if (!strcmp(a, "--only")) {
             only = v;
@@ -176,7 +181,7 @@ int main(int argc, char **argv)
                 if (ac_sel && ac != ac_sel)
                     continue;
                 if (run_case(dir, &cases[c], (gs_model_order)o, (gs_model_ac)ac, weights, attempts,
-                             seeds) != GS_OK) {
+                             backtracks, seeds) != GS_OK) {
                     gs_error_report("bench_model: ");
                     return 1;
                 }
