@@ -35,6 +35,7 @@ static const bench_case cases[] = {
     {"escheresque.txt", 30, 30, 10, 10, 10, 1},
     {"parliament.txt", 30, 30, 10, 10, 10, 1},
     {"gadgets.txt", 40, 40, 6, 0, 0, 1},
+    {"gadgets.txt", 40, 40, 6, 20, 20, 1},
     {"gadgets2.txt", 40, 40, 6, 0, 0, 1},
     {"castle.txt", 126, 126, 10, 20, 20, 10},
     {"castle.txt", 316, 316, 10, 20, 20, 10},
