@@ -1,0 +1,248 @@
+/* model: example-based model synthesis on label lattices (Merrell, i3D 2007,
+ * ../shared/papers/merrell-model-synthesis.txt).
+ *
+ * Conventions
+ * - A lattice holds one uint16 label per cell, index x + nx*(y + ny*z)
+ *   (x fastest). Label 0 is empty space. Axis z points up; the example's
+ *   lowest layer is the ground.
+ * - Directions: 0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z (opposite = d ^ 1).
+ * - Transition function (paper Eq. 1): label b may sit at v+e_d next to
+ *   label a at v iff that ordered pair occurs somewhere inside the example.
+ *   Only pairs of cells that are both inside the example count: the outside
+ *   of the example imposes nothing and is never a label (as in the author's
+ *   parseTiledModel.cpp). A label that never had a neighbour in direction d
+ *   in the example can therefore only sit on the output face on that side.
+ * - Outside the output is unconstrained (free boundary), as in the author's
+ *   implementation. With fix_z_faces (default for nz >= 3, the author's 3D
+ *   convention) the bottom and top layers keep the labels of the initial
+ *   model (ground below, empty above) and are never relabelled.
+ *
+ * Algorithm (paper Table 2, "modifying in blocks"): start from a trivial
+ * consistent model; pick a region B, forget its labels, recompute the
+ * candidate sets C(M') by arc consistency inside B with the one-cell shell
+ * around B fixed to the current labels, then label the cells of B one at a
+ * time, propagating after each choice. Unlike the paper, a wipe-out first
+ * undoes the latest choices (chronological backtracking, at most
+ * `backtracks` undos per attempt; AC-3 only); an attempt that runs out of
+ * budget is retried with a fresh random stream, and after `attempts` failed
+ * attempts the region keeps its old (consistent) content.
+ *
+ * Cell order inside a region (measured on the author's samples, see the
+ * bench program): ENTROPY (fewest candidates first, random tie-break) is the
+ * default: it succeeded where the author's scan failed (castle 100x100 in
+ * 20x20 regions) and does not streak; SCAN (the author's order, z fastest)
+ * makes runs along x up to 2.5x longer than in the example (city). Regions overlap (stride half the region edge) and
+ * are swept pass after pass until every cell has been in `min_changes`
+ * accepted regions or `max_passes` is reached.
+ *
+ * Parallel shape: regions of one pass carry a colour; regions of one colour
+ * are separated by at least one cell, so their shells never touch and they
+ * can run on different ranks. gs_model_region_run() depends only on (lattice
+ * state, box, params, region id, pass) and writes the region's new labels;
+ * applying the results of a colour in id order, colours in order, gives the
+ * same lattice as the serial driver gs_model_synthesize() for any rank count.
+ *
+ * Memory: rules hold 6*L*ceil(L/64) words (L = largest label + 1). A solver
+ * holds per region cell ceil(L/64)*8 + 40 bytes (AC-3) plus 12*L bytes for
+ * AC-4 support counts (only when AC-4 is selected).
+ * Cost: per region cell roughly one propagation of its choice, each revise
+ * O(|D| * L/64) word operations (AC-3) or O(removed * L/64) (AC-4).
+ */
+#ifndef GEOSYNTH_MODEL_H
+#define GEOSYNTH_MODEL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+
+/* ---- label lattice ------------------------------------------------------ */
+
+typedef struct gs_model_lattice {
+    int nx, ny, nz;
+    uint16_t *labels; /* nx*ny*nz, x fastest; owned */
+} gs_model_lattice;
+
+/* Allocates a zero-filled (all empty) lattice; dims in [1, 2^20] and the cell
+ * count below 2^31. On error *lat is left unchanged. Free with
+ * gs_model_lattice_destroy(). */
+gs_err gs_model_lattice_create(gs_model_lattice *lat, int nx, int ny, int nz);
+void gs_model_lattice_destroy(gs_model_lattice *lat);
+static inline size_t gs_model_lattice_index(const gs_model_lattice *l, int x, int y, int z)
+{
+    return (size_t)x + (size_t)l->nx * ((size_t)y + (size_t)l->ny * (size_t)z);
+}
+/* Digest of the labels (gs_digest_bytes over the array plus dims). */
+uint64_t gs_model_lattice_digest(const gs_model_lattice *lat);
+
+/* Reads Paul Merrell's samples/NAME.txt format: three free header lines, then
+ * "X Y Z" extents, then X*Y*Z integers read z outermost, then x, then y
+ * innermost; an optional "<Objects>" section ends the labels and is ignored.
+ * Errors name the file and line ("castle.txt:7: expected a label in
+ * [0, 65535], got 'a'"). On error *out is left unchanged. */
+gs_err gs_model_read_merrell_txt(const char *path, gs_model_lattice *out);
+/* Same as above from a memory buffer; name is used in messages. */
+gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name,
+                                  gs_model_lattice *out);
+/* Writes a lattice in the same format (readable by the reader above and by
+ * the author's editor scripts, without an <Objects> section). */
+gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat);
+
+/* ---- rules learned from the example ------------------------------------- */
+
+enum { GS_MODEL_DIRS = 6 };
+
+typedef struct gs_model_rules *gs_model_rules_t;
+
+/* Learns the transition bitsets and label frequencies from an example.
+ * The example must contain at least one label. Caller frees with
+ * gs_model_rules_destroy(). On error *out is left unchanged. */
+gs_err gs_model_rules_learn(const gs_model_lattice *example, gs_model_rules_t *out);
+void gs_model_rules_destroy(gs_model_rules_t *rules);
+/* Number of label values (largest label + 1). */
+int gs_model_rules_nlabels(const gs_model_rules_t rules);
+/* 1 when label b may sit at v+e_dir next to label a at v. */
+int gs_model_rules_allows(const gs_model_rules_t rules, int dir, int a, int b);
+/* Occurrences of label in the example (0 for absent labels). */
+uint64_t gs_model_rules_count(const gs_model_rules_t rules, int label);
+/* Number of adjacent pairs of lat that the rules forbid (fast, uses the
+ * learned bitsets; the independent check is gs_model_check()). */
+size_t gs_model_rules_violations(const gs_model_rules_t rules, const gs_model_lattice *lat);
+
+/* ---- independent checker ------------------------------------------------- */
+
+typedef struct gs_model_violation {
+    int x, y, z;   /* first cell */
+    int dir;       /* 0 +x, 2 +y, 4 +z: the second cell is at +1 along that axis */
+    uint16_t a, b; /* labels of the first and second cell */
+} gs_model_violation;
+
+/* Lists the adjacent pairs of output that never occur in example along the
+ * same direction, recomputing the allowed pairs from the example directly
+ * (shares no code with the synthesizer). Also flags cells whose label never
+ * occurs in the example (reported as a pair with itself, dir = -1).
+ * Writes at most cap entries to out (out may be NULL when cap == 0) and the
+ * total count to *count. */
+gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *output,
+                      gs_model_violation *out, size_t cap, size_t *count);
+
+/* ---- parameters ----------------------------------------------------------- */
+
+typedef enum gs_model_order {
+    GS_MODEL_ORDER_SCAN = 0,    /* author's scan: z fastest, then y, then x */
+    GS_MODEL_ORDER_RANDOM = 1,  /* a random permutation of the region's cells */
+    GS_MODEL_ORDER_ENTROPY = 2  /* fewest candidates first, random tie-break */
+} gs_model_order;
+
+typedef enum gs_model_weights {
+    GS_MODEL_WEIGHTS_UNIFORM = 0,   /* every candidate equally likely (author) */
+    GS_MODEL_WEIGHTS_FREQUENCY = 1  /* proportional to occurrences in the example */
+} gs_model_weights;
+
+typedef enum gs_model_ac {
+    GS_MODEL_AC3 = 3, /* bitset AC-3 over cells (default: faster here) */
+    GS_MODEL_AC4 = 4  /* support counts (Mohr-Henderson) */
+} gs_model_ac;
+
+typedef struct gs_model_params {
+    uint64_t seed;
+    int region[3];      /* region edge per axis; 0 or >= extent = whole axis */
+    int attempts;       /* tries per region before keeping the old content */
+    int min_changes;    /* accepted regions each active cell must be part of */
+    int max_passes;     /* sweeps at most */
+    int fix_z_faces;    /* keep bottom/top layers of the initial model (nz >= 3) */
+    int backtracks;     /* undo budget per attempt (AC-3 only); 0 = none, as in the paper */
+    gs_model_order order;
+    gs_model_weights weights;
+    gs_model_ac ac;
+} gs_model_params;
+
+/* Defaults: whole grid, attempts 20, min_changes 1, max_passes 4,
+ * fix_z_faces 1, backtracks 1000, order ENTROPY, weights UNIFORM, AC3,
+ * seed 1. */
+void gs_model_params_default(gs_model_params *p);
+
+/* ---- initial model -------------------------------------------------------- */
+
+/* Builds the trivial consistent start: every column equal to one column of
+ * labels, each horizontally self-tileable (T_x(l,l) and T_y(l,l)) with valid
+ * vertical transitions. The column is searched by dynamic programming over
+ * z, preferring the example's corner column (padded with empty above) and
+ * then labels frequent in the same example layer. column (nz labels) may
+ * be NULL for the inferred one; a given column is only verified. Fails with
+ * GS_ERR_ARG naming the offending pair when no consistent column exists.
+ * out must already have the output dims; all its labels are overwritten. */
+gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *example,
+                        const uint16_t *column, gs_model_lattice *out);
+
+/* ---- regions and the serial driver ---------------------------------------- */
+
+typedef struct gs_model_box {
+    int x0, y0, z0; /* inclusive */
+    int x1, y1, z1; /* exclusive */
+} gs_model_box;
+
+typedef struct gs_model_region {
+    gs_model_box box;
+    uint32_t id;     /* index in the pass plan; plans are sorted by (color, id) */
+    uint32_t color;  /* regions of one color never touch (gap >= 1 cell) */
+} gs_model_region;
+
+/* The regions of one pass for an nx*ny*nz output. Odd passes shift the
+ * region grid by a quarter region so seams move. Caller frees *regions with
+ * gs_free(). */
+gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
+                     gs_model_region **regions, size_t *nregions, int *ncolors);
+
+typedef struct gs_model_solver *gs_model_solver_t;
+
+/* Scratch space for region synthesis (grows on demand). One per thread. */
+gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac,
+                              gs_model_solver_t *out);
+void gs_model_solver_destroy(gs_model_solver_t *s);
+
+typedef struct gs_model_region_result {
+    int ok;               /* 1 = new labels in out, 0 = gave up (out = old labels) */
+    int attempts;         /* tries used (1 .. params.attempts) */
+    uint64_t choices;     /* labels picked at random (over all attempts) */
+    uint64_t backtracks;  /* decisions undone (over all attempts) */
+} gs_model_region_result;
+
+/* Synthesizes one region: reads lat (box and its one-cell shell), writes
+ * (x1-x0)*(y1-y0)*(z1-z0) labels to out (x fastest within the box). Depends
+ * only on (lat, box, p, region_id, pass); randomness from gs_rng streams
+ * keyed by (p->seed, region id, pass, attempt). Does not modify lat. */
+gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
+                           const gs_model_box *box, const gs_model_params *p,
+                           uint64_t region_id, uint64_t pass, uint16_t *out,
+                           gs_model_region_result *res);
+/* Copies a region's labels into lat. */
+void gs_model_region_apply(gs_model_lattice *lat, const gs_model_box *box,
+                           const uint16_t *labels);
+
+typedef struct gs_model_stats {
+    uint64_t regions;    /* region runs */
+    uint64_t accepted;   /* regions whose new labels were applied */
+    uint64_t failed;     /* regions that kept their old content after all attempts */
+    uint64_t attempts;   /* tries over all regions (retries = attempts - regions) */
+    uint64_t choices;    /* random label choices */
+    uint64_t backtracks; /* decisions undone */
+    int passes;          /* sweeps done */
+    uint64_t min_coverage; /* fewest accepted regions over any active cell */
+    double seconds;
+} gs_model_stats;
+
+/* Serial driver: sweeps the plan pass after pass over lat (which must be
+ * consistent, e.g. from gs_model_initial) until every active cell has been in
+ * p->min_changes accepted regions or p->max_passes passes ran. stats may be
+ * NULL. lat stays consistent whatever the outcome. */
+gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
+                           gs_model_lattice *lat, gs_model_stats *stats);
+
+/* ---- statistics ------------------------------------------------------------ */
+
+/* Mean length of runs of equal non-empty labels along each axis (x, y, z);
+ * a streaking output has longer runs than its example along the scan axes. */
+void gs_model_run_lengths(const gs_model_lattice *lat, double mean[3]);
+
+#endif

@@ -1,0 +1,92 @@
+/* Internal layout of the model engine (see include/geosynth/model.h).
+ *
+ * Label sets are bitsets of W = ceil(L/64) words. A region solver keeps one
+ * set per region cell (its candidates C(M')), the region's face-neighbour
+ * table (-1 where the neighbour is outside the region: either a fixed shell
+ * cell, whose constraint is folded into the initial candidates, or outside
+ * the output, which constrains nothing), and the propagation queue.
+ */
+#ifndef GEOSYNTH_MODEL_IMPL_H
+#define GEOSYNTH_MODEL_IMPL_H
+
+#include <stdint.h>
+
+#include "geosynth/model.h"
+#include "geosynth/rng.h"
+
+struct gs_model_rules {
+    int nlabels;            /* L = largest label + 1 */
+    int words;              /* W */
+    int npresent;           /* labels occurring in the example */
+    uint64_t *allow;        /* [L][6][W]: labels allowed at v+e_d given label a at v */
+    uint64_t *present;      /* [W] */
+    uint64_t *full_support; /* [6][W]: union of allow[a][d] over present a */
+    uint64_t *count;        /* [L] occurrences */
+};
+
+static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int a, int d)
+{
+    return r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * (size_t)r->words;
+}
+
+struct gs_model_solver {
+    const struct gs_model_rules *rules;
+    gs_model_ac ac;
+    int W, L;
+    size_t cap;        /* cells allocated */
+    size_t n;          /* cells of the current problem */
+    uint64_t *dom;     /* [n][W] candidates */
+    uint16_t *size;    /* [n] popcount of dom */
+    int32_t *nbr;      /* [n][6] neighbour cell or -1 */
+    int32_t *queue;    /* ring of n cells */
+    uint8_t *inq;      /* [n] */
+    size_t qhead, qlen;
+    uint64_t *pending; /* AC-4: [n][W] labels removed but not yet propagated */
+    uint16_t *support; /* AC-4: [n][6][L] support counts */
+    size_t support_cap;
+    /* cell order */
+    uint64_t *heap;    /* lazy min-heap of (size, tie, cell) keys */
+    size_t heap_len, heap_cap;
+    int heap_on;
+    uint32_t *tie;     /* [n] random tie-break keys */
+    uint32_t *order;   /* [n] visit order (scan, random) */
+    uint64_t *weights; /* [L] choice weights */
+    gs_model_weights weights_kind;
+    uint64_t revisions; /* statistics: cells processed by propagation */
+    uint64_t backtracks_done; /* statistics: decisions undone */
+    /* chronological backtracking (AC-3 only): a cell's candidates are saved
+     * on the trail the first time they change at a decision level */
+    int trail_on;
+    uint32_t level, level_counter;
+    uint32_t *stamp;      /* [n] level at which the cell was last saved */
+    int32_t *trail_cell;
+    uint16_t *trail_size;
+    uint64_t *trail_dom;  /* [trail_cap][W] */
+    size_t trail_len, trail_cap;
+    struct gs_model_decision *dec;
+    size_t ndec, dec_cap;
+};
+
+struct gs_model_decision {
+    int32_t cell;
+    int label;
+    size_t mark;     /* trail length before the decision */
+    uint32_t level;  /* level id of the decision */
+    size_t pos;      /* position in the visit order (scan/random) */
+};
+
+/* Prepares the solver for a problem of n cells (grows buffers). */
+gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n);
+/* Sets up an rx*ry*rz box problem with free outside (every neighbour outside
+ * the box is -1) and all present labels as candidates. For tests and for
+ * region setup, which then narrows dom/size. */
+gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz);
+/* Recomputes size[] from dom[]. Returns 0 if some cell is empty. */
+int gs_model_solver_recount(struct gs_model_solver *s);
+/* Establishes arc consistency from the current candidates with the
+ * solver's algorithm. Returns 1 when consistent, 0 on a wipe-out. */
+int gs_model_ac_establish(struct gs_model_solver *s);
+/* Restricts cell c to label k and propagates. Returns 0 on a wipe-out. */
+int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k);
+
+#endif

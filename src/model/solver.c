@@ -1,0 +1,738 @@
+/* Candidate sets C(M') by arc consistency (bitset AC-3 and support-count
+ * AC-4) and the labelling of one region. See include/geosynth/model.h and
+ * src/model/model_impl.h.
+ *
+ * AC-3 here works on cells, not arcs: a cell whose candidates shrank is
+ * queued once; popping it ORs the transition sets of its remaining labels
+ * into six support masks and intersects each neighbour with one of them.
+ * AC-4 keeps, per (cell, direction, label), the number of neighbour labels
+ * supporting it; a queued cell carries the bitset of labels removed since it
+ * was last processed, and each removal decrements the counts it supported.
+ * Both compute the same (unique) arc-consistent closure.
+ */
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "model/model_impl.h"
+
+#define GS_MODEL_RNG_DOMAIN 0x4d4f444cu /* "MODL" */
+
+static inline int popcount64(uint64_t v) { return __builtin_popcountll(v); }
+static inline int ctz64(uint64_t v) { return __builtin_ctzll(v); }
+
+/* ---- buffers ----------------------------------------------------------------- */
+
+static gs_err grow(void **p, size_t count, size_t size, const char *what)
+{
+    size_t bytes;
+    GS_CHECK(gs_mul_size(count, size, &bytes), GS_ERR_MEM, "%s: size overflows", what);
+    void *q = gs_realloc(*p, bytes ? bytes : 1);
+    GS_CHECK(q != NULL, GS_ERR_MEM, "%s: cannot allocate %zu bytes", what, bytes);
+    *p = q;
+    return GS_OK;
+}
+
+gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n)
+{
+    GS_CHECK(n < ((size_t)1 << 31), GS_ERR_ARG, "region of %zu cells: at most 2^31 supported", n);
+    if (n > s->cap) {
+        size_t W = (size_t)s->W;
+        GS_CALL(grow((void **)&s->dom, n * W, 8, "region candidates"));
+        GS_CALL(grow((void **)&s->pending, n * W, 8, "region removals"));
+        GS_CALL(grow((void **)&s->size, n, sizeof *s->size, "region candidate counts"));
+        GS_CALL(grow((void **)&s->nbr, n * GS_MODEL_DIRS, sizeof *s->nbr, "region neighbours"));
+        GS_CALL(grow((void **)&s->queue, n, sizeof *s->queue, "propagation queue"));
+        GS_CALL(grow((void **)&s->inq, n, 1, "propagation flags"));
+        GS_CALL(grow((void **)&s->tie, n, sizeof *s->tie, "tie keys"));
+        GS_CALL(grow((void **)&s->order, n, sizeof *s->order, "cell order"));
+        GS_CALL(grow((void **)&s->stamp, n, sizeof *s->stamp, "trail stamps"));
+        s->cap = n;
+    }
+    if (s->ac == GS_MODEL_AC4 && n > s->support_cap) {
+        GS_CALL(grow((void **)&s->support, n * GS_MODEL_DIRS * (size_t)s->L, sizeof *s->support,
+                     "AC-4 support counts"));
+        s->support_cap = n;
+    }
+    s->n = n;
+    return GS_OK;
+}
+
+gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_model_solver_t *out)
+{
+    GS_CHECK(ac == GS_MODEL_AC3 || ac == GS_MODEL_AC4, GS_ERR_ARG,
+             "arc consistency algorithm %d: expected 3 (AC-3) or 4 (AC-4)", (int)ac);
+    GS_CHECK(rules->nlabels <= 65535, GS_ERR_ARG, "at most 65535 labels supported");
+    struct gs_model_solver *s = gs_calloc(1, sizeof *s);
+    GS_CHECK(s, GS_ERR_MEM, "model solver: cannot allocate");
+    s->rules = rules;
+    s->ac = ac;
+    s->W = rules->words;
+    s->L = rules->nlabels;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&s->weights, (size_t)s->L, 8, "label weights"), fail);
+    *out = s;
+    return GS_OK;
+fail:
+    gs_model_solver_destroy(&s);
+    return err;
+}
+
+void gs_model_solver_destroy(gs_model_solver_t *ps)
+{
+    if (!ps || !*ps)
+        return;
+    struct gs_model_solver *s = *ps;
+    gs_free(s->dom);
+    gs_free(s->pending);
+    gs_free(s->size);
+    gs_free(s->nbr);
+    gs_free(s->queue);
+    gs_free(s->inq);
+    gs_free(s->tie);
+    gs_free(s->order);
+    gs_free(s->support);
+    gs_free(s->heap);
+    gs_free(s->weights);
+    gs_free(s->stamp);
+    gs_free(s->trail_cell);
+    gs_free(s->trail_size);
+    gs_free(s->trail_dom);
+    gs_free(s->dec);
+    gs_free(s);
+    *ps = NULL;
+}
+
+gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz)
+{
+    size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
+    GS_CALL(gs_model_solver_reserve(s, n));
+    const size_t W = (size_t)s->W;
+    const uint64_t *present = s->rules->present;
+    int32_t c = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, c++) {
+                int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+                nb[0] = x + 1 < rx ? c + 1 : -1;
+                nb[1] = x > 0 ? c - 1 : -1;
+                nb[2] = y + 1 < ry ? c + rx : -1;
+                nb[3] = y > 0 ? c - rx : -1;
+                nb[4] = z + 1 < rz ? c + rx * ry : -1;
+                nb[5] = z > 0 ? c - rx * ry : -1;
+                memcpy(s->dom + (size_t)c * W, present, W * 8);
+                s->size[c] = (uint16_t)s->rules->npresent;
+            }
+    memset(s->inq, 0, n);
+    memset(s->pending, 0, n * W * 8);
+    memset(s->stamp, 0, n * sizeof *s->stamp);
+    s->trail_on = 0;
+    s->level = s->level_counter = 1;
+    s->trail_len = 0;
+    s->ndec = 0;
+    s->qhead = s->qlen = 0;
+    s->heap_on = 0;
+    s->heap_len = 0;
+    return GS_OK;
+}
+
+int gs_model_solver_recount(struct gs_model_solver *s)
+{
+    const size_t W = (size_t)s->W;
+    int ok = 1;
+    for (size_t c = 0; c < s->n; c++) {
+        int k = 0;
+        for (size_t w = 0; w < W; w++)
+            k += popcount64(s->dom[c * W + w]);
+        s->size[c] = (uint16_t)k;
+        ok &= k > 0;
+    }
+    return ok;
+}
+
+/* ---- lazy min-heap of (candidate count, tie key, cell) ------------------------------ */
+
+static int heap_push(struct gs_model_solver *s, int32_t c)
+{
+    if (s->heap_len == s->heap_cap) {
+        size_t ncap = s->heap_cap ? 2 * s->heap_cap : 1024;
+        uint64_t *h = gs_realloc(s->heap, ncap * sizeof *h);
+        if (!h)
+            return 0;
+        s->heap = h;
+        s->heap_cap = ncap;
+    }
+    unsigned k = s->size[c] > 255 ? 255u : s->size[c];
+    uint64_t key = ((uint64_t)k << 56) | ((uint64_t)(s->tie[c] & 0xffffffu) << 32) | (uint32_t)c;
+    size_t i = s->heap_len++;
+    while (i > 0) {
+        size_t parent = (i - 1) / 2;
+        if (s->heap[parent] <= key)
+            break;
+        s->heap[i] = s->heap[parent];
+        i = parent;
+    }
+    s->heap[i] = key;
+    return 1;
+}
+
+static uint64_t heap_pop(struct gs_model_solver *s)
+{
+    uint64_t top = s->heap[0];
+    uint64_t last = s->heap[--s->heap_len];
+    size_t i = 0, n = s->heap_len;
+    for (;;) {
+        size_t l = 2 * i + 1;
+        if (l >= n)
+            break;
+        size_t m = (l + 1 < n && s->heap[l + 1] < s->heap[l]) ? l + 1 : l;
+        if (s->heap[m] >= last)
+            break;
+        s->heap[i] = s->heap[m];
+        i = m;
+    }
+    if (n)
+        s->heap[i] = last;
+    return top;
+}
+
+/* ---- trail ------------------------------------------------------------------------- */
+
+/* Saves cell c's candidates before their first change at the current level.
+ * Returns 0 when the trail cannot grow. */
+static int trail_save(struct gs_model_solver *s, int32_t c)
+{
+    if (!s->trail_on || s->stamp[c] == s->level)
+        return 1;
+    const size_t W = (size_t)s->W;
+    if (s->trail_len == s->trail_cap) {
+        size_t ncap = s->trail_cap ? 2 * s->trail_cap : 4096;
+        int32_t *tc = gs_realloc(s->trail_cell, ncap * sizeof *tc);
+        if (!tc)
+            return 0;
+        s->trail_cell = tc;
+        uint16_t *ts = gs_realloc(s->trail_size, ncap * sizeof *ts);
+        if (!ts)
+            return 0;
+        s->trail_size = ts;
+        uint64_t *td = gs_realloc(s->trail_dom, ncap * W * 8);
+        if (!td)
+            return 0;
+        s->trail_dom = td;
+        s->trail_cap = ncap;
+    }
+    size_t t = s->trail_len++;
+    s->trail_cell[t] = c;
+    s->trail_size[t] = s->size[c];
+    memcpy(s->trail_dom + t * W, s->dom + (size_t)c * W, W * 8);
+    s->stamp[c] = s->level;
+    return 1;
+}
+
+static int heap_push(struct gs_model_solver *s, int32_t c);
+
+/* Undoes every change recorded after mark (newest first). */
+static int trail_restore(struct gs_model_solver *s, size_t mark)
+{
+    const size_t W = (size_t)s->W;
+    while (s->trail_len > mark) {
+        size_t t = --s->trail_len;
+        int32_t c = s->trail_cell[t];
+        s->size[c] = s->trail_size[t];
+        memcpy(s->dom + (size_t)c * W, s->trail_dom + t * W, W * 8);
+        if (s->heap_on && s->size[c] > 1 && !heap_push(s, c))
+            return 0;
+    }
+    return 1;
+}
+
+/* ---- propagation ----------------------------------------------------------------- */
+
+static inline void enqueue(struct gs_model_solver *s, int32_t c)
+{
+    if (s->inq[c])
+        return;
+    s->inq[c] = 1;
+    size_t tail = s->qhead + s->qlen;
+    if (tail >= s->n)
+        tail -= s->n;
+    s->queue[tail] = c;
+    s->qlen++;
+}
+
+static inline int32_t dequeue(struct gs_model_solver *s)
+{
+    int32_t c = s->queue[s->qhead];
+    if (++s->qhead == s->n)
+        s->qhead = 0;
+    s->qlen--;
+    s->inq[c] = 0;
+    return c;
+}
+
+static void queue_clear(struct gs_model_solver *s)
+{
+    while (s->qlen)
+        (void)dequeue(s);
+}
+
+/* Returns 0 on a wipe-out (queue cleared), 1 when the queue drained. */
+static int ac3_run(struct gs_model_solver *s)
+{
+    const struct gs_model_rules *r = s->rules;
+    const size_t W = (size_t)s->W;
+    uint64_t sup[GS_MODEL_DIRS * 4];
+    uint64_t *big = NULL; /* only for more than 256 labels */
+    uint64_t *acc = sup;
+    if (W > 4) {
+        big = gs_malloc(GS_MODEL_DIRS * W * 8);
+        if (!big)
+            return 0;
+        acc = big;
+    }
+    int ok = 1;
+    while (s->qlen) {
+        int32_t c = dequeue(s);
+        s->revisions++;
+        if (s->heap_on && s->size[c] > 1 && !heap_push(s, c)) {
+            ok = 0;
+            break;
+        }
+        const uint64_t *dc = s->dom + (size_t)c * W;
+        const uint64_t *use;
+        if (s->size[c] == r->npresent) {
+            use = r->full_support;
+        } else {
+            memset(acc, 0, GS_MODEL_DIRS * W * 8);
+            for (size_t w = 0; w < W; w++)
+                for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+                    int a = (int)(w * 64) + ctz64(bits);
+                    const uint64_t *al = gs_model_allow(r, a, 0);
+                    for (size_t k = 0; k < GS_MODEL_DIRS * W; k++)
+                        acc[k] |= al[k];
+                }
+            use = acc;
+        }
+        const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+        for (int d = 0; d < GS_MODEL_DIRS; d++) {
+            int32_t u = nb[d];
+            if (u < 0 || s->size[u] == 0)
+                continue;
+            uint64_t *du = s->dom + (size_t)u * W;
+            const uint64_t *sd = use + (size_t)d * W;
+            uint64_t diff = 0;
+            for (size_t w = 0; w < W; w++)
+                diff |= du[w] & ~sd[w];
+            if (!diff)
+                continue;
+            if (!trail_save(s, u)) {
+                ok = 0;
+                goto out;
+            }
+            int k = 0;
+            for (size_t w = 0; w < W; w++) {
+                du[w] &= sd[w];
+                k += popcount64(du[w]);
+            }
+            s->size[u] = (uint16_t)k;
+            if (k == 0) {
+                ok = 0;
+                goto out;
+            }
+            enqueue(s, u);
+        }
+    }
+out:
+    if (!ok)
+        queue_clear(s);
+    gs_free(big);
+    return ok;
+}
+
+static int ac4_run(struct gs_model_solver *s)
+{
+    const struct gs_model_rules *r = s->rules;
+    const size_t W = (size_t)s->W, L = (size_t)s->L;
+    uint64_t rem_small[4];
+    uint64_t *rem = W <= 4 ? rem_small : gs_malloc(W * 8);
+    if (!rem)
+        return 0;
+    int ok = 1;
+    while (s->qlen) {
+        int32_t c = dequeue(s);
+        s->revisions++;
+        if (s->heap_on && s->size[c] > 1 && !heap_push(s, c)) {
+            ok = 0;
+            break;
+        }
+        uint64_t *pc = s->pending + (size_t)c * W;
+        memcpy(rem, pc, W * 8);
+        memset(pc, 0, W * 8);
+        const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+        for (int d = 0; d < GS_MODEL_DIRS; d++) {
+            int32_t u = nb[d];
+            if (u < 0)
+                continue;
+            uint16_t *cnt = s->support + ((size_t)u * GS_MODEL_DIRS + (size_t)(d ^ 1)) * L;
+            uint64_t *du = s->dom + (size_t)u * W;
+            uint64_t *pu = s->pending + (size_t)u * W;
+            for (size_t w = 0; w < W; w++)
+                for (uint64_t bits = rem[w]; bits; bits &= bits - 1) {
+                    int a = (int)(w * 64) + ctz64(bits);
+                    const uint64_t *al = gs_model_allow(r, a, d);
+                    for (size_t v = 0; v < W; v++)
+                        for (uint64_t m = al[v] & du[v]; m; m &= m - 1) {
+                            int b = (int)(v * 64) + ctz64(m);
+                            if (--cnt[b] == 0) {
+                                uint64_t bit = (uint64_t)1 << (b & 63);
+                                du[v] &= ~bit;
+                                pu[v] |= bit;
+                                if (--s->size[u] == 0) {
+                                    ok = 0;
+                                    goto out;
+                                }
+                                enqueue(s, u);
+                            }
+                        }
+                }
+        }
+    }
+out:
+    if (!ok)
+        queue_clear(s);
+    if (rem != rem_small)
+        gs_free(rem);
+    return ok;
+}
+
+int gs_model_ac_establish(struct gs_model_solver *s)
+{
+    const size_t W = (size_t)s->W, L = (size_t)s->L, n = s->n;
+    for (size_t c = 0; c < n; c++)
+        if (s->size[c] == 0)
+            return 0;
+    if (s->ac == GS_MODEL_AC3) {
+        for (size_t c = 0; c < n; c++)
+            enqueue(s, (int32_t)c);
+        return ac3_run(s);
+    }
+    /* AC-4: counts against the current candidates first, then remove the
+     * unsupported labels and propagate those removals. */
+    const struct gs_model_rules *r = s->rules;
+    for (size_t c = 0; c < n; c++) {
+        const int32_t *nb = s->nbr + c * GS_MODEL_DIRS;
+        const uint64_t *dc = s->dom + c * W;
+        uint64_t *pc = s->pending + c * W;
+        for (int d = 0; d < GS_MODEL_DIRS; d++) {
+            int32_t u = nb[d];
+            if (u < 0)
+                continue;
+            const uint64_t *du = s->dom + (size_t)u * W;
+            uint16_t *cnt = s->support + (c * GS_MODEL_DIRS + (size_t)d) * L;
+            for (size_t w = 0; w < W; w++)
+                for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+                    int b = (int)(w * 64) + ctz64(bits);
+                    const uint64_t *al = gs_model_allow(r, b, d);
+                    int k = 0;
+                    for (size_t v = 0; v < W; v++)
+                        k += popcount64(al[v] & du[v]);
+                    cnt[b] = (uint16_t)k;
+                    if (k == 0)
+                        pc[w] |= (uint64_t)1 << (b & 63);
+                }
+        }
+    }
+    for (size_t c = 0; c < n; c++) {
+        uint64_t *dc = s->dom + c * W, *pc = s->pending + c * W;
+        int any = 0, k = 0;
+        for (size_t w = 0; w < W; w++) {
+            any |= pc[w] != 0;
+            dc[w] &= ~pc[w];
+            k += popcount64(dc[w]);
+        }
+        if (!any)
+            continue;
+        s->size[c] = (uint16_t)k;
+        if (k == 0) {
+            queue_clear(s);
+            return 0;
+        }
+        enqueue(s, (int32_t)c);
+    }
+    return ac4_run(s);
+}
+
+int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k)
+{
+    const size_t W = (size_t)s->W;
+    uint64_t *dc = s->dom + (size_t)c * W;
+    if (!trail_save(s, c))
+        return 0;
+    if (s->ac == GS_MODEL_AC4) {
+        uint64_t *pc = s->pending + (size_t)c * W;
+        for (size_t w = 0; w < W; w++)
+            pc[w] |= dc[w];
+        pc[k >> 6] &= ~((uint64_t)1 << (k & 63));
+    }
+    memset(dc, 0, W * 8);
+    dc[k >> 6] = (uint64_t)1 << (k & 63);
+    s->size[c] = 1;
+    enqueue(s, c);
+    return s->ac == GS_MODEL_AC4 ? ac4_run(s) : ac3_run(s);
+}
+
+/* Removes label k from cell c (a refuted decision) and propagates (AC-3). */
+static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
+{
+    const size_t W = (size_t)s->W;
+    if (!trail_save(s, c))
+        return 0;
+    s->dom[(size_t)c * W + (size_t)(k >> 6)] &= ~((uint64_t)1 << (k & 63));
+    if (--s->size[c] == 0)
+        return 0;
+    enqueue(s, c);
+    return ac3_run(s);
+}
+
+/* ---- one region ------------------------------------------------------------------- */
+
+/* Candidates of the region's cells: present labels narrowed by the fixed
+ * shell cells (labels of lat just outside the box, inside the output). */
+static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *lat,
+                           const gs_model_box *b, int *ok)
+{
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    GS_CALL(gs_model_solver_load_box(s, rx, ry, rz));
+    const struct gs_model_rules *r = s->rules;
+    const size_t W = (size_t)s->W;
+    static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
+                                               {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    int32_t c = 0;
+    *ok = 1;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, c++) {
+                if (x > 0 && x + 1 < rx && y > 0 && y + 1 < ry && z > 0 && z + 1 < rz)
+                    continue; /* interior: jump handled by the loop cheaply enough */
+                const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+                uint64_t *dc = s->dom + (size_t)c * W;
+                for (int d = 0; d < GS_MODEL_DIRS; d++) {
+                    if (nb[d] >= 0)
+                        continue;
+                    int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
+                        qz = b->z0 + z + step[d][2];
+                    if (qx < 0 || qy < 0 || qz < 0 || qx >= lat->nx || qy >= lat->ny ||
+                        qz >= lat->nz)
+                        continue; /* outside the output: free */
+                    int m = lat->labels[gs_model_lattice_index(lat, qx, qy, qz)];
+                    if (m >= s->L) {
+                        for (size_t w = 0; w < W; w++)
+                            dc[w] = 0;
+                        continue;
+                    }
+                    /* label a at p needs m at p+e_d: a in allow[m][opposite d] */
+                    const uint64_t *al = gs_model_allow(r, m, d ^ 1);
+                    for (size_t w = 0; w < W; w++)
+                        dc[w] &= al[w];
+                }
+            }
+    *ok = gs_model_solver_recount(s);
+    return GS_OK;
+}
+
+static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
+{
+    const size_t W = (size_t)s->W;
+    const uint64_t *dc = s->dom + (size_t)c * W;
+    if (s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM) {
+        uint64_t pick = gs_rng_below(rng, s->size[c]);
+        for (size_t w = 0; w < W; w++) {
+            uint64_t bits = dc[w];
+            int k = popcount64(bits);
+            if (pick >= (uint64_t)k) {
+                pick -= (uint64_t)k;
+                continue;
+            }
+            for (; pick; pick--)
+                bits &= bits - 1;
+            return (int)(w * 64) + ctz64(bits);
+        }
+        return -1;
+    }
+    uint64_t total = 0;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1)
+            total += s->weights[w * 64 + (size_t)ctz64(bits)];
+    uint64_t pick = gs_rng_below(rng, total);
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (pick < s->weights[a])
+                return a;
+            pick -= s->weights[a];
+        }
+    return -1;
+}
+
+/* One attempt: returns 1 when every cell ended with exactly one label. */
+static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *lat,
+                             const gs_model_box *b, const gs_model_params *p, gs_rng *rng,
+                             uint64_t *choices, int *ok)
+{
+    GS_CALL(setup_region(s, lat, b, ok));
+    if (!*ok)
+        return GS_OK;
+    *ok = gs_model_ac_establish(s);
+    if (!*ok)
+        return GS_OK;
+    const int32_t n = (int32_t)s->n;
+    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY;
+    if (entropy) {
+        for (int32_t c = 0; c < n; c++)
+            s->tie[c] = gs_rng_u32(rng);
+        s->heap_len = 0;
+        for (int32_t c = 0; c < n; c++)
+            if (s->size[c] > 1 && !heap_push(s, c))
+                GS_RAISE(GS_ERR_MEM, "region heap: cannot allocate");
+        s->heap_on = 1;
+    } else {
+        const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+        int32_t k = 0;
+        for (int x = 0; x < rx; x++) /* the author's scan: z fastest, then y, then x */
+            for (int y = 0; y < ry; y++)
+                for (int z = 0; z < rz; z++)
+                    s->order[k++] = (uint32_t)(x + rx * (y + ry * z));
+        if (p->order == GS_MODEL_ORDER_RANDOM)
+            for (int32_t i = n - 1; i > 0; i--) {
+                int32_t j = (int32_t)gs_rng_below(rng, (uint64_t)i + 1);
+                uint32_t t = s->order[i];
+                s->order[i] = s->order[j];
+                s->order[j] = t;
+            }
+    }
+    const int budget = s->ac == GS_MODEL_AC3 ? p->backtracks : 0;
+    s->trail_on = budget > 0;
+    int backtracks = 0;
+    size_t pos = 0;
+    *ok = 0;
+    for (;;) {
+        /* next undecided cell */
+        int32_t c = -1;
+        if (entropy) {
+            while (s->heap_len) {
+                uint64_t key = heap_pop(s);
+                int32_t cand = (int32_t)(uint32_t)key;
+                unsigned k = s->size[cand] > 255 ? 255u : s->size[cand];
+                if (s->size[cand] > 1 && (unsigned)(key >> 56) == k) {
+                    c = cand;
+                    break;
+                }
+            }
+        } else {
+            while (pos < (size_t)n && s->size[s->order[pos]] <= 1)
+                pos++;
+            if (pos < (size_t)n)
+                c = (int32_t)s->order[pos];
+        }
+        if (c < 0) {
+            *ok = 1;
+            break;
+        }
+        int label = choose_label(s, c, rng);
+        (*choices)++;
+        if (label < 0)
+            break;
+        if (budget) {
+            if (s->ndec == s->dec_cap) {
+                size_t ncap = s->dec_cap ? 2 * s->dec_cap : 256;
+                struct gs_model_decision *d = gs_realloc(s->dec, ncap * sizeof *d);
+                GS_CHECK(d != NULL, GS_ERR_MEM, "decision stack: cannot allocate");
+                s->dec = d;
+                s->dec_cap = ncap;
+            }
+            struct gs_model_decision *d = &s->dec[s->ndec++];
+            d->cell = c;
+            d->label = label;
+            d->mark = s->trail_len;
+            d->level = ++s->level_counter;
+            d->pos = pos;
+            s->level = d->level;
+        }
+        int good = gs_model_ac_assign(s, c, label);
+        while (!good) {
+            if (!budget || s->ndec == 0 || backtracks >= budget)
+                goto done;
+            struct gs_model_decision d = s->dec[--s->ndec];
+            backtracks++;
+            GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM, "region heap: cannot allocate");
+            s->level = s->ndec ? s->dec[s->ndec - 1].level : 1;
+            pos = d.pos;
+            good = ac_refute(s, d.cell, d.label);
+        }
+    }
+done:
+    s->heap_on = 0;
+    s->trail_on = 0;
+    s->backtracks_done += (uint64_t)backtracks;
+    return GS_OK;
+}
+
+gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
+                           const gs_model_box *b, const gs_model_params *p,
+                           uint64_t region_id, uint64_t pass, uint16_t *out,
+                           gs_model_region_result *res)
+{
+    GS_CHECK(b->x0 >= 0 && b->y0 >= 0 && b->z0 >= 0 && b->x1 <= lat->nx && b->y1 <= lat->ny &&
+                 b->z1 <= lat->nz && b->x0 < b->x1 && b->y0 < b->y1 && b->z0 < b->z1,
+             GS_ERR_ARG, "region [%d,%d)x[%d,%d)x[%d,%d) is empty or outside the %dx%dx%d lattice",
+             b->x0, b->x1, b->y0, b->y1, b->z0, b->z1, lat->nx, lat->ny, lat->nz);
+    GS_CHECK(p->attempts >= 1, GS_ERR_ARG, "model.attempts = %d: expected >= 1", p->attempts);
+    if (s->ac != p->ac) {
+        s->ac = p->ac;
+        s->support_cap = 0; /* force (re)allocation of AC-4 counts */
+    }
+    s->weights_kind = p->weights;
+    for (int a = 0; a < s->L; a++)
+        s->weights[a] = s->rules->count[a];
+    memset(res, 0, sizeof *res);
+    const uint64_t bt0 = s->backtracks_done;
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    for (int attempt = 0; attempt < p->attempts && !res->ok; attempt++) {
+        gs_rng rng;
+        gs_rng_init(&rng, p->seed, gs_rng_stream_id(GS_MODEL_RNG_DOMAIN, region_id, pass,
+                                                     (uint64_t)attempt));
+        int ok = 0;
+        GS_CALL(attempt_region(s, lat, b, p, &rng, &res->choices, &ok));
+        res->attempts = attempt + 1;
+        res->ok = ok;
+    }
+    res->backtracks = s->backtracks_done - bt0;
+    const size_t W = (size_t)s->W;
+    size_t c = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, c++) {
+                if (!res->ok) {
+                    out[c] = lat->labels[gs_model_lattice_index(lat, b->x0 + x, b->y0 + y,
+                                                                b->z0 + z)];
+                    continue;
+                }
+                const uint64_t *dc = s->dom + c * W;
+                size_t w = 0;
+                while (!dc[w])
+                    w++;
+                out[c] = (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
+            }
+    return GS_OK;
+}
+
+void gs_model_region_apply(gs_model_lattice *lat, const gs_model_box *b, const uint16_t *labels)
+{
+    size_t c = 0;
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++) {
+            size_t row = gs_model_lattice_index(lat, b->x0, y, z);
+            size_t len = (size_t)(b->x1 - b->x0);
+            memcpy(lat->labels + row, labels + c, len * sizeof *labels);
+            c += len;
+        }
+}

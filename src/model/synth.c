@@ -1,0 +1,218 @@
+/* Region plans (overlapping sweeps with colours) and the serial driver.
+ * See include/geosynth/model.h. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "model/model_impl.h"
+
+void gs_model_params_default(gs_model_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->seed = 1;
+    p->attempts = 20;
+    p->min_changes = 1;
+    p->max_passes = 4;
+    p->fix_z_faces = 1;
+    p->backtracks = 1000;
+    p->order = GS_MODEL_ORDER_ENTROPY;
+    p->weights = GS_MODEL_WEIGHTS_UNIFORM;
+    p->ac = GS_MODEL_AC3;
+}
+
+static gs_err check_params(const gs_model_params *p)
+{
+    for (int a = 0; a < 3; a++)
+        GS_CHECK(p->region[a] >= 0, GS_ERR_ARG,
+                 "model.region[%d] = %d: expected 0 (whole axis) or a positive edge", a,
+                 p->region[a]);
+    GS_CHECK(p->attempts >= 1 && p->attempts <= 100000, GS_ERR_ARG,
+             "model.attempts = %d: expected an integer in [1, 100000]", p->attempts);
+    GS_CHECK(p->backtracks >= 0, GS_ERR_ARG, "model.backtracks = %d: expected >= 0", p->backtracks);
+    GS_CHECK(p->min_changes >= 0 && p->min_changes <= 1000, GS_ERR_ARG,
+             "model.min_changes = %d: expected an integer in [0, 1000]", p->min_changes);
+    GS_CHECK(p->max_passes >= 1 && p->max_passes <= 100000, GS_ERR_ARG,
+             "model.max_passes = %d: expected an integer in [1, 100000]", p->max_passes);
+    GS_CHECK(p->order == GS_MODEL_ORDER_SCAN || p->order == GS_MODEL_ORDER_RANDOM ||
+                 p->order == GS_MODEL_ORDER_ENTROPY,
+             GS_ERR_ARG, "model.order = %d: expected scan, random or entropy", (int)p->order);
+    GS_CHECK(p->weights == GS_MODEL_WEIGHTS_UNIFORM || p->weights == GS_MODEL_WEIGHTS_FREQUENCY,
+             GS_ERR_ARG, "model.weights = %d: expected uniform or frequency", (int)p->weights);
+    GS_CHECK(p->ac == GS_MODEL_AC3 || p->ac == GS_MODEL_AC4, GS_ERR_ARG,
+             "model.ac = %d: expected 3 or 4", (int)p->ac);
+    return GS_OK;
+}
+
+/* Active z range: everything, or without the bottom and top layers. */
+static void active_z(const gs_model_params *p, int nz, int *lo, int *hi)
+{
+    int fix = p->fix_z_faces && nz >= 3;
+    *lo = fix ? 1 : 0;
+    *hi = fix ? nz - 1 : nz;
+}
+
+/* Region starts along one axis of extent n with edge b (<= n). Stride b/2;
+ * odd passes shift the grid by a quarter region. Returns the count; colours
+ * along the axis in *m (regions k and k+m are >= 1 cell apart). */
+static int axis_starts(int n, int b, int pass, int *starts, int *m)
+{
+    int k = 0;
+    if (b >= n) {
+        starts[k++] = 0;
+    } else {
+        int s = b / 2 > 0 ? b / 2 : 1;
+        int o = (pass & 1) ? s / 2 : 0;
+        for (int t = -o;; t += s) {
+            int st = t < 0 ? 0 : (t > n - b ? n - b : t);
+            if (k == 0 || st != starts[k - 1])
+                starts[k++] = st;
+            if (st == n - b)
+                break;
+        }
+    }
+    int mm = 1;
+    for (;;) {
+        int good = 1;
+        for (int i = 0; i + mm < k; i++)
+            if (starts[i + mm] < starts[i] + b + 1)
+                good = 0;
+        if (good)
+            break;
+        mm++;
+    }
+    *m = mm;
+    return k;
+}
+
+static int cmp_color(const void *pa, const void *pb)
+{
+    const gs_model_region *a = pa, *b = pb;
+    if (a->color != b->color)
+        return a->color < b->color ? -1 : 1;
+    return (a->id > b->id) - (a->id < b->id);
+}
+
+gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
+                     gs_model_region **regions, size_t *nregions, int *ncolors)
+{
+    GS_CALL(check_params(p));
+    int zlo, zhi;
+    active_z(p, nz, &zlo, &zhi);
+    const int ext[3] = {nx, ny, zhi - zlo};
+    int edge[3], m[3], cnt[3];
+    int *starts[3] = {NULL, NULL, NULL};
+    gs_err err = GS_OK;
+    for (int a = 0; a < 3; a++) {
+        GS_TRY_CHECK(err, ext[a] >= 1, GS_ERR_ARG, done, "output extent %d along axis %d", ext[a],
+                     a);
+        edge[a] = (p->region[a] <= 0 || p->region[a] >= ext[a]) ? ext[a] : p->region[a];
+        GS_TRY(err, gs_alloc_array((void **)&starts[a], (size_t)ext[a] + 2, sizeof(int), "plan"),
+               done);
+        cnt[a] = axis_starts(ext[a], edge[a], pass, starts[a], &m[a]);
+    }
+    size_t n = (size_t)cnt[0] * (size_t)cnt[1] * (size_t)cnt[2];
+    gs_model_region *list = NULL;
+    GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "region plan"), done);
+    size_t i = 0;
+    for (int kz = 0; kz < cnt[2]; kz++)
+        for (int ky = 0; ky < cnt[1]; ky++)
+            for (int kx = 0; kx < cnt[0]; kx++, i++) {
+                gs_model_region *r = &list[i];
+                r->box.x0 = starts[0][kx];
+                r->box.y0 = starts[1][ky];
+                r->box.z0 = zlo + starts[2][kz];
+                r->box.x1 = r->box.x0 + edge[0];
+                r->box.y1 = r->box.y0 + edge[1];
+                r->box.z1 = r->box.z0 + edge[2];
+                r->color = (uint32_t)((kx % m[0]) + m[0] * ((ky % m[1]) + m[1] * (kz % m[2])));
+                r->id = (uint32_t)i;
+            }
+    qsort(list, n, sizeof *list, cmp_color);
+    for (i = 0; i < n; i++)
+        list[i].id = (uint32_t)i;
+    *regions = list;
+    *nregions = n;
+    *ncolors = m[0] * m[1] * m[2];
+done:
+    for (int a = 0; a < 3; a++)
+        gs_free(starts[a]);
+    return err;
+}
+
+gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
+                           gs_model_lattice *lat, gs_model_stats *stats)
+{
+    GS_CALL(check_params(p));
+    gs_model_stats st;
+    memset(&st, 0, sizeof st);
+    double t0 = gs_time_now();
+    int zlo, zhi;
+    active_z(p, lat->nz, &zlo, &zhi);
+    const size_t ncell = (size_t)lat->nx * (size_t)lat->ny * (size_t)lat->nz;
+    uint16_t *coverage = NULL, *buf = NULL;
+    gs_model_region *plan = NULL;
+    gs_model_solver_t solver = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&coverage, ncell, sizeof *coverage, "coverage"), done);
+    GS_TRY(err, gs_model_solver_create(rules, p->ac, &solver), done);
+    int pass = 0;
+    for (; pass < p->max_passes; pass++) {
+        size_t nplan = 0;
+        int ncolors = 0;
+        GS_TRY(err, gs_model_plan(p, lat->nx, lat->ny, lat->nz, pass, &plan, &nplan, &ncolors),
+               done);
+        if (!buf) {
+            const gs_model_box *b = &plan[0].box;
+            size_t cells = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+            GS_TRY(err, gs_alloc_array((void **)&buf, cells, sizeof *buf, "region labels"), done);
+        }
+        for (size_t i = 0; i < nplan; i++) {
+            const gs_model_box *b = &plan[i].box;
+            gs_model_region_result res;
+            GS_TRY(err, gs_model_region_run(solver, lat, b, p, plan[i].id, (uint64_t)pass, buf, &res),
+                   done);
+            st.regions++;
+            st.attempts += (uint64_t)res.attempts;
+            st.choices += res.choices;
+            st.backtracks += res.backtracks;
+            if (!res.ok) {
+                st.failed++;
+                continue;
+            }
+            st.accepted++;
+            gs_model_region_apply(lat, b, buf);
+            for (int z = b->z0; z < b->z1; z++)
+                for (int y = b->y0; y < b->y1; y++)
+                    for (int x = b->x0; x < b->x1; x++) {
+                        uint16_t *cv = &coverage[gs_model_lattice_index(lat, x, y, z)];
+                        if (*cv < UINT16_MAX)
+                            (*cv)++;
+                    }
+        }
+        GS_FREE(plan);
+        uint64_t mincov = UINT64_MAX;
+        for (int z = zlo; z < zhi; z++)
+            for (int y = 0; y < lat->ny; y++)
+                for (int x = 0; x < lat->nx; x++) {
+                    uint64_t cv = coverage[gs_model_lattice_index(lat, x, y, z)];
+                    if (cv < mincov)
+                        mincov = cv;
+                }
+        st.min_coverage = mincov == UINT64_MAX ? 0 : mincov;
+        if (st.min_coverage >= (uint64_t)p->min_changes) {
+            pass++;
+            break;
+        }
+    }
+    st.passes = pass;
+    st.seconds = gs_time_now() - t0;
+    if (stats)
+        *stats = st;
+done:
+    gs_free(coverage);
+    gs_free(buf);
+    gs_free(plan);
+    gs_model_solver_destroy(&solver);
+    return err;
+}

@@ -1,0 +1,193 @@
+/* Model synthesis benchmark: runs Paul Merrell's 3D samples at the sizes of
+ * his samples.xml (and larger) over several seeds and prints one JSON object
+ * per (case, setting) on stdout: cells/s, accepted/failed regions, retries,
+ * adjacency violations (independent checker), run-length ratio vs example.
+ *
+ *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME]
+ *       [--order scan|random|entropy|all] [--ac 3|4|both] [--weights uniform|frequency]
+ *       [--scale 1|10|all] [--attempts K]
+ *
+ * DIR defaults to $GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
+ * ($GS_SHARED defaults to ../shared).
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/model.h"
+#include "geosynth/parse.h"
+
+typedef struct bench_case {
+    const char *file;
+    int nx, ny, nz, bx, by; /* bx = by = 0: whole grid */
+    int scale;              /* 1: author's size, 10: ten times the cells */
+} bench_case;
+
+static const bench_case cases[] = {
+    {"castle.txt", 40, 40, 10, 0, 0, 1},
+    {"castle.txt", 100, 100, 10, 20, 20, 1},
+    {"city.txt", 40, 40, 10, 0, 0, 1},
+    {"city lights.txt", 40, 40, 10, 0, 0, 1},
+    {"canyon.txt", 40, 40, 10, 0, 0, 1},
+    {"mountain.txt", 40, 40, 10, 0, 0, 1},
+    {"escheresque.txt", 30, 30, 10, 10, 10, 1},
+    {"parliament.txt", 30, 30, 10, 10, 10, 1},
+    {"gadgets.txt", 40, 40, 6, 0, 0, 1},
+    {"gadgets.txt", 40, 40, 6, 20, 20, 1},
+    {"gadgets2.txt", 40, 40, 6, 0, 0, 1},
+    {"castle.txt", 126, 126, 10, 20, 20, 10},
+    {"castle.txt", 316, 316, 10, 20, 20, 10},
+    {"city.txt", 126, 126, 10, 20, 20, 10},
+    {"canyon.txt", 126, 126, 10, 20, 20, 10},
+    {"mountain.txt", 126, 126, 10, 20, 20, 10},
+    {"escheresque.txt", 95, 95, 10, 10, 10, 10},
+    {"parliament.txt", 95, 95, 10, 10, 10, 10},
+    {"gadgets.txt", 126, 126, 6, 20, 20, 10},
+};
+
+static const char *order_name[] = {"scan", "random", "entropy"};
+
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    int64_t v;
+    char why[128];
+    if (!gs_parse_i64(s, lo, hi, &v, why, sizeof why)) {
+        fprintf(stderr, "bench_model: %s\n", why);
+        return 0;
+    }
+    *out = (int)v;
+    return 1;
+}
+
+static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order order, gs_model_ac ac,
+                       gs_model_weights weights, int attempts, int backtracks, int seeds)
+{
+    char path[4352];
+    snprintf(path, sizeof path, "%s/%s", dir, bc->file);
+    gs_model_lattice ex = {0}, out = {0};
+    gs_model_rules_t rules = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_model_read_merrell_txt(path, &ex), done);
+    GS_TRY(err, gs_model_rules_learn(&ex, &rules), done);
+    GS_TRY(err, gs_model_lattice_create(&out, bc->nx, bc->ny, bc->nz), done);
+    double exrun[3];
+    gs_model_run_lengths(&ex, exrun);
+    double secs = 0, run_ratio[3] = {0, 0, 0};
+    uint64_t nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
+    int seeds_clean = 0;
+    for (int seed = 1; seed <= seeds; seed++) {
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = (uint64_t)seed;
+        p.region[0] = bc->bx;
+        p.region[1] = bc->by;
+        p.order = order;
+        p.ac = ac;
+        p.weights = weights;
+        p.attempts = attempts;
+        p.backtracks = backtracks;
+        GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
+        gs_model_stats st;
+        GS_TRY(err, gs_model_synthesize(rules, &p, &out, &st), done);
+        size_t nviol = 0;
+        GS_TRY(err, gs_model_check(&ex, &out, NULL, 0, &nviol), done);
+        secs += st.seconds;
+        regions += st.regions;
+        accepted += st.accepted;
+        failed += st.failed;
+        tries += st.attempts;
+        nback += st.backtracks;
+        violations += nviol;
+        seeds_clean += st.failed == 0 && nviol == 0;
+        double run[3];
+        gs_model_run_lengths(&out, run);
+        for (int a = 0; a < 3; a++)
+            run_ratio[a] += exrun[a] > 0 ? run[a] / exrun[a] / seeds : 0;
+    }
+    double cells = (double)bc->nx * bc->ny * bc->nz * seeds;
+    printf("{\"sample\": \"%s\", \"size\": [%d, %d, %d], \"region\": [%d, %d], \"scale\": %d, "
+           "\"order\": \"%s\", \"ac\": %d, \"backtrack_budget\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
+           "\"seconds_per_run\": %.4f, \"cells_per_s\": %.0f, \"regions\": %llu, "
+           "\"accepted\": %llu, \"failed\": %llu, \"retries\": %llu, \"violations\": %llu, "
+           "\"backtracks\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
+           bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac, backtracks,
+           weights == GS_MODEL_WEIGHTS_UNIFORM ? "uniform" : "frequency", attempts, seeds,
+           secs / seeds, cells / secs, (unsigned long long)regions, (unsigned long long)accepted,
+           (unsigned long long)failed, (unsigned long long)(tries - regions),
+           (unsigned long long)violations, (unsigned long long)nback, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
+    fflush(stdout);
+done:
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+    gs_model_rules_destroy(&rules);
+    return err;
+}
+
+int main(int argc, char **argv)
+{
+    const char *shared = getenv("GS_SHARED");
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
+             shared ? shared : "../shared");
+    int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = GS_MODEL_ORDER_ENTROPY, ac_sel = 3;
+    gs_model_weights weights = GS_MODEL_WEIGHTS_UNIFORM;
+    const char *only = NULL;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!v) {
+            fprintf(stderr, "bench_model: %s needs a value\n", a);
+            return 1;
+        }
+        i++;
+        if (!strcmp(a, "--data")) {
+            snprintf(dir, sizeof dir, "%s", v);
+        } else if (!strcmp(a, "--seeds")) {
+            if (!parse_int(v, 1, 1000, &seeds))
+                return 1;
+        } else if (!strcmp(a, "--attempts")) {
+            if (!parse_int(v, 1, 100000, &attempts))
+                return 1;
+        } else if (!strcmp(a, "--backtracks")) {
+            if (!parse_int(v, 0, 100000000, &backtracks))
+                return 1;
+        } else if (!strcmp(a, "--only")) {
+            only = v;
+        } else if (!strcmp(a, "--scale")) {
+            scale = !strcmp(v, "all") ? 0 : (!strcmp(v, "10") ? 10 : 1);
+        } else if (!strcmp(a, "--order")) {
+            order_sel = !strcmp(v, "scan")     ? 0
+                        : !strcmp(v, "random") ? 1
+                        : !strcmp(v, "all")    ? -1
+                                               : 2;
+        } else if (!strcmp(a, "--ac")) {
+            ac_sel = !strcmp(v, "4") ? 4 : !strcmp(v, "both") ? 0 : 3;
+        } else if (!strcmp(a, "--weights")) {
+            weights = !strcmp(v, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY : GS_MODEL_WEIGHTS_UNIFORM;
+        } else {
+            fprintf(stderr, "bench_model: unknown option %s\n", a);
+            return 1;
+        }
+    }
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (scale && cases[c].scale != scale)
+            continue;
+        if (only && !strstr(cases[c].file, only))
+            continue;
+        for (int o = 0; o < 3; o++) {
+            if (order_sel >= 0 && o != order_sel)
+                continue;
+            for (int ac = 3; ac <= 4; ac++) {
+                if (ac_sel && ac != ac_sel)
+                    continue;
+                if (run_case(dir, &cases[c], (gs_model_order)o, (gs_model_ac)ac, weights, attempts,
+                             backtracks, seeds) != GS_OK) {
+                    gs_error_report("bench_model: ");
+                    return 1;
+                }
+            }
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,452 @@
+/* Unit tests for src/model: reader, transition learning, AC-3 == AC-4,
+ * start model, plans, region API, synthesis of the author's samples (checked
+ * by the independent checker), determinism. Runs from tests/. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/error.h"
+#include "geosynth/mem.h"
+#include "geosynth/model.h"
+#include "geosynth/rng.h"
+#include "model/model_impl.h"
+
+static const char *sample_dir(void)
+{
+    static char dir[4096];
+    const char *shared = getenv("GS_SHARED");
+    snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
+             shared ? shared : "../../shared");
+    return dir;
+}
+
+static void read_sample(const char *name, gs_model_lattice *ex)
+{
+    char path[4352];
+    snprintf(path, sizeof path, "%s/%s", sample_dir(), name);
+    gs_err e = gs_model_read_merrell_txt(path, ex);
+    if (e != GS_OK)
+        gs_error_report("test_model: ");
+    assert_int_equal(e, GS_OK);
+}
+
+/* 2x3x2 example, file order z outer, x, y inner. */
+static const char tiny[] = "Example\n\nx, y, and z extents\n2 3 2\n\n"
+                           "1 2 3\n4 5 6\n\n"
+                           "0 0 7\n0 0 0\n<Objects>\nwhatever 12 x\n";
+
+static void test_reader_order_and_errors(void **state)
+{
+    (void)state;
+    gs_model_lattice l = {0};
+    assert_int_equal(gs_model_parse_merrell_txt(tiny, sizeof tiny - 1, "tiny.txt", &l), GS_OK);
+    assert_int_equal(l.nx, 2);
+    assert_int_equal(l.ny, 3);
+    assert_int_equal(l.nz, 2);
+    /* x=0 row is "1 2 3" over y; x=1 row "4 5 6" */
+    assert_int_equal(l.labels[gs_model_lattice_index(&l, 0, 0, 0)], 1);
+    assert_int_equal(l.labels[gs_model_lattice_index(&l, 0, 2, 0)], 3);
+    assert_int_equal(l.labels[gs_model_lattice_index(&l, 1, 0, 0)], 4);
+    assert_int_equal(l.labels[gs_model_lattice_index(&l, 0, 2, 1)], 7);
+    gs_model_lattice_destroy(&l);
+
+    const char bad[] = "a\nb\nc\n2 1 1\n5 x\n";
+    gs_model_lattice keep = {0};
+    assert_int_equal(gs_model_parse_merrell_txt(bad, sizeof bad - 1, "bad.txt", &keep),
+                     GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "bad.txt:5"));
+    assert_non_null(strstr(gs_error_message(), "'x'"));
+    assert_null(keep.labels);
+    const char shortf[] = "a\nb\nc\n2 2 1\n1 2 3\n<Objects>\n";
+    assert_int_equal(gs_model_parse_merrell_txt(shortf, sizeof shortf - 1, "short.txt", &keep),
+                     GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "short.txt:6"));
+    const char longf[] = "a\nb\nc\n1 1 1\n1 2\n";
+    assert_int_equal(gs_model_parse_merrell_txt(longf, sizeof longf - 1, "long.txt", &keep),
+                     GS_ERR_FORMAT);
+    const char big[] = "a\nb\nc\n1 1 1\n70000\n";
+    assert_int_equal(gs_model_parse_merrell_txt(big, sizeof big - 1, "big.txt", &keep),
+                     GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "big.txt:5"));
+    assert_int_equal(gs_model_read_merrell_txt("no/such/file.txt", &keep), GS_ERR_IO);
+    gs_error_clear();
+}
+
+static void test_transition_learning(void **state)
+{
+    (void)state;
+    gs_model_lattice l = {0};
+    assert_int_equal(gs_model_parse_merrell_txt(tiny, sizeof tiny - 1, "tiny.txt", &l), GS_OK);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&l, &r), GS_OK);
+    assert_int_equal(gs_model_rules_nlabels(r), 8);
+    /* +x: 1->4, 2->5, 3->6 (z=0); 0->0, 7->0 (z=1) */
+    assert_true(gs_model_rules_allows(r, 0, 1, 4));
+    assert_true(gs_model_rules_allows(r, 1, 4, 1)); /* -x mirrors +x */
+    assert_false(gs_model_rules_allows(r, 0, 4, 1));
+    assert_true(gs_model_rules_allows(r, 0, 7, 0));
+    assert_false(gs_model_rules_allows(r, 0, 1, 1));
+    /* +y: 1->2, 2->3, 4->5, 5->6, 0->0, 0->7 */
+    assert_true(gs_model_rules_allows(r, 2, 1, 2));
+    assert_true(gs_model_rules_allows(r, 2, 0, 7));
+    assert_true(gs_model_rules_allows(r, 3, 7, 0));
+    assert_false(gs_model_rules_allows(r, 2, 3, 1)); /* no wrap-around */
+    /* +z: 1->0, 3->7, 6->0 */
+    assert_true(gs_model_rules_allows(r, 4, 3, 7));
+    assert_true(gs_model_rules_allows(r, 5, 7, 3));
+    assert_false(gs_model_rules_allows(r, 4, 7, 3));
+    /* outside the example is never a label: label 1 (x=0) has no -x neighbour */
+    for (int b = 0; b < 8; b++)
+        assert_false(gs_model_rules_allows(r, 1, 1, b));
+    assert_int_equal(gs_model_rules_count(r, 0), 5);
+    assert_int_equal(gs_model_rules_count(r, 7), 1);
+    /* the example satisfies its own rules, and both checkers agree */
+    assert_int_equal(gs_model_rules_violations(r, &l), 0);
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&l, &l, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    gs_model_rules_destroy(&r);
+    assert_null(r);
+    gs_model_lattice_destroy(&l);
+}
+
+static void test_checker_finds_violations(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 12, 9, 10), GS_OK);
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    /* a lone ground-layer label floating in the air breaks its neighbours */
+    uint16_t ground = out.labels[0];
+    out.labels[gs_model_lattice_index(&out, 5, 4, 6)] = ground;
+    gs_model_violation v[16];
+    assert_int_equal(gs_model_check(&ex, &out, v, 16, &nv), GS_OK);
+    assert_true(nv >= 1 && nv <= 6);
+    assert_int_equal(gs_model_rules_violations(r, &out), nv);
+    int touches = 0;
+    for (size_t i = 0; i < nv; i++)
+        touches += (v[i].a == ground || v[i].b == ground);
+    assert_int_equal(touches, (int)nv);
+    /* an unknown label is reported too */
+    out.labels[0] = 999;
+    assert_int_equal(gs_model_check(&ex, &out, v, 16, &nv), GS_OK);
+    assert_true(nv >= 2);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
+/* Random example -> rules; random region with random narrowed candidates;
+ * AC-3 and AC-4 must reach the same closure, also after random assignments. */
+static void test_ac3_equals_ac4(void **state)
+{
+    (void)state;
+    gs_rng rng;
+    gs_rng_init(&rng, 7, 1);
+    int wipeouts = 0, consistent = 0;
+    for (int trial = 0; trial < 60; trial++) {
+        int L = 2 + (int)gs_rng_below(&rng, trial % 3 == 0 ? 120 : 12);
+        gs_model_lattice ex = {0};
+        assert_int_equal(gs_model_lattice_create(&ex, 7, 6, 4), GS_OK);
+        for (size_t i = 0; i < 7 * 6 * 4; i++)
+            ex.labels[i] = (uint16_t)gs_rng_below(&rng, (uint64_t)L);
+        gs_model_rules_t r = NULL;
+        assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+        gs_model_solver_t s3 = NULL, s4 = NULL;
+        assert_int_equal(gs_model_solver_create(r, GS_MODEL_AC3, &s3), GS_OK);
+        assert_int_equal(gs_model_solver_create(r, GS_MODEL_AC4, &s4), GS_OK);
+        int rx = 1 + (int)gs_rng_below(&rng, 6), ry = 1 + (int)gs_rng_below(&rng, 6),
+            rz = 1 + (int)gs_rng_below(&rng, 4);
+        assert_int_equal(gs_model_solver_load_box(s3, rx, ry, rz), GS_OK);
+        assert_int_equal(gs_model_solver_load_box(s4, rx, ry, rz), GS_OK);
+        const size_t W = (size_t)s3->W, n = s3->n;
+        for (size_t c = 0; c < n; c++)
+            for (size_t w = 0; w < W; w++) {
+                uint64_t keep = gs_rng_below(&rng, 4) ? ~(uint64_t)0 : gs_rng_u64(&rng) | gs_rng_u64(&rng);
+                s3->dom[c * W + w] &= keep;
+                s4->dom[c * W + w] = s3->dom[c * W + w];
+            }
+        int ok3 = gs_model_solver_recount(s3), ok4 = gs_model_solver_recount(s4);
+        assert_int_equal(ok3, ok4);
+        if (ok3) {
+            ok3 = gs_model_ac_establish(s3);
+            ok4 = gs_model_ac_establish(s4);
+        }
+        assert_int_equal(ok3, ok4);
+        for (int step = 0; ok3 && step < 6; step++) {
+            assert_memory_equal(s3->dom, s4->dom, n * W * 8);
+            assert_memory_equal(s3->size, s4->size, n * sizeof *s3->size);
+            int32_t c = (int32_t)gs_rng_below(&rng, n);
+            if (s3->size[c] <= 1)
+                continue;
+            int k = -1;
+            for (int a = 0; a < s3->L && k < 0; a++)
+                if ((s3->dom[(size_t)c * W + (size_t)(a >> 6)] >> (a & 63)) & 1)
+                    k = a;
+            ok3 = gs_model_ac_assign(s3, c, k);
+            ok4 = gs_model_ac_assign(s4, c, k);
+            assert_int_equal(ok3, ok4);
+        }
+        if (ok3) {
+            assert_memory_equal(s3->dom, s4->dom, n * W * 8);
+            consistent++;
+        } else {
+            wipeouts++;
+        }
+        gs_model_solver_destroy(&s3);
+        gs_model_solver_destroy(&s4);
+        gs_model_rules_destroy(&r);
+        gs_model_lattice_destroy(&ex);
+    }
+    /* the random cases must exercise both outcomes */
+    assert_true(wipeouts > 0);
+    assert_true(consistent > 0);
+}
+
+static void test_initial_model_city(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("city.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 6, 5, 10), GS_OK);
+    /* the corner column has label 45 at z=1, which never sits next to itself */
+    uint16_t corner[10];
+    for (int z = 0; z < 10; z++)
+        corner[z] = z < ex.nz ? ex.labels[gs_model_lattice_index(&ex, 0, 0, z)] : 0;
+    assert_int_equal(gs_model_initial(r, &ex, corner, &out), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "next to itself"));
+    gs_error_clear();
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    assert_int_equal(out.labels[gs_model_lattice_index(&out, 0, 0, 9)], 0);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
+static int boxes_touch(const gs_model_box *a, const gs_model_box *b)
+{
+    /* separated by a gap of >= 1 cell along some axis? */
+    if (a->x1 < b->x0 || b->x1 < a->x0 || a->y1 < b->y0 || b->y1 < a->y0 || a->z1 < b->z0 ||
+        b->z1 < a->z0)
+        return 0;
+    return 1;
+}
+
+static void test_plan_colours(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = 10;
+    p.region[1] = 7;
+    for (int pass = 0; pass < 2; pass++) {
+        gs_model_region *reg = NULL;
+        size_t n = 0;
+        int ncol = 0;
+        assert_int_equal(gs_model_plan(&p, 37, 23, 10, pass, &reg, &n, &ncol), GS_OK);
+        assert_true(n > 4 && ncol > 1);
+        uint8_t *cover = calloc(37 * 23 * 10, 1);
+        for (size_t i = 0; i < n; i++) {
+            assert_int_equal(reg[i].id, i);
+            if (i)
+                assert_true(reg[i].color >= reg[i - 1].color);
+            assert_int_equal(reg[i].box.z0, 1); /* fixed bottom and top layers */
+            assert_int_equal(reg[i].box.z1, 9);
+            for (size_t j = 0; j < i; j++)
+                if (reg[i].color == reg[j].color)
+                    assert_false(boxes_touch(&reg[i].box, &reg[j].box));
+            for (int z = reg[i].box.z0; z < reg[i].box.z1; z++)
+                for (int y = reg[i].box.y0; y < reg[i].box.y1; y++)
+                    for (int x = reg[i].box.x0; x < reg[i].box.x1; x++)
+                        cover[x + 37 * (y + 23 * z)] = 1;
+        }
+        for (int z = 1; z < 9; z++)
+            for (int y = 0; y < 23; y++)
+                for (int x = 0; x < 37; x++)
+                    assert_int_equal(cover[x + 37 * (y + 23 * z)], 1);
+        free(cover);
+        gs_free(reg);
+    }
+}
+
+typedef struct sample_case {
+    const char *file;
+    int nx, ny, nz, bx, by;
+} sample_case;
+
+/* The author's samples.xml sizes (gadgets: 40x40x6 as he runs it). */
+static const sample_case author_cases[] = {
+    {"castle.txt", 40, 40, 10, 0, 0},      {"city.txt", 40, 40, 10, 0, 0},
+    {"city lights.txt", 40, 40, 10, 0, 0}, {"canyon.txt", 40, 40, 10, 0, 0},
+    {"mountain.txt", 40, 40, 10, 0, 0},    {"escheresque.txt", 30, 30, 10, 10, 10},
+    {"parliament.txt", 30, 30, 10, 10, 10}, {"gadgets.txt", 40, 40, 6, 20, 20},
+    {"gadgets2.txt", 40, 40, 6, 0, 0},     {"simple.txt", 20, 20, 8, 0, 0},
+};
+
+static uint64_t synth_case(const sample_case *c, uint64_t seed, gs_model_stats *st,
+                           size_t *violations)
+{
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample(c->file, &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, c->nx, c->ny, c->nz), GS_OK);
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.seed = seed;
+    p.region[0] = c->bx;
+    p.region[1] = c->by;
+    assert_int_equal(gs_model_synthesize(r, &p, &out, st), GS_OK);
+    assert_int_equal(gs_model_check(&ex, &out, NULL, 0, violations), GS_OK);
+    uint64_t h = gs_model_lattice_digest(&out);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+    return h;
+}
+
+static void test_author_samples_consistent(void **state)
+{
+    (void)state;
+    for (size_t i = 0; i < sizeof author_cases / sizeof author_cases[0]; i++) {
+        gs_model_stats st;
+        size_t nv = 99;
+        (void)synth_case(&author_cases[i], 1 + i, &st, &nv);
+        printf("# %-16s %dx%dx%d: %llu regions, %llu failed, %llu retries, %.3f s\n",
+               author_cases[i].file, author_cases[i].nx, author_cases[i].ny, author_cases[i].nz,
+               (unsigned long long)st.regions, (unsigned long long)st.failed,
+               (unsigned long long)(st.attempts - st.regions), st.seconds);
+        assert_int_equal(nv, 0);
+        assert_int_equal(st.failed, 0);
+        assert_true(st.accepted >= 1);
+        assert_true(st.min_coverage >= 1);
+    }
+}
+
+static void test_determinism(void **state)
+{
+    (void)state;
+    const sample_case c = {"parliament.txt", 30, 30, 10, 10, 10};
+    gs_model_stats st;
+    size_t nv;
+    uint64_t a = synth_case(&c, 42, &st, &nv);
+    uint64_t b = synth_case(&c, 42, &st, &nv);
+    uint64_t d = synth_case(&c, 43, &st, &nv);
+    assert_true(a == b);
+    assert_true(a != d);
+}
+
+/* Running a pass through the region API with the regions of each colour in
+ * reverse id order (as ranks finishing in any order would) and applying in
+ * id order gives exactly the serial driver's lattice. */
+static void test_region_api_matches_driver(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, a = {0}, b = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&a, 50, 44, 10), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&b, 50, 44, 10), GS_OK);
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &a), GS_OK);
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &b), GS_OK);
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.seed = 9;
+    p.region[0] = p.region[1] = 16;
+    p.max_passes = 1;
+    gs_model_stats st;
+    assert_int_equal(gs_model_synthesize(r, &p, &a, &st), GS_OK);
+
+    gs_model_region *reg = NULL;
+    size_t n = 0;
+    int ncol = 0;
+    assert_int_equal(gs_model_plan(&p, 50, 44, 10, 0, &reg, &n, &ncol), GS_OK);
+    gs_model_solver_t s = NULL;
+    assert_int_equal(gs_model_solver_create(r, p.ac, &s), GS_OK);
+    size_t cells = (size_t)16 * 16 * 8;
+    uint16_t *out = malloc(n * cells * sizeof *out);
+    int *ok = calloc(n, sizeof *ok);
+    size_t first = 0;
+    while (first < n) {
+        size_t last = first;
+        while (last < n && reg[last].color == reg[first].color)
+            last++;
+        for (size_t i = last; i-- > first;) { /* reverse order inside the colour */
+            gs_model_region_result res;
+            assert_int_equal(gs_model_region_run(s, &b, &reg[i].box, &p, reg[i].id, 0,
+                                                 out + i * cells, &res),
+                             GS_OK);
+            ok[i] = res.ok;
+        }
+        for (size_t i = first; i < last; i++)
+            if (ok[i])
+                gs_model_region_apply(&b, &reg[i].box, out + i * cells);
+        first = last;
+    }
+    assert_true(gs_model_lattice_digest(&a) == gs_model_lattice_digest(&b));
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&ex, &b, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    free(out);
+    free(ok);
+    gs_free(reg);
+    gs_model_solver_destroy(&s);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&a);
+    gs_model_lattice_destroy(&b);
+}
+
+static void test_write_read_roundtrip(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, back = {0};
+    read_sample("parliament.txt", &ex);
+    char path[] = "/tmp/gs-model-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    assert_int_equal(gs_model_write_merrell_txt(path, &ex), GS_OK);
+    assert_int_equal(gs_model_read_merrell_txt(path, &back), GS_OK);
+    remove(path);
+    assert_true(gs_model_lattice_digest(&ex) == gs_model_lattice_digest(&back));
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&back);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_reader_order_and_errors),
+        cmocka_unit_test(test_transition_learning),
+        cmocka_unit_test(test_checker_finds_violations),
+        cmocka_unit_test(test_ac3_equals_ac4),
+        cmocka_unit_test(test_initial_model_city),
+        cmocka_unit_test(test_plan_colours),
+        cmocka_unit_test(test_author_samples_consistent),
+        cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_region_api_matches_driver),
+        cmocka_unit_test(test_write_read_roundtrip),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
