@@ -177,8 +177,10 @@ static gs_err reap_sends(gs_psearch_t ps, int wait)
         }
         gs_free(b);
     }
-    memmove(ps->sends, ps->sends + done, (size_t)(ps->nsends - done) * sizeof *ps->sends);
-    ps->nsends -= done;
+    if (done > 0) {
+        memmove(ps->sends, ps->sends + done, (size_t)(ps->nsends - done) * sizeof *ps->sends);
+        ps->nsends -= done;
+    }
     return GS_OK;
 }
 
