@@ -287,65 +287,94 @@ static gs_err polite_wait(MPI_Request *req, double *waited)
     return GS_OK;
 }
 
+/* Rank 0's view of the queue inside one color. */
+typedef struct queue_state {
+    int64_t next, end;   /* positions s->order[next..end) not handed out */
+    int stop;            /* a failure anywhere: hand out "done" only */
+    int64_t pending;     /* requests sent or still to be sent, not answered */
+    MPI_Request *reply_req; /* [size * d] */
+    int64_t *reply;         /* [size * d] */
+    int64_t *assigned;   /* [size] regions handed to each worker */
+    int64_t *started;    /* [size] explicit requests received = regions started */
+    int64_t *owed;       /* [size] requests received (or implicit) not answered */
+    int64_t *answered;   /* [size] */
+} queue_state;
+
+/* Answers the oldest owed request of worker w: a region, or -1 = done. */
+static gs_err answer(gs_regions_t s, queue_state *q, int w, int give)
+{
+    int d = s->prefetch;
+    size_t slot = (size_t)w * (size_t)d + (size_t)(q->answered[w] % d);
+    GS_MPI(MPI_Wait(&q->reply_req[slot], MPI_STATUS_IGNORE));
+    if (give) {
+        q->reply[slot] = s->order[q->next++];
+        q->assigned[w]++;
+        q->pending++; /* the request this assignment will trigger */
+    } else {
+        q->reply[slot] = -1;
+    }
+    q->answered[w]++;
+    q->owed[w]--;
+    q->pending--;
+    GS_MPI(MPI_Isend(&q->reply[slot], 1, MPI_INT64_T, w, TAG_ASSIGN, s->comm, &q->reply_req[slot]));
+    return GS_OK;
+}
+
+/* Answers what can be answered now. Near the end of the queue (fewer
+ * regions left than ranks) a worker that still holds an unstarted region
+ * gets nothing more for now: the region stays in the queue for whoever is
+ * free first (often rank 0), so prefetching does not unbalance the end of
+ * a color. The worker's next request (sent when it starts its held region)
+ * brings it back. */
+static gs_err serve(gs_regions_t s, queue_state *q)
+{
+    for (int w = 1; w < s->size; w++)
+        while (q->owed[w] > 0) {
+            int empty = q->stop || q->next >= q->end;
+            int holds = q->assigned[w] - q->started[w] > 0;
+            if (!empty && holds && q->end - q->next < s->size)
+                break;
+            GS_CALL(answer(s, q, w, !empty));
+        }
+    return GS_OK;
+}
+
 /* Rank 0: serves the queue and computes regions between requests.
- * Every worker sends depth implicit requests plus one per assignment it
- * receives, so rank 0 knows exactly how many requests are still to come:
+ * Every worker sends `prefetch` implicit requests plus one per assignment
+ * it receives, so rank 0 knows exactly how many requests are still to come:
  * the color ends when the queue is empty and every one was answered. */
 static gs_err coordinate(gs_regions_t s, const color_span *c, int pass, gs_region_run_fn run,
                          void *ctx, gs_err *status)
 {
     int d = s->prefetch;
-    int64_t next = c->begin;
-    int stop = 0; /* a failure anywhere: hand out "done" only */
-    int64_t pending = 0; /* requests still to answer, over all workers */
-    MPI_Request *reply_req = NULL; /* [size * d] */
-    int64_t *reply = NULL;         /* [size * d] */
-    int64_t *assigned = NULL, *answered = NULL; /* [size] */
     size_t nslots = (size_t)s->size * (size_t)d;
+    queue_state q = {.next = c->begin, .end = c->end};
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&reply_req, nslots, sizeof *reply_req, "requests"), done);
-    GS_TRY(err, gs_alloc_array((void **)&reply, nslots, sizeof *reply, "replies"), done);
-    GS_TRY(err, gs_alloc_array((void **)&assigned, (size_t)s->size, sizeof *assigned, "counts"), done);
-    GS_TRY(err, gs_alloc_array((void **)&answered, (size_t)s->size, sizeof *answered, "counts"), done);
+    GS_TRY(err, gs_alloc_array((void **)&q.reply_req, nslots, sizeof *q.reply_req, "requests"), done);
+    GS_TRY(err, gs_alloc_array((void **)&q.reply, nslots, sizeof *q.reply, "replies"), done);
+    int64_t **counters[] = {&q.assigned, &q.started, &q.owed, &q.answered};
+    for (size_t i = 0; i < sizeof counters / sizeof counters[0]; i++)
+        GS_TRY(err, gs_alloc_array((void **)counters[i], (size_t)s->size, sizeof(int64_t),
+                                   "queue counters"), done);
     for (size_t i = 0; i < nslots; i++)
-        reply_req[i] = MPI_REQUEST_NULL;
-    pending = (int64_t)(s->size - 1) * d;
-    /* Answers the oldest request of worker w: the next region or "done". */
-#define ANSWER(w)                                                                           \
-    do {                                                                                    \
-        size_t slot_ = (size_t)(w) * (size_t)d + (size_t)(answered[w] % d);                 \
-        int rc_ = MPI_Wait(&reply_req[slot_], MPI_STATUS_IGNORE);                           \
-        GS_TRY_CHECK(err, rc_ == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Wait failed"); \
-        if (!stop && next < c->end) {                                                       \
-            reply[slot_] = s->order[next++];                                                \
-            assigned[w]++;                                                                  \
-            pending++; /* the request this assignment triggers */                           \
-        } else {                                                                            \
-            reply[slot_] = -1;                                                              \
-        }                                                                                   \
-        answered[w]++;                                                                      \
-        pending--;                                                                          \
-        rc_ = MPI_Isend(&reply[slot_], 1, MPI_INT64_T, (w), TAG_ASSIGN, s->comm,            \
-                        &reply_req[slot_]);                                                 \
-        GS_TRY_CHECK(err, rc_ == MPI_SUCCESS, GS_ERR_MPI, done,                             \
-                     "regions: MPI_Isend of a reply failed");                               \
-    } while (0)
-    /* The implicit requests: everyone gets work before rank 0 starts. */
-    for (int k = 0; k < d; k++)
-        for (int w = 1; w < s->size; w++)
-            ANSWER(w);
-    while (pending > 0 || (!stop && next < c->end)) {
+        q.reply_req[i] = MPI_REQUEST_NULL;
+    for (int w = 1; w < s->size; w++)
+        q.owed[w] = d; /* the implicit requests: everyone gets work first */
+    q.pending = (int64_t)(s->size - 1) * d;
+    GS_TRY(err, serve(s, &q), done);
+    while (q.pending > 0 || (!q.stop && q.next < q.end)) {
         int have = 0;
         MPI_Status st;
         int rc = MPI_Iprobe(MPI_ANY_SOURCE, TAG_REQUEST, s->comm, &have, &st);
         GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Iprobe failed");
         if (!have) {
-            if (!stop && next < c->end) {
-                gs_err e = compute_one(s, s->order[next++], pass, run, ctx);
+            if (!q.stop && q.next < q.end) {
+                gs_err e = compute_one(s, s->order[q.next++], pass, run, ctx);
                 if (e != GS_OK) {
                     *status = e;
-                    stop = 1;
+                    q.stop = 1;
                 }
+                GS_TRY(err, serve(s, &q), done);
             } else {
                 double t0 = gs_time_now();
                 sched_yield();
@@ -358,17 +387,20 @@ static gs_err coordinate(gs_regions_t s, const color_span *c, int pass, gs_regio
         rc = MPI_Recv(&worker_status, 1, MPI_INT64_T, w, TAG_REQUEST, s->comm, MPI_STATUS_IGNORE);
         GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Recv of a request failed");
         if (worker_status != GS_OK)
-            stop = 1;
-        ANSWER(w);
+            q.stop = 1;
+        q.started[w]++;
+        q.owed[w]++;
+        GS_TRY(err, serve(s, &q), done);
     }
-#undef ANSWER
-    int rc = MPI_Waitall((int)nslots, reply_req, MPI_STATUSES_IGNORE);
+    int rc = MPI_Waitall((int)nslots, q.reply_req, MPI_STATUSES_IGNORE);
     GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Waitall failed");
 done:
-    gs_free(reply_req);
-    gs_free(reply);
-    gs_free(assigned);
-    gs_free(answered);
+    gs_free(q.reply_req);
+    gs_free(q.reply);
+    gs_free(q.assigned);
+    gs_free(q.started);
+    gs_free(q.owed);
+    gs_free(q.answered);
     return err;
 }
 
