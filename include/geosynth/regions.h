@@ -8,7 +8,9 @@
  *     computes regions itself between answering requests; workers keep two
  *     requests outstanding (gs_regions_set_prefetch) while they compute, so
  *     the next id is usually waiting when they finish (rank 0 answers only
- *     between its own regions).
+ *     between its own regions). When fewer regions than ranks are left, a
+ *     worker that still holds an unstarted region gets no more, so the last
+ *     regions go to whoever is free first.
  *     run(ctx, id, color, pass, rng, out) READS the shared state and writes
  *     its result bytes into out; it must not modify the shared state.
  *  2. exchange: every rank's results go to every rank (one MPI_Allgatherv).
@@ -32,9 +34,10 @@
  * on the rank that saw it only: treat it as local (gs_fatal(err, 0)).
  *
  * Cost per color on P ranks: 2 messages of 8 bytes per region computed off
- * rank 0 (request, reply), 1 MPI_Allgather of 16 bytes per rank, 1
- * MPI_Allgatherv of the results (each region: 16 bytes of header + its
- * bytes rounded up to 8), 1 MPI_Allreduce (agreement after apply). The
+ * rank 0 (request, reply), 1 MPI_Allgather of 16 bytes per rank (result
+ * sizes and statuses), 1 MPI_Allgatherv of the results (each region: 16
+ * bytes of header + its bytes rounded up to 8), 2 MPI_Allreduce of 2 ints
+ * (agreement that every rank could allocate the results, and after apply). The
  * results of one color must total < 2 GiB. Memory: this rank's results plus
  * all results of one color.
  */
