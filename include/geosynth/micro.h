@@ -163,6 +163,14 @@ typedef struct gs_micro_dist_range {
 } gs_micro_dist_range;
 gs_err gs_micro_dist_random(gs_micro_dist *d, const gs_micro_dist_range *range, gs_rng *rng);
 
+/* Test image of a Boolean model (stochastic geometry's standard random set):
+ * white disks with radii uniform in [rmin, rmax] pixels at uniform random
+ * centres (wrapping around the image edges), added until the white share
+ * reaches coverage; black background. pix: caller-allocated w*h bytes
+ * (255 white, 0 black). */
+gs_err gs_micro_image_boolean(uint32_t w, uint32_t h, double rmin, double rmax, double coverage, gs_rng *rng,
+                              uint8_t *pix);
+
 /* Signed histogram of triangle counts (layout in the file comment). */
 typedef struct gs_micro_hist {
     uint32_t nbins;  /* K per side; 2K entries */
