@@ -45,6 +45,11 @@
 
 #define MICRO_RNG_DOMAIN 0x6d696372u /* "micr" */
 
+typedef struct forced_item {
+    double b;
+    uint32_t t;
+} forced_item;
+
 struct gs_micro_recon {
     const gs_micro_dual *d;
     const gs_micro_hist *h;
@@ -52,8 +57,11 @@ struct gs_micro_recon {
     gs_micro_state st;
     int64_t *demand;         /* [2K] */
     struct gs_micro_geo *geo;
-    uint32_t *cand;          /* candidates / forced list */
-    double *forced_b;
+    uint32_t *cand;          /* random candidates, fill queue */
+    forced_item *forced;     /* forced assignments of a bin */
+    uint32_t *near;          /* random candidates next to higher structures */
+    uint32_t *live;          /* triangles unlabelled at the last bin start */
+    size_t nlive;
     uint32_t *rec_t;         /* propagation record */
     double *rec_b;
     size_t cap_rec;
@@ -185,7 +193,12 @@ static gs_err recon_alloc(const gs_micro_dual *d, const gs_micro_hist *h, const 
     GS_TRY(err, gs_alloc_array((void **)&r->delta, 2 * (size_t)K, sizeof *r->delta, "bin demand"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->delta_bins, 2 * (size_t)K, sizeof *r->delta_bins, "bin demand"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->cand, n, sizeof *r->cand, "candidates"), fail);
-    GS_TRY(err, gs_alloc_array((void **)&r->forced_b, n, sizeof *r->forced_b, "candidates"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->forced, n, sizeof *r->forced, "candidates"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->live, n, sizeof *r->live, "candidates"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->near, n, sizeof *r->near, "candidates"), fail);
+    for (uint32_t j = 0; j < n; j++)
+        r->live[j] = j;
+    r->nlive = n;
     GS_TRY(err, gs_micro_geo_create(d, &r->geo), fail);
     *out = r;
     return GS_OK;
@@ -273,7 +286,9 @@ void gs_micro_recon_destroy(gs_micro_recon_t *rp)
     gs_free(r->delta);
     gs_free(r->delta_bins);
     gs_free(r->cand);
-    gs_free(r->forced_b);
+    gs_free(r->forced);
+    gs_free(r->live);
+    gs_free(r->near);
     gs_free(r->rec_t);
     gs_free(r->rec_b);
     gs_micro_geo_destroy(&r->geo);
@@ -403,10 +418,23 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
     return GS_OK;
 }
 
-typedef struct forced_item {
-    double b;
-    uint32_t t;
-} forced_item;
+/* Cheap exact pre-test for a side-s placement at a = m >= 1 while bin
+ * (s, m-1) is full: an unassigned neighbour j at distance w < 1 would get the
+ * bound m - w, in bin m-1, and if b(c) + w < m - 1 then b(j) <= b(c) + w (the
+ * bounds are 1-Lipschitz) says j is not yet committed there, so the probe
+ * would overflow bin m-1 and reject. Saves the search for most rejections. */
+static int sure_overflow(const struct gs_micro_recon *r, uint32_t c, int s, double a)
+{
+    const gs_micro_dual *d = r->d;
+    const gs_micro_state *st = &r->st;
+    double bc = bound(st, s, c);
+    for (uint32_t k = d->off[c]; k < d->off[c + 1]; k++) {
+        double w = d->w[k];
+        if (w < 1 && bc + w < a - 1 - 1e-9 && st->label[d->adj[k]] == GS_MICRO_UNASSIGNED)
+            return 1;
+    }
+    return 0;
+}
 
 static int cmp_forced(const void *x, const void *y)
 {
@@ -419,68 +447,86 @@ static int cmp_forced(const void *x, const void *y)
 static gs_err run_bin(struct gs_micro_recon *r)
 {
     gs_micro_state *st = &r->st;
-    uint32_t K = st->nbins, n = st->ntris;
+    uint32_t K = st->nbins;
     uint32_t m = K - 1 - st->step / 2;
     int s = (int)(st->step % 2);
     uint32_t idx = gs_micro_bin_index(K, s, m);
     int64_t count = r->h->count[idx];
     double a = (double)m;
 
-    /* 1. Forced: range at or beyond the bin on this side, most extreme first. */
-    forced_item *f = NULL;
-    size_t nf = 0;
-    for (uint32_t j = 0; j < n; j++) {
+    /* One pass over the still unlabelled triangles (the list shrinks as the
+     * run proceeds) collects the forced ones and the random candidates.
+     * Forced assignments change no other range (see the file comment), so
+     * the candidate set stays valid after them; candidates are re-checked
+     * when drawn anyway. */
+    forced_item *f = r->forced;
+    size_t nf = 0, nc = 0, nn = 0, keep = 0;
+    for (size_t i = 0; i < r->nlive; i++) {
+        uint32_t j = r->live[i];
         if (st->label[j] != GS_MICRO_UNASSIGNED)
             continue;
+        r->live[keep++] = j;
         double b = bound(st, s, j);
         if (b >= a && b < a + 1 && commit_bin(st, j) == idx)
-            nf++;
+            f[nf++] = (forced_item){b, j};
+        if (b <= a && bound(st, 1 - s, j) <= -a) {
+            r->cand[nc++] = j;
+            if (b >= a - 2)
+                r->near[nn++] = j;
+        }
     }
-    if (nf) {
-        GS_CALL(gs_alloc_array((void **)&f, nf, sizeof *f, "forced assignments"));
-        nf = 0;
-        for (uint32_t j = 0; j < n; j++) {
-            if (st->label[j] != GS_MICRO_UNASSIGNED)
-                continue;
-            double b = bound(st, s, j);
-            if (b >= a && b < a + 1 && commit_bin(st, j) == idx)
-                f[nf++] = (forced_item){b, j};
-        }
-        qsort(f, nf, sizeof *f, cmp_forced);
-        for (size_t i = 0; i < nf && st->placed[idx] < count; i++) {
-            double x = s ? -f[i].b : f[i].b;
-            assign(r, f[i].t, idx, x == 0 ? 0.0 : x);
-            r->c.forced++;
-        }
-        gs_free(f);
+    r->nlive = keep;
+
+    /* 1. Forced: range at or beyond the bin on this side, most extreme first. */
+    qsort(f, nf, sizeof *f, cmp_forced);
+    for (size_t i = 0; i < nf && st->placed[idx] < count; i++) {
+        double x = s ? -f[i].b : f[i].b;
+        assign(r, f[i].t, idx, x == 0 ? 0.0 : x);
+        r->c.forced++;
     }
     if (st->placed[idx] >= count)
         return GS_OK;
 
     /* 2. Random placements at the bin's inner edge. Candidates are drawn
      * without replacement (incremental Fisher-Yates) and re-checked on draw,
-     * since earlier placements shrink ranges. */
-    size_t nc = 0;
-    for (uint32_t j = 0; j < n; j++)
-        if (st->label[j] == GS_MICRO_UNASSIGNED && bound(st, s, j) <= a && bound(st, 1 - s, j) <= -a)
-            r->cand[nc++] = j;
+     * since earlier placements shrink ranges. While the next lower bin is
+     * full, a seed whose range starts below m - 2 would push its first ring
+     * (distance < 1, bound in bin m-1) into that full bin (the bounds are
+     * 1-Lipschitz), so draws then come from the "near" pool (range reaching
+     * m - 2, i.e. next to higher structures) only, and the bin ends when that
+     * pool is used up. This keeps the cost per bin proportional to the seeds
+     * placed instead of to the mesh. */
     gs_rng rng;
     gs_rng_restore(&rng, st->rng);
     double value = s && a != 0 ? -a : a;
     uint64_t rejects = 0;
-    for (size_t i = 0; i < nc && st->placed[idx] < count; i++) {
-        size_t pick = i + (size_t)gs_rng_below(&rng, nc - i);
-        uint32_t c = r->cand[pick];
-        r->cand[pick] = r->cand[i];
-        r->cand[i] = c;
+    uint32_t lower = m > 0 ? gs_micro_bin_index(K, s, m - 1) : idx;
+    size_t ic = 0, in = 0;
+    while (st->placed[idx] < count) {
+        int lower_full = m > 0 && r->demand[lower] >= r->h->count[lower];
+        uint32_t *pool = lower_full ? r->near : r->cand;
+        size_t *pi = lower_full ? &in : &ic, pn = lower_full ? nn : nc;
+        if (*pi >= pn)
+            break;
+        size_t i = (*pi)++;
+        size_t pick = i + (size_t)gs_rng_below(&rng, pn - i);
+        uint32_t c = pool[pick];
+        pool[pick] = pool[i];
+        pool[i] = c;
         if (st->label[c] != GS_MICRO_UNASSIGNED || bound(st, s, c) > a || bound(st, 1 - s, c) > -a)
             continue;
+        if (r->o.capacity && lower_full && sure_overflow(r, c, s, a)) {
+            r->c.random_rejected++;
+            if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
+                break;
+            continue;
+        }
         size_t nrec;
         int ok;
         GS_CALL(probe(r, c, s, a, a, idx, r->o.capacity, &nrec, &ok));
         if (!ok) {
             r->c.random_rejected++;
-            if (r->o.max_rejects_per_bin && ++rejects >= r->o.max_rejects_per_bin)
+            if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
                 break;
             continue;
         }
