@@ -503,7 +503,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
     uint32_t lower = m > 0 ? gs_micro_bin_index(K, s, m - 1) : idx;
     size_t ic = 0, in = 0;
     while (st->placed[idx] < count) {
-        int lower_full = m > 0 && r->demand[lower] >= r->h->count[lower];
+        int lower_full = r->o.capacity && m > 0 && r->demand[lower] >= r->h->count[lower];
         uint32_t *pool = lower_full ? r->near : r->cand;
         size_t *pi = lower_full ? &in : &ic, pn = lower_full ? nn : nc;
         if (*pi >= pn)
