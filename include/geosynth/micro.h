@@ -1,0 +1,315 @@
+/* micro: stochastic microgeometry from contact distributions
+ * (Schroeder et al., ../shared/papers/schroeder-stochastic-microgeometry.txt).
+ *
+ * Pipeline (each step a pure function of its inputs; nothing here calls MPI):
+ *   1. mesh      gs_micro_mesh_sphere/disk/bar, or any triangle mesh; refine with
+ *                gs_micro_mesh_subdivide until every edge is <= a bound.
+ *   2. dual      gs_micro_dual_build: edge-adjacent triangles, edge weight =
+ *                centroid-to-centroid distance in DISTRIBUTION UNITS (mesh units
+ *                times units_per_model). Geodesic distance between triangles =
+ *                shortest path in this graph (paper 4.2), gs_micro_geo_*.
+ *   3. dist      two radial contact distributions (positive, negative region),
+ *                unit-width bins: bin k holds the probability that a random
+ *                point lies at distance [k, k+1) from the region boundary.
+ *                From an image (gs_micro_dist_from_image), a random draw
+ *                (gs_micro_dist_random) or a table (gs_micro_dist_create).
+ *   4. hist      gs_micro_hist_from_dist: merged signed histogram of triangle
+ *                counts (paper 4.3, Fig. 9).
+ *   5. recon     gs_micro_recon_*: labels every triangle with a signed distance
+ *                value (paper 4.4), resumable from a gs_micro_state.
+ *   6. displace  gs_micro_displace: vertex value = mean of incident triangles,
+ *                offset along the vertex normal (paper 4.5, Table 1).
+ *   7. verify    gs_micro_verify: independent check of the result.
+ *
+ * Signed histogram layout ("signed axis", Fig. 9): 2K bins, index i in [0, 2K).
+ *   i >= K: positive bin k = i-K, values in [k, k+1)
+ *   i <  K: negative bin k = K-1-i, values in (-(k+1), -k]
+ * so index 0 is the most negative bin and 2K-1 the most positive one.
+ *
+ * Memory (n triangles): dual graph ~ 40 n bytes, reconstruction state ~ 34 n
+ * bytes, geodesic buffers ~ 24 n bytes. Cost: see gs_micro_recon_run.
+ * All arrays are allocated with gs_malloc; every create has a destroy(&h).
+ */
+#ifndef GEOSYNTH_MICRO_H
+#define GEOSYNTH_MICRO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/rng.h"
+
+/* ---------------------------------------------------------------- mesh -- */
+
+/* In-memory triangle mesh. pos: float[3*nverts] (x,y,z per vertex), tris:
+ * uint32[3*ntris] (counter-clockwise seen from outside), normals: optional
+ * float[3*nverts] (NULL until gs_micro_mesh_normals). Field names and layout
+ * match the future gs_mesh {nverts, ntris, pos, normals, tris}. The struct
+ * owns its arrays; free with gs_micro_mesh_free. */
+typedef struct gs_micro_mesh {
+    uint32_t nverts, ntris;
+    float *pos;
+    float *normals;
+    uint32_t *tris;
+} gs_micro_mesh;
+
+/* Allocates a mesh with room for nverts/ntris (arrays zeroed, normals NULL).
+ * On error *m is left unchanged. */
+gs_err gs_micro_mesh_alloc(gs_micro_mesh *m, uint32_t nverts, uint32_t ntris);
+void gs_micro_mesh_free(gs_micro_mesh *m);
+
+/* Built-in shapes (paper figures). Each picks its resolution so that every
+ * edge is <= max_edge (model units) and reports it through the mesh.
+ *  sphere ("planet"): octahedron with s segments per edge projected to the
+ *      sphere, 8 s^2 triangles, min angle ~ 38 deg.
+ *  disk: hexagonal rings in the z = 0 plane, normal +z, 6 r^2 triangles.
+ *  bar: closed axis-aligned box sx*sy*sz centred at 0 ("candy bar"), square
+ *      cells split along alternating diagonals (min angle 45 deg, watertight).
+ * Errors: GS_ERR_ARG for non-positive sizes or a resolution beyond 2^31
+ * triangles. */
+gs_err gs_micro_mesh_sphere(gs_micro_mesh *m, double radius, double max_edge);
+gs_err gs_micro_mesh_disk(gs_micro_mesh *m, double radius, double max_edge);
+gs_err gs_micro_mesh_bar(gs_micro_mesh *m, double sx, double sy, double sz, double max_edge);
+/* Sphere with exactly 8 s^2 triangles (benchmarks). */
+gs_err gs_micro_mesh_sphere_segments(gs_micro_mesh *m, double radius, uint32_t segments);
+
+/* Refines until every edge is <= max_edge: whole 1-to-4 splits while the
+ * longest edge exceeds 2 max_edge, then conforming longest-edge bisection
+ * (every triangle with a too long edge is bisected across its longest edge,
+ * and neighbours are split conformingly), which keeps the minimum angle above
+ * half the input's. Replaces m's arrays (normals dropped). stats (optional):
+ * passes run, final longest edge and minimum angle in degrees. New vertices
+ * are edge midpoints (flat facets are kept; shapes that should stay curved
+ * come from the generators at the right resolution). Cost O(n) per pass,
+ * O(log(longest/max_edge)) passes. On error m is unchanged. */
+typedef struct gs_micro_subdiv_stats {
+    int uniform_passes, bisect_passes;
+    double max_edge, min_angle_deg;
+} gs_micro_subdiv_stats;
+gs_err gs_micro_mesh_subdivide(gs_micro_mesh *m, double max_edge, gs_micro_subdiv_stats *stats);
+
+/* Longest edge and smallest interior angle (degrees) of the mesh. */
+void gs_micro_mesh_edge_stats(const gs_micro_mesh *m, double *max_edge, double *min_angle_deg);
+/* Half the largest bounding-box extent (the paper scales models into a box of
+ * edge 2 ScaleUnits, so units_per_model = ScaleUnits / half_extent). */
+double gs_micro_mesh_half_extent(const gs_micro_mesh *m);
+/* (Re)computes area-weighted unit vertex normals into m->normals. */
+gs_err gs_micro_mesh_normals(gs_micro_mesh *m);
+
+/* ------------------------------------------------- dual graph, geodesic -- */
+
+/* Triangle adjacency in CSR form: neighbours of t are adj[off[t] .. off[t+1])
+ * with weights w[] (centroid distance in distribution units). Triangles that
+ * share an edge are adjacent (non-manifold edges connect every pair). */
+typedef struct gs_micro_dual {
+    uint32_t ntris;
+    uint32_t *off; /* ntris+1 */
+    uint32_t *adj;
+    double *w;
+    double mean_w; /* mean edge weight */
+} gs_micro_dual;
+
+/* Builds the dual graph. units_per_model > 0 converts model lengths into
+ * distribution units. O(n). On error *d is unchanged. */
+gs_err gs_micro_dual_build(const gs_micro_mesh *m, double units_per_model, gs_micro_dual *d);
+void gs_micro_dual_free(gs_micro_dual *d);
+
+/* Bounded Dijkstra with reusable buffers: memory O(n) once, each query costs
+ * O(k log k) in the k triangles it reaches (buffers are reset lazily). */
+typedef struct gs_micro_geo *gs_micro_geo_t;
+gs_err gs_micro_geo_create(const gs_micro_dual *d, gs_micro_geo_t *g);
+void gs_micro_geo_destroy(gs_micro_geo_t *g);
+/* Every triangle within geodesic distance <= radius of src, in increasing
+ * distance order: *count entries in *tris / *dist (owned by g, valid until the
+ * next query). */
+gs_err gs_micro_geo_ball(gs_micro_geo_t g, uint32_t src, double radius,
+                         const uint32_t **tris, const double **dist, size_t *count);
+
+/* ------------------------------------------------------- distributions -- */
+
+/* Two radial contact distributions with K unit-width bins each. pos[k]/neg[k]
+ * are probabilities (>= 0); their relative total mass is the area share of
+ * each region (the image acquisition divides both by the pixel count, so
+ * together they sum to 1). */
+typedef struct gs_micro_dist {
+    uint32_t nbins;
+    double *pos, *neg;
+} gs_micro_dist;
+
+gs_err gs_micro_dist_create(gs_micro_dist *d, uint32_t nbins, const double *pos, const double *neg);
+void gs_micro_dist_free(gs_micro_dist *d);
+
+/* Image-based acquisition (paper 5.3). pix: w*h grey values, row-major, x
+ * fastest. Pixels >= threshold are white = positive, others black = negative
+ * (threshold 128 for a black-and-white image). For every pixel the nearest
+ * pixel of the opposite colour is found (an exact Euclidean distance
+ * transform: the same answer as the paper's radial search, in O(w h)); the
+ * boundary lies half a pixel before it, so the pixel's distance to the
+ * boundary is (D - 0.5) * units_per_pixel and it counts in bin floor of that.
+ * Counts are divided by the pixel count. max_bins caps K (larger distances go
+ * to the last bin). Errors: GS_ERR_ARG for an empty image, a one-colour image
+ * (no boundary) or units_per_pixel <= 0. */
+gs_err gs_micro_dist_from_image(gs_micro_dist *d, uint32_t w, uint32_t h, const uint8_t *pix,
+                                uint8_t threshold, double units_per_pixel, uint32_t max_bins);
+
+/* Random distribution from a parameter range (paper 5.1): each side gets a
+ * bin count in [min_bins, max_bins] and random bin values sorted to be
+ * non-increasing with distance (the length of a distance level set in the
+ * plane does not grow with distance for simply connected regions), scaled so
+ * the positive side holds a share in [min_pos_share, max_pos_share]. */
+typedef struct gs_micro_dist_range {
+    uint32_t min_bins, max_bins;
+    double min_pos_share, max_pos_share;
+} gs_micro_dist_range;
+gs_err gs_micro_dist_random(gs_micro_dist *d, const gs_micro_dist_range *range, gs_rng *rng);
+
+/* Test image of a Boolean model (stochastic geometry's standard random set):
+ * white disks with radii uniform in [rmin, rmax] pixels at uniform random
+ * centres (wrapping around the image edges), added until the white share
+ * reaches coverage; black background. pix: caller-allocated w*h bytes
+ * (255 white, 0 black). */
+gs_err gs_micro_image_boolean(uint32_t w, uint32_t h, double rmin, double rmax, double coverage, gs_rng *rng,
+                              uint8_t *pix);
+
+/* Signed histogram of triangle counts (layout in the file comment). */
+typedef struct gs_micro_hist {
+    uint32_t nbins;  /* K per side; 2K entries */
+    int64_t *count;  /* target triangle counts, sum == ntris */
+    double *prob;    /* merged probabilities, sum == 1 */
+} gs_micro_hist;
+
+/* Merge (paper 4.3): the negative distribution is reflected onto the negative
+ * axis, both are divided by their joint mass, and bin count = ntris * bin
+ * probability, rounded by largest remainder (ties to the lower index) so the
+ * counts sum to exactly ntris. Errors: GS_ERR_ARG when the mass is 0. */
+gs_err gs_micro_hist_from_dist(gs_micro_hist *h, const gs_micro_dist *d, uint32_t ntris);
+void gs_micro_hist_free(gs_micro_hist *h);
+/* Index into the signed layout: side 0 positive, 1 negative, magnitude k. */
+static inline uint32_t gs_micro_bin_index(uint32_t nbins, int side, uint32_t k)
+{
+    return side == 0 ? nbins + k : nbins - 1 - k;
+}
+
+/* ------------------------------------------------------ reconstruction -- */
+
+#define GS_MICRO_UNASSIGNED 0xFFFFu /* label: not labelled (yet) */
+#define GS_MICRO_FILLED 0xFFFEu     /* label: value from the neighbour fill */
+
+/* Algorithm switches. Defaults (gs_micro_recon_defaults): capacity = 1. */
+typedef struct gs_micro_recon_opts {
+    /* 1: a random placement is accepted only if the triangles it forces into
+     * lower bins still fit their counts (see recon.c); 0: the paper as printed
+     * (random placements unchecked, overflow left for the fill). */
+    int capacity;
+    /* Upper bound on rejected candidates per bin (0 = no bound). */
+    uint64_t max_rejects_per_bin;
+} gs_micro_recon_opts;
+void gs_micro_recon_defaults(gs_micro_recon_opts *o);
+
+/* Complete, serializable reconstruction state: save every array and scalar
+ * to checkpoint, hand it back to gs_micro_recon_resume to continue with a
+ * bit-identical result. Steps: 0 .. 2K-1 are bins in processing order
+ * (magnitude K-1 down to 0, positive before negative), step 2K is the
+ * neighbour fill, 2K+1 means done. lo/hi are the admissible ranges the
+ * propagation maintains (exact where they can still matter, see recon.c). */
+typedef struct gs_micro_state {
+    uint64_t seed;
+    uint32_t ntris, nbins;
+    uint32_t step;
+    gs_rng_state rng;      /* stream of the current step */
+    int64_t *placed;       /* [2K] triangles labelled from each bin so far */
+    double *value;         /* [n] signed distance value (0 where unassigned) */
+    uint16_t *label;       /* [n] bin index, GS_MICRO_UNASSIGNED or GS_MICRO_FILLED */
+    double *lo, *hi;       /* [n] admissible range */
+} gs_micro_state;
+
+typedef struct gs_micro_recon *gs_micro_recon_t;
+
+/* Starts a reconstruction of h on the dual graph d (both must outlive rec;
+ * h->count must sum to d->ntris). The result is a pure function of (mesh,
+ * units, histogram, opts, seed): randomness comes from gs_rng streams keyed by
+ * (seed, step), so many instances (seeds) can run on any ranks. */
+gs_err gs_micro_recon_create(const gs_micro_dual *d, const gs_micro_hist *h,
+                             const gs_micro_recon_opts *opts, uint64_t seed, gs_micro_recon_t *rec);
+/* Continues from a saved state (arrays are copied; the caller keeps st). */
+gs_err gs_micro_recon_resume(const gs_micro_dual *d, const gs_micro_hist *h,
+                             const gs_micro_recon_opts *opts, const gs_micro_state *st,
+                             gs_micro_recon_t *rec);
+void gs_micro_recon_destroy(gs_micro_recon_t *rec);
+/* Runs at most max_steps steps (0 = to the end); *done = 1 when finished.
+ * Cost: forced assignments O(1) each, random placements one pruned Dijkstra
+ * each (reach ~ value + current magnitude), plus one O(n) scan per bin; the
+ * fill costs a Dijkstra of radius 2K per filled triangle. */
+gs_err gs_micro_recon_run(gs_micro_recon_t rec, uint32_t max_steps, int *done);
+/* Current state (owned by rec; valid until the next run/destroy). */
+const gs_micro_state *gs_micro_recon_state(gs_micro_recon_t rec);
+/* Counters since create/resume: random placements tried/accepted, forced. */
+typedef struct gs_micro_recon_counters {
+    uint64_t forced, random_accepted, random_rejected, filled, dijkstra_nodes;
+} gs_micro_recon_counters;
+gs_micro_recon_counters gs_micro_recon_counters_get(gs_micro_recon_t rec);
+
+/* Deep copy of a state (for checkpoints / tests); free with gs_micro_state_free. */
+gs_err gs_micro_state_copy(gs_micro_state *dst, const gs_micro_state *src);
+void gs_micro_state_free(gs_micro_state *st);
+/* Digest of the labels and values (the engine's output digest). */
+uint64_t gs_micro_state_digest(const gs_micro_state *st);
+
+/* One instance, start to end: value[n] and label[n] are filled (caller
+ * allocates). */
+gs_err gs_micro_reconstruct(const gs_micro_dual *d, const gs_micro_hist *h,
+                            const gs_micro_recon_opts *opts, uint64_t seed, double *value,
+                            uint16_t *label);
+
+/* -------------------------------------------------------- displacement -- */
+
+typedef enum gs_micro_func {
+    GS_MICRO_LINEAR = 0, /* f(x) = x */
+    GS_MICRO_SQRT,       /* f(x) = sqrt(x), rounds ridges and crevices */
+    GS_MICRO_SQUARE,     /* f(x) = x^2 */
+    GS_MICRO_CBRT,       /* f(x) = x^(1/3) */
+    GS_MICRO_STEP        /* f(x) = 1 for x > 0: plateaus */
+} gs_micro_func;
+
+/* Paper Table 1, per region (index 0 positive, 1 negative): direction s in
+ * {+1 out, -1 in, 0 none}, scale k, function f. A vertex with value x is
+ * moved by s k f(|x|) * half_extent along its normal (half_extent: see
+ * gs_micro_mesh_half_extent; Table 1's k are relative to a model scaled to
+ * the box [-1, 1]^3). */
+typedef struct gs_micro_displace_params {
+    int direction[2];
+    double scale[2];
+    gs_micro_func func[2];
+} gs_micro_displace_params;
+
+/* vertex_value[nverts] (optional out, caller-allocated) = mean of incident
+ * triangle values; out_pos[3*nverts] (caller-allocated) = displaced
+ * positions. Computes normals into m if missing. */
+gs_err gs_micro_displace(gs_micro_mesh *m, const double *tri_value,
+                         const gs_micro_displace_params *p, double *vertex_value, float *out_pos);
+double gs_micro_func_eval(gs_micro_func f, double x);
+
+/* -------------------------------------------------------------- checks -- */
+
+/* Independent verifier (own adjacency, own Dijkstra; shares no code with the
+ * reconstruction). For nsample triangles drawn from rng (all when nsample >=
+ * n) it visits every triangle within geodesic radius (2K, where any
+ * violation could occur) and counts pairs with |x_i - x_j| > d(i,j) + tol.
+ * Also: unassigned share (labels that are not histogram bins), achieved
+ * histogram and per-bin error achieved - target. */
+typedef struct gs_micro_report {
+    uint64_t pairs_checked, violations;
+    double max_excess;       /* largest |x_i - x_j| - d(i,j) seen */
+    uint64_t unassigned;     /* GS_MICRO_FILLED or GS_MICRO_UNASSIGNED */
+    double unassigned_share;
+    uint32_t nbins;
+    int64_t *achieved;       /* [2K] */
+    int64_t *error;          /* [2K] achieved - target */
+    int64_t abs_error_sum;
+} gs_micro_report;
+gs_err gs_micro_verify(const gs_micro_mesh *m, double units_per_model, const gs_micro_hist *h,
+                       const double *value, const uint16_t *label, uint32_t nsample, gs_rng *rng,
+                       gs_micro_report *r);
+void gs_micro_report_free(gs_micro_report *r);
+
+#endif

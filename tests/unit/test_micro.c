@@ -1,0 +1,473 @@
+/* Unit tests for the micro engine: geodesics, distributions, histogram,
+ * reconstruction (constraints, unassigned share, determinism, resume),
+ * displacement and the verifier itself. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/mem.h"
+#include "geosynth/micro.h"
+
+/* Flat nx x ny grid of unit squares, each split in two triangles. */
+static void grid_mesh(gs_micro_mesh *m, uint32_t nx, uint32_t ny)
+{
+    assert_int_equal(gs_micro_mesh_alloc(m, (nx + 1) * (ny + 1), 2 * nx * ny), GS_OK);
+    for (uint32_t y = 0; y <= ny; y++)
+        for (uint32_t x = 0; x <= nx; x++) {
+            float *p = m->pos + 3 * (y * (nx + 1) + x);
+            p[0] = (float)x, p[1] = (float)y, p[2] = 0;
+        }
+    uint32_t t = 0;
+    for (uint32_t y = 0; y < ny; y++)
+        for (uint32_t x = 0; x < nx; x++) {
+            uint32_t a = y * (nx + 1) + x, b = a + 1, c = a + nx + 2, d = a + nx + 1;
+            uint32_t *tv = m->tris + 3 * t;
+            tv[0] = a, tv[1] = b, tv[2] = c, tv[3] = a, tv[4] = c, tv[5] = d;
+            t += 2;
+        }
+}
+
+static void centroid(const gs_micro_mesh *m, uint32_t t, double c[3])
+{
+    for (int k = 0; k < 3; k++)
+        c[k] = (m->pos[3 * m->tris[3 * t] + k] + (double)m->pos[3 * m->tris[3 * t + 1] + k] +
+                m->pos[3 * m->tris[3 * t + 2] + k]) / 3;
+}
+
+static void test_geodesic_flat_grid(void **state)
+{
+    (void)state;
+    gs_micro_mesh m = {0};
+    grid_mesh(&m, 8, 6);
+    uint32_t n = m.ntris;
+    const double scale = 2.5;
+    gs_micro_dual d;
+    assert_int_equal(gs_micro_dual_build(&m, scale, &d), GS_OK);
+    /* Exact all-pairs shortest paths over the dual graph by Floyd-Warshall,
+     * with adjacency found by brute force (two shared vertices). */
+    double *D = malloc(sizeof(double) * n * n);
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = 0; j < n; j++) {
+            int shared = 0;
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++)
+                    shared += m.tris[3 * i + a] == m.tris[3 * j + b];
+            double ci[3], cj[3];
+            centroid(&m, i, ci), centroid(&m, j, cj);
+            D[i * n + j] = i == j ? 0 : shared == 2 ? scale * sqrt((ci[0] - cj[0]) * (ci[0] - cj[0]) +
+                                                                    (ci[1] - cj[1]) * (ci[1] - cj[1]))
+                                                     : INFINITY;
+        }
+    for (uint32_t k = 0; k < n; k++)
+        for (uint32_t i = 0; i < n; i++)
+            for (uint32_t j = 0; j < n; j++)
+                if (D[i * n + k] + D[k * n + j] < D[i * n + j])
+                    D[i * n + j] = D[i * n + k] + D[k * n + j];
+    uint32_t edges = 0;
+    for (uint32_t t = 0; t < n; t++)
+        edges += d.off[t + 1] - d.off[t];
+    assert_int_equal(edges, 2 * (3 * 8 * 6 - 8 - 6)); /* interior edges of the grid, both ways */
+    gs_micro_geo_t g;
+    assert_int_equal(gs_micro_geo_create(&d, &g), GS_OK);
+    const double radius = 9.0;
+    double worst = 0;
+    for (uint32_t s = 0; s < n; s++) {
+        const uint32_t *bt;
+        const double *bd;
+        size_t cnt;
+        assert_int_equal(gs_micro_geo_ball(g, s, radius, &bt, &bd, &cnt), GS_OK);
+        size_t expect = 0;
+        for (uint32_t j = 0; j < n; j++)
+            expect += D[s * n + j] <= radius;
+        assert_int_equal(cnt, expect);
+        for (size_t i = 0; i < cnt; i++) {
+            assert_true(fabs(bd[i] - D[s * n + bt[i]]) < 1e-12);
+            if (i)
+                assert_true(bd[i] >= bd[i - 1]);
+            /* the dual path is never shorter than the straight line */
+            double cs[3], cj[3];
+            centroid(&m, s, cs), centroid(&m, bt[i], cj);
+            double e = scale * hypot(cs[0] - cj[0], cs[1] - cj[1]);
+            assert_true(bd[i] >= e - 1e-9);
+            if (e > 0)
+                worst = fmax(worst, bd[i] / e);
+        }
+    }
+    printf("dual path / straight line: worst %.3f\n", worst);
+    assert_true(worst > 1.0 && worst < 2.5); /* vertex-sharing neighbours take a detour */
+    gs_micro_geo_destroy(&g);
+    assert_null(g);
+    free(D);
+    gs_micro_dual_free(&d);
+    gs_micro_mesh_free(&m);
+}
+
+static void test_histogram_merge(void **state)
+{
+    (void)state;
+    gs_micro_dist d;
+    double pos[2] = {0.3, 0.2}, neg[2] = {0.4, 0.1};
+    assert_int_equal(gs_micro_dist_create(&d, 2, pos, neg), GS_OK);
+    gs_micro_hist h;
+    assert_int_equal(gs_micro_hist_from_dist(&h, &d, 7), GS_OK);
+    /* signed axis: [neg 1, neg 0, pos 0, pos 1] = 7 * [.1 .4 .3 .2] =
+     * [.7 2.8 2.1 1.4] -> floors [0 2 2 1], the 2 missing go to .8 then .7 */
+    int64_t want[4] = {1, 3, 2, 1};
+    double wantp[4] = {0.1, 0.4, 0.3, 0.2};
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(h.count[i], want[i]);
+        assert_true(fabs(h.prob[i] - wantp[i]) < 1e-15);
+    }
+    assert_int_equal(gs_micro_bin_index(2, 0, 1), 3);
+    assert_int_equal(gs_micro_bin_index(2, 1, 1), 0);
+    gs_micro_hist_free(&h);
+    gs_micro_dist_free(&d);
+    /* Two tables normalized separately: each region gets half. */
+    double p1[3] = {0.5, 0.3, 0.2}, n1[3] = {1.0, 0, 0};
+    assert_int_equal(gs_micro_dist_create(&d, 3, p1, n1), GS_OK);
+    assert_int_equal(gs_micro_hist_from_dist(&h, &d, 1000), GS_OK);
+    int64_t s = 0;
+    for (int i = 0; i < 6; i++)
+        s += h.count[i];
+    assert_int_equal(s, 1000);
+    assert_int_equal(h.count[2], 500);
+    assert_int_equal(h.count[3], 250);
+    assert_int_equal(h.count[5], 100);
+    gs_micro_hist_free(&h);
+    gs_micro_dist_free(&d);
+    double z[2] = {0, 0};
+    assert_int_equal(gs_micro_dist_create(&d, 2, z, z), GS_ERR_ARG);
+    gs_error_clear();
+}
+
+static void test_image_distribution(void **state)
+{
+    (void)state;
+    /* Left half white, right half black: a white pixel in column x has its
+     * nearest black pixel at distance 8 - x, i.e. boundary distance 7.5 - x. */
+    uint8_t img[16 * 8];
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 16; x++)
+            img[y * 16 + x] = x < 8 ? 255 : 0;
+    gs_micro_dist d;
+    assert_int_equal(gs_micro_dist_from_image(&d, 16, 8, img, 128, 1.0, 64), GS_OK);
+    assert_int_equal(d.nbins, 8);
+    for (int k = 0; k < 8; k++) {
+        assert_true(fabs(d.pos[k] - 1.0 / 16) < 1e-15);
+        assert_true(fabs(d.neg[k] - 1.0 / 16) < 1e-15);
+    }
+    gs_micro_dist_free(&d);
+    /* Grey ramp with a threshold: the same split at x = 8. */
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 16; x++)
+            img[y * 16 + x] = (uint8_t)(255 - 16 * x);
+    assert_int_equal(gs_micro_dist_from_image(&d, 16, 8, img, 128, 0.5, 3), GS_OK);
+    assert_int_equal(d.nbins, 3); /* 0.5 units per pixel, capped at 3 bins */
+    assert_true(fabs(d.pos[0] - 2.0 / 16) < 1e-15 && fabs(d.pos[2] - 4.0 / 16) < 1e-15);
+    gs_micro_dist_free(&d);
+
+    /* Boolean-model image against a brute-force radial search. */
+    enum { W = 48, H = 40 };
+    static uint8_t b[W * H];
+    gs_rng rng;
+    gs_rng_init(&rng, 3, 0);
+    assert_int_equal(gs_micro_image_boolean(W, H, 2, 6, 0.4, &rng, b), GS_OK);
+    assert_int_equal(gs_micro_dist_from_image(&d, W, H, b, 128, 1.0, 1000), GS_OK);
+    double cp[64] = {0}, cn[64] = {0};
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double best = INFINITY;
+            for (int v = 0; v < H; v++)
+                for (int u = 0; u < W; u++)
+                    if ((b[v * W + u] >= 128) != (b[y * W + x] >= 128))
+                        best = fmin(best, hypot(u - x, v - y));
+            int k = (int)(best - 0.5);
+            (b[y * W + x] >= 128 ? cp : cn)[k] += 1.0 / (W * H);
+        }
+    double total = 0;
+    for (uint32_t k = 0; k < 64; k++) {
+        assert_true(fabs((k < d.nbins ? d.pos[k] : 0) - cp[k]) < 1e-12);
+        assert_true(fabs((k < d.nbins ? d.neg[k] : 0) - cn[k]) < 1e-12);
+        total += cp[k] + cn[k];
+    }
+    assert_true(fabs(total - 1) < 1e-12);
+    gs_micro_dist_free(&d);
+
+    memset(img, 7, sizeof img);
+    assert_int_equal(gs_micro_dist_from_image(&d, 16, 8, img, 128, 1.0, 8), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "all black"));
+    gs_error_clear();
+
+    gs_micro_dist_range rr = {3, 6, 0.3, 0.6};
+    assert_int_equal(gs_micro_dist_random(&d, &rr, &rng), GS_OK);
+    assert_true(d.nbins >= 3 && d.nbins <= 6);
+    double sp = 0, sn = 0;
+    for (uint32_t k = 0; k < d.nbins; k++) {
+        sp += d.pos[k], sn += d.neg[k];
+        if (k)
+            assert_true(d.pos[k] <= d.pos[k - 1] && d.neg[k] <= d.neg[k - 1]);
+    }
+    assert_true(sp >= 0.3 - 1e-12 && sp <= 0.6 + 1e-12 && fabs(sp + sn - 1) < 1e-12);
+    gs_micro_dist_free(&d);
+}
+
+/* Shared fixture: a sphere at the paper's resolution (~3 triangles per
+ * unit^2) and the distribution of a Boolean-model image. */
+typedef struct fixture {
+    gs_micro_mesh m;
+    double upm;
+    gs_micro_dual d;
+    gs_micro_hist h;
+} fixture;
+
+static void fixture_make(fixture *f, uint32_t segments)
+{
+    memset(f, 0, sizeof *f);
+    assert_int_equal(gs_micro_mesh_sphere_segments(&f->m, 1.0, segments), GS_OK);
+    f->upm = sqrt(f->m.ntris / 3.0 / (4 * 3.14159265358979));
+    assert_int_equal(gs_micro_dual_build(&f->m, f->upm, &f->d), GS_OK);
+    static uint8_t img[256 * 256];
+    gs_rng rng;
+    gs_rng_init(&rng, 11, 0);
+    assert_int_equal(gs_micro_image_boolean(256, 256, 3, 8, 0.45, &rng, img), GS_OK);
+    gs_micro_dist dist;
+    assert_int_equal(gs_micro_dist_from_image(&dist, 256, 256, img, 128, 1.0, 64), GS_OK);
+    assert_int_equal(gs_micro_hist_from_dist(&f->h, &dist, f->m.ntris), GS_OK);
+    gs_micro_dist_free(&dist);
+}
+
+static void fixture_free(fixture *f)
+{
+    gs_micro_hist_free(&f->h);
+    gs_micro_dual_free(&f->d);
+    gs_micro_mesh_free(&f->m);
+}
+
+static uint64_t run_digest(const fixture *f, const gs_micro_recon_opts *o, uint64_t seed)
+{
+    gs_micro_recon_t r;
+    int done = 0;
+    assert_int_equal(gs_micro_recon_create(&f->d, &f->h, o, seed, &r), GS_OK);
+    assert_int_equal(gs_micro_recon_run(r, 0, &done), GS_OK);
+    assert_true(done);
+    uint64_t dg = gs_micro_state_digest(gs_micro_recon_state(r));
+    gs_micro_recon_destroy(&r);
+    return dg;
+}
+
+static void test_reconstruct_sphere(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, 80); /* 51200 triangles */
+    assert_int_equal(f.m.ntris, 51200);
+    gs_micro_recon_opts o;
+    gs_micro_recon_defaults(&o);
+    gs_micro_recon_t r;
+    int done = 0;
+    assert_int_equal(gs_micro_recon_create(&f.d, &f.h, &o, 42, &r), GS_OK);
+    assert_int_equal(gs_micro_recon_run(r, 0, &done), GS_OK);
+    assert_true(done);
+    const gs_micro_state *st = gs_micro_recon_state(r);
+    gs_micro_report rep;
+    gs_rng rng;
+    gs_rng_init(&rng, 5, 0);
+    assert_int_equal(gs_micro_verify(&f.m, f.upm, &f.h, st->value, st->label, 400, &rng, &rep), GS_OK);
+    gs_micro_recon_counters c = gs_micro_recon_counters_get(r);
+    printf("sphere %u tris, K=%u: pairs %llu violations %llu max_excess %.3g unassigned %.4f%% "
+           "abs bin error %lld, forced %llu random %llu rejected %llu filled %llu\n",
+           f.m.ntris, f.h.nbins, (unsigned long long)rep.pairs_checked, (unsigned long long)rep.violations,
+           rep.max_excess, 100 * rep.unassigned_share, (long long)rep.abs_error_sum,
+           (unsigned long long)c.forced, (unsigned long long)c.random_accepted,
+           (unsigned long long)c.random_rejected, (unsigned long long)c.filled);
+    assert_true(rep.pairs_checked > 400 * 1000);
+    assert_int_equal(rep.violations, 0);
+    assert_true(rep.unassigned_share < 0.01);
+    assert_int_equal(rep.unassigned, c.filled);
+    /* every labelled triangle's value lies in its bin */
+    uint32_t K = f.h.nbins;
+    int64_t both = 0;
+    for (uint32_t t = 0; t < f.m.ntris; t++) {
+        uint16_t l = st->label[t];
+        if (l >= 2 * K)
+            continue;
+        double x = st->value[t];
+        if (l >= K)
+            assert_true(x >= (double)(l - K) && x < (double)(l - K) + 1);
+        else
+            assert_true(x <= -(double)(K - 1 - l) && x > -(double)(K - l));
+        both += l >= K ? 1 : -1;
+    }
+    assert_true(llabs(both) < (int64_t)f.m.ntris); /* both regions present */
+    /* per-bin error adds up to twice the unassigned count at most */
+    assert_true(rep.abs_error_sum <= 2 * (int64_t)rep.unassigned);
+    gs_micro_report_free(&rep);
+
+    /* The verifier is not blind: a planted spike is caught. */
+    double *v = malloc(sizeof(double) * f.m.ntris);
+    memcpy(v, st->value, sizeof(double) * f.m.ntris);
+    for (uint32_t t = 0; t < f.m.ntris; t += 1000)
+        v[t] += 3.0; /* spikes: a neighbour at distance < 1 differs by > 2 */
+    assert_int_equal(gs_micro_verify(&f.m, f.upm, &f.h, v, st->label, 2000, &rng, &rep), GS_OK);
+    assert_true(rep.violations > 0);
+    gs_micro_report_free(&rep);
+    free(v);
+    gs_micro_recon_destroy(&r);
+    fixture_free(&f);
+}
+
+static void test_paper_variant(void **state)
+{
+    (void)state;
+    /* capacity off = the paper as printed: still no violation (the fill
+     * respects the constraints), but a visible unassigned share. */
+    fixture f;
+    fixture_make(&f, 20);
+    gs_micro_recon_opts o;
+    gs_micro_recon_defaults(&o);
+    o.capacity = 0;
+    double *v = malloc(sizeof(double) * f.m.ntris);
+    uint16_t *l = malloc(sizeof(uint16_t) * f.m.ntris);
+    assert_int_equal(gs_micro_reconstruct(&f.d, &f.h, &o, 1, v, l), GS_OK);
+    gs_micro_report rep;
+    gs_rng rng;
+    gs_rng_init(&rng, 5, 0);
+    assert_int_equal(gs_micro_verify(&f.m, f.upm, &f.h, v, l, f.m.ntris, &rng, &rep), GS_OK);
+    printf("paper variant, %u tris: violations %llu unassigned %.2f%%\n", f.m.ntris,
+           (unsigned long long)rep.violations, 100 * rep.unassigned_share);
+    assert_int_equal(rep.violations, 0);
+    assert_true(rep.unassigned_share > 0.01);
+    gs_micro_report_free(&rep);
+    free(v);
+    free(l);
+    fixture_free(&f);
+}
+
+static void test_determinism_and_resume(void **state)
+{
+    (void)state;
+    fixture f;
+    fixture_make(&f, 36); /* 10368 triangles */
+    gs_micro_recon_opts o;
+    gs_micro_recon_defaults(&o);
+    uint64_t a = run_digest(&f, &o, 7), b = run_digest(&f, &o, 7), c = run_digest(&f, &o, 8);
+    assert_true(a == b);
+    assert_true(a != c);
+    /* gs_micro_reconstruct gives the same labels as the stepwise run */
+    double *v = malloc(sizeof(double) * f.m.ntris);
+    uint16_t *l = malloc(sizeof(uint16_t) * f.m.ntris);
+    assert_int_equal(gs_micro_reconstruct(&f.d, &f.h, &o, 7, v, l), GS_OK);
+    gs_digest dg;
+    assert_true(gs_digest_init(&dg));
+    gs_digest_update(&dg, l, sizeof(uint16_t) * f.m.ntris);
+    gs_digest_update(&dg, v, sizeof(double) * f.m.ntris);
+    assert_true(gs_digest_final(&dg) == a);
+    free(v);
+    free(l);
+
+    /* Stop after k steps, keep only a deep copy of the state, resume from it
+     * in a fresh object: the same final digest, for every stopping point
+     * class (early bin, middle, just before the fill, after it). */
+    uint32_t K = f.h.nbins;
+    uint32_t stops[4] = {1, K, 2 * K, 2 * K + 1};
+    for (int i = 0; i < 4; i++) {
+        gs_micro_recon_t r;
+        int done = 0;
+        assert_int_equal(gs_micro_recon_create(&f.d, &f.h, &o, 7, &r), GS_OK);
+        assert_int_equal(gs_micro_recon_run(r, stops[i], &done), GS_OK);
+        assert_int_equal(gs_micro_recon_state(r)->step, stops[i]);
+        gs_micro_state saved;
+        assert_int_equal(gs_micro_state_copy(&saved, gs_micro_recon_state(r)), GS_OK);
+        gs_micro_recon_destroy(&r);
+        assert_int_equal(gs_micro_recon_resume(&f.d, &f.h, &o, &saved, &r), GS_OK);
+        gs_micro_state_free(&saved);
+        assert_int_equal(gs_micro_recon_run(r, 0, &done), GS_OK);
+        assert_true(done);
+        assert_true(gs_micro_state_digest(gs_micro_recon_state(r)) == a);
+        gs_micro_recon_destroy(&r);
+    }
+    /* A state from another mesh is refused. */
+    fixture g;
+    fixture_make(&g, 10);
+    gs_micro_recon_t r;
+    assert_int_equal(gs_micro_recon_create(&g.d, &g.h, &o, 7, &r), GS_OK);
+    gs_micro_recon_t r2 = NULL;
+    assert_int_equal(gs_micro_recon_resume(&f.d, &f.h, &o, gs_micro_recon_state(r), &r2), GS_ERR_ARG);
+    assert_null(r2);
+    gs_error_clear();
+    gs_micro_recon_destroy(&r);
+    fixture_free(&g);
+    fixture_free(&f);
+}
+
+static void test_displace(void **state)
+{
+    (void)state;
+    gs_micro_mesh m = {0};
+    assert_int_equal(gs_micro_mesh_sphere_segments(&m, 2.0, 6), GS_OK);
+    double *tv = malloc(sizeof(double) * m.ntris);
+    double *vv = malloc(sizeof(double) * m.nverts);
+    float *out = malloc(sizeof(float) * 3 * m.nverts);
+    /* Upper hemisphere +4, lower -4 (triangles by centroid z). */
+    for (uint32_t t = 0; t < m.ntris; t++) {
+        double z = m.pos[3 * m.tris[3 * t] + 2] + (double)m.pos[3 * m.tris[3 * t + 1] + 2] +
+                   m.pos[3 * m.tris[3 * t + 2] + 2];
+        tv[t] = z > 0 ? 4.0 : -4.0;
+    }
+    gs_micro_displace_params p = {{1, -1}, {0.05, 0.1}, {GS_MICRO_SQRT, GS_MICRO_LINEAR}};
+    assert_int_equal(gs_micro_displace(&m, tv, &p, vv, out), GS_OK);
+    double h = gs_micro_mesh_half_extent(&m);
+    assert_true(fabs(h - 2.0) < 1e-6);
+    int seen_pos = 0, seen_neg = 0;
+    for (uint32_t v = 0; v < m.nverts; v++) {
+        double r = sqrt(out[3 * v] * (double)out[3 * v] + out[3 * v + 1] * (double)out[3 * v + 1] +
+                        out[3 * v + 2] * (double)out[3 * v + 2]);
+        double z = m.pos[3 * v + 2];
+        const float *nv = m.normals + 3 * v;
+        double off = 0;
+        if (z > 0.3) { /* all incident triangles +4: out by 0.05 sqrt(4) h = 0.2 */
+            assert_true(fabs(vv[v] - 4.0) < 1e-12);
+            off = 0.2;
+            seen_pos++;
+        } else if (z < -0.3) { /* in by 0.1 * 4 * h = 0.8 */
+            off = -0.8;
+            seen_neg++;
+        }
+        for (int k = 0; k < 3; k++)
+            if (off != 0)
+                assert_true(fabs(out[3 * v + k] - (m.pos[3 * v + k] + off * nv[k])) < 1e-5);
+        if (off != 0)
+            assert_true(fabs(r - (2 + off)) < 0.02); /* normals of the faceted sphere are ~radial */
+    }
+    assert_true(seen_pos > 10 && seen_neg > 10);
+    p.direction[0] = 0; /* none */
+    assert_int_equal(gs_micro_displace(&m, tv, &p, NULL, out), GS_OK);
+    assert_true(out[3 * 0] == m.pos[0] || m.pos[2] <= 0.3);
+    p.direction[0] = 2;
+    assert_int_equal(gs_micro_displace(&m, tv, &p, NULL, out), GS_ERR_ARG);
+    gs_error_clear();
+    assert_true(fabs(gs_micro_func_eval(GS_MICRO_SQUARE, 3) - 9) < 1e-15);
+    assert_true(fabs(gs_micro_func_eval(GS_MICRO_CBRT, 8) - 2) < 1e-15);
+    free(tv);
+    free(vv);
+    free(out);
+    gs_micro_mesh_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_geodesic_flat_grid),  cmocka_unit_test(test_histogram_merge),
+        cmocka_unit_test(test_image_distribution),  cmocka_unit_test(test_reconstruct_sphere),
+        cmocka_unit_test(test_paper_variant),       cmocka_unit_test(test_determinism_and_resume),
+        cmocka_unit_test(test_displace),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
