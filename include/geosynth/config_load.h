@@ -28,4 +28,10 @@ gs_err gs_config_load_collective(MPI_Comm comm, const gs_cfg_table *t, const cha
                                  const char *const *overrides, size_t noverrides, void *out,
                                  char **resolved_text);
 
+/* The same from config text held by rank 0 (e.g. the resolved config stored
+ * in a checkpoint, for `geosynth resume`); origin names it in messages. */
+gs_err gs_config_text_collective(MPI_Comm comm, const gs_cfg_table *t, const char *text,
+                                 const char *origin, const char *const *overrides,
+                                 size_t noverrides, void *out, char **resolved_text);
+
 #endif

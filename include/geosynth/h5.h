@@ -293,4 +293,7 @@ gs_err gs_inspect_file_opts(const char *path, FILE *out, const gs_inspect_opts *
 gs_err gs_inspect_image(const void *buf, size_t len, const char *name, FILE *out,
                         const gs_inspect_opts *opts);
 
+/* "HDF5 x.y.z (parallel)" of the library linked in; static storage. */
+const char *gs_h5_library_version(void);
+
 #endif

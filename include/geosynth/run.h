@@ -17,6 +17,7 @@
 #include <stdint.h>
 
 #include "geosynth/error.h"
+#include "geosynth/h5.h"
 #include "geosynth/json.h"
 
 #define GS_RUN_MAX_PHASES 64
@@ -40,6 +41,11 @@ typedef struct gs_run {
     gs_run_phase phases[GS_RUN_MAX_PHASES];
     int nphases;
     int open_phase;         /* index of the running phase or -1 */
+    double ckpt_seconds;    /* run.checkpoint_seconds (0 = off) */
+    int64_t ckpt_every;     /* run.checkpoint_every units (0 = off) */
+    double ckpt_last_time;  /* when the last checkpoint was written (rank 0's clock) */
+    int64_t ckpt_last_units;
+    int64_t ckpt_count;     /* checkpoints written by this process */
     gs_json metrics;        /* quality metrics for summary.json (rank 0) */
     gs_json outputs;        /* output files written (rank 0) */
 } gs_run;
@@ -70,6 +76,35 @@ void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len)
 /* Collective: writes summary.json with the digest and prints the RESULTS
  * section on rank 0. */
 gs_err gs_run_finish(gs_run *run, uint64_t digest);
+
+/* Checkpoint cadence, set by the CLI from run.checkpoint_seconds and
+ * run.checkpoint_every. */
+void gs_run_set_checkpointing(gs_run *run, double seconds, int64_t every_units);
+
+/* Collective: decides whether to write a checkpoint now, identically on
+ * every rank. units_done counts the engine's work units (blocks, regions,
+ * bins...) since the start of the run (including before a resume). Due when
+ * run.checkpoint_every units passed since the last one, when
+ * run.checkpoint_seconds elapsed on rank 0's clock, or when any rank got
+ * SIGTERM/SIGINT/SIGUSR1; in that last case *stop is set to 1 and the
+ * engine must write the checkpoint and return GS_ERR_INTERRUPTED (exit 9;
+ * `geosynth resume RUN_DIR` continues). The test hook GS_STOP_AFTER_UNITS=N
+ * in the environment behaves like a signal once units_done >= N. */
+int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop);
+
+/* Collective: starts RUN_DIR/checkpoint.h5 (written to .tmp, committed with
+ * gs_ckpt_commit) with this run's identity (engine, seed, resolved config). */
+gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out);
+
+/* Collective: commits the checkpoint and records the time and units. */
+gs_err gs_run_checkpoint_commit(gs_run *run, gs_ckpt_t *h, int64_t units_done);
+
+/* Collective: opens RUN_DIR/checkpoint.h5 for reading, checking it belongs
+ * to this run's engine. */
+gs_err gs_run_checkpoint_open(gs_run *run, gs_ckpt_t *out);
+
+/* Raises GS_ERR_INTERRUPTED with a message telling how to resume. */
+gs_err gs_run_interrupted(const gs_run *run);
 
 void gs_run_close(gs_run *run);
 

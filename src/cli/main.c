@@ -1,17 +1,381 @@
-/* geosynth command line entry point. */
+/* geosynth command line: global options, subcommands, engine dispatch.
+ *
+ * Every rank parses the same argv (mpirun passes it to all), so the
+ * decisions below are identical on all ranks without communication; only
+ * file contents (configs, checkpoints) are read on rank 0 and broadcast.
+ * Exit codes are the gs_err values (include/geosynth/error.h, README).
+ */
+#include <limits.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "geosynth/config.h"
+#include "geosynth/config_load.h"
+#include "geosynth/engine.h"
 #include "geosynth/error.h"
+#include "geosynth/h5.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
 #include "geosynth/par.h"
+#include "geosynth/run.h"
+#include "geosynth/vdb.h"
+#include "geosynth/version.h"
+
+#define MAX_OVERRIDES 256
+
+typedef struct cli_args {
+    const char *command;
+    const char *config_path;
+    const char *run_dir;
+    const char *positional;
+    const char *overrides[MAX_OVERRIDES];
+    int noverrides;
+    int help;
+} cli_args;
+
+static int log_level_from_cli = 0;
+
+static gs_log_level log_level_from_name(const char *name)
+{
+    static const char *names[] = {"error", "warn", "info", "debug"};
+    for (int i = 0; i < 4; i++)
+        if (name && !strcmp(name, names[i]))
+            return (gs_log_level)i;
+    return GS_LOG_INFO;
+}
+
+static void print_usage(FILE *out)
+{
+    int n;
+    const gs_engine *const *engines = gs_engines(&n);
+    fprintf(out,
+            "geosynth %s: synthesize large geometry from a small example (MPI batch program)\n"
+            "\n"
+            "usage: [mpirun -np N] geosynth [-v|-q] COMMAND [options]\n"
+            "\n"
+            "commands:\n",
+            GS_VERSION_STRING);
+    for (int i = 0; i < n; i++)
+        fprintf(out, "  %-9s -c CONFIG.ini [-o RUN_DIR] [--set section.key=value ...]\n"
+                     "            %s\n",
+                engines[i]->name, engines[i]->summary);
+    fprintf(out,
+            "  resume    RUN_DIR [--set run.key=value ...]\n"
+            "            continue an interrupted run from RUN_DIR/checkpoint.h5 (any rank count)\n"
+            "  inspect   FILE.h5\n"
+            "            summarize a geosynth HDF5 file (checkpoint or output)\n"
+            "  version   print program, format and library versions\n"
+            "  help      [COMMAND]  this text, or a command's options and config keys\n"
+            "\n"
+            "global options:\n"
+            "  -v, --verbose   more log output (debug)      -q, --quiet   only warnings and errors\n"
+            "  -h, --help      this text                    --version     same as 'version'\n"
+            "\n"
+            "engine options:\n"
+            "  -c, --config FILE      INI config (see configs/ and 'geosynth help ENGINE')\n"
+            "  -o, --output DIR       run directory (overrides run.output)\n"
+            "  --set section.key=VAL  override one config key (repeatable)\n"
+            "\n"
+            "outputs: RUN_DIR/summary.json (digest, timings, metrics), RUN_DIR/metrics.jsonl,\n"
+            "RUN_DIR/checkpoint.h5 and the engine's outputs.\n"
+            "\n"
+            "exit codes: 0 ok, 1 usage, 2 bad input or config, 3 I/O, 4 file format,\n"
+            "5 out of memory, 6 MPI, 7 external library, 8 internal error, 9 interrupted\n");
+    if (n == 0)
+        fprintf(out, "\n(this build has no synthesis engines yet)\n");
+}
+
+static void print_engine_help(const gs_engine *e, FILE *out)
+{
+    fprintf(out, "geosynth %s: %s\n\nusage: [mpirun -np N] geosynth %s -c CONFIG.ini "
+                 "[-o RUN_DIR] [--set section.key=value ...]\n\nconfig keys:\n",
+            e->name, e->summary, e->name);
+    gs_config_print_help(e->config, out);
+}
+
+static gs_err usage_error(const char *fmt, const char *arg)
+{
+    return gs_error_raise(GS_ERR_USAGE, __FILE__, __LINE__, __func__, fmt, arg);
+}
+
+/* Levenshtein distance, for "did you mean". */
+static size_t edit_distance(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    if (la > 64 || lb > 64)
+        return 99;
+    size_t d[65][65];
+    for (size_t i = 0; i <= la; i++)
+        d[i][0] = i;
+    for (size_t j = 0; j <= lb; j++)
+        d[0][j] = j;
+    for (size_t i = 1; i <= la; i++)
+        for (size_t j = 1; j <= lb; j++) {
+            size_t sub = d[i - 1][j - 1] + (a[i - 1] != b[j - 1]);
+            size_t del = d[i - 1][j] + 1, ins = d[i][j - 1] + 1;
+            d[i][j] = sub < del ? (sub < ins ? sub : ins) : (del < ins ? del : ins);
+        }
+    return d[la][lb];
+}
+
+static const char *closest_command(const char *name)
+{
+    static const char *builtins[] = {"resume", "inspect", "version", "help"};
+    const char *best = NULL;
+    size_t best_d = 3;
+    int n;
+    const gs_engine *const *engines = gs_engines(&n);
+    for (int i = 0; i < n + 4; i++) {
+        const char *cand = i < n ? engines[i]->name : builtins[i - n];
+        size_t dist = edit_distance(name, cand);
+        if (dist < best_d) {
+            best_d = dist;
+            best = cand;
+        }
+    }
+    return best;
+}
+
+static gs_err parse_args(int argc, char **argv, cli_args *a)
+{
+    memset(a, 0, sizeof *a);
+    for (int i = 1; i < argc; i++) {
+        const char *s = argv[i];
+        int has_next = i + 1 < argc;
+        if (!strcmp(s, "-v") || !strcmp(s, "--verbose")) {
+            gs_log_set_level(GS_LOG_DEBUG);
+            log_level_from_cli = 1;
+        } else if (!strcmp(s, "-q") || !strcmp(s, "--quiet")) {
+            gs_log_set_level(GS_LOG_WARN);
+            log_level_from_cli = 1;
+        } else if (!strcmp(s, "-h") || !strcmp(s, "--help")) {
+            a->help = 1;
+        } else if (!strcmp(s, "--version")) {
+            a->command = "version";
+        } else if (!strcmp(s, "-c") || !strcmp(s, "--config")) {
+            if (!has_next)
+                return usage_error("%s needs a file name", s);
+            a->config_path = argv[++i];
+        } else if (!strcmp(s, "-o") || !strcmp(s, "--output")) {
+            if (!has_next)
+                return usage_error("%s needs a directory", s);
+            a->run_dir = argv[++i];
+        } else if (!strcmp(s, "--set") || !strncmp(s, "--set=", 6)) {
+            const char *v = s[5] == '=' ? s + 6 : (has_next ? argv[++i] : NULL);
+            if (!v)
+                return usage_error("%s needs section.key=value", s);
+            if (!strchr(v, '='))
+                return usage_error("--set %s: expected section.key=value", v);
+            if (a->noverrides >= MAX_OVERRIDES)
+                return usage_error("too many --set options (the limit is %s)", "256");
+            a->overrides[a->noverrides++] = v;
+        } else if (s[0] == '-' && s[1] != '\0') {
+            return usage_error("unknown option '%s' (see geosynth --help)", s);
+        } else if (!a->command) {
+            a->command = s;
+        } else if (!a->positional) {
+            a->positional = s;
+        } else {
+            return usage_error("unexpected argument '%s' (see geosynth --help)", s);
+        }
+    }
+    return GS_OK;
+}
+
+static int cmd_version(void)
+{
+    if (gs_par_rank() == 0) {
+        int major, minor;
+        MPI_Get_version(&major, &minor);
+        char lib[MPI_MAX_LIBRARY_VERSION_STRING];
+        int len = 0;
+        MPI_Get_library_version(lib, &len);
+        char *nl = strchr(lib, '\n');
+        if (nl)
+            *nl = '\0';
+        printf("geosynth %s (file format %d)\n", GS_VERSION_STRING, GS_FORMAT_VERSION);
+        printf("MPI %d.%d: %s\n", major, minor, lib);
+        printf("%s\n", gs_h5_library_version());
+        printf("OpenVDB %s\n", gs_vdb_library_version());
+        int n;
+        const gs_engine *const *engines = gs_engines(&n);
+        printf("engines:");
+        for (int i = 0; i < n; i++)
+            printf(" %s", engines[i]->name);
+        printf("%s\n", n ? "" : " (none)");
+    }
+    return 0;
+}
+
+/* Runs an engine fresh (resume = 0) or from RUN_DIR (resume = 1).
+ * Collective. Config problems are collective failures. */
+static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resume_config,
+                         int *collective)
+{
+    int resume = resume_config != NULL;
+    *collective = 1;
+    char *resolved = NULL;
+    void *cfg = gs_calloc(1, e->config_size);
+    GS_CHECK(cfg != NULL, GS_ERR_MEM, "cannot allocate config");
+    const char *overrides[MAX_OVERRIDES + 1];
+    int nov = 0;
+    for (int i = 0; i < a->noverrides; i++)
+        overrides[nov++] = a->overrides[i];
+    char out_override[PATH_MAX + 16];
+    if (a->run_dir) {
+        snprintf(out_override, sizeof out_override, "run.output=%s", a->run_dir);
+        overrides[nov++] = out_override;
+    }
+    gs_err err;
+    if (resume) {
+        err = gs_config_text_collective(MPI_COMM_WORLD, e->config, resume_config,
+                                        "(config stored in the checkpoint)", overrides,
+                                        (size_t)nov, cfg, &resolved);
+    } else {
+        err = gs_config_load_collective(MPI_COMM_WORLD, e->config, a->config_path, overrides,
+                                        (size_t)nov, cfg, &resolved);
+    }
+    if (err) {
+        gs_free(cfg);
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
+    const gs_run_config *rc = (const gs_run_config *)((const char *)cfg + e->run_offset);
+    if (!log_level_from_cli)
+        gs_log_set_level(log_level_from_name(rc->log_level));
+    gs_run run;
+    err = gs_run_open(&run, MPI_COMM_WORLD, e->name, resume ? a->positional : rc->output,
+                      resolved, (uint64_t)rc->seed, resume);
+    if (!err) {
+        gs_log_section("INPUT SUMMARY");
+        gs_log(GS_LOG_INFO, "geosynth %s %s, %d rank%s, seed %llu, run directory %s", e->name,
+               resume ? "(resumed)" : "", run.size, run.size > 1 ? "s" : "",
+               (unsigned long long)rc->seed, run.dir);
+        gs_run_set_checkpointing(&run, rc->checkpoint_seconds, rc->checkpoint_every);
+        *collective = 0; /* engine failures may be local to one rank */
+        err = e->run(&run, cfg, resume);
+        if (err)
+            gs_error_push_frame(__FILE__, __LINE__, __func__);
+    }
+    gs_run_close(&run);
+    gs_config_free(e->config, cfg);
+    gs_free(cfg);
+    gs_free(resolved);
+    return err;
+}
+
+static gs_err cmd_resume(const cli_args *a, int *collective)
+{
+    *collective = 1;
+    if (!a->positional)
+        return usage_error("resume needs a run directory%s", "");
+    GS_CHECK(a->run_dir == NULL, GS_ERR_USAGE,
+             "resume continues in RUN_DIR itself; -o is not allowed");
+    for (int i = 0; i < a->noverrides; i++)
+        GS_CHECK(!strncmp(a->overrides[i], "run.", 4), GS_ERR_USAGE,
+                 "resume --set %s: only run.* keys may change when resuming (the others "
+                 "would change the result)",
+                 a->overrides[i]);
+    char engine[64] = "";
+    char *config_text = NULL;
+    gs_err err = GS_OK;
+    if (gs_par_rank() == 0) {
+        char path[PATH_MAX];
+        snprintf(path, sizeof path, "%s/checkpoint.h5", a->positional);
+        err = gs_ckpt_peek(path, engine, sizeof engine, &config_text);
+    }
+    err = gs_par_agree(MPI_COMM_WORLD, err);
+    if (!err)
+        err = gs_par_bcast_string(MPI_COMM_WORLD, &config_text, 0) ? gs_error_code() : GS_OK;
+    if (!err && MPI_Bcast(engine, (int)sizeof engine, MPI_CHAR, 0, MPI_COMM_WORLD) != MPI_SUCCESS)
+        err = gs_error_raise(GS_ERR_MPI, __FILE__, __LINE__, __func__, "broadcast failed");
+    const gs_engine *e = err ? NULL : gs_engine_find(engine);
+    if (!err && !e)
+        err = gs_error_raise(GS_ERR_FORMAT, __FILE__, __LINE__, __func__,
+                             "%s/checkpoint.h5 belongs to engine '%s', which this build of "
+                             "geosynth does not have",
+                             a->positional, engine);
+    /* -o is not allowed, so run.output comes from the stored config; the run
+     * directory itself is a->positional (it may have been moved). */
+    if (!err)
+        err = run_engine(e, a, config_text, collective);
+    gs_free(config_text);
+    return err;
+}
 
 int main(int argc, char **argv)
 {
     gs_err err = gs_par_init(&argc, &argv);
     if (err)
         gs_fatal(err, 0);
-    if (gs_par_rank() == 0)
-        printf("geosynth\n");
+    int rank = gs_par_rank();
+    cli_args a;
+    err = parse_args(argc, argv, &a);
+    if (err) {
+        if (rank == 0)
+            fprintf(stderr, "geosynth: %s\n", gs_error_message());
+        gs_par_finalize();
+        return GS_ERR_USAGE;
+    }
+    int collective = 1;
+    if (!a.command || !strcmp(a.command, "help")) {
+        const gs_engine *e = a.positional ? gs_engine_find(a.positional) : NULL;
+        if (rank == 0) {
+            if (e)
+                print_engine_help(e, stdout);
+            else
+                print_usage(a.command || a.help ? stdout : stderr);
+        }
+        gs_par_finalize();
+        return a.command || a.help ? 0 : GS_ERR_USAGE;
+    }
+    if (!strcmp(a.command, "version")) {
+        cmd_version();
+        gs_par_finalize();
+        return 0;
+    }
+    const gs_engine *engine = gs_engine_find(a.command);
+    if (a.help) {
+        if (rank == 0) {
+            if (engine)
+                print_engine_help(engine, stdout);
+            else
+                print_usage(stdout);
+        }
+        gs_par_finalize();
+        return 0;
+    }
+    if (!strcmp(a.command, "inspect")) {
+        if (!a.positional) {
+            err = usage_error("inspect needs a file name%s", "");
+        } else if (rank == 0) {
+            err = gs_inspect_file(a.positional, stdout);
+        }
+        err = gs_par_agree(MPI_COMM_WORLD, err);
+    } else if (!strcmp(a.command, "resume")) {
+        err = cmd_resume(&a, &collective);
+    } else if (engine) {
+        if (!a.config_path) {
+            err = usage_error("%s needs a config: geosynth ENGINE -c CONFIG.ini (see configs/)",
+                              a.command);
+        } else if (a.positional) {
+            err = usage_error("unexpected argument '%s'", a.positional);
+        } else {
+            err = run_engine(engine, &a, NULL, &collective);
+        }
+    } else {
+        const char *near = closest_command(a.command);
+        char msg[256];
+        snprintf(msg, sizeof msg, "unknown command '%s'%s%s%s (see geosynth --help)", a.command,
+                 near ? "; did you mean '" : "", near ? near : "", near ? "'?" : "");
+        err = usage_error("%s", msg);
+    }
+    /* Every rank agreed to stop on a signal, so that exit is collective too. */
+    if (err == GS_ERR_INTERRUPTED)
+        collective = 1;
+    if (err)
+        gs_fatal(err, collective);
     gs_par_finalize();
     return 0;
 }

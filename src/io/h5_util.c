@@ -533,3 +533,18 @@ done:
     H5Eclear2(H5E_DEFAULT);
     return rc;
 }
+
+const char *gs_h5_library_version(void)
+{
+    static char text[64];
+    unsigned major = 0, minor = 0, release = 0;
+    H5get_libversion(&major, &minor, &release);
+    snprintf(text, sizeof text, "HDF5 %u.%u.%u (%s)", major, minor, release,
+#ifdef H5_HAVE_PARALLEL
+             "parallel"
+#else
+             "serial"
+#endif
+    );
+    return text;
+}

@@ -7,9 +7,12 @@
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 
-gs_err gs_config_load_collective(MPI_Comm comm, const gs_cfg_table *t, const char *path,
-                                 const char *const *overrides, size_t noverrides, void *out,
-                                 char **resolved_text)
+/* Shared by the file and text entry points: rank 0 parses either path
+ * (text == NULL) or text (named origin in messages). */
+static gs_err load_collective(MPI_Comm comm, const gs_cfg_table *t, const char *path,
+                              const char *text_in, const char *origin,
+                              const char *const *overrides, size_t noverrides, void *out,
+                              char **resolved_text)
 {
     int rank;
     GS_MPI(MPI_Comm_rank(comm, &rank));
@@ -22,7 +25,11 @@ gs_err gs_config_load_collective(MPI_Comm comm, const gs_cfg_table *t, const cha
                                "cannot allocate the config");
     else if (rank == 0) {
         gs_cfg_problems problems = GS_CFG_PROBLEMS_INIT;
-        local = gs_config_load(t, path, overrides, noverrides, cfg, &problems);
+        if (text_in)
+            local = gs_config_parse_text(t, text_in, strlen(text_in), origin, NULL, overrides,
+                                         noverrides, cfg, &problems);
+        else
+            local = gs_config_load(t, path, overrides, noverrides, cfg, &problems);
         gs_cfg_problems_print(&problems, stderr);
         fflush(stderr);
         gs_cfg_problems_free(&problems);
@@ -92,4 +99,19 @@ fail:
     gs_free(cfg);
     gs_free(text);
     return err;
+}
+
+gs_err gs_config_load_collective(MPI_Comm comm, const gs_cfg_table *t, const char *path,
+                                 const char *const *overrides, size_t noverrides, void *out,
+                                 char **resolved_text)
+{
+    return load_collective(comm, t, path, NULL, NULL, overrides, noverrides, out, resolved_text);
+}
+
+gs_err gs_config_text_collective(MPI_Comm comm, const gs_cfg_table *t, const char *text,
+                                 const char *origin, const char *const *overrides,
+                                 size_t noverrides, void *out, char **resolved_text)
+{
+    return load_collective(comm, t, NULL, text ? text : "", origin, overrides, noverrides, out,
+                           resolved_text);
 }

@@ -2,6 +2,7 @@
 #include "geosynth/run.h"
 
 #include <limits.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -205,6 +206,77 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
     }
     GS_CALL(gs_par_agree(run->comm, err));
     return GS_OK;
+}
+
+void gs_run_set_checkpointing(gs_run *run, double seconds, int64_t every_units)
+{
+    run->ckpt_seconds = seconds;
+    run->ckpt_every = every_units;
+    run->ckpt_last_time = gs_time_now();
+}
+
+int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
+{
+    int flags[2] = {0, 0}; /* {due, stop} decided from rank 0's clock and every rank's signals */
+    if (run->rank == 0) {
+        if (run->ckpt_seconds > 0 && gs_time_now() - run->ckpt_last_time >= run->ckpt_seconds)
+            flags[0] = 1;
+        if (run->ckpt_every > 0 && units_done - run->ckpt_last_units >= run->ckpt_every)
+            flags[0] = 1;
+        const char *hook = getenv("GS_STOP_AFTER_UNITS");
+        if (hook && hook[0]) {
+            char *end;
+            long long n = strtoll(hook, &end, 10);
+            if (*end == '\0' && units_done >= n)
+                flags[1] = 1;
+        }
+    }
+    if (gs_par_interrupted())
+        flags[1] = 1;
+    int all[2] = {flags[0], flags[1]};
+    if (run->size > 1)
+        MPI_Allreduce(flags, all, 2, MPI_INT, MPI_MAX, run->comm);
+    if (all[1]) {
+        *stop = 1;
+        return 1;
+    }
+    return all[0];
+}
+
+gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out)
+{
+    char path[PATH_MAX];
+    gs_run_path(run, "checkpoint.h5", path, sizeof path);
+    gs_ckpt_meta meta = {run->engine, run->seed, run->config_text};
+    GS_CALL(gs_ckpt_create(run->comm, path, &meta, out));
+    return GS_OK;
+}
+
+gs_err gs_run_checkpoint_commit(gs_run *run, gs_ckpt_t *h, int64_t units_done)
+{
+    GS_CALL(gs_ckpt_commit(h));
+    run->ckpt_last_time = gs_time_now();
+    run->ckpt_last_units = units_done;
+    run->ckpt_count++;
+    gs_log(GS_LOG_INFO, "checkpoint %lld written after %lld units",
+           (long long)run->ckpt_count, (long long)units_done);
+    return GS_OK;
+}
+
+gs_err gs_run_checkpoint_open(gs_run *run, gs_ckpt_t *out)
+{
+    char path[PATH_MAX];
+    gs_run_path(run, "checkpoint.h5", path, sizeof path);
+    GS_CALL(gs_ckpt_open(run->comm, path, run->engine, out));
+    return GS_OK;
+}
+
+gs_err gs_run_interrupted(const gs_run *run)
+{
+    GS_RAISE(GS_ERR_INTERRUPTED,
+             "interrupted; checkpoint written to %s/checkpoint.h5: continue with "
+             "'geosynth resume %s'",
+             run->dir, run->dir);
 }
 
 void gs_run_close(gs_run *run)

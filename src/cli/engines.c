@@ -1,0 +1,26 @@
+/* Registry of the engines built into geosynth. An engine is added here
+ * when it lands; there are no placeholder engines. */
+#include <string.h>
+
+#include "geosynth/engine.h"
+
+static const gs_engine *const engine_list[] = {
+    NULL /* terminator */
+};
+
+const gs_engine *const *gs_engines(int *count)
+{
+    int n = 0;
+    while (engine_list[n])
+        n++;
+    *count = n;
+    return engine_list;
+}
+
+const gs_engine *gs_engine_find(const char *name)
+{
+    for (int i = 0; engine_list[i]; i++)
+        if (!strcmp(engine_list[i]->name, name))
+            return engine_list[i];
+    return NULL;
+}

@@ -1,0 +1,60 @@
+# End-to-end: command line behaviour that does not need an engine.
+source "$GS_ROOT/tests/e2e/lib.bash"
+
+run_gs 0 --help
+expect_rc 0 "--help"
+expect_out "usage: [mpirun -np N] geosynth" "--help prints usage"
+expect_out "exit codes:" "--help documents exit codes"
+for cmd in resume inspect version help; do
+  grep -q "^  $cmd " <<<"$out" && ok "--help documents $cmd" || bad "--help lacks $cmd"
+done
+
+run_gs 0
+expect_rc 1 "no command"
+
+run_gs 0 version
+expect_rc 0 "version"
+expect_out "geosynth 0." "version names the program version"
+expect_out "OpenVDB" "version names the OpenVDB version"
+expect_out "HDF5" "version names the HDF5 version"
+
+run_gs 0 resmue x
+expect_rc 1 "misspelt command"
+expect_err "did you mean 'resume'" "misspelt command gets a suggestion"
+
+run_gs 0 inspect --bogus
+expect_rc 1 "unknown option"
+expect_err "unknown option '--bogus'" "unknown option is named"
+
+run_gs 0 inspect
+expect_rc 1 "inspect without a file"
+
+run_gs 0 inspect /nonexistent/file.h5
+expect_rc 3 "inspect missing file"
+expect_err "/nonexistent/file.h5" "inspect missing file names the path"
+
+printf 'not an hdf5 file\n' > text.h5
+run_gs 0 inspect text.h5
+expect_rc 4 "inspect a text file"
+expect_err "text.h5" "inspect text file names the path"
+expect_no_crash "inspect a text file"
+
+: > empty.h5
+run_gs 0 inspect empty.h5
+expect_rc 4 "inspect an empty file"
+expect_no_crash "inspect an empty file"
+
+run_gs 0 resume /nonexistent/run
+expect_rc 3 "resume a missing run directory"
+expect_err "/nonexistent/run/checkpoint.h5" "resume names the missing checkpoint"
+
+mkdir -p run1 && cp text.h5 run1/checkpoint.h5
+run_gs 2 resume run1
+expect_rc 4 "resume a damaged checkpoint at np=2 (collective failure, no hang)"
+expect_no_crash "resume a damaged checkpoint"
+
+run_gs 0 resume run1 --set field.block=4
+expect_rc 1 "resume may not change non-run keys"
+expect_err "only run.* keys" "resume explains which keys may change"
+
+finish
