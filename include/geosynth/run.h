@@ -89,7 +89,8 @@ void gs_run_set_checkpointing(gs_run *run, double seconds, int64_t every_units);
  * SIGTERM/SIGINT/SIGUSR1; in that last case *stop is set to 1 and the
  * engine must write the checkpoint and return GS_ERR_INTERRUPTED (exit 9;
  * `geosynth resume RUN_DIR` continues). The test hook GS_STOP_AFTER_UNITS=N
- * in the environment behaves like a signal once units_done >= N. */
+ * in the environment behaves like a signal once units_done >= N (in a fresh
+ * run only, so the resumed run can finish). */
 int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop);
 
 /* Collective: starts RUN_DIR/checkpoint.h5 (written to .tmp, committed with

@@ -224,7 +224,7 @@ int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
         if (run->ckpt_every > 0 && units_done - run->ckpt_last_units >= run->ckpt_every)
             flags[0] = 1;
         const char *hook = getenv("GS_STOP_AFTER_UNITS");
-        if (hook && hook[0]) {
+        if (hook && hook[0] && !run->resumed) {
             char *end;
             long long n = strtoll(hook, &end, 10);
             if (*end == '\0' && units_done >= n)
