@@ -2,6 +2,10 @@
  * state attributes, XDMF sidecars, and the `inspect` summary.
  *
  * FILE LAYOUT (format version GS_FORMAT_VERSION, include/geosynth/version.h)
+ * Files use the HDF5 1.10 file format (superblock 3): every metadata block
+ * is checksummed, so damaged files are rejected before libhdf5 parses them.
+ * Checkpoint readers refuse older superblocks as "not a geosynth file";
+ * readable by any HDF5 >= 1.10 tool (h5dump, h5py, ParaView).
  *   /geosynth                 group; attributes:
  *       magic            string  "geosynth"
  *       format_version   int32

@@ -209,6 +209,13 @@ gs_err gs_ckpt_create(MPI_Comm comm, const char *path, const gs_ckpt_meta *meta,
         H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
     else
         H5Pset_fapl_sec2(fapl);
+    /* The 1.10 format (superblock 3, object header 2, fixed-array chunk
+     * indexes): every metadata block, chunk sizes included, carries a
+     * checksum, so libhdf5 rejects damaged metadata before parsing it (see
+     * gs_h5_precheck). The 1.8 format still indexes chunks with unchecksummed
+     * v1 B-trees, whose damaged chunk sizes made libhdf5 malloc 4 GiB in the
+     * fuzzer. Readable by HDF5 >= 1.10 (Debian's h5py included). */
+    H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110);
     h->file = H5Fcreate(h->tmp_path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
     H5Pclose(fapl);
     local = GS_OK;
@@ -417,11 +424,11 @@ gs_err gs_ckpt_open(MPI_Comm comm, const char *path, const char *engine, gs_ckpt
     GS_CALL(new_handle(comm, path, &h));
     gs_err err = GS_OK, local = GS_OK;
     if (!is_parallel(h)) {
-        GS_TRY(err, gs_h5_open_serial(path, &h->file), fail);
+        GS_TRY(err, gs_h5_open_serial(path, 1, &h->file), fail);
     } else {
         /* One rank looks at the raw bytes; then all open through MPI-IO. */
         if (h->rank == 0)
-            local = gs_h5_precheck_path(path);
+            local = gs_h5_precheck_path(path, 1);
         GS_TRY(err, agree(h, local), fail);
         hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
         H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
@@ -454,7 +461,7 @@ gs_err gs_ckpt_open_image(const void *buf, size_t len, const char *name, const c
     struct gs_ckpt *h = NULL;
     GS_CALL(new_handle(MPI_COMM_NULL, name, &h));
     gs_err err = GS_OK;
-    GS_TRY(err, gs_h5_open_image(name, buf, len, &h->file), fail);
+    GS_TRY(err, gs_h5_open_image(name, buf, len, 1, &h->file), fail);
     GS_TRY(err, gs_h5_load_identity(h, engine), fail);
     *out = h;
     return GS_OK;

@@ -67,7 +67,8 @@ static uint64_t le_u64(const unsigned char *p, int n)
 
 static int valid_size(unsigned s) { return s == 2 || s == 4 || s == 8; }
 
-gs_err gs_h5_precheck(const char *name, uint64_t size, gs_h5_read_at_fn read_at, void *ctx)
+gs_err gs_h5_precheck(const char *name, uint64_t size, gs_h5_read_at_fn read_at, void *ctx,
+                      int checksummed)
 {
     unsigned char sb[96];
     uint64_t off = 0;
@@ -113,6 +114,10 @@ gs_err gs_h5_precheck(const char *name, uint64_t size, gs_h5_read_at_fn read_at,
                  "%s: unsupported HDF5 superblock version %u at byte %llu (expected 0..3)",
                  name, version, (unsigned long long)off);
     }
+    GS_CHECK(!checksummed || version >= GS_H5_SB_CHECKSUMMED, GS_ERR_FORMAT,
+             "%s: not a geosynth file (HDF5 superblock version %u: geosynth files use version "
+             "%d or later, whose metadata is checksummed)",
+             name, version, GS_H5_SB_CHECKSUMMED);
     GS_CHECK(valid_size(so) && valid_size(sl), GS_ERR_FORMAT,
              "%s: corrupt HDF5 superblock: offset size %u, length size %u (expected 2, 4 or 8)",
              name, so, sl);
@@ -168,7 +173,7 @@ static size_t read_at_image(void *ctx, uint64_t off, void *buf, size_t n)
     return k;
 }
 
-gs_err gs_h5_precheck_path(const char *path)
+gs_err gs_h5_precheck_path(const char *path, int checksummed)
 {
     int fd = open(path, O_RDONLY);
     GS_CHECK(fd >= 0, GS_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
@@ -182,24 +187,24 @@ gs_err gs_h5_precheck_path(const char *path)
         close(fd);
         GS_RAISE(GS_ERR_IO, "%s: not a regular file", path);
     }
-    gs_err err = gs_h5_precheck(path, (uint64_t)st.st_size, read_at_fd, &fd);
+    gs_err err = gs_h5_precheck(path, (uint64_t)st.st_size, read_at_fd, &fd, checksummed);
     close(fd);
     if (err)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
     return err;
 }
 
-gs_err gs_h5_precheck_image(const char *name, const void *buf, size_t len)
+gs_err gs_h5_precheck_image(const char *name, const void *buf, size_t len, int checksummed)
 {
     image_ctx im = {buf, len};
-    GS_CALL(gs_h5_precheck(name, len, read_at_image, &im));
+    GS_CALL(gs_h5_precheck(name, len, read_at_image, &im, checksummed));
     return GS_OK;
 }
 
-gs_err gs_h5_open_serial(const char *path, hid_t *out)
+gs_err gs_h5_open_serial(const char *path, int checksummed, hid_t *out)
 {
     gs_h5_quiet();
-    GS_CALL(gs_h5_precheck_path(path));
+    GS_CALL(gs_h5_precheck_path(path, checksummed));
     hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     GS_CHECK(fapl >= 0, GS_ERR_LIB, "%s: H5Pcreate failed", path);
     H5Pset_fapl_sec2(fapl);
@@ -214,10 +219,11 @@ gs_err gs_h5_open_serial(const char *path, hid_t *out)
     return GS_OK;
 }
 
-gs_err gs_h5_open_image(const char *name, const void *buf, size_t len, hid_t *out)
+gs_err gs_h5_open_image(const char *name, const void *buf, size_t len, int checksummed,
+                        hid_t *out)
 {
     gs_h5_quiet();
-    GS_CALL(gs_h5_precheck_image(name, buf, len));
+    GS_CALL(gs_h5_precheck_image(name, buf, len, checksummed));
     hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     GS_CHECK(fapl >= 0, GS_ERR_LIB, "%s: H5Pcreate failed", name);
     if (H5Pset_fapl_core(fapl, 1 << 16, 0) < 0 ||

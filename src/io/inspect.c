@@ -358,7 +358,7 @@ gs_err gs_inspect_file_opts(const char *path, FILE *out, const gs_inspect_opts *
 {
     GS_CHECK(path && out, GS_ERR_ARG, "gs_inspect_file: path and output required");
     hid_t f;
-    GS_CALL(gs_h5_open_serial(path, &f));
+    GS_CALL(gs_h5_open_serial(path, 0, &f));
     gs_err err = inspect_open_file(f, path, out, opts);
     H5Fclose(f);
     H5Eclear2(H5E_DEFAULT);
@@ -377,7 +377,7 @@ gs_err gs_inspect_image(const void *buf, size_t len, const char *name, FILE *out
 {
     GS_CHECK(name && out && (buf || len == 0), GS_ERR_ARG, "gs_inspect_image: arguments required");
     hid_t f;
-    GS_CALL(gs_h5_open_image(name, buf, len, &f));
+    GS_CALL(gs_h5_open_image(name, buf, len, 0, &f));
     gs_err err = inspect_open_file(f, name, out, opts);
     H5Fclose(f);
     H5Eclear2(H5E_DEFAULT);
