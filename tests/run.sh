@@ -23,6 +23,9 @@ export OMPI_MCA_rmaps_base_oversubscribe=1
 export OMPI_MCA_btl=self,vader,tcp OMPI_MCA_btl_vader_single_copy_mechanism=none
 export GS_ROOT=$PWD GS_BIN=$PWD/$BIN/geosynth GS_BUILD=$PWD/$BUILD
 export GS_SHARED=${GS_SHARED:-$PWD/../shared}
+# Sanitizer builds: leaks inside MPI/HDF5 start-up are theirs (tests/lsan.supp).
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp:print_suppressions=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 passed=0
 failed=0
