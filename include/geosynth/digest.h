@@ -22,6 +22,18 @@ int gs_digest_init(gs_digest *d);
 void gs_digest_update(gs_digest *d, const void *data, size_t n);
 uint64_t gs_digest_final(gs_digest *d);
 
+/* splitmix64 finalizer: a fast bijective 64-bit mixer for hash tables and
+ * stream ids (not a digest of data). */
+static inline uint64_t gs_hash_mix64(uint64_t x)
+{
+    x ^= x >> 30;
+    x *= 0xbf58476d1ce4e5b9ULL;
+    x ^= x >> 27;
+    x *= 0x94d049bb133111ebULL;
+    x ^= x >> 31;
+    return x;
+}
+
 /* Writes 16 lowercase hex digits and a NUL into out[17]. */
 void gs_digest_hex(uint64_t h, char out[17]);
 

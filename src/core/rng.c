@@ -1,4 +1,5 @@
 /* Philox4x32-10 streams; see include/geosynth/rng.h. */
+#include "geosynth/digest.h"
 #include "geosynth/rng.h"
 
 #include <math.h>
@@ -24,23 +25,12 @@ void gs_rng_init(gs_rng *r, uint64_t seed, uint64_t stream)
     r->index = 4;
 }
 
-static uint64_t mix64(uint64_t x)
-{
-    /* splitmix64 finalizer */
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ULL;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebULL;
-    x ^= x >> 31;
-    return x;
-}
-
 uint64_t gs_rng_stream_id(uint32_t domain, uint64_t a, uint64_t b, uint64_t c)
 {
-    uint64_t h = mix64(0x9e3779b97f4a7c15ULL ^ domain);
-    h = mix64(h ^ a);
-    h = mix64(h ^ (b + 0x632be59bd9b4e019ULL));
-    h = mix64(h ^ (c + 0x85157af5ULL));
+    uint64_t h = gs_hash_mix64(0x9e3779b97f4a7c15ULL ^ domain);
+    h = gs_hash_mix64(h ^ a);
+    h = gs_hash_mix64(h ^ (b + 0x632be59bd9b4e019ULL));
+    h = gs_hash_mix64(h ^ (c + 0x85157af5ULL));
     return h;
 }
 

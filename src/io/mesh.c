@@ -1,4 +1,5 @@
 /* Triangle mesh I/O and topology helpers; see include/geosynth/mesh.h. */
+#include "geosynth/digest.h"
 #include "geosynth/mesh.h"
 
 #include <assimp/cimport.h>
@@ -405,16 +406,6 @@ gs_err gs_mesh_require_closed(const gs_mesh *m, const char *what, const char *pu
 
 /* ---------------------------------------------------------------- welding */
 
-static uint64_t mix64(uint64_t x)
-{
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    x ^= x >> 33;
-    return x;
-}
-
 typedef struct weld_grid {
     uint32_t *slot; /* representative vertex or UINT32_MAX */
     int64_t *cell;  /* 3 per slot */
@@ -423,8 +414,8 @@ typedef struct weld_grid {
 
 static uint64_t cell_hash(const int64_t c[3])
 {
-    return mix64((uint64_t)c[0] * 0x9E3779B97F4A7C15ULL ^ mix64((uint64_t)c[1] + 0x632BE59BD9B4E019ULL) ^
-                 mix64((uint64_t)c[2] * 0x85EBCA77C2B2AE63ULL + 1));
+    return gs_hash_mix64((uint64_t)c[0] * 0x9E3779B97F4A7C15ULL ^ gs_hash_mix64((uint64_t)c[1] + 0x632BE59BD9B4E019ULL) ^
+                 gs_hash_mix64((uint64_t)c[2] * 0x85EBCA77C2B2AE63ULL + 1));
 }
 
 static gs_err weld_cell_of(const float *p, float tol, int64_t c[3])

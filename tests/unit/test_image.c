@@ -4,6 +4,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,7 +15,6 @@
 #include "geosynth/image.h"
 #include "geosynth/mem.h"
 
-static char tmpdir[64];
 
 static const char *shared_path(const char *rel, char *buf, size_t n)
 {
@@ -24,7 +25,7 @@ static const char *shared_path(const char *rel, char *buf, size_t n)
 
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
-    snprintf(buf, n, "%s/%s", tmpdir, name);
+    snprintf(buf, n, "%s/%s", gs_test_tmpdir, name);
     return buf;
 }
 
@@ -177,21 +178,6 @@ static void test_errors(void **state)
     gs_image_destroy(&ok);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/gs-test-image-XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -200,5 +186,5 @@ int main(void)
         cmocka_unit_test(test_heightmap16),
         cmocka_unit_test(test_errors),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }

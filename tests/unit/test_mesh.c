@@ -5,6 +5,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,7 +16,6 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 
-static char tmpdir[64];
 
 static const char *shared_path(const char *rel, char *buf, size_t n)
 {
@@ -25,7 +26,7 @@ static const char *shared_path(const char *rel, char *buf, size_t n)
 
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
-    snprintf(buf, n, "%s/%s", tmpdir, name);
+    snprintf(buf, n, "%s/%s", gs_test_tmpdir, name);
     return buf;
 }
 
@@ -234,21 +235,6 @@ static void test_write_read_roundtrip(void **state)
     gs_mesh_destroy(&m);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/gs-test-mesh-XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -258,5 +244,5 @@ int main(void)
         cmocka_unit_test(test_misoriented_and_nonmanifold),
         cmocka_unit_test(test_write_read_roundtrip),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }

@@ -5,6 +5,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,7 +19,6 @@
 
 #define PI 3.14159265358979323846
 
-static char tmpdir[64];
 
 static const char *shared_path(const char *rel, char *buf, size_t n)
 {
@@ -28,7 +29,7 @@ static const char *shared_path(const char *rel, char *buf, size_t n)
 
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
-    snprintf(buf, n, "%s/%s", tmpdir, name);
+    snprintf(buf, n, "%s/%s", gs_test_tmpdir, name);
     return buf;
 }
 
@@ -375,21 +376,6 @@ static void test_open_bunny_signed_refused(void **state)
     gs_mesh_destroy(&m);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/gs-test-vdb-XXXXXX");
-    return mkdtemp(tmpdir) ? 0 : -1;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    return system(cmd) == 0 ? 0 : -1;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -399,5 +385,5 @@ int main(void)
         cmocka_unit_test(test_spot_unsigned),
         cmocka_unit_test(test_open_bunny_signed_refused),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }
