@@ -36,28 +36,39 @@
  *   lb_k(q, b) = sum over cells of level k whose samples are all known of
  *                (Sq - Sb)^2 / c  <=  lb_{k+1}  <=  dist(q, b) = lb_L.
  * (Cauchy-Schwarz on the known samples; cells with unknown samples add 0.)
+ * The pyramid also holds sums of squares Q, and the search adds to each
+ * cell the spread term (sqrt(vq) - sqrt(vb))^2 / c, v = c*Q - S^2 (c times
+ * the squared deviations from the cell mean): sum (q-s)^2 = (Sq-Sb)^2/c +
+ * |dq - ds|^2 >= (Sq-Sb)^2/c + (|dq| - |ds|)^2. It sees random seed samples
+ * and coarse copies that cell means cannot (exact for cells where either
+ * side is constant), stays monotone under refinement, and is rounded down
+ * so every comparison stays exact.
  *
- * Search tree (gs_field_tree_*): the blocks' pyramids are refined
- * coarse-to-fine in a fixed sequence of steps: step 0 reveals the level-0
- * sum quantized to 256 values (the paper's quantized mean: at most 256
- * nodes at the first level), step 1 the exact level-0 sum, then each further
- * step refines one cell of level k into its 8 cells of level k+1 (levels in
- * order, cells of a level in Morton order). Blocks with identical content up
- * to a step share one node (the paper's merging of identical nodes); a node
- * that ends inside a level is one of the paper's extra parents for partially
- * identical nodes, which cut the branching factor; nodes with one child are
- * merged into it (path compression). Leaves are the distinct full-resolution
- * blocks and list every source block index with that content. Nodes refer
- * to the global pyramid through a representative block index; no block data
- * is copied.
+ * Search tree (gs_field_tree_*): the blocks' pyramids are revealed in a
+ * fixed sequence of steps: steps 0..7 reveal the floor means of octants
+ * 0..7 in Morton order (at most 256 values each, so the root has at most
+ * 256 children -- the units split over ranks), step 8 the exact sums and
+ * sums of squares of the 8 octants, then each further step refines one cell
+ * of level k >= 1 into its 8 cells of level k+1 (levels in order, cells of a
+ * level in Morton order; a cell is revealed as (sum, sum of squares)).
+ * Octants first (rather than the paper's level-0 mean) keep queries with an
+ * unknown octant selective from the first step. Blocks with identical
+ * content up to a step share one node (the paper's merging of identical
+ * nodes); a node that ends inside a level is one of the paper's extra
+ * parents for partially identical nodes, which cut the branching factor;
+ * nodes with one child are merged into it (path compression). Leaves are
+ * the distinct full-resolution blocks and list every source block index
+ * with that content. Nodes refer to the global pyramid through a
+ * representative block index; no block data is copied.
  *
  * Best-first search (paper fig. 4): a priority queue of (lower bound, lowest
  * block index below, node, step) in this total order; a popped entry is
  * refined step by step (the incremental distance evaluation of paper 4.4)
- * while it stays at the front; the first complete leaf to reach the front
- * is the exact best match with the lowest index among equals.
+ * while it stays at the front; children are refined through step 8 (the
+ * exact octants) before they are queued. The first complete leaf to reach
+ * the front is the exact best match with the lowest index among equals.
  *
- * Costs: pyramid 1 + 4*L bytes per source sample; tree build O(M log M)
+ * Costs: pyramid 1 + 8*L bytes per source sample (sums and squares); tree build O(M log M)
  * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
  * about 20 bytes per node (< 2 per distinct block) + 4 bytes per block.
  * Search workspace per searcher: O(B^3) + the queue.
@@ -185,7 +196,8 @@ typedef struct gs_field_tree_info {
     int64_t nodes;                  /* all nodes incl. leaves and root */
     int64_t top;                    /* top-level subtrees (see search) */
     int64_t level_full[7];          /* nodes ending exactly at pyramid level k (k = 0..L) */
-    int64_t level_partial[7];       /* extra parents ending inside the refinement to level k */
+    int64_t level_partial[7];       /* extra parents ending inside the refinement to level k
+                                       (level 1 includes the octant floor-mean steps) */
     int64_t steps;                  /* refinement steps from root to leaf */
     int source_step_max;            /* largest |difference| of 6-neighbours in the source */
     size_t tree_bytes;              /* nodes + member lists */

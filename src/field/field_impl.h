@@ -11,6 +11,7 @@ struct gs_field_pyramid {
     int levels;
     int64_t nx, ny, nz;
     uint32_t *sum[GS_FIELD_MAX_LEVEL + 1]; /* sum[0] unused: level 0 is src->q */
+    uint32_t *sq[GS_FIELD_MAX_LEVEL + 1];  /* sums of squared samples; sq[0] unused */
     size_t bytes;
 };
 
@@ -19,6 +20,13 @@ struct gs_field_pyramid {
 static inline uint32_t gs_pyr_at(const struct gs_field_pyramid *p, int m, int64_t x)
 {
     return m == 0 ? p->src->q[x] : p->sum[m][x];
+}
+
+/* Sum of squared samples of the 2^m cube at linear position x (< 2^32: at
+ * most 32768 * 255^2). */
+static inline uint32_t gs_pyr_sq_at(const struct gs_field_pyramid *p, int m, int64_t x)
+{
+    return m == 0 ? (uint32_t)p->src->q[x] * p->src->q[x] : p->sq[m][x];
 }
 
 /* Tree node: all blocks below share content for steps [0, end). rep is the
@@ -35,7 +43,7 @@ typedef struct gs_tree_node {
 /* Block-relative layout of the step sequence, shared by tree and searcher. */
 typedef struct gs_step_layout {
     int B, L;
-    int64_t steps;                 /* 2 + (8^L - 1)/7 */
+    int64_t steps;                 /* GS_FIELD_QSTEPS + (8^L - 1)/7 */
     int64_t level_first[GS_FIELD_MAX_LEVEL + 2]; /* first refinement step revealing level k (k >= 1) */
     int64_t *cell_off[GS_FIELD_MAX_LEVEL + 1];   /* per level k: source offsets of cells (Morton) */
     int64_t *qcell_off[GS_FIELD_MAX_LEVEL + 1];  /* per level k: block-relative offsets (B stride) */
@@ -57,8 +65,13 @@ struct gs_field_tree {
     gs_field_tree_info info;
 };
 
-/* Step of the sequence (see field.h): 0 quantized level-0 sum, 1 exact
- * level-0 sum, 2 + r refinement r. Helpers in tree.c. */
+/* Steps of the sequence (see field.h): t < GS_FIELD_QSTEPS reveals the
+ * floor mean of octant t (its sum >> 3(L-1)); GS_FIELD_QSTEPS + r is
+ * refinement r (r = 0: the exact sums and sums of squares of the 8
+ * octants; then each cell of level k >= 1 into its 8 children). */
+#define GS_FIELD_QSTEPS 8
+
+/* Helpers in pyramid.c. */
 gs_err gs_step_layout_init(gs_step_layout *lay, int B, int64_t nx, int64_t ny);
 void gs_step_layout_free(gs_step_layout *lay);
 

@@ -4,7 +4,10 @@
  * Bounds are kept as exact integers scaled by 8^L: a level-k cell of c =
  * 8^(L-k) samples contributes (Sq - Sb)^2 / c, i.e. (Sq - Sb)^2 * 8^k
  * scaled, and a leaf sample (k = L) (q - b)^2 * 8^L, so the bound of a
- * complete leaf is exactly dist * 8^L and comparisons involve no rounding. */
+ * complete leaf is exactly dist * 8^L and comparisons involve no rounding.
+ * The spread term of cell_term() is the one floating-point part: it is
+ * rounded down with a margin, so bounds stay valid and leaves stay exact. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -23,6 +26,7 @@ struct gs_field_searcher {
     struct gs_field_tree *tree;
     uint32_t *qsum[GS_FIELD_MAX_LEVEL + 1];  /* query cell sums per level, Morton order */
     uint8_t *qfull[GS_FIELD_MAX_LEVEL + 1];  /* 1 = every sample of the cell known */
+    double *qdev[GS_FIELD_MAX_LEVEL + 1];    /* sqrt(c * sum q^2 - (sum q)^2), c = cell samples */
     entry *heap;
     size_t heap_n, heap_cap;
     int64_t known;
@@ -93,6 +97,8 @@ gs_err gs_field_searcher_create(gs_field_tree_t t, gs_field_searcher_t *out)
         GS_TRY(err, gs_alloc_array((void **)&s->qsum[k], cells, sizeof(uint32_t), "query pyramid"),
                fail);
         GS_TRY(err, gs_alloc_array((void **)&s->qfull[k], cells, 1, "query pyramid"), fail);
+        GS_TRY(err, gs_alloc_array((void **)&s->qdev[k], cells, sizeof(double), "query pyramid"),
+               fail);
     }
     *out = s;
     return GS_OK;
@@ -108,6 +114,7 @@ void gs_field_searcher_destroy(gs_field_searcher_t *sp)
     for (int k = 0; k <= GS_FIELD_MAX_LEVEL; k++) {
         gs_free((*sp)->qsum[k]);
         gs_free((*sp)->qfull[k]);
+        gs_free((*sp)->qdev[k]);
     }
     gs_free((*sp)->heap);
     GS_FREE(*sp);
@@ -120,9 +127,11 @@ static void prepare_query(struct gs_field_searcher *s, const gs_field_query *q)
     int L = lay->L, B = lay->B;
     int64_t n = (int64_t)1 << (3 * L);
     s->known = 0;
+    /* sums of squares ride in qdev until the deviations are formed below */
     for (int64_t j = 0; j < n; j++) {
         int64_t o = lay->qcell_off[L][j];
         s->qsum[L][j] = q->values[o];
+        s->qdev[L][j] = (double)q->values[o] * q->values[o];
         s->qfull[L][j] = q->known ? q->known[o] != 0 : 1;
         s->known += s->qfull[L][j];
     }
@@ -130,13 +139,23 @@ static void prepare_query(struct gs_field_searcher *s, const gs_field_query *q)
         int64_t cells = (int64_t)1 << (3 * k);
         for (int64_t j = 0; j < cells; j++) {
             uint32_t sum = 0;
+            double sq = 0;
             uint8_t full = 1;
             for (int c = 0; c < 8; c++) {
                 sum += s->qsum[k + 1][8 * j + c];
+                sq += s->qdev[k + 1][8 * j + c];
                 full &= s->qfull[k + 1][8 * j + c];
             }
             s->qsum[k][j] = sum;
             s->qfull[k][j] = full;
+            s->qdev[k][j] = sq; /* exact: integers below 2^53 */
+        }
+    }
+    for (int k = 0; k <= L; k++) {
+        int64_t cells = (int64_t)1 << (3 * k), c = (int64_t)1 << (3 * (L - k));
+        for (int64_t j = 0; j < cells; j++) {
+            int64_t S = s->qsum[k][j];
+            s->qdev[k][j] = sqrt((double)(c * (int64_t)s->qdev[k][j] - S * S));
         }
     }
     int kmax = 0;
@@ -164,16 +183,42 @@ static inline uint64_t sq_scaled(int64_t d, int k)
     return (uint64_t)(d * d) << (3 * k);
 }
 
-/* Scaled term of the level-0 bucket (quantized mean) of the block at base. */
-static inline uint64_t bucket_term(const struct gs_field_searcher *s, uint32_t s0)
+/* Scaled term of octant o's floor mean: the query's octant sum against the
+ * interval of sums [lo, lo + c - 1] (c = 8^(L-1) samples) with that floor
+ * mean, (d^2 / c) * 8^L = 8 d^2. */
+static inline uint64_t octant_mean_term(const struct gs_field_searcher *s, int o, uint32_t sum)
 {
-    if (!s->qfull[0][0])
+    if (!s->qfull[1][o])
         return 0;
-    int L = s->tree->lay.L;
-    int64_t lo = (int64_t)(s0 >> (3 * L)) << (3 * L), hi = lo + ((int64_t)1 << (3 * L)) - 1;
-    int64_t q = s->qsum[0][0];
+    int sh = 3 * (s->tree->lay.L - 1);
+    int64_t lo = (int64_t)(sum >> sh) << sh, hi = lo + ((int64_t)1 << sh) - 1;
+    int64_t q = s->qsum[1][o];
     int64_t d = q < lo ? lo - q : q > hi ? q - hi : 0;
-    return (uint64_t)(d * d);
+    return (uint64_t)(d * d) << 3;
+}
+
+/* Scaled lower bound (times 8^L) of the distance over one fully known cell
+ * of level k < L (c = 8^(L-k) samples) whose source sums are Sb (samples)
+ * and Qb (squares): with v = c*Q - S^2 (c times the sum of squared
+ * deviations from the cell mean) and a = sqrt(vq), b = sqrt(vb),
+ *   sum (q - s)^2 = ((Sq - Sb)^2 + |dq - ds|^2 * c) / c
+ *                >= ((Sq - Sb)^2 + (a - b)^2) / c          (Cauchy-Schwarz),
+ * scaled: 8^k * ((Sq - Sb)^2 + (a - b)^2). The first term is the paper's
+ * eq. 2; the second sees the spread of the samples (random seeds, a coarse
+ * copy against a fine source) that cell averages cannot. The square root
+ * part is rounded down with a margin far above the double rounding error
+ * (a, b < 2^23, correctly rounded square roots of exact integers), so the
+ * sum stays a valid bound; it is monotone under refinement (the children's
+ * deviation vectors split the parent's orthogonally). */
+static inline uint64_t cell_term(int64_t Sq, double a, uint32_t Sb, uint32_t Qb, int64_t c, int k)
+{
+    int64_t d = Sq - (int64_t)Sb;
+    uint64_t t = (uint64_t)(d * d);
+    double b = sqrt((double)(c * (int64_t)Qb - (int64_t)Sb * Sb));
+    double e = fabs(a - b) - 4e-16 * (a + b);
+    if (e > 0)
+        t += (uint64_t)(e * e * (1 - 4e-16));
+    return t << (3 * k);
 }
 
 /* Advances e by one step for the block at base; returns the new bound. */
@@ -184,25 +229,24 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
     const struct gs_field_pyramid *p = t->pyr;
     int L = lay->L;
     uint64_t lb = e->lb;
-    if (e->step == 0)
-        return lb + bucket_term(s, gs_pyr_at(p, L, base));
-    uint32_t s0 = gs_pyr_at(p, L, base);
-    if (e->step == 1) {
-        lb -= bucket_term(s, s0);
-        if (s->qfull[0][0])
-            lb += sq_scaled((int64_t)s->qsum[0][0] - s0, 0);
-        return lb;
-    }
-    int64_t r = (int64_t)e->step - 2;
+    if (e->step < GS_FIELD_QSTEPS)
+        return lb + octant_mean_term(s, (int)e->step, gs_pyr_at(p, L - 1, base + lay->cell_off[1][e->step]));
+    int64_t r = (int64_t)e->step - GS_FIELD_QSTEPS;
     int k = 0; /* refinement r splits a cell of level k */
     while (r >= lay->level_first[k + 2])
         k++;
     int64_t j = r - lay->level_first[k + 1];
     int m = L - k;
-    if (s->qfull[k][j])
-        lb -= sq_scaled((int64_t)s->qsum[k][j] - gs_pyr_at(p, m, base + lay->cell_off[k][j]), k);
+    int64_t cell = base + lay->cell_off[k][j];
+    if (k == 0) /* the exact octants replace their floor means */
+        for (int o = 0; o < 8; o++)
+            lb -= octant_mean_term(s, o, gs_pyr_at(p, L - 1, base + lay->cell_off[1][o]));
+    else if (s->qfull[k][j])
+        lb -= cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_sq_at(p, m, cell),
+                        (int64_t)1 << (3 * m), k);
     const int64_t *off = lay->cell_off[k + 1] + 8 * j;
     const uint32_t *qs = s->qsum[k + 1] + 8 * j;
+    const double *qd = s->qdev[k + 1] + 8 * j;
     const uint8_t *qf = s->qfull[k + 1] + 8 * j;
     if (m == 1) {
         const uint8_t *v = t->src->q + base;
@@ -210,10 +254,11 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
             if (qf[c])
                 lb += sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
     } else {
-        const uint32_t *v = p->sum[m - 1] + base;
+        const uint32_t *v = p->sum[m - 1] + base, *vq = p->sq[m - 1] + base;
+        int64_t cc = (int64_t)1 << (3 * (m - 1));
         for (int c = 0; c < 8; c++)
             if (qf[c])
-                lb += sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
+                lb += cell_term(qs[c], qd[c], v[off[c]], vq[off[c]], cc, k + 1);
     }
     return lb;
 }
@@ -224,7 +269,7 @@ static uint64_t upper_bound(const struct gs_field_searcher *s, uint64_t lb, uint
 {
     const gs_step_layout *lay = &s->tree->lay;
     int L = lay->L;
-    int64_t R = (int64_t)step - 2;
+    int64_t R = (int64_t)step - GS_FIELD_QSTEPS;
     if (R >= lay->level_first[L + 1])
         return lb >> (3 * L); /* complete: exact */
     int k = 0;
@@ -315,16 +360,29 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 bnd = out->dist;
             break;
         }
-        if (use_ub && e.step >= 2) {
+        if (use_ub && e.step > GS_FIELD_QSTEPS) {
             uint64_t ub = upper_bound(s, e.lb, e.step);
             if (ub < bnd) {
                 bnd = ub;
                 bnd_scaled = SCALED(bnd);
             }
         }
+        /* children are refined through the octant means and the exact
+         * octants before queueing: a prefix of floor means is too weak a
+         * bound to order them by, and most children are leaves */
         for (uint32_t c = 0; c < nd->count; c++) {
             uint32_t id = nd->first + c;
-            GS_CALL(heap_push(s, (entry){e.lb, t->nodes[id].rep, id, e.step, 0}));
+            const gs_tree_node *cn = &t->nodes[id];
+            entry ce = {e.lb, cn->rep, id, e.step, 0};
+            int64_t cbase = block_base(t, cn->rep);
+            while (ce.step < cn->end && ce.step <= GS_FIELD_QSTEPS && ce.lb <= bnd_scaled) {
+                ce.lb = refine(s, cbase, &ce);
+                ce.step++;
+                out->refinements++;
+            }
+            if (ce.lb > bnd_scaled)
+                continue;
+            GS_CALL(heap_push(s, ce));
             out->pushes++;
         }
     }

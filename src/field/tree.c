@@ -3,8 +3,8 @@
  * Build: (1) global pyramid; (2) identical blocks grouped through an exact
  * polynomial hash of every block window (equal content => equal hash; every
  * group is verified sample by sample, so collisions only cost time);
- * (3) the distinct blocks sorted by their step sequence (level-0 sum first,
- * then coarse-to-fine refinements) with the step of first difference to the
+ * (3) the distinct blocks sorted by their step sequence (octant floor
+ * means first, then coarse-to-fine refinements) with the step of first difference to the
  * predecessor (LCP); (4) the compressed tree linked from sorted order + LCP
  * with a stack, as a suffix tree is built from a suffix array; (5) nodes
  * relaid breadth first so every node's children are contiguous. */
@@ -109,18 +109,23 @@ static int blocks_identical(const build_ctx *c, uint32_t a, uint32_t b)
 }
 
 /* First step at which blocks a and b differ (steps when identical); *sign
- * gets the order (-1: a first). Steps: 0 quantized level-0 sum, 1 exact
- * level-0 sum, 2 + r refinement r (children in Morton order). */
+ * gets the order (-1: a first). Steps (field_impl.h): t < 8 the floor mean
+ * of octant t, then refinement r at step 8 + r; a revealed cell is the pair
+ * (sum, sum of squares), compared in that order. */
 static int64_t first_difference(const build_ctx *c, uint32_t a, uint32_t b, int *sign)
 {
     const gs_step_layout *lay = c->lay;
     const struct gs_field_pyramid *p = c->pyr;
     int L = lay->L;
     int64_t pa = block_base(c, a), pb = block_base(c, b);
-    uint32_t sa = gs_pyr_at(p, L, pa), sb = gs_pyr_at(p, L, pb);
-    if (sa != sb) {
-        *sign = sa < sb ? -1 : 1;
-        return (sa >> (3 * L)) != (sb >> (3 * L)) ? 0 : 1;
+    const int64_t *off1 = lay->cell_off[1];
+    for (int t = 0; t < 8; t++) {
+        uint32_t va = gs_pyr_at(p, L - 1, pa + off1[t]) >> (3 * (L - 1));
+        uint32_t vb = gs_pyr_at(p, L - 1, pb + off1[t]) >> (3 * (L - 1));
+        if (va != vb) {
+            *sign = va < vb ? -1 : 1;
+            return t;
+        }
     }
     for (int k = 1; k <= L; k++) {
         int m = L - k;
@@ -132,16 +137,18 @@ static int64_t first_difference(const build_ctx *c, uint32_t a, uint32_t b, int 
                 uint8_t va = q[pa + off[t]], vb = q[pb + off[t]];
                 if (va != vb) {
                     *sign = va < vb ? -1 : 1;
-                    return 2 + lay->level_first[k] + (t >> 3);
+                    return GS_FIELD_QSTEPS + lay->level_first[k] + (t >> 3);
                 }
             }
         } else {
-            const uint32_t *q = p->sum[m];
+            const uint32_t *q = p->sum[m], *qq = p->sq[m];
             for (int64_t t = 0; t < cells; t++) {
                 uint32_t va = q[pa + off[t]], vb = q[pb + off[t]];
+                if (va == vb)
+                    va = qq[pa + off[t]], vb = qq[pb + off[t]];
                 if (va != vb) {
                     *sign = va < vb ? -1 : 1;
-                    return 2 + lay->level_first[k] + (t >> 3);
+                    return GS_FIELD_QSTEPS + lay->level_first[k] + (t >> 3);
                 }
             }
         }
@@ -172,16 +179,16 @@ static void sort_by_content(const build_ctx *c, const uint32_t *rep, uint32_t *i
     }
 }
 
-typedef struct sum_pair {
-    uint32_t sum;
+typedef struct key_pair {
+    uint64_t key; /* the 8 octant floor means, octant 0 in the high byte */
     uint32_t idx;
-} sum_pair;
+} key_pair;
 
-static int cmp_sum_pair(const void *a, const void *b)
+static int cmp_key_pair(const void *a, const void *b)
 {
-    const sum_pair *x = a, *y = b;
-    if (x->sum != y->sum)
-        return x->sum < y->sum ? -1 : 1;
+    const key_pair *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
     return x->idx < y->idx ? -1 : x->idx > y->idx;
 }
 
@@ -207,18 +214,14 @@ static void append_child(tmp_node *tn, uint32_t parent, uint32_t child)
 
 /* Pyramid level a node ending after `end` steps belongs to; *full = 1 when
  * that level is completely revealed (a merged node of the paper), 0 for an
- * extra parent inside the refinement to that level (end 1, the quantized
- * level-0 sum, counts as partial level 0). */
+ * extra parent inside the refinement to that level (ends 1..8, the octant
+ * floor means, count as partial level 1). */
 static int level_of_end(const gs_step_layout *lay, int64_t end, int *full)
 {
     *full = 0;
-    if (end <= 1)
-        return 0;
-    int64_t R = end - 2; /* refinements done; level k complete at R == level_first[k+1] */
-    if (R == 0) {
-        *full = 1;
-        return 0;
-    }
+    if (end <= GS_FIELD_QSTEPS)
+        return end == 0 ? 0 : 1;
+    int64_t R = end - GS_FIELD_QSTEPS; /* refinements done; level k complete at R == level_first[k+1] */
     for (int k = 1; k <= lay->L; k++) {
         if (R <= lay->level_first[k + 1]) {
             *full = R == lay->level_first[k + 1];
@@ -245,7 +248,7 @@ gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out
     uint8_t *assigned = NULL;
     uint32_t *gstart = NULL, *reps = NULL, *order = NULL, *tmp = NULL, *lcp = NULL, *stack = NULL;
     uint32_t *bfs = NULL;
-    sum_pair *sp = NULL;
+    key_pair *sp = NULL;
     tmp_node *tn = NULL;
     int64_t *cnt = NULL;
 
@@ -319,20 +322,24 @@ gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out
         reps[g] = t->members[gstart[g]];
     double t2 = gs_time_now();
 
-    /* distinct blocks in content order: by level-0 sum, then step by step */
+    /* distinct blocks in content order: by the octant floor means, then step by step */
     GS_TRY(err, gs_alloc_array((void **)&sp, (size_t)G, sizeof *sp, "sort keys"), fail);
     for (int64_t g = 0; g < G; g++) {
-        sp[g].sum = gs_pyr_at(t->pyr, L, block_base(&ctx, reps[g]));
+        int64_t base = block_base(&ctx, reps[g]);
+        uint64_t key = 0;
+        for (int o = 0; o < 8; o++)
+            key = key << 8 | gs_pyr_at(t->pyr, L - 1, base + t->lay.cell_off[1][o]) >> (3 * (L - 1));
+        sp[g].key = key;
         sp[g].idx = (uint32_t)g;
     }
-    qsort(sp, (size_t)G, sizeof *sp, cmp_sum_pair);
+    qsort(sp, (size_t)G, sizeof *sp, cmp_key_pair);
     GS_TRY(err, gs_alloc_array((void **)&order, (size_t)G, sizeof *order, "sorted groups"), fail);
     GS_TRY(err, gs_alloc_array((void **)&tmp, (size_t)G, sizeof *tmp, "sort buffer"), fail);
     for (int64_t g = 0; g < G; g++)
         order[g] = sp[g].idx;
     for (int64_t a = 0; a < G;) {
         int64_t b = a + 1;
-        while (b < G && sp[b].sum == sp[a].sum)
+        while (b < G && sp[b].key == sp[a].key)
             b++;
         if (b - a > 1)
             sort_by_content(&ctx, reps, order + a, tmp, b - a);

@@ -3,11 +3,20 @@
  * query kind, plus the whole default synthesis on one core. JSON on stdout,
  * progress on stderr.
  *
- * usage: bench_field [--sizes 64/8,128/16,256/32] [--queries N] [--brute N]
+ * usage: bench_field [--sizes 64/8,128/16,256/32] [--queries N] [--brute N] [--fft N]
  *                    [--brute-max-blocks N] [--synth 0|1] [--shape balls]
  * Brute force over more than --brute-max-blocks candidates is timed on the
  * first --brute-max-blocks blocks and extrapolated linearly (its cost is
- * exactly proportional to the block count); the JSON says so per case. */
+ * exactly proportional to the block count); the JSON says so per case.
+ *
+ * FFT baseline (--fft N queries per kind): the exact masked SSD of every
+ * block at once, sum M q^2 - 2 corr(M q, s) + corr(M, s^2), with the two
+ * source spectra precomputed and, by linearity, one inverse transform per
+ * query (two forward ones). FFTW is GPL: it is linked into this benchmark
+ * only, never into the library. */
+#include <complex.h>
+#include <fftw3.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,6 +67,97 @@ static void make_query(gs_rng *r, const gs_qfield *src, int B, int kind, uint8_t
     free(other);
 }
 
+
+/* Exact matcher by FFT (benchmark baseline). */
+typedef struct fft_matcher {
+    int64_t n, nc;             /* real samples, complex bins */
+    double *in;
+    fftw_complex *fs, *fs2, *fa, *fb;
+    fftw_plan fwd_a, fwd_b, inv;
+} fft_matcher;
+
+static int fft_create(const gs_qfield *src, fft_matcher *m)
+{
+    int n0 = (int)src->nz, n1 = (int)src->ny, n2 = (int)src->nx;
+    m->n = (int64_t)n0 * n1 * n2;
+    m->nc = (int64_t)n0 * n1 * (n2 / 2 + 1);
+    m->in = fftw_alloc_real((size_t)m->n);
+    m->fs = fftw_alloc_complex((size_t)m->nc);
+    m->fs2 = fftw_alloc_complex((size_t)m->nc);
+    m->fa = fftw_alloc_complex((size_t)m->nc);
+    m->fb = fftw_alloc_complex((size_t)m->nc);
+    if (!m->in || !m->fs || !m->fs2 || !m->fa || !m->fb)
+        return 0;
+    fftw_plan p = fftw_plan_dft_r2c_3d(n0, n1, n2, m->in, m->fs, FFTW_ESTIMATE);
+    for (int64_t i = 0; i < m->n; i++)
+        m->in[i] = src->q[i];
+    fftw_execute_dft_r2c(p, m->in, m->fs);
+    for (int64_t i = 0; i < m->n; i++)
+        m->in[i] = (double)src->q[i] * src->q[i];
+    fftw_execute_dft_r2c(p, m->in, m->fs2);
+    fftw_destroy_plan(p);
+    m->fwd_a = fftw_plan_dft_r2c_3d(n0, n1, n2, m->in, m->fa, FFTW_ESTIMATE);
+    m->fwd_b = fftw_plan_dft_r2c_3d(n0, n1, n2, m->in, m->fb, FFTW_ESTIMATE);
+    m->inv = fftw_plan_dft_c2r_3d(n0, n1, n2, m->fa, m->in, FFTW_ESTIMATE);
+    return 1;
+}
+
+static void fft_destroy(fft_matcher *m)
+{
+    fftw_destroy_plan(m->fwd_a);
+    fftw_destroy_plan(m->fwd_b);
+    fftw_destroy_plan(m->inv);
+    fftw_free(m->in);
+    fftw_free(m->fs);
+    fftw_free(m->fs2);
+    fftw_free(m->fa);
+    fftw_free(m->fb);
+}
+
+/* Best block (lowest index among equal rounded distances). */
+static void fft_match(fft_matcher *m, const gs_qfield *src, const gs_field_query *q, int64_t *best,
+                      uint64_t *best_dist)
+{
+    int B = q->block;
+    int64_t nx = src->nx, nxy = src->nx * src->ny;
+    double qq = 0;
+    memset(m->in, 0, (size_t)m->n * sizeof *m->in);
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++)
+            for (int i = 0; i < B; i++) {
+                int64_t o = i + B * (j + (int64_t)B * k);
+                double w = q->known ? q->known[o] != 0 : 1, v = q->values[o];
+                m->in[i + nx * j + nxy * k] = w * v;
+                qq += w * v * v;
+            }
+    fftw_execute_dft_r2c(m->fwd_a, m->in, m->fa);
+    memset(m->in, 0, (size_t)m->n * sizeof *m->in);
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++)
+            for (int i = 0; i < B; i++) {
+                int64_t o = i + B * (j + (int64_t)B * k);
+                m->in[i + nx * j + nxy * k] = q->known ? q->known[o] != 0 : 1;
+            }
+    fftw_execute_dft_r2c(m->fwd_b, m->in, m->fb);
+    /* corr(a, s)(p) = sum_x a(x) s(p + x)  <->  conj(A) S */
+    for (int64_t i = 0; i < m->nc; i++)
+        m->fa[i] = -2.0 * conj(m->fa[i]) * m->fs[i] + conj(m->fb[i]) * m->fs2[i];
+    fftw_execute_dft_c2r(m->inv, m->fa, m->in);
+    double scale = 1.0 / (double)m->n;
+    int64_t bx = src->nx - B + 1, by = src->ny - B + 1, bz = src->nz - B + 1;
+    *best = -1;
+    for (int64_t z = 0; z < bz; z++)
+        for (int64_t y = 0; y < by; y++)
+            for (int64_t x = 0; x < bx; x++) {
+                double d = qq + m->in[x + nx * y + nxy * z] * scale;
+                uint64_t di = d < 0 ? 0 : (uint64_t)llround(d);
+                if (*best < 0 || di < *best_dist) {
+                    *best = x + bx * (y + by * z);
+                    *best_dist = di;
+                }
+            }
+}
+
 static int parse_int_arg(const char *s, int64_t lo, int64_t hi, int64_t *out, const char *what)
 {
     char why[128];
@@ -69,7 +169,7 @@ static int parse_int_arg(const char *s, int64_t lo, int64_t hi, int64_t *out, co
 }
 
 static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t brute_max,
-                    gs_field_shape shape, int first)
+                    int fft_queries, gs_field_shape shape, int first)
 {
     gs_field *f = NULL;
     gs_qfield *src = NULL;
@@ -109,10 +209,18 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
     int64_t nb = (int64_t)B * B * B;
     uint8_t *val = gs_malloc((size_t)nb), *known = gs_malloc((size_t)nb);
     int ok = 1;
+    fft_matcher fm = {0};
+    double fft_setup = gs_time_now();
+    if (fft_queries > 0 && !fft_create(src, &fm)) {
+        fprintf(stderr, "bench_field: out of memory for the FFT baseline\n");
+        return 0;
+    }
+    fft_setup = gs_time_now() - fft_setup;
     for (int kind = 0; kind < K_COUNT; kind++) {
         gs_rng r;
         gs_rng_init(&r, 99, gs_rng_stream_id(5, (uint64_t)kind, (uint64_t)n, (uint64_t)B));
-        double tree_time = 0, brute_time = 0;
+        double tree_time = 0, brute_time = 0, fft_time = 0;
+        int fft_done = 0, fft_agree = 0;
         uint64_t pops = 0, refinements = 0;
         size_t qpeak = 0;
         int brute_done = 0, agree = 0, extrapolated = 0;
@@ -130,6 +238,15 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
             refinements += mt.refinements;
             if (mt.queue_peak > qpeak)
                 qpeak = mt.queue_peak;
+            if (t < fft_queries) {
+                int64_t fi;
+                uint64_t fd = 0;
+                t0 = gs_time_now();
+                fft_match(&fm, src, &q, &fi, &fd);
+                fft_time += gs_time_now() - t0;
+                fft_done++;
+                fft_agree += fi == mt.index && fd == mt.dist;
+            }
             if (t < brute_queries) {
                 int64_t end = info.blocks < brute_max ? info.blocks : brute_max;
                 uint64_t bound = UINT64_MAX;
@@ -147,19 +264,23 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
             }
         }
         double tq = tree_time / queries, bq = brute_done ? brute_time / brute_done : 0;
+        double fq = fft_done ? fft_time / fft_done : 0;
         printf("%s\n       \"%s\": {\"n\": %d, \"tree_s\": %.6f, \"brute_s\": %.6f, \"speedup\": %.1f, "
-               "\"brute_n\": %d, \"brute_extrapolated\": %s, \"agree\": %d, \"pops\": %.0f, "
+               "\"brute_n\": %d, \"brute_extrapolated\": %s, \"agree\": %d, \"fft_s\": %.6f, "
+               "\"fft_n\": %d, \"fft_agree\": %d, \"tree_vs_fft\": %.1f, \"pops\": %.0f, "
                "\"refinements\": %.0f, \"queue_peak\": %zu}",
                kind ? "," : "", kind_name[kind], queries, tq, bq, tq > 0 ? bq / tq : 0, brute_done,
-               extrapolated ? "true" : "false", agree, (double)pops / queries,
-               (double)refinements / queries, qpeak);
+               extrapolated ? "true" : "false", agree, fq, fft_done, fft_agree, tq > 0 ? fq / tq : 0,
+               (double)pops / queries, (double)refinements / queries, qpeak);
         fflush(stdout);
-        if (!extrapolated && agree != brute_done)
+        if ((!extrapolated && agree != brute_done) || fft_agree != fft_done)
             ok = 0;
-        fprintf(stderr, "bench_field: %lld/%d %s tree %.4f s brute %.4f s\n", (long long)n, B,
-                kind_name[kind], tq, bq);
+        fprintf(stderr, "bench_field: %lld/%d %s tree %.4f s brute %.4f s fft %.4f s\n", (long long)n,
+                B, kind_name[kind], tq, bq, fq);
     }
-    printf("}}");
+    printf("},\n     \"fft_setup_s\": %.3f}", fft_setup);
+    if (fft_queries > 0)
+        fft_destroy(&fm);
     gs_free(val);
     gs_free(known);
     gs_field_searcher_destroy(&s);
@@ -231,7 +352,7 @@ static int run_synthesis(gs_field_shape shape)
 int main(int argc, char **argv)
 {
     const char *sizes = "64/8,128/16,256/32";
-    int64_t queries = 40, brute = 3, brute_max = 2000000, synth = 1;
+    int64_t queries = 40, brute = 3, brute_max = 2000000, synth = 1, fft = 2;
     gs_field_shape shape = GS_FIELD_BALLS;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -247,6 +368,9 @@ int main(int argc, char **argv)
                 return 1;
         } else if (!strcmp(a, "--brute")) {
             if (!parse_int_arg(v, 0, 1000000, &brute, a))
+                return 1;
+        } else if (!strcmp(a, "--fft")) {
+            if (!parse_int_arg(v, 0, 1000000, &fft, a))
                 return 1;
         } else if (!strcmp(a, "--brute-max-blocks")) {
             if (!parse_int_arg(v, 1, INT64_MAX, &brute_max, a))
@@ -284,7 +408,7 @@ int main(int argc, char **argv)
         }
         if (*p == ',')
             p++;
-        ok &= run_case(n, (int)b, (int)queries, (int)brute, brute_max, shape, first);
+        ok &= run_case(n, (int)b, (int)queries, (int)brute, brute_max, (int)fft, shape, first);
         first = 0;
     }
     printf("\n  ]");

@@ -90,7 +90,7 @@ static void test_pyramid_sums(void **state)
 }
 
 /* Query kinds used by the matching tests. */
-enum { Q_SOURCE, Q_PERTURBED, Q_SEEDED, Q_MASKED, Q_MIXED, Q_FOREIGN, Q_KINDS };
+enum { Q_SOURCE, Q_PERTURBED, Q_SEEDED, Q_MASKED, Q_MIXED, Q_FOREIGN, Q_COARSE, Q_KINDS };
 
 static void make_query(gs_rng *r, const gs_qfield *src, const gs_qfield *other, int B, int kind,
                        uint8_t *val, uint8_t *known, int *use_mask)
@@ -134,6 +134,17 @@ static void make_query(gs_rng *r, const gs_qfield *src, const gs_qfield *other, 
         }
         *use_mask = 1;
         break;
+    case Q_COARSE: /* an octant holding a 2x coarse copy of another block (later iterations):
+                      constant 2^3 cells, where the spread bound is exact */
+    {
+        uint8_t tmp[32 * 32 * 32];
+        gs_field_block_copy(src, B, (int64_t)gs_rng_below(r, (uint64_t)M), tmp);
+        for (int z = 0; z < h; z++)
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < h; x++)
+                    val[ox + x + B * (oy + y + B * (oz + z))] = tmp[(x & ~1) + B * ((y & ~1) + B * (z & ~1))];
+        break;
+    }
     case Q_FOREIGN: /* a block of another geometry */
         gs_field_block_copy(other, B, (int64_t)gs_rng_below(r, (uint64_t)gs_field_block_count(other, B)),
                             val);
