@@ -586,6 +586,7 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_run_path(run, name, path, sizeof path);
         gs_err err = gs_mesh_write(path, &m, NULL);
         gs_json_i64(pm, "contour_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "contour_triangles", (int64_t)m.ntris);
         gs_json_f64(pm, "contour_area", gs_mesh_area(&m));
         gs_mesh_destroy(&m);
         GS_CALL(err);
@@ -605,6 +606,8 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_run_path(run, name, path, sizeof path);
         gs_err err = gs_mesh_write(path, &m, NULL);
         gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_seam_vertices", seams);
         gs_json_i64(pm, "copied_seam_vertices", seams);
         gs_mesh_destroy(&m);
         GS_CALL(err);
