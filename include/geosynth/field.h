@@ -273,6 +273,16 @@ typedef struct gs_field_synth_config {
     int mask_unsynthesized;          /* 0 (paper): match whole blocks, seed values included;
                                         1: unsynthesized samples are unknown in the query */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
+    /* Optional (NULL = local search): called for every block instead of
+     * gs_field_tree_best_match(searcher, q, opts, out), with the iteration,
+     * the block's position in the current target and the iteration's tree.
+     * It must give exactly that answer (found, index, dist, known); the
+     * engine (src/field/engine.c) uses it to spread the search over MPI ranks
+     * and to record which source block each target sample came from. */
+    gs_err (*match)(void *ctx, gs_field_tree_t tree, gs_field_searcher_t searcher, int iteration,
+                    const int64_t pos[3], const gs_field_query *q,
+                    const gs_field_search_opts *opts, gs_field_match *out);
+    void *match_ctx;
 } gs_field_synth_config;
 
 /* Paper setting: 3 iterations, blocks 8, 8, 16, target = 2x source size. */

@@ -14,10 +14,12 @@
 #include "geosynth/config_load.h"
 #include "geosynth/engine.h"
 #include "geosynth/error.h"
+#include "geosynth/field_examples.h"
 #include "geosynth/h5.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
+#include "geosynth/parse.h"
 #include "geosynth/run.h"
 #include "geosynth/vdb.h"
 #include "geosynth/version.h"
@@ -32,6 +34,9 @@ typedef struct cli_args {
     const char *overrides[MAX_OVERRIDES];
     int noverrides;
     int help;
+    const char *example_out;  /* example --out FILE */
+    const char *example_size; /* example --size N */
+    const char *example_seed; /* example --seed S */
 } cli_args;
 
 static int log_level_from_cli = 0;
@@ -63,6 +68,8 @@ static void print_usage(FILE *out)
     fprintf(out,
             "  resume    RUN_DIR [--set run.key=value ...]\n"
             "            continue an interrupted run from RUN_DIR/checkpoint.h5 (any rank count)\n"
+            "  example   grid|chainmail|balls|fibers|spheres --out FILE.obj|.ply [--size N] [--seed S]\n"
+            "            write a built-in field example as a closed mesh (default size 64, seed 1)\n"
             "  inspect   FILE.h5\n"
             "            summarize a geosynth HDF5 file (checkpoint or output)\n"
             "  version   print program, format and library versions\n"
@@ -121,12 +128,12 @@ static size_t edit_distance(const char *a, const char *b)
 
 static const char *closest_command(const char *name)
 {
-    static const char *builtins[] = {"resume", "inspect", "version", "help"};
+    static const char *builtins[] = {"resume", "inspect", "version", "help", "example"};
     const char *best = NULL;
     size_t best_d = 3;
     int n;
     const gs_engine *const *engines = gs_engines(&n);
-    for (int i = 0; i < n + 4; i++) {
+    for (int i = 0; i < n + 5; i++) {
         const char *cand = i < n ? engines[i]->name : builtins[i - n];
         size_t dist = edit_distance(name, cand);
         if (dist < best_d) {
@@ -170,6 +177,12 @@ static gs_err parse_args(int argc, char **argv, cli_args *a)
             if (a->noverrides >= MAX_OVERRIDES)
                 return usage_error("too many --set options (the limit is %s)", "256");
             a->overrides[a->noverrides++] = v;
+        } else if (!strcmp(s, "--out") || !strcmp(s, "--size") || !strcmp(s, "--seed")) {
+            if (!has_next)
+                return usage_error("%s needs a value", s);
+            const char **slot = s[2] == 'o' ? &a->example_out : s[3] == 'i' ? &a->example_size
+                                                                             : &a->example_seed;
+            *slot = argv[++i];
         } else if (s[0] == '-' && s[1] != '\0') {
             return usage_error("unknown option '%s' (see geosynth --help)", s);
         } else if (!a->command) {
@@ -180,6 +193,29 @@ static gs_err parse_args(int argc, char **argv, cli_args *a)
             return usage_error("unexpected argument '%s' (see geosynth --help)", s);
         }
     }
+    return GS_OK;
+}
+
+/* `geosynth example KIND --out FILE [--size N] [--seed S]` (rank 0 writes). */
+static gs_err cmd_example(const cli_args *a)
+{
+    if (!a->positional || !a->example_out)
+        return usage_error("example needs a kind and --out FILE: geosynth example %s --out x.obj",
+                           GS_EXAMPLE_KINDS);
+    int64_t size = 64, seed = 1;
+    char why[160];
+    GS_CHECK(!a->example_size || gs_parse_i64(a->example_size, 8, 1024, &size, why, sizeof why),
+             GS_ERR_USAGE, "example --size %s: %s", a->example_size, why);
+    GS_CHECK(!a->example_seed || gs_parse_i64(a->example_seed, 0, INT64_MAX, &seed, why, sizeof why),
+             GS_ERR_USAGE, "example --seed %s: %s", a->example_seed, why);
+    gs_mesh m;
+    GS_CALL(gs_field_example_mesh(a->positional, size, (uint64_t)seed, &m));
+    gs_err err = gs_mesh_write(a->example_out, &m, NULL);
+    if (!err)
+        gs_log(GS_LOG_INFO, "example %s: %zu vertices, %zu triangles -> %s", a->positional,
+               m.nverts, m.ntris, a->example_out);
+    gs_mesh_destroy(&m);
+    GS_CALL(err);
     return GS_OK;
 }
 
@@ -346,7 +382,14 @@ int main(int argc, char **argv)
         gs_par_finalize();
         return 0;
     }
-    if (!strcmp(a.command, "inspect")) {
+    if ((a.example_out || a.example_size || a.example_seed) && strcmp(a.command, "example")) {
+        err = usage_error("--out, --size and --seed belong to 'geosynth example' (not %s)",
+                          a.command);
+        err = gs_par_agree(MPI_COMM_WORLD, err);
+    } else if (!strcmp(a.command, "example")) {
+        err = rank == 0 ? cmd_example(&a) : GS_OK;
+        err = gs_par_agree(MPI_COMM_WORLD, err);
+    } else if (!strcmp(a.command, "inspect")) {
         if (!a.positional) {
             err = usage_error("inspect needs a file name%s", "");
         } else if (rank == 0) {

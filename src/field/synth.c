@@ -252,7 +252,11 @@ static gs_err synth_block(struct gs_field_synth *s)
     gs_field_search_opts opts = {0};
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     gs_field_match m;
-    GS_CALL(gs_field_tree_best_match(s->searcher, &q, &opts, &m));
+    const int64_t pos[3] = {px, py, pz};
+    if (s->cfg.match)
+        GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, pos, &q, &opts, &m));
+    else
+        GS_CALL(gs_field_tree_best_match(s->searcher, &q, &opts, &m));
     int64_t bp[3];
     gs_field_block_position(s->level_src, B, m.index, bp);
     const gs_qfield *ls = s->level_src;

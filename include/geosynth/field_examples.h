@@ -1,0 +1,93 @@
+/* Example inputs of the field engine: built-in generators (the paper's
+ * GRID, CHAINMAIL, BALLS and FIBERS examples, made procedurally) and
+ * loaders that turn meshes, OpenVDB level sets, height-map images and
+ * HDF5 fields into signed distance fields; plus the geometry outputs
+ * (contour, copied source triangles). Implemented in src/field/examples.c
+ * and src/field/geometry.c.
+ *
+ * Conventions: fields follow include/geosynth/field.h (x fastest, signed,
+ * negative inside, world units: origin + spacing * index). Generated
+ * fields have spacing 1 and origin 0 and are exact distances within
+ * GS_EXAMPLE_BAND samples of the surface, clamped to +-GS_EXAMPLE_BAND
+ * beyond (quantization ranges are much narrower, default +-3 samples).
+ * Every generator is deterministic in (kind, n, seed).
+ *
+ * Memory: one float per sample (4 n^3 bytes), plus O(objects).
+ */
+#ifndef GEOSYNTH_FIELD_EXAMPLES_H
+#define GEOSYNTH_FIELD_EXAMPLES_H
+
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/field.h"
+#include "geosynth/mesh.h"
+
+#define GS_EXAMPLE_BAND 8.0
+
+/* "grid|chainmail|balls|fibers|spheres": the generator names, in --help order. */
+#define GS_EXAMPLE_KINDS "grid|chainmail|balls|fibers|spheres"
+
+/* n^3 signed distance field of a built-in example; n in [8, 1024].
+ *  grid:      cylinders along x, y, z on a jittered lattice, balls at the crossings (period 16)
+ *  chainmail: rows of linked tori in alternating orientation (period 12)
+ *  balls:     balls of radius 3..5 dropped one by one into the box: each falls
+ *             straight down until it rests on the floor or on another ball, so
+ *             no two overlap (ballistic deposition), until the box is full
+ *  fibers:    long fibers along x on a jittered (y, z) lattice (period 9), each
+ *             with its own radius 1.4..2.4, thickness variation and wobble
+ *  spheres:   a few random large spheres
+ * Unknown kinds are GS_ERR_ARG naming the kind and the choices. On error
+ * *out is unchanged; caller frees with gs_field_destroy(). */
+gs_err gs_field_example_make(const char *kind, int64_t n, uint64_t seed, gs_field **out);
+
+/* The example's surface as a closed triangle mesh (the field padded with
+ * one outside sample, so shapes cut by the box are capped), contoured with
+ * OpenVDB at 0; vertices in sample units (spacing 1, origin 0). */
+gs_err gs_field_example_mesh(const char *kind, int64_t n, uint64_t seed, gs_mesh *out);
+
+/* ---- loaders (geometry.c); what names the input in messages ---- */
+
+/* Triangle mesh -> distance field through OpenVDB with `samples` samples
+ * along the longest side of the bounding box plus margin (margin in
+ * samples; the box grows by margin on each side). is_signed = 1 needs a
+ * closed mesh (GS_ERR_ARG naming the file and the open edges otherwise);
+ * an unsigned distance d becomes the solid shell d - shell*spacing, so a
+ * surface of any mesh turns into a thin solid with a zero level set. */
+gs_err gs_field_from_mesh(const gs_mesh *m, const char *what, int64_t samples, double margin,
+                          int is_signed, double shell, gs_field **out);
+/* Float grid of an OpenVDB file (grid NULL or "" = the first float grid). */
+gs_err gs_field_from_vdb(const char *path, const char *grid, gs_field **out);
+/* float32 3D dataset {nz, ny, nx} of an HDF5 file written by geosynth (or any
+ * HDF5 file with a /geosynth group); spacing and origin from the dataset's
+ * attributes "spacing", "origin_x/y/z" when present (else 1 and 0). */
+gs_err gs_field_from_h5(const char *path, const char *dataset, gs_field **out);
+/* Height-map image (PNG/JPEG, grey or colour = luma) -> signed distance to
+ * the height-field surface z = h(x, y): the image is box-filtered to `size`
+ * samples along its longer side, h = (depth - height)/2 + height * grey,
+ * image row 0 is the largest y. Below the surface is inside (negative).
+ * Distance = min(|z - h(x,y)|, distance to the surface points of the
+ * columns within GS_EXAMPLE_BAND), exact up to the height step between
+ * neighbouring columns. */
+gs_err gs_field_from_heightmap(const char *path, int64_t size, int64_t depth, double height,
+                               gs_field **out);
+
+/* ---- geometry outputs (geometry.c) ---- */
+
+/* Iso-surface of f at iso (OpenVDB), vertices in world units. */
+gs_err gs_field_contour(const gs_field *f, double iso, double adaptivity, gs_mesh *out);
+
+/* The paper's output mode (section 5.3): copies, for every target sample t
+ * (final resolution, x fastest over tn), the source triangles whose centroid
+ * lies nearest to source sample prov[t] (a linear index into the source of
+ * size sn; -1 = none), translated by t - prov[t]; welds the copies
+ * (tolerance weld_tol in samples) and relaxes seam vertices (those of
+ * triangles next to a triangle from another copy) with `relax` Laplacian
+ * iterations of weight 0.5. src_mesh is in source sample units (spacing 1,
+ * origin 0); the output is in target sample units. Reports the number of
+ * seam vertices in *seam_vertices (may be NULL). */
+gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
+                              const int64_t tn[3], float weld_tol, int relax, gs_mesh *out,
+                              int64_t *seam_vertices);
+
+#endif

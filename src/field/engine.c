@@ -1,0 +1,805 @@
+/* The `field` engine: distance-field geometry synthesis after Lagae, Dumont,
+ * Dutré, "Geometry Synthesis" (2004), wired into geosynth.
+ *
+ *   mpirun -np N geosynth field -c configs/field/grid.ini
+ *
+ * Phases:
+ *  setup      rank 0 builds the example (generator, mesh, .vdb, height map or
+ *             HDF5 field; see include/geosynth/field_examples.h), crops it to a
+ *             multiple of 2^(iterations-1) per axis and quantizes it over
+ *             [-range, range] samples; the quantized source is broadcast, so
+ *             every rank holds the identical bytes (OpenVDB is never run on
+ *             two ranks). Then the synthesis is created, or restored from
+ *             RUN_DIR/checkpoint.h5.
+ *  synthesis  the core's multi-resolution synthesis (src/field/synth.c). Every
+ *             rank holds the whole (small) target and runs the same block
+ *             sequence; the match of each block is distributed: the search
+ *             tree's top-level subtrees are split over the ranks (gs_psearch,
+ *             balanced by blocks per subtree), each rank searches its share
+ *             with the bound shared between ranks (the tree search polls
+ *             gs_psearch_bound), and the result is made exact: psearch gives
+ *             the smallest distance, one MPI_Allreduce(MIN) gives the lowest
+ *             block index among the ranks whose best has that distance. So
+ *             each block gets exactly the serial answer of
+ *             gs_field_tree_best_match and the output is bit-identical for any
+ *             rank count (and to the core's serial synthesis).
+ *             Work unit = one block. Checkpoints hold target, mask, iteration,
+ *             cursor, match statistics and the provenance map; the only
+ *             randomness (the seeds of iteration 0) is drawn from gs_rng keyed
+ *             by run.seed when the synthesis is created, so it is part of the
+ *             stored target, not a running RNG.
+ *  output     field.h5 (+ field.xmf) with the float distance and the quantized
+ *             levels, field.vdb, the contoured mesh (OpenVDB) and, with
+ *             output.geometry = copy|both, the paper's mesh of copied source
+ *             triangles (welded, seams relaxed). Quality metrics go to
+ *             summary.json. The digest is that of the final quantized target.
+ *
+ * Memory per rank: source 1 byte/sample + pyramid 1+4L bytes/sample + tree
+ * (~20 bytes/node); target 2 bytes/sample + provenance 4 bytes/sample of the
+ * final target; rank 0 also the float source (4 bytes/sample) and meshes.
+ */
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/config.h"
+#include "geosynth/digest.h"
+#include "geosynth/engine.h"
+#include "geosynth/field.h"
+#include "geosynth/field_examples.h"
+#include "geosynth/file.h"
+#include "geosynth/h5.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/mesh.h"
+#include "geosynth/par.h"
+#include "geosynth/psearch.h"
+#include "geosynth/vdb.h"
+
+typedef struct field_config {
+    char *kind;
+    char *path;
+    int64_t size;
+    int64_t example_seed;
+    char *sign;
+    double shell;
+    double margin;
+    char *vdb_grid;
+    char *dataset;
+    int64_t depth;
+    double height;
+    double range;
+    int64_t iterations;
+    int64_t block;
+    int64_t coarse_block;
+    int64_t target[3];
+    int mask_unsynthesized;
+    int upper_bound;
+    char *geometry;
+    char *mesh_format;
+    double adaptivity;
+    int64_t relax;
+    double weld;
+    int vdb;
+    gs_run_config run;
+} field_config;
+
+static void validate_config(const void *cfg_, gs_cfg_ctx *ctx)
+{
+    const field_config *c = cfg_;
+    int file = !strcmp(c->kind, "file");
+    if (file && !c->path[0])
+        gs_cfg_report(ctx, "example.path", "is required with example.kind = file (a mesh, .vdb, "
+                                           "height-map image or HDF5 field)");
+    if (!file && c->path[0])
+        gs_cfg_report(ctx, "example.path",
+                      "is only read with example.kind = file (example.kind = %s generates the "
+                      "example)", c->kind);
+    int64_t f = (int64_t)1 << (c->iterations - 1);
+    for (int a = 0; a < 3; a++)
+        if (c->target[a] % f != 0 || c->target[a] < c->block)
+            gs_cfg_report(ctx, "field.target",
+                          "axis %d = %lld: expected a multiple of 2^(iterations-1) = %lld and at "
+                          "least field.block = %lld",
+                          a, (long long)c->target[a], (long long)f, (long long)c->block);
+    if (c->iterations > 1 && c->coarse_block * (f / 2) > c->target[0] && c->coarse_block * (f / 2) > c->target[1])
+        gs_cfg_report(ctx, "field.coarse_block",
+                      "%lld does not fit the target at the coarsest iteration (target / %lld)",
+                      (long long)c->coarse_block, (long long)f);
+}
+
+static const gs_cfg_key field_keys[] = {
+    GS_CFG_KEY_ENUM(field_config, kind, "example.kind", "file|" GS_EXAMPLE_KINDS, "grid",
+                    "example geometry: a built-in generator, or file = example.path"),
+    GS_CFG_KEY_PATH(field_config, path, "example.path", "",
+                    "example file: mesh (.obj .ply .stl .off), .vdb level set, height map "
+                    "(.png .jpg) or HDF5 field (.h5)"),
+    GS_CFG_KEY_INT(field_config, size, "example.size", 8, 1024, 0, "64",
+                   "source samples along the longest axis (mesh, generator, height map)"),
+    GS_CFG_KEY_INT(field_config, example_seed, "example.seed", 0, GS_CFG_INT_MAX, 0, "1",
+                   "seed of the built-in generators (independent of run.seed)"),
+    GS_CFG_KEY_ENUM(field_config, sign, "example.sign", "signed|unsigned", "signed",
+                    "mesh distance: signed needs a closed mesh; unsigned works for any mesh "
+                    "(surface thickened by example.shell)"),
+    GS_CFG_KEY_REAL(field_config, shell, "example.shell", 0, 8, 0, "1",
+                    "unsigned meshes: half thickness of the solid shell, in samples"),
+    GS_CFG_KEY_REAL(field_config, margin, "example.margin", 0, 64, 0, "2",
+                    "mesh: samples of empty margin around the bounding box"),
+    GS_CFG_KEY_STRING(field_config, vdb_grid, "example.vdb_grid", "",
+                      ".vdb: float grid name (empty = the first float grid)"),
+    GS_CFG_KEY_STRING(field_config, dataset, "example.dataset", "/field/distance",
+                      "HDF5: float32 dataset {nz, ny, nx} holding the distance field"),
+    GS_CFG_KEY_INT(field_config, depth, "example.depth", 4, 4096, 0, "32",
+                   "height map: samples along z"),
+    GS_CFG_KEY_REAL(field_config, height, "example.height", 0, 4096, GS_CFG_OPEN_LO, "16",
+                    "height map: relief (black to white) in samples"),
+    GS_CFG_KEY_REAL(field_config, range, "field.range", 0, 64, GS_CFG_OPEN_LO, "3",
+                    "quantization: 256 levels over [-range, +range] samples of distance"),
+    GS_CFG_KEY_INT(field_config, iterations, "field.iterations", 1, GS_FIELD_MAX_ITER, 0, "3",
+                   "multi-resolution iterations (paper: 3)"),
+    GS_CFG_KEY_INT(field_config, block, "field.block", 2, 32, GS_CFG_POW2, "16",
+                   "block size of the last iteration (paper: 16)"),
+    GS_CFG_KEY_INT(field_config, coarse_block, "field.coarse_block", 2, 32, GS_CFG_POW2, "8",
+                   "block size of the earlier iterations (paper: 8)"),
+    GS_CFG_KEY_INT3(field_config, target, "field.target", 2, 4096, 0, "128",
+                    "target samples x y z (paper: 128^3 from a 64^3 source)"),
+    GS_CFG_KEY_BOOL(field_config, mask_unsynthesized, "field.mask_unsynthesized", "yes",
+                    "yes: only synthesized samples count in a match (faithful statistics); "
+                    "no: the paper's whole blocks incl. random seeds (biased, see configs/field)"),
+    GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
+                    "queue pruning with the paper's upper bound (eq. 3); same result"),
+    GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
+                    "output mesh: contour of the field (OpenVDB), copied source triangles "
+                    "(paper 5.3), both, or none"),
+    GS_CFG_KEY_ENUM(field_config, mesh_format, "output.mesh_format", "obj|ply", "ply",
+                    "file format of output meshes"),
+    GS_CFG_KEY_REAL(field_config, adaptivity, "output.adaptivity", 0, 1, 0, "0",
+                    "contour mesh adaptivity (0 = uniform)"),
+    GS_CFG_KEY_INT(field_config, relax, "output.relax", 0, 1000, 0, "10",
+                   "copied geometry: Laplacian relaxation iterations of seam vertices"),
+    GS_CFG_KEY_REAL(field_config, weld, "output.weld", 0, 2, 0, "0.35",
+                    "copied geometry: weld tolerance across seams, in samples"),
+    GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
+    GS_CFG_RUN_KEYS(field_config, run, "field"),
+};
+
+static const gs_cfg_table field_table =
+    GS_CFG_TABLE("field", field_config, field_keys, validate_config);
+
+/* ------------------------------------------------------------- example */
+
+typedef struct field_source {
+    gs_qfield *q;      /* quantized, cropped source (every rank) */
+    gs_field *f;       /* float source, same crop (rank 0) */
+    gs_mesh mesh;      /* source triangles in sample units (rank 0, copy mode) */
+    int have_mesh;
+    char desc[256];
+} field_source;
+
+static gs_err crop_field(gs_field *f, int64_t mult, gs_field **out)
+{
+    int64_t n[3] = {f->nx / mult * mult, f->ny / mult * mult, f->nz / mult * mult};
+    GS_CHECK(n[0] > 0 && n[1] > 0 && n[2] > 0, GS_ERR_ARG,
+             "example of %lldx%lldx%lld samples is smaller than %lld (2^(iterations-1)) along an axis",
+             (long long)f->nx, (long long)f->ny, (long long)f->nz, (long long)mult);
+    gs_field *c = NULL;
+    GS_CALL(gs_field_create(n[0], n[1], n[2], &c));
+    for (int64_t z = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++)
+            memcpy(c->v + n[0] * (y + n[1] * z), f->v + f->nx * (y + f->ny * z),
+                   (size_t)n[0] * sizeof(float));
+    memcpy(c->origin, f->origin, sizeof c->origin);
+    c->spacing = f->spacing;
+    *out = c;
+    return GS_OK;
+}
+
+/* Mesh vertices from world to sample units of field f. */
+static void mesh_to_samples(gs_mesh *m, const gs_field *f)
+{
+    for (size_t v = 0; v < m->nverts; v++)
+        for (int a = 0; a < 3; a++)
+            m->pos[3 * v + a] = (float)((m->pos[3 * v + a] - f->origin[a]) / f->spacing);
+}
+
+/* Rank 0: builds the float example field (and its mesh when wanted). */
+static gs_err build_example(const field_config *c, int want_mesh, field_source *src, gs_field **raw)
+{
+    if (strcmp(c->kind, "file")) {
+        GS_CALL(gs_field_example_make(c->kind, c->size, (uint64_t)c->example_seed, raw));
+        snprintf(src->desc, sizeof src->desc, "built-in example '%s', %lld^3 samples, seed %lld",
+                 c->kind, (long long)c->size, (long long)c->example_seed);
+        return GS_OK;
+    }
+    char ext[16];
+    gs_path_ext(c->path, ext, sizeof ext);
+    if (!strcmp(ext, "vdb")) {
+        GS_CALL(gs_field_from_vdb(c->path, c->vdb_grid, raw));
+        snprintf(src->desc, sizeof src->desc, "OpenVDB level set %s", c->path);
+    } else if (!strcmp(ext, "h5") || !strcmp(ext, "hdf5")) {
+        GS_CALL(gs_field_from_h5(c->path, c->dataset, raw));
+        snprintf(src->desc, sizeof src->desc, "HDF5 field %s:%s", c->path, c->dataset);
+    } else if (!strcmp(ext, "png") || !strcmp(ext, "jpg") || !strcmp(ext, "jpeg")) {
+        GS_CALL(gs_field_from_heightmap(c->path, c->size, c->depth, c->height, raw));
+        snprintf(src->desc, sizeof src->desc, "height map %s (relief %g of depth %lld samples)",
+                 c->path, c->height, (long long)c->depth);
+    } else if (!strcmp(ext, "obj") || !strcmp(ext, "ply") || !strcmp(ext, "stl") ||
+               !strcmp(ext, "off")) {
+        gs_mesh m;
+        GS_CALL(gs_mesh_read(c->path, &m));
+        int is_signed = !strcmp(c->sign, "signed");
+        gs_err err = gs_field_from_mesh(&m, c->path, c->size, c->margin, is_signed, c->shell, raw);
+        if (err) {
+            gs_mesh_destroy(&m);
+            gs_error_add_context("example.path with example.sign = %s%s", c->sign,
+                                 is_signed ? " (use example.sign = unsigned for open meshes)" : "");
+            GS_CALL(err);
+        }
+        snprintf(src->desc, sizeof src->desc, "%s mesh %s (%zu triangles), %s distance", ext,
+                 c->path, m.ntris, c->sign);
+        if (want_mesh && is_signed) {
+            mesh_to_samples(&m, *raw);
+            src->mesh = m;
+            src->have_mesh = 1;
+        } else {
+            gs_mesh_destroy(&m);
+        }
+    } else {
+        GS_RAISE(GS_ERR_ARG,
+                 "example.path = %s: unknown extension '.%s': expected .obj .ply .stl .off (mesh), "
+                 ".vdb, .png .jpg (height map) or .h5 (field)",
+                 c->path, ext);
+    }
+    return GS_OK;
+}
+
+static gs_err build_source_rank0(const field_config *c, int want_mesh, field_source *src)
+{
+    gs_field *raw = NULL;
+    GS_CALL(build_example(c, want_mesh, src, &raw));
+    gs_err err = crop_field(raw, (int64_t)1 << (c->iterations - 1), &src->f);
+    gs_field_destroy(&raw);
+    GS_CALL(err);
+    double r = c->range * src->f->spacing;
+    GS_CALL(gs_field_quantize(src->f, -r, r, &src->q));
+    src->q->spacing = src->f->spacing;
+    memcpy(src->q->origin, src->f->origin, sizeof src->q->origin);
+    if (want_mesh && !src->have_mesh) {
+        /* contour of the float source, in sample units */
+        gs_field unit = *src->f;
+        unit.spacing = 1, unit.origin[0] = unit.origin[1] = unit.origin[2] = 0;
+        GS_CALL(gs_field_contour(&unit, 0.0, 0.0, &src->mesh));
+        src->have_mesh = 1;
+    }
+    return GS_OK;
+}
+
+/* Collective: rank 0 builds, everyone receives the quantized source. */
+static gs_err build_source(gs_run *run, const field_config *c, int want_mesh, field_source *src)
+{
+    gs_err err = GS_OK;
+    if (run->rank == 0)
+        err = build_source_rank0(c, want_mesh, src);
+    GS_CALL(gs_par_agree(run->comm, err));
+    double hdr[9] = {0};
+    if (run->rank == 0) {
+        const gs_qfield *q = src->q;
+        double h[9] = {(double)q->nx, (double)q->ny, (double)q->nz, q->lo, q->hi, q->spacing,
+                       q->origin[0], q->origin[1], q->origin[2]};
+        memcpy(hdr, h, sizeof hdr);
+    }
+    GS_MPI(MPI_Bcast(hdr, 9, MPI_DOUBLE, 0, run->comm));
+    if (run->rank != 0) {
+        GS_CALL(gs_qfield_create((int64_t)hdr[0], (int64_t)hdr[1], (int64_t)hdr[2], hdr[3], hdr[4],
+                                 &src->q));
+        src->q->spacing = hdr[5];
+        memcpy(src->q->origin, hdr + 6, 3 * sizeof(double));
+    }
+    int64_t n = src->q->nx * src->q->ny * src->q->nz;
+    for (int64_t off = 0; off < n; off += 1 << 30) {
+        int len = (int)(n - off < (1 << 30) ? n - off : (1 << 30));
+        GS_MPI(MPI_Bcast(src->q->q + off, len, MPI_UNSIGNED_CHAR, 0, run->comm));
+    }
+    return GS_OK;
+}
+
+static void source_free(field_source *s)
+{
+    gs_qfield_destroy(&s->q);
+    gs_field_destroy(&s->f);
+    gs_mesh_destroy(&s->mesh);
+}
+
+/* ------------------------------------------------- distributed matching */
+
+typedef struct match_ctx {
+    gs_run *run;
+    gs_field_synth_t synth;
+    int iterations;
+    int last_block;
+    int64_t target[3];     /* final target size */
+    int32_t *prov;         /* final-iteration provenance: source sample of each target sample */
+    gs_psearch_t ps;
+    int ps_iteration;      /* iteration the psearch handle was built for (-1: none) */
+    /* per query */
+    gs_field_searcher_t searcher;
+    const gs_field_query *q;
+    gs_field_search_opts opts;
+    gs_field_match local;
+    gs_psearch_t cur;
+    int64_t queries;
+} match_ctx;
+
+static void poll_bound(void *ctx_, uint64_t *bound)
+{
+    match_ctx *ctx = ctx_;
+    double b = gs_psearch_bound(ctx->cur);
+    if (isfinite(b) && b >= 0 && b < (double)*bound)
+        *bound = (uint64_t)b;
+}
+
+static gs_err search_share(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
+{
+    match_ctx *ctx = user;
+    ctx->cur = ps;
+    double b = gs_psearch_bound(ps);
+    uint64_t bound = isfinite(b) ? (uint64_t)b : UINT64_MAX;
+    gs_field_search_opts o = ctx->opts;
+    o.poll = poll_bound;
+    o.poll_ctx = ctx;
+    o.poll_every = 16;
+    GS_CALL(gs_field_tree_search(ctx->searcher, lo, hi, ctx->q, &o, &bound, &ctx->local));
+    if (ctx->local.found) {
+        gs_psearch_offer(ps, (double)ctx->local.dist, lo);
+        (void)gs_psearch_bound(ps); /* poll interval 1: sends the improvement now */
+    }
+    return GS_OK;
+}
+
+static gs_err record_provenance(match_ctx *ctx, gs_field_tree_t tree, const int64_t pos[3],
+                                int64_t index)
+{
+    const gs_field_synth_state *st = gs_field_synth_get_state(ctx->synth);
+    const gs_qfield *ls = gs_field_tree_source(tree);
+    int B = gs_field_tree_block(tree);
+    int64_t bp[3];
+    gs_field_block_position(ls, B, index, bp);
+    int64_t tx = st->tn[0], txy = st->tn[0] * st->tn[1];
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++)
+            for (int i = 0; i < B; i++) {
+                int64_t t = pos[0] + i + tx * (pos[1] + j) + txy * (pos[2] + k);
+                if (!st->mask[t])
+                    ctx->prov[t] = (int32_t)(bp[0] + i + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k)));
+            }
+    return GS_OK;
+}
+
+/* The synthesis' match hook: exact best match, spread over the ranks. */
+static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t searcher,
+                          int iteration, const int64_t pos[3], const gs_field_query *q,
+                          const gs_field_search_opts *opts, gs_field_match *out)
+{
+    match_ctx *ctx = ctx_;
+    gs_run *run = ctx->run;
+    ctx->queries++;
+    if (run->size == 1) {
+        GS_CALL(gs_field_tree_best_match(searcher, q, opts, out));
+    } else {
+        if (ctx->ps_iteration != iteration) {
+            gs_psearch_destroy(&ctx->ps);
+            int64_t top = gs_field_tree_top_count(tree);
+            double *w = NULL;
+            GS_CALL(gs_alloc_array((void **)&w, (size_t)top, sizeof *w, "subtree weights"));
+            for (int64_t i = 0; i < top; i++)
+                w[i] = (double)gs_field_tree_top_blocks(tree, i);
+            gs_err err = gs_psearch_create(run->comm, top, w, &ctx->ps);
+            gs_free(w);
+            GS_CALL(err);
+            gs_psearch_set_poll_interval(ctx->ps, 1);
+            ctx->ps_iteration = iteration;
+        }
+        ctx->searcher = searcher;
+        ctx->q = q;
+        ctx->opts = opts ? *opts : (gs_field_search_opts){0};
+        memset(&ctx->local, 0, sizeof ctx->local);
+        gs_psearch_hit hit;
+        GS_CALL(gs_psearch_best(ctx->ps, search_share, ctx, &hit));
+        GS_CHECK(hit.index >= 0, GS_ERR_INTERNAL, "distributed block search found no block");
+        /* psearch orders ties by subtree; the serial answer is the lowest block index */
+        int64_t key = ctx->local.found && (double)ctx->local.dist == hit.dist ? ctx->local.index
+                                                                              : INT64_MAX, best;
+        GS_MPI(MPI_Allreduce(&key, &best, 1, MPI_INT64_T, MPI_MIN, run->comm));
+        GS_CHECK(best != INT64_MAX, GS_ERR_INTERNAL, "distributed block search lost its best block");
+        *out = ctx->local;
+        out->found = 1;
+        out->index = best;
+        out->dist = (uint64_t)hit.dist;
+    }
+    if (iteration == ctx->iterations - 1)
+        GS_CALL(record_provenance(ctx, tree, pos, out->index));
+    return GS_OK;
+}
+
+/* ---------------------------------------------------------- checkpoint */
+
+static int64_t units_done(const gs_field_synth_state *st)
+{
+    int64_t u = 0;
+    for (int i = 0; i < GS_FIELD_MAX_ITER; i++)
+        u += st->stat_count[i];
+    return u;
+}
+
+static gs_err write_u8_field(gs_ckpt_t h, gs_run *run, const char *path, const int64_t n[3],
+                             gs_h5_type type, const void *data)
+{
+    gs_h5_shape sh = {type, 3, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]}};
+    uint64_t start, count;
+    gs_h5_split_rows((uint64_t)n[2], run->size, run->rank, &start, &count);
+    size_t row = (size_t)(n[0] * n[1]) * gs_h5_type_size(type);
+    GS_CALL(gs_ckpt_write_slab(h, path, &sh, start, count, (const char *)data + start * row, NULL));
+    return GS_OK;
+}
+
+static gs_err write_checkpoint(gs_run *run, match_ctx *ctx, uint64_t src_digest)
+{
+    const gs_field_synth_state *st = gs_field_synth_get_state(ctx->synth);
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_run_checkpoint_begin(run, &h));
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_ckpt_set_i64(h, "/field", "iteration", st->iteration), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, "/field", "cursor", st->cursor), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, "/field", "blocks_in_iteration", st->blocks_in_iteration), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/field", "source_digest", src_digest), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/field", "units_done", (uint64_t)units_done(st)), fail);
+    gs_h5_shape s3 = {GS_H5_I64, 1, {3}};
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/tn", &s3, st->tn, NULL), fail);
+    gs_h5_shape si = {GS_H5_I64, 1, {GS_FIELD_MAX_ITER}};
+    gs_h5_shape sf = {GS_H5_F64, 1, {GS_FIELD_MAX_ITER}};
+    gs_h5_shape su = {GS_H5_U64, 1, {GS_FIELD_MAX_ITER}};
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_count", &si, st->stat_count, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_sum", &sf, st->stat_sum, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_min", &sf, st->stat_min, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_max", &sf, st->stat_max, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_pops", &su, st->stat_pops, NULL), fail);
+    GS_TRY(err, write_u8_field(h, run, "/field/target", st->tn, GS_H5_U8, st->target), fail);
+    GS_TRY(err, write_u8_field(h, run, "/field/mask", st->tn, GS_H5_U8, st->mask), fail);
+    GS_TRY(err, write_u8_field(h, run, "/field/provenance", ctx->target, GS_H5_I32, ctx->prov), fail);
+    GS_CALL(gs_run_checkpoint_commit(run, &h, units_done(st)));
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+static gs_err read_checkpoint(gs_run *run, const gs_qfield *src, const gs_field_synth_config *sc,
+                              match_ctx *ctx, uint64_t src_digest, gs_field_synth_t *out)
+{
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_run_checkpoint_open(run, &h));
+    gs_field_synth_state st;
+    memset(&st, 0, sizeof st);
+    gs_err err = GS_OK;
+    int64_t v;
+    uint64_t dig;
+    GS_TRY(err, gs_ckpt_get_u64(h, "/field", "source_digest", &dig), done);
+    GS_TRY_CHECK(err, dig == src_digest, GS_ERR_ARG, done,
+                 "%s: the example differs from the one this checkpoint was made from (source "
+                 "digest %016llx, now %016llx): was the example file changed?",
+                 gs_ckpt_path(h), (unsigned long long)dig, (unsigned long long)src_digest);
+    GS_TRY(err, gs_ckpt_get_i64(h, "/field", "iteration", &v), done);
+    st.iteration = (int)v;
+    GS_TRY(err, gs_ckpt_get_i64(h, "/field", "cursor", &st.cursor), done);
+    GS_TRY(err, gs_ckpt_get_i64(h, "/field", "blocks_in_iteration", &st.blocks_in_iteration), done);
+    gs_h5_shape s3 = {GS_H5_I64, 1, {3}};
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/tn", &s3, st.tn), done);
+    GS_TRY_CHECK(err, st.tn[0] > 0 && st.tn[1] > 0 && st.tn[2] > 0 && st.tn[0] <= 4096 &&
+                          st.tn[1] <= 4096 && st.tn[2] <= 4096,
+                 GS_ERR_FORMAT, done, "%s: /field/tn holds an impossible target size",
+                 gs_ckpt_path(h));
+    gs_h5_shape si = {GS_H5_I64, 1, {GS_FIELD_MAX_ITER}};
+    gs_h5_shape sf = {GS_H5_F64, 1, {GS_FIELD_MAX_ITER}};
+    gs_h5_shape su = {GS_H5_U64, 1, {GS_FIELD_MAX_ITER}};
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_count", &si, st.stat_count), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_sum", &sf, st.stat_sum), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_min", &sf, st.stat_min), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_max", &sf, st.stat_max), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_pops", &su, st.stat_pops), done);
+    size_t n = (size_t)(st.tn[0] * st.tn[1] * st.tn[2]);
+    GS_TRY(err, gs_alloc_array((void **)&st.target, n, 1, "checkpoint target"), done);
+    GS_TRY(err, gs_alloc_array((void **)&st.mask, n, 1, "checkpoint mask"), done);
+    gs_h5_shape sh = {GS_H5_U8, 3, {(uint64_t)st.tn[2], (uint64_t)st.tn[1], (uint64_t)st.tn[0]}};
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/target", &sh, st.target), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/mask", &sh, st.mask), done);
+    gs_h5_shape sp = {GS_H5_I32, 3,
+                      {(uint64_t)ctx->target[2], (uint64_t)ctx->target[1], (uint64_t)ctx->target[0]}};
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/provenance", &sp, ctx->prov), done);
+    GS_TRY(err, gs_field_synth_resume(src, sc, &st, out), done);
+done:
+    gs_free(st.target);
+    gs_free(st.mask);
+    gs_ckpt_close(&h);
+    return err;
+}
+
+/* -------------------------------------------------------------- output */
+
+static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f)
+{
+    char path[PATH_MAX];
+    gs_run_path(run, "field.h5", path, sizeof path);
+    gs_ckpt_meta meta = {"field", run->seed, run->config_text};
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_ckpt_create(run->comm, path, &meta, &h));
+    int64_t n[3] = {res->nx, res->ny, res->nz};
+    gs_err err = GS_OK;
+    GS_TRY(err, write_u8_field(h, run, "/field/distance", n, GS_H5_F32, f->v), fail);
+    GS_TRY(err, write_u8_field(h, run, "/field/levels", n, GS_H5_U8, res->q), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "spacing", f->spacing), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_x", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_y", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_z", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "lo", res->lo), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "hi", res->hi), fail);
+    GS_CALL(gs_ckpt_commit(&h));
+    err = GS_OK;
+    if (run->rank == 0) {
+        gs_xdmf_grid g = {"field", GS_XDMF_NODE, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]},
+                          {0, 0, 0}, {f->spacing, f->spacing, f->spacing}};
+        gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32},
+                              {"levels", "/field/levels", GS_H5_U8}};
+        err = gs_xdmf_write(path, &g, at, 2);
+        gs_run_output(run, "field_h5", "field.h5");
+        gs_run_output(run, "field_xdmf", "field.xmf");
+    }
+    GS_CALL(gs_par_agree(run->comm, err));
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+/* Rank 0: field.vdb, meshes. Fills the metrics object text. */
+static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const field_source *src,
+                                   const gs_field *f, const int32_t *prov, gs_json *pm)
+{
+    char path[PATH_MAX], name[64];
+    if (c->vdb) {
+        gs_vdb_dense d;
+        memset(&d, 0, sizeof d);
+        d.nx = (size_t)f->nx, d.ny = (size_t)f->ny, d.nz = (size_t)f->nz;
+        d.voxel = f->spacing;
+        d.background = (float)(c->range * f->spacing);
+        d.v = f->v; /* borrowed */
+        gs_run_path(run, "field.vdb", path, sizeof path);
+        GS_CALL(gs_vdb_write_dense(path, "distance", &d));
+        gs_run_output(run, "field_vdb", "field.vdb");
+    }
+    int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
+    int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    if (contour) {
+        gs_mesh m;
+        GS_CALL(gs_field_contour(f, 0.0, c->adaptivity, &m));
+        snprintf(name, sizeof name, "contour.%s", c->mesh_format);
+        gs_run_path(run, name, path, sizeof path);
+        gs_err err = gs_mesh_write(path, &m, NULL);
+        gs_json_i64(pm, "contour_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "contour_triangles", (int64_t)m.ntris);
+        gs_json_f64(pm, "contour_area", gs_mesh_area(&m));
+        gs_mesh_destroy(&m);
+        GS_CALL(err);
+        gs_run_output(run, "mesh_contour", name);
+    }
+    if (copy) {
+        const gs_qfield *q = src->q;
+        int64_t sn[3] = {q->nx, q->ny, q->nz}, tn[3] = {f->nx, f->ny, f->nz};
+        gs_mesh m;
+        int64_t seams = 0;
+        GS_CALL(gs_field_copy_geometry(&src->mesh, sn, prov, tn, (float)c->weld, (int)c->relax, &m,
+                                       &seams));
+        /* sample units -> world units of the output field */
+        for (size_t v = 0; v < 3 * m.nverts; v++)
+            m.pos[v] = (float)(m.pos[v] * f->spacing);
+        snprintf(name, sizeof name, "copied.%s", c->mesh_format);
+        gs_run_path(run, name, path, sizeof path);
+        gs_err err = gs_mesh_write(path, &m, NULL);
+        gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_seam_vertices", seams);
+        gs_json_i64(pm, "copied_seam_vertices", seams);
+        gs_mesh_destroy(&m);
+        GS_CALL(err);
+        gs_run_output(run, "mesh_copied", name);
+    }
+    return GS_OK;
+}
+
+/* ----------------------------------------------------------------- run */
+
+static gs_err field_run(gs_run *run, void *cfg_, int resume)
+{
+    const field_config *c = cfg_;
+    int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    field_source src;
+    memset(&src, 0, sizeof src);
+    gs_field_synth_t synth = NULL;
+    match_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.ps_iteration = -1;
+    gs_qfield *res = NULL;
+    gs_field *resf = NULL;
+    gs_err err = GS_OK;
+    char js[1024];
+
+    gs_run_phase_begin(run, "setup");
+    GS_TRY(err, build_source(run, c, want_mesh, &src), done);
+    const gs_qfield *q = src.q;
+    uint64_t src_digest = gs_digest_bytes(q->q, (size_t)(q->nx * q->ny * q->nz));
+    gs_field_synth_config sc;
+    gs_field_synth_config_default(&sc, q);
+    sc.iterations = (int)c->iterations;
+    for (int i = 0; i < sc.iterations; i++)
+        sc.block[i] = (int)(i == sc.iterations - 1 ? c->block : c->coarse_block);
+    memcpy(sc.target, c->target, sizeof sc.target);
+    sc.seed = (uint64_t)c->run.seed;
+    sc.mask_unsynthesized = c->mask_unsynthesized;
+    sc.use_upper_bound = c->upper_bound;
+    sc.match = match_block;
+    sc.match_ctx = &ctx;
+    ctx.run = run;
+    ctx.iterations = sc.iterations;
+    memcpy(ctx.target, c->target, sizeof ctx.target);
+    int64_t nt = c->target[0] * c->target[1] * c->target[2];
+    int L = 0;
+    while ((1 << L) < c->block)
+        L++;
+    double ns = (double)(q->nx * q->ny * q->nz);
+    double est = ns * (1 + 1 + 4.0 * L) + 20.0 * ns + (double)nt * (2 + 4);
+    if (run->rank == 0) {
+        gs_log(GS_LOG_INFO, "example: %s", src.desc);
+        gs_log(GS_LOG_INFO, "source: %lldx%lldx%lld samples, spacing %g, quantized over [%g, %g]",
+               (long long)q->nx, (long long)q->ny, (long long)q->nz, q->spacing, q->lo, q->hi);
+        gs_log(GS_LOG_INFO, "target: %lldx%lldx%lld, %d iterations, blocks %d..%d, %s matching",
+               (long long)c->target[0], (long long)c->target[1], (long long)c->target[2],
+               sc.iterations, sc.block[0], sc.block[sc.iterations - 1],
+               c->mask_unsynthesized ? "masked" : "whole-block (paper)");
+        gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
+                            "mask, provenance)", est / 1048576.0);
+    }
+    GS_TRY(err, gs_alloc_array((void **)&ctx.prov, (size_t)nt, sizeof *ctx.prov, "provenance map"), done);
+    for (int64_t i = 0; i < nt; i++)
+        ctx.prov[i] = -1;
+    if (resume)
+        err = read_checkpoint(run, q, &sc, &ctx, src_digest, &synth);
+    else
+        err = gs_field_synth_create(q, &sc, &synth);
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    ctx.synth = synth;
+    const gs_field_synth_state *st = gs_field_synth_get_state(synth);
+    snprintf(js, sizeof js,
+             "{\"source\":[%lld,%lld,%lld],\"target\":[%lld,%lld,%lld],\"resumed_at_units\":%lld}",
+             (long long)q->nx, (long long)q->ny, (long long)q->nz, (long long)c->target[0],
+             (long long)c->target[1], (long long)c->target[2], (long long)units_done(st));
+    GS_TRY(err, gs_run_phase_end(run, js), done);
+
+    gs_run_phase_begin(run, "synthesis");
+    int64_t total = 0;
+    for (int i = 0; i < sc.iterations; i++) {
+        int64_t f = (int64_t)1 << (sc.iterations - 1 - i), cnt = 1;
+        for (int a = 0; a < 3; a++) {
+            int64_t T = c->target[a] / f, B = sc.block[i], np = 1;
+            for (int64_t p = 0; p + B < T; p += B / 2)
+                np++;
+            cnt *= np;
+        }
+        total += cnt;
+    }
+    gs_progress prog;
+    gs_progress_begin(&prog, "blocks", (uint64_t)total);
+    int finished = st->iteration >= sc.iterations;
+    double t0 = gs_time_now();
+    int64_t start_units = units_done(st);
+    while (!finished) {
+        GS_TRY(err, gs_field_synth_run(synth, 1, &finished), done);
+        st = gs_field_synth_get_state(synth);
+        int64_t u = units_done(st);
+        gs_progress_update(&prog, (uint64_t)u);
+        int stop = 0;
+        if (!finished && gs_run_checkpoint_due(run, u, &stop)) {
+            GS_TRY(err, write_checkpoint(run, &ctx, src_digest), done);
+            if (stop) {
+                gs_progress_end(&prog);
+                err = gs_run_interrupted(run);
+                goto done;
+            }
+        }
+    }
+    gs_progress_end(&prog);
+    st = gs_field_synth_get_state(synth);
+    double syn_s = gs_time_now() - t0;
+    snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f}",
+             (long long)units_done(st), (long long)(units_done(st) - start_units),
+             syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0);
+    GS_TRY(err, gs_run_phase_end(run, js), done);
+
+    gs_run_phase_begin(run, "output");
+    GS_TRY(err, gs_field_synth_result(synth, &res), done);
+    res->spacing = q->spacing;
+    GS_TRY(err, gs_qfield_dequantize(res, &resf), done);
+    uint64_t digest = gs_digest_bytes(res->q, (size_t)(res->nx * res->ny * res->nz));
+    GS_TRY(err, write_field_h5(run, res, resf), done);
+    gs_json pm;
+    gs_json_init(&pm);
+    gs_json_begin_object(&pm, NULL);
+    gs_err lerr = GS_OK;
+    if (run->rank == 0) {
+        lerr = write_geometry_rank0(run, c, &src, resf, ctx.prov, &pm);
+        /* quality of the output against the source */
+        for (int i = 0; i < sc.iterations; i++) {
+            char k[64];
+            double mean = st->stat_count[i] ? st->stat_sum[i] / (double)st->stat_count[i] : 0;
+            snprintf(k, sizeof k, "match_mean_it%d", i);
+            gs_run_metric_f64(run, k, mean);
+            snprintf(k, sizeof k, "match_min_it%d", i);
+            gs_run_metric_f64(run, k, st->stat_count[i] ? st->stat_min[i] : 0);
+            snprintf(k, sizeof k, "match_max_it%d", i);
+            gs_run_metric_f64(run, k, st->stat_max[i]);
+            snprintf(k, sizeof k, "match_blocks_it%d", i);
+            gs_run_metric_i64(run, k, st->stat_count[i]);
+        }
+        int last = sc.iterations - 1;
+        gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
+        gs_field_tree_t tree = NULL;
+        gs_field_quality qm;
+        memset(&qm, 0, sizeof qm);
+        double tq = gs_time_now();
+        if (!lerr)
+            lerr = gs_field_tree_build(q, (int)c->block, &tree);
+        if (!lerr)
+            lerr = gs_field_quality_measure(res, q, tree, &qm);
+        gs_field_tree_destroy(&tree);
+        if (!lerr) {
+            gs_run_metric_f64(run, "volume_fraction_out", qm.volume_fraction_out);
+            gs_run_metric_f64(run, "volume_fraction_src", qm.volume_fraction_src);
+            gs_run_metric_f64(run, "surface_per_volume_out", qm.surface_per_volume_out);
+            gs_run_metric_f64(run, "surface_per_volume_src", qm.surface_per_volume_src);
+            gs_run_metric_f64(run, "coherence", qm.coherence);
+            gs_run_metric_i64(run, "coherence_blocks", qm.coherence_blocks);
+            gs_log(GS_LOG_INFO,
+                   "quality: volume fraction %.4f (source %.4f), surface/volume %.4f (source "
+                   "%.4f), coherence %.2f, mean match %.2f (%.1f s)",
+                   qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
+                   qm.surface_per_volume_src, qm.coherence,
+                   st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1),
+                   gs_time_now() - tq);
+        }
+    }
+    gs_json_end_object(&pm);
+    err = gs_par_agree(run->comm, lerr);
+    if (!err)
+        err = gs_run_phase_end(run, pm.buf ? pm.buf : "{}");
+    gs_json_free(&pm);
+    if (err)
+        goto done;
+    GS_TRY(err, gs_run_finish(run, digest), done);
+done:
+    gs_psearch_destroy(&ctx.ps);
+    gs_field_synth_destroy(&synth);
+    gs_free(ctx.prov);
+    gs_qfield_destroy(&res);
+    gs_field_destroy(&resf);
+    source_free(&src);
+    return err;
+}
+
+const gs_engine gs_engine_field = {
+    "field",
+    "distance-field geometry synthesis from a mesh, level set, height map or built-in example "
+    "(Lagae et al.)",
+    &field_table,
+    sizeof(field_config),
+    offsetof(field_config, run),
+    field_run,
+};

@@ -1,0 +1,143 @@
+/* Unit tests for the field engine's examples and geometry
+ * (src/field/examples.c, src/field/geometry.c). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/field_examples.h"
+#include "geosynth/mem.h"
+
+#define OK(expr) assert_int_equal((expr), GS_OK)
+
+/* Every generator: deterministic, has inside and outside, and its mesh is closed. */
+static void test_generators(void **state)
+{
+    (void)state;
+    const char *kinds[] = {"grid", "chainmail", "balls", "fibers", "spheres"};
+    for (int k = 0; k < 5; k++) {
+        gs_field *a = NULL, *b = NULL;
+        OK(gs_field_example_make(kinds[k], 32, 7, &a));
+        OK(gs_field_example_make(kinds[k], 32, 7, &b));
+        size_t n = 32 * 32 * 32;
+        assert_true(gs_digest_bytes(a->v, n * 4) == gs_digest_bytes(b->v, n * 4));
+        int64_t in = 0;
+        for (size_t i = 0; i < n; i++) {
+            in += a->v[i] < 0;
+            assert_true(a->v[i] <= GS_EXAMPLE_BAND && isfinite(a->v[i]));
+        }
+        double vf = (double)in / (double)n;
+        fprintf(stderr, "%s: volume fraction %.3f\n", kinds[k], vf);
+        assert_true(vf > 0.02 && vf < 0.7);
+        gs_field_destroy(&a);
+        gs_field_destroy(&b);
+        gs_mesh m;
+        OK(gs_field_example_mesh(kinds[k], 24, 3, &m));
+        gs_mesh_topology topo;
+        OK(gs_mesh_topology_check(&m, &topo));
+        assert_true(m.ntris > 100);
+        assert_true(topo.closed);
+        assert_true(gs_mesh_volume(&m) > 0);
+        gs_mesh_destroy(&m);
+    }
+    gs_field *f = NULL;
+    assert_int_equal(gs_field_example_make("knot", 32, 1, &f), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), GS_EXAMPLE_KINDS));
+    assert_int_equal(gs_field_example_make("grid", 4, 1, &f), GS_ERR_ARG);
+    gs_error_clear();
+}
+
+/* Dropped balls never overlap: the union's field equals the nearest ball's
+ * distance: no sample is inside by more than the largest radius (5), and the
+ * share of inside samples stays below random close packing (0.64). */
+static void test_balls_no_overlap(void **state)
+{
+    (void)state;
+    gs_field *f = NULL;
+    OK(gs_field_example_make("balls", 48, 5, &f));
+    int64_t n = 48 * 48 * 48, in = 0;
+    float mn = 0;
+    for (int64_t i = 0; i < n; i++) {
+        in += f->v[i] < 0;
+        mn = f->v[i] < mn ? f->v[i] : mn;
+    }
+    assert_true(mn >= -5.01f);
+    assert_true((double)in / (double)n < 0.64);
+    fprintf(stderr, "dropped balls: volume fraction %.3f\n", (double)in / (double)n);
+    assert_true((double)in / (double)n > 0.1); /* the box gets filled (loose: no rolling) */
+    gs_field_destroy(&f);
+}
+
+/* Copied geometry: a provenance map that copies the whole source in place
+ * reproduces the source mesh (same triangle count, area); a shifted copy
+ * moves it. */
+static void test_copy_geometry(void **state)
+{
+    (void)state;
+    gs_field *f = NULL;
+    OK(gs_field_example_make("spheres", 24, 2, &f));
+    gs_mesh src;
+    OK(gs_field_contour(f, 0.0, 0.0, &src));
+    int64_t sn[3] = {24, 24, 24};
+    int64_t tn[3] = {24, 24, 24};
+    int32_t *prov = gs_malloc(24 * 24 * 24 * sizeof *prov);
+    for (int i = 0; i < 24 * 24 * 24; i++)
+        prov[i] = i;
+    gs_mesh out;
+    int64_t seams = -1;
+    OK(gs_field_copy_geometry(&src, sn, prov, tn, 0.0f, 0, &out, &seams));
+    assert_int_equal(out.ntris, src.ntris);
+    assert_true(fabs(gs_mesh_area(&out) - gs_mesh_area(&src)) < 1e-3 * gs_mesh_area(&src));
+    assert_int_equal(seams, 0); /* the contour of a sphere field inside the box is closed */
+    gs_mesh_destroy(&out);
+    /* nothing copied: empty mesh */
+    for (int i = 0; i < 24 * 24 * 24; i++)
+        prov[i] = -1;
+    OK(gs_field_copy_geometry(&src, sn, prov, tn, 0.0f, 0, &out, &seams));
+    assert_int_equal(out.ntris, 0);
+    gs_mesh_destroy(&out);
+    gs_free(prov);
+    gs_mesh_destroy(&src);
+    gs_field_destroy(&f);
+}
+
+/* Height map: inside below the surface, zero crossing at h. */
+static void test_heightmap(void **state)
+{
+    (void)state;
+    gs_field *f = NULL;
+    OK(gs_field_from_heightmap("../../shared/data/heightmaps/raylib-heightmap.png", 32, 16, 8, &f));
+    assert_int_equal(f->nx, 32);
+    assert_int_equal(f->ny, 32);
+    assert_int_equal(f->nz, 16);
+    for (int64_t y = 0; y < 32; y++)
+        for (int64_t x = 0; x < 32; x++) {
+            /* one sign change per column: bottom inside, top outside; |d| <= the
+             * vertical distance to the surface (it is a true minimum) */
+            assert_true(f->v[x + 32 * y] < 0);
+            assert_true(f->v[x + 32 * (y + 32 * 15)] > 0);
+            int changes = 0;
+            for (int64_t z = 1; z < 16; z++)
+                changes += (f->v[x + 32 * (y + 32 * z)] < 0) != (f->v[x + 32 * (y + 32 * (z - 1))] < 0);
+            assert_int_equal(changes, 1);
+        }
+    gs_field_destroy(&f);
+    assert_int_equal(gs_field_from_heightmap("/nonexistent.png", 32, 16, 8, &f), GS_ERR_IO);
+    gs_error_clear();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_generators),
+        cmocka_unit_test(test_balls_no_overlap),
+        cmocka_unit_test(test_copy_geometry),
+        cmocka_unit_test(test_heightmap),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
