@@ -31,7 +31,8 @@
  * bench program): ENTROPY (fewest candidates first, random tie-break) is the
  * default: it succeeded where the author's scan failed (castle 100x100 in
  * 20x20 regions) and does not streak; SCAN (the author's order, z fastest)
- * makes runs along x up to 2.5x longer than in the example (city). Regions overlap (stride half the region edge) and
+ * makes runs along x up to 2.5x longer than in the example (city). Regions overlap (by default stride half the region edge, see
+ * gs_model_params.overlap) and
  * are swept pass after pass until every cell has been in `min_changes`
  * accepted regions or `max_passes` is reached.
  *
@@ -147,6 +148,9 @@ typedef enum gs_model_ac {
 typedef struct gs_model_params {
     uint64_t seed;
     int region[3];      /* region edge per axis; 0 or >= extent = whole axis */
+    int overlap;        /* cells shared by neighbouring regions along an axis
+                           (stride = edge - overlap, at least 1); -1 = half
+                           the edge (default) */
     int attempts;       /* tries per region before keeping the old content */
     int min_changes;    /* accepted regions each active cell must be part of */
     int max_passes;     /* sweeps at most */
@@ -157,7 +161,7 @@ typedef struct gs_model_params {
     gs_model_ac ac;
 } gs_model_params;
 
-/* Defaults: whole grid, attempts 20, min_changes 1, max_passes 4,
+/* Defaults: whole grid, overlap -1 (half the edge), attempts 20, min_changes 1, max_passes 4,
  * fix_z_faces 1, backtracks 1000, order ENTROPY, weights UNIFORM, AC3,
  * seed 1. */
 void gs_model_params_default(gs_model_params *p);

@@ -5,9 +5,11 @@
 #include "geosynth/engine.h"
 
 extern const gs_engine gs_engine_field;
+extern const gs_engine gs_engine_model;
 
 static const gs_engine *const engine_list[] = {
     &gs_engine_field,
+    &gs_engine_model,
     NULL /* terminator */
 };
 

@@ -18,6 +18,7 @@
 #include "geosynth/h5.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
+#include "geosynth/model_io.h"
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/run.h"
@@ -31,6 +32,7 @@ typedef struct cli_args {
     const char *config_path;
     const char *run_dir;
     const char *positional;
+    const char *positional2;
     const char *overrides[MAX_OVERRIDES];
     int noverrides;
     int help;
@@ -70,6 +72,9 @@ static void print_usage(FILE *out)
             "            continue an interrupted run from RUN_DIR/checkpoint.h5 (any rank count)\n"
             "  example   grid|chainmail|balls|fibers|spheres --out FILE.obj|.ply [--size N] [--seed S]\n"
             "            write a built-in field example as a closed mesh (default size 64, seed 1)\n"
+            "  model-check EXAMPLE OUTPUT\n"
+            "            list adjacent label pairs of OUTPUT that never occur in EXAMPLE (.txt,\n"
+            "            .vox, .h5); exit 0 when there are none, 2 otherwise\n"
             "  inspect   FILE.h5\n"
             "            summarize a geosynth HDF5 file (checkpoint or output)\n"
             "  version   print program, format and library versions\n"
@@ -128,12 +133,13 @@ static size_t edit_distance(const char *a, const char *b)
 
 static const char *closest_command(const char *name)
 {
-    static const char *builtins[] = {"resume", "inspect", "version", "help", "example"};
+    static const char *builtins[] = {"resume", "inspect", "version", "help", "example",
+                                     "model-check"};
     const char *best = NULL;
     size_t best_d = 3;
     int n;
     const gs_engine *const *engines = gs_engines(&n);
-    for (int i = 0; i < n + 5; i++) {
+    for (int i = 0; i < n + (int)(sizeof builtins / sizeof builtins[0]); i++) {
         const char *cand = i < n ? engines[i]->name : builtins[i - n];
         size_t dist = edit_distance(name, cand);
         if (dist < best_d) {
@@ -189,6 +195,8 @@ static gs_err parse_args(int argc, char **argv, cli_args *a)
             a->command = s;
         } else if (!a->positional) {
             a->positional = s;
+        } else if (!a->positional2 && a->command && !strcmp(a->command, "model-check")) {
+            a->positional2 = s;
         } else {
             return usage_error("unexpected argument '%s' (see geosynth --help)", s);
         }
@@ -394,6 +402,18 @@ int main(int argc, char **argv)
             err = usage_error("inspect needs a file name%s", "");
         } else if (rank == 0) {
             err = gs_inspect_file(a.positional, stdout);
+        }
+        err = gs_par_agree(MPI_COMM_WORLD, err);
+    } else if (!strcmp(a.command, "model-check")) {
+        if (!a.positional2) {
+            err = usage_error("model-check needs two files: EXAMPLE OUTPUT%s", "");
+        } else if (rank == 0) {
+            size_t nv = 0;
+            err = gs_model_check_files(a.positional, a.positional2, stdout, 50, &nv);
+            if (!err && nv)
+                err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                     "%s: %zu adjacent pairs never occur in the example %s",
+                                     a.positional2, nv, a.positional);
         }
         err = gs_par_agree(MPI_COMM_WORLD, err);
     } else if (!strcmp(a.command, "resume")) {

@@ -41,7 +41,8 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
 {
     size_t ncell = (size_t)example->nx * (size_t)example->ny * (size_t)example->nz;
     uint64_t *keys = NULL;
-    GS_CALL(gs_alloc_array((void **)&keys, 3 * ncell + 65536, sizeof *keys, "checker pairs"));
+    /* up to three pairs plus one "label occurs" key per cell */
+    GS_CALL(gs_alloc_array((void **)&keys, 4 * ncell, sizeof *keys, "checker pairs"));
     size_t n = 0;
     for (int z = 0; z < example->nz; z++)
         for (int y = 0; y < example->ny; y++)

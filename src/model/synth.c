@@ -11,6 +11,7 @@ void gs_model_params_default(gs_model_params *p)
 {
     memset(p, 0, sizeof *p);
     p->seed = 1;
+    p->overlap = -1;
     p->attempts = 20;
     p->min_changes = 1;
     p->max_passes = 4;
@@ -27,6 +28,8 @@ static gs_err check_params(const gs_model_params *p)
         GS_CHECK(p->region[a] >= 0, GS_ERR_ARG,
                  "model.region[%d] = %d: expected 0 (whole axis) or a positive edge", a,
                  p->region[a]);
+    GS_CHECK(p->overlap >= -1, GS_ERR_ARG,
+             "model.overlap = %d: expected -1 (half the region) or >= 0", p->overlap);
     GS_CHECK(p->attempts >= 1 && p->attempts <= 100000, GS_ERR_ARG,
              "model.attempts = %d: expected an integer in [1, 100000]", p->attempts);
     GS_CHECK(p->backtracks >= 0, GS_ERR_ARG, "model.backtracks = %d: expected >= 0", p->backtracks);
@@ -52,16 +55,18 @@ static void active_z(const gs_model_params *p, int nz, int *lo, int *hi)
     *hi = fix ? nz - 1 : nz;
 }
 
-/* Region starts along one axis of extent n with edge b (<= n). Stride b/2;
- * odd passes shift the grid by a quarter region. Returns the count; colours
+/* Region starts along one axis of extent n with edge b (<= n). Stride
+ * b - overlap (b/2 when overlap < 0), at least 1; odd passes shift the grid by a quarter region. Returns the count; colours
  * along the axis in *m (regions k and k+m are >= 1 cell apart). */
-static int axis_starts(int n, int b, int pass, int *starts, int *m)
+static int axis_starts(int n, int b, int overlap, int pass, int *starts, int *m)
 {
     int k = 0;
     if (b >= n) {
         starts[k++] = 0;
     } else {
-        int s = b / 2 > 0 ? b / 2 : 1;
+        int s = overlap < 0 ? b / 2 : b - overlap;
+        if (s < 1)
+            s = 1;
         int o = (pass & 1) ? s / 2 : 0;
         for (int t = -o;; t += s) {
             int st = t < 0 ? 0 : (t > n - b ? n - b : t);
@@ -109,7 +114,7 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
         edge[a] = (p->region[a] <= 0 || p->region[a] >= ext[a]) ? ext[a] : p->region[a];
         GS_TRY(err, gs_alloc_array((void **)&starts[a], (size_t)ext[a] + 2, sizeof(int), "plan"),
                done);
-        cnt[a] = axis_starts(ext[a], edge[a], pass, starts[a], &m[a]);
+        cnt[a] = axis_starts(ext[a], edge[a], p->overlap, pass, starts[a], &m[a]);
     }
     size_t n = (size_t)cnt[0] * (size_t)cnt[1] * (size_t)cnt[2];
     gs_model_region *list = NULL;

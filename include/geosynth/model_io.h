@@ -1,0 +1,114 @@
+/* model engine I/O and quality measures around the core (model.h):
+ * example loading in three formats, colours, the voxel-cube mesh with merged
+ * faces, PNG for 2D lattices, resemblance, and the file-level checker behind
+ * `geosynth model-check EXAMPLE OUTPUT`.
+ *
+ * Lattice convention as in model.h: labels[x + nx*(y + ny*z)], z up, label
+ * 0 = empty.
+ *
+ * Example formats (gs_model_load; format "auto" infers it from the name):
+ *   txt   Paul Merrell's samples/NAME.txt (gs_model_read_merrell_txt);
+ *   vox   MagicaVoxel .vox (palette index = label; several models or a scene
+ *         graph are composited with gs_vox_flatten) and Slab6 .slab.vox
+ *         (VoxModSynth: empty 255 -> 0, index k -> k + 1, ground -> 255);
+ *   h5    a geosynth HDF5 file (gs_ckpt reader: the file needs the /geosynth
+ *         group, e.g. a model run's lattice.h5 or a checkpoint.h5) holding a
+ *         uint16 dataset of shape {nz, ny, nx} (default "/model/labels").
+ *         Plain HDF5 files from other tools are not read: write them with a
+ *         /geosynth group or convert them to .vox/.txt.
+ *
+ * Colours: a .vox example brings its palette (label i -> palette[i]); other
+ * labels get a fixed colour derived from the label number (the same in every
+ * output and every run).
+ *
+ * Errors name the file and what was expected. On error outputs are unchanged
+ * (lattices) or zeroed (meshes). All functions are local (no MPI).
+ */
+#ifndef GEOSYNTH_MODEL_IO_H
+#define GEOSYNTH_MODEL_IO_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "geosynth/error.h"
+#include "geosynth/model.h"
+
+typedef struct gs_model_palette {
+    uint8_t rgba[256][4]; /* colour of label i < 256 when from_file */
+    int from_file;        /* 1: taken from a .vox example */
+} gs_model_palette;
+
+/* Colour of label (label 0 gets black; never drawn). */
+void gs_model_label_rgb(const gs_model_palette *pal, uint16_t label, uint8_t rgb[3]);
+
+/* format: "auto", "txt", "vox" or "h5"; dataset: HDF5 dataset path for h5
+ * (NULL or "" = "/model/labels"). pal may be NULL. *out must be zeroed; free
+ * with gs_model_lattice_destroy(). */
+gs_err gs_model_load(const char *path, const char *format, const char *dataset,
+                     gs_model_lattice *out, gs_model_palette *pal);
+
+/* The format "auto" picks for path ("txt", "vox" or "h5"), or NULL. */
+const char *gs_model_format_of(const char *path);
+
+/* Writes lat as MagicaVoxel .vox (tiles of <= 256 per axis). Labels above
+ * 255 are renumbered 1..255 in increasing order (GS_ERR_ARG when more than
+ * 255 distinct non-empty labels); *renumbered tells whether that happened. */
+gs_err gs_model_write_vox(const char *path, const gs_model_lattice *lat,
+                          const gs_model_palette *pal, int *renumbered);
+
+/* Writes the z = 0 layer as an RGB PNG, one pixel per cell, y up (row 0 of
+ * the image is y = ny - 1); empty cells white. */
+gs_err gs_model_write_png(const char *path, const gs_model_lattice *lat,
+                          const gs_model_palette *pal);
+
+/* ---- voxel-cube mesh with merged faces --------------------------------- */
+
+/* One axis-aligned rectangle of the surface, corners counter-clockwise seen
+ * from outside (outward normal by the right-hand rule). */
+typedef struct gs_model_quad {
+    float p[4][3];
+    uint16_t label;
+    uint8_t dir; /* outward normal: 0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z */
+} gs_model_quad;
+
+typedef struct gs_model_quads {
+    gs_model_quad *q; /* gs_malloc'ed */
+    size_t n;
+    size_t unit_faces; /* cube faces before merging */
+} gs_model_quads;
+
+/* The visible faces of the coloured cubes: a face of a filled cell is kept
+ * when the cell across it is empty, outside, or has another label; per
+ * slice, coplanar faces of one label and direction are merged greedily into
+ * rectangles (grow along the first in-plane axis, then the second). Cell
+ * (x, y, z) occupies [x, x+1] x [y, y+1] x [z, z+1] times voxel. Free with
+ * gs_model_quads_free(). O(cells) time, O(largest slice) scratch. */
+gs_err gs_model_mesh_quads(const gs_model_lattice *lat, double voxel, gs_model_quads *out);
+void gs_model_quads_free(gs_model_quads *q);
+
+/* Writes quads as binary PLY (vertex x y z float + red green blue uchar,
+ * quad faces "list uchar int vertex_indices" + face ushort label) or as OBJ
+ * with an MTL file next to it (one material "label_N" per label, Kd from the
+ * palette; faces grouped by label). Picks by extension (.ply / .obj).
+ * Atomic writes. */
+gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q,
+                           const gs_model_palette *pal);
+
+/* ---- quality ------------------------------------------------------------ */
+
+/* Share of the output's w x w x w windows (window extent clipped to
+ * min(w, example extent, output extent) per axis, so a 2D lattice uses
+ * w x w x 1) whose labels occur as a window somewhere in the example.
+ * 1.0 = every local neighbourhood is copied from the example. Cost:
+ * O(cells * w^3) plus a sort of the example's windows. */
+gs_err gs_model_resemblance(const gs_model_lattice *example, const gs_model_lattice *output,
+                            int w, double *share);
+
+/* Loads both files (formats inferred), runs gs_model_check and prints a
+ * report to out: one line per violation up to cap, then the total. *count
+ * is the number of violations. */
+gs_err gs_model_check_files(const char *example, const char *output, FILE *out, size_t cap,
+                            size_t *count);
+
+#endif

@@ -1,0 +1,857 @@
+/* The `model` engine: Merrell's model synthesis (src/model core) behind the
+ * geosynth CLI, run over MPI ranks with colored regions.
+ *
+ *   mpirun -np N geosynth model -c configs/model/castle.ini
+ *
+ * Phases: setup (rank 0 reads the example and the optional start lattice and
+ * broadcasts them; every rank learns the same rules and builds the same
+ * start model), synthesis (pass after pass; inside a pass the colours of
+ * gs_model_plan run in order, the regions of one colour on all ranks at
+ * once through gs_regions; the results are applied in region id order on
+ * every rank, which is exactly the core's serial driver gs_model_synthesize),
+ * output (rank 0: lattice.h5 + lattice.xmf, lattice.vox, the merged-face
+ * mesh, lattice.png when nz == 1, optionally Merrell's .txt; quality
+ * metrics).
+ *
+ * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
+ * finished; checkpoints are taken between colours, since the regions of one
+ * colour run concurrently. The checkpoint (group /model) holds the lattice,
+ * the per-cell count of accepted regions (coverage, which decides when the
+ * sweep may stop), the position (pass, next colour), the per-region status
+ * and attempt counters of the pass in progress and the statistics; a resumed
+ * run continues with any rank count and ends with the same digest.
+ *
+ * Determinism: gs_model_region_run depends only on (lattice before the
+ * colour, box, params, region id, pass); the gs_regions random stream is not
+ * used. So the final lattice is identical for every rank count.
+ */
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/config.h"
+#include "geosynth/digest.h"
+#include "geosynth/engine.h"
+#include "geosynth/h5.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/model.h"
+#include "geosynth/model_io.h"
+#include "geosynth/par.h"
+#include "geosynth/parse.h"
+#include "geosynth/regions.h"
+#include "geosynth/run.h"
+
+#define MODEL_MAX_EXTENT 1048576.0
+#define MODEL_RNG_DOMAIN 0x6d6f646cu /* "modl": unused by the regions, kept distinct */
+#define MODEL_VIOLATION_LIST 20
+
+typedef struct model_config {
+    char *example;
+    char *format;
+    char *dataset;
+    gs_cfg_int3 size;
+    gs_cfg_int3 region;
+    int64_t overlap;
+    int64_t passes;
+    int64_t max_passes;
+    int64_t attempts;
+    int64_t backtracks;
+    char *order;
+    char *weights;
+    char *ac;
+    int fix_z_faces;
+    char *start;
+    char *start_column;
+    char *mesh;
+    int vox;
+    int txt;
+    double voxel_size;
+    gs_run_config run;
+} model_config;
+
+/* Parses "a, b c" into up to cap labels; returns the count or -1 with why. */
+static int parse_column(const char *text, uint16_t *out, int cap, char *why, size_t why_len)
+{
+    int n = 0;
+    const char *p = text;
+    while (*p) {
+        while (*p == ' ' || *p == ',' || *p == '\t')
+            p++;
+        if (!*p)
+            break;
+        char tok[32];
+        size_t k = 0;
+        while (*p && *p != ' ' && *p != ',' && *p != '\t') {
+            if (k + 1 < sizeof tok)
+                tok[k++] = *p;
+            p++;
+        }
+        tok[k] = '\0';
+        int64_t v;
+        if (!gs_parse_i64(tok, 0, 65535, &v, why, why_len))
+            return -1;
+        if (n < cap)
+            out[n] = (uint16_t)v;
+        n++;
+    }
+    return n;
+}
+
+static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
+{
+    const model_config *c = cfgp;
+    for (int a = 0; a < 3; a++) {
+        int64_t edge = c->region[a];
+        if (edge > 0 && edge < c->size[a] && c->overlap >= edge)
+            gs_cfg_report(ctx, "model.overlap",
+                          "must be smaller than the region edge %lld along %c (model.region)",
+                          (long long)edge, "xyz"[a]);
+    }
+    if (c->start[0] && c->start_column[0])
+        gs_cfg_report(ctx, "model.start_column",
+                      "cannot be combined with model.start = %s: give one start model", c->start);
+    if (c->start_column[0]) {
+        char why[160] = "";
+        int n = parse_column(c->start_column, NULL, 0, why, sizeof why);
+        if (n < 0)
+            gs_cfg_report(ctx, "model.start_column", "%s", why);
+        else if (n != c->size[2])
+            gs_cfg_report(ctx, "model.start_column",
+                          "has %d labels: expected one per layer, %lld (model.size z), bottom "
+                          "first",
+                          n, (long long)c->size[2]);
+    }
+}
+
+static const gs_cfg_key model_keys[] = {
+    GS_CFG_KEY_PATH(model_config, example, "model.example", NULL,
+                    "example lattice: Merrell .txt, MagicaVoxel/Slab6 .vox, or geosynth .h5"),
+    GS_CFG_KEY_ENUM(model_config, format, "model.format", "auto|txt|vox|h5", "auto",
+                    "example format; auto = from the file name extension"),
+    GS_CFG_KEY_STRING(model_config, dataset, "model.dataset", "/model/labels",
+                      "uint16 [nz x ny x nx] dataset read from an .h5 example or start model"),
+    GS_CFG_KEY_INT3(model_config, size, "model.size", 1, MODEL_MAX_EXTENT, 0, "40x40x10",
+                    "output size in cells, x y z (z up)"),
+    GS_CFG_KEY_INT3(model_config, region, "model.region", 0, MODEL_MAX_EXTENT, 0, "0",
+                    "region (block) edge per axis; 0 or >= the output extent = whole axis "
+                    "(\"0\" = whole-grid mode)"),
+    GS_CFG_KEY_INT(model_config, overlap, "model.overlap", -1, MODEL_MAX_EXTENT, 0, "-1",
+                   "cells shared by neighbouring regions; -1 = half the region edge"),
+    GS_CFG_KEY_INT(model_config, passes, "model.passes", 0, 1000, 0, "1",
+                   "keep sweeping until every cell was in this many accepted regions"),
+    GS_CFG_KEY_INT(model_config, max_passes, "model.max_passes", 1, 100000, 0, "4",
+                   "sweeps at most (stops earlier once model.passes is reached)"),
+    GS_CFG_KEY_INT(model_config, attempts, "model.attempts", 1, 100000, 0, "20",
+                   "tries per region before it keeps its old (consistent) content"),
+    GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
+                   "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
+    GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random", "entropy",
+                    "cell order: fewest candidates first, the author's scan (z fastest), or "
+                    "random"),
+    GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
+                    "label choice: uniform (author) or proportional to the example's counts"),
+    GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",
+                    "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
+    GS_CFG_KEY_BOOL(model_config, fix_z_faces, "model.fix_z_faces", "true",
+                    "keep the bottom (ground) and top (empty) layers of the start model "
+                    "(nz >= 3)"),
+    GS_CFG_KEY_PATH(model_config, start, "model.start", "",
+                    "start model lattice of the output size (consistent; any example format); "
+                    "\"\" = inferred"),
+    GS_CFG_KEY_STRING(model_config, start_column, "model.start_column", "",
+                      "start model as one column of labels, bottom first, repeated over x and "
+                      "y; \"\" = inferred"),
+    GS_CFG_KEY_ENUM(model_config, mesh, "model.mesh", "ply|obj|none", "ply",
+                    "mesh of coloured voxel cubes with merged faces"),
+    GS_CFG_KEY_BOOL(model_config, vox, "model.vox", "true",
+                    "also write lattice.vox (MagicaVoxel)"),
+    GS_CFG_KEY_BOOL(model_config, txt, "model.txt", "false",
+                    "also write lattice.txt in Merrell's format (his editor scripts read it)"),
+    GS_CFG_KEY_REAL(model_config, voxel_size, "model.voxel_size", 0, 1e9, GS_CFG_OPEN_LO, "1",
+                    "edge of one cell in the mesh"),
+    GS_CFG_RUN_KEYS(model_config, run, "model"),
+};
+
+static const gs_cfg_table model_table =
+    GS_CFG_TABLE("model", model_config, model_keys, model_validate);
+
+/* ---- engine state ----------------------------------------------------- */
+
+typedef struct region_hdr {
+    int32_t ok, attempts;
+    uint64_t choices, backtracks;
+} region_hdr;
+
+typedef struct model_engine {
+    const model_config *cfg;
+    gs_model_params params;
+    gs_model_lattice example, lat, start;
+    gs_model_palette pal;
+    gs_model_rules_t rules;
+    gs_model_solver_t solver;
+    uint16_t *coverage;  /* accepted regions per cell (saturating) */
+    uint16_t *buf;       /* one region's labels */
+    size_t buf_cells;
+    gs_model_region *plan; /* regions of the current pass, index = id */
+    size_t nplan;
+    int ncolors;
+    int32_t *region_status;   /* pass in progress: -1 not run, 0 failed, 1 accepted */
+    int32_t *region_attempts; /* pass in progress: tries used */
+    /* sweep position and statistics (identical on every rank) */
+    int pass, color, done;
+    int64_t units;
+    gs_model_stats stats;
+    uint64_t region_cells; /* cells of all region runs */
+    double synth_seconds;  /* synthesis wall time, summed over resumes */
+    uint64_t example_digest;
+} model_engine;
+
+static gs_err engine_params(const model_config *c, gs_model_params *p)
+{
+    gs_model_params_default(p);
+    p->seed = (uint64_t)c->run.seed;
+    for (int a = 0; a < 3; a++)
+        p->region[a] = (int)c->region[a];
+    p->overlap = (int)c->overlap;
+    p->attempts = (int)c->attempts;
+    p->min_changes = (int)c->passes;
+    p->max_passes = (int)c->max_passes;
+    p->fix_z_faces = c->fix_z_faces;
+    p->backtracks = (int)c->backtracks;
+    p->order = !strcmp(c->order, "scan")     ? GS_MODEL_ORDER_SCAN
+               : !strcmp(c->order, "random") ? GS_MODEL_ORDER_RANDOM
+                                             : GS_MODEL_ORDER_ENTROPY;
+    p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
+                                                  : GS_MODEL_WEIGHTS_UNIFORM;
+    p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
+    return GS_OK;
+}
+
+static size_t lattice_cells(const gs_model_lattice *l)
+{
+    return (size_t)l->nx * (size_t)l->ny * (size_t)l->nz;
+}
+
+/* Collective: rank 0's lattice (and its load status) to every rank. */
+static gs_err bcast_lattice(MPI_Comm comm, gs_model_lattice *l, gs_err loaded)
+{
+    GS_CALL(gs_par_agree(comm, loaded));
+    int dims[3] = {l->nx, l->ny, l->nz};
+    GS_MPI(MPI_Bcast(dims, 3, MPI_INT, 0, comm));
+    if (!l->labels)
+        GS_CALL(gs_model_lattice_create(l, dims[0], dims[1], dims[2]));
+    size_t n = lattice_cells(l), off = 0;
+    while (off < n) {
+        size_t chunk = n - off > (1u << 30) ? (1u << 30) : n - off;
+        GS_MPI(MPI_Bcast(l->labels + off, (int)chunk, MPI_UINT16_T, 0, comm));
+        off += chunk;
+    }
+    return GS_OK;
+}
+
+static gs_err load_inputs(gs_run *run, model_engine *e)
+{
+    const model_config *c = e->cfg;
+    gs_err err = GS_OK;
+    if (run->rank == 0)
+        err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
+    GS_CALL(bcast_lattice(run->comm, &e->example, err));
+    GS_MPI(MPI_Bcast(&e->pal, (int)sizeof e->pal, MPI_BYTE, 0, run->comm));
+    if (c->start[0]) {
+        if (run->rank == 0) {
+            err = gs_model_load(c->start, "auto", c->dataset, &e->start, NULL);
+            if (!err && (e->start.nx != c->size[0] || e->start.ny != c->size[1] ||
+                         e->start.nz != c->size[2]))
+                err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                     "model.start = %s is %dx%dx%d: expected the output size "
+                                     "model.size = %lldx%lldx%lld",
+                                     c->start, e->start.nx, e->start.ny, e->start.nz,
+                                     (long long)c->size[0], (long long)c->size[1],
+                                     (long long)c->size[2]);
+        }
+        GS_CALL(bcast_lattice(run->comm, &e->start, err));
+    }
+    e->example_digest = gs_model_lattice_digest(&e->example);
+    return GS_OK;
+}
+
+/* Start model on every rank (deterministic, so no broadcast). */
+static gs_err build_start(model_engine *e)
+{
+    const model_config *c = e->cfg;
+    if (c->start[0]) {
+        memcpy(e->lat.labels, e->start.labels, lattice_cells(&e->lat) * sizeof(uint16_t));
+        size_t nv = gs_model_rules_violations(e->rules, &e->lat);
+        GS_CHECK(nv == 0, GS_ERR_ARG,
+                 "model.start = %s: %zu adjacent pairs never occur in the example %s; the start "
+                 "model must be consistent (check it with geosynth model-check)",
+                 c->start, nv, c->example);
+        return GS_OK;
+    }
+    if (c->start_column[0]) {
+        uint16_t *col = NULL;
+        GS_CALL(gs_alloc_array((void **)&col, (size_t)e->lat.nz, sizeof *col, "start column"));
+        char why[160];
+        (void)parse_column(c->start_column, col, e->lat.nz, why, sizeof why);
+        gs_err err = gs_model_initial(e->rules, &e->example, col, &e->lat);
+        gs_free(col);
+        if (err)
+            gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
+    return gs_model_initial(e->rules, &e->example, NULL, &e->lat);
+}
+
+static gs_err make_plan(model_engine *e)
+{
+    GS_FREE(e->plan);
+    GS_FREE(e->region_status);
+    GS_FREE(e->region_attempts);
+    GS_CALL(gs_model_plan(&e->params, e->lat.nx, e->lat.ny, e->lat.nz, e->pass, &e->plan,
+                          &e->nplan, &e->ncolors));
+    for (size_t i = 0; i < e->nplan; i++)
+        GS_CHECK(e->plan[i].id == i, GS_ERR_INTERNAL, "plan id %u at %zu", e->plan[i].id, i);
+    GS_CALL(gs_alloc_array((void **)&e->region_status, e->nplan, sizeof(int32_t), "region status"));
+    GS_CALL(gs_alloc_array((void **)&e->region_attempts, e->nplan, sizeof(int32_t),
+                           "region attempts"));
+    for (size_t i = 0; i < e->nplan; i++) {
+        e->region_status[i] = -1;
+        e->region_attempts[i] = 0;
+    }
+    if (!e->buf && e->nplan) {
+        const gs_model_box *b = &e->plan[0].box;
+        e->buf_cells = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+        GS_CALL(gs_alloc_array((void **)&e->buf, e->buf_cells, sizeof *e->buf, "region labels"));
+    }
+    return GS_OK;
+}
+
+static size_t box_cells(const gs_model_box *b)
+{
+    return (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+}
+
+static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
+                         gs_region_out *out)
+{
+    (void)color;
+    (void)rng; /* the core keys its own streams by (seed, region id, pass, attempt) */
+    model_engine *e = ctx;
+    GS_CHECK(id >= 0 && (size_t)id < e->nplan, GS_ERR_INTERNAL, "region id %lld", (long long)id);
+    const gs_model_region *r = &e->plan[id];
+    size_t cells = box_cells(&r->box);
+    GS_CHECK(cells <= e->buf_cells, GS_ERR_INTERNAL, "region %lld larger than the first",
+             (long long)id);
+    gs_model_region_result res;
+    GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
+                                e->buf, &res));
+    region_hdr h = {res.ok ? 1 : 0, res.attempts, res.choices, res.backtracks};
+    GS_CALL(gs_region_out_append(out, &h, sizeof h));
+    if (res.ok)
+        GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
+    return GS_OK;
+}
+
+static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
+{
+    model_engine *e = ctx;
+    const gs_model_region *r = &e->plan[id];
+    const gs_model_box *b = &r->box;
+    size_t cells = box_cells(b);
+    region_hdr h;
+    GS_CHECK(len >= sizeof h, GS_ERR_INTERNAL, "region %lld: %zu result bytes", (long long)id, len);
+    memcpy(&h, buf, sizeof h);
+    GS_CHECK(len == sizeof h + (h.ok ? cells * sizeof(uint16_t) : 0), GS_ERR_INTERNAL,
+             "region %lld: %zu result bytes for ok=%d", (long long)id, len, (int)h.ok);
+    e->stats.regions++;
+    e->stats.attempts += (uint64_t)h.attempts;
+    e->stats.choices += h.choices;
+    e->stats.backtracks += h.backtracks;
+    e->region_cells += cells;
+    e->region_status[id] = h.ok;
+    e->region_attempts[id] = h.attempts;
+    if (!h.ok) {
+        e->stats.failed++;
+        return GS_OK;
+    }
+    e->stats.accepted++;
+    gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++) {
+                uint16_t *cv = &e->coverage[gs_model_lattice_index(&e->lat, x, y, z)];
+                if (*cv < UINT16_MAX)
+                    (*cv)++;
+            }
+    return GS_OK;
+}
+
+/* Fewest accepted regions over the active cells (the core driver's rule). */
+static uint64_t min_coverage(const model_engine *e)
+{
+    const gs_model_lattice *l = &e->lat;
+    int fix = e->params.fix_z_faces && l->nz >= 3;
+    uint64_t m = UINT64_MAX;
+    for (int z = fix; z < (fix ? l->nz - 1 : l->nz); z++)
+        for (int y = 0; y < l->ny; y++)
+            for (int x = 0; x < l->nx; x++) {
+                uint64_t cv = e->coverage[gs_model_lattice_index(l, x, y, z)];
+                if (cv < m)
+                    m = cv;
+            }
+    return m == UINT64_MAX ? 0 : m;
+}
+
+/* ---- checkpoint ----------------------------------------------------------- */
+
+static gs_h5_shape lattice_shape(const gs_model_lattice *l)
+{
+    gs_h5_shape s = {GS_H5_U16, 3, {(uint64_t)l->nz, (uint64_t)l->ny, (uint64_t)l->nx}};
+    return s;
+}
+
+static gs_err write_checkpoint(gs_run *run, model_engine *e)
+{
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_run_checkpoint_begin(run, &h));
+    gs_err err = GS_OK;
+    gs_h5_shape ls = lattice_shape(&e->lat);
+    const char *g = "/model";
+    GS_TRY(err, gs_ckpt_write_whole(h, "/model/lattice", &ls, e->lat.labels, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/model/coverage", &ls, e->coverage, NULL), fail);
+    if (e->nplan) {
+        gs_h5_shape rs = {GS_H5_I32, 1, {e->nplan}};
+        GS_TRY(err, gs_ckpt_write_whole(h, "/model/region_status", &rs, e->region_status, NULL),
+               fail);
+        GS_TRY(err,
+               gs_ckpt_write_whole(h, "/model/region_attempts", &rs, e->region_attempts, NULL),
+               fail);
+    }
+    GS_TRY(err, gs_ckpt_set_i64(h, g, "pass", e->pass), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, g, "color", e->color), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, g, "units", e->units), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, g, "nplan", (int64_t)e->nplan), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "example_digest", e->example_digest), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_regions", e->stats.regions), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_accepted", e->stats.accepted), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_failed", e->stats.failed), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_attempts", e->stats.attempts), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_choices", e->stats.choices), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_backtracks", e->stats.backtracks), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_region_cells", e->region_cells), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, g, "synthesis_seconds", e->synth_seconds), fail);
+    GS_CALL(gs_run_checkpoint_commit(run, &h, e->units));
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+static gs_err read_checkpoint(gs_run *run, model_engine *e)
+{
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_run_checkpoint_open(run, &h));
+    gs_err err = GS_OK;
+    const char *g = "/model";
+    int64_t pass = 0, color = 0, nplan = 0;
+    uint64_t exd = 0;
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "example_digest", &exd), done);
+    GS_TRY_CHECK(err, exd == e->example_digest, GS_ERR_ARG, done,
+                 "%s: the example %s changed since the checkpoint was written (digest "
+                 "%016llx, now %016llx): resume needs the same example",
+                 gs_ckpt_path(h), e->cfg->example, (unsigned long long)exd,
+                 (unsigned long long)e->example_digest);
+    GS_TRY(err, gs_ckpt_get_i64(h, g, "pass", &pass), done);
+    GS_TRY(err, gs_ckpt_get_i64(h, g, "color", &color), done);
+    GS_TRY(err, gs_ckpt_get_i64(h, g, "units", &e->units), done);
+    GS_TRY(err, gs_ckpt_get_i64(h, g, "nplan", &nplan), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_regions", &e->stats.regions), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_accepted", &e->stats.accepted), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_failed", &e->stats.failed), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_attempts", &e->stats.attempts), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_choices", &e->stats.choices), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_backtracks", &e->stats.backtracks), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_region_cells", &e->region_cells), done);
+    GS_TRY(err, gs_ckpt_get_f64(h, g, "synthesis_seconds", &e->synth_seconds), done);
+    gs_h5_shape ls = lattice_shape(&e->lat);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/model/lattice", &ls, e->lat.labels), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/model/coverage", &ls, e->coverage), done);
+    GS_TRY_CHECK(err, pass >= 0 && pass < e->params.max_passes && color >= 0, GS_ERR_FORMAT, done,
+                 "%s: /model pass %lld colour %lld out of range", gs_ckpt_path(h),
+                 (long long)pass, (long long)color);
+    e->pass = (int)pass;
+    e->color = (int)color;
+    GS_TRY(err, make_plan(e), done);
+    GS_TRY_CHECK(err, (int64_t)e->nplan == nplan && e->color < e->ncolors, GS_ERR_FORMAT, done,
+                 "%s: pass %d has %zu regions in %d colours here, the checkpoint says %lld "
+                 "regions, next colour %d",
+                 gs_ckpt_path(h), e->pass, e->nplan, e->ncolors, (long long)nplan, e->color);
+    if (e->nplan) {
+        gs_h5_shape rs = {GS_H5_I32, 1, {e->nplan}};
+        GS_TRY(err, gs_ckpt_read_whole(h, "/model/region_status", &rs, e->region_status), done);
+        GS_TRY(err, gs_ckpt_read_whole(h, "/model/region_attempts", &rs, e->region_attempts),
+               done);
+    }
+done:
+    gs_ckpt_close(&h);
+    return err;
+}
+
+/* ---- synthesis ------------------------------------------------------------ */
+
+/* Collective: runs colour e->color of pass e->pass on all ranks. */
+static gs_err run_color(gs_run *run, model_engine *e)
+{
+    size_t first = 0;
+    while (first < e->nplan && (int)e->plan[first].color < e->color)
+        first++;
+    size_t last = first;
+    while (last < e->nplan && (int)e->plan[last].color == e->color)
+        last++;
+    if (last == first)
+        return GS_OK;
+    gs_region *list = NULL;
+    GS_CALL(gs_alloc_array((void **)&list, last - first, sizeof *list, "colour regions"));
+    for (size_t i = first; i < last; i++) {
+        list[i - first].id = (int64_t)e->plan[i].id;
+        list[i - first].color = 0;
+    }
+    gs_regions_t s = NULL;
+    gs_err err = gs_regions_create(run->comm, list, (int64_t)(last - first), e->params.seed,
+                                   MODEL_RNG_DOMAIN, &s);
+    gs_free(list);
+    GS_CALL(err);
+    err = gs_regions_run_pass(s, e->pass, region_run, region_apply, e);
+    gs_regions_destroy(&s);
+    GS_CALL(err);
+    e->units += (int64_t)(last - first);
+    return GS_OK;
+}
+
+static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
+{
+    *stopped = 0;
+    double t0 = gs_time_now(), base = e->synth_seconds;
+    while (!e->done) {
+        if (!e->plan)
+            GS_CALL(make_plan(e));
+        if (e->color == 0)
+            gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
+                   e->ncolors);
+        GS_CALL(run_color(run, e));
+        e->color++;
+        if (e->color >= e->ncolors) {
+            uint64_t acc = 0, fail = 0;
+            for (size_t i = 0; i < e->nplan; i++) {
+                acc += e->region_status[i] == 1;
+                fail += e->region_status[i] == 0;
+            }
+            e->stats.min_coverage = min_coverage(e);
+            gs_log(GS_LOG_INFO,
+                   "pass %d done: %llu accepted, %llu failed; every cell in >= %llu accepted "
+                   "regions (goal %d)",
+                   e->pass + 1, (unsigned long long)acc, (unsigned long long)fail,
+                   (unsigned long long)e->stats.min_coverage, e->params.min_changes);
+            e->pass++;
+            e->color = 0;
+            if (e->stats.min_coverage >= (uint64_t)e->params.min_changes ||
+                e->pass >= e->params.max_passes)
+                e->done = 1;
+            else
+                GS_CALL(make_plan(e));
+        }
+        e->synth_seconds = base + (gs_time_now() - t0);
+        if (e->done)
+            break;
+        int stop = 0;
+        if (gs_run_checkpoint_due(run, e->units, &stop)) {
+            GS_MPI(MPI_Bcast(&e->synth_seconds, 1, MPI_DOUBLE, 0, run->comm));
+            GS_CALL(write_checkpoint(run, e));
+            if (stop) {
+                *stopped = 1;
+                return GS_OK;
+            }
+        }
+    }
+    e->stats.passes = e->pass;
+    return GS_OK;
+}
+
+/* ---- output --------------------------------------------------------------- */
+
+static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *path)
+{
+    gs_ckpt_meta meta = {"model", e->params.seed, run->config_text};
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_ckpt_create(MPI_COMM_NULL, path, &meta, &h));
+    gs_h5_shape ls = lattice_shape(&e->lat);
+    gs_h5_write_opts opts = {4, 0};
+    gs_err err = GS_OK;
+    char hex[17];
+    gs_digest_hex(gs_model_lattice_digest(&e->lat), hex);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/model/labels", &ls, e->lat.labels, &opts), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model/labels", "index_order",
+                                "labels[z][y][x]; x fastest, z up; 0 = empty"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model", "digest", hex), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model", "example", e->cfg->example), fail);
+    GS_TRY(err, gs_ckpt_commit(&h), fail);
+    gs_xdmf_grid grid = {"model lattice", GS_XDMF_CELL,
+                         {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx},
+                         {0, 0, 0},
+                         {e->cfg->voxel_size, e->cfg->voxel_size, e->cfg->voxel_size}};
+    gs_xdmf_attr attr = {"label", "/model/labels", GS_H5_U16};
+    GS_CALL(gs_xdmf_write(path, &grid, &attr, 1));
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+typedef struct model_quality {
+    size_t violations, rule_violations;
+    double resemblance3, resemblance2;
+    double run_out[3], run_ex[3];
+    size_t quads, unit_faces;
+    int labels_used, vox_renumbered;
+} model_quality;
+
+/* Rank 0: every output file and the quality measures. */
+static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q)
+{
+    const model_config *c = e->cfg;
+    char path[PATH_MAX];
+    memset(q, 0, sizeof *q);
+    gs_model_violation v[MODEL_VIOLATION_LIST];
+    GS_CALL(gs_model_check(&e->example, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
+    for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST; i++)
+        gs_log(GS_LOG_WARN, "violation: cell (%d, %d, %d) label %u, dir %d label %u", v[i].x,
+               v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
+    q->rule_violations = gs_model_rules_violations(e->rules, &e->lat);
+    GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
+    GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
+    gs_model_run_lengths(&e->lat, q->run_out);
+    gs_model_run_lengths(&e->example, q->run_ex);
+    {
+        uint8_t *seen = gs_calloc(65536, 1);
+        GS_CHECK(seen != NULL, GS_ERR_MEM, "out of memory");
+        for (size_t i = 0; i < lattice_cells(&e->lat); i++)
+            seen[e->lat.labels[i]] = 1;
+        for (int l = 1; l < 65536; l++)
+            q->labels_used += seen[l];
+        gs_free(seen);
+    }
+
+    gs_run_path(run, "lattice.h5", path, sizeof path);
+    GS_CALL(write_lattice_h5(run, e, path));
+    gs_run_output(run, "lattice", "lattice.h5");
+    gs_run_output(run, "xdmf", "lattice.xmf");
+    if (c->vox) {
+        gs_run_path(run, "lattice.vox", path, sizeof path);
+        GS_CALL(gs_model_write_vox(path, &e->lat, &e->pal, &q->vox_renumbered));
+        gs_run_output(run, "vox", "lattice.vox");
+        if (q->vox_renumbered)
+            gs_log(GS_LOG_WARN, "lattice.vox: labels above 255 renumbered 1..%d in order",
+                   q->labels_used);
+    }
+    if (strcmp(c->mesh, "none")) {
+        gs_model_quads quads;
+        GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
+        q->quads = quads.n;
+        q->unit_faces = quads.unit_faces;
+        char name[16];
+        snprintf(name, sizeof name, "mesh.%s", c->mesh);
+        gs_run_path(run, name, path, sizeof path);
+        gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
+        gs_model_quads_free(&quads);
+        GS_CALL(err);
+        gs_run_output(run, "mesh", name);
+    }
+    if (e->lat.nz == 1) {
+        gs_run_path(run, "lattice.png", path, sizeof path);
+        GS_CALL(gs_model_write_png(path, &e->lat, &e->pal));
+        gs_run_output(run, "image", "lattice.png");
+    }
+    if (c->txt) {
+        gs_run_path(run, "lattice.txt", path, sizeof path);
+        GS_CALL(gs_model_write_merrell_txt(path, &e->lat));
+        gs_run_output(run, "merrell_txt", "lattice.txt");
+    }
+    return GS_OK;
+}
+
+static void engine_free(model_engine *e)
+{
+    gs_model_lattice_destroy(&e->example);
+    gs_model_lattice_destroy(&e->lat);
+    gs_model_lattice_destroy(&e->start);
+    gs_model_rules_destroy(&e->rules);
+    gs_model_solver_destroy(&e->solver);
+    gs_free(e->coverage);
+    gs_free(e->buf);
+    gs_free(e->plan);
+    gs_free(e->region_status);
+    gs_free(e->region_attempts);
+}
+
+static gs_err setup(gs_run *run, model_engine *e, int resume)
+{
+    const model_config *c = e->cfg;
+    GS_CALL(engine_params(c, &e->params));
+    GS_CALL(load_inputs(run, e));
+    GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
+    int L = gs_model_rules_nlabels(e->rules), present = 0;
+    for (int l = 0; l < L; l++)
+        present += gs_model_rules_count(e->rules, l) > 0;
+    size_t cells = (size_t)c->size[0] * (size_t)c->size[1] * (size_t)c->size[2];
+    size_t rcells = 1;
+    for (int a = 0; a < 3; a++) {
+        int64_t ext = c->size[a];
+        int64_t edge = c->region[a] <= 0 || c->region[a] >= ext ? ext : c->region[a];
+        rcells *= (size_t)edge;
+    }
+    size_t W = ((size_t)L + 63) / 64;
+    double mem = (double)cells * 4 + (double)rcells * (double)(W * 8 + 40 + 2) +
+                 6.0 * L * (double)W * 8 + (e->params.ac == GS_MODEL_AC4 ? 12.0 * L * rcells : 0);
+    gs_log(GS_LOG_INFO, "example %s: %dx%dx%d, %d labels present (largest %d)%s", c->example,
+           e->example.nx, e->example.ny, e->example.nz, present, L - 1,
+           e->pal.from_file ? ", palette from the file" : "");
+    gs_log(GS_LOG_INFO,
+           "output %lldx%lldx%lld (%zu cells), region %lldx%lldx%lld (0 = whole axis), overlap "
+           "%lld, passes %lld (max %lld), attempts %lld, backtracks %lld, order %s, weights "
+           "%s, %s",
+           (long long)c->size[0], (long long)c->size[1], (long long)c->size[2], cells,
+           (long long)c->region[0], (long long)c->region[1], (long long)c->region[2],
+           (long long)c->overlap, (long long)c->passes, (long long)c->max_passes,
+           (long long)c->attempts, (long long)c->backtracks, c->order, c->weights, c->ac);
+    gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (lattice + coverage, solver, rules)",
+           mem / 1048576.0);
+    GS_CALL(gs_model_lattice_create(&e->lat, (int)c->size[0], (int)c->size[1], (int)c->size[2]));
+    GS_CALL(gs_alloc_array((void **)&e->coverage, cells, sizeof *e->coverage, "coverage"));
+    memset(e->coverage, 0, cells * sizeof *e->coverage);
+    GS_CALL(gs_model_solver_create(e->rules, e->params.ac, &e->solver));
+    if (resume) {
+        GS_CALL(read_checkpoint(run, e));
+        gs_log(GS_LOG_INFO, "resumed at pass %d, colour %d after %lld regions", e->pass + 1,
+               e->color, (long long)e->units);
+    } else {
+        GS_CALL(build_start(e));
+    }
+    return GS_OK;
+}
+
+static gs_err model_run(gs_run *run, void *cfgp, int resume)
+{
+    model_engine e;
+    memset(&e, 0, sizeof e);
+    e.cfg = cfgp;
+    gs_err err = GS_OK;
+    char extra[1024];
+
+    gs_run_phase_begin(run, "setup");
+    err = setup(run, &e, resume);
+    if (err)
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    snprintf(extra, sizeof extra,
+             "{\"example\": [%d, %d, %d], \"labels\": %d, \"output\": [%d, %d, %d], "
+             "\"resumed\": %s}",
+             e.example.nx, e.example.ny, e.example.nz, gs_model_rules_nlabels(e.rules), e.lat.nx,
+             e.lat.ny, e.lat.nz, resume ? "true" : "false");
+    GS_TRY(err, gs_run_phase_end(run, extra), done);
+
+    gs_run_phase_begin(run, "synthesis");
+    int stopped = 0;
+    err = synthesize(run, &e, &stopped);
+    if (err)
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    if (stopped) {
+        err = gs_run_interrupted(run);
+        goto done;
+    }
+    const double cells = (double)lattice_cells(&e.lat);
+    snprintf(extra, sizeof extra,
+             "{\"passes\": %d, \"regions\": %llu, \"accepted\": %llu, \"failed\": %llu, "
+             "\"retries\": %llu, \"rejected_attempts\": %llu, \"backtracks\": %llu, "
+             "\"min_coverage\": %llu, \"cells_per_second\": %.1f}",
+             e.stats.passes, (unsigned long long)e.stats.regions,
+             (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
+             (unsigned long long)(e.stats.attempts - e.stats.regions),
+             (unsigned long long)(e.stats.attempts - e.stats.accepted),
+             (unsigned long long)e.stats.backtracks, (unsigned long long)e.stats.min_coverage,
+             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+    GS_TRY(err, gs_run_phase_end(run, extra), done);
+
+    gs_run_phase_begin(run, "output");
+    model_quality q;
+    memset(&q, 0, sizeof q);
+    if (run->rank == 0) {
+        err = write_outputs(run, &e, &q);
+        if (err)
+            gs_error_push_frame(__FILE__, __LINE__, __func__);
+    }
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    snprintf(extra, sizeof extra, "{\"violations\": %zu, \"quads\": %zu, \"unit_faces\": %zu}",
+             q.violations, q.quads, q.unit_faces);
+    GS_TRY(err, gs_run_phase_end(run, extra), done);
+
+    if (run->rank == 0) {
+        gs_run_metric_i64(run, "violations", (int64_t)q.violations);
+        gs_run_metric_i64(run, "rule_violations", (int64_t)q.rule_violations);
+        gs_run_metric_i64(run, "passes", e.stats.passes);
+        gs_run_metric_i64(run, "regions", (int64_t)e.stats.regions);
+        gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);
+        gs_run_metric_i64(run, "failed_regions", (int64_t)e.stats.failed);
+        gs_run_metric_i64(run, "retries", (int64_t)(e.stats.attempts - e.stats.regions));
+        gs_run_metric_i64(run, "rejected_attempts",
+                          (int64_t)(e.stats.attempts - e.stats.accepted));
+        gs_run_metric_i64(run, "backtracks", (int64_t)e.stats.backtracks);
+        gs_run_metric_i64(run, "min_coverage", (int64_t)e.stats.min_coverage);
+        gs_run_metric_f64(run, "resemblance_3x3x3", q.resemblance3);
+        gs_run_metric_f64(run, "resemblance_2x2x2", q.resemblance2);
+        static const char *axis_key[3][3] = {
+            {"run_length_x", "run_length_x_example", "run_length_x_ratio"},
+            {"run_length_y", "run_length_y_example", "run_length_y_ratio"},
+            {"run_length_z", "run_length_z_example", "run_length_z_ratio"}};
+        for (int a = 0; a < 3; a++) {
+            gs_run_metric_f64(run, axis_key[a][0], q.run_out[a]);
+            gs_run_metric_f64(run, axis_key[a][1], q.run_ex[a]);
+            gs_run_metric_f64(run, axis_key[a][2],
+                              q.run_ex[a] > 0 ? q.run_out[a] / q.run_ex[a] : 0.0);
+        }
+        gs_run_metric_f64(run, "synthesis_seconds", e.synth_seconds);
+        gs_run_metric_f64(run, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0);
+        gs_run_metric_f64(run, "region_cells_per_second",
+                          e.synth_seconds > 0 ? (double)e.region_cells / e.synth_seconds : 0);
+        gs_run_metric_i64(run, "labels_used", q.labels_used);
+        gs_run_metric_i64(run, "mesh_quads", (int64_t)q.quads);
+        gs_run_metric_i64(run, "mesh_unit_faces", (int64_t)q.unit_faces);
+        gs_log(GS_LOG_INFO,
+               "%d passes, %llu regions: %llu accepted, %llu failed, %llu retries; "
+               "%.0f cells/s",
+               e.stats.passes, (unsigned long long)e.stats.regions,
+               (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
+               (unsigned long long)(e.stats.attempts - e.stats.regions),
+               e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+        gs_log(GS_LOG_INFO,
+               "adjacency violations (independent checker): %zu; resemblance 3x3x3 %.3f, "
+               "2x2x2 %.3f; run lengths x/y/z %.2f/%.2f/%.2f (example %.2f/%.2f/%.2f)",
+               q.violations, q.resemblance3, q.resemblance2, q.run_out[0], q.run_out[1],
+               q.run_out[2], q.run_ex[0], q.run_ex[1], q.run_ex[2]);
+    }
+    err = gs_run_finish(run, gs_model_lattice_digest(&e.lat));
+done:
+    engine_free(&e);
+    return err;
+}
+
+const gs_engine gs_engine_model = {
+    "model",
+    "model synthesis (Merrell 2007): label lattice from an example lattice",
+    &model_table,
+    sizeof(model_config),
+    offsetof(model_config, run),
+    model_run,
+};

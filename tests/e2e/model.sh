@@ -1,0 +1,186 @@
+# End-to-end: the model engine (Merrell model synthesis) through the CLI.
+# Same digest at np 1-4, stop + resume at another np, kill -9 + resume, bad
+# configs, outputs valid, model-check = 0 violations on every output and a
+# hand-broken output reported. About 40 s here.
+source "$GS_ROOT/tests/e2e/lib.bash"
+S=$GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
+V=$GS_SHARED/data/vox/sylefeb-VoxModSynth/exemplars
+RANDOM=20240611
+
+check_clean() { # check_clean EXAMPLE OUTPUT what
+  run_gs 0 model-check "$1" "$2"
+  if [[ $rc -eq 0 ]] && grep -q "^violations: 0$" <<<"$out"; then ok "$3: model-check 0 violations"
+  else bad "$3: model-check rc=$rc ${out:0:300} ${err:0:300}"; fi
+}
+metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
+
+cat > small.ini <<EOF
+[model]
+example = $S/escheresque.txt
+size = 30x30x10
+region = 10x10x0
+txt = true
+EOF
+
+# --- same digest at every rank count --------------------------------------
+ref=""
+for np in 1 2 3 4; do
+  run_gs $((np > 1 ? np : 0)) model -c small.ini -o run$np
+  expect_rc 0 "escheresque 30x30x10 in 10x10 regions at np=$np"
+  d=$(digest_of run$np)
+  [[ -z $ref ]] && ref=$d
+  [[ $d == "$ref" ]] && ok "np=$np digest $d" || bad "np=$np digest $d != np=1 $ref"
+done
+check_clean "$S/escheresque.txt" run1/lattice.h5 "np=1 lattice.h5"
+check_clean "$S/escheresque.txt" run4/lattice.h5 "np=4 lattice.h5"
+check_clean "$S/escheresque.txt" run2/lattice.vox "np=2 lattice.vox"
+check_clean "$S/escheresque.txt" run3/lattice.txt "np=3 lattice.txt"
+[[ $(metric run1 failed_regions) == 0 && $(metric run1 violations) == 0 ]] \
+  && ok "no failed region, 0 violations in summary" || bad "failed/violations in summary"
+/usr/bin/python3 - run1 <<'EOF' && ok "quality metrics in range (resemblance, run lengths, regions)" || bad "quality metrics out of range"
+import json, sys
+m = json.load(open(sys.argv[1] + "/summary.json"))["metrics"]
+assert m["regions"] == m["accepted_regions"] + m["failed_regions"] > 1
+# escheresque here: 0.17 and 0.72; random labels would give ~0
+assert 0.1 <= m["resemblance_3x3x3"] <= 1 and m["resemblance_2x2x2"] >= 0.6, m
+for a in "xyz":  # no streaking: runs within 2x of the example's
+    assert 0.4 <= m["run_length_%s_ratio" % a] <= 2.0, (a, m)
+assert m["cells_per_second"] > 0 and m["mesh_quads"] < m["mesh_unit_faces"]
+EOF
+
+# --- outputs ----------------------------------------------------------------
+for f in lattice.h5 lattice.xmf lattice.vox mesh.ply lattice.txt summary.json metrics.jsonl; do
+  [[ -s run1/$f ]] && ok "output $f exists" || bad "output $f missing"
+done
+grep -q 'Center="Cell"' run1/lattice.xmf && grep -q 'lattice.h5:/model/labels' run1/lattice.xmf \
+  && ok "XDMF sidecar: cell-centred labels from lattice.h5" || bad "XDMF sidecar content"
+run_gs 0 inspect run1/lattice.h5
+expect_rc 0 "inspect lattice.h5"
+expect_out "/model/labels" "inspect lists /model/labels"
+expect_out "uint16 [10 x 30 x 30]" "labels are uint16 [nz x ny x nx]"
+head -c 200 run1/mesh.ply | grep -q "property uchar red" && ok "mesh.ply has colours" || bad "mesh.ply header"
+
+# --- stop after N units + resume at another np --------------------------------
+GS_STOP_AFTER_UNITS=9 run_gs 2 model -c small.ini -o stop
+expect_rc 9 "GS_STOP_AFTER_UNITS=9 stops with exit 9"
+[[ -s stop/checkpoint.h5 ]] && ok "checkpoint written on stop" || bad "no checkpoint on stop"
+run_gs 3 resume stop
+expect_rc 0 "resume at np=3"
+d=$(digest_of stop)
+[[ $d == "$ref" ]] && ok "stop at np=2 + resume at np=3: digest $d" || bad "resume digest $d != $ref"
+GS_STOP_AFTER_UNITS=20 run_gs 0 model -c small.ini -o stop2 --set run.checkpoint_every=4
+expect_rc 9 "second stop (np=1, checkpoint_every=4)"
+run_gs 4 resume stop2
+[[ $(digest_of stop2) == "$ref" ]] && ok "stop at np=1 + resume at np=4: same digest" || bad "stop2 digest"
+
+# --- kill -9 at a random moment + resume -------------------------------------
+sed 's/^size = .*/size = 40x40x10/' small.ini > kill.ini # 49 regions: a few seconds
+run_gs 2 model -c kill.ini -o kref
+expect_rc 0 "kill reference run (40x40x10)"
+kref=$(digest_of kref)
+"$GS_BIN" -q model -c kill.ini -o killed --set run.checkpoint_every=1 >kill.log 2>&1 &
+pid=$!
+for ((t = 0; t < 300; t++)); do # time the kill from the first checkpoint (past start-up)
+  [[ -s killed/checkpoint.h5 || -s killed/summary.json ]] && break
+  sleep 0.05
+done
+delay_ms=$((RANDOM % 500)) # the run lasts >= 1 s past its first checkpoint
+sleep "$(printf '%d.%03d' $((delay_ms / 1000)) $((delay_ms % 1000)))"
+kill -KILL $pid 2>/dev/null
+wait $pid 2>/dev/null
+if [[ -s killed/summary.json ]]; then
+  ok "run finished before the kill after ${delay_ms} ms (nothing to resume)"
+elif [[ -s killed/checkpoint.h5 ]]; then
+  run_gs 2 resume killed
+  expect_rc 0 "resume after kill -9 at ${delay_ms} ms"
+else
+  bad "no checkpoint after ${delay_ms} ms"
+fi
+[[ $(digest_of killed) == "$kref" ]] && ok "kill -9 + resume: digest equals uninterrupted run" \
+  || bad "kill -9 + resume digest differs"
+check_clean "$S/escheresque.txt" killed/lattice.h5 "resumed after kill"
+
+# --- other inputs: .slab.vox towers, 2D example -> PNG, start column, OBJ ------
+cat > towers.ini <<EOF
+[model]
+example = $V/towers.slab.vox
+size = 24x24x12
+mesh = obj
+EOF
+run_gs 0 model -c towers.ini -o towers
+expect_rc 0 "VoxModSynth towers.slab.vox 24x24x12"
+check_clean "$V/towers.slab.vox" towers/lattice.h5 "towers"
+[[ -s towers/mesh.obj && -s towers/mesh.mtl ]] && grep -q "^usemtl label_" towers/mesh.obj \
+  && ok "OBJ mesh with per-label materials" || bad "OBJ mesh"
+
+/usr/bin/python3 - <<'EOF'
+# a 2D example: rooms of label 1 walls around label 2 floor, label 3 doors
+rows = ["11111111", "12221222", "12223222", "12221222", "11311131", "12221222", "12221222", "11111111"]
+with open("rooms.txt", "w") as f:
+    f.write("2D example\n\nx, y, and z extents\n8 8 1\n\n")
+    for x in range(8):  # file order: z, then x, then y innermost
+        f.write(" ".join(rows[y][x] for y in range(8)) + "\n")
+EOF
+cat > flat.ini <<EOF
+[model]
+example = rooms.txt
+size = 40x24x1
+region = 12x12x1
+EOF
+run_gs 3 model -c flat.ini -o flat
+expect_rc 0 "2D example at np=3"
+[[ -s flat/lattice.png ]] && ok "2D output writes lattice.png" || bad "no lattice.png"
+check_clean rooms.txt flat/lattice.h5 "2D output"
+
+run_gs 0 model -c small.ini -o col --set model.start_column="1,0,0,0,0,0,0,0,0,0" --set model.max_passes=1
+if [[ $rc -eq 0 ]]; then check_clean "$S/escheresque.txt" col/lattice.h5 "start_column run"
+else expect_err "model" "start column rejected with a message"; fi
+
+# --- model-check on a hand-broken output ---------------------------------------
+/usr/bin/python3 - run1/lattice.txt broken.txt <<'EOF'
+import sys
+lines = open(sys.argv[1]).read().split("\n")
+# data starts after the 4 header lines; change the first number of the middle data line
+mid = 4 + (len(lines) - 4) // 2
+while not lines[mid].strip():
+    mid += 1
+nums = lines[mid].split()
+nums[0] = "9999"
+lines[mid] = " ".join(nums)
+open(sys.argv[2], "w").write("\n".join(lines))
+EOF
+run_gs 0 model-check "$S/escheresque.txt" broken.txt
+expect_rc 2 "model-check of a hand-broken output"
+expect_out "label 9999 never occurs in the example" "the broken cell is listed"
+expect_err "broken.txt" "the error names the broken file"
+n=$(grep -o '^violations: [0-9]*' <<<"$out" | cut -d' ' -f2)
+[[ ${n:-0} -ge 2 ]] && ok "model-check counts $n violations" || bad "violation count '$n'"
+run_gs 0 model-check "$S/escheresque.txt"
+expect_rc 1 "model-check with one file is a usage error"
+run_gs 0 --help
+expect_out "model-check EXAMPLE OUTPUT" "--help lists model-check"
+run_gs 0 model --help
+expect_out "[model]" "model --help lists the config section"
+expect_out "overlap" "model --help lists model.overlap"
+
+# --- bad configs ---------------------------------------------------------------
+printf '[model]\nexample = %s/castle.txt\natempts = 3\n' "$S" > typo.ini
+run_gs 2 model -c typo.ini -o bad1
+expect_rc 2 "unknown key"
+expect_err "did you mean 'attempts'" "unknown key gets a suggestion"
+expect_err "typo.ini:3" "unknown key names file and line"
+printf '[model]\nexample = %s/castle.txt\nsize = 40x40xten\n' "$S" > type.ini
+run_gs 0 model -c type.ini -o bad2
+expect_rc 2 "wrong type"
+expect_err "size" "wrong type names the key"
+printf '[model]\nexample = no/such/example.txt\n' > missing.ini
+run_gs 2 model -c missing.ini -o bad3
+expect_rc 3 "missing example file"
+expect_err "no/such/example.txt" "missing example names the path"
+expect_no_crash "missing example"
+printf '[model]\nexample = %s/castle.txt\nregion = 10x10x0\noverlap = 12\n' "$S" > ovl.ini
+run_gs 0 model -c ovl.ini -o bad4
+expect_rc 2 "overlap >= region edge"
+expect_err "overlap = 12: must be smaller than the region edge" "overlap problem names the key"
+
+finish
