@@ -12,6 +12,7 @@ packages=(
   libcmocka-dev valgrind clang libclang-rt-14-dev
   libfftw3-dev
   python3-numpy python3-h5py python3-matplotlib
+  slurm-wlm munge
 )
 
 missing=()
