@@ -248,6 +248,21 @@ gs_err gs_points_search_merge(const gs_points_cands *parts, int nparts, double e
 /* Chooses one candidate uniformly with r. */
 uint64_t gs_points_search_pick(const gs_points_cands *c, gs_rng *r);
 
+/* Bounded scan for a distributed search (gs_psearch callbacks): visits the
+ * bank's patches with global index in [lo, hi) (within the bank's share) in
+ * index order; bound(user) is the current pruning threshold and a patch is
+ * dropped only when a partial sum exceeds it STRICTLY (partial sums only
+ * grow, so they are lower bounds); every other patch is reported with
+ * offer(user, d, index), d being exactly the value gs_points_search_local
+ * computes. The bound is read once per patch. */
+typedef double (*gs_points_bound_fn)(void *user);
+typedef void (*gs_points_offer_fn)(void *user, double dist, uint64_t index);
+gs_err gs_points_search_scan(const gs_points_bank *b, const float *query, int mode, uint64_t lo,
+                             uint64_t hi, gs_points_bound_fn bound, gs_points_offer_fn offer,
+                             void *user);
+/* The bank's share [*first, *first + *count). */
+void gs_points_bank_share(const gs_points_bank *b, size_t *first, size_t *count);
+
 /* --------------------------------------------------------------- synthesis */
 
 typedef struct gs_points_params {
@@ -299,10 +314,40 @@ typedef struct gs_points_times {
 typedef struct gs_points_synth gs_points_synth;
 typedef gs_points_synth *gs_points_synth_t;
 
+/* Replaces the built-in search of a synthesizer (a distributed search):
+ * given the query (layout floats) and the overlap mode, fill *out with the
+ * candidate set Psi_k exactly as gs_points_search_merge would over all
+ * patches: every patch with dist <= (1 + eps) * best, sorted by (dist,
+ * index), out->best = the smallest distance. out arrives empty (n == 0) and
+ * may be grown with gs_realloc. Called once per placed patch from
+ * gs_points_synth_step; if the hook is collective, so is stepping. */
+typedef gs_err (*gs_points_search_fn)(void *user, const gs_points_synth *s, const float *query,
+                                      int mode, double eps, gs_points_cands *out);
+
+/* Which patches this synthesizer's bank holds and who searches them.
+ * count == 0 means all patches [0, total); fn == NULL the built-in serial
+ * search over the bank (then the bank must hold all patches). */
+typedef struct gs_points_synth_share {
+    size_t first, count;
+    gs_points_search_fn fn;
+    void *user;
+} gs_points_synth_share;
+
+/* Number of input patches (the candidates of every search) for this
+ * texture and these parameters, without building anything. Raises
+ * GS_ERR_ARG when the box has no room for a patch. */
+gs_err gs_points_patch_count(const gs_points_texture *tex, const gs_points_params *p,
+                             size_t *count);
+
 /* Precomputes D(T_in), the patch bank and surface variations. Checks the
  * parameters and the example's padding (names what is wrong). */
 gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
                               gs_points_synth_t *out);
+/* The same with a share of the bank and a search hook (NULL = create). */
+gs_err gs_points_synth_create_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share, gs_points_synth_t *out);
+/* This synthesizer's patch bank (the share given at create). */
+const gs_points_bank *gs_points_synth_bank(const gs_points_synth *s);
 void gs_points_synth_destroy(gs_points_synth_t *s);
 uint64_t gs_points_synth_total(const gs_points_synth *s);  /* patches to place */
 uint64_t gs_points_synth_cursor(const gs_points_synth *s); /* patches placed */
@@ -333,5 +378,8 @@ gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st)
 void gs_points_synth_state_free(gs_points_synth_state *st);
 gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
                               const gs_points_synth_state *st, gs_points_synth_t *out);
+gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share,
+                                    const gs_points_synth_state *st, gs_points_synth_t *out);
 
 #endif

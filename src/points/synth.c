@@ -35,6 +35,8 @@ struct gs_points_synth {
     gs_points_layout lay;
     gs_points_bank_t bank;
     size_t npatch;
+    gs_points_search_fn search_fn; /* NULL: serial search over the whole bank */
+    void *search_user;
     /* output */
     double ps, ow, we, m, step;
     int cols, rows;
@@ -200,8 +202,44 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     *sp = NULL;
 }
 
+/* Field nodes over the example box (x, y at field_step; z nodes span the
+ * box height). */
+static gs_err field_dims(const gs_points_texture *tex, const gs_points_params *p, int *nx,
+                         int *ny, int *nz)
+{
+    double g = p->field_step;
+    double bx = tex->box_hi[0] - tex->box_lo[0], by = tex->box_hi[1] - tex->box_lo[1];
+    double bz = tex->box_hi[2] - tex->box_lo[2];
+    GS_CHECK(g > 0 && isfinite(g) && bx > 0 && by > 0 && bz >= 0 && bx / g < 1e6 && by / g < 1e6 &&
+                 bz / g < 1e6, GS_ERR_ARG,
+             "points: example box %g x %g x %g with field step %g: expected a non-empty box and "
+             "fewer than 1e6 nodes per axis", bx, by, bz, g);
+    *nx = (int)floor(bx / g + 1e-9) + 1;
+    *ny = (int)floor(by / g + 1e-9) + 1;
+    GS_CHECK(*nx > p->patch_cells && *ny > p->patch_cells, GS_ERR_ARG,
+             "points: the example box (%g x %g) holds %d x %d field nodes, too few for a patch of "
+             "%d cells of %g: use a smaller patch or field step", bx, by, *nx, *ny,
+             p->patch_cells, g);
+    *nz = (int)ceil(bz / g - 1e-9) + 1;
+    if (*nz < 2)
+        *nz = 2;
+    return GS_OK;
+}
+
+gs_err gs_points_patch_count(const gs_points_texture *tex, const gs_points_params *p,
+                             size_t *count)
+{
+    GS_CALL(check_params(p, tex->spacing));
+    int nx, ny, nz;
+    GS_CALL(field_dims(tex, p, &nx, &ny, &nz));
+    gs_points_layout l;
+    gs_points_layout_init(&l, p->patch_cells, p->overlap_cells, nz);
+    *count = gs_points_bank_total(nx, ny, &l);
+    return GS_OK;
+}
+
 static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *tex,
-                          const gs_points_params *p)
+                          const gs_points_params *p, const gs_points_synth_share *share)
 {
     GS_CALL(check_params(p, tex->spacing));
     s->p = *p;
@@ -216,15 +254,7 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     s->g = p->field_step;
     double bx = s->box_hi[0] - s->box_lo[0], by = s->box_hi[1] - s->box_lo[1];
     double bz = s->box_hi[2] - s->box_lo[2];
-    s->nx = (int)floor(bx / s->g + 1e-9) + 1;
-    s->ny = (int)floor(by / s->g + 1e-9) + 1;
-    GS_CHECK(s->nx > p->patch_cells && s->ny > p->patch_cells, GS_ERR_ARG,
-             "points: the example box (%g x %g) holds %d x %d field nodes, too few for a patch of "
-             "%d cells of %g: use a smaller patch or field step", bx, by, s->nx, s->ny,
-             p->patch_cells, s->g);
-    s->nz = (int)ceil(bz / s->g - 1e-9) + 1;
-    if (s->nz < 2)
-        s->nz = 2;
+    GS_CALL(field_dims(tex, p, &s->nx, &s->ny, &s->nz));
     s->gz = bz / (s->nz - 1);
     s->reach = bz + 2 * R;
     /* Input grid, surface variation, columns. */
@@ -264,7 +294,19 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     gs_points_layout_init(&s->lay, p->patch_cells, p->overlap_cells, s->nz);
     s->npatch = gs_points_bank_total(s->nx, s->ny, &s->lay);
     s->npx = s->nx - p->patch_cells;
-    GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, 0, s->npatch, &s->bank));
+    size_t first = 0, count = s->npatch;
+    if (share && share->count > 0) {
+        first = share->first;
+        count = share->count;
+    }
+    GS_CHECK(first <= s->npatch && count <= s->npatch - first, GS_ERR_ARG,
+             "points: bank share [%zu, %zu) outside the %zu input patches", first, first + count,
+             s->npatch);
+    s->search_fn = share ? share->fn : NULL;
+    s->search_user = share ? share->user : NULL;
+    GS_CHECK(s->search_fn || count == s->npatch, GS_ERR_ARG,
+             "points: a bank share of %zu of %zu patches needs a search hook", count, s->npatch);
+    GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, first, count, &s->bank));
     GS_CALL(gs_alloc_array((void **)&s->query, gs_points_layout_floats(&s->lay), sizeof(float),
                            "search query"));
     /* Output layout: patches of ps every step, covering out_size + 2 w_E. */
@@ -292,9 +334,18 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
 gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
                               gs_points_synth_t *out)
 {
+    GS_CALL(gs_points_synth_create_share(tex, p, NULL, out));
+    return GS_OK;
+}
+
+const gs_points_bank *gs_points_synth_bank(const gs_points_synth *s) { return s->bank; }
+
+gs_err gs_points_synth_create_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share, gs_points_synth_t *out)
+{
     struct gs_points_synth *s = gs_calloc(1, sizeof *s);
     GS_CHECK(s != NULL, GS_ERR_MEM, "points: out of memory");
-    gs_err err = synth_setup(s, tex, p);
+    gs_err err = synth_setup(s, tex, p, share);
     if (err != GS_OK) {
         gs_points_synth_destroy(&s);
         GS_CALL(err);
@@ -687,9 +738,15 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
             }
         }
         gs_points_cands local = {0}, all = {0};
-        gs_err err = gs_points_search_local(s->bank, s->query, mode, p->eps, INFINITY, &local);
-        if (err == GS_OK)
-            err = gs_points_search_merge(&local, 1, p->eps, &all);
+        all.best = INFINITY;
+        gs_err err;
+        if (s->search_fn) {
+            err = s->search_fn(s->search_user, s, s->query, mode, p->eps, &all);
+        } else {
+            err = gs_points_search_local(s->bank, s->query, mode, p->eps, INFINITY, &local);
+            if (err == GS_OK)
+                err = gs_points_search_merge(&local, 1, p->eps, &all);
+        }
         if (err == GS_OK) {
             if (all.n == 0)
                 err = gs_error_raise(GS_ERR_INTERNAL, __FILE__, __LINE__, __func__,
@@ -860,8 +917,16 @@ void gs_points_synth_state_free(gs_points_synth_state *st)
 gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
                               const gs_points_synth_state *st, gs_points_synth_t *out)
 {
+    GS_CALL(gs_points_synth_resume_share(tex, p, NULL, st, out));
+    return GS_OK;
+}
+
+gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share,
+                                    const gs_points_synth_state *st, gs_points_synth_t *out)
+{
     gs_points_synth_t s = NULL;
-    GS_CALL(gs_points_synth_create(tex, p, &s));
+    GS_CALL(gs_points_synth_create_share(tex, p, share, &s));
     gs_err err = GS_OK;
     GS_TRY_CHECK(err, st->cursor <= s->total, GS_ERR_ARG, fail,
                  "points: saved cursor %llu is beyond the %llu patches of this configuration",

@@ -293,6 +293,33 @@ static void test_generators_and_padding_check(void **state)
     }
 }
 
+/* A running (1 + eps) * best threshold, as gs_psearch_within keeps it. */
+typedef struct scan_acc {
+    gs_points_cands c;
+    double best, eps;
+} scan_acc;
+
+static double scan_bound(void *user)
+{
+    scan_acc *a = user;
+    return (1.0 + a->eps) * a->best;
+}
+
+static void scan_offer(void *user, double d, uint64_t index)
+{
+    scan_acc *a = user;
+    assert_true(d <= scan_bound(user));
+    if (a->c.n == a->c.cap) {
+        a->c.cap = a->c.cap ? 2 * a->c.cap : 64;
+        a->c.v = gs_realloc(a->c.v, a->c.cap * sizeof *a->c.v);
+        assert_non_null(a->c.v);
+    }
+    a->c.v[a->c.n].dist = d;
+    a->c.v[a->c.n++].index = index;
+    if (d < a->best)
+        a->best = d;
+}
+
 static void test_search_partition_matches_serial(void **state)
 {
     (void)state;
@@ -342,6 +369,35 @@ static void test_search_partition_matches_serial(void **state)
             assert_true(merged.v[i].dist == ser_sorted.v[i].dist);
             assert_true(merged.v[i].dist <= 7.0 * merged.v[0].dist);
         }
+        /* Bounded scans (the gs_psearch callback path) with one running
+         * threshold (1 + eps) * best over the shares: same list again. */
+        scan_acc acc = {{0}, INFINITY, 6.0};
+        for (int s = 0; s < 3; s++) {
+            gs_points_bank_t b = NULL;
+            assert_int_equal(gs_points_bank_create(field, nx, ny, &l, cut[s], cut[s + 1] - cut[s], &b),
+                             GS_OK);
+            size_t f0, fc;
+            gs_points_bank_share(b, &f0, &fc);
+            assert_int_equal(f0, cut[s]);
+            assert_int_equal(fc, cut[s + 1] - cut[s]);
+            assert_int_equal(gs_points_search_scan(b, q, mode, f0, f0 + fc, scan_bound, scan_offer, &acc),
+                             GS_OK);
+            /* A range outside the share is refused. */
+            assert_int_equal(gs_points_search_scan(b, q, mode, f0, f0 + fc + 1, scan_bound, scan_offer,
+                                                   &acc), GS_ERR_ARG);
+            gs_error_clear();
+            gs_points_bank_destroy(&b);
+        }
+        gs_points_cands scanned = {0};
+        assert_int_equal(gs_points_search_merge(&acc.c, 1, 6.0, &scanned), GS_OK);
+        assert_true(acc.c.n >= scanned.n);
+        assert_int_equal(scanned.n, ser_sorted.n);
+        for (size_t i = 0; i < scanned.n; i++) {
+            assert_true(scanned.v[i].index == ser_sorted.v[i].index);
+            assert_true(scanned.v[i].dist == ser_sorted.v[i].dist);
+        }
+        gs_points_cands_free(&scanned);
+        gs_free(acc.c.v);
         gs_rng pick;
         gs_rng_init(&pick, 1, 1);
         uint64_t c = gs_points_search_pick(&merged, &pick);
