@@ -131,6 +131,38 @@ gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_
  * distance size/cells. */
 gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out);
 
+/* Uniform Poisson-disk sampling of a triangle mesh (vertices pos[3i..3i+2],
+ * triangles tris[3t..3t+2], counter-clockwise = outward): dart throwing by
+ * area (about 9 tries per accepted point), no two samples closer than
+ * spacing; normals are the barycentric blend of area-weighted vertex
+ * normals (the face normal where they cancel). Appends to out in bucket
+ * order. Randomness: gs_rng(seed, "PTSA" stream). what names the mesh in
+ * messages. Cost O(area / spacing^2). */
+gs_err gs_points_sample_mesh(const float *pos, size_t nverts, const uint32_t *tris, size_t ntris,
+                             double spacing, uint64_t seed, const char *what, gs_points *out);
+
+/* Sampling spacing (Poisson-disk radius) of a point set: the median
+ * nearest-neighbour distance / 1.25 over up to 20000 points. */
+gs_err gs_points_estimate_spacing(const gs_points *pts, double *spacing);
+
+/* Reference plane: the core works with z up. up (0 = x, 1 = y, 2 = z) is the
+ * axis normal to the example's reference plane; these cyclic permutations
+ * (which keep handedness, so outward normals stay outward) move it to z and
+ * back: up = x maps (x, y, z) to (y, z, x), up = y maps it to (z, x, y). */
+void gs_points_permute_to_z(gs_points *pts, int up);
+void gs_points_permute_from_z(gs_points *pts, int up);
+void gs_points_permute_vec_to_z(double v[3], int up);
+
+/* Implicit function of an oriented point set for meshing: on samples
+ * origin + voxel * (i, j, k) (i < nx fastest, out has nx*ny*nz floats),
+ * f = sum w n.(x - p) / sum w over points within R (weights as the MLS
+ * surface), clamped to [-R, R], positive on the normal side; samples no
+ * point reaches get +-R with the sign of the nearest known sample above in
+ * their z column (+ at the top). Contour at 0 (gs_vdb_dense_to_mesh).
+ * Cost O(points * (R/voxel)^3); 16 bytes per sample of scratch. */
+gs_err gs_points_implicit_grid(const gs_points *pts, double R, const double origin[3],
+                               double voxel, size_t nx, size_t ny, size_t nz, float *out);
+
 /* -------------------------------------------------------- MLS point surface */
 
 /* Adamson-Alexa point-set surface with explicit normals: weighted average
@@ -294,6 +326,12 @@ typedef struct gs_points_params {
 /* Defaults scaled to an example box of lx x ly and sampling spacing
  * (output 2x the box side, chain mail weights of table 1). */
 void gs_points_params_default(double lx, double ly, double spacing, gs_points_params *p);
+/* Fills every scale-dependent member that is 0 (out_size, field_step,
+ * patch_cells, overlap_cells, extra_cells, mls_radius, trunc, warp_margin,
+ * max_pair_dist, coherence_sigma, variation_radius) from the others with the
+ * formulas of gs_points_params_default, in dependency order; nonzero
+ * members are kept (so a user's patch_cells also sets the default overlap). */
+void gs_points_params_complete(double lx, double ly, double spacing, gs_points_params *p);
 /* How far geometry must extend past the example's box for these params. */
 double gs_points_params_padding(const gs_points_params *p);
 

@@ -52,38 +52,56 @@ struct gs_points_synth {
     size_t Fv_cap;
 };
 
+void gs_points_params_complete(double lx, double ly, double s, gs_points_params *p)
+{
+    double L = fmin(lx, ly);
+    if (p->out_size[0] == 0)
+        p->out_size[0] = 2 * lx;
+    if (p->out_size[1] == 0)
+        p->out_size[1] = 2 * ly;
+    if (p->field_step == 0)
+        p->field_step = fmax(1.5 * s, L / 40.0);
+    if (p->patch_cells == 0) {
+        int pc = (int)lround(0.4 * L / p->field_step);
+        p->patch_cells = pc < 4 ? 4 : pc;
+    }
+    if (p->overlap_cells == 0)
+        p->overlap_cells = p->patch_cells / 4 < 2 ? 2 : p->patch_cells / 4;
+    if (p->extra_cells == 0)
+        p->extra_cells = (p->patch_cells + 3) / 4;
+    if (p->mls_radius == 0)
+        p->mls_radius = 3 * s;
+    if (p->trunc == 0)
+        p->trunc = 2 * p->field_step;
+    if (p->warp_margin == 0)
+        p->warp_margin = fmax(3 * s, p->field_step);
+    if (p->max_pair_dist == 0)
+        p->max_pair_dist = fmax(3 * s, 0.5 * p->overlap_cells * p->field_step);
+    if (p->coherence_sigma == 0)
+        p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
+    if (p->variation_radius == 0)
+        p->variation_radius = 2.5 * s;
+}
+
 void gs_points_params_default(double lx, double ly, double s, gs_points_params *p)
 {
     memset(p, 0, sizeof *p);
-    double L = fmin(lx, ly);
-    p->out_size[0] = 2 * lx;
-    p->out_size[1] = 2 * ly;
-    p->field_step = fmax(1.5 * s, L / 40.0);
-    int pc = (int)lround(0.4 * L / p->field_step);
-    p->patch_cells = pc < 4 ? 4 : pc;
-    p->overlap_cells = p->patch_cells / 4 < 2 ? 2 : p->patch_cells / 4;
-    p->extra_cells = (p->patch_cells + 3) / 4;
-    p->mls_radius = 3 * s;
-    p->trunc = 2 * p->field_step;
     p->eps = 0.1;
-    p->warp_margin = fmax(3 * s, p->field_step);
     p->w_p = 1;
     p->w_n = 1;
     p->w_v = 10;
     p->w_l = 8;
     p->w_d = 6;
-    p->max_pair_dist = fmax(3 * s, 0.5 * p->overlap_cells * p->field_step);
     p->max_normal = 0.5;
     p->max_variation = 0.1;
-    p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
     p->greedy_iterations = 3;
     p->cluster_max = 12;
     p->max_pairs = 48;
-    p->variation_radius = 2.5 * s;
     p->tps_lambda = 0;
     p->ray_blend = 1;
     p->relax_iterations = 1;
     p->seed = 1;
+    gs_points_params_complete(lx, ly, s, p);
 }
 
 double gs_points_params_padding(const gs_points_params *p)
