@@ -142,7 +142,8 @@ gs_err gs_points_sample_mesh(const float *pos, size_t nverts, const uint32_t *tr
                              double spacing, uint64_t seed, const char *what, gs_points *out);
 
 /* Sampling spacing (Poisson-disk radius) of a point set: the median
- * nearest-neighbour distance / 1.25 over up to 20000 points. */
+ * nearest-neighbour distance / 1.08 over up to 20000 points (calibrated on
+ * this module's samplers; a sparser sampling gives a larger value). */
 gs_err gs_points_estimate_spacing(const gs_points *pts, double *spacing);
 
 /* Reference plane: the core works with z up. up (0 = x, 1 = y, 2 = z) is the
