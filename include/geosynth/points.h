@@ -363,13 +363,27 @@ typedef gs_points_synth *gs_points_synth_t;
 typedef gs_err (*gs_points_search_fn)(void *user, const gs_points_synth *s, const float *query,
                                       int mode, double eps, gs_points_cands *out);
 
+/* A parallel "for" over independent items: fn(ctx, lo, hi, out_lo) writes
+ * items [lo, hi) (bytes each) starting at out_lo. A map hook computes items
+ * [0, n) spread over processes (each calls fn on its part) and returns with
+ * all n items in out on every process, exactly what fn(ctx, 0, n, out)
+ * gives, so results do not depend on the split. Used for the query field
+ * nodes, the warp, the blend and the relaxation; if the hook is collective,
+ * so are gs_points_synth_step and gs_points_synth_finish. */
+typedef gs_err (*gs_points_range_fn)(void *ctx, size_t lo, size_t hi, void *out_lo);
+typedef gs_err (*gs_points_map_fn)(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
+                                   void *ctx, void *out);
+
 /* Which patches this synthesizer's bank holds and who searches them.
  * count == 0 means all patches [0, total); fn == NULL the built-in serial
- * search over the bank (then the bank must hold all patches). */
+ * search over the bank (then the bank must hold all patches); map == NULL
+ * runs every per-item loop in this process. */
 typedef struct gs_points_synth_share {
     size_t first, count;
     gs_points_search_fn fn;
     void *user;
+    gs_points_map_fn map;
+    void *map_user;
 } gs_points_synth_share;
 
 /* Number of input patches (the candidates of every search) for this

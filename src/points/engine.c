@@ -451,6 +451,49 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
     return err;
 }
 
+/* gs_points_map_fn over the ranks: balanced contiguous split, each rank
+ * computes its items, the failure status is agreed, then every rank gets
+ * all items (MPI_Allgatherv in place). Collective. */
+static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
+                      void *out)
+{
+    MPI_Comm comm = *(MPI_Comm *)user;
+    int rank, size;
+    GS_MPI(MPI_Comm_rank(comm, &rank));
+    GS_MPI(MPI_Comm_size(comm, &size));
+    uint64_t start, count;
+    gs_h5_split_rows(n, size, rank, &start, &count);
+    gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
+                            (char *)out + (size_t)start * bytes)
+                       : GS_OK;
+    GS_CALL(gs_par_agree(comm, err));
+    if (size == 1 || n == 0)
+        return GS_OK;
+    GS_CHECK(n < (size_t)INT_MAX && bytes < (size_t)INT_MAX, GS_ERR_ARG,
+             "points: %zu items of %zu bytes are too many for one exchange", n, bytes);
+    int *counts = NULL, *displs = NULL;
+    GS_CALL(gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"));
+    displs = counts + size;
+    for (int r = 0; r < size; r++) {
+        uint64_t st, ct;
+        gs_h5_split_rows(n, size, r, &st, &ct);
+        counts[r] = (int)ct;
+        displs[r] = (int)st;
+    }
+    MPI_Datatype item;
+    int rc = MPI_Type_contiguous((int)bytes, MPI_BYTE, &item);
+    if (rc == MPI_SUCCESS) {
+        rc = MPI_Type_commit(&item);
+        if (rc == MPI_SUCCESS)
+            rc = MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, out, counts, displs, item,
+                                comm);
+        MPI_Type_free(&item);
+    }
+    gs_free(counts);
+    GS_MPI(rc);
+    return GS_OK;
+}
+
 /* ------------------------------------------------------------ checkpoints */
 
 static gs_err write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_digest)
@@ -649,6 +692,7 @@ typedef struct run_state {
     gs_points_synth_t synth;
     gs_points out;
     uint64_t tex_digest;
+    MPI_Comm comm; /* for the map hook */
 } run_state;
 
 static void run_state_free(run_state *r)
@@ -727,7 +771,13 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     int64_t lo, hi;
     gs_psearch_share(rs->ps, &lo, &hi);
     rs->sctx.ps = rs->ps;
-    gs_points_synth_share share = {(size_t)lo, (size_t)(hi - lo), distributed_search, &rs->sctx};
+    rs->comm = run->comm;
+    gs_points_synth_share share = {.first = (size_t)lo,
+                                   .count = (size_t)(hi - lo),
+                                   .fn = distributed_search,
+                                   .user = &rs->sctx,
+                                   .map = run->size > 1 ? mpi_map : NULL,
+                                   .map_user = &rs->comm};
     err = GS_OK;
     if (hi == lo) { /* more ranks than patches: an empty share still joins every search */
         share.first = 0;

@@ -198,6 +198,23 @@ static gs_err split_search(void *user, const gs_points_synth *s, const float *qu
     return err;
 }
 
+/* A map hook that computes items in three uneven pieces, last piece first
+ * (as three processes would): the result must not depend on it. */
+static int map_calls;
+static gs_err uneven_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
+                         void *out)
+{
+    (void)user;
+    map_calls++;
+    size_t cut[4] = {0, n / 7, n / 7 + (n + 1) / 2, n};
+    if (cut[2] > n)
+        cut[2] = n;
+    for (int k = 2; k >= 0; k--)
+        if (cut[k + 1] > cut[k])
+            GS_CALL(fn(ctx, cut[k], cut[k + 1], (char *)out + cut[k] * bytes));
+    return GS_OK;
+}
+
 static void test_split_bank_matches_serial(void **state)
 {
     (void)state;
@@ -209,7 +226,10 @@ static void test_split_bank_matches_serial(void **state)
     assert_int_equal(gs_points_patch_count(&tex, &p, &np), GS_OK);
     assert_true(np > 10);
     split_ctx ctx = {{NULL, NULL}, NULL, 0, 0};
-    gs_points_synth_share a = {0, np / 3, split_search, &ctx}, b = {np / 3, np - np / 3, split_search, &ctx};
+    gs_points_synth_share a = {.first = 0, .count = np / 3, .fn = split_search, .user = &ctx,
+                               .map = uneven_map, .map_user = NULL};
+    gs_points_synth_share b = {.first = np / 3, .count = np - np / 3, .fn = split_search,
+                               .user = &ctx};
     gs_points_synth_t sa = NULL, sb = NULL;
     assert_int_equal(gs_points_synth_create_share(&tex, &p, &a, &sa), GS_OK);
     assert_int_equal(gs_points_synth_create_share(&tex, &p, &b, &sb), GS_OK);
@@ -218,10 +238,11 @@ static void test_split_bank_matches_serial(void **state)
     ctx.banks[1] = gs_points_synth_bank(sb);
     assert_int_equal(gs_points_synth_run(sa), GS_OK);
     assert_true(ctx.calls > 0);
+    assert_true(map_calls > 3 * ctx.calls); /* query nodes, warp, blend per patch */
     assert_int_equal(gs_points_synth_finish(sa, &split), GS_OK);
     assert_true(gs_points_digest(&split) == d_serial);
     /* A share without a hook is refused (it would search only part). */
-    gs_points_synth_share nohook = {0, np / 2, NULL, NULL};
+    gs_points_synth_share nohook = {.first = 0, .count = np / 2};
     gs_points_synth_t sc = NULL;
     assert_int_equal(gs_points_synth_create_share(&tex, &p, &nohook, &sc), GS_ERR_ARG);
     assert_null(sc);
