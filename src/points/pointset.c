@@ -137,6 +137,19 @@ size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const do
     return removed;
 }
 
+/* Squared distance from x to the slab of cell index i along axis a, 0
+ * inside; border cells extend to infinity (they hold everything beyond). */
+static inline double slab_dist2(const struct gs_points_grid *g, int a, int i, double x)
+{
+    double lo = g->lo[a] + i * g->cell, hi = lo + g->cell;
+    double d = 0;
+    if (i > 0 && x < lo)
+        d = lo - x;
+    else if (i < g->dim[a] - 1 && x > hi)
+        d = x - hi;
+    return d * d;
+}
+
 gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out)
 {
     int lo[3], hi[3];
@@ -145,17 +158,29 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
         hi[a] = grid_coord(g, a, c[a] + r);
     }
     double r2 = r * r;
-    for (int k = lo[2]; k <= hi[2]; k++)
-        for (int j = lo[1]; j <= hi[1]; j++)
+    /* Cells whose box lies farther than r are skipped (they hold no answer;
+     * the order of the answers is unchanged). The margin keeps rounding in
+     * the box distance from ever skipping a cell that holds an answer. */
+    double skip2 = r2 * (1 + 1e-9) + 1e-300;
+    for (int k = lo[2]; k <= hi[2]; k++) {
+        double dk = slab_dist2(g, 2, k, c[2]);
+        if (dk > skip2)
+            continue;
+        for (int j = lo[1]; j <= hi[1]; j++) {
+            double djk = dk + slab_dist2(g, 1, j, c[1]);
+            if (djk > skip2)
+                continue;
             for (int i = lo[0]; i <= hi[0]; i++) {
                 const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                if (cl->n == 0)
+                if (cl->n == 0 || djk + slab_dist2(g, 0, i, c[0]) > skip2)
                     continue;
                 GS_CALL(gs_points_reserve(out, out->n + cl->n));
                 for (size_t q = 0; q < cl->n; q++)
                     if (v3_dist2(cl->v[q].p, c) <= r2)
                         out->v[out->n++] = cl->v[q];
             }
+        }
+    }
     return GS_OK;
 }
 
@@ -194,29 +219,59 @@ gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
 gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
                               gs_points *scratch, gs_opoint *out, int *found)
 {
-    double r = g->cell;
+    /* Rings of cells around x's cell, nearest first: the point with the
+     * smallest distance within max_reach, ties to the lowest (cell index,
+     * position in cell), i.e. the first minimum in the order
+     * gs_points_grid_query returns points. Stops once a ring's cells lie
+     * farther than the best so far. No copies. */
+    (void)scratch;
     *found = 0;
-    for (;;) {
-        if (r > max_reach)
-            r = max_reach;
-        scratch->n = 0;
-        GS_CALL(gs_points_grid_query(g, x, r, scratch));
-        if (scratch->n > 0) {
-            size_t best = 0;
-            double bd = v3_dist2(scratch->v[0].p, x);
-            for (size_t i = 1; i < scratch->n; i++) {
-                double d = v3_dist2(scratch->v[i].p, x);
-                if (d < bd) {
-                    bd = d;
-                    best = i;
+    int c[3];
+    for (int a = 0; a < 3; a++)
+        c[a] = grid_coord(g, a, x[a]);
+    double reach2 = max_reach * max_reach;
+    double best = INFINITY;
+    size_t best_cell = 0, best_pos = 0;
+    int maxring = 0;
+    for (int a = 0; a < 3; a++) {
+        int m = c[a] > g->dim[a] - 1 - c[a] ? c[a] : g->dim[a] - 1 - c[a];
+        maxring = m > maxring ? m : maxring;
+    }
+    for (int m = 0; m <= maxring; m++) {
+        /* Every cell of ring m is at least (m - 1) cells from x's cell. */
+        double gap = (m - 1) * g->cell;
+        if (m > 1 && gap > 0 && gap * gap > fmin(best, reach2) * (1 + 1e-9))
+            break;
+        for (int k = c[2] - m; k <= c[2] + m; k++) {
+            if (k < 0 || k >= g->dim[2])
+                continue;
+            for (int j = c[1] - m; j <= c[1] + m; j++) {
+                if (j < 0 || j >= g->dim[1])
+                    continue;
+                int edge = k == c[2] - m || k == c[2] + m || j == c[1] - m || j == c[1] + m;
+                for (int i = c[0] - m; i <= c[0] + m; i += (edge || m == 0) ? 1 : 2 * m) {
+                    if (i < 0 || i >= g->dim[0])
+                        continue;
+                    size_t ci = ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
+                    const gs_points *cl = &g->cells[ci];
+                    for (size_t q = 0; q < cl->n; q++) {
+                        double d = v3_dist2(cl->v[q].p, x);
+                        if (d > reach2)
+                            continue;
+                        if (d < best || (d == best && (ci < best_cell ||
+                                                       (ci == best_cell && q < best_pos)))) {
+                            best = d;
+                            best_cell = ci;
+                            best_pos = q;
+                        }
+                    }
                 }
             }
-            *out = scratch->v[best];
-            *found = 1;
-            return GS_OK;
         }
-        if (r >= max_reach)
-            return GS_OK;
-        r *= 2;
     }
+    if (best < INFINITY) {
+        *out = g->cells[best_cell].v[best_pos];
+        *found = 1;
+    }
+    return GS_OK;
 }

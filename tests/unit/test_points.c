@@ -14,6 +14,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/points.h"
 #include "geosynth/rng.h"
+#include "points/points_impl.h"
 
 static void random_points(gs_points *s, size_t n, uint64_t seed)
 {
@@ -95,6 +96,47 @@ static void sphere_points(gs_points *s, int n, double rad)
         double p[3] = {rad * nn[0], rad * nn[1], rad * nn[2]};
         assert_int_equal(gs_points_push(s, p, nn), GS_OK);
     }
+}
+
+/* The ring search of gs_points_grid_nearest equals brute force: smallest
+ * distance within the reach, ties to the first point in query order. */
+static void test_grid_nearest_vs_brute_force(void **state)
+{
+    (void)state;
+    gs_points pts = {0}, scratch = {0};
+    random_points(&pts, 2000, 11);
+    for (size_t i = 0; i < 200; i++) /* exact duplicates: ties */
+        assert_int_equal(gs_points_append(&pts, &pts.v[i * 7], 1), GS_OK);
+    double lo[3] = {0, 0, 0}, hi[3] = {8, 8, 3};
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.45, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    gs_rng r;
+    gs_rng_init(&r, 4, 4);
+    for (int t = 0; t < 400; t++) {
+        double c[3] = {gs_rng_uniform(&r) * 14 - 3, gs_rng_uniform(&r) * 12 - 2,
+                       gs_rng_uniform(&r) * 9 - 3};
+        if (t % 5 == 0) /* right on a sample: distance 0 and its duplicate */
+            memcpy(c, pts.v[(t * 7) % 1400].p, sizeof c);
+        double reach = 0.05 + 4 * gs_rng_uniform(&r);
+        gs_opoint got;
+        int found;
+        assert_int_equal(gs_points_grid_nearest(g, c, reach, &scratch, &got, &found), GS_OK);
+        /* reference: the first minimum of a full query in query order */
+        scratch.n = 0;
+        assert_int_equal(gs_points_grid_query(g, c, reach, &scratch), GS_OK);
+        size_t best = 0;
+        for (size_t i = 1; i < scratch.n; i++)
+            if (v3_dist2(scratch.v[i].p, c) < v3_dist2(scratch.v[best].p, c))
+                best = i;
+        assert_int_equal(found, scratch.n > 0);
+        if (found)
+            assert_memory_equal(&got, &scratch.v[best], sizeof got);
+    }
+    gs_points_grid_destroy(&g);
+    gs_points_free(&pts);
+    gs_points_free(&scratch);
 }
 
 static void test_mls_projection_plane_sphere(void **state)
@@ -417,6 +459,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_grid_vs_brute_force),
+        cmocka_unit_test(test_grid_nearest_vs_brute_force),
         cmocka_unit_test(test_mls_projection_plane_sphere),
         cmocka_unit_test(test_tps_interpolates_and_affine),
         cmocka_unit_test(test_generators_and_padding_check),
