@@ -219,59 +219,29 @@ gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
 gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
                               gs_points *scratch, gs_opoint *out, int *found)
 {
-    /* Rings of cells around x's cell, nearest first: the point with the
-     * smallest distance within max_reach, ties to the lowest (cell index,
-     * position in cell), i.e. the first minimum in the order
-     * gs_points_grid_query returns points. Stops once a ring's cells lie
-     * farther than the best so far. No copies. */
-    (void)scratch;
+    double r = g->cell;
     *found = 0;
-    int c[3];
-    for (int a = 0; a < 3; a++)
-        c[a] = grid_coord(g, a, x[a]);
-    double reach2 = max_reach * max_reach;
-    double best = INFINITY;
-    size_t best_cell = 0, best_pos = 0;
-    int maxring = 0;
-    for (int a = 0; a < 3; a++) {
-        int m = c[a] > g->dim[a] - 1 - c[a] ? c[a] : g->dim[a] - 1 - c[a];
-        maxring = m > maxring ? m : maxring;
-    }
-    for (int m = 0; m <= maxring; m++) {
-        /* Every cell of ring m is at least (m - 1) cells from x's cell. */
-        double gap = (m - 1) * g->cell;
-        if (m > 1 && gap > 0 && gap * gap > fmin(best, reach2) * (1 + 1e-9))
-            break;
-        for (int k = c[2] - m; k <= c[2] + m; k++) {
-            if (k < 0 || k >= g->dim[2])
-                continue;
-            for (int j = c[1] - m; j <= c[1] + m; j++) {
-                if (j < 0 || j >= g->dim[1])
-                    continue;
-                int edge = k == c[2] - m || k == c[2] + m || j == c[1] - m || j == c[1] + m;
-                for (int i = c[0] - m; i <= c[0] + m; i += (edge || m == 0) ? 1 : 2 * m) {
-                    if (i < 0 || i >= g->dim[0])
-                        continue;
-                    size_t ci = ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
-                    const gs_points *cl = &g->cells[ci];
-                    for (size_t q = 0; q < cl->n; q++) {
-                        double d = v3_dist2(cl->v[q].p, x);
-                        if (d > reach2)
-                            continue;
-                        if (d < best || (d == best && (ci < best_cell ||
-                                                       (ci == best_cell && q < best_pos)))) {
-                            best = d;
-                            best_cell = ci;
-                            best_pos = q;
-                        }
-                    }
+    for (;;) {
+        if (r > max_reach)
+            r = max_reach;
+        scratch->n = 0;
+        GS_CALL(gs_points_grid_query(g, x, r, scratch));
+        if (scratch->n > 0) {
+            size_t best = 0;
+            double bd = v3_dist2(scratch->v[0].p, x);
+            for (size_t i = 1; i < scratch->n; i++) {
+                double d = v3_dist2(scratch->v[i].p, x);
+                if (d < bd) {
+                    bd = d;
+                    best = i;
                 }
             }
+            *out = scratch->v[best];
+            *found = 1;
+            return GS_OK;
         }
+        if (r >= max_reach)
+            return GS_OK;
+        r *= 2;
     }
-    if (best < INFINITY) {
-        *out = g->cells[best_cell].v[best_pos];
-        *found = 1;
-    }
-    return GS_OK;
 }
