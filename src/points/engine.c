@@ -765,15 +765,15 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
            p->out_size[0], p->out_size[1], est_out, npatch, run->size, run->size > 1 ? "s" : "");
     {
         /* example (points, grid, variation), D(T_in), this rank's bank share,
-         * output grid + its collected copies at the end (about 3 x 48 bytes). */
+         * output grid (buckets grow by doubling) and its copies in relaxation, trimming and output (about 6 x 48 bytes per point). */
         double g = p->field_step, bz = t->box_hi[2] - t->box_lo[2];
         double nz = fmax(2, ceil(bz / g - 1e-9) + 1), nx = floor(lx / g) + 1, ny = floor(ly / g) + 1;
         double oc = p->overlap_cells, pc = p->patch_cells;
         double bank = npatch / (double)run->size * 4 * nz * (oc * oc + 2 * oc * (pc + 1 - oc)) * 4;
-        double bytes = t->pts.n * 112.0 + nx * ny * nz * 16 + bank + est_out * 3 * 48.0;
+        double bytes = t->pts.n * 112.0 + nx * ny * nz * 16 + bank + est_out * 6 * 48.0;
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (example %.1f, field %.1f, bank "
                "share %.1f, output %.1f)", bytes / 1048576.0, t->pts.n * 112.0 / 1048576.0,
-               nx * ny * nz * 16 / 1048576.0, bank / 1048576.0, est_out * 144.0 / 1048576.0);
+               nx * ny * nz * 16 / 1048576.0, bank / 1048576.0, est_out * 288.0 / 1048576.0);
     }
     GS_CALL(gs_psearch_create(run->comm, (int64_t)npatch, NULL, &rs->ps));
     int64_t lo, hi;
