@@ -765,7 +765,8 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
            p->out_size[0], p->out_size[1], est_out, npatch, run->size, run->size > 1 ? "s" : "");
     {
         /* example (points, grid, variation), D(T_in), this rank's bank share,
-         * output grid (buckets grow by doubling) and its copies in relaxation, trimming and output (about 6 x 48 bytes per point). */
+         * output grid (buckets grow by doubling) and its copies in the
+         * relaxation, trimming and output (about 6 x 48 bytes per point). */
         double g = p->field_step, bz = t->box_hi[2] - t->box_lo[2];
         double nz = fmax(2, ceil(bz / g - 1e-9) + 1), nx = floor(lx / g) + 1, ny = floor(ly / g) + 1;
         double oc = p->overlap_cells, pc = p->patch_cells;
