@@ -105,8 +105,10 @@ static void test_grid_nearest_vs_brute_force(void **state)
     (void)state;
     gs_points pts = {0}, scratch = {0};
     random_points(&pts, 2000, 11);
-    for (size_t i = 0; i < 200; i++) /* exact duplicates: ties */
-        assert_int_equal(gs_points_append(&pts, &pts.v[i * 7], 1), GS_OK);
+    for (size_t i = 0; i < 200; i++) { /* exact duplicates: ties */
+        gs_opoint dup = pts.v[i * 7]; /* a copy: appending may move pts.v */
+        assert_int_equal(gs_points_append(&pts, &dup, 1), GS_OK);
+    }
     double lo[3] = {0, 0, 0}, hi[3] = {8, 8, 3};
     gs_points_grid_t g = NULL;
     assert_int_equal(gs_points_grid_create(lo, hi, 0.45, &g), GS_OK);
