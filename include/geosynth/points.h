@@ -131,6 +131,39 @@ gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_
  * distance size/cells. */
 gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out);
 
+/* Uniform Poisson-disk sampling of a triangle mesh (vertices pos[3i..3i+2],
+ * triangles tris[3t..3t+2], counter-clockwise = outward): dart throwing by
+ * area (about 9 tries per accepted point), no two samples closer than
+ * spacing; normals are the barycentric blend of area-weighted vertex
+ * normals (the face normal where they cancel). Appends to out in bucket
+ * order. Randomness: gs_rng(seed, "PTSA" stream). what names the mesh in
+ * messages. Cost O(area / spacing^2). */
+gs_err gs_points_sample_mesh(const float *pos, size_t nverts, const uint32_t *tris, size_t ntris,
+                             double spacing, uint64_t seed, const char *what, gs_points *out);
+
+/* Sampling spacing (Poisson-disk radius) of a point set: the median
+ * nearest-neighbour distance / 1.08 over up to 20000 points (calibrated on
+ * this module's samplers; a sparser sampling gives a larger value). */
+gs_err gs_points_estimate_spacing(const gs_points *pts, double *spacing);
+
+/* Reference plane: the core works with z up. up (0 = x, 1 = y, 2 = z) is the
+ * axis normal to the example's reference plane; these cyclic permutations
+ * (which keep handedness, so outward normals stay outward) move it to z and
+ * back: up = x maps (x, y, z) to (y, z, x), up = y maps it to (z, x, y). */
+void gs_points_permute_to_z(gs_points *pts, int up);
+void gs_points_permute_from_z(gs_points *pts, int up);
+void gs_points_permute_vec_to_z(double v[3], int up);
+
+/* Implicit function of an oriented point set for meshing: on samples
+ * origin + voxel * (i, j, k) (i < nx fastest, out has nx*ny*nz floats),
+ * f = sum w n.(x - p) / sum w over points within R (weights as the MLS
+ * surface), clamped to [-R, R], positive on the normal side; samples no
+ * point reaches get +-R with the sign of the nearest known sample above in
+ * their z column (+ at the top). Contour at 0 (gs_vdb_dense_to_mesh).
+ * Cost O(points * (R/voxel)^3); 16 bytes per sample of scratch. */
+gs_err gs_points_implicit_grid(const gs_points *pts, double R, const double origin[3],
+                               double voxel, size_t nx, size_t ny, size_t nz, float *out);
+
 /* -------------------------------------------------------- MLS point surface */
 
 /* Adamson-Alexa point-set surface with explicit normals: weighted average
@@ -248,6 +281,21 @@ gs_err gs_points_search_merge(const gs_points_cands *parts, int nparts, double e
 /* Chooses one candidate uniformly with r. */
 uint64_t gs_points_search_pick(const gs_points_cands *c, gs_rng *r);
 
+/* Bounded scan for a distributed search (gs_psearch callbacks): visits the
+ * bank's patches with global index in [lo, hi) (within the bank's share) in
+ * index order; bound(user) is the current pruning threshold and a patch is
+ * dropped only when a partial sum exceeds it STRICTLY (partial sums only
+ * grow, so they are lower bounds); every other patch is reported with
+ * offer(user, d, index), d being exactly the value gs_points_search_local
+ * computes. The bound is read once per patch. */
+typedef double (*gs_points_bound_fn)(void *user);
+typedef void (*gs_points_offer_fn)(void *user, double dist, uint64_t index);
+gs_err gs_points_search_scan(const gs_points_bank *b, const float *query, int mode, uint64_t lo,
+                             uint64_t hi, gs_points_bound_fn bound, gs_points_offer_fn offer,
+                             void *user);
+/* The bank's share [*first, *first + *count). */
+void gs_points_bank_share(const gs_points_bank *b, size_t *first, size_t *count);
+
 /* --------------------------------------------------------------- synthesis */
 
 typedef struct gs_points_params {
@@ -279,6 +327,12 @@ typedef struct gs_points_params {
 /* Defaults scaled to an example box of lx x ly and sampling spacing
  * (output 2x the box side, chain mail weights of table 1). */
 void gs_points_params_default(double lx, double ly, double spacing, gs_points_params *p);
+/* Fills every scale-dependent member that is 0 (out_size, field_step,
+ * patch_cells, overlap_cells, extra_cells, mls_radius, trunc, warp_margin,
+ * max_pair_dist, coherence_sigma, variation_radius) from the others with the
+ * formulas of gs_points_params_default, in dependency order; nonzero
+ * members are kept (so a user's patch_cells also sets the default overlap). */
+void gs_points_params_complete(double lx, double ly, double spacing, gs_points_params *p);
 /* How far geometry must extend past the example's box for these params. */
 double gs_points_params_padding(const gs_points_params *p);
 
@@ -299,10 +353,54 @@ typedef struct gs_points_times {
 typedef struct gs_points_synth gs_points_synth;
 typedef gs_points_synth *gs_points_synth_t;
 
+/* Replaces the built-in search of a synthesizer (a distributed search):
+ * given the query (layout floats) and the overlap mode, fill *out with the
+ * candidate set Psi_k exactly as gs_points_search_merge would over all
+ * patches: every patch with dist <= (1 + eps) * best, sorted by (dist,
+ * index), out->best = the smallest distance. out arrives empty (n == 0) and
+ * may be grown with gs_realloc. Called once per placed patch from
+ * gs_points_synth_step; if the hook is collective, so is stepping. */
+typedef gs_err (*gs_points_search_fn)(void *user, const gs_points_synth *s, const float *query,
+                                      int mode, double eps, gs_points_cands *out);
+
+/* A parallel "for" over independent items: fn(ctx, lo, hi, out_lo) writes
+ * items [lo, hi) (bytes each) starting at out_lo. A map hook computes items
+ * [0, n) spread over processes (each calls fn on its part) and returns with
+ * all n items in out on every process, exactly what fn(ctx, 0, n, out)
+ * gives, so results do not depend on the split. Used for the query field
+ * nodes, the warp, the blend and the relaxation; if the hook is collective,
+ * so are gs_points_synth_step and gs_points_synth_finish. */
+typedef gs_err (*gs_points_range_fn)(void *ctx, size_t lo, size_t hi, void *out_lo);
+typedef gs_err (*gs_points_map_fn)(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
+                                   void *ctx, void *out);
+
+/* Which patches this synthesizer's bank holds and who searches them.
+ * count == 0 means all patches [0, total); fn == NULL the built-in serial
+ * search over the bank (then the bank must hold all patches); map == NULL
+ * runs every per-item loop in this process. */
+typedef struct gs_points_synth_share {
+    size_t first, count;
+    gs_points_search_fn fn;
+    void *user;
+    gs_points_map_fn map;
+    void *map_user;
+} gs_points_synth_share;
+
+/* Number of input patches (the candidates of every search) for this
+ * texture and these parameters, without building anything. Raises
+ * GS_ERR_ARG when the box has no room for a patch. */
+gs_err gs_points_patch_count(const gs_points_texture *tex, const gs_points_params *p,
+                             size_t *count);
+
 /* Precomputes D(T_in), the patch bank and surface variations. Checks the
  * parameters and the example's padding (names what is wrong). */
 gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
                               gs_points_synth_t *out);
+/* The same with a share of the bank and a search hook (NULL = create). */
+gs_err gs_points_synth_create_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share, gs_points_synth_t *out);
+/* This synthesizer's patch bank (the share given at create). */
+const gs_points_bank *gs_points_synth_bank(const gs_points_synth *s);
 void gs_points_synth_destroy(gs_points_synth_t *s);
 uint64_t gs_points_synth_total(const gs_points_synth *s);  /* patches to place */
 uint64_t gs_points_synth_cursor(const gs_points_synth *s); /* patches placed */
@@ -333,5 +431,8 @@ gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st)
 void gs_points_synth_state_free(gs_points_synth_state *st);
 gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
                               const gs_points_synth_state *st, gs_points_synth_t *out);
+gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share,
+                                    const gs_points_synth_state *st, gs_points_synth_t *out);
 
 #endif

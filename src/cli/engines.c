@@ -6,10 +6,12 @@
 
 extern const gs_engine gs_engine_field;
 extern const gs_engine gs_engine_model;
+extern const gs_engine gs_engine_points;
 
 static const gs_engine *const engine_list[] = {
     &gs_engine_field,
     &gs_engine_model,
+    &gs_engine_points,
     NULL /* terminator */
 };
 

@@ -137,6 +137,19 @@ size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const do
     return removed;
 }
 
+/* Squared distance from x to the slab of cell index i along axis a, 0
+ * inside; border cells extend to infinity (they hold everything beyond). */
+static inline double slab_dist2(const struct gs_points_grid *g, int a, int i, double x)
+{
+    double lo = g->lo[a] + i * g->cell, hi = lo + g->cell;
+    double d = 0;
+    if (i > 0 && x < lo)
+        d = lo - x;
+    else if (i < g->dim[a] - 1 && x > hi)
+        d = x - hi;
+    return d * d;
+}
+
 gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out)
 {
     int lo[3], hi[3];
@@ -145,17 +158,29 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
         hi[a] = grid_coord(g, a, c[a] + r);
     }
     double r2 = r * r;
-    for (int k = lo[2]; k <= hi[2]; k++)
-        for (int j = lo[1]; j <= hi[1]; j++)
+    /* Cells whose box lies farther than r are skipped (they hold no answer;
+     * the order of the answers is unchanged). The margin keeps rounding in
+     * the box distance from ever skipping a cell that holds an answer. */
+    double skip2 = r2 * (1 + 1e-9) + 1e-300;
+    for (int k = lo[2]; k <= hi[2]; k++) {
+        double dk = slab_dist2(g, 2, k, c[2]);
+        if (dk > skip2)
+            continue;
+        for (int j = lo[1]; j <= hi[1]; j++) {
+            double djk = dk + slab_dist2(g, 1, j, c[1]);
+            if (djk > skip2)
+                continue;
             for (int i = lo[0]; i <= hi[0]; i++) {
                 const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                if (cl->n == 0)
+                if (cl->n == 0 || djk + slab_dist2(g, 0, i, c[0]) > skip2)
                     continue;
                 GS_CALL(gs_points_reserve(out, out->n + cl->n));
                 for (size_t q = 0; q < cl->n; q++)
                     if (v3_dist2(cl->v[q].p, c) <= r2)
                         out->v[out->n++] = cl->v[q];
             }
+        }
+    }
     return GS_OK;
 }
 

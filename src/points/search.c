@@ -149,6 +149,51 @@ static double ssd_range(const float *a, const float *b, size_t n, double acc, do
     return acc;
 }
 
+/* The float ranges of a patch's overlap field that mode compares: up to
+ * two, [r[0], r[1]) and [r[2], r[3]). */
+static void mode_ranges(const gs_points_layout *l, int mode, size_t r[4])
+{
+    r[0] = r[2] = r[3] = 0;
+    if (mode == GS_POINTS_OVERLAP_LEFT) {
+        r[1] = l->n_corner + l->n_left;
+    } else if (mode == GS_POINTS_OVERLAP_BOTTOM) {
+        r[1] = l->n_corner;
+        r[2] = l->n_corner + l->n_left;
+        r[3] = r[2] + l->n_bottom;
+    } else {
+        r[1] = l->n_corner + l->n_left + l->n_bottom;
+    }
+}
+
+void gs_points_bank_share(const gs_points_bank *b, size_t *first, size_t *count)
+{
+    *first = b->first;
+    *count = b->count;
+}
+
+gs_err gs_points_search_scan(const gs_points_bank *b, const float *query, int mode, uint64_t lo,
+                             uint64_t hi, gs_points_bound_fn bound, gs_points_offer_fn offer,
+                             void *user)
+{
+    GS_CHECK(mode >= 1 && mode <= 3, GS_ERR_ARG, "search: overlap mode %d, expected 1..3", mode);
+    GS_CHECK(lo <= hi && lo >= b->first && hi <= b->first + b->count, GS_ERR_ARG,
+             "search: patches [%llu, %llu) are outside this bank's share [%zu, %zu)",
+             (unsigned long long)lo, (unsigned long long)hi, b->first, b->first + b->count);
+    size_t r[4];
+    mode_ranges(&b->l, mode, r);
+    for (uint64_t idx = lo; idx < hi; idx++) {
+        const float *f = b->data + (idx - b->first) * b->stride;
+        double cutoff = bound(user);
+        double d = ssd_range(f + r[0], query + r[0], r[1] - r[0], 0.0, cutoff);
+        if (d <= cutoff && r[3] > r[2])
+            d = ssd_range(f + r[2], query + r[2], r[3] - r[2], d, cutoff);
+        if (d > cutoff)
+            continue;
+        offer(user, d, idx);
+    }
+    return GS_OK;
+}
+
 gs_err gs_points_search_local(const gs_points_bank *b, const float *query, int mode, double eps,
                               double bound, gs_points_cands *out)
 {
@@ -156,17 +201,9 @@ gs_err gs_points_search_local(const gs_points_bank *b, const float *query, int m
     GS_CHECK(eps >= 0, GS_ERR_ARG, "search: eps %g must be >= 0", eps);
     out->n = 0;
     out->best = INFINITY;
-    const gs_points_layout *l = &b->l;
-    size_t r0b = 0, r0e, r1b = 0, r1e = 0; /* up to two ranges */
-    if (mode == GS_POINTS_OVERLAP_LEFT) {
-        r0e = l->n_corner + l->n_left;
-    } else if (mode == GS_POINTS_OVERLAP_BOTTOM) {
-        r0e = l->n_corner;
-        r1b = l->n_corner + l->n_left;
-        r1e = r1b + l->n_bottom;
-    } else {
-        r0e = l->n_corner + l->n_left + l->n_bottom;
-    }
+    size_t rr[4];
+    mode_ranges(&b->l, mode, rr);
+    size_t r0b = rr[0], r0e = rr[1], r1b = rr[2], r1e = rr[3];
     double best = bound;
     for (size_t p = 0; p < b->count; p++) {
         const float *f = b->data + p * b->stride;

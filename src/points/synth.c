@@ -35,6 +35,10 @@ struct gs_points_synth {
     gs_points_layout lay;
     gs_points_bank_t bank;
     size_t npatch;
+    gs_points_search_fn search_fn; /* NULL: serial search over the whole bank */
+    void *search_user;
+    gs_points_map_fn map_fn;       /* NULL: per-item loops run here */
+    void *map_user;
     /* output */
     double ps, ow, we, m, step;
     int cols, rows;
@@ -48,40 +52,60 @@ struct gs_points_synth {
     gs_points scratch, scratch2, F, Fw, Fb, Qall, S;
     double *Fv;
     size_t Fv_cap;
+    struct blend_item *blend;
+    size_t blend_cap;
 };
+
+void gs_points_params_complete(double lx, double ly, double s, gs_points_params *p)
+{
+    double L = fmin(lx, ly);
+    if (p->out_size[0] == 0)
+        p->out_size[0] = 2 * lx;
+    if (p->out_size[1] == 0)
+        p->out_size[1] = 2 * ly;
+    if (p->field_step == 0)
+        p->field_step = fmax(1.5 * s, L / 40.0);
+    if (p->patch_cells == 0) {
+        int pc = (int)lround(0.4 * L / p->field_step);
+        p->patch_cells = pc < 4 ? 4 : pc;
+    }
+    if (p->overlap_cells == 0)
+        p->overlap_cells = p->patch_cells / 4 < 2 ? 2 : p->patch_cells / 4;
+    if (p->extra_cells == 0)
+        p->extra_cells = (p->patch_cells + 3) / 4;
+    if (p->mls_radius == 0)
+        p->mls_radius = 3 * s;
+    if (p->trunc == 0)
+        p->trunc = 2 * p->field_step;
+    if (p->warp_margin == 0)
+        p->warp_margin = fmax(3 * s, p->field_step);
+    if (p->max_pair_dist == 0)
+        p->max_pair_dist = fmax(3 * s, 0.5 * p->overlap_cells * p->field_step);
+    if (p->coherence_sigma == 0)
+        p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
+    if (p->variation_radius == 0)
+        p->variation_radius = 2.5 * s;
+}
 
 void gs_points_params_default(double lx, double ly, double s, gs_points_params *p)
 {
     memset(p, 0, sizeof *p);
-    double L = fmin(lx, ly);
-    p->out_size[0] = 2 * lx;
-    p->out_size[1] = 2 * ly;
-    p->field_step = fmax(1.5 * s, L / 40.0);
-    int pc = (int)lround(0.4 * L / p->field_step);
-    p->patch_cells = pc < 4 ? 4 : pc;
-    p->overlap_cells = p->patch_cells / 4 < 2 ? 2 : p->patch_cells / 4;
-    p->extra_cells = (p->patch_cells + 3) / 4;
-    p->mls_radius = 3 * s;
-    p->trunc = 2 * p->field_step;
     p->eps = 0.1;
-    p->warp_margin = fmax(3 * s, p->field_step);
     p->w_p = 1;
     p->w_n = 1;
     p->w_v = 10;
     p->w_l = 8;
     p->w_d = 6;
-    p->max_pair_dist = fmax(3 * s, 0.5 * p->overlap_cells * p->field_step);
     p->max_normal = 0.5;
     p->max_variation = 0.1;
-    p->coherence_sigma = 0.5 * p->overlap_cells * p->field_step;
     p->greedy_iterations = 3;
     p->cluster_max = 12;
     p->max_pairs = 48;
-    p->variation_radius = 2.5 * s;
     p->tps_lambda = 0;
     p->ray_blend = 1;
     p->relax_iterations = 1;
     p->seed = 1;
+    gs_points_params_complete(lx, ly, s, p);
 }
 
 double gs_points_params_padding(const gs_points_params *p)
@@ -196,12 +220,49 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->Qall);
     gs_points_free(&s->S);
     gs_free(s->Fv);
+    gs_free(s->blend);
     gs_free(s);
     *sp = NULL;
 }
 
+/* Field nodes over the example box (x, y at field_step; z nodes span the
+ * box height). */
+static gs_err field_dims(const gs_points_texture *tex, const gs_points_params *p, int *nx,
+                         int *ny, int *nz)
+{
+    double g = p->field_step;
+    double bx = tex->box_hi[0] - tex->box_lo[0], by = tex->box_hi[1] - tex->box_lo[1];
+    double bz = tex->box_hi[2] - tex->box_lo[2];
+    GS_CHECK(g > 0 && isfinite(g) && bx > 0 && by > 0 && bz >= 0 && bx / g < 1e6 && by / g < 1e6 &&
+                 bz / g < 1e6, GS_ERR_ARG,
+             "points: example box %g x %g x %g with field step %g: expected a non-empty box and "
+             "fewer than 1e6 nodes per axis", bx, by, bz, g);
+    *nx = (int)floor(bx / g + 1e-9) + 1;
+    *ny = (int)floor(by / g + 1e-9) + 1;
+    GS_CHECK(*nx > p->patch_cells && *ny > p->patch_cells, GS_ERR_ARG,
+             "points: the example box (%g x %g) holds %d x %d field nodes, too few for a patch of "
+             "%d cells of %g: use a smaller patch or field step", bx, by, *nx, *ny,
+             p->patch_cells, g);
+    *nz = (int)ceil(bz / g - 1e-9) + 1;
+    if (*nz < 2)
+        *nz = 2;
+    return GS_OK;
+}
+
+gs_err gs_points_patch_count(const gs_points_texture *tex, const gs_points_params *p,
+                             size_t *count)
+{
+    GS_CALL(check_params(p, tex->spacing));
+    int nx, ny, nz;
+    GS_CALL(field_dims(tex, p, &nx, &ny, &nz));
+    gs_points_layout l;
+    gs_points_layout_init(&l, p->patch_cells, p->overlap_cells, nz);
+    *count = gs_points_bank_total(nx, ny, &l);
+    return GS_OK;
+}
+
 static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *tex,
-                          const gs_points_params *p)
+                          const gs_points_params *p, const gs_points_synth_share *share)
 {
     GS_CALL(check_params(p, tex->spacing));
     s->p = *p;
@@ -216,15 +277,7 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     s->g = p->field_step;
     double bx = s->box_hi[0] - s->box_lo[0], by = s->box_hi[1] - s->box_lo[1];
     double bz = s->box_hi[2] - s->box_lo[2];
-    s->nx = (int)floor(bx / s->g + 1e-9) + 1;
-    s->ny = (int)floor(by / s->g + 1e-9) + 1;
-    GS_CHECK(s->nx > p->patch_cells && s->ny > p->patch_cells, GS_ERR_ARG,
-             "points: the example box (%g x %g) holds %d x %d field nodes, too few for a patch of "
-             "%d cells of %g: use a smaller patch or field step", bx, by, s->nx, s->ny,
-             p->patch_cells, s->g);
-    s->nz = (int)ceil(bz / s->g - 1e-9) + 1;
-    if (s->nz < 2)
-        s->nz = 2;
+    GS_CALL(field_dims(tex, p, &s->nx, &s->ny, &s->nz));
     s->gz = bz / (s->nz - 1);
     s->reach = bz + 2 * R;
     /* Input grid, surface variation, columns. */
@@ -264,7 +317,21 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     gs_points_layout_init(&s->lay, p->patch_cells, p->overlap_cells, s->nz);
     s->npatch = gs_points_bank_total(s->nx, s->ny, &s->lay);
     s->npx = s->nx - p->patch_cells;
-    GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, 0, s->npatch, &s->bank));
+    size_t first = 0, count = s->npatch;
+    if (share && share->count > 0) {
+        first = share->first;
+        count = share->count;
+    }
+    GS_CHECK(first <= s->npatch && count <= s->npatch - first, GS_ERR_ARG,
+             "points: bank share [%zu, %zu) outside the %zu input patches", first, first + count,
+             s->npatch);
+    s->search_fn = share ? share->fn : NULL;
+    s->search_user = share ? share->user : NULL;
+    s->map_fn = share ? share->map : NULL;
+    s->map_user = share ? share->map_user : NULL;
+    GS_CHECK(s->search_fn || count == s->npatch, GS_ERR_ARG,
+             "points: a bank share of %zu of %zu patches needs a search hook", count, s->npatch);
+    GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, first, count, &s->bank));
     GS_CALL(gs_alloc_array((void **)&s->query, gs_points_layout_floats(&s->lay), sizeof(float),
                            "search query"));
     /* Output layout: patches of ps every step, covering out_size + 2 w_E. */
@@ -292,9 +359,18 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
 gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
                               gs_points_synth_t *out)
 {
+    GS_CALL(gs_points_synth_create_share(tex, p, NULL, out));
+    return GS_OK;
+}
+
+const gs_points_bank *gs_points_synth_bank(const gs_points_synth *s) { return s->bank; }
+
+gs_err gs_points_synth_create_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share, gs_points_synth_t *out)
+{
     struct gs_points_synth *s = gs_calloc(1, sizeof *s);
     GS_CHECK(s != NULL, GS_ERR_MEM, "points: out of memory");
-    gs_err err = synth_setup(s, tex, p);
+    gs_err err = synth_setup(s, tex, p, share);
     if (err != GS_OK) {
         gs_points_synth_destroy(&s);
         GS_CALL(err);
@@ -313,6 +389,17 @@ const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s,
 {
     *n = (size_t)s->cursor;
     return s->metrics;
+}
+
+/* Items [0, n) of `bytes` each through the map hook (or here). */
+static gs_err par_map(struct gs_points_synth *s, size_t n, size_t bytes, gs_points_range_fn fn,
+                      void *ctx, void *out)
+{
+    if (s->map_fn)
+        GS_CALL(s->map_fn(s->map_user, n, bytes, fn, ctx, out));
+    else if (n > 0)
+        GS_CALL(fn(ctx, 0, n, out));
+    return GS_OK;
 }
 
 /* --------------------------------------------------------------- clustering */
@@ -461,6 +548,25 @@ static gs_err ray_hit(struct gs_points_synth *s, const double x[3], const double
     return GS_OK;
 }
 
+/* Points through the spline (gs_points_range_fn). */
+typedef struct warp_ctx {
+    const gs_points_tps *tps;
+    const gs_opoint *in;
+} warp_ctx;
+
+static gs_err warp_points(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    const warp_ctx *c = vctx;
+    gs_opoint *out = vout;
+    for (size_t i = lo; i < hi; i++) {
+        double J[9];
+        gs_opoint *q = &out[i - lo];
+        gs_points_tps_eval(c->tps, c->in[i].p, q->p, J);
+        gs_points_tps_normal(J, c->in[i].n, q->n);
+    }
+    return GS_OK;
+}
+
 static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
                          gs_points_patch_metrics *met)
 {
@@ -579,12 +685,11 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
     }
     GS_TRY(err, err, done);
     have_tps = 1;
-    for (size_t i = 0; i < s->F.n; i++) {
-        double y[3], J[9], n[3];
-        gs_points_tps_eval(&tps, s->F.v[i].p, y, J);
-        gs_points_tps_normal(J, s->F.v[i].n, n);
-        memcpy(s->F.v[i].p, y, sizeof y);
-        memcpy(s->F.v[i].n, n, sizeof n);
+    {
+        warp_ctx wc = {&tps, s->F.v};
+        GS_TRY(err, gs_points_reserve(&s->Fw, s->F.n), done);
+        GS_TRY(err, par_map(s, s->F.n, sizeof(gs_opoint), warp_points, &wc, s->Fw.v), done);
+        memcpy(s->F.v, s->Fw.v, s->F.n * sizeof *s->F.v);
     }
 done:
     if (have_tps)
@@ -600,24 +705,39 @@ done:
     return err;
 }
 
-static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double o[2],
-                              gs_points_patch_metrics *met)
+/* One point of F through the blend (fig. 3c): the blended point, whether
+ * it stays (inside B_k), and its gap to N_k when it was projected. */
+typedef struct blend_item {
+    gs_opoint q;
+    double resid;
+    int32_t keep, counted;
+} blend_item;
+
+typedef struct blend_ctx {
+    struct gs_points_synth *s;
+    int mode;
+    const double *o;
+} blend_ctx;
+
+static gs_err blend_points(void *vctx, size_t lo, size_t hi, void *vout)
 {
-    const gs_points_params *p = &s->p;
+    const blend_ctx *c = vctx;
+    struct gs_points_synth *s = c->s;
+    blend_item *out = vout;
+    const double *o = c->o;
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
-    double R = p->mls_radius;
-    s->Fb.n = 0;
-    double resid = 0;
-    size_t nres = 0;
-    for (size_t i = 0; i < s->F.n; i++) {
+    double R = s->p.mls_radius;
+    for (size_t i = lo; i < hi; i++) {
+        blend_item *it = &out[i - lo];
+        memset(it, 0, sizeof *it);
         gs_opoint q = s->F.v[i];
         if (!in_xy(q.p, blo, bhi))
             continue;
-        double t = mode ? blend_weight(s, mode, o, q.p) : 0;
+        double t = c->mode ? blend_weight(s, c->mode, o, q.p) : 0;
         if (t > 0) {
             double y[3], n[3];
             int ok = 0;
-            if (p->ray_blend)
+            if (s->p.ray_blend)
                 GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
             if (!ok) {
                 gs_points_mls_result r;
@@ -627,11 +747,11 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
                 memcpy(n, r.n, sizeof n);
             }
             if (ok) {
-                resid += sqrt(v3_dist2(y, q.p));
-                nres++;
-                for (int c = 0; c < 3; c++) {
-                    q.p[c] = (1 - t) * q.p[c] + t * y[c];
-                    q.n[c] = (1 - t) * q.n[c] + t * n[c];
+                it->resid = sqrt(v3_dist2(y, q.p));
+                it->counted = 1;
+                for (int k = 0; k < 3; k++) {
+                    q.p[k] = (1 - t) * q.p[k] + t * y[k];
+                    q.n[k] = (1 - t) * q.n[k] + t * n[k];
                 }
                 if (v3_normalize(q.n) <= 0)
                     continue;
@@ -639,12 +759,63 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
                     continue;
             }
         }
-        GS_CALL(gs_points_append(&s->Fb, &q, 1));
+        it->q = q;
+        it->keep = 1;
+    }
+    return GS_OK;
+}
+
+static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double o[2],
+                              gs_points_patch_metrics *met)
+{
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    s->Fb.n = 0;
+    if (s->F.n > s->blend_cap) {
+        blend_item *v = gs_realloc(s->blend, s->F.n * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", s->F.n);
+        s->blend = v;
+        s->blend_cap = s->F.n;
+    }
+    blend_ctx bc = {s, mode, o};
+    GS_CALL(par_map(s, s->F.n, sizeof(blend_item), blend_points, &bc, s->blend));
+    /* Assembled in point order: the same sums and order for any split. */
+    double resid = 0;
+    size_t nres = 0;
+    for (size_t i = 0; i < s->F.n; i++) {
+        const blend_item *it = &s->blend[i];
+        if (it->counted) {
+            resid += it->resid;
+            nres++;
+        }
+        if (it->keep)
+            GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
     }
     met->warp_residual = nres ? resid / (double)nres : 0;
     gs_points_grid_remove_xy(s->out, blo, bhi);
     for (size_t i = 0; i < s->Fb.n; i++)
         GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
+    return GS_OK;
+}
+
+/* Query field nodes first + [lo, hi) of the layout (gs_points_range_fn). */
+typedef struct query_ctx {
+    struct gs_points_synth *s;
+    const double *o;
+    size_t first;
+} query_ctx;
+
+static gs_err query_nodes(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    query_ctx *c = vctx;
+    struct gs_points_synth *s = c->s;
+    float *out = vout;
+    for (size_t i = lo; i < hi; i++) {
+        int a, bb, kz;
+        gs_points_layout_node(&s->lay, c->first + i, &a, &bb, &kz);
+        double x[3] = {c->o[0] + a * s->g, c->o[1] + bb * s->g, s->box_lo[2] + kz * s->gz};
+        GS_CALL(gs_points_field_node(s->out, s->p.mls_radius, s->p.trunc, s->reach, x,
+                                     &s->scratch, out + 4 * (i - lo)));
+    }
     return GS_OK;
 }
 
@@ -678,18 +849,19 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
         }
         for (int range = 0; range < 2; range++) {
             size_t b = range ? b1 : b0, e = range ? e1 : e0;
-            for (size_t f = b; f < e; f += 4) {
-                int a, bb, kz;
-                gs_points_layout_node(l, f / 4, &a, &bb, &kz);
-                double x[3] = {o[0] + a * s->g, o[1] + bb * s->g, s->box_lo[2] + kz * s->gz};
-                GS_CALL(gs_points_field_node(s->out, p->mls_radius, p->trunc, s->reach, x,
-                                             &s->scratch, s->query + f));
-            }
+            query_ctx qc = {s, o, b / 4};
+            GS_CALL(par_map(s, (e - b) / 4, 4 * sizeof(float), query_nodes, &qc, s->query + b));
         }
         gs_points_cands local = {0}, all = {0};
-        gs_err err = gs_points_search_local(s->bank, s->query, mode, p->eps, INFINITY, &local);
-        if (err == GS_OK)
-            err = gs_points_search_merge(&local, 1, p->eps, &all);
+        all.best = INFINITY;
+        gs_err err;
+        if (s->search_fn) {
+            err = s->search_fn(s->search_user, s, s->query, mode, p->eps, &all);
+        } else {
+            err = gs_points_search_local(s->bank, s->query, mode, p->eps, INFINITY, &local);
+            if (err == GS_OK)
+                err = gs_points_search_merge(&local, 1, p->eps, &all);
+        }
         if (err == GS_OK) {
             if (all.n == 0)
                 err = gs_error_raise(GS_ERR_INTERNAL, __FILE__, __LINE__, __func__,
@@ -741,52 +913,68 @@ gs_err gs_points_synth_run(gs_points_synth_t s)
 
 /* One Jacobi relaxation pass: tangential repulsion from neighbours closer
  * than 1.5 spacing, then MLS projection back onto the (frozen) surface. */
-static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_points *out)
+typedef struct relax_ctx {
+    struct gs_points_synth *s;
+    const gs_points_grid *g;
+    const gs_opoint *in;
+} relax_ctx;
+
+static gs_err relax_points(void *vctx, size_t lo, size_t hi, void *vout)
 {
-    double R = s->p.mls_radius, sp = s->spacing, rr = 1.5 * sp;
-    gs_points all = {0}, nb = {0};
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_points_grid_collect(g, &all), done);
-    GS_TRY(err, gs_points_reserve(out, out->n + all.n), done);
-    for (size_t i = 0; i < all.n; i++) {
-        gs_opoint q = all.v[i];
-        nb.n = 0;
-        GS_TRY(err, gs_points_grid_query(g, q.p, 1.25 * R, &nb), done);
+    const relax_ctx *c = vctx;
+    double R = c->s->p.mls_radius, sp = c->s->spacing, rr = 1.5 * sp;
+    gs_opoint *out = vout;
+    gs_points *nb = &c->s->scratch;
+    for (size_t i = lo; i < hi; i++) {
+        gs_opoint q = c->in[i];
+        nb->n = 0;
+        GS_CALL(gs_points_grid_query(c->g, q.p, 1.25 * R, nb));
         double push[3] = {0, 0, 0};
-        for (size_t j = 0; j < nb.n; j++) {
-            double d2 = v3_dist2(nb.v[j].p, q.p);
+        for (size_t j = 0; j < nb->n; j++) {
+            double d2 = v3_dist2(nb->v[j].p, q.p);
             if (d2 >= rr * rr || d2 <= 0)
                 continue;
             double d = sqrt(d2), w = (rr - d) / (rr * d);
-            for (int c = 0; c < 3; c++)
-                push[c] += w * (q.p[c] - nb.v[j].p[c]);
+            for (int k = 0; k < 3; k++)
+                push[k] += w * (q.p[k] - nb->v[j].p[k]);
         }
         double pn = v3_dot(push, q.n);
         double x[3];
-        for (int c = 0; c < 3; c++)
-            x[c] = q.p[c] + 0.25 * sp * (push[c] - pn * q.n[c]);
+        for (int k = 0; k < 3; k++)
+            x[k] = q.p[k] + 0.25 * sp * (push[k] - pn * q.n[k]);
         /* Two projection steps with the gathered set (x moved < 0.25 R). */
         double y[3], a[3], n[3];
         memcpy(y, x, sizeof y);
         int ok = 1;
         for (int it = 0; it < 2 && ok; it++) {
-            if (gs_points_mls_frame(&nb, R, y, a, n) <= 0) {
+            if (gs_points_mls_frame(nb, R, y, a, n) <= 0) {
                 ok = 0;
                 break;
             }
             double d = (x[0] - a[0]) * n[0] + (x[1] - a[1]) * n[1] + (x[2] - a[2]) * n[2];
-            for (int c = 0; c < 3; c++)
-                y[c] = x[c] - d * n[c];
+            for (int k = 0; k < 3; k++)
+                y[k] = x[k] - d * n[k];
         }
         if (ok && v3_dot(n, q.n) > 0) {
             memcpy(q.p, y, sizeof y);
             memcpy(q.n, n, sizeof n);
         }
-        out->v[out->n++] = q;
+        out[i - lo] = q;
     }
+    return GS_OK;
+}
+
+static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_points *out)
+{
+    gs_points all = {0};
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_points_grid_collect(g, &all), done);
+    GS_TRY(err, gs_points_reserve(out, out->n + all.n), done);
+    relax_ctx rc = {s, g, all.v};
+    GS_TRY(err, par_map(s, all.n, sizeof(gs_opoint), relax_points, &rc, out->v + out->n), done);
+    out->n += all.n;
 done:
     gs_points_free(&all);
-    gs_points_free(&nb);
     return err;
 }
 
@@ -860,8 +1048,16 @@ void gs_points_synth_state_free(gs_points_synth_state *st)
 gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
                               const gs_points_synth_state *st, gs_points_synth_t *out)
 {
+    GS_CALL(gs_points_synth_resume_share(tex, p, NULL, st, out));
+    return GS_OK;
+}
+
+gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_points_params *p,
+                                    const gs_points_synth_share *share,
+                                    const gs_points_synth_state *st, gs_points_synth_t *out)
+{
     gs_points_synth_t s = NULL;
-    GS_CALL(gs_points_synth_create(tex, p, &s));
+    GS_CALL(gs_points_synth_create_share(tex, p, share, &s));
     gs_err err = GS_OK;
     GS_TRY_CHECK(err, st->cursor <= s->total, GS_ERR_ARG, fail,
                  "points: saved cursor %llu is beyond the %llu patches of this configuration",

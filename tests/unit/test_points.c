@@ -14,6 +14,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/points.h"
 #include "geosynth/rng.h"
+#include "points/points_impl.h"
 
 static void random_points(gs_points *s, size_t n, uint64_t seed)
 {
@@ -95,6 +96,49 @@ static void sphere_points(gs_points *s, int n, double rad)
         double p[3] = {rad * nn[0], rad * nn[1], rad * nn[2]};
         assert_int_equal(gs_points_push(s, p, nn), GS_OK);
     }
+}
+
+/* The ring search of gs_points_grid_nearest equals brute force: smallest
+ * distance within the reach, ties to the first point in query order. */
+static void test_grid_nearest_vs_brute_force(void **state)
+{
+    (void)state;
+    gs_points pts = {0}, scratch = {0};
+    random_points(&pts, 2000, 11);
+    for (size_t i = 0; i < 200; i++) { /* exact duplicates: ties */
+        gs_opoint dup = pts.v[i * 7]; /* a copy: appending may move pts.v */
+        assert_int_equal(gs_points_append(&pts, &dup, 1), GS_OK);
+    }
+    double lo[3] = {0, 0, 0}, hi[3] = {8, 8, 3};
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.45, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    gs_rng r;
+    gs_rng_init(&r, 4, 4);
+    for (int t = 0; t < 400; t++) {
+        double c[3] = {gs_rng_uniform(&r) * 14 - 3, gs_rng_uniform(&r) * 12 - 2,
+                       gs_rng_uniform(&r) * 9 - 3};
+        if (t % 5 == 0) /* right on a sample: distance 0 and its duplicate */
+            memcpy(c, pts.v[(t * 7) % 1400].p, sizeof c);
+        double reach = 0.05 + 4 * gs_rng_uniform(&r);
+        gs_opoint got;
+        int found;
+        assert_int_equal(gs_points_grid_nearest(g, c, reach, &scratch, &got, &found), GS_OK);
+        /* reference: the first minimum of a full query in query order */
+        scratch.n = 0;
+        assert_int_equal(gs_points_grid_query(g, c, reach, &scratch), GS_OK);
+        size_t best = 0;
+        for (size_t i = 1; i < scratch.n; i++)
+            if (v3_dist2(scratch.v[i].p, c) < v3_dist2(scratch.v[best].p, c))
+                best = i;
+        assert_int_equal(found, scratch.n > 0);
+        if (found)
+            assert_memory_equal(&got, &scratch.v[best], sizeof got);
+    }
+    gs_points_grid_destroy(&g);
+    gs_points_free(&pts);
+    gs_points_free(&scratch);
 }
 
 static void test_mls_projection_plane_sphere(void **state)
@@ -293,6 +337,33 @@ static void test_generators_and_padding_check(void **state)
     }
 }
 
+/* A running (1 + eps) * best threshold, as gs_psearch_within keeps it. */
+typedef struct scan_acc {
+    gs_points_cands c;
+    double best, eps;
+} scan_acc;
+
+static double scan_bound(void *user)
+{
+    scan_acc *a = user;
+    return (1.0 + a->eps) * a->best;
+}
+
+static void scan_offer(void *user, double d, uint64_t index)
+{
+    scan_acc *a = user;
+    assert_true(d <= scan_bound(user));
+    if (a->c.n == a->c.cap) {
+        a->c.cap = a->c.cap ? 2 * a->c.cap : 64;
+        a->c.v = gs_realloc(a->c.v, a->c.cap * sizeof *a->c.v);
+        assert_non_null(a->c.v);
+    }
+    a->c.v[a->c.n].dist = d;
+    a->c.v[a->c.n++].index = index;
+    if (d < a->best)
+        a->best = d;
+}
+
 static void test_search_partition_matches_serial(void **state)
 {
     (void)state;
@@ -342,6 +413,35 @@ static void test_search_partition_matches_serial(void **state)
             assert_true(merged.v[i].dist == ser_sorted.v[i].dist);
             assert_true(merged.v[i].dist <= 7.0 * merged.v[0].dist);
         }
+        /* Bounded scans (the gs_psearch callback path) with one running
+         * threshold (1 + eps) * best over the shares: same list again. */
+        scan_acc acc = {{0}, INFINITY, 6.0};
+        for (int s = 0; s < 3; s++) {
+            gs_points_bank_t b = NULL;
+            assert_int_equal(gs_points_bank_create(field, nx, ny, &l, cut[s], cut[s + 1] - cut[s], &b),
+                             GS_OK);
+            size_t f0, fc;
+            gs_points_bank_share(b, &f0, &fc);
+            assert_int_equal(f0, cut[s]);
+            assert_int_equal(fc, cut[s + 1] - cut[s]);
+            assert_int_equal(gs_points_search_scan(b, q, mode, f0, f0 + fc, scan_bound, scan_offer, &acc),
+                             GS_OK);
+            /* A range outside the share is refused. */
+            assert_int_equal(gs_points_search_scan(b, q, mode, f0, f0 + fc + 1, scan_bound, scan_offer,
+                                                   &acc), GS_ERR_ARG);
+            gs_error_clear();
+            gs_points_bank_destroy(&b);
+        }
+        gs_points_cands scanned = {0};
+        assert_int_equal(gs_points_search_merge(&acc.c, 1, 6.0, &scanned), GS_OK);
+        assert_true(acc.c.n >= scanned.n);
+        assert_int_equal(scanned.n, ser_sorted.n);
+        for (size_t i = 0; i < scanned.n; i++) {
+            assert_true(scanned.v[i].index == ser_sorted.v[i].index);
+            assert_true(scanned.v[i].dist == ser_sorted.v[i].dist);
+        }
+        gs_points_cands_free(&scanned);
+        gs_free(acc.c.v);
         gs_rng pick;
         gs_rng_init(&pick, 1, 1);
         uint64_t c = gs_points_search_pick(&merged, &pick);
@@ -361,6 +461,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_grid_vs_brute_force),
+        cmocka_unit_test(test_grid_nearest_vs_brute_force),
         cmocka_unit_test(test_mls_projection_plane_sphere),
         cmocka_unit_test(test_tps_interpolates_and_affine),
         cmocka_unit_test(test_generators_and_padding_check),

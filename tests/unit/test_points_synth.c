@@ -7,6 +7,7 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/digest.h"
@@ -147,6 +148,111 @@ static void test_density_and_metrics(void **state)
     gs_points_synth_destroy(&s);
 }
 
+/* Two synthesizers holding the two halves of the bank; the first one's
+ * search hook scans both halves with one running threshold (what the
+ * distributed search does over ranks). */
+typedef struct split_ctx {
+    const gs_points_bank *banks[2];
+    gs_points_cands *out;
+    double eps;
+    int calls;
+} split_ctx;
+
+static double split_bound(void *user)
+{
+    split_ctx *c = user;
+    return (1.0 + c->eps) * c->out->best;
+}
+
+static void split_offer(void *user, double d, uint64_t index)
+{
+    split_ctx *c = user;
+    gs_points_cands *o = c->out;
+    if (o->n == o->cap) {
+        o->cap = o->cap ? 2 * o->cap : 64;
+        o->v = realloc(o->v, o->cap * sizeof *o->v);
+    }
+    o->v[o->n].dist = d;
+    o->v[o->n++].index = index;
+    if (d < o->best)
+        o->best = d;
+}
+
+static gs_err split_search(void *user, const gs_points_synth *s, const float *query, int mode,
+                           double eps, gs_points_cands *out)
+{
+    (void)s;
+    split_ctx *c = user;
+    gs_points_cands raw = {0};
+    raw.best = INFINITY;
+    c->out = &raw;
+    c->eps = eps;
+    c->calls++;
+    for (int h = 1; h >= 0; h--) { /* second half first: order must not matter */
+        size_t f, n;
+        gs_points_bank_share(c->banks[h], &f, &n);
+        GS_CALL(gs_points_search_scan(c->banks[h], query, mode, f, f + n, split_bound, split_offer, c));
+    }
+    gs_err err = gs_points_search_merge(&raw, 1, eps, out);
+    free(raw.v);
+    return err;
+}
+
+/* A map hook that computes items in three uneven pieces, last piece first
+ * (as three processes would): the result must not depend on it. */
+static int map_calls;
+static gs_err uneven_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
+                         void *out)
+{
+    (void)user;
+    map_calls++;
+    size_t cut[4] = {0, n / 7, n / 7 + (n + 1) / 2, n};
+    if (cut[2] > n)
+        cut[2] = n;
+    for (int k = 2; k >= 0; k--)
+        if (cut[k + 1] > cut[k])
+            GS_CALL(fn(ctx, cut[k], cut[k + 1], (char *)out + cut[k] * bytes));
+    return GS_OK;
+}
+
+static void test_split_bank_matches_serial(void **state)
+{
+    (void)state;
+    gs_points serial = {0}, split = {0};
+    uint64_t d_serial = synthesize(4, &serial);
+    gs_points_params p = params;
+    p.seed = 4;
+    size_t np = 0;
+    assert_int_equal(gs_points_patch_count(&tex, &p, &np), GS_OK);
+    assert_true(np > 10);
+    split_ctx ctx = {{NULL, NULL}, NULL, 0, 0};
+    gs_points_synth_share a = {.first = 0, .count = np / 3, .fn = split_search, .user = &ctx,
+                               .map = uneven_map, .map_user = NULL};
+    gs_points_synth_share b = {.first = np / 3, .count = np - np / 3, .fn = split_search,
+                               .user = &ctx};
+    gs_points_synth_t sa = NULL, sb = NULL;
+    assert_int_equal(gs_points_synth_create_share(&tex, &p, &a, &sa), GS_OK);
+    assert_int_equal(gs_points_synth_create_share(&tex, &p, &b, &sb), GS_OK);
+    assert_int_equal(gs_points_synth_input_patches(sa), np);
+    ctx.banks[0] = gs_points_synth_bank(sa);
+    ctx.banks[1] = gs_points_synth_bank(sb);
+    assert_int_equal(gs_points_synth_run(sa), GS_OK);
+    assert_true(ctx.calls > 0);
+    assert_true(map_calls > 3 * ctx.calls); /* query nodes, warp, blend per patch */
+    assert_int_equal(gs_points_synth_finish(sa, &split), GS_OK);
+    assert_true(gs_points_digest(&split) == d_serial);
+    /* A share without a hook is refused (it would search only part). */
+    gs_points_synth_share nohook = {.first = 0, .count = np / 2};
+    gs_points_synth_t sc = NULL;
+    assert_int_equal(gs_points_synth_create_share(&tex, &p, &nohook, &sc), GS_ERR_ARG);
+    assert_null(sc);
+    gs_error_clear();
+    gs_points_synth_destroy(&sa);
+    gs_points_synth_destroy(&sb);
+    gs_points_free(&serial);
+    gs_points_free(&split);
+}
+
 static void test_bad_parameters(void **state)
 {
     (void)state;
@@ -175,6 +281,7 @@ int main(void)
         cmocka_unit_test(test_deterministic_by_seed),
         cmocka_unit_test(test_resume_is_identical),
         cmocka_unit_test(test_density_and_metrics),
+        cmocka_unit_test(test_split_bank_matches_serial),
         cmocka_unit_test(test_bad_parameters),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

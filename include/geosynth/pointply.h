@@ -1,0 +1,61 @@
+/* Oriented point sets in PLY files: vertices with x y z and normals nx ny nz,
+ * no faces needed (gs_mesh_read goes through assimp, which rejects PLY files
+ * without faces).
+ *
+ * Reading: "format ascii 1.0" and "format binary_little_endian 1.0" (big
+ * endian is refused with a clear message). The "vertex" element must have
+ * properties x, y, z; nx, ny, nz (or normal_x, normal_y, normal_z) are read
+ * when present. Property types char/uchar/short/ushort/int/uint/float/double
+ * (and the int8..float64 spellings); other vertex properties, list
+ * properties and other elements (faces, edges, before or after the
+ * vertices) are skipped. Values are converted to double exactly. Numbers in
+ * ASCII files are parsed with include/geosynth/parse.h.
+ *
+ * Layout of the result: v[6*i .. 6*i+5] = x y z nx ny nz of vertex i (the
+ * same layout as gs_opoint in points.h). Normals are rescaled to unit length.
+ *
+ * Errors (all name the file): missing/unreadable file GS_ERR_IO; anything
+ * wrong with the content GS_ERR_FORMAT, with the header line number ("line
+ * 4: unknown property type 'float128'"), the ASCII data line, or for binary
+ * data the byte offset and vertex ("byte 1234: file ends inside vertex 55
+ * of 100"). Non-finite coordinates, and zero or non-finite normals when
+ * normals are required, name the vertex. A file without normals when
+ * require_normals != 0: GS_ERR_FORMAT "... has no normals (nx ny nz):
+ * oriented points are needed".
+ *
+ * Writing: atomic (path.tmp + rename); binary little endian with double
+ * properties (the values round-trip bit for bit) or ASCII with 17
+ * significant digits (also exact). Memory: the reader holds the whole file
+ * plus 48 bytes per vertex.
+ */
+#ifndef GEOSYNTH_POINTPLY_H
+#define GEOSYNTH_POINTPLY_H
+
+#include <stddef.h>
+
+#include "geosynth/error.h"
+
+#define GS_POINTPLY_MAX_POINTS ((size_t)1 << 31)
+
+typedef struct gs_pointply {
+    size_t n;        /* vertices */
+    double *v;       /* 6 * n doubles: x y z nx ny nz (gs_malloc) */
+    int has_normals; /* 0: the file had none (normals are 0 then) */
+} gs_pointply;
+
+/* Reads path (see above). On error *out is zeroed. */
+gs_err gs_pointply_read(const char *path, int require_normals, gs_pointply *out);
+/* The same over a file image in memory (name is used in messages). */
+gs_err gs_pointply_parse(const char *data, size_t len, const char *name, int require_normals,
+                         gs_pointply *out);
+/* Frees v and zeroes *p. Safe on a zeroed struct. */
+void gs_pointply_destroy(gs_pointply *p);
+
+typedef enum gs_pointply_format { GS_POINTPLY_BINARY = 0, GS_POINTPLY_ASCII = 1 } gs_pointply_format;
+
+/* Writes n points from v (6 doubles each as above; normals written when
+ * with_normals != 0) atomically. */
+gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_normals,
+                         gs_pointply_format format);
+
+#endif

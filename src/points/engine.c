@@ -1,0 +1,1016 @@
+/* The `points` engine: patch-based synthesis of geometry textures on
+ * point-set surfaces (Duranleau and Poulin) behind `geosynth points -c X.ini`.
+ *
+ * Input (section [input]): an oriented point set (PLY with normals), a
+ * triangle mesh sampled uniformly (Poisson disk), or one of the paper's
+ * generated examples (height field from an image, chain mail, weave,
+ * flowers). User geometry comes with its box B_Tin (input.box_lo/box_hi) and
+ * the axis normal to its reference plane (input.up); the core works with z
+ * up, so points are permuted cyclically to z-up and back for the output.
+ *
+ * Parallel model: every rank holds the whole synthesis state (output point
+ * grid, RNG, metrics) and does the same deterministic steps; the search over
+ * the input patches is distributed: each rank's patch bank holds only its
+ * share [lo, hi) of gs_psearch's partition, and gs_psearch_within gathers
+ * every candidate under (1 + eps) * global best, sorted by (distance,
+ * index), on every rank. Each patch's distance is summed in a fixed order
+ * independent of the partition, so Psi_k, the random pick and therefore the
+ * output are bit-identical for any rank count.
+ *
+ * Rank 0 reads/generates the example and broadcasts it. Work units for
+ * checkpoints are placed patches; checkpoint.h5 holds /points: cursor, RNG
+ * state, the output points (bucket order), the per-patch metrics, and the
+ * digest of the example (a resume refuses a changed example).
+ *
+ * Outputs in RUN_DIR: points.ply (x y z nx ny nz, doubles), optionally
+ * mesh.ply (implicit function of the points on a dense grid, contoured by
+ * OpenVDB), patches.csv (per-patch metrics); summary.json metrics: search
+ * distances, warp residual, densities, search/warp/blend/other/relax times.
+ */
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/config.h"
+#include "geosynth/digest.h"
+#include "geosynth/engine.h"
+#include "geosynth/file.h"
+#include "geosynth/h5.h"
+#include "geosynth/image.h"
+#include "geosynth/json.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/mesh.h"
+#include "geosynth/par.h"
+#include "geosynth/pointply.h"
+#include "geosynth/points.h"
+#include "geosynth/psearch.h"
+#include "geosynth/run.h"
+#include "geosynth/vdb.h"
+
+_Static_assert(sizeof(gs_opoint) == 6 * sizeof(double), "gs_opoint must be 6 packed doubles");
+
+typedef struct points_config {
+    /* [input] */
+    char *kind;
+    char *path;
+    gs_cfg_real_list size;
+    int64_t cells;
+    double spacing;
+    double height_scale;
+    double pad;
+    gs_cfg_real_list box_lo, box_hi;
+    char *up;
+    int64_t input_seed;
+    /* [points] */
+    gs_cfg_real_list out_size;
+    double out_points;
+    double field_step;
+    int64_t patch_cells, overlap_cells, extra_cells;
+    double mls_radius, trunc, eps, warp_margin;
+    double w_p, w_n, w_v, w_l, w_d;
+    double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
+    int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
+    double tps_lambda;
+    int ray_blend;
+    /* [output] */
+    int write_points;
+    char *ply_format;
+    int patch_csv;
+    int mesh;
+    double mesh_voxel;
+    double mesh_max_samples;
+    gs_run_config run;
+} points_config;
+
+#define PC points_config
+static const gs_cfg_key points_keys[] = {
+    GS_CFG_KEY_ENUM(PC, kind, "input.kind", "heightfield|chainmail|weave|flowers|ply|mesh",
+                    "chainmail",
+                    "example: a generated texture of the paper's kinds, an oriented point set "
+                    "(ply) or a triangle mesh sampled uniformly (mesh)"),
+    GS_CFG_KEY_PATH(PC, path, "input.path", "",
+                    "ply: PLY with x y z nx ny nz; mesh: OBJ/PLY/STL/OFF; heightfield: "
+                    "grey image (PNG/JPEG)"),
+    GS_CFG_KEY_REAL_LIST(PC, size, "input.size", 0, 1e6, GS_CFG_OPEN_LO, "4, 4",
+                         "generated examples: box extent along x and y"),
+    GS_CFG_KEY_INT(PC, cells, "input.cells", 1, 64, 0, "4",
+                   "generated examples: lattice cells (rings, threads, flower spacing) across x"),
+    GS_CFG_KEY_REAL(PC, spacing, "input.spacing", 0, 1e6, 0, "0.033",
+                    "sampling spacing (Poisson-disk radius) of generated and mesh examples; "
+                    "ply: 0 = estimate from the points"),
+    GS_CFG_KEY_REAL(PC, height_scale, "input.height_scale", -1e6, 1e6, 0, "0.6",
+                    "heightfield: height of a white pixel"),
+    GS_CFG_KEY_REAL(PC, pad, "input.pad", 0, 1e6, 0, "0",
+                    "generated examples: geometry beyond every side of the box (0 = 1.2 x what "
+                    "the parameters need)"),
+    GS_CFG_KEY_REAL_LIST(PC, box_lo, "input.box_lo", -1e300, 1e300, 0, "",
+                         "ply/mesh: low corner x y z of the box B_Tin (geometry must continue "
+                         "past its sides)"),
+    GS_CFG_KEY_REAL_LIST(PC, box_hi, "input.box_hi", -1e300, 1e300, 0, "",
+                         "ply/mesh: high corner x y z of the box B_Tin"),
+    GS_CFG_KEY_ENUM(PC, up, "input.up", "x|y|z", "z",
+                    "ply/mesh: axis normal to the reference plane (the texture's height axis)"),
+    GS_CFG_KEY_INT(PC, input_seed, "input.seed", 0, GS_CFG_INT_MAX, 0, "2007",
+                   "seed of the example's generation or mesh sampling (run.seed drives synthesis)"),
+    GS_CFG_KEY_REAL_LIST(PC, out_size, "points.out_size", 0, 1e6, GS_CFG_OPEN_LO, "",
+                         "output extent along the two plane axes (empty = from out_points, or "
+                         "2 x the box)"),
+    GS_CFG_KEY_REAL(PC, out_points, "points.out_points", 0, 1e9, 0, "0",
+                    "wanted output points: scales the box so the output holds about this many "
+                    "(0 = use out_size)"),
+    GS_CFG_KEY_REAL(PC, field_step, "points.field_step", 0, 1e6, 0, "0",
+                    "node spacing of the distance fields D (0 = max(1.5 spacing, box/40))"),
+    GS_CFG_KEY_INT(PC, patch_cells, "points.patch_cells", 0, 1024, 0, "0",
+                   "patch edge in field steps (0 = 0.4 x box side)"),
+    GS_CFG_KEY_INT(PC, overlap_cells, "points.overlap_cells", 0, 1023, 0, "0",
+                   "overlap strip width in field steps (0 = patch/4)"),
+    GS_CFG_KEY_INT(PC, extra_cells, "points.extra_cells", 0, 1024, 0, "0",
+                   "extra region w_E in field steps (0 = patch/4 rounded up)"),
+    GS_CFG_KEY_REAL(PC, mls_radius, "points.mls_radius", 0, 1e6, 0, "0",
+                    "radius of the MLS weights (0 = 3 spacing)"),
+    GS_CFG_KEY_REAL(PC, trunc, "points.trunc", 0, 1e6, 0, "0",
+                    "distance truncation of the fields (0 = 2 field steps)"),
+    GS_CFG_KEY_REAL(PC, eps, "points.eps", 0, 100, 0, "0.1",
+                    "candidate tolerance: patches within (1 + eps) x best are picked at random"),
+    GS_CFG_KEY_REAL(PC, warp_margin, "points.warp_margin", 0, 1e6, 0, "0",
+                    "extension of F_k before warping (0 = max(3 spacing, field step))"),
+    GS_CFG_KEY_REAL(PC, w_p, "points.w_p", 0, 1e6, 0, "1", "pairing weight of positions (eq. 2)"),
+    GS_CFG_KEY_REAL(PC, w_n, "points.w_n", 0, 1e6, 0, "1", "pairing weight of normals (table 1)"),
+    GS_CFG_KEY_REAL(PC, w_v, "points.w_v", 0, 1e6, 0, "10",
+                    "pairing weight of surface variation (table 1)"),
+    GS_CFG_KEY_REAL(PC, w_l, "points.w_l", 0, 1e6, 0, "8", "pairing weight w_l (table 1)"),
+    GS_CFG_KEY_REAL(PC, w_d, "points.w_d", 0, 1e6, 0, "6", "pairing weight w_d (table 1)"),
+    GS_CFG_KEY_REAL(PC, max_pair_dist, "points.max_pair_dist", 0, 1e6, 0, "0",
+                    "largest pair distance (0 = max(3 spacing, overlap/2))"),
+    GS_CFG_KEY_REAL(PC, max_normal, "points.max_normal", 0, 1, 0, "0.5",
+                    "largest normal difference (1 - n.n)/2 of a pair"),
+    GS_CFG_KEY_REAL(PC, max_variation, "points.max_variation", 0, 1, 0, "0.1",
+                    "largest surface-variation difference of a pair"),
+    GS_CFG_KEY_REAL(PC, coherence_sigma, "points.coherence_sigma", 0, 1e6, 0, "0",
+                    "width of the pairing coherence term (0 = overlap/2)"),
+    GS_CFG_KEY_REAL(PC, variation_radius, "points.variation_radius", 0, 1e6, 0, "0",
+                    "radius of the surface variation (0 = 2.5 spacing)"),
+    GS_CFG_KEY_INT(PC, greedy_iterations, "points.greedy_iterations", 0, 100, 0, "3",
+                   "greedy improvement passes of the pairing"),
+    GS_CFG_KEY_INT(PC, cluster_max, "points.cluster_max", 1, 100000, 0, "12",
+                   "points per cluster of the target set Q (at least)"),
+    GS_CFG_KEY_INT(PC, max_pairs, "points.max_pairs", 4, 5000, 0, "48",
+                   "clusters grow so |Q| stays near this (thin-plate spline size)"),
+    GS_CFG_KEY_INT(PC, relax_iterations, "points.relax_iterations", 0, 100, 0, "1",
+                   "relaxation passes over the output at the end"),
+    GS_CFG_KEY_REAL(PC, tps_lambda, "points.tps_lambda", 0, 1e6, 0, "0",
+                    "thin-plate spline smoothing (0 = interpolate)"),
+    GS_CFG_KEY_BOOL(PC, ray_blend, "points.ray_blend", "true",
+                    "blend by ray intersection (paper fig. 3d); false = projection"),
+    GS_CFG_KEY_BOOL(PC, write_points, "output.points", "true", "write RUN_DIR/points.ply"),
+    GS_CFG_KEY_ENUM(PC, ply_format, "output.ply_format", "binary|ascii", "binary",
+                    "points.ply encoding (both exact: doubles / 17 digits)"),
+    GS_CFG_KEY_BOOL(PC, patch_csv, "output.patch_metrics", "true",
+                    "write RUN_DIR/patches.csv (per-patch search distance, warp residual, ...)"),
+    GS_CFG_KEY_BOOL(PC, mesh, "output.mesh", "false",
+                    "also write RUN_DIR/mesh.ply (points -> implicit grid -> OpenVDB mesh)"),
+    GS_CFG_KEY_REAL(PC, mesh_voxel, "output.mesh_voxel", 0.1, 100, 0, "1",
+                    "mesh grid voxel in units of the input spacing"),
+    GS_CFG_KEY_REAL(PC, mesh_max_samples, "output.mesh_max_samples", 1e3, 4e9, 0, "2e8",
+                    "refuse a mesh grid with more samples than this (4 bytes each + 16 scratch)"),
+    GS_CFG_RUN_KEYS(PC, run, "points"),
+};
+#undef PC
+
+static int kind_is(const points_config *c, const char *k) { return !strcmp(c->kind, k); }
+
+static void points_validate(const void *vcfg, gs_cfg_ctx *ctx)
+{
+    const points_config *c = vcfg;
+    int user = kind_is(c, "ply") || kind_is(c, "mesh");
+    if ((user || kind_is(c, "heightfield")) && !c->path[0])
+        gs_cfg_report(ctx, "input.path", "is required for input.kind = %s", c->kind);
+    if (user) {
+        if (c->box_lo.n != 3)
+            gs_cfg_report(ctx, "input.box_lo", "needs 3 numbers (x y z) for input.kind = %s, got %lld",
+                          c->kind, (long long)c->box_lo.n);
+        if (c->box_hi.n != 3)
+            gs_cfg_report(ctx, "input.box_hi", "needs 3 numbers (x y z) for input.kind = %s, got %lld",
+                          c->kind, (long long)c->box_hi.n);
+        if (c->box_lo.n == 3 && c->box_hi.n == 3)
+            for (int a = 0; a < 3; a++)
+                if (!(c->box_hi.v[a] > c->box_lo.v[a]) && !(a == (c->up[0] - 'x') &&
+                                                             c->box_hi.v[a] >= c->box_lo.v[a]))
+                    gs_cfg_report(ctx, "input.box_hi", "must exceed input.box_lo on axis %c "
+                                  "(%g <= %g)", 'x' + a, c->box_hi.v[a], c->box_lo.v[a]);
+    } else {
+        if (c->size.n != 2)
+            gs_cfg_report(ctx, "input.size", "needs 2 numbers (x y), got %lld", (long long)c->size.n);
+        if (c->spacing <= 0)
+            gs_cfg_report(ctx, "input.spacing", "must be > 0 for generated examples");
+    }
+    if (kind_is(c, "mesh") && c->spacing <= 0)
+        gs_cfg_report(ctx, "input.spacing", "must be > 0 to sample a mesh");
+    if (c->out_size.n != 0 && c->out_size.n != 2)
+        gs_cfg_report(ctx, "points.out_size", "needs 2 numbers or none, got %lld",
+                      (long long)c->out_size.n);
+    if (c->out_size.n && c->out_points > 0)
+        gs_cfg_report(ctx, "points.out_points", "and points.out_size both set: give one of them");
+    if (c->patch_cells && c->overlap_cells && c->overlap_cells >= c->patch_cells)
+        gs_cfg_report(ctx, "points.overlap_cells", "must be below points.patch_cells = %lld",
+                      (long long)c->patch_cells);
+    if (c->patch_cells && c->patch_cells < 3)
+        gs_cfg_report(ctx, "points.patch_cells", "must be 0 (auto) or >= 3");
+}
+
+static const gs_cfg_table points_table =
+    GS_CFG_TABLE("points", points_config, points_keys, points_validate);
+
+/* ------------------------------------------------------------------ input */
+
+static int up_axis(const points_config *c) { return c->up[0] - 'x'; }
+
+/* Core parameters from the config; scale-dependent zeros from the box and
+ * spacing (gs_points_params_complete). out_size left 0 when out_points is
+ * used (set later from the example's density). */
+static void params_from_config(const points_config *c, double lx, double ly, double spacing,
+                               gs_points_params *p)
+{
+    memset(p, 0, sizeof *p);
+    if (c->out_size.n == 2) {
+        p->out_size[0] = c->out_size.v[0];
+        p->out_size[1] = c->out_size.v[1];
+    }
+    p->field_step = c->field_step;
+    p->patch_cells = (int)c->patch_cells;
+    p->overlap_cells = (int)c->overlap_cells;
+    p->extra_cells = (int)c->extra_cells;
+    p->mls_radius = c->mls_radius;
+    p->trunc = c->trunc;
+    p->eps = c->eps;
+    p->warp_margin = c->warp_margin;
+    p->w_p = c->w_p;
+    p->w_n = c->w_n;
+    p->w_v = c->w_v;
+    p->w_l = c->w_l;
+    p->w_d = c->w_d;
+    p->max_pair_dist = c->max_pair_dist;
+    p->max_normal = c->max_normal;
+    p->max_variation = c->max_variation;
+    p->coherence_sigma = c->coherence_sigma;
+    p->greedy_iterations = (int)c->greedy_iterations;
+    p->cluster_max = (int)c->cluster_max;
+    p->max_pairs = (int)c->max_pairs;
+    p->variation_radius = c->variation_radius;
+    p->tps_lambda = c->tps_lambda;
+    p->ray_blend = c->ray_blend;
+    p->relax_iterations = (int)c->relax_iterations;
+    p->seed = (uint64_t)c->run.seed;
+    gs_points_params_complete(lx, ly, spacing, p);
+}
+
+static gs_err read_heightmap(const char *path, int *w, int *h, float **out)
+{
+    gs_image img;
+    GS_CALL(gs_image_read(path, &img));
+    float *gray = NULL, *flip = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_image_to_gray(&img, &gray), done);
+    GS_TRY(err, gs_alloc_array((void **)&flip, (size_t)img.width * img.height, sizeof *flip,
+                               "height field"), done);
+    /* Image row 0 is the top; the generator's row 0 is at y low. */
+    for (int y = 0; y < img.height; y++)
+        memcpy(flip + (size_t)y * img.width, gray + (size_t)(img.height - 1 - y) * img.width,
+               (size_t)img.width * sizeof *flip);
+    *w = img.width;
+    *h = img.height;
+    *out = flip;
+    flip = NULL;
+done:
+    gs_free(gray);
+    gs_free(flip);
+    gs_image_destroy(&img);
+    return err;
+}
+
+/* Rank 0: builds the example texture (z up) from the config. */
+static gs_err build_texture(const points_config *c, gs_points_texture *tex)
+{
+    memset(tex, 0, sizeof *tex);
+    if (kind_is(c, "ply") || kind_is(c, "mesh")) {
+        int up = up_axis(c);
+        gs_err err = GS_OK;
+        if (kind_is(c, "ply")) {
+            gs_pointply ply;
+            GS_CALL(gs_pointply_read(c->path, 1, &ply));
+            err = gs_points_append(&tex->pts, (const gs_opoint *)ply.v, ply.n);
+            gs_pointply_destroy(&ply);
+            GS_CALL(err);
+        } else {
+            gs_mesh m;
+            GS_CALL(gs_mesh_read(c->path, &m));
+            err = gs_points_sample_mesh(m.pos, m.nverts, m.tris, m.ntris, c->spacing,
+                                        (uint64_t)c->input_seed, c->path, &tex->pts);
+            gs_mesh_destroy(&m);
+            if (err != GS_OK) {
+                gs_points_free(&tex->pts);
+                GS_CALL(err);
+            }
+        }
+        gs_points_permute_to_z(&tex->pts, up);
+        memcpy(tex->box_lo, c->box_lo.v, sizeof tex->box_lo);
+        memcpy(tex->box_hi, c->box_hi.v, sizeof tex->box_hi);
+        gs_points_permute_vec_to_z(tex->box_lo, up);
+        gs_points_permute_vec_to_z(tex->box_hi, up);
+        tex->spacing = c->spacing;
+        if (tex->spacing <= 0) {
+            err = gs_points_estimate_spacing(&tex->pts, &tex->spacing);
+            if (err != GS_OK) {
+                gs_error_add_context("while estimating the spacing of %s (set input.spacing)",
+                                     c->path);
+                gs_points_texture_free(tex);
+                GS_CALL(err);
+            }
+        }
+        return GS_OK;
+    }
+    /* Generated examples: box [0, size], padding from the parameters. */
+    gs_points_params p;
+    params_from_config(c, c->size.v[0], c->size.v[1], c->spacing, &p);
+    double pad = c->pad > 0 ? c->pad : 1.2 * gs_points_params_padding(&p);
+    gs_points_gen_params gp = {{c->size.v[0], c->size.v[1]}, pad, c->spacing,
+                               (uint64_t)c->input_seed};
+    if (kind_is(c, "heightfield")) {
+        int w, h;
+        float *img = NULL;
+        GS_CALL(read_heightmap(c->path, &w, &h, &img));
+        gs_err err = gs_points_gen_heightfield(&gp, w, h, NULL, img, c->height_scale, tex);
+        gs_free(img);
+        GS_CALL(err);
+    } else if (kind_is(c, "chainmail")) {
+        GS_CALL(gs_points_gen_chainmail(&gp, (int)c->cells, tex));
+    } else if (kind_is(c, "weave")) {
+        GS_CALL(gs_points_gen_weave(&gp, (int)c->cells, tex));
+    } else {
+        GS_CALL(gs_points_gen_flowers(&gp, (int)c->cells, tex));
+    }
+    return GS_OK;
+}
+
+/* Collective: rank 0's texture to every rank. */
+static gs_err bcast_texture(MPI_Comm comm, int rank, gs_points_texture *tex)
+{
+    double hdr[8] = {0};
+    if (rank == 0) {
+        hdr[0] = (double)tex->pts.n;
+        memcpy(hdr + 1, tex->box_lo, 3 * sizeof *hdr);
+        memcpy(hdr + 4, tex->box_hi, 3 * sizeof *hdr);
+        hdr[7] = tex->spacing;
+    }
+    GS_MPI(MPI_Bcast(hdr, 8, MPI_DOUBLE, 0, comm));
+    size_t n = (size_t)hdr[0];
+    if (rank != 0) {
+        memset(tex, 0, sizeof *tex);
+        memcpy(tex->box_lo, hdr + 1, 3 * sizeof *hdr);
+        memcpy(tex->box_hi, hdr + 4, 3 * sizeof *hdr);
+        tex->spacing = hdr[7];
+        GS_CALL(gs_points_reserve(&tex->pts, n));
+        tex->pts.n = n;
+    }
+    /* In chunks of at most 2^27 doubles (MPI counts are int). */
+    double *d = (double *)tex->pts.v;
+    size_t total = 6 * n, chunk = (size_t)1 << 27;
+    for (size_t at = 0; at < total; at += chunk) {
+        size_t m = total - at < chunk ? total - at : chunk;
+        GS_MPI(MPI_Bcast(d + at, (int)m, MPI_DOUBLE, 0, comm));
+    }
+    return GS_OK;
+}
+
+static uint64_t texture_digest(const gs_points_texture *tex)
+{
+    gs_digest d;
+    if (!gs_digest_init(&d))
+        return 0;
+    gs_digest_update(&d, tex->pts.v, tex->pts.n * sizeof(gs_opoint));
+    gs_digest_update(&d, tex->box_lo, sizeof tex->box_lo);
+    gs_digest_update(&d, tex->box_hi, sizeof tex->box_hi);
+    gs_digest_update(&d, &tex->spacing, sizeof tex->spacing);
+    return gs_digest_final(&d);
+}
+
+/* -------------------------------------------------------- distributed search */
+
+typedef struct search_ctx {
+    gs_psearch_t ps;
+    const float *query;
+    int mode;
+    const gs_points_bank *bank;
+} search_ctx;
+
+static double ps_bound(void *user) { return gs_psearch_bound((gs_psearch_t)user); }
+
+static void ps_offer(void *user, double d, uint64_t index)
+{
+    gs_psearch_offer((gs_psearch_t)user, d, (int64_t)index);
+}
+
+static gs_err ps_scan(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
+{
+    search_ctx *c = user;
+    GS_CALL(gs_points_search_scan(c->bank, c->query, c->mode, (uint64_t)lo, (uint64_t)hi, ps_bound,
+                                  ps_offer, ps));
+    return GS_OK;
+}
+
+/* gs_points_search_fn: Psi_k over all ranks (collective). */
+static gs_err distributed_search(void *user, const gs_points_synth *s, const float *query,
+                                 int mode, double eps, gs_points_cands *out)
+{
+    search_ctx *c = user;
+    c->query = query;
+    c->mode = mode;
+    c->bank = gs_points_synth_bank(s);
+    gs_psearch_hit *hits = NULL;
+    int64_t n = 0;
+    GS_CALL(gs_psearch_within(c->ps, eps, ps_scan, c, &hits, &n));
+    gs_err err = GS_OK;
+    if (n > 0) {
+        gs_points_cand *v = gs_realloc(out->v, (size_t)n * sizeof *v);
+        if (!v) {
+            gs_free(hits);
+            GS_RAISE(GS_ERR_MEM, "points: out of memory (%lld candidates)", (long long)n);
+        }
+        out->v = v;
+        out->cap = (size_t)n;
+        for (int64_t i = 0; i < n; i++) {
+            v[i].dist = hits[i].dist;
+            v[i].index = (uint64_t)hits[i].index;
+        }
+        out->n = (size_t)n;
+        out->best = v[0].dist;
+    }
+    gs_free(hits);
+    return err;
+}
+
+/* gs_points_map_fn over the ranks: balanced contiguous split, each rank
+ * computes its items, the failure status is agreed, then every rank gets
+ * all items (MPI_Allgatherv in place). Collective. */
+static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
+                      void *out)
+{
+    MPI_Comm comm = *(MPI_Comm *)user;
+    int rank, size;
+    GS_MPI(MPI_Comm_rank(comm, &rank));
+    GS_MPI(MPI_Comm_size(comm, &size));
+    uint64_t start, count;
+    gs_h5_split_rows(n, size, rank, &start, &count);
+    gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
+                            (char *)out + (size_t)start * bytes)
+                       : GS_OK;
+    GS_CALL(gs_par_agree(comm, err));
+    if (size == 1 || n == 0)
+        return GS_OK;
+    GS_CHECK(n < (size_t)INT_MAX && bytes < (size_t)INT_MAX, GS_ERR_ARG,
+             "points: %zu items of %zu bytes are too many for one exchange", n, bytes);
+    int *counts = NULL, *displs = NULL;
+    GS_CALL(gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"));
+    displs = counts + size;
+    for (int r = 0; r < size; r++) {
+        uint64_t st, ct;
+        gs_h5_split_rows(n, size, r, &st, &ct);
+        counts[r] = (int)ct;
+        displs[r] = (int)st;
+    }
+    MPI_Datatype item;
+    int rc = MPI_Type_contiguous((int)bytes, MPI_BYTE, &item);
+    if (rc == MPI_SUCCESS) {
+        rc = MPI_Type_commit(&item);
+        if (rc == MPI_SUCCESS)
+            rc = MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, out, counts, displs, item,
+                                comm);
+        MPI_Type_free(&item);
+    }
+    gs_free(counts);
+    GS_MPI(rc);
+    return GS_OK;
+}
+
+/* ------------------------------------------------------------ checkpoints */
+
+static gs_err write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_digest)
+{
+    gs_points_synth_state st;
+    GS_CALL(gs_points_synth_save(s, &st));
+    gs_ckpt_t h = NULL;
+    double *mf = NULL;
+    uint64_t *mu = NULL;
+    gs_err err = GS_OK;
+    uint64_t nm = st.cursor ? st.cursor : 1;
+    GS_TRY(err, gs_alloc_array((void **)&mf, nm, 4 * sizeof *mf, "checkpoint metrics"), done);
+    GS_TRY(err, gs_alloc_array((void **)&mu, nm, 3 * sizeof *mu, "checkpoint metrics"), done);
+    for (uint64_t k = 0; k < st.cursor; k++) {
+        const gs_points_patch_metrics *m = &st.metrics[k];
+        double f[4] = {m->best_dist, m->chosen_dist, m->pair_gap, m->warp_residual};
+        uint64_t u[3] = {m->chosen, m->candidates, m->pairs};
+        memcpy(mf + 4 * k, f, sizeof f);
+        memcpy(mu + 3 * k, u, sizeof u);
+    }
+    GS_TRY(err, gs_run_checkpoint_begin(run, &h), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "cursor", st.cursor), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "rng_seed", st.rng.seed), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "rng_stream", st.rng.stream), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "rng_counter", st.rng.counter), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "rng_index", st.rng.index), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "example_digest", tex_digest), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "output_points", st.out.n), done);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/points", "total_patches", gs_points_synth_total(s)), done);
+    if (st.out.n > 0) {
+        gs_h5_shape sh = {GS_H5_F64, 2, {st.out.n, 6}};
+        GS_TRY(err, gs_ckpt_write_whole(h, "/points/output", &sh, st.out.v, NULL), done);
+    }
+    if (st.cursor > 0) {
+        gs_h5_shape shf = {GS_H5_F64, 2, {st.cursor, 4}};
+        gs_h5_shape shu = {GS_H5_U64, 2, {st.cursor, 3}};
+        GS_TRY(err, gs_ckpt_write_whole(h, "/points/patch_dist", &shf, mf, NULL), done);
+        GS_TRY(err, gs_ckpt_write_whole(h, "/points/patch_index", &shu, mu, NULL), done);
+    }
+    GS_TRY(err, gs_run_checkpoint_commit(run, &h, (int64_t)st.cursor), done);
+done:
+    if (h)
+        gs_ckpt_discard(&h);
+    gs_free(mf);
+    gs_free(mu);
+    gs_points_synth_state_free(&st);
+    return err;
+}
+
+static gs_err read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_state *st)
+{
+    memset(st, 0, sizeof *st);
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_run_checkpoint_open(run, &h));
+    double *mf = NULL;
+    uint64_t *mu = NULL, saved_digest = 0, npts = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "cursor", &st->cursor), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "rng_seed", &st->rng.seed), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "rng_stream", &st->rng.stream), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "rng_counter", &st->rng.counter), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "rng_index", &st->rng.index), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "example_digest", &saved_digest), done);
+    GS_TRY(err, gs_ckpt_get_u64(h, "/points", "output_points", &npts), done);
+    GS_TRY_CHECK(err, saved_digest == tex_digest, GS_ERR_ARG, done,
+                 "%s: the example changed since this checkpoint was written (digest %016llx, "
+                 "now %016llx): restore the input file or start a new run",
+                 gs_ckpt_path(h), (unsigned long long)saved_digest,
+                 (unsigned long long)tex_digest);
+    GS_TRY_CHECK(err, st->rng.index <= 4 && st->cursor < ((uint64_t)1 << 40) &&
+                          npts < ((uint64_t)1 << 36), GS_ERR_FORMAT, done,
+                 "%s: /points state out of range (cursor %llu, rng index %llu, %llu points)",
+                 gs_ckpt_path(h), (unsigned long long)st->cursor,
+                 (unsigned long long)st->rng.index, (unsigned long long)npts);
+    if (npts > 0) {
+        GS_TRY(err, gs_points_reserve(&st->out, npts), done);
+        gs_h5_shape sh = {GS_H5_F64, 2, {npts, 6}};
+        GS_TRY(err, gs_ckpt_read_whole(h, "/points/output", &sh, st->out.v), done);
+        st->out.n = npts;
+    }
+    uint64_t nm = st->cursor ? st->cursor : 1;
+    GS_TRY(err, gs_alloc_array((void **)&st->metrics, nm, sizeof *st->metrics, "metrics"), done);
+    if (st->cursor > 0) {
+        GS_TRY(err, gs_alloc_array((void **)&mf, nm, 4 * sizeof *mf, "checkpoint metrics"), done);
+        GS_TRY(err, gs_alloc_array((void **)&mu, nm, 3 * sizeof *mu, "checkpoint metrics"), done);
+        gs_h5_shape shf = {GS_H5_F64, 2, {st->cursor, 4}};
+        gs_h5_shape shu = {GS_H5_U64, 2, {st->cursor, 3}};
+        GS_TRY(err, gs_ckpt_read_whole(h, "/points/patch_dist", &shf, mf), done);
+        GS_TRY(err, gs_ckpt_read_whole(h, "/points/patch_index", &shu, mu), done);
+        for (uint64_t k = 0; k < st->cursor; k++) {
+            gs_points_patch_metrics *m = &st->metrics[k];
+            m->best_dist = mf[4 * k];
+            m->chosen_dist = mf[4 * k + 1];
+            m->pair_gap = mf[4 * k + 2];
+            m->warp_residual = mf[4 * k + 3];
+            m->chosen = mu[3 * k];
+            m->candidates = (uint32_t)mu[3 * k + 1];
+            m->pairs = (uint32_t)mu[3 * k + 2];
+        }
+    }
+done:
+    gs_free(mf);
+    gs_free(mu);
+    gs_ckpt_close(&h);
+    if (err != GS_OK)
+        gs_points_synth_state_free(st);
+    return err;
+}
+
+/* ---------------------------------------------------------------- outputs */
+
+static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m, size_t n)
+{
+    gs_atomic_file af;
+    GS_CALL(gs_atomic_begin(path, &af));
+    int ok = fprintf(af.f, "patch,chosen,candidates,best_dist,chosen_dist,pairs,pair_gap,"
+                           "warp_residual\n") > 0;
+    for (size_t k = 0; k < n && ok; k++)
+        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g\n", k,
+                     (unsigned long long)m[k].chosen, m[k].candidates, m[k].best_dist,
+                     m[k].chosen_dist, m[k].pairs, m[k].pair_gap, m[k].warp_residual) > 0;
+    if (!ok) {
+        gs_atomic_abort(&af);
+        GS_RAISE(GS_ERR_IO, "%s: write failed", path);
+    }
+    GS_CALL(gs_atomic_commit(&af));
+    return GS_OK;
+}
+
+/* Mesh of the output (z-up points) written with the original axes. */
+static gs_err write_mesh(const points_config *c, const gs_points *pts, double spacing, double R,
+                         const char *path, size_t *ntris)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < pts->n; i++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], pts->v[i].p[a]);
+            hi[a] = fmax(hi[a], pts->v[i].p[a]);
+        }
+    double voxel = c->mesh_voxel * spacing;
+    size_t dim[3];
+    double samples = 1;
+    for (int a = 0; a < 3; a++) {
+        lo[a] -= 2 * R;
+        hi[a] += 2 * R;
+        dim[a] = (size_t)ceil((hi[a] - lo[a]) / voxel) + 1;
+        samples *= (double)dim[a];
+    }
+    GS_CHECK(samples <= c->mesh_max_samples, GS_ERR_ARG,
+             "output.mesh: the grid would have %zu x %zu x %zu = %.3g samples (%.1f GiB), above "
+             "output.mesh_max_samples = %.3g: raise output.mesh_voxel or the limit, or set "
+             "output.mesh = false", dim[0], dim[1], dim[2], samples, samples * 20 / 1073741824.0,
+             c->mesh_max_samples);
+    gs_log(GS_LOG_INFO, "mesh: implicit grid %zu x %zu x %zu, voxel %g (%.1f MiB)", dim[0], dim[1],
+           dim[2], voxel, samples * 20 / 1048576.0);
+    gs_vdb_dense d;
+    GS_CALL(gs_vdb_dense_alloc(&d, dim[0], dim[1], dim[2]));
+    memcpy(d.origin, lo, sizeof d.origin);
+    d.voxel = voxel;
+    d.background = (float)R;
+    gs_mesh m;
+    memset(&m, 0, sizeof m);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_points_implicit_grid(pts, R, lo, voxel, dim[0], dim[1], dim[2], d.v), done);
+    GS_TRY(err, gs_vdb_dense_to_mesh(&d, 0.0, 0.0, &m), done);
+    /* Back to the example's axes: the inverse cyclic permutation (a rotation,
+     * so triangle orientation is kept). */
+    int up = up_axis(c);
+    for (size_t i = 0; i < m.nverts && up != 2; i++) {
+        float *v = m.pos + 3 * i, a = v[0], b = v[1], cc = v[2];
+        if (up == 0) {
+            v[0] = cc;
+            v[1] = a;
+            v[2] = b;
+        } else {
+            v[0] = b;
+            v[1] = cc;
+            v[2] = a;
+        }
+    }
+    GS_TRY(err, gs_mesh_write_ply(path, &m, NULL), done);
+    *ntris = m.ntris;
+done:
+    gs_mesh_destroy(&m);
+    gs_vdb_dense_destroy(&d);
+    return err;
+}
+
+/* ------------------------------------------------------------------- run */
+
+typedef struct run_state {
+    gs_points_texture tex;
+    gs_points_params params;
+    gs_psearch_t ps;
+    search_ctx sctx;
+    gs_points_synth_t synth;
+    gs_points out;
+    uint64_t tex_digest;
+    MPI_Comm comm; /* for the map hook */
+} run_state;
+
+static void run_state_free(run_state *r)
+{
+    gs_points_synth_destroy(&r->synth);
+    gs_psearch_destroy(&r->ps);
+    gs_points_texture_free(&r->tex);
+    gs_points_free(&r->out);
+}
+
+static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, int resume)
+{
+    gs_run_phase_begin(run, "setup");
+    gs_err err = GS_OK;
+    if (run->rank == 0) {
+        err = build_texture(c, &rs->tex);
+        if (err == GS_OK && rs->tex.pts.n == 0)
+            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                 "input: the example has no points");
+        if (err == GS_OK && rs->tex.pts.n > ((size_t)1 << 28))
+            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                 "input: %zu example points, expected at most 2^28",
+                                 rs->tex.pts.n);
+    }
+    GS_CALL(gs_par_agree(run->comm, err));
+    GS_CALL(bcast_texture(run->comm, run->rank, &rs->tex));
+    gs_points_texture *t = &rs->tex;
+    double lx = t->box_hi[0] - t->box_lo[0], ly = t->box_hi[1] - t->box_lo[1];
+    params_from_config(c, lx, ly, t->spacing, &rs->params);
+    /* Input checks with the config's words (identical on every rank). */
+    size_t inside = 0;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *q = t->pts.v[i].p;
+        inside += q[0] >= t->box_lo[0] && q[0] < t->box_hi[0] && q[1] >= t->box_lo[1] &&
+                  q[1] < t->box_hi[1];
+    }
+    if (c->out_points > 0 && c->out_size.n == 0 && inside > 0) {
+        double f = sqrt(c->out_points / (double)inside);
+        rs->params.out_size[0] = lx * f;
+        rs->params.out_size[1] = ly * f;
+    }
+    err = gs_points_texture_check(t, gs_points_params_padding(&rs->params));
+    if (err != GS_OK) {
+        if (kind_is(c, "ply") || kind_is(c, "mesh"))
+            gs_error_add_context("example %s with box input.box_lo = (%g, %g, %g), input.box_hi "
+                                 "= (%g, %g, %g), up = %s", c->path, c->box_lo.v[0],
+                                 c->box_lo.v[1], c->box_lo.v[2], c->box_hi.v[0], c->box_hi.v[1],
+                                 c->box_hi.v[2], c->up);
+        else
+            gs_error_add_context("generated %s example with input.pad = %g", c->kind, c->pad);
+        GS_CALL(err);
+    }
+    size_t npatch = 0;
+    GS_CALL(gs_points_patch_count(t, &rs->params, &npatch));
+    rs->tex_digest = texture_digest(t);
+    const gs_points_params *p = &rs->params;
+    double area_out = p->out_size[0] * p->out_size[1];
+    double dens = inside / (lx * ly);
+    double est_out = dens * area_out;
+    gs_log(GS_LOG_INFO, "example: %s%s%s, %zu points (%zu inside the box), spacing %g",
+           c->kind, c->path[0] ? " " : "", c->path, t->pts.n, inside, t->spacing);
+    gs_log(GS_LOG_INFO, "box: [%g, %g] x [%g, %g] x [%g, %g] (z = height, up = %s)", t->box_lo[0],
+           t->box_hi[0], t->box_lo[1], t->box_hi[1], t->box_lo[2], t->box_hi[2],
+           kind_is(c, "ply") || kind_is(c, "mesh") ? c->up : "z");
+    gs_log(GS_LOG_INFO, "field step %g, patch %d cells, overlap %d, extra %d, MLS radius %g, "
+           "eps %g, weights w_p %g w_n %g w_v %g w_l %g w_d %g",
+           p->field_step, p->patch_cells, p->overlap_cells, p->extra_cells, p->mls_radius,
+           p->eps, p->w_p, p->w_n, p->w_v, p->w_l, p->w_d);
+    gs_log(GS_LOG_INFO, "output %g x %g (about %.0f points), %zu input patches over %d rank%s",
+           p->out_size[0], p->out_size[1], est_out, npatch, run->size, run->size > 1 ? "s" : "");
+    {
+        /* example (points, grid, variation), D(T_in), this rank's bank share,
+         * output grid (buckets grow by doubling) and its copies in the
+         * relaxation, trimming and output (about 6 x 48 bytes per point). */
+        double g = p->field_step, bz = t->box_hi[2] - t->box_lo[2];
+        double nz = fmax(2, ceil(bz / g - 1e-9) + 1), nx = floor(lx / g) + 1, ny = floor(ly / g) + 1;
+        double oc = p->overlap_cells, pc = p->patch_cells;
+        double bank = npatch / (double)run->size * 4 * nz * (oc * oc + 2 * oc * (pc + 1 - oc)) * 4;
+        double bytes = t->pts.n * 112.0 + nx * ny * nz * 16 + bank + est_out * 6 * 48.0;
+        gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (example %.1f, field %.1f, bank "
+               "share %.1f, output %.1f)", bytes / 1048576.0, t->pts.n * 112.0 / 1048576.0,
+               nx * ny * nz * 16 / 1048576.0, bank / 1048576.0, est_out * 288.0 / 1048576.0);
+    }
+    GS_CALL(gs_psearch_create(run->comm, (int64_t)npatch, NULL, &rs->ps));
+    int64_t lo, hi;
+    gs_psearch_share(rs->ps, &lo, &hi);
+    rs->sctx.ps = rs->ps;
+    rs->comm = run->comm;
+    gs_points_synth_share share = {.first = (size_t)lo,
+                                   .count = (size_t)(hi - lo),
+                                   .fn = distributed_search,
+                                   .user = &rs->sctx,
+                                   .map = run->size > 1 ? mpi_map : NULL,
+                                   .map_user = &rs->comm};
+    err = GS_OK;
+    if (hi == lo) { /* more ranks than patches: an empty share still joins every search */
+        share.first = 0;
+        share.count = 0;
+    }
+    if (resume) {
+        gs_points_synth_state st;
+        GS_CALL(read_checkpoint(run, rs->tex_digest, &st));
+        err = gs_points_synth_resume_share(t, p, &share, &st, &rs->synth);
+        gs_points_synth_state_free(&st);
+        GS_CALL(err);
+        run->ckpt_last_units = (int64_t)gs_points_synth_cursor(rs->synth);
+        gs_log(GS_LOG_INFO, "resumed at patch %llu of %llu",
+               (unsigned long long)gs_points_synth_cursor(rs->synth),
+               (unsigned long long)gs_points_synth_total(rs->synth));
+    } else {
+        GS_CALL(gs_points_synth_create_share(t, p, &share, &rs->synth));
+    }
+    gs_json j;
+    gs_json_init(&j);
+    gs_json_begin_object(&j, NULL);
+    gs_json_u64(&j, "input_points", t->pts.n);
+    gs_json_u64(&j, "input_points_in_box", inside);
+    gs_json_u64(&j, "input_patches", npatch);
+    gs_json_i64(&j, "bank_share", hi - lo);
+    gs_json_u64(&j, "patches", gs_points_synth_total(rs->synth));
+    gs_json_end_object(&j);
+    err = gs_run_phase_end(run, j.buf);
+    gs_json_free(&j);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
+{
+    gs_run_phase_begin(run, "synthesis");
+    gs_points_synth_t s = rs->synth;
+    gs_progress prog;
+    gs_progress_begin(&prog, "patches", gs_points_synth_total(s));
+    gs_progress_update(&prog, gs_points_synth_cursor(s));
+    *stopped = 0;
+    while (gs_points_synth_cursor(s) < gs_points_synth_total(s)) {
+        GS_CALL(gs_points_synth_step(s));
+        uint64_t done = gs_points_synth_cursor(s);
+        gs_progress_update(&prog, done);
+        int stop = 0;
+        if (gs_run_checkpoint_due(run, (int64_t)done, &stop) &&
+            done < gs_points_synth_total(s)) {
+            GS_CALL(write_checkpoint(run, s, rs->tex_digest));
+            GS_DEBUG("checkpoint at patch %llu", (unsigned long long)done);
+        } else if (stop) {
+            GS_CALL(write_checkpoint(run, s, rs->tex_digest));
+        }
+        if (stop) {
+            *stopped = 1;
+            break;
+        }
+    }
+    gs_progress_end(&prog);
+    gs_points_times tm = gs_points_synth_times(s);
+    gs_psearch_stats ps = gs_psearch_get_stats(rs->ps);
+    gs_json j;
+    gs_json_init(&j);
+    gs_json_begin_object(&j, NULL);
+    gs_json_u64(&j, "patches_done", gs_points_synth_cursor(s));
+    gs_json_f64(&j, "search_seconds", tm.search);
+    gs_json_f64(&j, "warp_seconds", tm.warp);
+    gs_json_f64(&j, "blend_seconds", tm.blend);
+    gs_json_f64(&j, "other_seconds", tm.other);
+    gs_json_i64(&j, "candidates_offered_rank0", ps.offers);
+    gs_json_i64(&j, "bound_messages_rank0", ps.bcasts);
+    gs_json_end_object(&j);
+    gs_err err = gs_run_phase_end(run, j.buf);
+    gs_json_free(&j);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+static void record_metrics(gs_run *run, const points_config *c, run_state *rs, double dens_out)
+{
+    gs_points_synth_t s = rs->synth;
+    size_t nm;
+    const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
+    double sd = 0, sdmax = 0, cd = 0, res = 0, resmax = 0, gap = 0, cand = 0, pairs = 0;
+    size_t searched = 0, warped = 0;
+    for (size_t k = 0; k < nm; k++) {
+        cand += m[k].candidates;
+        if (k == 0)
+            continue; /* the seed patch: picked at random, no search */
+        searched++;
+        sd += m[k].best_dist;
+        sdmax = fmax(sdmax, m[k].best_dist);
+        cd += m[k].chosen_dist;
+        if (m[k].pairs > 0) {
+            warped++;
+            res += m[k].warp_residual;
+            resmax = fmax(resmax, m[k].warp_residual);
+            gap += m[k].pair_gap;
+            pairs += m[k].pairs;
+        }
+    }
+    gs_points_times tm = gs_points_synth_times(s);
+    double din = gs_points_synth_input_density(s);
+    gs_run_metric_str(run, "input_kind", c->kind);
+    gs_run_metric_i64(run, "input_points", (int64_t)rs->tex.pts.n);
+    gs_run_metric_f64(run, "input_spacing", rs->tex.spacing);
+    gs_run_metric_i64(run, "input_patches", (int64_t)gs_points_synth_input_patches(s));
+    gs_run_metric_i64(run, "patches", (int64_t)nm);
+    gs_run_metric_i64(run, "patches_searched", (int64_t)searched);
+    gs_run_metric_i64(run, "patches_warped", (int64_t)warped);
+    gs_run_metric_f64(run, "out_size_x", rs->params.out_size[0]);
+    gs_run_metric_f64(run, "out_size_y", rs->params.out_size[1]);
+    gs_run_metric_i64(run, "output_points", (int64_t)rs->out.n);
+    gs_run_metric_f64(run, "density_in", din);
+    gs_run_metric_f64(run, "density_out", dens_out);
+    gs_run_metric_f64(run, "density_ratio", din > 0 ? dens_out / din : 0);
+    gs_run_metric_f64(run, "search_distance_mean", searched ? sd / searched : 0);
+    gs_run_metric_f64(run, "search_distance_max", sdmax);
+    gs_run_metric_f64(run, "chosen_distance_mean", searched ? cd / searched : 0);
+    gs_run_metric_f64(run, "candidates_mean", nm ? cand / nm : 0);
+    gs_run_metric_f64(run, "pairs_mean", warped ? pairs / warped : 0);
+    gs_run_metric_f64(run, "pair_gap_mean", warped ? gap / warped : 0);
+    gs_run_metric_f64(run, "warp_residual_mean", warped ? res / warped : 0);
+    gs_run_metric_f64(run, "warp_residual_max", resmax);
+    gs_run_metric_f64(run, "seconds_search", tm.search);
+    gs_run_metric_f64(run, "seconds_warp", tm.warp);
+    gs_run_metric_f64(run, "seconds_blend", tm.blend);
+    gs_run_metric_f64(run, "seconds_other", tm.other);
+    gs_run_metric_f64(run, "seconds_relax", tm.relax);
+}
+
+static gs_err points_run(gs_run *run, void *vcfg, int resume)
+{
+    const points_config *c = vcfg;
+    run_state rs;
+    memset(&rs, 0, sizeof rs);
+    gs_err err = GS_OK;
+    int stopped = 0;
+    GS_TRY(err, phase_setup(run, c, &rs, resume), done);
+    GS_TRY(err, phase_synthesis(run, &rs, &stopped), done);
+    if (stopped) {
+        err = gs_run_interrupted(run);
+        goto done;
+    }
+    /* Relaxation, trimming, back to the example's axes. */
+    gs_run_phase_begin(run, "finish");
+    GS_TRY(err, gs_points_synth_finish(rs.synth, &rs.out), done);
+    gs_points_permute_from_z(&rs.out, kind_is(c, "ply") || kind_is(c, "mesh") ? up_axis(c) : 2);
+    double area = rs.params.out_size[0] * rs.params.out_size[1];
+    double dens_out = rs.out.n / area;
+    {
+        gs_json j;
+        gs_json_init(&j);
+        gs_json_begin_object(&j, NULL);
+        gs_json_u64(&j, "output_points", rs.out.n);
+        gs_json_f64(&j, "relax_seconds", gs_points_synth_times(rs.synth).relax);
+        gs_json_end_object(&j);
+        err = gs_run_phase_end(run, j.buf);
+        gs_json_free(&j);
+        GS_TRY(err, err, done);
+    }
+    uint64_t digest = gs_points_digest(&rs.out);
+    gs_run_phase_begin(run, "output");
+    gs_err local = GS_OK;
+    size_t ntris = 0;
+    if (run->rank == 0) {
+        char path[PATH_MAX];
+        gs_pointply_format fmt = strcmp(c->ply_format, "ascii") ? GS_POINTPLY_BINARY
+                                                                : GS_POINTPLY_ASCII;
+        if (c->write_points && local == GS_OK) {
+            gs_run_path(run, "points.ply", path, sizeof path);
+            local = gs_pointply_write(path, (const double *)rs.out.v, rs.out.n, 1, fmt);
+            if (local == GS_OK)
+                gs_run_output(run, "points", "points.ply");
+        }
+        if (c->patch_csv && local == GS_OK) {
+            size_t nm;
+            const gs_points_patch_metrics *m = gs_points_synth_metrics(rs.synth, &nm);
+            gs_run_path(run, "patches.csv", path, sizeof path);
+            local = write_patch_csv(path, m, nm);
+            if (local == GS_OK)
+                gs_run_output(run, "patch_metrics", "patches.csv");
+        }
+        if (c->mesh && local == GS_OK) {
+            /* The mesh is built from the z-up points; write_mesh restores the axes. */
+            gs_points zup = {0};
+            local = gs_points_append(&zup, rs.out.v, rs.out.n);
+            if (local == GS_OK) {
+                gs_points_permute_to_z(&zup, kind_is(c, "ply") || kind_is(c, "mesh") ? up_axis(c) : 2);
+                gs_run_path(run, "mesh.ply", path, sizeof path);
+                local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
+            }
+            gs_points_free(&zup);
+            if (local == GS_OK)
+                gs_run_output(run, "mesh", "mesh.ply");
+        }
+        if (local == GS_OK)
+            record_metrics(run, c, &rs, dens_out);
+    }
+    GS_TRY(err, gs_par_agree(run->comm, local), done);
+    {
+        gs_json j;
+        gs_json_init(&j);
+        gs_json_begin_object(&j, NULL);
+        gs_json_u64(&j, "mesh_triangles", ntris);
+        gs_json_end_object(&j);
+        err = gs_run_phase_end(run, j.buf);
+        gs_json_free(&j);
+        GS_TRY(err, err, done);
+    }
+    gs_log(GS_LOG_INFO, "output: %zu points, density %.4g per unit area (example %.4g, ratio "
+           "%.3f)", rs.out.n, dens_out, gs_points_synth_input_density(rs.synth),
+           dens_out / gs_points_synth_input_density(rs.synth));
+    GS_TRY(err, gs_run_finish(run, digest), done);
+done:
+    run_state_free(&rs);
+    return err;
+}
+
+const gs_engine gs_engine_points = {
+    "points",
+    "patch-based geometry texture synthesis on point-set surfaces (Duranleau & Poulin)",
+    &points_table,
+    sizeof(points_config),
+    offsetof(points_config, run),
+    points_run,
+};
