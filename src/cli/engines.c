@@ -4,7 +4,10 @@
 
 #include "geosynth/engine.h"
 
+extern const gs_engine gs_engine_micro;
+
 static const gs_engine *const engine_list[] = {
+    &gs_engine_micro,
     NULL /* terminator */
 };
 
