@@ -52,11 +52,12 @@ static const gs_cfg_key micro_keys[] = {
                     "contact distributions from micro.table_pos/neg, micro.table_csv, micro.image "
                     "or random from micro.random_*"),
     GS_CFG_KEY_REAL_LIST(micro_config, table_pos, "micro.table_pos", 0, 1, 0,
-                         "0.2, 0.15, 0.1, 0.05",
+                         "0.14, 0.085, 0.04, 0.005",
                          "positive region: probability of bins 0, 1, ... (with table_neg summing "
-                         "to 1, or each to 1)"),
+                         "to 1, or each to 1); default: discs, from an image"),
     GS_CFG_KEY_REAL_LIST(micro_config, table_neg, "micro.table_neg", 0, 1, 0,
-                         "0.2, 0.15, 0.1, 0.05", "negative region: probability of bins 0, 1, ..."),
+                         "0.18, 0.14, 0.1, 0.08, 0.07, 0.055, 0.04, 0.027, 0.018, 0.015",
+                         "negative region: probability of bins 0, 1, ..."),
     GS_CFG_KEY_PATH(micro_config, table_csv, "micro.table_csv", "",
                     "CSV table 'bin, positive, negative' per line when micro.dist = csv"),
     GS_CFG_KEY_PATH(micro_config, image, "micro.image", "",
