@@ -53,6 +53,19 @@ typedef struct gs_micro_mesh {
     uint32_t *tris;
 } gs_micro_mesh;
 
+/* Conversion to and from the shared mesh type (include/geosynth/mesh.h), so
+ * files are read and written only by gs_mesh_read / gs_mesh_write. The two
+ * structs are NOT layout-identical (gs_mesh counts are size_t and it carries
+ * optional per-vertex scalar/label arrays), so these copy: O(n), no sharing.
+ * from_mesh: pos, tris and normals (when present) are copied; a mesh beyond
+ * 2^32 - 1 vertices or triangles is GS_ERR_ARG. to_mesh: *out gets pos, tris
+ * and normals (when m has them); scalar/label stay NULL for the caller to
+ * fill. Caller frees with gs_micro_mesh_free / gs_mesh_destroy. On error the
+ * output is left unchanged (from_mesh) or zeroed (to_mesh). */
+struct gs_mesh;
+gs_err gs_micro_mesh_from_mesh(const struct gs_mesh *in, gs_micro_mesh *out);
+gs_err gs_micro_mesh_to_mesh(const gs_micro_mesh *in, struct gs_mesh *out);
+
 /* Allocates a mesh with room for nverts/ntris (arrays zeroed, normals NULL).
  * On error *m is left unchanged. */
 gs_err gs_micro_mesh_alloc(gs_micro_mesh *m, uint32_t nverts, uint32_t ntris);
@@ -138,6 +151,25 @@ typedef struct gs_micro_dist {
 
 gs_err gs_micro_dist_create(gs_micro_dist *d, uint32_t nbins, const double *pos, const double *neg);
 void gs_micro_dist_free(gs_micro_dist *d);
+
+/* Reads a distribution table from a CSV file: one row per distance bin,
+ * "bin, positive, negative" with bin = 0, 1, 2, ... in order (the bin's
+ * probability for the positive and the negative region). Blank lines and
+ * lines starting with '#' are skipped; a first row whose first field is not a
+ * number is a header (e.g. "bin,pos,neg"). Numbers through parse.h.
+ * Errors (GS_ERR_ARG, "PATH:LINE: ..."): wrong field count, a bin out of
+ * order, a probability outside [0, 1], no rows, more than 16384 rows, all
+ * zero; GS_ERR_IO when the file cannot be read. The sums are not checked
+ * here (gs_micro_dist_check_sum). On error *d is unchanged. */
+gs_err gs_micro_dist_read_csv(const char *path, gs_micro_dist *d);
+
+/* Checks that a table sums to something sensible: positive + negative = 1
+ * (the image acquisition's convention: the sums are the regions' area
+ * shares), or positive = 1 and negative = 1 (each side normalized on its
+ * own: the regions get equal area), each within tol. what names the source
+ * in the message. GS_ERR_ARG otherwise, naming both sums. */
+gs_err gs_micro_dist_check_sum(const double *pos, size_t npos, const double *neg, size_t nneg,
+                               double tol, const char *what);
 
 /* Image-based acquisition (paper 5.3). pix: w*h grey values, row-major, x
  * fastest. Pixels >= threshold are white = positive, others black = negative

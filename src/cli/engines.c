@@ -7,11 +7,13 @@
 extern const gs_engine gs_engine_field;
 extern const gs_engine gs_engine_model;
 extern const gs_engine gs_engine_points;
+extern const gs_engine gs_engine_micro;
 
 static const gs_engine *const engine_list[] = {
     &gs_engine_field,
     &gs_engine_model,
     &gs_engine_points,
+    &gs_engine_micro,
     NULL /* terminator */
 };
 

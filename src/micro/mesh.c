@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/mesh.h"
 #include "micro/micro_impl.h"
 
 /* ------------------------------------------------------------- map -- */
@@ -96,6 +97,38 @@ gs_err gs_micro_mesh_alloc(gs_micro_mesh *m, uint32_t nverts, uint32_t ntris)
     m->pos = pos;
     m->tris = tris;
     m->normals = NULL;
+    return GS_OK;
+}
+
+gs_err gs_micro_mesh_from_mesh(const gs_mesh *in, gs_micro_mesh *out)
+{
+    GS_CHECK(in->nverts < UINT32_MAX && in->ntris < UINT32_MAX, GS_ERR_ARG,
+             "mesh of %zu vertices and %zu triangles: the micro engine supports < 2^32 of each",
+             in->nverts, in->ntris);
+    gs_micro_mesh m;
+    GS_CALL(gs_micro_mesh_alloc(&m, (uint32_t)in->nverts, (uint32_t)in->ntris));
+    memcpy(m.pos, in->pos, in->nverts * 3 * sizeof *m.pos);
+    memcpy(m.tris, in->tris, in->ntris * 3 * sizeof *m.tris);
+    if (in->normals) {
+        gs_err err = gs_alloc_array((void **)&m.normals, in->nverts * 3, sizeof *m.normals,
+                                    "vertex normals");
+        if (err != GS_OK) {
+            gs_micro_mesh_free(&m);
+            GS_CALL(err);
+        }
+        memcpy(m.normals, in->normals, in->nverts * 3 * sizeof *m.normals);
+    }
+    *out = m;
+    return GS_OK;
+}
+
+gs_err gs_micro_mesh_to_mesh(const gs_micro_mesh *in, gs_mesh *out)
+{
+    GS_CALL(gs_mesh_alloc(out, in->nverts, in->ntris, in->normals != NULL));
+    memcpy(out->pos, in->pos, (size_t)in->nverts * 3 * sizeof *out->pos);
+    memcpy(out->tris, in->tris, (size_t)in->ntris * 3 * sizeof *out->tris);
+    if (in->normals)
+        memcpy(out->normals, in->normals, (size_t)in->nverts * 3 * sizeof *out->normals);
     return GS_OK;
 }
 

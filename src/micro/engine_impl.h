@@ -1,0 +1,144 @@
+/* The micro engine's driver (src/micro/engine*.c): configuration, the
+ * prepared inputs every rank holds, and the per-instance state.
+ *
+ * Work model. An instance is (mesh, seed): one reconstruction + one
+ * displaced mesh. micro.instances = N seeds per mesh, M meshes (micro.mesh,
+ * or micro.mesh_list, or one built-in shape): I = M * N instances, instance
+ * id i uses mesh i / N and seed index i % N. Every rank prepares every mesh
+ * (subdivision and dual graph are pure functions of the file), then the
+ * instances run through the rank-0 work queue of gs_regions (one colour,
+ * each instance a region) in ROUNDS: a round advances every unfinished
+ * instance by micro.steps_per_round reconstruction steps (bins; the last
+ * step is the neighbour fill) and shares the resulting gs_micro_state with
+ * every rank, so rank 0 can checkpoint between rounds and any rank can take
+ * the next slice. The reconstruction resumes bit-exactly from its state, so
+ * the result does not depend on the round length, the rank count, or where
+ * the run was stopped. Checkpoint units = steps summed over instances.
+ * A final pass of the same queue displaces, verifies and writes each
+ * instance's outputs (RUN_DIR/instance-XXXX/); the run digest is the digest
+ * of the instance digests in instance order.
+ */
+#ifndef GEOSYNTH_MICRO_ENGINE_IMPL_H
+#define GEOSYNTH_MICRO_ENGINE_IMPL_H
+
+#include <stdint.h>
+
+#include "geosynth/config.h"
+#include "geosynth/micro.h"
+#include "geosynth/regions.h"
+#include "geosynth/run.h"
+
+/* Random stream domains of the driver (the core uses its own for steps). */
+#define MICRO_DOMAIN_SEED 0x6d733031u    /* instance seeds */
+#define MICRO_DOMAIN_DIST 0x6d733032u    /* random distributions */
+#define MICRO_DOMAIN_VERIFY 0x6d733033u  /* verifier samples */
+#define MICRO_DOMAIN_QUEUE 0x6d733034u   /* gs_regions (streams unused) */
+#define MICRO_DOMAIN_OUTPUT 0x6d733035u
+
+typedef struct micro_config {
+    char *shape;
+    char *mesh;
+    char *mesh_list;
+    double radius;
+    gs_cfg_real_list bar_size;
+    double scale_units;
+    double max_edge;
+    char *dist;
+    gs_cfg_real_list table_pos, table_neg;
+    char *table_csv;
+    char *image;
+    int64_t image_threshold;
+    int image_invert;
+    double image_units_per_pixel;
+    int64_t max_bins;
+    int64_t random_min_bins, random_max_bins;
+    double random_min_share, random_max_share;
+    int random_per_instance;
+    char *pos_direction, *neg_direction;
+    double pos_scale, neg_scale;
+    char *pos_func, *neg_func;
+    int capacity;
+    int64_t max_rejects_per_bin;
+    int64_t instances;
+    int64_t steps_per_round;
+    int64_t verify_samples;
+    char *output_format;
+    gs_run_config run;
+} micro_config;
+
+/* One prepared input mesh (identical on every rank). */
+typedef struct micro_mesh_in {
+    char *source;         /* file path or shape description (gs_malloc'ed) */
+    uint32_t ntris_in;    /* before subdivision */
+    gs_micro_mesh m;      /* subdivided, with normals */
+    gs_micro_dual dual;
+    double half_extent;   /* model units */
+    double upm;           /* distribution units per model unit */
+    gs_micro_subdiv_stats sub;
+    double max_edge_units, min_angle_deg;
+} micro_mesh_in;
+
+/* What the output pass reports per instance (fixed layout: travels as bytes). */
+typedef struct micro_result {
+    uint64_t digest;
+    uint64_t nverts, ntris, nbins;
+    uint64_t pairs_checked, violations, unassigned;
+    int64_t abs_error_sum, max_bin_error;
+    double max_excess, unassigned_share, error_share;
+    double seconds;
+} micro_result;
+
+typedef struct micro_instance {
+    int64_t id;
+    uint32_t mesh;              /* index into job->meshes */
+    uint64_t seed;              /* reconstruction seed */
+    gs_micro_dist dist;
+    gs_micro_hist hist;
+    uint64_t input_digest;      /* mesh + histogram + seed + options */
+    gs_micro_state st;          /* st.ntris == 0: not started */
+    gs_micro_recon_counters cnt; /* summed over all slices */
+    double recon_seconds;
+    micro_result res;
+} micro_instance;
+
+typedef struct micro_job {
+    gs_run *run;
+    const micro_config *cfg;
+    micro_mesh_in *meshes;
+    uint32_t nmeshes;
+    micro_instance *inst;
+    int64_t ninst;
+    gs_micro_recon_opts opts;
+    gs_micro_displace_params disp;
+    uint32_t steps_per_round;
+} micro_job;
+
+/* engine_setup.c. Collective: reads the inputs on rank 0, broadcasts them,
+ * prepares meshes and instances on every rank. */
+gs_err micro_setup(micro_job *job);
+void micro_job_free(micro_job *job);
+
+/* engine_state.c */
+static inline int micro_instance_done(const micro_instance *in)
+{
+    return in->st.ntris && in->st.step >= 2 * in->st.nbins + 1;
+}
+int64_t micro_units_done(const micro_job *job);
+int64_t micro_units_total(const micro_job *job);
+/* gs_regions callbacks of one reconstruction round. */
+gs_err micro_slice_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
+                       gs_region_out *out);
+gs_err micro_slice_apply(void *ctx, int64_t id, const void *buf, size_t len);
+/* Collective: RUN_DIR/checkpoint.h5 with every instance's state. */
+gs_err micro_ckpt_write(micro_job *job, int64_t units, int64_t round);
+/* Collective: restores every instance's state; *round = rounds done. */
+gs_err micro_ckpt_read(micro_job *job, int64_t *round);
+
+/* engine_output.c: gs_regions callbacks of the output pass. */
+gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
+                        gs_region_out *out);
+gs_err micro_output_apply(void *ctx, int64_t id, const void *buf, size_t len);
+/* "instance-0007" */
+void micro_instance_dir(int64_t id, char *out, size_t len);
+
+#endif

@@ -1,0 +1,190 @@
+/* micro driver, output pass: per instance the displacement (paper 4.5),
+ * the independent verifier, and the files of RUN_DIR/instance-XXXX/:
+ *   mesh.ply (and/or mesh.obj)  displaced mesh, normals, PLY vertex property
+ *                               "label" (uchar, see below)
+ *   micro.h5                    /micro/triangle_label uint16 [n], triangle_value
+ *                               float64 [n], vertex_value float64 [nv],
+ *                               vertex_label uint8 [nv], target_count int64 [2K],
+ *                               target_prob float64 [2K], achieved_count int64
+ *                               [2K], bin_error int64 [2K] (achieved - target),
+ *                               dist_pos / dist_neg float64 [K]; attributes with
+ *                               the checks. Histogram index order: the signed
+ *                               axis of micro.h (0 = most negative bin).
+ * Vertex label = 128 + floor(vertex value) clamped to [0, 255]: >= 128 is the
+ * positive region, < 128 the negative one, and the distance to 128 the bin
+ * (the vertex value is the mean of the incident triangles' values).
+ * The instance digest covers the triangle labels and values, the displaced
+ * positions and the vertex labels. */
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/file.h"
+#include "geosynth/h5.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/mesh.h"
+#include "micro/engine_impl.h"
+
+void micro_instance_dir(int64_t id, char *out, size_t len)
+{
+    snprintf(out, len, "instance-%04lld", (long long)id);
+}
+
+static gs_err write_h5(const micro_job *job, const micro_instance *in, const char *path,
+                       const double *vvalue, const uint8_t *vlabel, const gs_micro_report *rep,
+                       const micro_result *res)
+{
+    const micro_mesh_in *mi = &job->meshes[in->mesh];
+    gs_ckpt_meta meta = {"micro", in->seed, job->run->config_text};
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_ckpt_create(MPI_COMM_NULL, path, &meta, &h));
+    uint64_t n = mi->m.ntris, nv = mi->m.nverts, K = in->hist.nbins;
+    gs_h5_shape s_u16 = {GS_H5_U16, 1, {n}}, s_tf = {GS_H5_F64, 1, {n}}, s_vf = {GS_H5_F64, 1, {nv}},
+                s_vl = {GS_H5_U8, 1, {nv}}, s_hi = {GS_H5_I64, 1, {2 * K}},
+                s_hf = {GS_H5_F64, 1, {2 * K}}, s_d = {GS_H5_F64, 1, {K}};
+    gs_h5_write_opts z = {4, 0};
+    char hex[17];
+    gs_digest_hex(res->digest, hex);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_label", &s_u16, in->st.label, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_value", &s_tf, in->st.value, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_value", &s_vf, vvalue, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_label", &s_vl, vlabel, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_count", &s_hi, in->hist.count, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_prob", &s_hf, in->hist.prob, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/achieved_count", &s_hi, rep->achieved, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/bin_error", &s_hi, rep->error, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_pos", &s_d, in->dist.pos, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_neg", &s_d, in->dist.neg, NULL), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, "/micro", "instance", in->id), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro", "mesh_source", mi->source), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "units_per_model", mi->upm), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "half_extent", mi->half_extent), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "max_edge_units", mi->max_edge_units), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "min_angle_deg", mi->min_angle_deg), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/micro", "violations", rep->violations), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/micro", "pairs_checked", rep->pairs_checked), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "max_excess", rep->max_excess), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "unassigned_share", rep->unassigned_share), fail);
+    GS_TRY(err, gs_ckpt_set_i64(h, "/micro", "abs_bin_error", rep->abs_error_sum), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro", "digest", hex), fail);
+    GS_TRY(err, gs_ckpt_commit(&h), fail);
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+/* The displaced mesh as a gs_mesh with outward normals and vertex labels. */
+static gs_err write_meshes(const micro_job *job, const micro_instance *in, const char *dir,
+                           const float *pos, const uint8_t *vlabel)
+{
+    const micro_mesh_in *mi = &job->meshes[in->mesh];
+    gs_mesh om;
+    GS_CALL(gs_micro_mesh_to_mesh(&mi->m, &om));
+    gs_err err = GS_OK;
+    memcpy(om.pos, pos, (size_t)mi->m.nverts * 3 * sizeof *om.pos);
+    GS_TRY(err, gs_mesh_compute_normals(&om), done);
+    GS_TRY(err, gs_alloc_array((void **)&om.label, om.nverts, 1, "vertex labels"), done);
+    memcpy(om.label, vlabel, om.nverts);
+    const char *fmt = job->cfg->output_format;
+    char path[PATH_MAX + 32];
+    if (strcmp(fmt, "obj") != 0) {
+        snprintf(path, sizeof path, "%s/mesh.ply", dir);
+        GS_TRY(err, gs_mesh_write(path, &om, "label"), done);
+    }
+    if (strcmp(fmt, "ply") != 0) {
+        snprintf(path, sizeof path, "%s/mesh.obj", dir);
+        GS_TRY(err, gs_mesh_write(path, &om, NULL), done);
+    }
+done:
+    gs_mesh_destroy(&om);
+    return err;
+}
+
+gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng, gs_region_out *out)
+{
+    (void)color, (void)pass, (void)rng;
+    micro_job *job = ctx;
+    micro_instance *in = &job->inst[id];
+    micro_mesh_in *mi = &job->meshes[in->mesh];
+    GS_CHECK(micro_instance_done(in), GS_ERR_INTERNAL, "instance %lld is not reconstructed",
+             (long long)id);
+    double t0 = gs_time_now();
+    uint32_t nv = mi->m.nverts, n = mi->m.ntris;
+    double *vvalue = NULL;
+    float *pos = NULL;
+    uint8_t *vlabel = NULL;
+    gs_micro_report rep;
+    memset(&rep, 0, sizeof rep);
+    micro_result res;
+    memset(&res, 0, sizeof res);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&vvalue, nv, sizeof *vvalue, "vertex values"), done);
+    GS_TRY(err, gs_alloc_array((void **)&pos, (size_t)nv * 3, sizeof *pos, "displaced vertices"), done);
+    GS_TRY(err, gs_alloc_array((void **)&vlabel, nv, 1, "vertex labels"), done);
+    /* The mesh has its normals (setup), so displace does not modify it. */
+    GS_TRY(err, gs_micro_displace(&mi->m, in->st.value, &job->disp, vvalue, pos), done);
+    for (uint32_t v = 0; v < nv; v++) {
+        double l = 128.0 + floor(vvalue[v]);
+        vlabel[v] = (uint8_t)(l < 0 ? 0 : l > 255 ? 255 : l);
+    }
+    gs_rng vr;
+    gs_rng_init(&vr, (uint64_t)job->cfg->run.seed,
+                gs_rng_stream_id(MICRO_DOMAIN_VERIFY, (uint64_t)id, 0, 0));
+    uint32_t samples = job->cfg->verify_samples == 0 || job->cfg->verify_samples >= n
+                           ? n
+                           : (uint32_t)job->cfg->verify_samples;
+    GS_TRY(err, gs_micro_verify(&mi->m, mi->upm, &in->hist, in->st.value, in->st.label, samples, &vr,
+                                &rep),
+           done);
+    gs_digest dg;
+    GS_TRY_CHECK(err, gs_digest_init(&dg), GS_ERR_MEM, done, "digest state");
+    gs_digest_update(&dg, in->st.label, (size_t)n * sizeof *in->st.label);
+    gs_digest_update(&dg, in->st.value, (size_t)n * sizeof *in->st.value);
+    gs_digest_update(&dg, pos, (size_t)nv * 3 * sizeof *pos);
+    gs_digest_update(&dg, vlabel, nv);
+    res.digest = gs_digest_final(&dg);
+    res.nverts = nv;
+    res.ntris = n;
+    res.nbins = in->hist.nbins;
+    res.pairs_checked = rep.pairs_checked;
+    res.violations = rep.violations;
+    res.unassigned = rep.unassigned;
+    res.abs_error_sum = rep.abs_error_sum;
+    for (uint32_t i = 0; i < 2 * rep.nbins; i++) {
+        int64_t e = rep.error[i] < 0 ? -rep.error[i] : rep.error[i];
+        res.max_bin_error = e > res.max_bin_error ? e : res.max_bin_error;
+    }
+    res.max_excess = rep.max_excess;
+    res.unassigned_share = rep.unassigned_share;
+    res.error_share = n ? (double)rep.abs_error_sum / (double)n : 0;
+
+    char rel[64], dir[PATH_MAX], path[PATH_MAX + 32];
+    micro_instance_dir(id, rel, sizeof rel);
+    gs_run_path(job->run, rel, dir, sizeof dir);
+    GS_TRY(err, gs_mkdir_p(dir), done);
+    GS_TRY(err, write_meshes(job, in, dir, pos, vlabel), done);
+    snprintf(path, sizeof path, "%s/micro.h5", dir);
+    GS_TRY(err, write_h5(job, in, path, vvalue, vlabel, &rep, &res), done);
+    res.seconds = gs_time_now() - t0;
+    GS_TRY(err, gs_region_out_append(out, &res, sizeof res), done);
+done:
+    gs_micro_report_free(&rep);
+    gs_free(vvalue);
+    gs_free(pos);
+    gs_free(vlabel);
+    return err;
+}
+
+gs_err micro_output_apply(void *ctx, int64_t id, const void *buf, size_t len)
+{
+    micro_job *job = ctx;
+    GS_CHECK(len == sizeof(micro_result), GS_ERR_INTERNAL, "instance %lld: %zu output bytes",
+             (long long)id, len);
+    memcpy(&job->inst[id].res, buf, sizeof(micro_result));
+    return GS_OK;
+}
