@@ -51,6 +51,7 @@ typedef struct model_config {
     char *example;
     char *tileset;
     char *subset;
+    char *start_tile;
     char *sample;
     int64_t overlap_n;
     int64_t symmetry;
@@ -118,6 +119,8 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
         gs_cfg_report(ctx, "model.size",
                       "z = %lld: model.tileset and model.sample are 2D inputs, expected z = 1",
                       (long long)c->size[2]);
+    if (c->start_tile[0] && !c->tileset[0])
+        gs_cfg_report(ctx, "model.start_tile", "only applies to model.tileset");
     if (c->subset[0] && !c->tileset[0])
         gs_cfg_report(ctx, "model.subset", "only applies to model.tileset");
     if (c->sample[0] && (c->start[0] || c->start_column[0]))
@@ -154,6 +157,9 @@ static const gs_cfg_key model_keys[] = {
                     "folder of the same name); 2D, model.size z = 1"),
     GS_CFG_KEY_STRING(model_config, subset, "model.subset", "",
                       "tile set subset name (<subsets> of the XML); \"\" = every tile"),
+    GS_CFG_KEY_STRING(model_config, start_tile, "model.start_tile", "",
+                      "tile set: tile (\"name\" or \"name k\") filling the start model; it "
+                      "must sit next to itself; \"\" = the heaviest such tile"),
     GS_CFG_KEY_PATH(model_config, sample, "model.sample", "",
                     "sample PNG for the overlapping model (N x N patterns = labels); 2D"),
     GS_CFG_KEY_INT(model_config, overlap_n, "model.overlap_n", 2, 8, 0, "3",
@@ -302,6 +308,23 @@ static gs_err pseudo_example(model_engine *e)
             continue;
         if (best < 0 || gs_model_rules_count(e->rules, l) > gs_model_rules_count(e->rules, best))
             best = l;
+    }
+    if (e->cfg->start_tile[0]) {
+        char want[80];
+        snprintf(want, sizeof want, "%s%s", e->cfg->start_tile,
+                 strchr(e->cfg->start_tile, ' ') ? "" : " 0");
+        best = -1;
+        for (int t = 0; t < e->ts.ntiles && best < 0; t++)
+            if (!strcmp(e->ts.names[t], want))
+                best = t + 1;
+        GS_CHECK(best > 0, GS_ERR_ARG, "model.start_tile = %s: no such tile in %s%s%s",
+                 e->cfg->start_tile, what, e->cfg->subset[0] ? " subset " : "", e->cfg->subset);
+        GS_CHECK(gs_model_rules_allows(e->rules, 0, best, best) &&
+                     gs_model_rules_allows(e->rules, 2, best, best),
+                 GS_ERR_ARG,
+                 "model.start_tile = %s: the tile may not sit next to itself along x and y in "
+                 "%s, so it cannot fill the start model",
+                 e->cfg->start_tile, what);
     }
     GS_CHECK(best > 0 || e->cfg->start[0], GS_ERR_ARG,
              "%s: no %s may sit next to itself along both x and y, so there is no trivial "

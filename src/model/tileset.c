@@ -355,9 +355,6 @@ static gs_err parse_ref(const xml_doc *d, const xml_elem *el, const char *attr, 
     *skip = 0;
     for (int t = 0; t < ndefs; t++)
         if (!strcmp(defs[t].name, name)) {
-            GS_CHECK(o < defs[t].card, GS_ERR_FORMAT,
-                     "%s:%d: %s=\"%s\": tile %s has %d orientation%s (0..%d)", d->file, el->line,
-                     attr, v, name, defs[t].card, defs[t].card > 1 ? "s" : "", defs[t].card - 1);
             *tile = t;
             *orient = (int)o;
             return GS_OK;
@@ -527,6 +524,9 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
         GS_TRY(err, parse_ref(&d, el, "right", defs, ndefs, subset_elem, &rt, &ro, &s2), fail);
         if (s1 || s2)
             continue;
+        /* "name k": k indexes the 8 symmetry actions of the first orientation
+         * (mxgmn: action[firstOccurrence[name]][k]), so it may exceed the
+         * orientation count (e.g. "b_i 3" of an I tile is orientation 1). */
         int L = action[defs[lt].first][lo], D = action[L][1];
         int R = action[defs[rt].first][ro], U = action[R][1];
         /* mxgmn: propagator[0][R][L] (L left of R), [1][U][D] (D below U in
