@@ -56,6 +56,7 @@ typedef struct model_config {
     int64_t overlap_n;
     int64_t symmetry;
     int periodic_input;
+    int tile_image;
     char *format;
     char *dataset;
     gs_cfg_int3 size;
@@ -160,6 +161,9 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, start_tile, "model.start_tile", "",
                       "tile set: tile (\"name\" or \"name k\") filling the start model; it "
                       "must sit next to itself; \"\" = the heaviest such tile"),
+    GS_CFG_KEY_BOOL(model_config, tile_image, "model.tile_image", "true",
+                    "tile set / sample: write the picture assembled from tile images "
+                    "(tiles.png) or pattern pixels (image.png)"),
     GS_CFG_KEY_PATH(model_config, sample, "model.sample", "",
                     "sample PNG for the overlapping model (N x N patterns = labels); 2D"),
     GS_CFG_KEY_INT(model_config, overlap_n, "model.overlap_n", 2, 8, 0, "3",
@@ -784,12 +788,12 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         GS_CALL(gs_model_write_png(path, &e->lat, &e->pal));
         gs_run_output(run, "image", "lattice.png");
     }
-    if (c->tileset[0]) {
+    if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);
         GS_CALL(gs_model_tileset_write_png(path, &e->ts, &e->lat));
         gs_run_output(run, "tiles_image", "tiles.png");
     }
-    if (c->sample[0]) {
+    if (c->sample[0] && c->tile_image) {
         gs_run_path(run, "image.png", path, sizeof path);
         GS_CALL(gs_model_patterns_write_png(path, &e->pats, &e->lat));
         gs_run_output(run, "pattern_image", "image.png");
