@@ -534,8 +534,10 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
          * (dir 2, upper, lower). */
         int hp[4][2] = {{L, R}, {action[L][6], action[R][6]}, {action[R][4], action[L][4]},
                         {action[R][2], action[L][2]}};
-        int vp[4][2] = {{U, D}, {action[U][6], action[D][6]}, {action[D][4], action[U][4]},
-                        {action[U][2], action[D][2]}};
+        /* mxgmn sets densePropagator[1][X][Y] (Y below X) for (U, D),
+         * (D6, U6), (U4, D4), (D2, U2): action 6 flips up/down, 4 left/right. */
+        int vp[4][2] = {{U, D}, {action[D][6], action[U][6]}, {action[U][4], action[D][4]},
+                        {action[D][2], action[U][2]}};
         if (np + 8 > cap) {
             cap *= 2;
             void *nb = gs_realloc(ts.pairs, cap * sizeof *ts.pairs);
