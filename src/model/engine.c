@@ -13,6 +13,16 @@
  * mesh, lattice.png when nz == 1, optionally Merrell's .txt; quality
  * metrics).
  *
+ * 2D inputs as WaveFunctionCollapse users know them (model_tiles.h):
+ * model.tileset (mxgmn tile set XML, optional model.subset / start_tile)
+ * and model.sample (overlapping model: N x N patterns of a PNG, keys
+ * overlap_n, symmetry, periodic_input) replace model.example; their rules
+ * come from explicit pairs, the start model is a uniform layer of a tile
+ * that may sit next to itself, and the output adds tiles.png (assembled
+ * from the tile images) or image.png (pattern pixels); the violations metric
+ * then comes from the tile-set / pattern checker. Periodic output and the
+ * overlapping model's ground are not supported.
+ *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
  * finished; checkpoints are taken between colours, since the regions of one
  * colour run concurrently. The checkpoint (group /model) holds the lattice,
