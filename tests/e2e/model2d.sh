@@ -35,6 +35,14 @@ d1=$(digest_of run1) d2=$(digest_of run2)
 [[ $(metric run1 labels_used) -ge 6 ]] && ok "uses $(metric run1 labels_used) of 9 oriented tiles" \
   || bad "only $(metric run1 labels_used) oriented tiles used"
 
+# --- stop + resume at another rank count -------------------------------------
+GS_STOP_AFTER_UNITS=40 run_gs 0 model -c knots.ini -o stop
+expect_rc 9 "GS_STOP_AFTER_UNITS=40 stops with exit 9"
+run_gs 2 resume stop
+expect_rc 0 "resume at np=2"
+[[ $(digest_of stop) == "$d1" ]] && ok "stop at np=1 + resume at np=2: digest $d1" \
+  || bad "resume digest $(digest_of stop) != $d1"
+
 # --- model-check against the tile set ---------------------------------------
 run_gs 0 model-check "$W/tilesets/Knots.xml#Standard" run1/lattice.h5
 [[ $rc -eq 0 ]] && grep -q "^violations: 0$" <<<"$out" && ok "model-check Knots.xml#Standard: 0 violations" \
