@@ -122,7 +122,7 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
     const model_config *c = cfgp;
     int inputs = (c->example[0] != 0) + (c->tileset[0] != 0) + (c->sample[0] != 0);
     if (inputs != 1)
-        gs_cfg_report(ctx, c->example[0] ? "model.example" : "model.tileset",
+        gs_cfg_report(ctx, "model.example",
                       "%s: set exactly one of model.example (label lattice), model.tileset "
                       "(WFC tile set XML) and model.sample (overlapping model PNG)",
                       inputs ? "several inputs given" : "no input given");
@@ -384,10 +384,20 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
         GS_CALL(bcast_lattice(run->comm, &e->start, err));
     }
     e->example_digest = gs_model_lattice_digest(&e->example);
-    if (e->ts.npairs)
-        e->example_digest ^= gs_digest_bytes(e->ts.pairs, e->ts.npairs * sizeof *e->ts.pairs);
-    if (e->pats.npairs)
-        e->example_digest ^= gs_digest_bytes(e->pats.pairs, e->pats.npairs * sizeof *e->pats.pairs);
+    /* Pair lists by value (the struct has padding bytes), plus the weights. */
+    const gs_model_pair *pairs = e->ts.npairs ? e->ts.pairs : e->pats.pairs;
+    size_t np = e->ts.npairs ? e->ts.npairs : e->pats.npairs;
+    if (np) {
+        uint64_t *keys = NULL;
+        GS_CALL(gs_alloc_array((void **)&keys, np, sizeof *keys, "input digest"));
+        for (size_t i = 0; i < np; i++)
+            keys[i] = (uint64_t)pairs[i].dir << 32 | (uint64_t)pairs[i].a << 16 | pairs[i].b;
+        e->example_digest ^= gs_digest_bytes(keys, np * sizeof *keys);
+        gs_free(keys);
+        int L = gs_model_rules_nlabels(e->rules);
+        for (int l = 0; l < L; l++)
+            e->example_digest = e->example_digest * 31 + gs_model_rules_count(e->rules, l);
+    }
     return GS_OK;
 }
 
@@ -575,7 +585,10 @@ static gs_err read_checkpoint(gs_run *run, model_engine *e)
     GS_TRY_CHECK(err, exd == e->example_digest, GS_ERR_ARG, done,
                  "%s: the example %s changed since the checkpoint was written (digest "
                  "%016llx, now %016llx): resume needs the same example",
-                 gs_ckpt_path(h), e->cfg->example, (unsigned long long)exd,
+                 gs_ckpt_path(h),
+                 e->cfg->tileset[0] ? e->cfg->tileset
+                 : e->cfg->sample[0] ? e->cfg->sample : e->cfg->example,
+                 (unsigned long long)exd,
                  (unsigned long long)e->example_digest);
     GS_TRY(err, gs_ckpt_get_i64(h, g, "pass", &pass), done);
     GS_TRY(err, gs_ckpt_get_i64(h, g, "color", &color), done);
