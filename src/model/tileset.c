@@ -382,11 +382,16 @@ static gs_err load_rgba(const char *path, gs_image *img, int *w, int *h, uint8_t
         *w = img->width;
         *h = img->height;
     }
-    GS_CHECK(img->width == *w && img->height == *h, GS_ERR_FORMAT,
-             "%s: %dx%d pixels: expected %dx%d like the first tile", path, img->width, img->height,
-             *w, *h);
-    if (!dst_or_null)
+    if (img->width != *w || img->height != *h) {
+        int iw = img->width, ih = img->height;
+        gs_image_destroy(img);
+        GS_RAISE(GS_ERR_FORMAT, "%s: %dx%d pixels: expected %dx%d like the first tile", path, iw,
+                 ih, *w, *h);
+    }
+    if (!dst_or_null) {
+        gs_image_destroy(img);
         return GS_OK;
+    }
     for (int y = 0; y < img->height; y++)
         for (int x = 0; x < img->width; x++) {
             uint8_t px[4] = {0, 0, 0, 255};
@@ -402,6 +407,7 @@ static gs_err load_rgba(const char *path, gs_image *img, int *w, int *h, uint8_t
                 px[1] = px[2] = px[0];
             memcpy(dst_or_null + ((size_t)y * (size_t)*w + (size_t)x) * 4, px, 4);
         }
+    gs_image_destroy(img);
     return GS_OK;
 }
 
