@@ -105,8 +105,9 @@ gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q,
 gs_err gs_model_resemblance(const gs_model_lattice *example, const gs_model_lattice *output,
                             int w, double *share);
 
-/* Loads both files (formats inferred), runs gs_model_check and prints a
- * report to out: one line per violation up to cap, then the total. *count
+/* Loads both files (formats inferred), runs gs_model_check (or, when example
+ * is a WFC tile set "TILES.xml" / "TILES.xml#SUBSET", gs_model_tileset_check
+ * from model_tiles.h) and prints a report to out: one line per violation up to cap, then the total. *count
  * is the number of violations. */
 gs_err gs_model_check_files(const char *example, const char *output, FILE *out, size_t cap,
                             size_t *count);

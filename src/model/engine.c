@@ -13,6 +13,16 @@
  * mesh, lattice.png when nz == 1, optionally Merrell's .txt; quality
  * metrics).
  *
+ * 2D inputs as WaveFunctionCollapse users know them (model_tiles.h):
+ * model.tileset (mxgmn tile set XML, optional model.subset / start_tile)
+ * and model.sample (overlapping model: N x N patterns of a PNG, keys
+ * overlap_n, symmetry, periodic_input) replace model.example; their rules
+ * come from explicit pairs, the start model is a uniform layer of a tile
+ * that may sit next to itself, and the output adds tiles.png (assembled
+ * from the tile images) or image.png (pattern pixels); the violations metric
+ * then comes from the tile-set / pattern checker. Periodic output and the
+ * overlapping model's ground are not supported.
+ *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
  * finished; checkpoints are taken between colours, since the regions of one
  * colour run concurrently. The checkpoint (group /model) holds the lattice,
@@ -37,6 +47,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
 #include "geosynth/model_io.h"
+#include "geosynth/model_tiles.h"
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/regions.h"
@@ -48,6 +59,14 @@
 
 typedef struct model_config {
     char *example;
+    char *tileset;
+    char *subset;
+    char *start_tile;
+    char *sample;
+    int64_t overlap_n;
+    int64_t symmetry;
+    int periodic_input;
+    int tile_image;
     char *format;
     char *dataset;
     gs_cfg_int3 size;
@@ -101,6 +120,22 @@ static int parse_column(const char *text, uint16_t *out, int cap, char *why, siz
 static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
 {
     const model_config *c = cfgp;
+    int inputs = (c->example[0] != 0) + (c->tileset[0] != 0) + (c->sample[0] != 0);
+    if (inputs != 1)
+        gs_cfg_report(ctx, "model.example",
+                      "%s: set exactly one of model.example (label lattice), model.tileset "
+                      "(WFC tile set XML) and model.sample (overlapping model PNG)",
+                      inputs ? "several inputs given" : "no input given");
+    if ((c->tileset[0] || c->sample[0]) && c->size[2] != 1)
+        gs_cfg_report(ctx, "model.size",
+                      "z = %lld: model.tileset and model.sample are 2D inputs, expected z = 1",
+                      (long long)c->size[2]);
+    if (c->start_tile[0] && !c->tileset[0])
+        gs_cfg_report(ctx, "model.start_tile", "only applies to model.tileset");
+    if (c->subset[0] && !c->tileset[0])
+        gs_cfg_report(ctx, "model.subset", "only applies to model.tileset");
+    if (c->sample[0] && (c->start[0] || c->start_column[0]))
+        gs_cfg_report(ctx, "model.start", "not supported with model.sample");
     for (int a = 0; a < 3; a++) {
         int64_t edge = c->region[a];
         if (edge > 0 && edge < c->size[a] && c->overlap >= edge)
@@ -125,8 +160,29 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
 }
 
 static const gs_cfg_key model_keys[] = {
-    GS_CFG_KEY_PATH(model_config, example, "model.example", NULL,
-                    "example lattice: Merrell .txt, MagicaVoxel/Slab6 .vox, or geosynth .h5"),
+    GS_CFG_KEY_PATH(model_config, example, "model.example", "",
+                    "example lattice: Merrell .txt, MagicaVoxel/Slab6 .vox, or geosynth .h5 "
+                    "(or model.tileset / model.sample)"),
+    GS_CFG_KEY_PATH(model_config, tileset, "model.tileset", "",
+                    "WaveFunctionCollapse tile set XML (simple tiled model; tile PNGs in the "
+                    "folder of the same name); 2D, model.size z = 1"),
+    GS_CFG_KEY_STRING(model_config, subset, "model.subset", "",
+                      "tile set subset name (<subsets> of the XML); \"\" = every tile"),
+    GS_CFG_KEY_STRING(model_config, start_tile, "model.start_tile", "",
+                      "tile set: tile (\"name\" or \"name k\") filling the start model; it "
+                      "must sit next to itself; \"\" = the heaviest such tile"),
+    GS_CFG_KEY_BOOL(model_config, tile_image, "model.tile_image", "true",
+                    "tile set / sample: write the picture assembled from tile images "
+                    "(tiles.png) or pattern pixels (image.png)"),
+    GS_CFG_KEY_PATH(model_config, sample, "model.sample", "",
+                    "sample PNG for the overlapping model (N x N patterns = labels); 2D"),
+    GS_CFG_KEY_INT(model_config, overlap_n, "model.overlap_n", 2, 8, 0, "3",
+                   "overlapping model: pattern edge N"),
+    GS_CFG_KEY_INT(model_config, symmetry, "model.symmetry", 1, 8, 0, "8",
+                   "overlapping model: pattern variants (1 as is, 2 + mirror, ... 8 all "
+                   "rotations and mirrors)"),
+    GS_CFG_KEY_BOOL(model_config, periodic_input, "model.periodic_input", "true",
+                    "overlapping model: windows wrap around the sample's edges"),
     GS_CFG_KEY_ENUM(model_config, format, "model.format", "auto|txt|vox|h5", "auto",
                     "example format; auto = from the file name extension"),
     GS_CFG_KEY_STRING(model_config, dataset, "model.dataset", "/model/labels",
@@ -188,6 +244,8 @@ typedef struct model_engine {
     gs_model_params params;
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
+    gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
+    gs_model_patterns pats;  /* model.sample */
     gs_model_rules_t rules;
     gs_model_solver_t solver;
     uint16_t *coverage;  /* accepted regions per cell (saturating) */
@@ -250,14 +308,67 @@ static gs_err bcast_lattice(MPI_Comm comm, gs_model_lattice *l, gs_err loaded)
     return GS_OK;
 }
 
+/* Tile sets and patterns have no example lattice: the start model needs a
+ * label that may sit next to itself along x and y. The 1x1x1 "example"
+ * holds the heaviest such label (first on ties), which gs_model_initial
+ * prefers. */
+static gs_err pseudo_example(model_engine *e)
+{
+    const char *what = e->cfg->tileset[0] ? e->cfg->tileset : e->cfg->sample;
+    int L = gs_model_rules_nlabels(e->rules), best = -1;
+    for (int l = 1; l < L; l++) {
+        if (!gs_model_rules_count(e->rules, l) || !gs_model_rules_allows(e->rules, 0, l, l) ||
+            !gs_model_rules_allows(e->rules, 2, l, l))
+            continue;
+        if (best < 0 || gs_model_rules_count(e->rules, l) > gs_model_rules_count(e->rules, best))
+            best = l;
+    }
+    if (e->cfg->start_tile[0]) {
+        char want[80];
+        snprintf(want, sizeof want, "%s%s", e->cfg->start_tile,
+                 strchr(e->cfg->start_tile, ' ') ? "" : " 0");
+        best = -1;
+        for (int t = 0; t < e->ts.ntiles && best < 0; t++)
+            if (!strcmp(e->ts.names[t], want))
+                best = t + 1;
+        GS_CHECK(best > 0, GS_ERR_ARG, "model.start_tile = %s: no such tile in %s%s%s",
+                 e->cfg->start_tile, what, e->cfg->subset[0] ? " subset " : "", e->cfg->subset);
+        GS_CHECK(gs_model_rules_allows(e->rules, 0, best, best) &&
+                     gs_model_rules_allows(e->rules, 2, best, best),
+                 GS_ERR_ARG,
+                 "model.start_tile = %s: the tile may not sit next to itself along x and y in "
+                 "%s, so it cannot fill the start model",
+                 e->cfg->start_tile, what);
+    }
+    GS_CHECK(best > 0 || e->cfg->start[0], GS_ERR_ARG,
+             "%s: no %s may sit next to itself along both x and y, so there is no trivial "
+             "consistent start model; give one with model.start",
+             what, e->cfg->tileset[0] ? "tile" : "pattern");
+    GS_CALL(gs_model_lattice_create(&e->example, 1, 1, 1));
+    e->example.labels[0] = (uint16_t)(best > 0 ? best : 1);
+    return GS_OK;
+}
+
 static gs_err load_inputs(gs_run *run, model_engine *e)
 {
     const model_config *c = e->cfg;
     gs_err err = GS_OK;
-    if (run->rank == 0)
-        err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
-    GS_CALL(bcast_lattice(run->comm, &e->example, err));
-    GS_MPI(MPI_Bcast(&e->pal, (int)sizeof e->pal, MPI_BYTE, 0, run->comm));
+    if (c->tileset[0] || c->sample[0]) {
+        /* Every rank parses the (small) input; only rank 0 needs tile images. */
+        err = c->tileset[0] ? gs_model_tileset_load(c->tileset, c->subset, run->rank == 0, &e->ts)
+                            : gs_model_patterns_learn(c->sample, (int)c->overlap_n,
+                                                      (int)c->symmetry, c->periodic_input,
+                                                      &e->pats);
+        GS_CALL(gs_par_agree(run->comm, err));
+        GS_CALL(c->tileset[0] ? gs_model_tileset_rules(&e->ts, &e->rules)
+                              : gs_model_patterns_rules(&e->pats, &e->rules));
+        GS_CALL(pseudo_example(e));
+    } else {
+        if (run->rank == 0)
+            err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
+        GS_CALL(bcast_lattice(run->comm, &e->example, err));
+        GS_MPI(MPI_Bcast(&e->pal, (int)sizeof e->pal, MPI_BYTE, 0, run->comm));
+    }
     if (c->start[0]) {
         if (run->rank == 0) {
             err = gs_model_load(c->start, "auto", c->dataset, &e->start, NULL);
@@ -273,6 +384,20 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
         GS_CALL(bcast_lattice(run->comm, &e->start, err));
     }
     e->example_digest = gs_model_lattice_digest(&e->example);
+    /* Pair lists by value (the struct has padding bytes), plus the weights. */
+    const gs_model_pair *pairs = e->ts.npairs ? e->ts.pairs : e->pats.pairs;
+    size_t np = e->ts.npairs ? e->ts.npairs : e->pats.npairs;
+    if (np) {
+        uint64_t *keys = NULL;
+        GS_CALL(gs_alloc_array((void **)&keys, np, sizeof *keys, "input digest"));
+        for (size_t i = 0; i < np; i++)
+            keys[i] = (uint64_t)pairs[i].dir << 32 | (uint64_t)pairs[i].a << 16 | pairs[i].b;
+        e->example_digest ^= gs_digest_bytes(keys, np * sizeof *keys);
+        gs_free(keys);
+        int L = gs_model_rules_nlabels(e->rules);
+        for (int l = 0; l < L; l++)
+            e->example_digest = e->example_digest * 31 + gs_model_rules_count(e->rules, l);
+    }
     return GS_OK;
 }
 
@@ -460,7 +585,10 @@ static gs_err read_checkpoint(gs_run *run, model_engine *e)
     GS_TRY_CHECK(err, exd == e->example_digest, GS_ERR_ARG, done,
                  "%s: the example %s changed since the checkpoint was written (digest "
                  "%016llx, now %016llx): resume needs the same example",
-                 gs_ckpt_path(h), e->cfg->example, (unsigned long long)exd,
+                 gs_ckpt_path(h),
+                 e->cfg->tileset[0] ? e->cfg->tileset
+                 : e->cfg->sample[0] ? e->cfg->sample : e->cfg->example,
+                 (unsigned long long)exd,
                  (unsigned long long)e->example_digest);
     GS_TRY(err, gs_ckpt_get_i64(h, g, "pass", &pass), done);
     GS_TRY(err, gs_ckpt_get_i64(h, g, "color", &color), done);
@@ -595,7 +723,10 @@ static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *p
                                 "labels[z][y][x]; x fastest, z up; 0 = empty"),
            fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model", "digest", hex), fail);
-    GS_TRY(err, gs_ckpt_set_str(h, "/model", "example", e->cfg->example), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model", "example",
+                                e->cfg->tileset[0] ? e->cfg->tileset
+                                : e->cfg->sample[0] ? e->cfg->sample : e->cfg->example),
+           fail);
     GS_TRY(err, gs_ckpt_commit(&h), fail);
     gs_xdmf_grid grid = {"model lattice", GS_XDMF_CELL,
                          {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx},
@@ -624,13 +755,20 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     char path[PATH_MAX];
     memset(q, 0, sizeof *q);
     gs_model_violation v[MODEL_VIOLATION_LIST];
-    GS_CALL(gs_model_check(&e->example, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
-    for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST; i++)
+    if (c->tileset[0])
+        GS_CALL(gs_model_tileset_check(&e->ts, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
+    else if (c->sample[0])
+        GS_CALL(gs_model_patterns_check(&e->pats, &e->lat, &q->violations));
+    else
+        GS_CALL(gs_model_check(&e->example, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
+    for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST && !c->sample[0]; i++)
         gs_log(GS_LOG_WARN, "violation: cell (%d, %d, %d) label %u, dir %d label %u", v[i].x,
                v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
     q->rule_violations = gs_model_rules_violations(e->rules, &e->lat);
-    GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
-    GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
+    if (!c->tileset[0] && !c->sample[0]) { /* no example lattice to compare with */
+        GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
+        GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
+    }
     gs_model_run_lengths(&e->lat, q->run_out);
     gs_model_run_lengths(&e->example, q->run_ex);
     {
@@ -673,6 +811,16 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         GS_CALL(gs_model_write_png(path, &e->lat, &e->pal));
         gs_run_output(run, "image", "lattice.png");
     }
+    if (c->tileset[0] && c->tile_image) {
+        gs_run_path(run, "tiles.png", path, sizeof path);
+        GS_CALL(gs_model_tileset_write_png(path, &e->ts, &e->lat));
+        gs_run_output(run, "tiles_image", "tiles.png");
+    }
+    if (c->sample[0] && c->tile_image) {
+        gs_run_path(run, "image.png", path, sizeof path);
+        GS_CALL(gs_model_patterns_write_png(path, &e->pats, &e->lat));
+        gs_run_output(run, "pattern_image", "image.png");
+    }
     if (c->txt) {
         gs_run_path(run, "lattice.txt", path, sizeof path);
         GS_CALL(gs_model_write_merrell_txt(path, &e->lat));
@@ -687,6 +835,8 @@ static void engine_free(model_engine *e)
     gs_model_lattice_destroy(&e->lat);
     gs_model_lattice_destroy(&e->start);
     gs_model_rules_destroy(&e->rules);
+    gs_model_tileset_destroy(&e->ts);
+    gs_model_patterns_destroy(&e->pats);
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
     gs_free(e->buf);
@@ -700,7 +850,8 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     const model_config *c = e->cfg;
     GS_CALL(engine_params(c, &e->params));
     GS_CALL(load_inputs(run, e));
-    GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
+    if (!e->rules)
+        GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
     int L = gs_model_rules_nlabels(e->rules), present = 0;
     for (int l = 0; l < L; l++)
         present += gs_model_rules_count(e->rules, l) > 0;
@@ -714,6 +865,14 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     size_t W = ((size_t)L + 63) / 64;
     double mem = (double)cells * 4 + (double)rcells * (double)(W * 8 + 40 + 2) +
                  6.0 * L * (double)W * 8 + (e->params.ac == GS_MODEL_AC4 ? 12.0 * L * rcells : 0);
+    if (c->tileset[0])
+        gs_log(GS_LOG_INFO, "tile set %s%s%s: %d oriented tiles, %zu allowed pairs, tiles %dx%d px",
+               c->tileset, c->subset[0] ? " subset " : "", c->subset, e->ts.ntiles, e->ts.npairs,
+               e->ts.tile_w, e->ts.tile_h);
+    if (c->sample[0])
+        gs_log(GS_LOG_INFO, "sample %s: %d colours, %d patterns of %dx%d (symmetry %lld), %zu allowed pairs",
+               c->sample, e->pats.ncolors, e->pats.npatterns, e->pats.n, e->pats.n,
+               (long long)c->symmetry, e->pats.npairs);
     gs_log(GS_LOG_INFO, "example %s: %dx%dx%d, %d labels present (largest %d)%s", c->example,
            e->example.nx, e->example.ny, e->example.nz, present, L - 1,
            e->pal.from_file ? ", palette from the file" : "");

@@ -6,6 +6,7 @@
 #include "geosynth/image.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_io.h"
+#include "geosynth/model_tiles.h"
 #include "geosynth/vox.h"
 
 static int ends_with(const char *s, const char *suffix)
@@ -223,13 +224,31 @@ gs_err gs_model_check_files(const char *example, const char *output, FILE *out, 
 {
     gs_model_lattice ex = {0}, lat = {0};
     gs_model_violation *v = NULL;
+    gs_model_tileset ts;
+    memset(&ts, 0, sizeof ts);
     gs_err err = GS_OK;
-    GS_TRY(err, gs_model_load(example, "auto", NULL, &ex, NULL), done);
+    /* A WFC tile set "TILES.xml" or "TILES.xml#SUBSET" checks against its
+     * neighbour list instead of an example lattice. */
+    char tpath[4096] = "";
+    const char *hash = strstr(example, ".xml#");
+    if (hash || ends_with(example, ".xml")) {
+        size_t pl = hash ? (size_t)(hash - example) + 4 : strlen(example);
+        GS_TRY_CHECK(err, pl < sizeof tpath, GS_ERR_ARG, done, "%s: path too long", example);
+        memcpy(tpath, example, pl);
+        tpath[pl] = '\0';
+        GS_TRY(err, gs_model_tileset_load(tpath, hash ? hash + 5 : NULL, 0, &ts), done);
+        GS_TRY(err, gs_model_lattice_create(&ex, 1, 1, 1), done);
+    } else {
+        GS_TRY(err, gs_model_load(example, "auto", NULL, &ex, NULL), done);
+    }
     GS_TRY(err, gs_model_load(output, "auto", NULL, &lat, NULL), done);
     if (cap)
         GS_TRY(err, gs_alloc_array((void **)&v, cap, sizeof *v, "violation list"), done);
     size_t nv = 0;
-    GS_TRY(err, gs_model_check(&ex, &lat, v, cap, &nv), done);
+    if (tpath[0])
+        GS_TRY(err, gs_model_tileset_check(&ts, &lat, v, cap, &nv), done);
+    else
+        GS_TRY(err, gs_model_check(&ex, &lat, v, cap, &nv), done);
     fprintf(out, "example %s: %dx%dx%d\noutput  %s: %dx%dx%d\n", example, ex.nx, ex.ny, ex.nz,
             output, lat.nx, lat.ny, lat.nz);
     for (size_t i = 0; i < nv && i < cap; i++) {
@@ -249,6 +268,7 @@ gs_err gs_model_check_files(const char *example, const char *output, FILE *out, 
     *count = nv;
 done:
     gs_free(v);
+    gs_model_tileset_destroy(&ts);
     gs_model_lattice_destroy(&ex);
     gs_model_lattice_destroy(&lat);
     return err;

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/model_tiles.h"
 #include "model/model_impl.h"
 
 static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -210,5 +211,52 @@ done:
     gs_free(col);
     gs_free(score);
     gs_free(from);
+    return err;
+}
+
+/* ---- rules from explicit pairs (tile sets, overlapping patterns) ------------- */
+
+gs_err gs_model_rules_from_pairs(int L, const gs_model_pair *pairs, size_t npairs,
+                                 const uint64_t *counts, gs_model_rules_t *out)
+{
+    GS_CHECK(L > 0 && L <= 65536, GS_ERR_ARG, "rules from pairs: %d labels, expected 1..65536", L);
+    struct gs_model_rules *r = gs_calloc(1, sizeof *r);
+    GS_CHECK(r, GS_ERR_MEM, "model rules: cannot allocate");
+    gs_err err = GS_OK;
+    r->nlabels = L;
+    r->words = (L + 63) / 64;
+    const size_t W = (size_t)r->words;
+    GS_TRY(err, gs_alloc_array((void **)&r->allow, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->present, W, 8, "label set"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->full_support, GS_MODEL_DIRS * W, 8, "support sets"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->count, (size_t)L, 8, "label counts"), fail);
+    memset(r->allow, 0, (size_t)L * GS_MODEL_DIRS * W * 8);
+    memset(r->present, 0, W * 8);
+    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
+    for (int l = 0; l < L; l++)
+        r->count[l] = counts[l];
+    for (size_t i = 0; i < npairs; i++) {
+        const gs_model_pair *p = &pairs[i];
+        GS_TRY_CHECK(err, (p->dir == 0 || p->dir == 2 || p->dir == 4) && p->a < L && p->b < L,
+                     GS_ERR_ARG, fail, "rules from pairs: pair %zu (dir %d, %u, %u) out of range",
+                     i, p->dir, p->a, p->b);
+        set_bit(r->allow + ((size_t)p->a * GS_MODEL_DIRS + p->dir) * W, p->b);
+        set_bit(r->allow + ((size_t)p->b * GS_MODEL_DIRS + (p->dir ^ 1u)) * W, p->a);
+    }
+    for (int a = 0; a < L; a++) {
+        if (!r->count[a])
+            continue;
+        set_bit(r->present, a);
+        r->npresent++;
+        for (int d = 0; d < GS_MODEL_DIRS; d++)
+            for (size_t w = 0; w < W; w++)
+                r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    }
+    *out = r;
+    return GS_OK;
+fail:
+    gs_model_rules_destroy(&r);
     return err;
 }
