@@ -159,6 +159,9 @@ typedef struct gs_model_params {
     gs_model_order order;
     gs_model_weights weights;
     gs_model_ac ac;
+    int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
+                           without fix_z_faces): cell n-1 is adjacent to cell 0
+                           and the rules hold across the wrap */
 } gs_model_params;
 
 /* Defaults: whole grid, overlap -1 (half the edge), attempts 20, min_changes 1, max_passes 4,
@@ -178,6 +181,23 @@ void gs_model_params_default(gs_model_params *p);
  * out must already have the output dims; all its labels are overwritten. */
 gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *example,
                         const uint16_t *column, gs_model_lattice *out);
+
+/* Tiled start with real variety: synthesizes a tile*tile*nz block that is
+ * periodic in x and y (whole block, start = the trivial column model, fixed z
+ * faces as p says, attempts/backtracks of p, random stream keyed by p->seed)
+ * and repeats it over out. Because the tile is periodic the repeated model is
+ * consistent, and the shell of every region offers the example's variety
+ * instead of one column's few horizontal neighbours (city: the trivial
+ * column forces every region). When no attempt succeeds, out is the trivial
+ * column model and *tiled = 0. out must have its dims; labels overwritten. */
+gs_err gs_model_initial_tiled(const gs_model_rules_t rules, const gs_model_lattice *example,
+                              const gs_model_params *p, int tile, gs_model_lattice *out,
+                              int *tiled);
+
+/* Violations like gs_model_rules_violations(), also counting the pairs across
+ * the wrap on the axes with periodic[a] != 0. */
+size_t gs_model_rules_violations_wrap(const gs_model_rules_t rules, const gs_model_lattice *lat,
+                                      const int periodic[3]);
 
 /* ---- regions and the serial driver ---------------------------------------- */
 

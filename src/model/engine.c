@@ -63,6 +63,8 @@ typedef struct model_config {
     int fix_z_faces;
     char *start;
     char *start_column;
+    int64_t start_tile;
+    char *periodic;
     char *mesh;
     int vox;
     int txt;
@@ -108,6 +110,12 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "must be smaller than the region edge %lld along %c (model.region)",
                           (long long)edge, "xyz"[a]);
     }
+    if (strchr(c->periodic, 'z') && c->fix_z_faces)
+        gs_cfg_report(ctx, "model.periodic",
+                      "= %s wraps z: needs model.fix_z_faces = false", c->periodic);
+    if (c->start_tile > 0 && (c->start[0] || c->start_column[0]))
+        gs_cfg_report(ctx, "model.start_tile",
+                      "cannot be combined with model.start or model.start_column");
     if (c->start[0] && c->start_column[0])
         gs_cfg_report(ctx, "model.start_column",
                       "cannot be combined with model.start = %s: give one start model", c->start);
@@ -162,6 +170,12 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, start_column, "model.start_column", "",
                       "start model as one column of labels, bottom first, repeated over x and "
                       "y; \"\" = inferred"),
+    GS_CFG_KEY_INT(model_config, start_tile, "model.start_tile", 0, 4096, 0, "0",
+                   "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
+                   "(regions then see the example's variety at their shells); 0 = one column"),
+    GS_CFG_KEY_ENUM(model_config, periodic, "model.periodic", "none|x|y|xy|xyz", "none",
+                    "output wraps along these axes (rules hold across the wrap; z needs "
+                    "fix_z_faces = false)"),
     GS_CFG_KEY_ENUM(model_config, mesh, "model.mesh", "ply|obj|none", "ply",
                     "mesh of coloured voxel cubes with merged faces"),
     GS_CFG_KEY_BOOL(model_config, vox, "model.vox", "true",
@@ -225,6 +239,9 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
                                                   : GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
+    p->periodic[0] = strchr(c->periodic, 'x') != NULL;
+    p->periodic[1] = strchr(c->periodic, 'y') != NULL;
+    p->periodic[2] = strchr(c->periodic, 'z') != NULL;
     return GS_OK;
 }
 
@@ -299,6 +316,18 @@ static gs_err build_start(model_engine *e)
         if (err)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
+    }
+    if (c->start_tile > 0) {
+        int tiled = 0;
+        GS_CALL(gs_model_initial_tiled(e->rules, &e->example, &e->params, (int)c->start_tile,
+                                       &e->lat, &tiled));
+        gs_log(GS_LOG_INFO, "start model: %s", tiled ? "periodic tile repeated"
+                                                     : "tile failed, one column repeated");
+        GS_CHECK(!(e->params.periodic[0] || e->params.periodic[1]) ||
+                     gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic) == 0,
+                 GS_ERR_ARG, "model.start_tile = %lld must divide the periodic output extents",
+                 (long long)c->start_tile);
+        return GS_OK;
     }
     return gs_model_initial(e->rules, &e->example, NULL, &e->lat);
 }
@@ -628,7 +657,7 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST; i++)
         gs_log(GS_LOG_WARN, "violation: cell (%d, %d, %d) label %u, dir %d label %u", v[i].x,
                v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
-    q->rule_violations = gs_model_rules_violations(e->rules, &e->lat);
+    q->rule_violations = gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
     GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
     GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
     gs_model_run_lengths(&e->lat, q->run_out);

@@ -81,6 +81,10 @@ gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n);
  * the box is -1) and all present labels as candidates. For tests and for
  * region setup, which then narrows dom/size. */
 gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz);
+/* Same with wrap[a] != 0: the box is periodic along axis a (the neighbour of
+ * the last cell is the first one). */
+gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
+                                     const int wrap[3]);
 /* Recomputes size[] from dom[]. Returns 0 if some cell is empty. */
 int gs_model_solver_recount(struct gs_model_solver *s);
 /* Establishes arc consistency from the current candidates with the

@@ -111,6 +111,33 @@ size_t gs_model_rules_violations(const gs_model_rules_t r, const gs_model_lattic
     return bad;
 }
 
+size_t gs_model_rules_violations_wrap(const gs_model_rules_t r, const gs_model_lattice *lat,
+                                      const int periodic[3])
+{
+    size_t bad = gs_model_rules_violations(r, lat);
+    const int n[3] = {lat->nx, lat->ny, lat->nz};
+    for (int a = 0; a < 3; a++) {
+        if (!periodic || !periodic[a])
+            continue;
+        /* pairs (last, first) along axis a */
+        int o1 = a == 0 ? lat->ny : lat->nx, o2 = a == 2 ? lat->ny : lat->nz;
+        for (int j = 0; j < o2; j++)
+            for (int i = 0; i < o1; i++) {
+                int p0[3], p1[3];
+                if (a == 0) { p0[1] = p1[1] = i; p0[2] = p1[2] = j; }
+                if (a == 1) { p0[0] = p1[0] = i; p0[2] = p1[2] = j; }
+                if (a == 2) { p0[0] = p1[0] = i; p0[1] = p1[1] = j; }
+                p0[a] = n[a] - 1;
+                p1[a] = 0;
+                int x = lat->labels[gs_model_lattice_index(lat, p0[0], p0[1], p0[2])];
+                int y = lat->labels[gs_model_lattice_index(lat, p1[0], p1[1], p1[2])];
+                if (x >= r->nlabels || y >= r->nlabels || !get_bit(gs_model_allow(r, x, 2 * a), y))
+                    bad++;
+            }
+    }
+    return bad;
+}
+
 /* ---- trivial start model ------------------------------------------------------ */
 
 static int tiles_horizontally(const struct gs_model_rules *r, int l)

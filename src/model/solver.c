@@ -104,6 +104,13 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
 
 gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz)
 {
+    static const int none[3] = {0, 0, 0};
+    return gs_model_solver_load_box_wrap(s, rx, ry, rz, none);
+}
+
+gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
+                                     const int wrap[3])
+{
     size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
     GS_CALL(gs_model_solver_reserve(s, n));
     const size_t W = (size_t)s->W;
@@ -113,12 +120,12 @@ gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int r
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, c++) {
                 int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
-                nb[0] = x + 1 < rx ? c + 1 : -1;
-                nb[1] = x > 0 ? c - 1 : -1;
-                nb[2] = y + 1 < ry ? c + rx : -1;
-                nb[3] = y > 0 ? c - rx : -1;
-                nb[4] = z + 1 < rz ? c + rx * ry : -1;
-                nb[5] = z > 0 ? c - rx * ry : -1;
+                nb[0] = x + 1 < rx ? c + 1 : (wrap[0] ? c - (rx - 1) : -1);
+                nb[1] = x > 0 ? c - 1 : (wrap[0] ? c + (rx - 1) : -1);
+                nb[2] = y + 1 < ry ? c + rx : (wrap[1] ? c - rx * (ry - 1) : -1);
+                nb[3] = y > 0 ? c - rx : (wrap[1] ? c + rx * (ry - 1) : -1);
+                nb[4] = z + 1 < rz ? c + rx * ry : (wrap[2] ? c - rx * ry * (rz - 1) : -1);
+                nb[5] = z > 0 ? c - rx * ry : (wrap[2] ? c + rx * ry * (rz - 1) : -1);
                 memcpy(s->dom + (size_t)c * W, present, W * 8);
                 s->size[c] = (uint16_t)s->rules->npresent;
             }
@@ -498,10 +505,13 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
 /* Candidates of the region's cells: present labels narrowed by the fixed
  * shell cells (labels of lat just outside the box, inside the output). */
 static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *lat,
-                           const gs_model_box *b, int *ok)
+                           const gs_model_box *b, const int periodic[3], int *ok)
 {
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
-    GS_CALL(gs_model_solver_load_box(s, rx, ry, rz));
+    /* a region spanning a whole periodic axis wraps onto itself */
+    const int wrap[3] = {periodic[0] && rx == lat->nx, periodic[1] && ry == lat->ny,
+                         periodic[2] && rz == lat->nz};
+    GS_CALL(gs_model_solver_load_box_wrap(s, rx, ry, rz, wrap));
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -520,6 +530,12 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                         continue;
                     int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
                         qz = b->z0 + z + step[d][2];
+                    if (periodic[0])
+                        qx = (qx + lat->nx) % lat->nx;
+                    if (periodic[1])
+                        qy = (qy + lat->ny) % lat->ny;
+                    if (periodic[2])
+                        qz = (qz + lat->nz) % lat->nz;
                     if (qx < 0 || qy < 0 || qz < 0 || qx >= lat->nx || qy >= lat->ny ||
                         qz >= lat->nz)
                         continue; /* outside the output: free */
@@ -578,7 +594,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
                              const gs_model_box *b, const gs_model_params *p, gs_rng *rng,
                              uint64_t *choices, int *ok)
 {
-    GS_CALL(setup_region(s, lat, b, ok));
+    GS_CALL(setup_region(s, lat, b, p->periodic, ok));
     if (!*ok)
         return GS_OK;
     *ok = gs_model_ac_establish(s);

@@ -5,7 +5,9 @@
  *
  *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME]
  *       [--order scan|random|entropy|all] [--ac 3|4|both] [--weights uniform|frequency]
- *       [--scale 1|10|all] [--attempts K]
+ *       [--scale 1|10|all] [--attempts K] [--tile T]
+ *
+ * --tile T starts from gs_model_initial_tiled() with a periodic TxT tile.
  *
  * DIR defaults to $GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
  * ($GS_SHARED defaults to ../shared).
@@ -46,6 +48,8 @@ static const bench_case cases[] = {
     {"parliament.txt", 95, 95, 10, 10, 10, 10},
     {"gadgets.txt", 126, 126, 6, 20, 20, 10},
 };
+
+static int g_tile = 0, g_tiled_seeds = 0;
 
 static const char *order_name[] = {"scan", "random", "entropy"};
 
@@ -88,7 +92,13 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         p.weights = weights;
         p.attempts = attempts;
         p.backtracks = backtracks;
-        GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
+        if (g_tile > 0) {
+            int tiled = 0;
+            GS_TRY(err, gs_model_initial_tiled(rules, &ex, &p, g_tile, &out, &tiled), done);
+            g_tiled_seeds += tiled;
+        } else {
+            GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
+        }
         gs_model_stats st;
         GS_TRY(err, gs_model_synthesize(rules, &p, &out, &st), done);
         size_t nviol = 0;
@@ -151,6 +161,9 @@ int main(int argc, char **argv)
                 return 1;
         } else if (!strcmp(a, "--backtracks")) {
             if (!parse_int(v, 0, 100000000, &backtracks))
+                return 1;
+        } else if (!strcmp(a, "--tile")) {
+            if (!parse_int(v, 0, 100000, &g_tile))
                 return 1;
         } else if (!strcmp(a, "--only")) {
             only = v;

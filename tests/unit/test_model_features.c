@@ -1,0 +1,159 @@
+/* Unit tests for the model engine's additions: tiled periodic start model
+ * (city in region mode gets real variety), periodic outputs (0 violations
+ * across the wrap, plan colours keep a gap across the wrap). Runs from tests/. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/error.h"
+#include "geosynth/mem.h"
+#include "geosynth/model.h"
+
+static void read_sample(const char *name, gs_model_lattice *ex)
+{
+    char path[4352];
+    const char *shared = getenv("GS_SHARED");
+    snprintf(path, sizeof path, "%s/data/model-synthesis/merrell42-model-synthesis/samples/%s",
+             shared ? shared : "../../shared", name);
+    gs_err e = gs_model_read_merrell_txt(path, ex);
+    if (e != GS_OK)
+        gs_error_report("test_model_features: ");
+    assert_int_equal(e, GS_OK);
+}
+
+static int distinct_labels(const gs_model_lattice *l)
+{
+    static uint8_t seen[65536];
+    memset(seen, 0, sizeof seen);
+    int n = 0;
+    for (size_t i = 0; i < (size_t)l->nx * l->ny * l->nz; i++) {
+        n += !seen[l->labels[i]];
+        seen[l->labels[i]] = 1;
+    }
+    return n;
+}
+
+/* City in 20x20 regions: from the one-column start every region is forced
+ * (the output keeps 3 labels); from the tiled start it has variety and run
+ * lengths near the example's. */
+static void test_city_regions_tiled_start(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("city.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 60, 60, 10), GS_OK);
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = p.region[1] = 20;
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    gs_model_stats st;
+    assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+    int trivial = distinct_labels(&out);
+    int tiled = 0;
+    assert_int_equal(gs_model_initial_tiled(r, &ex, &p, 20, &out, &tiled), GS_OK);
+    assert_int_equal(tiled, 1);
+    assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+    assert_int_equal(st.failed, 0);
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    int rich = distinct_labels(&out);
+    double ro[3], re[3];
+    gs_model_run_lengths(&out, ro);
+    gs_model_run_lengths(&ex, re);
+    print_message("city 60x60x10 in 20x20 regions: %d labels from the column start, %d from the "
+                  "tile; run-length ratio x %.2f y %.2f\n",
+                  trivial, rich, ro[0] / re[0], ro[1] / re[1]);
+    assert_true(rich >= 2 * trivial && rich >= 20);
+    assert_true(ro[0] / re[0] < 2.5 && ro[1] / re[1] < 2.5);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
+/* Periodic output: whole grid and regions; 0 violations including the wrap
+ * pairs; without periodic the same run has wrap violations. */
+static void test_periodic_output(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int per[3] = {1, 1, 0};
+    size_t wrapbad_free = 0;
+    for (int mode = 0; mode < 3; mode++) {
+        assert_int_equal(gs_model_lattice_create(&out, 40, 40, 10), GS_OK);
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 7;
+        if (mode >= 1)
+            p.periodic[0] = p.periodic[1] = 1;
+        if (mode == 2)
+            p.region[0] = p.region[1] = 16; /* 40 = 16 + 12 + 12: uneven regions */
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t wrapbad = gs_model_rules_violations_wrap(r, &out, per);
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+        assert_int_equal(nv, 0);
+        if (mode == 0)
+            wrapbad_free = wrapbad;
+        else
+            assert_int_equal(wrapbad, 0);
+        gs_model_lattice_destroy(&out);
+    }
+    print_message("castle 40x40x10 free boundary: %zu violations across the wrap\n", wrapbad_free);
+    assert_true(wrapbad_free > 0);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+static void test_periodic_plan_gap(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = 10;
+    p.region[1] = 8;
+    p.periodic[0] = p.periodic[1] = 1;
+    const int nx = 37, ny = 23;
+    for (int pass = 0; pass < 2; pass++) {
+        gs_model_region *reg = NULL;
+        size_t n = 0;
+        int ncol = 0;
+        assert_int_equal(gs_model_plan(&p, nx, ny, 10, pass, &reg, &n, &ncol), GS_OK);
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < i; j++) {
+                if (reg[i].color != reg[j].color)
+                    continue;
+                /* separated along some axis, counting the wrap */
+                const gs_model_box *a = &reg[i].box, *b = &reg[j].box;
+                int sepx = a->x1 < b->x0 || b->x1 < a->x0;
+                int sepy = a->y1 < b->y0 || b->y1 < a->y0;
+                int wrapx = (a->x0 == 0 && b->x1 == nx) || (b->x0 == 0 && a->x1 == nx);
+                int wrapy = (a->y0 == 0 && b->y1 == ny) || (b->y0 == 0 && a->y1 == ny);
+                assert_true((sepx && !wrapx) || (sepy && !wrapy));
+            }
+        gs_free(reg);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_city_regions_tiled_start),
+        cmocka_unit_test(test_periodic_output),
+        cmocka_unit_test(test_periodic_plan_gap),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
