@@ -159,14 +159,19 @@ typedef struct gs_model_params {
     gs_model_order order;
     gs_model_weights weights;
     gs_model_ac ac;
+    int split_depth;    /* a region whose tries all fail is split into 2x2
+                           sub-boxes (x, y halves), each tried again with its
+                           resampled siblings fixed; failing sub-boxes split
+                           again, up to this many levels (0 = off, as before) */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */
 } gs_model_params;
 
 /* Defaults: whole grid, overlap -1 (half the edge), attempts 20, min_changes 1, max_passes 4,
- * fix_z_faces 1, backtracks 1000, order ENTROPY, weights UNIFORM, AC3,
- * seed 1. */
+ * fix_z_faces 1, backtracks 1000 (x1, x2, x4, x8 over the quarters of the
+ * tries), split_depth 2, order ENTROPY, weights UNIFORM, AC3, seed 1, not
+ * periodic. */
 void gs_model_params_default(gs_model_params *p);
 
 /* ---- initial model -------------------------------------------------------- */
@@ -226,8 +231,12 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac,
 void gs_model_solver_destroy(gs_model_solver_t *s);
 
 typedef struct gs_model_region_result {
-    int ok;               /* 1 = new labels in out, 0 = gave up (out = old labels) */
-    int attempts;         /* tries used (1 .. params.attempts) */
+    int ok;               /* 1 = new labels in out, 0 = gave up somewhere (see partial) */
+    int partial;          /* ok = 0 but sub-boxes succeeded: out mixes new labels with
+                             kept_cells old ones, consistent; apply it */
+    int split;            /* the whole-box tries failed and the box was split */
+    uint64_t kept_cells;  /* cells that kept their old labels */
+    int attempts;         /* tries used (over the box and its sub-boxes) */
     uint64_t choices;     /* labels picked at random (over all attempts) */
     uint64_t backtracks;  /* decisions undone (over all attempts) */
 } gs_model_region_result;
@@ -247,7 +256,10 @@ void gs_model_region_apply(gs_model_lattice *lat, const gs_model_box *box,
 typedef struct gs_model_stats {
     uint64_t regions;    /* region runs */
     uint64_t accepted;   /* regions whose new labels were applied */
-    uint64_t failed;     /* regions that kept their old content after all attempts */
+    uint64_t failed;     /* regions where some cells kept their old content after all
+                            attempts (whole box and sub-boxes) */
+    uint64_t split;      /* regions rescued or partly rescued by splitting */
+    uint64_t kept_cells; /* cells of failed regions that kept their old labels */
     uint64_t attempts;   /* tries over all regions (retries = attempts - regions) */
     uint64_t choices;    /* random label choices */
     uint64_t backtracks; /* decisions undone */

@@ -64,6 +64,7 @@ typedef struct model_config {
     char *start;
     char *start_column;
     int64_t start_tile;
+    int64_t split_depth;
     char *periodic;
     char *mesh;
     int vox;
@@ -170,6 +171,9 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, start_column, "model.start_column", "",
                       "start model as one column of labels, bottom first, repeated over x and "
                       "y; \"\" = inferred"),
+    GS_CFG_KEY_INT(model_config, split_depth, "model.split_depth", 0, 8, 0, "2",
+                   "a region whose tries all fail is split into 2x2 sub-boxes and retried, up "
+                   "to this many levels; 0 = keep the old content (as before)"),
     GS_CFG_KEY_INT(model_config, start_tile, "model.start_tile", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -239,6 +243,7 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
                                                   : GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
+    p->split_depth = (int)c->split_depth;
     p->periodic[0] = strchr(c->periodic, 'x') != NULL;
     p->periodic[1] = strchr(c->periodic, 'y') != NULL;
     p->periodic[2] = strchr(c->periodic, 'z') != NULL;
@@ -375,9 +380,10 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     gs_model_region_result res;
     GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
                                 e->buf, &res));
-    region_hdr h = {res.ok ? 1 : 0, res.attempts, res.choices, res.backtracks};
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
+    region_hdr h = {res.ok ? 1 : (res.partial ? 2 : 0), res.attempts, res.choices, res.backtracks};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));
-    if (res.ok)
+    if (h.ok)
         GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
     return GS_OK;
 }
@@ -398,10 +404,12 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     e->stats.choices += h.choices;
     e->stats.backtracks += h.backtracks;
     e->region_cells += cells;
-    e->region_status[id] = h.ok;
+    e->region_status[id] = h.ok == 1;
     e->region_attempts[id] = h.attempts;
-    if (!h.ok) {
+    if (h.ok != 1) {
         e->stats.failed++;
+        if (h.ok == 2)
+            gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
         return GS_OK;
     }
     e->stats.accepted++;

@@ -504,8 +504,26 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
 
 /* Candidates of the region's cells: present labels narrowed by the fixed
  * shell cells (labels of lat just outside the box, inside the output). */
+/* Labels inside the overlay box ob come from obuf (x fastest within ob), the
+ * others from lat: a sub-box of a region sees its siblings' new labels. */
+typedef struct overlay {
+    const gs_model_box *ob;
+    const uint16_t *obuf;
+} overlay;
+
+static inline int overlay_label(const gs_model_lattice *lat, const overlay *ov, int x, int y, int z)
+{
+    const gs_model_box *o = ov ? ov->ob : NULL;
+    if (o && x >= o->x0 && x < o->x1 && y >= o->y0 && y < o->y1 && z >= o->z0 && z < o->z1)
+        return ov->obuf[(size_t)(x - o->x0) +
+                        (size_t)(o->x1 - o->x0) *
+                            ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))];
+    return lat->labels[gs_model_lattice_index(lat, x, y, z)];
+}
+
 static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *lat,
-                           const gs_model_box *b, const int periodic[3], int *ok)
+                           const overlay *ov, const gs_model_box *b, const int periodic[3],
+                           int *ok)
 {
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
     /* a region spanning a whole periodic axis wraps onto itself */
@@ -539,7 +557,7 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                     if (qx < 0 || qy < 0 || qz < 0 || qx >= lat->nx || qy >= lat->ny ||
                         qz >= lat->nz)
                         continue; /* outside the output: free */
-                    int m = lat->labels[gs_model_lattice_index(lat, qx, qy, qz)];
+                    int m = overlay_label(lat, ov, qx, qy, qz);
                     if (m >= s->L) {
                         for (size_t w = 0; w < W; w++)
                             dc[w] = 0;
@@ -591,10 +609,10 @@ static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 
 /* One attempt: returns 1 when every cell ended with exactly one label. */
 static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *lat,
-                             const gs_model_box *b, const gs_model_params *p, gs_rng *rng,
-                             uint64_t *choices, int *ok)
+                             const overlay *ov, const gs_model_box *b, const gs_model_params *p,
+                             int budget_scale, gs_rng *rng, uint64_t *choices, int *ok)
 {
-    GS_CALL(setup_region(s, lat, b, p->periodic, ok));
+    GS_CALL(setup_region(s, lat, ov, b, p->periodic, ok));
     if (!*ok)
         return GS_OK;
     *ok = gs_model_ac_establish(s);
@@ -625,7 +643,8 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
                 s->order[j] = t;
             }
     }
-    const int budget = s->ac == GS_MODEL_AC3 ? p->backtracks : 0;
+    const int64_t budget64 = s->ac == GS_MODEL_AC3 ? (int64_t)p->backtracks * budget_scale : 0;
+    const int budget = budget64 > 100000000 ? 100000000 : (int)budget64;
     s->trail_on = budget > 0;
     int backtracks = 0;
     size_t pos = 0;
@@ -692,6 +711,82 @@ done:
     return GS_OK;
 }
 
+/* Runs up to p->attempts tries on box b (shell from lat overlaid with ov) and
+ * on success writes b's labels into ov's buffer. The undo budget grows with
+ * the attempt: x1 for the first quarter of the tries, x2, x4, then x8. */
+static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, const overlay *ov,
+                      uint16_t *obuf, const gs_model_box *b, const gs_model_params *p,
+                      uint64_t region_id, uint64_t pass, uint64_t path,
+                      gs_model_region_result *res, int *ok)
+{
+    *ok = 0;
+    const int q = p->attempts >= 4 ? p->attempts / 4 : 1;
+    for (int attempt = 0; attempt < p->attempts && !*ok; attempt++) {
+        gs_rng rng;
+        gs_rng_init(&rng, p->seed,
+                    gs_rng_stream_id(GS_MODEL_RNG_DOMAIN, region_id, pass,
+                                     (uint64_t)attempt | (path << 32)));
+        int scale = attempt / q >= 3 ? 8 : 1 << (attempt / q);
+        GS_CALL(attempt_region(s, lat, ov, b, p, scale, &rng, &res->choices, ok));
+        res->attempts++;
+    }
+    if (!*ok)
+        return GS_OK;
+    const gs_model_box *o = ov->ob;
+    const size_t W = (size_t)s->W;
+    size_t c = 0;
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++, c++) {
+                const uint64_t *dc = s->dom + c * W;
+                size_t w = 0;
+                while (!dc[w])
+                    w++;
+                obuf[(size_t)(x - o->x0) +
+                     (size_t)(o->x1 - o->x0) *
+                         ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))] =
+                    (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
+            }
+    return GS_OK;
+}
+
+/* Box b failed: split it into 2x2 sub-boxes along x and y (halves, when the
+ * edge is at least 2*GS_MODEL_MIN_SPLIT) and run them in a fixed order, each
+ * seeing its already resampled siblings; a failing sub-box splits again up
+ * to depth levels. *kept counts the cells that keep their old labels. */
+#define GS_MODEL_MIN_SPLIT 3
+static gs_err split_box(struct gs_model_solver *s, const gs_model_lattice *lat, const overlay *ov,
+                        uint16_t *obuf, const gs_model_box *b, const gs_model_params *p,
+                        uint64_t region_id, uint64_t pass, uint64_t path, int depth,
+                        gs_model_region_result *res, uint64_t *kept)
+{
+    const int ex = b->x1 - b->x0, ey = b->y1 - b->y0;
+    const int nxs = ex >= 2 * GS_MODEL_MIN_SPLIT ? 2 : 1, nys = ey >= 2 * GS_MODEL_MIN_SPLIT ? 2 : 1;
+    if (depth <= 0 || nxs * nys == 1) {
+        *kept += (uint64_t)ex * (uint64_t)ey * (uint64_t)(b->z1 - b->z0);
+        return GS_OK;
+    }
+    for (int j = 0; j < nys; j++)
+        for (int i = 0; i < nxs; i++) {
+            gs_model_box sb = *b;
+            if (nxs == 2) {
+                sb.x0 = i ? b->x0 + ex / 2 : b->x0;
+                sb.x1 = i ? b->x1 : b->x0 + ex / 2;
+            }
+            if (nys == 2) {
+                sb.y0 = j ? b->y0 + ey / 2 : b->y0;
+                sb.y1 = j ? b->y1 : b->y0 + ey / 2;
+            }
+            uint64_t sub = path * 5 + (uint64_t)(1 + i + 2 * j);
+            int ok = 0;
+            GS_CALL(run_box(s, lat, ov, obuf, &sb, p, region_id, pass, sub, res, &ok));
+            if (!ok)
+                GS_CALL(split_box(s, lat, ov, obuf, &sb, p, region_id, pass, sub, depth - 1, res,
+                                  kept));
+        }
+    return GS_OK;
+}
+
 gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
                            const gs_model_box *b, const gs_model_params *p,
                            uint64_t region_id, uint64_t pass, uint16_t *out,
@@ -702,6 +797,8 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
              GS_ERR_ARG, "region [%d,%d)x[%d,%d)x[%d,%d) is empty or outside the %dx%dx%d lattice",
              b->x0, b->x1, b->y0, b->y1, b->z0, b->z1, lat->nx, lat->ny, lat->nz);
     GS_CHECK(p->attempts >= 1, GS_ERR_ARG, "model.attempts = %d: expected >= 1", p->attempts);
+    GS_CHECK(p->split_depth >= 0 && p->split_depth <= 8, GS_ERR_ARG,
+             "model.split_depth = %d: expected an integer in [0, 8]", p->split_depth);
     if (s->ac != p->ac) {
         s->ac = p->ac;
         s->support_cap = 0; /* force (re)allocation of AC-4 counts */
@@ -711,33 +808,27 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);
     const uint64_t bt0 = s->backtracks_done;
-    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
-    for (int attempt = 0; attempt < p->attempts && !res->ok; attempt++) {
-        gs_rng rng;
-        gs_rng_init(&rng, p->seed, gs_rng_stream_id(GS_MODEL_RNG_DOMAIN, region_id, pass,
-                                                     (uint64_t)attempt));
-        int ok = 0;
-        GS_CALL(attempt_region(s, lat, b, p, &rng, &res->choices, &ok));
-        res->attempts = attempt + 1;
-        res->ok = ok;
+    size_t c = 0;
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++, c++)
+                out[c] = lat->labels[gs_model_lattice_index(lat, x, y, z)];
+    overlay ov = {b, out};
+    int ok = 0;
+    GS_CALL(run_box(s, lat, &ov, out, b, p, region_id, pass, 0, res, &ok));
+    if (ok) {
+        res->ok = 1;
+    } else if (p->split_depth > 0) {
+        uint64_t kept = 0;
+        GS_CALL(split_box(s, lat, &ov, out, b, p, region_id, pass, 0, p->split_depth, res, &kept));
+        res->kept_cells = kept;
+        res->ok = kept == 0;
+        res->partial = !res->ok && kept < (uint64_t)c;
+        res->split = 1;
+    } else {
+        res->kept_cells = c;
     }
     res->backtracks = s->backtracks_done - bt0;
-    const size_t W = (size_t)s->W;
-    size_t c = 0;
-    for (int z = 0; z < rz; z++)
-        for (int y = 0; y < ry; y++)
-            for (int x = 0; x < rx; x++, c++) {
-                if (!res->ok) {
-                    out[c] = lat->labels[gs_model_lattice_index(lat, b->x0 + x, b->y0 + y,
-                                                                b->z0 + z)];
-                    continue;
-                }
-                const uint64_t *dc = s->dom + c * W;
-                size_t w = 0;
-                while (!dc[w])
-                    w++;
-                out[c] = (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
-            }
     return GS_OK;
 }
 

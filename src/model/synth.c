@@ -20,6 +20,7 @@ void gs_model_params_default(gs_model_params *p)
     p->order = GS_MODEL_ORDER_ENTROPY;
     p->weights = GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = GS_MODEL_AC3;
+    p->split_depth = 2;
 }
 
 static gs_err check_params(const gs_model_params *p)
@@ -191,8 +192,12 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
             st.attempts += (uint64_t)res.attempts;
             st.choices += res.choices;
             st.backtracks += res.backtracks;
+            st.split += (uint64_t)res.split;
             if (!res.ok) {
                 st.failed++;
+                st.kept_cells += res.kept_cells;
+                if (res.partial)
+                    gs_model_region_apply(lat, b, buf);
                 continue;
             }
             st.accepted++;

@@ -79,7 +79,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
     double exrun[3];
     gs_model_run_lengths(&ex, exrun);
     double secs = 0, run_ratio[3] = {0, 0, 0};
-    uint64_t nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
+    uint64_t nsplit = 0, nkept = 0, nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
     int seeds_clean = 0;
     for (int seed = 1; seed <= seeds; seed++) {
         gs_model_params p;
@@ -107,6 +107,8 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         regions += st.regions;
         accepted += st.accepted;
         failed += st.failed;
+        nsplit += st.split;
+        nkept += st.kept_cells;
         tries += st.attempts;
         nback += st.backtracks;
         violations += nviol;
@@ -121,12 +123,12 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
            "\"order\": \"%s\", \"ac\": %d, \"backtrack_budget\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
            "\"seconds_per_run\": %.4f, \"cells_per_s\": %.0f, \"regions\": %llu, "
            "\"accepted\": %llu, \"failed\": %llu, \"retries\": %llu, \"violations\": %llu, "
-           "\"backtracks\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
+           "\"backtracks\": %llu, \"split\": %llu, \"kept_cells\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
            bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac, backtracks,
            weights == GS_MODEL_WEIGHTS_UNIFORM ? "uniform" : "frequency", attempts, seeds,
            secs / seeds, cells / secs, (unsigned long long)regions, (unsigned long long)accepted,
            (unsigned long long)failed, (unsigned long long)(tries - regions),
-           (unsigned long long)violations, (unsigned long long)nback, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
+           (unsigned long long)violations, (unsigned long long)nback, (unsigned long long)nsplit, (unsigned long long)nkept, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
     fflush(stdout);
 done:
     gs_model_lattice_destroy(&ex);

@@ -148,12 +148,53 @@ static void test_periodic_plan_gap(void **state)
     }
 }
 
+/* gadgets 40x40x6 whole grid: with seeds 1-3 some region exhausts its tries
+ * (split_depth 0 keeps the start content there); splitting rescues it with 0
+ * violations. */
+static void test_split_rescues_failed_region(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("gadgets.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 40, 40, 6), GS_OK);
+    uint64_t failed[2] = {0, 0}, split = 0;
+    for (int depth = 0; depth <= 2; depth += 2)
+        for (uint64_t seed = 1; seed <= 3; seed++) {
+            gs_model_params p;
+            gs_model_params_default(&p);
+            p.seed = seed;
+            p.split_depth = depth;
+            assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+            gs_model_stats st;
+            assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+            failed[depth / 2] += st.failed;
+            if (depth)
+                split += st.split;
+            size_t nv = 99;
+            assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+            assert_int_equal(nv, 0);
+        }
+    print_message("gadgets 40x40x6, seeds 1-3: failed %llu without splitting, %llu with (%llu "
+                  "split)\n",
+                  (unsigned long long)failed[0], (unsigned long long)failed[1],
+                  (unsigned long long)split);
+    assert_true(failed[0] > 0);
+    assert_int_equal(failed[1], 0);
+    assert_true(split > 0);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_city_regions_tiled_start),
         cmocka_unit_test(test_periodic_output),
         cmocka_unit_test(test_periodic_plan_gap),
+        cmocka_unit_test(test_split_rescues_failed_region),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
