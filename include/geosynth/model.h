@@ -92,6 +92,7 @@ gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat)
 /* ---- rules learned from the example ------------------------------------- */
 
 enum { GS_MODEL_DIRS = 6 };
+#define GS_MODEL_FREE 0xffffu /* "no label": unpinned cell */
 
 typedef struct gs_model_rules *gs_model_rules_t;
 
@@ -100,6 +101,11 @@ typedef struct gs_model_rules *gs_model_rules_t;
  * gs_model_rules_destroy(). On error *out is left unchanged. */
 gs_err gs_model_rules_learn(const gs_model_lattice *example, gs_model_rules_t *out);
 void gs_model_rules_destroy(gs_model_rules_t *rules);
+/* Symmetric model (paper Sec. on symmetry): along every axis with axes[a]
+ * set, keeps a pair (a, b) only when (b, a) is allowed as well, so any
+ * consistent model stays consistent when mirrored along that axis (needed
+ * for gs_model_params.mirror). Modifies rules in place. */
+gs_err gs_model_rules_symmetrize(gs_model_rules_t rules, const int axes[3]);
 /* Number of label values (largest label + 1). */
 int gs_model_rules_nlabels(const gs_model_rules_t rules);
 /* 1 when label b may sit at v+e_dir next to label a at v. */
@@ -132,7 +138,10 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
 typedef enum gs_model_order {
     GS_MODEL_ORDER_SCAN = 0,    /* author's scan: z fastest, then y, then x */
     GS_MODEL_ORDER_RANDOM = 1,  /* a random permutation of the region's cells */
-    GS_MODEL_ORDER_ENTROPY = 2  /* fewest candidates first, random tie-break */
+    GS_MODEL_ORDER_ENTROPY = 2, /* fewest candidates first, random tie-break */
+    GS_MODEL_ORDER_ENTROPY_LOG = 3 /* fewest candidates by binary order of magnitude
+                                      (2-3, 4-7, ...), fresh random tie-break per
+                                      update: less front growth along one axis */
 } gs_model_order;
 
 typedef enum gs_model_weights {
@@ -163,6 +172,16 @@ typedef struct gs_model_params {
                            sub-boxes (x, y halves), each tried again with its
                            resampled siblings fixed; failing sub-boxes split
                            again, up to this many levels (0 = off, as before) */
+    const uint16_t *pins; /* hard constraints: one entry per lattice cell (x
+                           fastest), GS_MODEL_FREE or the label the cell must
+                           take; a region containing a pinned cell only keeps
+                           that label there (NULL = none; not owned) */
+    int mirror[3];      /* 1 = the lattice is the lower half of an output that is
+                           mirror-symmetric along that axis: the cell beyond the
+                           upper face is the face cell's mirror image (itself
+                           when the full extent is even, mirror_odd[a] = 0; its
+                           lower neighbour when odd). Output = half + mirror. */
+    int mirror_odd[3];
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */
@@ -198,6 +217,9 @@ gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *ex
 gs_err gs_model_initial_tiled(const gs_model_rules_t rules, const gs_model_lattice *example,
                               const gs_model_params *p, int tile, gs_model_lattice *out,
                               int *tiled);
+
+/* Pinned cells (p->pins) whose label in lat differs from the pin. */
+size_t gs_model_pins_unmet(const gs_model_params *p, const gs_model_lattice *lat);
 
 /* Violations like gs_model_rules_violations(), also counting the pairs across
  * the wrap on the axes with periodic[a] != 0. */

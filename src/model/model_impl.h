@@ -48,6 +48,10 @@ struct gs_model_solver {
     uint64_t *heap;    /* lazy min-heap of (size, tie, cell) keys */
     size_t heap_len, heap_cap;
     int heap_on;
+    const uint16_t *pins;  /* params of the current region run */
+    int mirror[3], mirror_odd[3];
+    int order_log;         /* ENTROPY_LOG buckets */
+    uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */
     uint32_t *tie;     /* [n] random tie-break keys */
     uint32_t *order;   /* [n] visit order (scan, random) */
     uint64_t *weights; /* [L] choice weights */

@@ -158,6 +158,27 @@ int gs_model_solver_recount(struct gs_model_solver *s)
 
 /* ---- lazy min-heap of (candidate count, tie key, cell) ------------------------------ */
 
+/* Heap bucket of a cell: its candidate count (ENTROPY) or the count's
+ * binary order of magnitude (ENTROPY_LOG: cells with 2-3, 4-7, ...
+ * candidates are equals, so ties are broken at random more often). */
+static inline unsigned heap_bucket(const struct gs_model_solver *s, int32_t c)
+{
+    unsigned k = s->size[c];
+    if (s->order_log)
+        return 32u - (unsigned)__builtin_clz(k ? k : 1u);
+    return k > 255 ? 255u : k;
+}
+
+static inline uint32_t mix32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
 static int heap_push(struct gs_model_solver *s, int32_t c)
 {
     if (s->heap_len == s->heap_cap) {
@@ -168,8 +189,11 @@ static int heap_push(struct gs_model_solver *s, int32_t c)
         s->heap = h;
         s->heap_cap = ncap;
     }
-    unsigned k = s->size[c] > 255 ? 255u : s->size[c];
-    uint64_t key = ((uint64_t)k << 56) | ((uint64_t)(s->tie[c] & 0xffffffu) << 32) | (uint32_t)c;
+    unsigned k = heap_bucket(s, c);
+    /* ENTROPY_LOG draws a fresh tie key per push (deterministic: a hash of
+     * the cell's random key and a push counter) */
+    uint32_t tie = s->order_log ? mix32(s->tie[c] ^ (s->push_counter++ * 0x9e3779b9u)) : s->tie[c];
+    uint64_t key = ((uint64_t)k << 56) | ((uint64_t)(tie & 0xffffffu) << 32) | (uint32_t)c;
     size_t i = s->heap_len++;
     while (i > 0) {
         size_t parent = (i - 1) / 2;
@@ -530,6 +554,22 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     const int wrap[3] = {periodic[0] && rx == lat->nx, periodic[1] && ry == lat->ny,
                          periodic[2] && rz == lat->nz};
     GS_CALL(gs_model_solver_load_box_wrap(s, rx, ry, rz, wrap));
+    /* mirror faces: the +d neighbour of a cell on the lattice's upper face is
+     * its mirror image, itself (even full extent) or the cell below (odd) */
+    const int bhi[3] = {b->x1 == lat->nx, b->y1 == lat->ny, b->z1 == lat->nz};
+    const int ext[3] = {rx, ry, rz}, stride[3] = {1, rx, rx * ry};
+    for (int a = 0; a < 3; a++) {
+        if (!s->mirror[a] || !bhi[a] || wrap[a])
+            continue;
+        for (int32_t c = 0; c < (int32_t)s->n; c++) {
+            int coord = (c / stride[a]) % ext[a];
+            if (coord != ext[a] - 1)
+                continue;
+            int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+            nb[2 * a] = s->mirror_odd[a] ? (ext[a] > 1 ? c - stride[a] : -1) : c;
+        }
+    }
+    const uint16_t *pins = s->pins;
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -539,15 +579,28 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     for (int z = 0; z < rz; z++)
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, c++) {
+                uint64_t *dc = s->dom + (size_t)c * W;
+                if (pins) {
+                    uint16_t pin = pins[gs_model_lattice_index(lat, b->x0 + x, b->y0 + y, b->z0 + z)];
+                    if (pin != GS_MODEL_FREE) {
+                        for (size_t w = 0; w < W; w++)
+                            dc[w] = (pin >> 6) == (int)w ? dc[w] & ((uint64_t)1 << (pin & 63)) : 0;
+                    }
+                }
                 if (x > 0 && x + 1 < rx && y > 0 && y + 1 < ry && z > 0 && z + 1 < rz)
                     continue; /* interior: jump handled by the loop cheaply enough */
                 const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
-                uint64_t *dc = s->dom + (size_t)c * W;
                 for (int d = 0; d < GS_MODEL_DIRS; d++) {
                     if (nb[d] >= 0)
                         continue;
                     int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
                         qz = b->z0 + z + step[d][2];
+                    if (s->mirror[0] && qx == lat->nx)
+                        qx = s->mirror_odd[0] ? lat->nx - 2 : lat->nx - 1;
+                    if (s->mirror[1] && qy == lat->ny)
+                        qy = s->mirror_odd[1] ? lat->ny - 2 : lat->ny - 1;
+                    if (s->mirror[2] && qz == lat->nz)
+                        qz = s->mirror_odd[2] ? lat->nz - 2 : lat->nz - 1;
                     if (periodic[0])
                         qx = (qx + lat->nx) % lat->nx;
                     if (periodic[1])
@@ -619,7 +672,9 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
     if (!*ok)
         return GS_OK;
     const int32_t n = (int32_t)s->n;
-    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY;
+    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG;
+    s->order_log = p->order == GS_MODEL_ORDER_ENTROPY_LOG;
+    s->push_counter = 0;
     if (entropy) {
         for (int32_t c = 0; c < n; c++)
             s->tie[c] = gs_rng_u32(rng);
@@ -656,7 +711,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
             while (s->heap_len) {
                 uint64_t key = heap_pop(s);
                 int32_t cand = (int32_t)(uint32_t)key;
-                unsigned k = s->size[cand] > 255 ? 255u : s->size[cand];
+                unsigned k = heap_bucket(s, cand);
                 if (s->size[cand] > 1 && (unsigned)(key >> 56) == k) {
                     c = cand;
                     break;
@@ -804,6 +859,11 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
         s->support_cap = 0; /* force (re)allocation of AC-4 counts */
     }
     s->weights_kind = p->weights;
+    s->pins = p->pins;
+    for (int a = 0; a < 3; a++) {
+        s->mirror[a] = p->mirror[a];
+        s->mirror_odd[a] = p->mirror_odd[a];
+    }
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);

@@ -51,7 +51,7 @@ static const bench_case cases[] = {
 
 static int g_tile = 0, g_tiled_seeds = 0;
 
-static const char *order_name[] = {"scan", "random", "entropy"};
+static const char *order_name[] = {"scan", "random", "entropy", "entropy_log"};
 
 static int parse_int(const char *s, int lo, int hi, int *out)
 {
@@ -175,6 +175,7 @@ int main(int argc, char **argv)
             order_sel = !strcmp(v, "scan")     ? 0
                         : !strcmp(v, "random") ? 1
                         : !strcmp(v, "all")    ? -1
+                        : !strcmp(v, "entropy_log") ? 3
                                                : 2;
         } else if (!strcmp(a, "--ac")) {
             ac_sel = !strcmp(v, "4") ? 4 : !strcmp(v, "both") ? 0 : 3;
@@ -190,7 +191,7 @@ int main(int argc, char **argv)
             continue;
         if (only && !strstr(cases[c].file, only))
             continue;
-        for (int o = 0; o < 3; o++) {
+        for (int o = 0; o < 4; o++) {
             if (order_sel >= 0 && o != order_sel)
                 continue;
             for (int ac = 3; ac <= 4; ac++) {

@@ -188,6 +188,110 @@ static void test_split_rescues_failed_region(void **state)
     gs_model_lattice_destroy(&out);
 }
 
+/* Pinned cells keep their label, whole grid and regions, 0 violations. */
+static void test_pins(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    for (int mode = 0; mode < 2; mode++) {
+        assert_int_equal(gs_model_lattice_create(&out, 40, 40, 10), GS_OK);
+        size_t n = 40 * 40 * 10;
+        uint16_t *pins = malloc(n * sizeof *pins);
+        for (size_t i = 0; i < n; i++)
+            pins[i] = GS_MODEL_FREE;
+        /* a copy of example column (3, 5) at three places, z 1..6 */
+        const int at[3][2] = {{5, 5}, {20, 31}, {33, 12}};
+        for (int k = 0; k < 3; k++)
+            for (int z = 1; z <= 6; z++)
+                pins[gs_model_lattice_index(&out, at[k][0], at[k][1], z)] =
+                    ex.labels[gs_model_lattice_index(&ex, 3, 5, z)];
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 3;
+        p.pins = pins;
+        if (mode)
+            p.region[0] = p.region[1] = 16;
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+        size_t before = gs_model_pins_unmet(&p, &out);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+        assert_int_equal(nv, 0);
+        print_message("castle 40x40x10 %s: %zu pins unmet in the start model, %zu after\n",
+                      mode ? "16x16 regions" : "whole grid", before, gs_model_pins_unmet(&p, &out));
+        assert_true(before > 0);
+        assert_int_equal(gs_model_pins_unmet(&p, &out), 0);
+        free(pins);
+        gs_model_lattice_destroy(&out);
+    }
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+/* Mirror-symmetric output: synthesize the lower half along x with the
+ * mirror face, mirror it; the full output equals its mirror and has 0
+ * violations (even and odd extents, whole grid and regions). */
+static void test_mirror(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, half = {0}, full = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int axes[3] = {1, 0, 0};
+    assert_int_equal(gs_model_rules_symmetrize(r, axes), GS_OK);
+    for (int mode = 0; mode < 4; mode++) {
+        int odd = mode & 1, nx = odd ? 39 : 40, h = (nx + 1) / 2;
+        assert_int_equal(gs_model_lattice_create(&half, h, 30, 10), GS_OK);
+        assert_int_equal(gs_model_lattice_create(&full, nx, 30, 10), GS_OK);
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 11;
+        p.mirror[0] = 1;
+        p.mirror_odd[0] = odd;
+        if (mode >= 2)
+            p.region[0] = p.region[1] = 12;
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &half), GS_OK);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &half, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t hv = 99;
+        assert_int_equal(gs_model_check(&ex, &half, NULL, 0, &hv), GS_OK);
+        assert_int_equal(hv, 0);
+        for (int z = 0; z < 10; z++)
+            for (int y = 0; y < 30; y++)
+                for (int x = 0; x < nx; x++) {
+                    int hx = x < h ? x : nx - 1 - x;
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] =
+                        half.labels[gs_model_lattice_index(&half, hx, y, z)];
+                }
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &full, NULL, 0, &nv), GS_OK);
+        print_message("mirror x, %s extent %d, %s: %zu violations\n", odd ? "odd" : "even", nx,
+                      mode >= 2 ? "12x12 regions" : "whole grid", nv);
+        assert_int_equal(nv, 0);
+        int sym = 1, varied = 0;
+        for (int z = 0; z < 10; z++)
+            for (int y = 0; y < 30; y++)
+                for (int x = 0; x < nx; x++) {
+                    uint16_t a = full.labels[gs_model_lattice_index(&full, x, y, z)];
+                    sym &= a == full.labels[gs_model_lattice_index(&full, nx - 1 - x, y, z)];
+                    varied |= a != full.labels[gs_model_lattice_index(&full, 0, 0, z)];
+                }
+        assert_true(sym);
+        assert_true(varied);
+        gs_model_lattice_destroy(&half);
+        gs_model_lattice_destroy(&full);
+    }
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -195,6 +299,8 @@ int main(void)
         cmocka_unit_test(test_periodic_output),
         cmocka_unit_test(test_periodic_plan_gap),
         cmocka_unit_test(test_split_rescues_failed_region),
+        cmocka_unit_test(test_pins),
+        cmocka_unit_test(test_mirror),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
