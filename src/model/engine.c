@@ -65,6 +65,9 @@ typedef struct model_config {
     char *start_column;
     int64_t start_tile;
     int64_t split_depth;
+    char *pins;
+    char *border;
+    char *mirror;
     char *periodic;
     char *mesh;
     int vox;
@@ -101,9 +104,70 @@ static int parse_column(const char *text, uint16_t *out, int cap, char *why, siz
     return n;
 }
 
+/* Parses "x,y,z=label; ..." (spaces allowed). Calls put(x, y, z, label)
+ * for each entry when pins != NULL. Returns the count or -1 with why. */
+static int parse_pins(const char *text, const gs_cfg_int3 size, uint16_t *pins, char *why,
+                      size_t why_len)
+{
+    int n = 0;
+    const char *p = text;
+    while (*p) {
+        while (*p == ' ' || *p == ';' || *p == '\t')
+            p++;
+        if (!*p)
+            break;
+        int64_t v[4];
+        for (int k = 0; k < 4; k++) {
+            while (*p == ' ')
+                p++;
+            char tok[32];
+            size_t len = 0;
+            while (*p && *p != ',' && *p != '=' && *p != ';' && *p != ' ') {
+                if (len + 1 < sizeof tok)
+                    tok[len++] = *p;
+                p++;
+            }
+            tok[len] = '\0';
+            int64_t hi = k < 3 ? size[k] - 1 : 65534;
+            if (!gs_parse_i64(tok, 0, hi, &v[k], why, why_len)) {
+                char tmp[160];
+                static const char *const field[4] = {"x", "y", "z", "label"};
+                snprintf(tmp, sizeof tmp, "entry %d, %s: %s", n + 1, field[k], why);
+                snprintf(why, why_len, "%s", tmp);
+                return -1;
+            }
+            while (*p == ' ')
+                p++;
+            char want = k < 2 ? ',' : (k == 2 ? '=' : 0);
+            if (want) {
+                if (*p != want) {
+                    snprintf(why, why_len, "entry %d: expected 'x,y,z=label'", n + 1);
+                    return -1;
+                }
+                p++;
+            }
+        }
+        if (pins)
+            pins[(size_t)v[0] + (size_t)size[0] * ((size_t)v[1] + (size_t)size[1] * (size_t)v[2])] =
+                (uint16_t)v[3];
+        n++;
+    }
+    return n;
+}
+
 static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
 {
     const model_config *c = cfgp;
+    if (c->pins[0]) {
+        char why[200] = "";
+        if (parse_pins(c->pins, c->size, NULL, why, sizeof why) < 0)
+            gs_cfg_report(ctx, "model.pins", "%s", why);
+    }
+    if (strcmp(c->mirror, "none") && (c->pins[0] || c->border[0] || c->start_tile > 0 ||
+                                      strcmp(c->periodic, "none") || c->start[0]))
+        gs_cfg_report(ctx, "model.mirror",
+                      "= %s cannot be combined with pins, border, start_tile, start or periodic",
+                      c->mirror);
     for (int a = 0; a < 3; a++) {
         int64_t edge = c->region[a];
         if (edge > 0 && edge < c->size[a] && c->overlap >= edge)
@@ -120,6 +184,15 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
     if (c->start[0] && c->start_column[0])
         gs_cfg_report(ctx, "model.start_column",
                       "cannot be combined with model.start = %s: give one start model", c->start);
+    if (c->border[0]) {
+        char why[160] = "";
+        int n = parse_column(c->border, NULL, 0, why, sizeof why);
+        if (n < 0)
+            gs_cfg_report(ctx, "model.border", "%s", why);
+        else if (n != c->size[2])
+            gs_cfg_report(ctx, "model.border", "has %d labels: expected one per layer, %lld",
+                          n, (long long)c->size[2]);
+    }
     if (c->start_column[0]) {
         char why[160] = "";
         int n = parse_column(c->start_column, NULL, 0, why, sizeof why);
@@ -155,7 +228,7 @@ static const gs_cfg_key model_keys[] = {
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
                    "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
-    GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random", "entropy",
+    GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random|entropy_log", "entropy",
                     "cell order: fewest candidates first, the author's scan (z fastest), or "
                     "random"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
@@ -174,6 +247,16 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, split_depth, "model.split_depth", 0, 8, 0, "2",
                    "a region whose tries all fail is split into 2x2 sub-boxes and retried, up "
                    "to this many levels; 0 = keep the old content (as before)"),
+    GS_CFG_KEY_STRING(model_config, pins, "model.pins", "",
+                      "hard constraints: \"x,y,z=label; ...\" cells that must take a label "
+                      "(active layers only, i.e. not the fixed ground/sky layers)"),
+    GS_CFG_KEY_STRING(model_config, border, "model.border", "",
+                      "hard constraint: one label per layer, bottom first (like "
+                      "start_column), for every cell on the x and y faces of the active layers; "
+                      "\"\" = none"),
+    GS_CFG_KEY_ENUM(model_config, mirror, "model.mirror", "none|x|y|xy", "none",
+                    "mirror-symmetric output: synthesizes the lower half with the transition "
+                    "function restricted to mirror-symmetric pairs, then mirrors it"),
     GS_CFG_KEY_INT(model_config, start_tile, "model.start_tile", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -204,6 +287,8 @@ typedef struct region_hdr {
 typedef struct model_engine {
     const model_config *cfg;
     gs_model_params params;
+    uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
+    int full[3];             /* output extents (mirror: lat holds the lower half) */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_rules_t rules;
@@ -237,9 +322,10 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->max_passes = (int)c->max_passes;
     p->fix_z_faces = c->fix_z_faces;
     p->backtracks = (int)c->backtracks;
-    p->order = !strcmp(c->order, "scan")     ? GS_MODEL_ORDER_SCAN
-               : !strcmp(c->order, "random") ? GS_MODEL_ORDER_RANDOM
-                                             : GS_MODEL_ORDER_ENTROPY;
+    p->order = !strcmp(c->order, "scan")          ? GS_MODEL_ORDER_SCAN
+               : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
+               : !strcmp(c->order, "entropy_log") ? GS_MODEL_ORDER_ENTROPY_LOG
+                                                  : GS_MODEL_ORDER_ENTROPY;
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
                                                   : GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
@@ -726,6 +812,7 @@ static void engine_free(model_engine *e)
     gs_model_rules_destroy(&e->rules);
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
+    gs_free(e->pins);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -764,7 +851,43 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
            (long long)c->attempts, (long long)c->backtracks, c->order, c->weights, c->ac);
     gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (lattice + coverage, solver, rules)",
            mem / 1048576.0);
-    GS_CALL(gs_model_lattice_create(&e->lat, (int)c->size[0], (int)c->size[1], (int)c->size[2]));
+    int dims[3] = {(int)c->size[0], (int)c->size[1], (int)c->size[2]};
+    for (int a = 0; a < 3; a++) {
+        e->full[a] = dims[a];
+        if (a < 2 && strchr(c->mirror, "xy"[a])) {
+            e->params.mirror[a] = 1;
+            e->params.mirror_odd[a] = dims[a] & 1;
+            dims[a] = (dims[a] + 1) / 2;
+        }
+    }
+    if (e->params.mirror[0] || e->params.mirror[1])
+        GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
+    GS_CALL(gs_model_lattice_create(&e->lat, dims[0], dims[1], dims[2]));
+    if (c->pins[0] || c->border[0]) {
+        GS_CALL(gs_alloc_array((void **)&e->pins, cells, sizeof *e->pins, "pins"));
+        for (size_t i = 0; i < cells; i++)
+            e->pins[i] = GS_MODEL_FREE;
+        int fix = e->params.fix_z_faces && dims[2] >= 3;
+        uint16_t border[4096];
+        char bwhy[160];
+        GS_CHECK(!c->border[0] || (dims[2] <= 4096 &&
+                                   parse_column(c->border, border, dims[2], bwhy, sizeof bwhy) ==
+                                       dims[2]),
+                 GS_ERR_ARG, "model.border: expected %d labels (at most 4096 layers)", dims[2]);
+        for (int z = fix; c->border[0] && z < dims[2] - fix; z++)
+            for (int y = 0; y < dims[1]; y++)
+                for (int x = 0; x < dims[0]; x++)
+                    if (x == 0 || y == 0 || x == dims[0] - 1 || y == dims[1] - 1)
+                        e->pins[gs_model_lattice_index(&e->lat, x, y, z)] = border[z];
+        char why[200];
+        GS_CHECK(parse_pins(c->pins, c->size, e->pins, why, sizeof why) >= 0, GS_ERR_ARG,
+                 "model.pins: %s", why);
+        for (size_t i = 0; i < cells; i++)
+            GS_CHECK(e->pins[i] == GS_MODEL_FREE || gs_model_rules_count(e->rules, e->pins[i]) > 0,
+                     GS_ERR_ARG, "model.pins/model.border: label %u does not occur in the example %s",
+                     e->pins[i], c->example);
+        e->params.pins = e->pins;
+    }
     GS_CALL(gs_alloc_array((void **)&e->coverage, cells, sizeof *e->coverage, "coverage"));
     memset(e->coverage, 0, cells * sizeof *e->coverage);
     GS_CALL(gs_model_solver_create(e->rules, e->params.ac, &e->solver));
@@ -821,6 +944,21 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
              e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
 
+    if (e.params.mirror[0] || e.params.mirror[1]) {
+        /* mirror the synthesized lower half into the full output */
+        gs_model_lattice full = {0};
+        GS_TRY(err, gs_model_lattice_create(&full, e.full[0], e.full[1], e.full[2]), done);
+        for (int z = 0; z < full.nz; z++)
+            for (int y = 0; y < full.ny; y++)
+                for (int x = 0; x < full.nx; x++) {
+                    int hx = x < e.lat.nx ? x : full.nx - 1 - x;
+                    int hy = y < e.lat.ny ? y : full.ny - 1 - y;
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] =
+                        e.lat.labels[gs_model_lattice_index(&e.lat, hx, hy, z)];
+                }
+        gs_model_lattice_destroy(&e.lat);
+        e.lat = full;
+    }
     gs_run_phase_begin(run, "output");
     model_quality q;
     memset(&q, 0, sizeof q);
@@ -837,6 +975,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     if (run->rank == 0) {
         gs_run_metric_i64(run, "violations", (int64_t)q.violations);
         gs_run_metric_i64(run, "rule_violations", (int64_t)q.rule_violations);
+        gs_run_metric_i64(run, "pins_unmet", (int64_t)gs_model_pins_unmet(&e.params, &e.lat));
         gs_run_metric_i64(run, "passes", e.stats.passes);
         gs_run_metric_i64(run, "regions", (int64_t)e.stats.regions);
         gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);
