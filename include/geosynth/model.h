@@ -24,8 +24,18 @@
  * time, propagating after each choice. Unlike the paper, a wipe-out first
  * undoes the latest choices (chronological backtracking, at most
  * `backtracks` undos per attempt; AC-3 only); an attempt that runs out of
- * budget is retried with a fresh random stream, and after `attempts` failed
- * attempts the region keeps its old (consistent) content.
+ * budget is retried with a fresh random stream (the undo budget doubles
+ * every quarter of the tries, up to x8); after `attempts` failed attempts the
+ * region is split into 2x2 sub-boxes tried in a fixed order with their
+ * resampled siblings fixed (split_depth levels); cells of sub-boxes that
+ * still fail keep their old (consistent) content.
+ *
+ * Extensions (paper Sec. 5-6): hard constraints (params.pins: a pinned cell's
+ * candidates are its label only), periodic outputs (params.periodic: shells
+ * and whole-axis regions wrap), mirror-symmetric outputs (params.mirror with
+ * gs_model_rules_symmetrize(): the lower half is synthesized with a mirror
+ * face, then mirrored), and a tiled start (gs_model_initial_tiled(): a
+ * periodic block repeated, so region shells are not all one column).
  *
  * Cell order inside a region (measured on the author's samples, see the
  * bench program): ENTROPY (fewest candidates first, random tie-break) is the

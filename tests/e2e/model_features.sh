@@ -20,6 +20,17 @@ for cfg in castle-constraints castle-periodic castle-mirror; do
   done
 done
 
+# stop + resume at another np keeps the digest (pins, tiled start and mirror
+# are rebuilt from the config; the lattice is in the checkpoint)
+for cfg in castle-constraints; do
+  GS_STOP_AFTER_UNITS=2 run_gs 2 model -c "$C/$cfg.ini" -o ${cfg}stop
+  expect_rc 9 "$cfg: GS_STOP_AFTER_UNITS=2 stops with exit 9"
+  run_gs 0 resume ${cfg}stop
+  expect_rc 0 "$cfg: resume at np=1"
+  [[ $(digest_of ${cfg}stop) == "$(digest_of ${cfg}1)" ]] && ok "$cfg: stop at np=2 + resume at np=1: same digest" \
+    || bad "$cfg: resume digest $(digest_of ${cfg}stop) != $(digest_of ${cfg}1)"
+done
+
 # the mirror output equals its mirror along x and y, and is not one column repeated
 /usr/bin/python3 - castle-mirror2/lattice.txt <<'PY' && ok "castle-mirror: output equals its mirror along x and y" || bad "castle-mirror: not symmetric"
 import sys
@@ -64,4 +75,10 @@ rx=$(metric city run_length_x_ratio); ry=$(metric city run_length_y_ratio)
 /usr/bin/python3 -c "import sys; sys.exit(0 if 0.5 < $rx < 2.0 and 0.5 < $ry < 2.0 else 1)" \
   && ok "city-10x run-length ratio x $rx y $ry (one-column start: 67)" || bad "city-10x run-length ratio x $rx y $ry"
 [[ $(metric city violations) == 0 ]] && ok "city-10x: 0 violations" || bad "city-10x violations"
+GS_STOP_AFTER_UNITS=30 run_gs 0 model -c "$C/city-10x.ini" -o citystop
+expect_rc 9 "city-10x: stop after 30 regions at np=1"
+run_gs 2 resume citystop
+expect_rc 0 "city-10x: resume at np=2"
+[[ $(digest_of citystop) == "$(digest_of city)" ]] && ok "city-10x (tiled start): stop + resume = same digest" \
+  || bad "city-10x: resume digest differs"
 finish
