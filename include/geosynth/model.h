@@ -186,6 +186,12 @@ typedef struct gs_model_params {
                            fastest), GS_MODEL_FREE or the label the cell must
                            take; a region containing a pinned cell only keeps
                            that label there (NULL = none; not owned) */
+    const float *shape; /* soft constraint (paper Sec. 6, constraint-weighted label
+                           choice): nx*ny target values in [0, 1] (x fastest), 1 =
+                           the column should be filled, 0 = empty; label 0 gets
+                           weight exp(-g*(2m-1)), other labels exp(g*(2m-1)),
+                           g = shape_weight. NULL = none; not owned */
+    double shape_weight;
     int mirror[3];      /* 1 = the lattice is the lower half of an output that is
                            mirror-symmetric along that axis: the cell beyond the
                            upper face is the face cell's mirror image (itself

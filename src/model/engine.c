@@ -37,6 +37,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
 #include "geosynth/model_io.h"
+#include "geosynth/image.h"
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/regions.h"
@@ -68,6 +69,8 @@ typedef struct model_config {
     char *pins;
     char *border;
     char *mirror;
+    char *shape;
+    double shape_weight;
     char *periodic;
     char *mesh;
     int vox;
@@ -257,6 +260,12 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_ENUM(model_config, mirror, "model.mirror", "none|x|y|xy", "none",
                     "mirror-symmetric output: synthesizes the lower half with the transition "
                     "function restricted to mirror-symmetric pairs, then mirrors it"),
+    GS_CFG_KEY_PATH(model_config, shape, "model.shape", "",
+                    "soft constraint: grey PNG/JPEG target shape seen from above (white = "
+                    "fill the column, black = leave it empty), stretched over x and y (row 0 = "
+                    "largest y); \"\" = none"),
+    GS_CFG_KEY_REAL(model_config, shape_weight, "model.shape_weight", 0, 50, 0, "4",
+                    "strength g of model.shape: label weights exp(+-g*(2m-1))"),
     GS_CFG_KEY_INT(model_config, start_tile, "model.start_tile", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -288,6 +297,7 @@ typedef struct model_engine {
     const model_config *cfg;
     gs_model_params params;
     uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
+    float *shape;            /* soft target shape (NULL = none), lat nx*ny */
     int full[3];             /* output extents (mirror: lat holds the lower half) */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
@@ -813,6 +823,7 @@ static void engine_free(model_engine *e)
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
     gs_free(e->pins);
+    gs_free(e->shape);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -863,6 +874,30 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     if (e->params.mirror[0] || e->params.mirror[1])
         GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
     GS_CALL(gs_model_lattice_create(&e->lat, dims[0], dims[1], dims[2]));
+    if (c->shape[0]) {
+        gs_image img = {0};
+        float *grey = NULL;
+        GS_CALL(gs_image_read(c->shape, &img));
+        gs_err err = gs_image_to_gray(&img, &grey);
+        int iw = img.width, ih = img.height;
+        gs_image_destroy(&img);
+        GS_CALL(err);
+        err = gs_alloc_array((void **)&e->shape, (size_t)dims[0] * (size_t)dims[1],
+                             sizeof *e->shape, "target shape");
+        if (err) {
+            gs_free(grey);
+            return err;
+        }
+        for (int y = 0; y < dims[1]; y++)
+            for (int x = 0; x < dims[0]; x++) {
+                int ix = (int)(((int64_t)x * iw) / dims[0]);
+                int iy = ih - 1 - (int)(((int64_t)y * ih) / dims[1]);
+                e->shape[(size_t)x + (size_t)dims[0] * (size_t)y] = grey[(size_t)iy * iw + ix];
+            }
+        gs_free(grey);
+        e->params.shape = e->shape;
+        e->params.shape_weight = c->shape_weight;
+    }
     if (c->pins[0] || c->border[0]) {
         GS_CALL(gs_alloc_array((void **)&e->pins, cells, sizeof *e->pins, "pins"));
         for (size_t i = 0; i < cells; i++)

@@ -49,6 +49,9 @@ struct gs_model_solver {
     size_t heap_len, heap_cap;
     int heap_on;
     const uint16_t *pins;  /* params of the current region run */
+    const float *shape;
+    double shape_weight;
+    int box_x0, box_y0, box_rx, box_ry, lat_nx; /* current box (shape lookup) */
     int mirror[3], mirror_odd[3];
     int order_log;         /* ENTROPY_LOG buckets */
     uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */

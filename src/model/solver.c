@@ -10,6 +10,7 @@
  * was last processed, and each removal decrements the counts it supported.
  * Both compute the same (unique) arc-consistent closure.
  */
+#include <math.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -570,6 +571,11 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
         }
     }
     const uint16_t *pins = s->pins;
+    s->box_x0 = b->x0;
+    s->box_y0 = b->y0;
+    s->box_rx = rx;
+    s->box_ry = ry;
+    s->lat_nx = lat->nx;
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -626,10 +632,42 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     return GS_OK;
 }
 
+/* Soft shape constraint: weights scaled by the target value of c's column. */
+static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
+{
+    const size_t W = (size_t)s->W;
+    const uint64_t *dc = s->dom + (size_t)c * W;
+    int x = s->box_x0 + c % s->box_rx, y = s->box_y0 + (c / s->box_rx) % s->box_ry;
+    double m = s->shape[(size_t)x + (size_t)s->lat_nx * (size_t)y];
+    double f_full = exp(s->shape_weight * (2 * m - 1)), f_empty = 1.0 / f_full;
+    double total = 0;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
+            total += base * (a == 0 ? f_empty : f_full);
+        }
+    double pick = gs_rng_uniform(rng) * total;
+    int last = -1;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
+            double wa = base * (a == 0 ? f_empty : f_full);
+            if (pick < wa)
+                return a;
+            pick -= wa;
+            last = a;
+        }
+    return last;
+}
+
 static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const size_t W = (size_t)s->W;
     const uint64_t *dc = s->dom + (size_t)c * W;
+    if (s->shape)
+        return choose_label_shape(s, c, rng);
     if (s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM) {
         uint64_t pick = gs_rng_below(rng, s->size[c]);
         for (size_t w = 0; w < W; w++) {
@@ -860,6 +898,8 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     }
     s->weights_kind = p->weights;
     s->pins = p->pins;
+    s->shape = p->shape;
+    s->shape_weight = p->shape_weight;
     for (int a = 0; a < 3; a++) {
         s->mirror[a] = p->mirror[a];
         s->mirror_odd[a] = p->mirror_odd[a];

@@ -48,6 +48,28 @@ varied = any(lab[x, y, z] != lab[0, 0, z] for (x, y, z) in lab)
 sys.exit(0 if sym and varied else 1)
 PY
 
+# soft shape constraint: the castle fills the disc much more than the outside
+run_gs 2 model -c "$C/castle-shape.ini" -o shape
+expect_rc 0 "castle-shape (soft target shape)"
+[[ $(metric shape violations) == 0 ]] && ok "castle-shape: 0 violations" || bad "castle-shape violations"
+/usr/bin/python3 - shape/lattice.txt <<'PY' && ok "castle-shape: filled fraction inside the disc > 1.5x outside (no shape: about 0.9x)" || bad "castle-shape: shape not followed"
+import sys
+t = open(sys.argv[1]).read().split("\n")
+X, Y, Z = map(int, t[3].split())
+v = list(map(int, " ".join(t[4:]).split()))[:X*Y*Z]
+i = 0; fin = nin = fout = nout = 0
+for z in range(Z):
+    for x in range(X):
+        for y in range(Y):
+            if 2 <= z < Z - 1:
+                inside = (x + 0.5 - 32) ** 2 + (y + 0.5 - 32) ** 2 < 19 ** 2
+                if inside: fin += v[i] != 0; nin += 1
+                else: fout += v[i] != 0; nout += 1
+            i += 1
+print("inside %.3f outside %.3f" % (fin / nin, fout / nout))
+sys.exit(0 if fin / nin > 1.5 * fout / nout else 1)
+PY
+
 # pins are checked against the output; a pin with a label absent from the example is an error
 cat > badpin.ini <<INI
 [model]

@@ -292,6 +292,63 @@ static void test_mirror(void **state)
     gs_model_lattice_destroy(&ex);
 }
 
+/* Soft shape constraint: a disc mask makes filled cells more frequent inside
+ * the disc than outside; still 0 violations. */
+static void test_shape_soft_constraint(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int n = 48;
+    float *mask = malloc((size_t)n * n * sizeof *mask);
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++)
+            mask[x + n * y] = (x - 24) * (x - 24) + (y - 24) * (y - 24) < 15 * 15 ? 1.0f : 0.0f;
+    double ratio[2];
+    for (int use = 0; use < 2; use++) {
+        double in = 0, nin = 0, outside = 0, nout = 0;
+        for (uint64_t seed = 1; seed <= 2; seed++) {
+            assert_int_equal(gs_model_lattice_create(&out, n, n, 10), GS_OK);
+            gs_model_params p;
+            gs_model_params_default(&p);
+            p.seed = seed;
+            p.region[0] = p.region[1] = 16;
+            if (use) {
+                p.shape = mask;
+                p.shape_weight = 4.0;
+            }
+            assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+            gs_model_stats st;
+            assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+            size_t nv = 99;
+            assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+            assert_int_equal(nv, 0);
+            for (int z = 2; z < 9; z++)
+                for (int y = 0; y < n; y++)
+                    for (int x = 0; x < n; x++) {
+                        int full = out.labels[gs_model_lattice_index(&out, x, y, z)] != 0;
+                        if (mask[x + n * y] > 0.5f) {
+                            in += full;
+                            nin++;
+                        } else {
+                            outside += full;
+                            nout++;
+                        }
+                    }
+            gs_model_lattice_destroy(&out);
+        }
+        ratio[use] = (in / nin) / (outside / nout + 1e-9);
+        print_message("castle 48x48x10, %s: filled fraction inside the disc %.3f, outside %.3f\n",
+                      use ? "disc shape weight 4" : "no shape", in / nin, outside / nout);
+    }
+    assert_true(ratio[1] > 1.5 * ratio[0]);
+    free(mask);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -301,6 +358,7 @@ int main(void)
         cmocka_unit_test(test_split_rescues_failed_region),
         cmocka_unit_test(test_pins),
         cmocka_unit_test(test_mirror),
+        cmocka_unit_test(test_shape_soft_constraint),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
