@@ -24,8 +24,18 @@
  * time, propagating after each choice. Unlike the paper, a wipe-out first
  * undoes the latest choices (chronological backtracking, at most
  * `backtracks` undos per attempt; AC-3 only); an attempt that runs out of
- * budget is retried with a fresh random stream, and after `attempts` failed
- * attempts the region keeps its old (consistent) content.
+ * budget is retried with a fresh random stream (the undo budget doubles
+ * every quarter of the tries, up to x8); after `attempts` failed attempts the
+ * region is split into 2x2 sub-boxes tried in a fixed order with their
+ * resampled siblings fixed (split_depth levels); cells of sub-boxes that
+ * still fail keep their old (consistent) content.
+ *
+ * Extensions (paper Sec. 5-6): hard constraints (params.pins: a pinned cell's
+ * candidates are its label only), periodic outputs (params.periodic: shells
+ * and whole-axis regions wrap), mirror-symmetric outputs (params.mirror with
+ * gs_model_rules_symmetrize(): the lower half is synthesized with a mirror
+ * face, then mirrored), and a tiled start (gs_model_initial_tiled(): a
+ * periodic block repeated, so region shells are not all one column).
  *
  * Cell order inside a region (measured on the author's samples, see the
  * bench program): ENTROPY (fewest candidates first, random tie-break) is the
@@ -92,6 +102,7 @@ gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat)
 /* ---- rules learned from the example ------------------------------------- */
 
 enum { GS_MODEL_DIRS = 6 };
+#define GS_MODEL_FREE 0xffffu /* "no label": unpinned cell */
 
 typedef struct gs_model_rules *gs_model_rules_t;
 
@@ -100,6 +111,11 @@ typedef struct gs_model_rules *gs_model_rules_t;
  * gs_model_rules_destroy(). On error *out is left unchanged. */
 gs_err gs_model_rules_learn(const gs_model_lattice *example, gs_model_rules_t *out);
 void gs_model_rules_destroy(gs_model_rules_t *rules);
+/* Symmetric model (paper Sec. on symmetry): along every axis with axes[a]
+ * set, keeps a pair (a, b) only when (b, a) is allowed as well, so any
+ * consistent model stays consistent when mirrored along that axis (needed
+ * for gs_model_params.mirror). Modifies rules in place. */
+gs_err gs_model_rules_symmetrize(gs_model_rules_t rules, const int axes[3]);
 /* Number of label values (largest label + 1). */
 int gs_model_rules_nlabels(const gs_model_rules_t rules);
 /* 1 when label b may sit at v+e_dir next to label a at v. */
@@ -132,7 +148,10 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
 typedef enum gs_model_order {
     GS_MODEL_ORDER_SCAN = 0,    /* author's scan: z fastest, then y, then x */
     GS_MODEL_ORDER_RANDOM = 1,  /* a random permutation of the region's cells */
-    GS_MODEL_ORDER_ENTROPY = 2  /* fewest candidates first, random tie-break */
+    GS_MODEL_ORDER_ENTROPY = 2, /* fewest candidates first, random tie-break */
+    GS_MODEL_ORDER_ENTROPY_LOG = 3 /* fewest candidates by binary order of magnitude
+                                      (2-3, 4-7, ...), fresh random tie-break per
+                                      update: less front growth along one axis */
 } gs_model_order;
 
 typedef enum gs_model_weights {
@@ -159,11 +178,35 @@ typedef struct gs_model_params {
     gs_model_order order;
     gs_model_weights weights;
     gs_model_ac ac;
+    int split_depth;    /* a region whose tries all fail is split into 2x2
+                           sub-boxes (x, y halves), each tried again with its
+                           resampled siblings fixed; failing sub-boxes split
+                           again, up to this many levels (0 = off, as before) */
+    const uint16_t *pins; /* hard constraints: one entry per lattice cell (x
+                           fastest), GS_MODEL_FREE or the label the cell must
+                           take; a region containing a pinned cell only keeps
+                           that label there (NULL = none; not owned) */
+    const float *shape; /* soft constraint (paper Sec. 6, constraint-weighted label
+                           choice): nx*ny target values in [0, 1] (x fastest), 1 =
+                           the column should be filled, 0 = empty; label 0 gets
+                           weight exp(-g*(2m-1)), other labels exp(g*(2m-1)),
+                           g = shape_weight. NULL = none; not owned */
+    double shape_weight;
+    int mirror[3];      /* 1 = the lattice is the lower half of an output that is
+                           mirror-symmetric along that axis: the cell beyond the
+                           upper face is the face cell's mirror image (itself
+                           when the full extent is even, mirror_odd[a] = 0; its
+                           lower neighbour when odd). Output = half + mirror. */
+    int mirror_odd[3];
+    int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
+                           without fix_z_faces): cell n-1 is adjacent to cell 0
+                           and the rules hold across the wrap */
 } gs_model_params;
 
 /* Defaults: whole grid, overlap -1 (half the edge), attempts 20, min_changes 1, max_passes 4,
- * fix_z_faces 1, backtracks 1000, order ENTROPY, weights UNIFORM, AC3,
- * seed 1. */
+ * fix_z_faces 1, backtracks 1000 (x1, x2, x4, x8 over the quarters of the
+ * tries), split_depth 2, order ENTROPY, weights UNIFORM, AC3, seed 1, not
+ * periodic. */
 void gs_model_params_default(gs_model_params *p);
 
 /* ---- initial model -------------------------------------------------------- */
@@ -178,6 +221,26 @@ void gs_model_params_default(gs_model_params *p);
  * out must already have the output dims; all its labels are overwritten. */
 gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *example,
                         const uint16_t *column, gs_model_lattice *out);
+
+/* Tiled start with real variety: synthesizes a tile*tile*nz block that is
+ * periodic in x and y (whole block, start = the trivial column model, fixed z
+ * faces as p says, attempts/backtracks of p, random stream keyed by p->seed)
+ * and repeats it over out. Because the tile is periodic the repeated model is
+ * consistent, and the shell of every region offers the example's variety
+ * instead of one column's few horizontal neighbours (city: the trivial
+ * column forces every region). When no attempt succeeds, out is the trivial
+ * column model and *tiled = 0. out must have its dims; labels overwritten. */
+gs_err gs_model_initial_tiled(const gs_model_rules_t rules, const gs_model_lattice *example,
+                              const gs_model_params *p, int tile, gs_model_lattice *out,
+                              int *tiled);
+
+/* Pinned cells (p->pins) whose label in lat differs from the pin. */
+size_t gs_model_pins_unmet(const gs_model_params *p, const gs_model_lattice *lat);
+
+/* Violations like gs_model_rules_violations(), also counting the pairs across
+ * the wrap on the axes with periodic[a] != 0. */
+size_t gs_model_rules_violations_wrap(const gs_model_rules_t rules, const gs_model_lattice *lat,
+                                      const int periodic[3]);
 
 /* ---- regions and the serial driver ---------------------------------------- */
 
@@ -206,8 +269,12 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac,
 void gs_model_solver_destroy(gs_model_solver_t *s);
 
 typedef struct gs_model_region_result {
-    int ok;               /* 1 = new labels in out, 0 = gave up (out = old labels) */
-    int attempts;         /* tries used (1 .. params.attempts) */
+    int ok;               /* 1 = new labels in out, 0 = gave up somewhere (see partial) */
+    int partial;          /* ok = 0 but sub-boxes succeeded: out mixes new labels with
+                             kept_cells old ones, consistent; apply it */
+    int split;            /* the whole-box tries failed and the box was split */
+    uint64_t kept_cells;  /* cells that kept their old labels */
+    int attempts;         /* tries used (over the box and its sub-boxes) */
     uint64_t choices;     /* labels picked at random (over all attempts) */
     uint64_t backtracks;  /* decisions undone (over all attempts) */
 } gs_model_region_result;
@@ -227,7 +294,10 @@ void gs_model_region_apply(gs_model_lattice *lat, const gs_model_box *box,
 typedef struct gs_model_stats {
     uint64_t regions;    /* region runs */
     uint64_t accepted;   /* regions whose new labels were applied */
-    uint64_t failed;     /* regions that kept their old content after all attempts */
+    uint64_t failed;     /* regions where some cells kept their old content after all
+                            attempts (whole box and sub-boxes) */
+    uint64_t split;      /* regions rescued or partly rescued by splitting */
+    uint64_t kept_cells; /* cells of failed regions that kept their old labels */
     uint64_t attempts;   /* tries over all regions (retries = attempts - regions) */
     uint64_t choices;    /* random label choices */
     uint64_t backtracks; /* decisions undone */

@@ -43,6 +43,7 @@
 #include "geosynth/digest.h"
 #include "geosynth/engine.h"
 #include "geosynth/h5.h"
+#include "geosynth/image.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
@@ -82,6 +83,14 @@ typedef struct model_config {
     int fix_z_faces;
     char *start;
     char *start_column;
+    int64_t start_block;
+    int64_t split_depth;
+    char *pins;
+    char *border;
+    char *mirror;
+    char *shape;
+    double shape_weight;
+    char *periodic;
     char *mesh;
     int vox;
     int txt;
@@ -117,6 +126,57 @@ static int parse_column(const char *text, uint16_t *out, int cap, char *why, siz
     return n;
 }
 
+/* Parses "x,y,z=label; ..." (spaces allowed). Calls put(x, y, z, label)
+ * for each entry when pins != NULL. Returns the count or -1 with why. */
+static int parse_pins(const char *text, const gs_cfg_int3 size, uint16_t *pins, char *why,
+                      size_t why_len)
+{
+    int n = 0;
+    const char *p = text;
+    while (*p) {
+        while (*p == ' ' || *p == ';' || *p == '\t')
+            p++;
+        if (!*p)
+            break;
+        int64_t v[4];
+        for (int k = 0; k < 4; k++) {
+            while (*p == ' ')
+                p++;
+            char tok[32];
+            size_t len = 0;
+            while (*p && *p != ',' && *p != '=' && *p != ';' && *p != ' ') {
+                if (len + 1 < sizeof tok)
+                    tok[len++] = *p;
+                p++;
+            }
+            tok[len] = '\0';
+            int64_t hi = k < 3 ? size[k] - 1 : 65534;
+            if (!gs_parse_i64(tok, 0, hi, &v[k], why, why_len)) {
+                char tmp[160];
+                static const char *const field[4] = {"x", "y", "z", "label"};
+                snprintf(tmp, sizeof tmp, "entry %d, %s: %s", n + 1, field[k], why);
+                snprintf(why, why_len, "%s", tmp);
+                return -1;
+            }
+            while (*p == ' ')
+                p++;
+            char want = k < 2 ? ',' : (k == 2 ? '=' : 0);
+            if (want) {
+                if (*p != want) {
+                    snprintf(why, why_len, "entry %d: expected 'x,y,z=label'", n + 1);
+                    return -1;
+                }
+                p++;
+            }
+        }
+        if (pins)
+            pins[(size_t)v[0] + (size_t)size[0] * ((size_t)v[1] + (size_t)size[1] * (size_t)v[2])] =
+                (uint16_t)v[3];
+        n++;
+    }
+    return n;
+}
+
 static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
 {
     const model_config *c = cfgp;
@@ -136,6 +196,28 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
         gs_cfg_report(ctx, "model.subset", "only applies to model.tileset");
     if (c->sample[0] && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start", "not supported with model.sample");
+    if (c->tileset[0] || c->sample[0]) {
+        /* These read the example lattice (its empty label 0, ground layer, label
+         * frequencies by column); tile sets and samples have none. */
+        const char *key = c->start_block > 0 ? "model.start_block"
+                          : strcmp(c->mirror, "none") ? "model.mirror"
+                          : c->shape[0]                ? "model.shape"
+                          : c->border[0]               ? "model.border"
+                                                       : NULL;
+        if (key)
+            gs_cfg_report(ctx, key, "only applies to model.example (a label lattice), not to %s",
+                          c->tileset[0] ? "model.tileset" : "model.sample");
+    }
+    if (c->pins[0]) {
+        char why[200] = "";
+        if (parse_pins(c->pins, c->size, NULL, why, sizeof why) < 0)
+            gs_cfg_report(ctx, "model.pins", "%s", why);
+    }
+    if (strcmp(c->mirror, "none") && (c->pins[0] || c->border[0] || c->start_block > 0 ||
+                                      strcmp(c->periodic, "none") || c->start[0]))
+        gs_cfg_report(ctx, "model.mirror",
+                      "= %s cannot be combined with pins, border, start_block, start or periodic",
+                      c->mirror);
     for (int a = 0; a < 3; a++) {
         int64_t edge = c->region[a];
         if (edge > 0 && edge < c->size[a] && c->overlap >= edge)
@@ -143,9 +225,24 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "must be smaller than the region edge %lld along %c (model.region)",
                           (long long)edge, "xyz"[a]);
     }
+    if (strchr(c->periodic, 'z') && c->fix_z_faces)
+        gs_cfg_report(ctx, "model.periodic",
+                      "= %s wraps z: needs model.fix_z_faces = false", c->periodic);
+    if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
+        gs_cfg_report(ctx, "model.start_block",
+                      "cannot be combined with model.start or model.start_column");
     if (c->start[0] && c->start_column[0])
         gs_cfg_report(ctx, "model.start_column",
                       "cannot be combined with model.start = %s: give one start model", c->start);
+    if (c->border[0]) {
+        char why[160] = "";
+        int n = parse_column(c->border, NULL, 0, why, sizeof why);
+        if (n < 0)
+            gs_cfg_report(ctx, "model.border", "%s", why);
+        else if (n != c->size[2])
+            gs_cfg_report(ctx, "model.border", "has %d labels: expected one per layer, %lld",
+                          n, (long long)c->size[2]);
+    }
     if (c->start_column[0]) {
         char why[160] = "";
         int n = parse_column(c->start_column, NULL, 0, why, sizeof why);
@@ -202,7 +299,7 @@ static const gs_cfg_key model_keys[] = {
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
                    "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
-    GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random", "entropy",
+    GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random|entropy_log", "entropy",
                     "cell order: fewest candidates first, the author's scan (z fastest), or "
                     "random"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
@@ -218,6 +315,31 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, start_column, "model.start_column", "",
                       "start model as one column of labels, bottom first, repeated over x and "
                       "y; \"\" = inferred"),
+    GS_CFG_KEY_INT(model_config, split_depth, "model.split_depth", 0, 8, 0, "2",
+                   "a region whose tries all fail is split into 2x2 sub-boxes and retried, up "
+                   "to this many levels; 0 = keep the old content (as before)"),
+    GS_CFG_KEY_STRING(model_config, pins, "model.pins", "",
+                      "hard constraints: \"x,y,z=label; ...\" cells that must take a label "
+                      "(active layers only, i.e. not the fixed ground/sky layers)"),
+    GS_CFG_KEY_STRING(model_config, border, "model.border", "",
+                      "hard constraint: one label per layer, bottom first (like "
+                      "start_column), for every cell on the x and y faces of the active layers; "
+                      "\"\" = none"),
+    GS_CFG_KEY_ENUM(model_config, mirror, "model.mirror", "none|x|y|xy", "none",
+                    "mirror-symmetric output: synthesizes the lower half with the transition "
+                    "function restricted to mirror-symmetric pairs, then mirrors it"),
+    GS_CFG_KEY_PATH(model_config, shape, "model.shape", "",
+                    "soft constraint: grey PNG/JPEG target shape seen from above (white = "
+                    "fill the column, black = leave it empty), stretched over x and y (row 0 = "
+                    "largest y); \"\" = none"),
+    GS_CFG_KEY_REAL(model_config, shape_weight, "model.shape_weight", 0, 50, 0, "4",
+                    "strength g of model.shape: label weights exp(+-g*(2m-1))"),
+    GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",
+                   "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
+                   "(regions then see the example's variety at their shells); 0 = one column"),
+    GS_CFG_KEY_ENUM(model_config, periodic, "model.periodic", "none|x|y|xy|xyz", "none",
+                    "output wraps along these axes (rules hold across the wrap; z needs "
+                    "fix_z_faces = false)"),
     GS_CFG_KEY_ENUM(model_config, mesh, "model.mesh", "ply|obj|none", "ply",
                     "mesh of coloured voxel cubes with merged faces"),
     GS_CFG_KEY_BOOL(model_config, vox, "model.vox", "true",
@@ -242,6 +364,9 @@ typedef struct region_hdr {
 typedef struct model_engine {
     const model_config *cfg;
     gs_model_params params;
+    uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
+    float *shape;            /* soft target shape (NULL = none), lat nx*ny */
+    int full[3];             /* output extents (mirror: lat holds the lower half) */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
@@ -277,12 +402,17 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->max_passes = (int)c->max_passes;
     p->fix_z_faces = c->fix_z_faces;
     p->backtracks = (int)c->backtracks;
-    p->order = !strcmp(c->order, "scan")     ? GS_MODEL_ORDER_SCAN
-               : !strcmp(c->order, "random") ? GS_MODEL_ORDER_RANDOM
-                                             : GS_MODEL_ORDER_ENTROPY;
+    p->order = !strcmp(c->order, "scan")          ? GS_MODEL_ORDER_SCAN
+               : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
+               : !strcmp(c->order, "entropy_log") ? GS_MODEL_ORDER_ENTROPY_LOG
+                                                  : GS_MODEL_ORDER_ENTROPY;
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
                                                   : GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
+    p->split_depth = (int)c->split_depth;
+    p->periodic[0] = strchr(c->periodic, 'x') != NULL;
+    p->periodic[1] = strchr(c->periodic, 'y') != NULL;
+    p->periodic[2] = strchr(c->periodic, 'z') != NULL;
     return GS_OK;
 }
 
@@ -425,6 +555,18 @@ static gs_err build_start(model_engine *e)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
     }
+    if (c->start_block > 0) {
+        int tiled = 0;
+        GS_CALL(gs_model_initial_tiled(e->rules, &e->example, &e->params, (int)c->start_block,
+                                       &e->lat, &tiled));
+        gs_log(GS_LOG_INFO, "start model: %s", tiled ? "periodic tile repeated"
+                                                     : "tile failed, one column repeated");
+        GS_CHECK(!(e->params.periodic[0] || e->params.periodic[1]) ||
+                     gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic) == 0,
+                 GS_ERR_ARG, "model.start_block = %lld must divide the periodic output extents",
+                 (long long)c->start_block);
+        return GS_OK;
+    }
     return gs_model_initial(e->rules, &e->example, NULL, &e->lat);
 }
 
@@ -471,9 +613,10 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     gs_model_region_result res;
     GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
                                 e->buf, &res));
-    region_hdr h = {res.ok ? 1 : 0, res.attempts, res.choices, res.backtracks};
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
+    region_hdr h = {res.ok ? 1 : (res.partial ? 2 : 0), res.attempts, res.choices, res.backtracks};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));
-    if (res.ok)
+    if (h.ok)
         GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
     return GS_OK;
 }
@@ -494,10 +637,12 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     e->stats.choices += h.choices;
     e->stats.backtracks += h.backtracks;
     e->region_cells += cells;
-    e->region_status[id] = h.ok;
+    e->region_status[id] = h.ok == 1;
     e->region_attempts[id] = h.attempts;
-    if (!h.ok) {
+    if (h.ok != 1) {
         e->stats.failed++;
+        if (h.ok == 2)
+            gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
         return GS_OK;
     }
     e->stats.accepted++;
@@ -764,7 +909,7 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST && !c->sample[0]; i++)
         gs_log(GS_LOG_WARN, "violation: cell (%d, %d, %d) label %u, dir %d label %u", v[i].x,
                v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
-    q->rule_violations = gs_model_rules_violations(e->rules, &e->lat);
+    q->rule_violations = gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
     if (!c->tileset[0] && !c->sample[0]) { /* no example lattice to compare with */
         GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
         GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
@@ -839,6 +984,8 @@ static void engine_free(model_engine *e)
     gs_model_patterns_destroy(&e->pats);
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
+    gs_free(e->pins);
+    gs_free(e->shape);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -886,7 +1033,67 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
            (long long)c->attempts, (long long)c->backtracks, c->order, c->weights, c->ac);
     gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (lattice + coverage, solver, rules)",
            mem / 1048576.0);
-    GS_CALL(gs_model_lattice_create(&e->lat, (int)c->size[0], (int)c->size[1], (int)c->size[2]));
+    int dims[3] = {(int)c->size[0], (int)c->size[1], (int)c->size[2]};
+    for (int a = 0; a < 3; a++) {
+        e->full[a] = dims[a];
+        if (a < 2 && strchr(c->mirror, "xy"[a])) {
+            e->params.mirror[a] = 1;
+            e->params.mirror_odd[a] = dims[a] & 1;
+            dims[a] = (dims[a] + 1) / 2;
+        }
+    }
+    if (e->params.mirror[0] || e->params.mirror[1])
+        GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
+    GS_CALL(gs_model_lattice_create(&e->lat, dims[0], dims[1], dims[2]));
+    if (c->shape[0]) {
+        gs_image img = {0};
+        float *grey = NULL;
+        GS_CALL(gs_image_read(c->shape, &img));
+        gs_err err = gs_image_to_gray(&img, &grey);
+        int iw = img.width, ih = img.height;
+        gs_image_destroy(&img);
+        GS_CALL(err);
+        err = gs_alloc_array((void **)&e->shape, (size_t)dims[0] * (size_t)dims[1],
+                             sizeof *e->shape, "target shape");
+        if (err) {
+            gs_free(grey);
+            return err;
+        }
+        for (int y = 0; y < dims[1]; y++)
+            for (int x = 0; x < dims[0]; x++) {
+                int ix = (int)(((int64_t)x * iw) / dims[0]);
+                int iy = ih - 1 - (int)(((int64_t)y * ih) / dims[1]);
+                e->shape[(size_t)x + (size_t)dims[0] * (size_t)y] = grey[(size_t)iy * iw + ix];
+            }
+        gs_free(grey);
+        e->params.shape = e->shape;
+        e->params.shape_weight = c->shape_weight;
+    }
+    if (c->pins[0] || c->border[0]) {
+        GS_CALL(gs_alloc_array((void **)&e->pins, cells, sizeof *e->pins, "pins"));
+        for (size_t i = 0; i < cells; i++)
+            e->pins[i] = GS_MODEL_FREE;
+        int fix = e->params.fix_z_faces && dims[2] >= 3;
+        uint16_t border[4096];
+        char bwhy[160];
+        GS_CHECK(!c->border[0] || (dims[2] <= 4096 &&
+                                   parse_column(c->border, border, dims[2], bwhy, sizeof bwhy) ==
+                                       dims[2]),
+                 GS_ERR_ARG, "model.border: expected %d labels (at most 4096 layers)", dims[2]);
+        for (int z = fix; c->border[0] && z < dims[2] - fix; z++)
+            for (int y = 0; y < dims[1]; y++)
+                for (int x = 0; x < dims[0]; x++)
+                    if (x == 0 || y == 0 || x == dims[0] - 1 || y == dims[1] - 1)
+                        e->pins[gs_model_lattice_index(&e->lat, x, y, z)] = border[z];
+        char why[200];
+        GS_CHECK(parse_pins(c->pins, c->size, e->pins, why, sizeof why) >= 0, GS_ERR_ARG,
+                 "model.pins: %s", why);
+        for (size_t i = 0; i < cells; i++)
+            GS_CHECK(e->pins[i] == GS_MODEL_FREE || gs_model_rules_count(e->rules, e->pins[i]) > 0,
+                     GS_ERR_ARG, "model.pins/model.border: label %u does not occur in the example %s",
+                     e->pins[i], c->example);
+        e->params.pins = e->pins;
+    }
     GS_CALL(gs_alloc_array((void **)&e->coverage, cells, sizeof *e->coverage, "coverage"));
     memset(e->coverage, 0, cells * sizeof *e->coverage);
     GS_CALL(gs_model_solver_create(e->rules, e->params.ac, &e->solver));
@@ -943,6 +1150,21 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
              e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
 
+    if (e.params.mirror[0] || e.params.mirror[1]) {
+        /* mirror the synthesized lower half into the full output */
+        gs_model_lattice full = {0};
+        GS_TRY(err, gs_model_lattice_create(&full, e.full[0], e.full[1], e.full[2]), done);
+        for (int z = 0; z < full.nz; z++)
+            for (int y = 0; y < full.ny; y++)
+                for (int x = 0; x < full.nx; x++) {
+                    int hx = x < e.lat.nx ? x : full.nx - 1 - x;
+                    int hy = y < e.lat.ny ? y : full.ny - 1 - y;
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] =
+                        e.lat.labels[gs_model_lattice_index(&e.lat, hx, hy, z)];
+                }
+        gs_model_lattice_destroy(&e.lat);
+        e.lat = full;
+    }
     gs_run_phase_begin(run, "output");
     model_quality q;
     memset(&q, 0, sizeof q);
@@ -959,6 +1181,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     if (run->rank == 0) {
         gs_run_metric_i64(run, "violations", (int64_t)q.violations);
         gs_run_metric_i64(run, "rule_violations", (int64_t)q.rule_violations);
+        gs_run_metric_i64(run, "pins_unmet", (int64_t)gs_model_pins_unmet(&e.params, &e.lat));
         gs_run_metric_i64(run, "passes", e.stats.passes);
         gs_run_metric_i64(run, "regions", (int64_t)e.stats.regions);
         gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);

@@ -48,6 +48,13 @@ struct gs_model_solver {
     uint64_t *heap;    /* lazy min-heap of (size, tie, cell) keys */
     size_t heap_len, heap_cap;
     int heap_on;
+    const uint16_t *pins;  /* params of the current region run */
+    const float *shape;
+    double shape_weight;
+    int box_x0, box_y0, box_rx, box_ry, lat_nx; /* current box (shape lookup) */
+    int mirror[3], mirror_odd[3];
+    int order_log;         /* ENTROPY_LOG buckets */
+    uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */
     uint32_t *tie;     /* [n] random tie-break keys */
     uint32_t *order;   /* [n] visit order (scan, random) */
     uint64_t *weights; /* [L] choice weights */
@@ -81,6 +88,10 @@ gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n);
  * the box is -1) and all present labels as candidates. For tests and for
  * region setup, which then narrows dom/size. */
 gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz);
+/* Same with wrap[a] != 0: the box is periodic along axis a (the neighbour of
+ * the last cell is the first one). */
+gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
+                                     const int wrap[3]);
 /* Recomputes size[] from dom[]. Returns 0 if some cell is empty. */
 int gs_model_solver_recount(struct gs_model_solver *s);
 /* Establishes arc consistency from the current candidates with the

@@ -62,6 +62,42 @@ fail:
     return err;
 }
 
+gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3])
+{
+    const size_t W = (size_t)r->words;
+    const int L = r->nlabels;
+    uint64_t *old = NULL;
+    GS_CALL(gs_alloc_array((void **)&old, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"));
+    memcpy(old, r->allow, (size_t)L * GS_MODEL_DIRS * W * 8);
+    for (int ax = 0; ax < 3; ax++) {
+        if (!axes[ax])
+            continue;
+        const int d = 2 * ax;
+        for (int a = 0; a < L; a++)
+            for (int b = 0; b < L; b++) {
+                /* keep (a, b) along +axis only when (b, a) is allowed too */
+                const uint64_t *pa = old + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W;
+                const uint64_t *pb = old + ((size_t)b * GS_MODEL_DIRS + (size_t)d) * W;
+                int keep = get_bit(pa, b) && get_bit(pb, a);
+                uint64_t *plus = r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W;
+                uint64_t *minus = r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d + 1) * W;
+                if (!keep && get_bit(plus, b))
+                    plus[b >> 6] &= ~((uint64_t)1 << (b & 63));
+                /* minus[a] has b iff plus[b] has a: same symmetric pair */
+                if (!keep && get_bit(minus, b))
+                    minus[b >> 6] &= ~((uint64_t)1 << (b & 63));
+            }
+    }
+    gs_free(old);
+    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
+    for (int a = 0; a < L; a++)
+        if (r->count[a])
+            for (int d = 0; d < GS_MODEL_DIRS; d++)
+                for (size_t w = 0; w < W; w++)
+                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    return GS_OK;
+}
+
 void gs_model_rules_destroy(gs_model_rules_t *rules)
 {
     if (!rules || !*rules)
@@ -109,6 +145,41 @@ size_t gs_model_rules_violations(const gs_model_rules_t r, const gs_model_lattic
                         bad++;
                 }
             }
+    return bad;
+}
+
+size_t gs_model_pins_unmet(const gs_model_params *p, const gs_model_lattice *lat)
+{
+    size_t bad = 0, n = (size_t)lat->nx * (size_t)lat->ny * (size_t)lat->nz;
+    for (size_t i = 0; p->pins && i < n; i++)
+        bad += p->pins[i] != GS_MODEL_FREE && p->pins[i] != lat->labels[i];
+    return bad;
+}
+
+size_t gs_model_rules_violations_wrap(const gs_model_rules_t r, const gs_model_lattice *lat,
+                                      const int periodic[3])
+{
+    size_t bad = gs_model_rules_violations(r, lat);
+    const int n[3] = {lat->nx, lat->ny, lat->nz};
+    for (int a = 0; a < 3; a++) {
+        if (!periodic || !periodic[a])
+            continue;
+        /* pairs (last, first) along axis a */
+        int o1 = a == 0 ? lat->ny : lat->nx, o2 = a == 2 ? lat->ny : lat->nz;
+        for (int j = 0; j < o2; j++)
+            for (int i = 0; i < o1; i++) {
+                int p0[3], p1[3];
+                if (a == 0) { p0[1] = p1[1] = i; p0[2] = p1[2] = j; }
+                if (a == 1) { p0[0] = p1[0] = i; p0[2] = p1[2] = j; }
+                if (a == 2) { p0[0] = p1[0] = i; p0[1] = p1[1] = j; }
+                p0[a] = n[a] - 1;
+                p1[a] = 0;
+                int x = lat->labels[gs_model_lattice_index(lat, p0[0], p0[1], p0[2])];
+                int y = lat->labels[gs_model_lattice_index(lat, p1[0], p1[1], p1[2])];
+                if (x >= r->nlabels || y >= r->nlabels || !get_bit(gs_model_allow(r, x, 2 * a), y))
+                    bad++;
+            }
+    }
     return bad;
 }
 

@@ -10,6 +10,7 @@
  * was last processed, and each removal decrements the counts it supported.
  * Both compute the same (unique) arc-consistent closure.
  */
+#include <math.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -104,6 +105,13 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
 
 gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int rz)
 {
+    static const int none[3] = {0, 0, 0};
+    return gs_model_solver_load_box_wrap(s, rx, ry, rz, none);
+}
+
+gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
+                                     const int wrap[3])
+{
     size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
     GS_CALL(gs_model_solver_reserve(s, n));
     const size_t W = (size_t)s->W;
@@ -113,12 +121,12 @@ gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int r
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, c++) {
                 int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
-                nb[0] = x + 1 < rx ? c + 1 : -1;
-                nb[1] = x > 0 ? c - 1 : -1;
-                nb[2] = y + 1 < ry ? c + rx : -1;
-                nb[3] = y > 0 ? c - rx : -1;
-                nb[4] = z + 1 < rz ? c + rx * ry : -1;
-                nb[5] = z > 0 ? c - rx * ry : -1;
+                nb[0] = x + 1 < rx ? c + 1 : (wrap[0] ? c - (rx - 1) : -1);
+                nb[1] = x > 0 ? c - 1 : (wrap[0] ? c + (rx - 1) : -1);
+                nb[2] = y + 1 < ry ? c + rx : (wrap[1] ? c - rx * (ry - 1) : -1);
+                nb[3] = y > 0 ? c - rx : (wrap[1] ? c + rx * (ry - 1) : -1);
+                nb[4] = z + 1 < rz ? c + rx * ry : (wrap[2] ? c - rx * ry * (rz - 1) : -1);
+                nb[5] = z > 0 ? c - rx * ry : (wrap[2] ? c + rx * ry * (rz - 1) : -1);
                 memcpy(s->dom + (size_t)c * W, present, W * 8);
                 s->size[c] = (uint16_t)s->rules->npresent;
             }
@@ -151,6 +159,27 @@ int gs_model_solver_recount(struct gs_model_solver *s)
 
 /* ---- lazy min-heap of (candidate count, tie key, cell) ------------------------------ */
 
+/* Heap bucket of a cell: its candidate count (ENTROPY) or the count's
+ * binary order of magnitude (ENTROPY_LOG: cells with 2-3, 4-7, ...
+ * candidates are equals, so ties are broken at random more often). */
+static inline unsigned heap_bucket(const struct gs_model_solver *s, int32_t c)
+{
+    unsigned k = s->size[c];
+    if (s->order_log)
+        return 32u - (unsigned)__builtin_clz(k ? k : 1u);
+    return k > 255 ? 255u : k;
+}
+
+static inline uint32_t mix32(uint32_t x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
 static int heap_push(struct gs_model_solver *s, int32_t c)
 {
     if (s->heap_len == s->heap_cap) {
@@ -161,8 +190,11 @@ static int heap_push(struct gs_model_solver *s, int32_t c)
         s->heap = h;
         s->heap_cap = ncap;
     }
-    unsigned k = s->size[c] > 255 ? 255u : s->size[c];
-    uint64_t key = ((uint64_t)k << 56) | ((uint64_t)(s->tie[c] & 0xffffffu) << 32) | (uint32_t)c;
+    unsigned k = heap_bucket(s, c);
+    /* ENTROPY_LOG draws a fresh tie key per push (deterministic: a hash of
+     * the cell's random key and a push counter) */
+    uint32_t tie = s->order_log ? mix32(s->tie[c] ^ (s->push_counter++ * 0x9e3779b9u)) : s->tie[c];
+    uint64_t key = ((uint64_t)k << 56) | ((uint64_t)(tie & 0xffffffu) << 32) | (uint32_t)c;
     size_t i = s->heap_len++;
     while (i > 0) {
         size_t parent = (i - 1) / 2;
@@ -497,11 +529,53 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
 
 /* Candidates of the region's cells: present labels narrowed by the fixed
  * shell cells (labels of lat just outside the box, inside the output). */
+/* Labels inside the overlay box ob come from obuf (x fastest within ob), the
+ * others from lat: a sub-box of a region sees its siblings' new labels. */
+typedef struct overlay {
+    const gs_model_box *ob;
+    const uint16_t *obuf;
+} overlay;
+
+static inline int overlay_label(const gs_model_lattice *lat, const overlay *ov, int x, int y, int z)
+{
+    const gs_model_box *o = ov ? ov->ob : NULL;
+    if (o && x >= o->x0 && x < o->x1 && y >= o->y0 && y < o->y1 && z >= o->z0 && z < o->z1)
+        return ov->obuf[(size_t)(x - o->x0) +
+                        (size_t)(o->x1 - o->x0) *
+                            ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))];
+    return lat->labels[gs_model_lattice_index(lat, x, y, z)];
+}
+
 static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *lat,
-                           const gs_model_box *b, int *ok)
+                           const overlay *ov, const gs_model_box *b, const int periodic[3],
+                           int *ok)
 {
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
-    GS_CALL(gs_model_solver_load_box(s, rx, ry, rz));
+    /* a region spanning a whole periodic axis wraps onto itself */
+    const int wrap[3] = {periodic[0] && rx == lat->nx, periodic[1] && ry == lat->ny,
+                         periodic[2] && rz == lat->nz};
+    GS_CALL(gs_model_solver_load_box_wrap(s, rx, ry, rz, wrap));
+    /* mirror faces: the +d neighbour of a cell on the lattice's upper face is
+     * its mirror image, itself (even full extent) or the cell below (odd) */
+    const int bhi[3] = {b->x1 == lat->nx, b->y1 == lat->ny, b->z1 == lat->nz};
+    const int ext[3] = {rx, ry, rz}, stride[3] = {1, rx, rx * ry};
+    for (int a = 0; a < 3; a++) {
+        if (!s->mirror[a] || !bhi[a] || wrap[a])
+            continue;
+        for (int32_t c = 0; c < (int32_t)s->n; c++) {
+            int coord = (c / stride[a]) % ext[a];
+            if (coord != ext[a] - 1)
+                continue;
+            int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
+            nb[2 * a] = s->mirror_odd[a] ? (ext[a] > 1 ? c - stride[a] : -1) : c;
+        }
+    }
+    const uint16_t *pins = s->pins;
+    s->box_x0 = b->x0;
+    s->box_y0 = b->y0;
+    s->box_rx = rx;
+    s->box_ry = ry;
+    s->lat_nx = lat->nx;
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -511,19 +585,38 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     for (int z = 0; z < rz; z++)
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, c++) {
+                uint64_t *dc = s->dom + (size_t)c * W;
+                if (pins) {
+                    uint16_t pin = pins[gs_model_lattice_index(lat, b->x0 + x, b->y0 + y, b->z0 + z)];
+                    if (pin != GS_MODEL_FREE) {
+                        for (size_t w = 0; w < W; w++)
+                            dc[w] = (pin >> 6) == (int)w ? dc[w] & ((uint64_t)1 << (pin & 63)) : 0;
+                    }
+                }
                 if (x > 0 && x + 1 < rx && y > 0 && y + 1 < ry && z > 0 && z + 1 < rz)
                     continue; /* interior: jump handled by the loop cheaply enough */
                 const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
-                uint64_t *dc = s->dom + (size_t)c * W;
                 for (int d = 0; d < GS_MODEL_DIRS; d++) {
                     if (nb[d] >= 0)
                         continue;
                     int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
                         qz = b->z0 + z + step[d][2];
+                    if (s->mirror[0] && qx == lat->nx)
+                        qx = s->mirror_odd[0] ? lat->nx - 2 : lat->nx - 1;
+                    if (s->mirror[1] && qy == lat->ny)
+                        qy = s->mirror_odd[1] ? lat->ny - 2 : lat->ny - 1;
+                    if (s->mirror[2] && qz == lat->nz)
+                        qz = s->mirror_odd[2] ? lat->nz - 2 : lat->nz - 1;
+                    if (periodic[0])
+                        qx = (qx + lat->nx) % lat->nx;
+                    if (periodic[1])
+                        qy = (qy + lat->ny) % lat->ny;
+                    if (periodic[2])
+                        qz = (qz + lat->nz) % lat->nz;
                     if (qx < 0 || qy < 0 || qz < 0 || qx >= lat->nx || qy >= lat->ny ||
                         qz >= lat->nz)
                         continue; /* outside the output: free */
-                    int m = lat->labels[gs_model_lattice_index(lat, qx, qy, qz)];
+                    int m = overlay_label(lat, ov, qx, qy, qz);
                     if (m >= s->L) {
                         for (size_t w = 0; w < W; w++)
                             dc[w] = 0;
@@ -539,10 +632,42 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     return GS_OK;
 }
 
+/* Soft shape constraint: weights scaled by the target value of c's column. */
+static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
+{
+    const size_t W = (size_t)s->W;
+    const uint64_t *dc = s->dom + (size_t)c * W;
+    int x = s->box_x0 + c % s->box_rx, y = s->box_y0 + (c / s->box_rx) % s->box_ry;
+    double m = s->shape[(size_t)x + (size_t)s->lat_nx * (size_t)y];
+    double f_full = exp(s->shape_weight * (2 * m - 1)), f_empty = 1.0 / f_full;
+    double total = 0;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
+            total += base * (a == 0 ? f_empty : f_full);
+        }
+    double pick = gs_rng_uniform(rng) * total;
+    int last = -1;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
+            double wa = base * (a == 0 ? f_empty : f_full);
+            if (pick < wa)
+                return a;
+            pick -= wa;
+            last = a;
+        }
+    return last;
+}
+
 static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const size_t W = (size_t)s->W;
     const uint64_t *dc = s->dom + (size_t)c * W;
+    if (s->shape)
+        return choose_label_shape(s, c, rng);
     if (s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM) {
         uint64_t pick = gs_rng_below(rng, s->size[c]);
         for (size_t w = 0; w < W; w++) {
@@ -575,17 +700,19 @@ static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 
 /* One attempt: returns 1 when every cell ended with exactly one label. */
 static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *lat,
-                             const gs_model_box *b, const gs_model_params *p, gs_rng *rng,
-                             uint64_t *choices, int *ok)
+                             const overlay *ov, const gs_model_box *b, const gs_model_params *p,
+                             int budget_scale, gs_rng *rng, uint64_t *choices, int *ok)
 {
-    GS_CALL(setup_region(s, lat, b, ok));
+    GS_CALL(setup_region(s, lat, ov, b, p->periodic, ok));
     if (!*ok)
         return GS_OK;
     *ok = gs_model_ac_establish(s);
     if (!*ok)
         return GS_OK;
     const int32_t n = (int32_t)s->n;
-    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY;
+    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG;
+    s->order_log = p->order == GS_MODEL_ORDER_ENTROPY_LOG;
+    s->push_counter = 0;
     if (entropy) {
         for (int32_t c = 0; c < n; c++)
             s->tie[c] = gs_rng_u32(rng);
@@ -609,7 +736,8 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
                 s->order[j] = t;
             }
     }
-    const int budget = s->ac == GS_MODEL_AC3 ? p->backtracks : 0;
+    const int64_t budget64 = s->ac == GS_MODEL_AC3 ? (int64_t)p->backtracks * budget_scale : 0;
+    const int budget = budget64 > 100000000 ? 100000000 : (int)budget64;
     s->trail_on = budget > 0;
     int backtracks = 0;
     size_t pos = 0;
@@ -621,7 +749,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
             while (s->heap_len) {
                 uint64_t key = heap_pop(s);
                 int32_t cand = (int32_t)(uint32_t)key;
-                unsigned k = s->size[cand] > 255 ? 255u : s->size[cand];
+                unsigned k = heap_bucket(s, cand);
                 if (s->size[cand] > 1 && (unsigned)(key >> 56) == k) {
                     c = cand;
                     break;
@@ -676,6 +804,82 @@ done:
     return GS_OK;
 }
 
+/* Runs up to p->attempts tries on box b (shell from lat overlaid with ov) and
+ * on success writes b's labels into ov's buffer. The undo budget grows with
+ * the attempt: x1 for the first quarter of the tries, x2, x4, then x8. */
+static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, const overlay *ov,
+                      uint16_t *obuf, const gs_model_box *b, const gs_model_params *p,
+                      uint64_t region_id, uint64_t pass, uint64_t path,
+                      gs_model_region_result *res, int *ok)
+{
+    *ok = 0;
+    const int q = p->attempts >= 4 ? p->attempts / 4 : 1;
+    for (int attempt = 0; attempt < p->attempts && !*ok; attempt++) {
+        gs_rng rng;
+        gs_rng_init(&rng, p->seed,
+                    gs_rng_stream_id(GS_MODEL_RNG_DOMAIN, region_id, pass,
+                                     (uint64_t)attempt | (path << 32)));
+        int scale = attempt / q >= 3 ? 8 : 1 << (attempt / q);
+        GS_CALL(attempt_region(s, lat, ov, b, p, scale, &rng, &res->choices, ok));
+        res->attempts++;
+    }
+    if (!*ok)
+        return GS_OK;
+    const gs_model_box *o = ov->ob;
+    const size_t W = (size_t)s->W;
+    size_t c = 0;
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++, c++) {
+                const uint64_t *dc = s->dom + c * W;
+                size_t w = 0;
+                while (!dc[w])
+                    w++;
+                obuf[(size_t)(x - o->x0) +
+                     (size_t)(o->x1 - o->x0) *
+                         ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))] =
+                    (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
+            }
+    return GS_OK;
+}
+
+/* Box b failed: split it into 2x2 sub-boxes along x and y (halves, when the
+ * edge is at least 2*GS_MODEL_MIN_SPLIT) and run them in a fixed order, each
+ * seeing its already resampled siblings; a failing sub-box splits again up
+ * to depth levels. *kept counts the cells that keep their old labels. */
+#define GS_MODEL_MIN_SPLIT 3
+static gs_err split_box(struct gs_model_solver *s, const gs_model_lattice *lat, const overlay *ov,
+                        uint16_t *obuf, const gs_model_box *b, const gs_model_params *p,
+                        uint64_t region_id, uint64_t pass, uint64_t path, int depth,
+                        gs_model_region_result *res, uint64_t *kept)
+{
+    const int ex = b->x1 - b->x0, ey = b->y1 - b->y0;
+    const int nxs = ex >= 2 * GS_MODEL_MIN_SPLIT ? 2 : 1, nys = ey >= 2 * GS_MODEL_MIN_SPLIT ? 2 : 1;
+    if (depth <= 0 || nxs * nys == 1) {
+        *kept += (uint64_t)ex * (uint64_t)ey * (uint64_t)(b->z1 - b->z0);
+        return GS_OK;
+    }
+    for (int j = 0; j < nys; j++)
+        for (int i = 0; i < nxs; i++) {
+            gs_model_box sb = *b;
+            if (nxs == 2) {
+                sb.x0 = i ? b->x0 + ex / 2 : b->x0;
+                sb.x1 = i ? b->x1 : b->x0 + ex / 2;
+            }
+            if (nys == 2) {
+                sb.y0 = j ? b->y0 + ey / 2 : b->y0;
+                sb.y1 = j ? b->y1 : b->y0 + ey / 2;
+            }
+            uint64_t sub = path * 5 + (uint64_t)(1 + i + 2 * j);
+            int ok = 0;
+            GS_CALL(run_box(s, lat, ov, obuf, &sb, p, region_id, pass, sub, res, &ok));
+            if (!ok)
+                GS_CALL(split_box(s, lat, ov, obuf, &sb, p, region_id, pass, sub, depth - 1, res,
+                                  kept));
+        }
+    return GS_OK;
+}
+
 gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
                            const gs_model_box *b, const gs_model_params *p,
                            uint64_t region_id, uint64_t pass, uint16_t *out,
@@ -686,42 +890,45 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
              GS_ERR_ARG, "region [%d,%d)x[%d,%d)x[%d,%d) is empty or outside the %dx%dx%d lattice",
              b->x0, b->x1, b->y0, b->y1, b->z0, b->z1, lat->nx, lat->ny, lat->nz);
     GS_CHECK(p->attempts >= 1, GS_ERR_ARG, "model.attempts = %d: expected >= 1", p->attempts);
+    GS_CHECK(p->split_depth >= 0 && p->split_depth <= 8, GS_ERR_ARG,
+             "model.split_depth = %d: expected an integer in [0, 8]", p->split_depth);
     if (s->ac != p->ac) {
         s->ac = p->ac;
         s->support_cap = 0; /* force (re)allocation of AC-4 counts */
     }
     s->weights_kind = p->weights;
+    s->pins = p->pins;
+    s->shape = p->shape;
+    s->shape_weight = p->shape_weight;
+    for (int a = 0; a < 3; a++) {
+        s->mirror[a] = p->mirror[a];
+        s->mirror_odd[a] = p->mirror_odd[a];
+    }
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);
     const uint64_t bt0 = s->backtracks_done;
-    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
-    for (int attempt = 0; attempt < p->attempts && !res->ok; attempt++) {
-        gs_rng rng;
-        gs_rng_init(&rng, p->seed, gs_rng_stream_id(GS_MODEL_RNG_DOMAIN, region_id, pass,
-                                                     (uint64_t)attempt));
-        int ok = 0;
-        GS_CALL(attempt_region(s, lat, b, p, &rng, &res->choices, &ok));
-        res->attempts = attempt + 1;
-        res->ok = ok;
+    size_t c = 0;
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++, c++)
+                out[c] = lat->labels[gs_model_lattice_index(lat, x, y, z)];
+    overlay ov = {b, out};
+    int ok = 0;
+    GS_CALL(run_box(s, lat, &ov, out, b, p, region_id, pass, 0, res, &ok));
+    if (ok) {
+        res->ok = 1;
+    } else if (p->split_depth > 0) {
+        uint64_t kept = 0;
+        GS_CALL(split_box(s, lat, &ov, out, b, p, region_id, pass, 0, p->split_depth, res, &kept));
+        res->kept_cells = kept;
+        res->ok = kept == 0;
+        res->partial = !res->ok && kept < (uint64_t)c;
+        res->split = 1;
+    } else {
+        res->kept_cells = c;
     }
     res->backtracks = s->backtracks_done - bt0;
-    const size_t W = (size_t)s->W;
-    size_t c = 0;
-    for (int z = 0; z < rz; z++)
-        for (int y = 0; y < ry; y++)
-            for (int x = 0; x < rx; x++, c++) {
-                if (!res->ok) {
-                    out[c] = lat->labels[gs_model_lattice_index(lat, b->x0 + x, b->y0 + y,
-                                                                b->z0 + z)];
-                    continue;
-                }
-                const uint64_t *dc = s->dom + c * W;
-                size_t w = 0;
-                while (!dc[w])
-                    w++;
-                out[c] = (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
-            }
     return GS_OK;
 }
 

@@ -20,6 +20,7 @@ void gs_model_params_default(gs_model_params *p)
     p->order = GS_MODEL_ORDER_ENTROPY;
     p->weights = GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = GS_MODEL_AC3;
+    p->split_depth = 2;
 }
 
 static gs_err check_params(const gs_model_params *p)
@@ -38,12 +39,15 @@ static gs_err check_params(const gs_model_params *p)
     GS_CHECK(p->max_passes >= 1 && p->max_passes <= 100000, GS_ERR_ARG,
              "model.max_passes = %d: expected an integer in [1, 100000]", p->max_passes);
     GS_CHECK(p->order == GS_MODEL_ORDER_SCAN || p->order == GS_MODEL_ORDER_RANDOM ||
-                 p->order == GS_MODEL_ORDER_ENTROPY,
+                 p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG,
              GS_ERR_ARG, "model.order = %d: expected scan, random or entropy", (int)p->order);
     GS_CHECK(p->weights == GS_MODEL_WEIGHTS_UNIFORM || p->weights == GS_MODEL_WEIGHTS_FREQUENCY,
              GS_ERR_ARG, "model.weights = %d: expected uniform or frequency", (int)p->weights);
     GS_CHECK(p->ac == GS_MODEL_AC3 || p->ac == GS_MODEL_AC4, GS_ERR_ARG,
              "model.ac = %d: expected 3 or 4", (int)p->ac);
+    GS_CHECK(!p->periodic[2] || !p->fix_z_faces, GS_ERR_ARG,
+             "model.periodic along z needs model.fix_z_faces = false (fixed ground and sky "
+             "layers cannot wrap)");
     return GS_OK;
 }
 
@@ -58,7 +62,7 @@ static void active_z(const gs_model_params *p, int nz, int *lo, int *hi)
 /* Region starts along one axis of extent n with edge b (<= n). Stride
  * b - overlap (b/2 when overlap < 0), at least 1; odd passes shift the grid by a quarter region. Returns the count; colours
  * along the axis in *m (regions k and k+m are >= 1 cell apart). */
-static int axis_starts(int n, int b, int overlap, int pass, int *starts, int *m)
+static int axis_starts(int n, int b, int overlap, int pass, int periodic, int *starts, int *m)
 {
     int k = 0;
     if (b >= n) {
@@ -82,6 +86,13 @@ static int axis_starts(int n, int b, int overlap, int pass, int *starts, int *m)
         for (int i = 0; i + mm < k; i++)
             if (starts[i + mm] < starts[i] + b + 1)
                 good = 0;
+        /* periodic axis: the last region of a colour must also keep a gap
+         * to the first one across the wrap */
+        for (int c = 0; periodic && b < n && c < mm && c < k; c++) {
+            int last = c + ((k - 1 - c) / mm) * mm;
+            if (last != c && starts[c] + n < starts[last] + b + 1)
+                good = 0;
+        }
         if (good)
             break;
         mm++;
@@ -114,7 +125,7 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
         edge[a] = (p->region[a] <= 0 || p->region[a] >= ext[a]) ? ext[a] : p->region[a];
         GS_TRY(err, gs_alloc_array((void **)&starts[a], (size_t)ext[a] + 2, sizeof(int), "plan"),
                done);
-        cnt[a] = axis_starts(ext[a], edge[a], p->overlap, pass, starts[a], &m[a]);
+        cnt[a] = axis_starts(ext[a], edge[a], p->overlap, pass, p->periodic[a], starts[a], &m[a]);
     }
     size_t n = (size_t)cnt[0] * (size_t)cnt[1] * (size_t)cnt[2];
     gs_model_region *list = NULL;
@@ -181,8 +192,12 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
             st.attempts += (uint64_t)res.attempts;
             st.choices += res.choices;
             st.backtracks += res.backtracks;
+            st.split += (uint64_t)res.split;
             if (!res.ok) {
                 st.failed++;
+                st.kept_cells += res.kept_cells;
+                if (res.partial)
+                    gs_model_region_apply(lat, b, buf);
                 continue;
             }
             st.accepted++;
@@ -219,5 +234,54 @@ done:
     gs_free(buf);
     gs_free(plan);
     gs_model_solver_destroy(&solver);
+    return err;
+}
+
+gs_err gs_model_initial_tiled(const gs_model_rules_t rules, const gs_model_lattice *example,
+                              const gs_model_params *p, int tile, gs_model_lattice *out,
+                              int *tiled)
+{
+    GS_CALL(check_params(p));
+    GS_CHECK(tile >= 1, GS_ERR_ARG, "start tile edge %d: expected >= 1", tile);
+    *tiled = 0;
+    GS_CALL(gs_model_initial(rules, example, NULL, out));
+    const int tx = tile < out->nx ? tile : out->nx, ty = tile < out->ny ? tile : out->ny;
+    gs_model_lattice t = {0};
+    gs_model_solver_t solver = NULL;
+    uint16_t *buf = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_model_lattice_create(&t, tx, ty, out->nz), done);
+    GS_TRY(err, gs_model_initial(rules, example, NULL, &t), done);
+    GS_TRY(err, gs_model_solver_create(rules, p->ac, &solver), done);
+    GS_TRY(err, gs_alloc_array((void **)&buf, (size_t)tx * ty * out->nz, sizeof *buf, "start tile"),
+           done);
+    gs_model_params q = *p;
+    q.periodic[0] = q.periodic[1] = 1;
+    q.periodic[2] = 0;
+    int zlo, zhi;
+    active_z(&q, t.nz, &zlo, &zhi);
+    gs_model_box box = {0, 0, zlo, tx, ty, zhi};
+    gs_model_region_result res;
+    /* region id UINT32_MAX + 1: a stream no region plan uses */
+    GS_TRY(err, gs_model_region_run(solver, &t, &box, &q, (uint64_t)1 << 32, 0, buf, &res), done);
+    if (!res.ok)
+        goto done;
+    gs_model_region_apply(&t, &box, buf);
+    for (int z = 0; z < out->nz; z++)
+        for (int y = 0; y < out->ny; y++)
+            for (int x = 0; x < out->nx; x++)
+                out->labels[gs_model_lattice_index(out, x, y, z)] =
+                    t.labels[gs_model_lattice_index(&t, x % tx, y % ty, z)];
+    /* periodic along an output axis only when the tile divides it */
+    int per[3] = {p->periodic[0] && out->nx % tx == 0, p->periodic[1] && out->ny % ty == 0, 0};
+    size_t bad = gs_model_rules_violations_wrap(rules, out, per);
+    GS_TRY_CHECK(err, bad == 0, GS_ERR_INTERNAL, done, "tiled start model has %zu violations", bad);
+    *tiled = 1;
+done:
+    if (err == GS_OK && !*tiled)
+        err = gs_model_initial(rules, example, NULL, out);
+    gs_model_lattice_destroy(&t);
+    gs_model_solver_destroy(&solver);
+    gs_free(buf);
     return err;
 }

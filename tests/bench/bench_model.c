@@ -5,7 +5,9 @@
  *
  *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME]
  *       [--order scan|random|entropy|all] [--ac 3|4|both] [--weights uniform|frequency]
- *       [--scale 1|10|all] [--attempts K]
+ *       [--scale 1|10|all] [--attempts K] [--tile T]
+ *
+ * --tile T starts from gs_model_initial_tiled() with a periodic TxT tile.
  *
  * DIR defaults to $GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
  * ($GS_SHARED defaults to ../shared).
@@ -47,7 +49,9 @@ static const bench_case cases[] = {
     {"gadgets.txt", 126, 126, 6, 20, 20, 10},
 };
 
-static const char *order_name[] = {"scan", "random", "entropy"};
+static int g_tile = 0, g_tiled_seeds = 0;
+
+static const char *order_name[] = {"scan", "random", "entropy", "entropy_log"};
 
 static int parse_int(const char *s, int lo, int hi, int *out)
 {
@@ -75,7 +79,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
     double exrun[3];
     gs_model_run_lengths(&ex, exrun);
     double secs = 0, run_ratio[3] = {0, 0, 0};
-    uint64_t nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
+    uint64_t nsplit = 0, nkept = 0, nback = 0, regions = 0, accepted = 0, failed = 0, tries = 0, violations = 0;
     int seeds_clean = 0;
     for (int seed = 1; seed <= seeds; seed++) {
         gs_model_params p;
@@ -88,7 +92,13 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         p.weights = weights;
         p.attempts = attempts;
         p.backtracks = backtracks;
-        GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
+        if (g_tile > 0) {
+            int tiled = 0;
+            GS_TRY(err, gs_model_initial_tiled(rules, &ex, &p, g_tile, &out, &tiled), done);
+            g_tiled_seeds += tiled;
+        } else {
+            GS_TRY(err, gs_model_initial(rules, &ex, NULL, &out), done);
+        }
         gs_model_stats st;
         GS_TRY(err, gs_model_synthesize(rules, &p, &out, &st), done);
         size_t nviol = 0;
@@ -97,6 +107,8 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
         regions += st.regions;
         accepted += st.accepted;
         failed += st.failed;
+        nsplit += st.split;
+        nkept += st.kept_cells;
         tries += st.attempts;
         nback += st.backtracks;
         violations += nviol;
@@ -111,12 +123,12 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
            "\"order\": \"%s\", \"ac\": %d, \"backtrack_budget\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
            "\"seconds_per_run\": %.4f, \"cells_per_s\": %.0f, \"regions\": %llu, "
            "\"accepted\": %llu, \"failed\": %llu, \"retries\": %llu, \"violations\": %llu, "
-           "\"backtracks\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
+           "\"backtracks\": %llu, \"split\": %llu, \"kept_cells\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
            bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac, backtracks,
            weights == GS_MODEL_WEIGHTS_UNIFORM ? "uniform" : "frequency", attempts, seeds,
            secs / seeds, cells / secs, (unsigned long long)regions, (unsigned long long)accepted,
            (unsigned long long)failed, (unsigned long long)(tries - regions),
-           (unsigned long long)violations, (unsigned long long)nback, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
+           (unsigned long long)violations, (unsigned long long)nback, (unsigned long long)nsplit, (unsigned long long)nkept, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
     fflush(stdout);
 done:
     gs_model_lattice_destroy(&ex);
@@ -152,6 +164,9 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--backtracks")) {
             if (!parse_int(v, 0, 100000000, &backtracks))
                 return 1;
+        } else if (!strcmp(a, "--tile")) {
+            if (!parse_int(v, 0, 100000, &g_tile))
+                return 1;
         } else if (!strcmp(a, "--only")) {
             only = v;
         } else if (!strcmp(a, "--scale")) {
@@ -160,6 +175,7 @@ int main(int argc, char **argv)
             order_sel = !strcmp(v, "scan")     ? 0
                         : !strcmp(v, "random") ? 1
                         : !strcmp(v, "all")    ? -1
+                        : !strcmp(v, "entropy_log") ? 3
                                                : 2;
         } else if (!strcmp(a, "--ac")) {
             ac_sel = !strcmp(v, "4") ? 4 : !strcmp(v, "both") ? 0 : 3;
@@ -175,7 +191,7 @@ int main(int argc, char **argv)
             continue;
         if (only && !strstr(cases[c].file, only))
             continue;
-        for (int o = 0; o < 3; o++) {
+        for (int o = 0; o < 4; o++) {
             if (order_sel >= 0 && o != order_sel)
                 continue;
             for (int ac = 3; ac <= 4; ac++) {

@@ -1,0 +1,364 @@
+/* Unit tests for the model engine's additions: tiled periodic start model
+ * (city in region mode gets real variety), periodic outputs (0 violations
+ * across the wrap, plan colours keep a gap across the wrap). Runs from tests/. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/error.h"
+#include "geosynth/mem.h"
+#include "geosynth/model.h"
+
+static void read_sample(const char *name, gs_model_lattice *ex)
+{
+    char path[4352];
+    const char *shared = getenv("GS_SHARED");
+    snprintf(path, sizeof path, "%s/data/model-synthesis/merrell42-model-synthesis/samples/%s",
+             shared ? shared : "../../shared", name);
+    gs_err e = gs_model_read_merrell_txt(path, ex);
+    if (e != GS_OK)
+        gs_error_report("test_model_features: ");
+    assert_int_equal(e, GS_OK);
+}
+
+static int distinct_labels(const gs_model_lattice *l)
+{
+    static uint8_t seen[65536];
+    memset(seen, 0, sizeof seen);
+    int n = 0;
+    for (size_t i = 0; i < (size_t)l->nx * l->ny * l->nz; i++) {
+        n += !seen[l->labels[i]];
+        seen[l->labels[i]] = 1;
+    }
+    return n;
+}
+
+/* City in 20x20 regions: from the one-column start every region is forced
+ * (the output keeps 3 labels); from the tiled start it has variety and run
+ * lengths near the example's. */
+static void test_city_regions_tiled_start(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("city.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 60, 60, 10), GS_OK);
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = p.region[1] = 20;
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    gs_model_stats st;
+    assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+    int trivial = distinct_labels(&out);
+    int tiled = 0;
+    assert_int_equal(gs_model_initial_tiled(r, &ex, &p, 20, &out, &tiled), GS_OK);
+    assert_int_equal(tiled, 1);
+    assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+    assert_int_equal(st.failed, 0);
+    size_t nv = 99;
+    assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+    assert_int_equal(nv, 0);
+    int rich = distinct_labels(&out);
+    double ro[3], re[3];
+    gs_model_run_lengths(&out, ro);
+    gs_model_run_lengths(&ex, re);
+    print_message("city 60x60x10 in 20x20 regions: %d labels from the column start, %d from the "
+                  "tile; run-length ratio x %.2f y %.2f\n",
+                  trivial, rich, ro[0] / re[0], ro[1] / re[1]);
+    assert_true(rich >= 2 * trivial && rich >= 20);
+    assert_true(ro[0] / re[0] < 2.5 && ro[1] / re[1] < 2.5);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
+/* Periodic output: whole grid and regions; 0 violations including the wrap
+ * pairs; without periodic the same run has wrap violations. */
+static void test_periodic_output(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int per[3] = {1, 1, 0};
+    size_t wrapbad_free = 0;
+    for (int mode = 0; mode < 3; mode++) {
+        assert_int_equal(gs_model_lattice_create(&out, 40, 40, 10), GS_OK);
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 7;
+        if (mode >= 1)
+            p.periodic[0] = p.periodic[1] = 1;
+        if (mode == 2)
+            p.region[0] = p.region[1] = 16; /* 40 = 16 + 12 + 12: uneven regions */
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t wrapbad = gs_model_rules_violations_wrap(r, &out, per);
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+        assert_int_equal(nv, 0);
+        if (mode == 0)
+            wrapbad_free = wrapbad;
+        else
+            assert_int_equal(wrapbad, 0);
+        gs_model_lattice_destroy(&out);
+    }
+    print_message("castle 40x40x10 free boundary: %zu violations across the wrap\n", wrapbad_free);
+    assert_true(wrapbad_free > 0);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+static void test_periodic_plan_gap(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = 10;
+    p.region[1] = 8;
+    p.periodic[0] = p.periodic[1] = 1;
+    const int nx = 37, ny = 23;
+    for (int pass = 0; pass < 2; pass++) {
+        gs_model_region *reg = NULL;
+        size_t n = 0;
+        int ncol = 0;
+        assert_int_equal(gs_model_plan(&p, nx, ny, 10, pass, &reg, &n, &ncol), GS_OK);
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < i; j++) {
+                if (reg[i].color != reg[j].color)
+                    continue;
+                /* separated along some axis, counting the wrap */
+                const gs_model_box *a = &reg[i].box, *b = &reg[j].box;
+                int sepx = a->x1 < b->x0 || b->x1 < a->x0;
+                int sepy = a->y1 < b->y0 || b->y1 < a->y0;
+                int wrapx = (a->x0 == 0 && b->x1 == nx) || (b->x0 == 0 && a->x1 == nx);
+                int wrapy = (a->y0 == 0 && b->y1 == ny) || (b->y0 == 0 && a->y1 == ny);
+                assert_true((sepx && !wrapx) || (sepy && !wrapy));
+            }
+        gs_free(reg);
+    }
+}
+
+/* gadgets 40x40x6 whole grid: with seeds 1-3 some region exhausts its tries
+ * (split_depth 0 keeps the start content there); splitting rescues it with 0
+ * violations. */
+static void test_split_rescues_failed_region(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("gadgets.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 40, 40, 6), GS_OK);
+    uint64_t failed[2] = {0, 0}, split = 0;
+    for (int depth = 0; depth <= 2; depth += 2)
+        for (uint64_t seed = 1; seed <= 3; seed++) {
+            gs_model_params p;
+            gs_model_params_default(&p);
+            p.seed = seed;
+            p.split_depth = depth;
+            assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+            gs_model_stats st;
+            assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+            failed[depth / 2] += st.failed;
+            if (depth)
+                split += st.split;
+            size_t nv = 99;
+            assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+            assert_int_equal(nv, 0);
+        }
+    print_message("gadgets 40x40x6, seeds 1-3: failed %llu without splitting, %llu with (%llu "
+                  "split)\n",
+                  (unsigned long long)failed[0], (unsigned long long)failed[1],
+                  (unsigned long long)split);
+    assert_true(failed[0] > 0);
+    assert_int_equal(failed[1], 0);
+    assert_true(split > 0);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
+/* Pinned cells keep their label, whole grid and regions, 0 violations. */
+static void test_pins(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    for (int mode = 0; mode < 2; mode++) {
+        assert_int_equal(gs_model_lattice_create(&out, 40, 40, 10), GS_OK);
+        size_t n = 40 * 40 * 10;
+        uint16_t *pins = malloc(n * sizeof *pins);
+        for (size_t i = 0; i < n; i++)
+            pins[i] = GS_MODEL_FREE;
+        /* a copy of example column (3, 5) at three places, z 1..6 */
+        const int at[3][2] = {{5, 5}, {20, 31}, {33, 12}};
+        for (int k = 0; k < 3; k++)
+            for (int z = 1; z <= 6; z++)
+                pins[gs_model_lattice_index(&out, at[k][0], at[k][1], z)] =
+                    ex.labels[gs_model_lattice_index(&ex, 3, 5, z)];
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 3;
+        p.pins = pins;
+        if (mode)
+            p.region[0] = p.region[1] = 16;
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+        size_t before = gs_model_pins_unmet(&p, &out);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+        assert_int_equal(nv, 0);
+        print_message("castle 40x40x10 %s: %zu pins unmet in the start model, %zu after\n",
+                      mode ? "16x16 regions" : "whole grid", before, gs_model_pins_unmet(&p, &out));
+        assert_true(before > 0);
+        assert_int_equal(gs_model_pins_unmet(&p, &out), 0);
+        free(pins);
+        gs_model_lattice_destroy(&out);
+    }
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+/* Mirror-symmetric output: synthesize the lower half along x with the
+ * mirror face, mirror it; the full output equals its mirror and has 0
+ * violations (even and odd extents, whole grid and regions). */
+static void test_mirror(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, half = {0}, full = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int axes[3] = {1, 0, 0};
+    assert_int_equal(gs_model_rules_symmetrize(r, axes), GS_OK);
+    for (int mode = 0; mode < 4; mode++) {
+        int odd = mode & 1, nx = odd ? 39 : 40, h = (nx + 1) / 2;
+        assert_int_equal(gs_model_lattice_create(&half, h, 30, 10), GS_OK);
+        assert_int_equal(gs_model_lattice_create(&full, nx, 30, 10), GS_OK);
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.seed = 11;
+        p.mirror[0] = 1;
+        p.mirror_odd[0] = odd;
+        if (mode >= 2)
+            p.region[0] = p.region[1] = 12;
+        assert_int_equal(gs_model_initial(r, &ex, NULL, &half), GS_OK);
+        gs_model_stats st;
+        assert_int_equal(gs_model_synthesize(r, &p, &half, &st), GS_OK);
+        assert_int_equal(st.failed, 0);
+        size_t hv = 99;
+        assert_int_equal(gs_model_check(&ex, &half, NULL, 0, &hv), GS_OK);
+        assert_int_equal(hv, 0);
+        for (int z = 0; z < 10; z++)
+            for (int y = 0; y < 30; y++)
+                for (int x = 0; x < nx; x++) {
+                    int hx = x < h ? x : nx - 1 - x;
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] =
+                        half.labels[gs_model_lattice_index(&half, hx, y, z)];
+                }
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &full, NULL, 0, &nv), GS_OK);
+        print_message("mirror x, %s extent %d, %s: %zu violations\n", odd ? "odd" : "even", nx,
+                      mode >= 2 ? "12x12 regions" : "whole grid", nv);
+        assert_int_equal(nv, 0);
+        int sym = 1, varied = 0;
+        for (int z = 0; z < 10; z++)
+            for (int y = 0; y < 30; y++)
+                for (int x = 0; x < nx; x++) {
+                    uint16_t a = full.labels[gs_model_lattice_index(&full, x, y, z)];
+                    sym &= a == full.labels[gs_model_lattice_index(&full, nx - 1 - x, y, z)];
+                    varied |= a != full.labels[gs_model_lattice_index(&full, 0, 0, z)];
+                }
+        assert_true(sym);
+        assert_true(varied);
+        gs_model_lattice_destroy(&half);
+        gs_model_lattice_destroy(&full);
+    }
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+/* Soft shape constraint: a disc mask makes filled cells more frequent inside
+ * the disc than outside; still 0 violations. */
+static void test_shape_soft_constraint(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    read_sample("castle.txt", &ex);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    const int n = 48;
+    float *mask = malloc((size_t)n * n * sizeof *mask);
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++)
+            mask[x + n * y] = (x - 24) * (x - 24) + (y - 24) * (y - 24) < 15 * 15 ? 1.0f : 0.0f;
+    double ratio[2];
+    for (int use = 0; use < 2; use++) {
+        double in = 0, nin = 0, outside = 0, nout = 0;
+        for (uint64_t seed = 1; seed <= 2; seed++) {
+            assert_int_equal(gs_model_lattice_create(&out, n, n, 10), GS_OK);
+            gs_model_params p;
+            gs_model_params_default(&p);
+            p.seed = seed;
+            p.region[0] = p.region[1] = 16;
+            if (use) {
+                p.shape = mask;
+                p.shape_weight = 4.0;
+            }
+            assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+            gs_model_stats st;
+            assert_int_equal(gs_model_synthesize(r, &p, &out, &st), GS_OK);
+            size_t nv = 99;
+            assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+            assert_int_equal(nv, 0);
+            for (int z = 2; z < 9; z++)
+                for (int y = 0; y < n; y++)
+                    for (int x = 0; x < n; x++) {
+                        int full = out.labels[gs_model_lattice_index(&out, x, y, z)] != 0;
+                        if (mask[x + n * y] > 0.5f) {
+                            in += full;
+                            nin++;
+                        } else {
+                            outside += full;
+                            nout++;
+                        }
+                    }
+            gs_model_lattice_destroy(&out);
+        }
+        ratio[use] = (in / nin) / (outside / nout + 1e-9);
+        print_message("castle 48x48x10, %s: filled fraction inside the disc %.3f, outside %.3f\n",
+                      use ? "disc shape weight 4" : "no shape", in / nin, outside / nout);
+    }
+    assert_true(ratio[1] > 1.5 * ratio[0]);
+    free(mask);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_city_regions_tiled_start),
+        cmocka_unit_test(test_periodic_output),
+        cmocka_unit_test(test_periodic_plan_gap),
+        cmocka_unit_test(test_split_rescues_failed_region),
+        cmocka_unit_test(test_pins),
+        cmocka_unit_test(test_mirror),
+        cmocka_unit_test(test_shape_soft_constraint),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
