@@ -75,6 +75,8 @@ typedef struct field_config {
     int64_t coarse_block;
     int64_t target[3];
     int mask_unsynthesized;
+    double seed_weight;
+    int seed_blocks;
     int upper_bound;
     char *geometry;
     char *mesh_format;
@@ -147,6 +149,11 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_BOOL(field_config, mask_unsynthesized, "field.mask_unsynthesized", "yes",
                     "yes: only synthesized samples count in a match (faithful statistics); "
                     "no: the paper's whole blocks incl. random seeds (biased, see configs/field)"),
+    GS_CFG_KEY_REAL(field_config, seed_weight, "field.seed_weight", 0, 1, 0, "0.25",
+                    "masked matching: weight of unsynthesized samples (seeds, coarse result) "
+                    "against synthesized ones; 0 = ignored (copies the source), 1 = paper"),
+    GS_CFG_KEY_BOOL(field_config, seed_blocks, "field.seed_blocks", "yes",
+                    "iteration 0 starts from random source blocks instead of random samples"),
     GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
                     "queue pruning with the paper's upper bound (eq. 3); same result"),
     GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
@@ -645,6 +652,10 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     memcpy(sc.target, c->target, sizeof sc.target);
     sc.seed = (uint64_t)c->run.seed;
     sc.mask_unsynthesized = c->mask_unsynthesized;
+    sc.seed_weight = (int)lround(c->seed_weight * 256);
+    if (c->seed_weight > 0 && sc.seed_weight < 1)
+        sc.seed_weight = 1;
+    sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
     sc.match = match_block;
     sc.match_ctx = &ctx;
@@ -665,6 +676,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
                (long long)c->target[0], (long long)c->target[1], (long long)c->target[2],
                sc.iterations, sc.block[0], sc.block[sc.iterations - 1],
                c->mask_unsynthesized ? "masked" : "whole-block (paper)");
+        if (c->mask_unsynthesized)
+            gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256, iteration 0 seeded with "
+                                "random %s", sc.seed_weight, sc.seed_blocks ? "blocks" : "samples");
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
                             "mask, provenance)", est / 1048576.0);
     }
@@ -767,11 +781,14 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             gs_run_metric_f64(run, "surface_per_volume_src", qm.surface_per_volume_src);
             gs_run_metric_f64(run, "coherence", qm.coherence);
             gs_run_metric_i64(run, "coherence_blocks", qm.coherence_blocks);
+            gs_run_metric_f64(run, "verbatim_share", qm.verbatim);
+            gs_run_metric_i64(run, "verbatim_run", qm.longest_run);
             gs_log(GS_LOG_INFO,
                    "quality: volume fraction %.4f (source %.4f), surface/volume %.4f (source "
-                   "%.4f), coherence %.2f, mean match %.2f (%.1f s)",
+                   "%.4f), coherence %.2f, verbatim blocks %.3f (longest copied run %lld), "
+                   "mean match %.2f (%.1f s)",
                    qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
-                   qm.surface_per_volume_src, qm.coherence,
+                   qm.surface_per_volume_src, qm.coherence, qm.verbatim, (long long)qm.longest_run,
                    st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1),
                    gs_time_now() - tq);
         }
