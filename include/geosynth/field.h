@@ -189,6 +189,7 @@ typedef struct gs_field_match {
     uint64_t pushes;    /* queue entries pushed (tree) */
     uint64_t refinements; /* refinement steps evaluated (tree) */
     size_t queue_peak;  /* largest queue size (tree) */
+    int truncated;      /* tree search stopped at opts->max_pops: no answer */
 } gs_field_match;
 
 /* Reference: linear scan over blocks [begin, end) of src in index order,
@@ -253,6 +254,11 @@ typedef struct gs_field_search_opts {
     void (*poll)(void *ctx, uint64_t *bound);
     void *poll_ctx;
     uint64_t poll_every;
+    /* > 0: give up after this many pops (out->truncated = 1, out->found = 0).
+     * Deterministic: the same query on the same tree stops at the same pop,
+     * so every rank can try a query locally and agree, without talking,
+     * whether to spread it over the ranks (src/field/engine.c). */
+    uint64_t max_pops;
 } gs_field_search_opts;
 
 /* Exact best match of q among the blocks under top-level subtrees

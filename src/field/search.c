@@ -344,6 +344,10 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
             opts->poll(opts->poll_ctx, &bnd);
             bnd_scaled = SCALED(bnd);
         }
+        if (opts->max_pops && out->pops >= opts->max_pops) {
+            out->truncated = 1;
+            break;
+        }
         entry e = heap_pop(s);
         out->pops++;
         if (e.lb > bnd_scaled)
