@@ -13,7 +13,10 @@
  *             RUN_DIR/checkpoint.h5.
  *  synthesis  the core's multi-resolution synthesis (src/field/synth.c). Every
  *             rank holds the whole (small) target and runs the same block
- *             sequence; the match of each block is distributed: the search
+ *             sequence. Each query is first searched whole on every rank
+ *             with a pop budget (FIELD_LOCAL_POPS; the same answer, or the
+ *             same give-up, everywhere, no messages); only queries over the
+ *             budget are distributed: the search
  *             tree's top-level subtrees are split over the ranks (gs_psearch,
  *             balanced by blocks per subtree), each rank searches its share
  *             with the bound shared between ranks (the tree search polls
@@ -23,7 +26,8 @@
  *             each block gets exactly the serial answer of
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
- *             Work unit = one block. Checkpoints hold target, mask, iteration,
+ *             Work unit = one block; the checkpoint test (a collective) runs
+ *             every FIELD_UNIT_BATCH blocks. Checkpoints hold target, mask, iteration,
  *             cursor, match statistics and the provenance map; the only
  *             randomness (the seeds of iteration 0) is drawn from gs_rng keyed
  *             by run.seed when the synthesis is created, so it is part of the
