@@ -17,9 +17,16 @@
  * are always broken by the lowest block index.
  *
  * Distance (paper eq. 1, without the 1/N^3 factor so it is an exact integer):
- *   dist(q, b) = sum over samples s known in the query of (q[s] - b[s])^2.
- * A query is a B^3 block of quantized samples plus an optional "known" mask
- * (NULL = all known). Unknown samples do not contribute.
+ *   dist(q, b) = wk * SSD(known samples) + wu * SSD(unknown samples),
+ * SSD = sum of (q[s] - b[s])^2. A query is a B^3 block of quantized samples,
+ * an optional "known" mask (NULL = all known) and seed_weight w in 0..256
+ * (the weight of unknown samples in 1/256): (wk, wu) = (1, 0) for w = 0
+ * (unknown samples ignored), (1, 1) for w = 256 or no mask (the paper's
+ * whole block), (256, w) otherwise (an exact integer form of SSD(known) +
+ * w/256 * SSD(unknown)). Every lower bound below is multiplied by the
+ * weight of its cell: wk for cells whose samples are all known, wu for the
+ * others (the minimum weight over the cell, so bounds stay valid and stay
+ * monotone under refinement; single samples carry their exact weight).
  *
  * Global pyramid (gs_field_pyramid_*): level m holds, for every position x,
  * the SUM of the 2^m-cube of quantized samples starting at x (kept as exact
@@ -155,7 +162,10 @@ typedef struct gs_field_query {
     int block;               /* B, power of two in [2, 32] */
     const uint8_t *values;   /* B^3 quantized samples, x fastest */
     const uint8_t *known;    /* B^3 flags, nonzero = known; NULL = all known */
+    int seed_weight;         /* 0..256: weight of unknown samples in 1/256 (see top) */
 } gs_field_query;
+/* The (wk, wu) weights of a query (see top). */
+void gs_field_query_weights(const gs_field_query *q, uint64_t *wk, uint64_t *wu);
 gs_err gs_field_level_bound(gs_field_pyramid_t p, int64_t index, const gs_field_query *q,
                             int level, uint64_t *out);
 
@@ -173,12 +183,13 @@ uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_f
 typedef struct gs_field_match {
     int found;          /* 0: nothing within the bound */
     int64_t index;      /* best source block index (lowest among equals) */
-    uint64_t dist;      /* its distance (sum of squared differences) */
+    uint64_t dist;      /* its distance (weighted sum of squared differences, see top) */
     int64_t known;      /* number of known query samples */
     uint64_t pops;      /* queue entries popped (tree) / blocks scanned (brute) */
     uint64_t pushes;    /* queue entries pushed (tree) */
     uint64_t refinements; /* refinement steps evaluated (tree) */
     size_t queue_peak;  /* largest queue size (tree) */
+    int truncated;      /* tree search stopped at opts->max_pops: no answer */
 } gs_field_match;
 
 /* Reference: linear scan over blocks [begin, end) of src in index order,
@@ -243,6 +254,11 @@ typedef struct gs_field_search_opts {
     void (*poll)(void *ctx, uint64_t *bound);
     void *poll_ctx;
     uint64_t poll_every;
+    /* > 0: give up after this many pops (out->truncated = 1, out->found = 0).
+     * Deterministic: the same query on the same tree stops at the same pop,
+     * so every rank can try a query locally and agree, without talking,
+     * whether to spread it over the ranks (src/field/engine.c). */
+    uint64_t max_pops;
 } gs_field_search_opts;
 
 /* Exact best match of q among the blocks under top-level subtrees
@@ -271,7 +287,14 @@ typedef struct gs_field_synth_config {
     int block[GS_FIELD_MAX_ITER];    /* block size per iteration, coarse to fine (paper: last 16) */
     uint64_t seed;                   /* seeds the random source samples of iteration 0 */
     int mask_unsynthesized;          /* 0 (paper): match whole blocks, seed values included;
-                                        1: unsynthesized samples are unknown in the query */
+                                        1: unsynthesized samples are unknown in the query,
+                                        weighted by seed_weight */
+    int seed_weight;                 /* 0..256 (1/256): weight of the unsynthesized samples
+                                        (random seeds, coarse result) in masked matching, see
+                                        gs_field_query; 0 = ignored (copies the source almost
+                                        verbatim), 256 = the paper's whole block */
+    int seed_blocks;                 /* 1: iteration 0 seeds the target with random source
+                                        blocks (tiles of block[0]) instead of random samples */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
     /* Optional (NULL = local search): called for every block instead of
      * gs_field_tree_best_match(searcher, q, opts, out), with the iteration,
@@ -335,6 +358,9 @@ typedef struct gs_field_quality {
     double coherence;        /* mean over output blocks (grid of stride B) of the
                                 normalized distance to the nearest source block */
     int64_t coherence_blocks;
+    double verbatim;         /* share of those blocks that exist exactly in the source */
+    int64_t longest_run;     /* longest run of verbatim blocks along x whose source blocks
+                                are consecutive too (a copied slab), in blocks */
 } gs_field_quality;
 /* tree: built on src with the block size to measure coherence with. */
 gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,

@@ -13,7 +13,10 @@
  *             RUN_DIR/checkpoint.h5.
  *  synthesis  the core's multi-resolution synthesis (src/field/synth.c). Every
  *             rank holds the whole (small) target and runs the same block
- *             sequence; the match of each block is distributed: the search
+ *             sequence. Each query is first searched whole on every rank
+ *             with a pop budget (FIELD_LOCAL_POPS; the same answer, or the
+ *             same give-up, everywhere, no messages); only queries over the
+ *             budget are distributed: the search
  *             tree's top-level subtrees are split over the ranks (gs_psearch,
  *             balanced by blocks per subtree), each rank searches its share
  *             with the bound shared between ranks (the tree search polls
@@ -23,7 +26,8 @@
  *             each block gets exactly the serial answer of
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
- *             Work unit = one block. Checkpoints hold target, mask, iteration,
+ *             Work unit = one block; the checkpoint test (a collective) runs
+ *             every FIELD_UNIT_BATCH blocks. Checkpoints hold target, mask, iteration,
  *             cursor, match statistics and the provenance map; the only
  *             randomness (the seeds of iteration 0) is drawn from gs_rng keyed
  *             by run.seed when the synthesis is created, so it is part of the
@@ -75,6 +79,8 @@ typedef struct field_config {
     int64_t coarse_block;
     int64_t target[3];
     int mask_unsynthesized;
+    double seed_weight;
+    int seed_blocks;
     int upper_bound;
     char *geometry;
     char *mesh_format;
@@ -147,6 +153,11 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_BOOL(field_config, mask_unsynthesized, "field.mask_unsynthesized", "yes",
                     "yes: only synthesized samples count in a match (faithful statistics); "
                     "no: the paper's whole blocks incl. random seeds (biased, see configs/field)"),
+    GS_CFG_KEY_REAL(field_config, seed_weight, "field.seed_weight", 0, 1, 0, "0",
+                    "masked matching: weight of unsynthesized samples (seeds, coarse result) "
+                    "against synthesized ones; 0 = ignored (copies the source), 1 = paper"),
+    GS_CFG_KEY_BOOL(field_config, seed_blocks, "field.seed_blocks", "no",
+                    "iteration 0 starts from random source blocks instead of random samples"),
     GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
                     "queue pruning with the paper's upper bound (eq. 3); same result"),
     GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
@@ -329,7 +340,13 @@ typedef struct match_ctx {
     gs_field_match local;
     gs_psearch_t cur;
     int64_t queries;
+    int64_t local_queries; /* np > 1: queries answered by the local budgeted search */
 } match_ctx;
+
+/* Pop budget of the local try before a query is spread over the ranks. */
+#define FIELD_LOCAL_POPS 20000
+/* Blocks synthesized between two checkpoint tests (collective). */
+#define FIELD_UNIT_BATCH 16
 
 static void poll_bound(void *ctx_, uint64_t *bound)
 {
@@ -384,9 +401,24 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
     match_ctx *ctx = ctx_;
     gs_run *run = ctx->run;
     ctx->queries++;
+    int done = 0;
     if (run->size == 1) {
         GS_CALL(gs_field_tree_best_match(searcher, q, opts, out));
+        done = 1;
     } else {
+        /* Most masked queries finish in a few hundred pops: every rank runs
+         * them whole (same answer everywhere, no messages), and only the
+         * queries that exceed the budget -- the same ones on every rank --
+         * are spread over the ranks. */
+        gs_field_search_opts lo = opts ? *opts : (gs_field_search_opts){0};
+        lo.max_pops = FIELD_LOCAL_POPS;
+        uint64_t bound = UINT64_MAX;
+        GS_CALL(gs_field_tree_search(searcher, 0, gs_field_tree_top_count(tree), q, &lo, &bound, out));
+        done = out->found && !out->truncated;
+        if (done)
+            ctx->local_queries++;
+    }
+    if (!done) {
         if (ctx->ps_iteration != iteration) {
             gs_psearch_destroy(&ctx->ps);
             int64_t top = gs_field_tree_top_count(tree);
@@ -645,6 +677,10 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     memcpy(sc.target, c->target, sizeof sc.target);
     sc.seed = (uint64_t)c->run.seed;
     sc.mask_unsynthesized = c->mask_unsynthesized;
+    sc.seed_weight = (int)lround(c->seed_weight * 256);
+    if (c->seed_weight > 0 && sc.seed_weight < 1)
+        sc.seed_weight = 1;
+    sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
     sc.match = match_block;
     sc.match_ctx = &ctx;
@@ -665,6 +701,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
                (long long)c->target[0], (long long)c->target[1], (long long)c->target[2],
                sc.iterations, sc.block[0], sc.block[sc.iterations - 1],
                c->mask_unsynthesized ? "masked" : "whole-block (paper)");
+        if (c->mask_unsynthesized)
+            gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256, iteration 0 seeded with "
+                                "random %s", sc.seed_weight, sc.seed_blocks ? "blocks" : "samples");
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
                             "mask, provenance)", est / 1048576.0);
     }
@@ -702,7 +741,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     double t0 = gs_time_now();
     int64_t start_units = units_done(st);
     while (!finished) {
-        GS_TRY(err, gs_field_synth_run(synth, 1, &finished), done);
+        /* batches: the checkpoint test is a collective, and most blocks take
+         * microseconds (identical batches on every rank) */
+        GS_TRY(err, gs_field_synth_run(synth, FIELD_UNIT_BATCH, &finished), done);
         st = gs_field_synth_get_state(synth);
         int64_t u = units_done(st);
         gs_progress_update(&prog, (uint64_t)u);
@@ -719,9 +760,11 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     gs_progress_end(&prog);
     st = gs_field_synth_get_state(synth);
     double syn_s = gs_time_now() - t0;
-    snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f}",
+    snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
+             "\"queries_local\":%lld,\"queries_spread\":%lld}",
              (long long)units_done(st), (long long)(units_done(st) - start_units),
-             syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0);
+             syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
+             (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
     GS_TRY(err, gs_run_phase_end(run, js), done);
 
     gs_run_phase_begin(run, "output");
@@ -767,11 +810,14 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             gs_run_metric_f64(run, "surface_per_volume_src", qm.surface_per_volume_src);
             gs_run_metric_f64(run, "coherence", qm.coherence);
             gs_run_metric_i64(run, "coherence_blocks", qm.coherence_blocks);
+            gs_run_metric_f64(run, "verbatim_share", qm.verbatim);
+            gs_run_metric_i64(run, "verbatim_run", qm.longest_run);
             gs_log(GS_LOG_INFO,
                    "quality: volume fraction %.4f (source %.4f), surface/volume %.4f (source "
-                   "%.4f), coherence %.2f, mean match %.2f (%.1f s)",
+                   "%.4f), coherence %.2f, verbatim blocks %.3f (longest copied run %lld), "
+                   "mean match %.2f (%.1f s)",
                    qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
-                   qm.surface_per_volume_src, qm.coherence,
+                   qm.surface_per_volume_src, qm.coherence, qm.verbatim, (long long)qm.longest_run,
                    st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1),
                    gs_time_now() - tq);
         }

@@ -170,9 +170,22 @@ void gs_field_block_copy(const gs_qfield *src, int block, int64_t index, uint8_t
                    src->q + p[0] + src->nx * (p[1] + j + src->ny * (p[2] + k)), (size_t)block);
 }
 
+void gs_field_query_weights(const gs_field_query *q, uint64_t *wk, uint64_t *wu)
+{
+    *wk = 1, *wu = 1;
+    if (!q->known || q->seed_weight >= 256)
+        return;
+    if (q->seed_weight <= 0)
+        *wu = 0;
+    else
+        *wk = 256, *wu = (uint64_t)q->seed_weight;
+}
+
 uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_field_query *q)
 {
     int B = q->block;
+    uint64_t wk, wu;
+    gs_field_query_weights(q, &wk, &wu);
     int64_t p[3];
     gs_field_block_position(src, B, index, p);
     uint64_t d = 0;
@@ -182,10 +195,8 @@ uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_f
             const uint8_t *qv = q->values + B * (j + B * k);
             const uint8_t *kn = q->known ? q->known + B * (j + B * k) : NULL;
             for (int i = 0; i < B; i++) {
-                if (kn && !kn[i])
-                    continue;
                 int e = (int)qv[i] - (int)row[i];
-                d += (uint64_t)(e * e);
+                d += (uint64_t)(e * e) * (kn && !kn[i] ? wu : wk);
             }
         }
     return d;

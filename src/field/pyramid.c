@@ -153,6 +153,8 @@ gs_err gs_field_level_bound(gs_field_pyramid_t p, int64_t index, const gs_field_
     gs_step_layout lay;
     GS_CALL(gs_step_layout_init(&lay, q->block, p->nx, p->ny));
     int L = lay.L, B = q->block;
+    uint64_t wk, wu;
+    gs_field_query_weights(q, &wk, &wu);
     gs_err err = GS_OK;
     GS_TRY_CHECK(err, level >= 0 && level <= L && p->levels > L, GS_ERR_ARG, done,
                  "level %d of block %d: expected 0..%d with a pyramid of > %d levels", level, B, L,
@@ -174,10 +176,8 @@ gs_err gs_field_level_bound(gs_field_pyramid_t p, int64_t index, const gs_field_
                     if (q->known && !q->known[o])
                         full = 0;
                 }
-        if (!full)
-            continue;
         int64_t d = (int64_t)qs - (int64_t)gs_pyr_at(p, L - level, base + lay.cell_off[level][j]);
-        total += (uint64_t)(d * d) << (3 * level);
+        total += ((uint64_t)(d * d) << (3 * level)) * (full ? wk : wu);
     }
     *out = total;
 done:

@@ -30,6 +30,7 @@ struct gs_field_searcher {
     entry *heap;
     size_t heap_n, heap_cap;
     int64_t known;
+    uint64_t wk, wu;     /* weights of fully known cells / all other cells (field.h) */
     int query_step_max;
     /* upper bound extra per level-boundary state, unscaled (see ub_extra) */
     uint64_t samples_dev2[GS_FIELD_MAX_LEVEL + 1]; /* per-sample (3(s_k-1)K)^2 */
@@ -127,6 +128,7 @@ static void prepare_query(struct gs_field_searcher *s, const gs_field_query *q)
     int L = lay->L, B = lay->B;
     int64_t n = (int64_t)1 << (3 * L);
     s->known = 0;
+    gs_field_query_weights(q, &s->wk, &s->wu);
     /* sums of squares ride in qdev until the deviations are formed below */
     for (int64_t j = 0; j < n; j++) {
         int64_t o = lay->qcell_off[L][j];
@@ -183,18 +185,26 @@ static inline uint64_t sq_scaled(int64_t d, int k)
     return (uint64_t)(d * d) << (3 * k);
 }
 
+/* Weight of cell j of level k: wk when all its samples are known, else wu
+ * (the smallest weight of its samples, so weighted bounds stay valid). */
+static inline uint64_t cell_weight(const struct gs_field_searcher *s, int k, int64_t j)
+{
+    return s->qfull[k][j] ? s->wk : s->wu;
+}
+
 /* Scaled term of octant o's floor mean: the query's octant sum against the
  * interval of sums [lo, lo + c - 1] (c = 8^(L-1) samples) with that floor
  * mean, (d^2 / c) * 8^L = 8 d^2. */
 static inline uint64_t octant_mean_term(const struct gs_field_searcher *s, int o, uint32_t sum)
 {
-    if (!s->qfull[1][o])
+    uint64_t w = cell_weight(s, 1, o);
+    if (!w)
         return 0;
     int sh = 3 * (s->tree->lay.L - 1);
     int64_t lo = (int64_t)(sum >> sh) << sh, hi = lo + ((int64_t)1 << sh) - 1;
     int64_t q = s->qsum[1][o];
     int64_t d = q < lo ? lo - q : q > hi ? q - hi : 0;
-    return (uint64_t)(d * d) << 3;
+    return ((uint64_t)(d * d) << 3) * w;
 }
 
 /* Scaled lower bound (times 8^L) of the distance over one fully known cell
@@ -241,24 +251,30 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
     if (k == 0) /* the exact octants replace their floor means */
         for (int o = 0; o < 8; o++)
             lb -= octant_mean_term(s, o, gs_pyr_at(p, L - 1, base + lay->cell_off[1][o]));
-    else if (s->qfull[k][j])
-        lb -= cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_sq_at(p, m, cell),
+    else if (cell_weight(s, k, j))
+        lb -= cell_weight(s, k, j) *
+              cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_sq_at(p, m, cell),
                         (int64_t)1 << (3 * m), k);
     const int64_t *off = lay->cell_off[k + 1] + 8 * j;
     const uint32_t *qs = s->qsum[k + 1] + 8 * j;
     const double *qd = s->qdev[k + 1] + 8 * j;
     const uint8_t *qf = s->qfull[k + 1] + 8 * j;
+    const uint64_t wk = s->wk, wu = s->wu;
     if (m == 1) {
         const uint8_t *v = t->src->q + base;
-        for (int c = 0; c < 8; c++)
-            if (qf[c])
-                lb += sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
+        for (int c = 0; c < 8; c++) {
+            uint64_t w = qf[c] ? wk : wu;
+            if (w)
+                lb += w * sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
+        }
     } else {
         const uint32_t *v = p->sum[m - 1] + base, *vq = p->sq[m - 1] + base;
         int64_t cc = (int64_t)1 << (3 * (m - 1));
-        for (int c = 0; c < 8; c++)
-            if (qf[c])
-                lb += cell_term(qs[c], qd[c], v[off[c]], vq[off[c]], cc, k + 1);
+        for (int c = 0; c < 8; c++) {
+            uint64_t w = qf[c] ? wk : wu;
+            if (w)
+                lb += w * cell_term(qs[c], qd[c], v[off[c]], vq[off[c]], cc, k + 1);
+        }
     }
     return lb;
 }
@@ -282,7 +298,7 @@ static uint64_t upper_bound(const struct gs_field_searcher *s, uint64_t lb, uint
     int64_t samples_per_k = (int64_t)1 << (3 * (L - k));
     uint64_t extra = (uint64_t)(cells_k * samples_per_k) * s->samples_dev2[k];
     extra += (uint64_t)(done_in_k * samples_per_k) * s->samples_dev2[k + 1];
-    return (lb >> (3 * L)) + extra;
+    return (lb >> (3 * L)) + extra * s->wk;
 }
 
 static int64_t block_base(const struct gs_field_tree *t, uint32_t idx)
@@ -327,6 +343,10 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         if (opts->poll && opts->poll_every && out->pops % opts->poll_every == 0 && out->pops) {
             opts->poll(opts->poll_ctx, &bnd);
             bnd_scaled = SCALED(bnd);
+        }
+        if (opts->max_pops && out->pops >= opts->max_pops) {
+            out->truncated = 1;
+            break;
         }
         entry e = heap_pop(s);
         out->pops++;
@@ -406,7 +426,7 @@ gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
  * inner loop vectorizes. */
 #define DEFINE_SSD(NAME, BB)                                                                       \
     static uint64_t NAME(const uint8_t *src, int64_t nx, int64_t nxy, const uint8_t *q,           \
-                         const uint8_t *known, int B_)                                             \
+                         const uint8_t *known, uint64_t wk, uint64_t wu, int B_)                   \
     {                                                                                              \
         const int B = (BB) ? (BB) : B_;                                                            \
         uint64_t d = 0;                                                                            \
@@ -417,10 +437,14 @@ gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
                 uint32_t acc = 0;                                                                  \
                 if (known) {                                                                       \
                     const uint8_t *kr = known + B * (j + B * k);                                   \
+                    uint32_t acu = 0;                                                              \
                     for (int i = 0; i < B; i++) {                                                  \
                         int e = (int)qr[i] - (int)row[i];                                          \
                         acc += (uint32_t)(e * e) * (kr[i] != 0);                                   \
+                        acu += (uint32_t)(e * e) * (kr[i] == 0);                                   \
                     }                                                                              \
+                    d += wk * acc + wu * acu;                                                      \
+                    continue;                                                                      \
                 } else {                                                                           \
                     for (int i = 0; i < B; i++) {                                                  \
                         int e = (int)qr[i] - (int)row[i];                                          \
@@ -445,18 +469,22 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
     GS_CHECK(begin >= 0 && begin <= end && end <= M, GS_ERR_ARG,
              "block range [%lld, %lld): expected within [0, %lld]", (long long)begin,
              (long long)end, (long long)M);
-    uint64_t (*ssd)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *, int) =
+    uint64_t (*ssd)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *, uint64_t,
+                    uint64_t, int) =
         B == 8 ? ssd_8 : B == 16 ? ssd_16 : B == 32 ? ssd_32 : ssd_any;
     memset(out, 0, sizeof *out);
     int64_t known = 0;
     for (int64_t i = 0; i < (int64_t)B * B * B; i++)
         known += q->known ? q->known[i] != 0 : 1;
     out->known = known;
+    uint64_t wk, wu;
+    gs_field_query_weights(q, &wk, &wu);
     int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;
     uint64_t best = *bound;
     for (int64_t idx = begin; idx < end; idx++) {
         int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
-        uint64_t d = ssd(src->q + px + src->nx * py + nxy * pz, src->nx, nxy, q->values, q->known, B);
+        uint64_t d = ssd(src->q + px + src->nx * py + nxy * pz, src->nx, nxy, q->values, q->known,
+                         wk, wu, B);
         if (d <= best && (!out->found || d < out->dist)) {
             out->found = 1;
             out->index = idx;

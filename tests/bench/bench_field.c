@@ -27,9 +27,11 @@
 #include "geosynth/parse.h"
 #include "geosynth/rng.h"
 
-enum { K_SOURCE, K_PERTURBED, K_SEEDED, K_SEEDED_COARSE, K_MASKED, K_COUNT };
+enum { K_SOURCE, K_PERTURBED, K_SEEDED, K_SEEDED_COARSE, K_MASKED, K_WEIGHTED, K_COUNT };
 static const char *kind_name[K_COUNT] = {"source", "perturbed", "seeded_octant", "coarse_seeded_octant",
-                                         "masked_octant"};
+                                         "masked_octant", "weighted_seeded_octant"};
+/* K_WEIGHTED: random seeds in the unknown octant at field.seed_weight 0.25 */
+#define BENCH_SEED_WEIGHT 64
 
 /* Synthesis-like queries: 7 octants of a source block; the 8th octant holds
  * random source samples (iteration 0 of the paper), or a coarse (2x
@@ -55,6 +57,9 @@ static void make_query(gs_rng *r, const gs_qfield *src, int B, int kind, uint8_t
                 } else if (kind == K_SEEDED_COARSE) {
                     val[i] = other[(x & ~1) + B * ((y & ~1) + B * (z & ~1))];
                 } else if (kind == K_MASKED) {
+                    known[i] = 0;
+                } else if (kind == K_WEIGHTED) {
+                    val[i] = src->q[gs_rng_below(r, (uint64_t)srcn)];
                     known[i] = 0;
                 }
             }
@@ -226,7 +231,8 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
         int brute_done = 0, agree = 0, extrapolated = 0;
         for (int t = 0; t < queries; t++) {
             make_query(&r, src, B, kind, val, known);
-            gs_field_query q = {B, val, kind == K_MASKED ? known : NULL};
+            gs_field_query q = {B, val, kind >= K_MASKED ? known : NULL,
+                                kind == K_WEIGHTED ? BENCH_SEED_WEIGHT : 0};
             gs_field_match mt, mb;
             double t0 = gs_time_now();
             if (gs_field_tree_best_match(s, &q, NULL, &mt) != GS_OK) {
@@ -238,7 +244,7 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
             refinements += mt.refinements;
             if (mt.queue_peak > qpeak)
                 qpeak = mt.queue_peak;
-            if (t < fft_queries) {
+            if (t < fft_queries && kind != K_WEIGHTED) { /* the FFT matcher has no weights */
                 int64_t fi;
                 uint64_t fd = 0;
                 t0 = gs_time_now();

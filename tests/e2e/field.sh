@@ -43,6 +43,37 @@ c_paper=$(metric paper coherence) c_mask=$(metric np1 coherence)
 /usr/bin/python3 -c "import sys; sys.exit(0 if float('$c_paper') > 3 * float('$c_mask') else 1)" &&
   ok "whole-block matching is less coherent ($c_paper vs $c_mask)" || bad "paper mode coherence $c_paper vs masked $c_mask"
 
+# --- weighted seeds (field.seed_weight) and random-block seeding: exact and
+# deterministic too (the weighted distance is searched with weighted bounds,
+# cheap queries run on every rank, expensive ones spread)
+for np in 1 2; do
+  run_gs "$np" field -c "$Q" -o "w$np" --set field.seed_weight=0.25 --set field.seed_blocks=yes \
+    --set output.geometry=none --set output.vdb=no
+  expect_rc 0 "quick.ini with seed_weight 0.25 at np=$np"
+done
+[[ -n "$(digest_of w1)" && "$(digest_of w1)" == "$(digest_of w2)" && "$(digest_of w1)" != "$ref" ]] &&
+  ok "weighted matching: digest identical at np=1,2 and differs from masked" ||
+  bad "weighted digests np1=$(digest_of w1) np2=$(digest_of w2) masked=$ref"
+
+# --- demo: two seeds give different outputs with the source's statistics ------
+D=$GS_ROOT/configs/field/demo.ini
+for s in 1 2; do
+  run_gs 1 field -c "$D" -o "demo$s" --set run.seed=$s --set output.geometry=none --set output.vdb=no
+  expect_rc 0 "demo.ini with run.seed=$s"
+done
+[[ -n "$(digest_of demo1)" && "$(digest_of demo1)" != "$(digest_of demo2)" ]] &&
+  ok "demo: seeds 1 and 2 give different outputs" || bad "demo: seeds 1 and 2 give the same output"
+/usr/bin/python3 - demo1/summary.json demo2/summary.json <<'EOF2' && ok "demo: both seeds within 10% of the source's volume fraction and surface/volume" || bad "demo statistics out of tolerance"
+import json, sys
+for f in sys.argv[1:]:
+    m = json.load(open(f))["metrics"]
+    assert abs(m["volume_fraction_out"] / m["volume_fraction_src"] - 1) < 0.10, (f, m)
+    assert abs(m["surface_per_volume_out"] / m["surface_per_volume_src"] - 1) < 0.10, (f, m)
+    assert 0 <= m["verbatim_share"] <= 1 and m["verbatim_run"] >= 0, (f, m)
+    # verbatim share 1 exactly when every output block exists in the source
+    assert (m["verbatim_share"] == 1) == (m["coherence"] == 0), (f, m)
+EOF2
+
 # --- stop after N blocks at np=1, resume at np=2 ------------------------------
 GS_STOP_AFTER_UNITS=300 run_gs 1 field -c "$Q" -o stop
 expect_rc 9 "GS_STOP_AFTER_UNITS stops with exit 9"

@@ -180,10 +180,27 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
     for (int t = 0; t < queries; t++) {
         int qk = t % Q_KINDS, use_mask;
         make_query(&r, src, other, B, qk, val, known, &use_mask);
-        gs_field_query q = {B, val, use_mask ? known : NULL};
+        /* masked queries cycle through seed weights: ignored, the smallest,
+         * two between, and the paper's whole block */
+        static const int weights[5] = {0, 1, 37, 64, 256};
+        gs_field_query q = {B, val, use_mask ? known : NULL, weights[(t / Q_KINDS) % 5]};
         gs_field_match mt, mb;
         gs_field_search_opts opts = {0};
         opts.use_upper_bound = t % 2;
+        if (t % 7 == 3) { /* a pop budget either answers exactly or says it gave up */
+            gs_field_search_opts bo = opts;
+            bo.max_pops = 1 + (uint64_t)(t % 50);
+            uint64_t bb = UINT64_MAX;
+            OK(gs_field_tree_search(s, 0, gs_field_tree_top_count(tree), &q, &bo, &bb, &mt));
+            assert_true(mt.truncated ? !mt.found && mt.pops <= bo.max_pops : mt.found);
+            if (mt.found) {
+                uint64_t b2 = UINT64_MAX;
+                gs_field_match m2;
+                OK(gs_field_brute_search(src, &q, 0, info.blocks, &b2, &m2));
+                assert_int_equal(mt.index, m2.index);
+                assert_int_equal(mt.dist, m2.dist);
+            }
+        }
         OK(gs_field_tree_best_match(s, &q, &opts, &mt));
         uint64_t bound = UINT64_MAX;
         OK(gs_field_brute_search(src, &q, 0, info.blocks, &bound, &mb));
@@ -235,7 +252,7 @@ static void test_level_bounds(void **state)
     for (int t = 0; t < 60; t++) {
         int use_mask;
         make_query(&r, src, src, 16, t % Q_KINDS, val, known, &use_mask);
-        gs_field_query q = {16, val, use_mask ? known : NULL};
+        gs_field_query q = {16, val, use_mask ? known : NULL, (t / Q_KINDS) % 2 ? 64 : 0};
         int64_t idx = (int64_t)gs_rng_below(&r, (uint64_t)gs_field_block_count(src, 16));
         uint64_t prev = 0, lb = 0;
         for (int k = 0; k <= 4; k++) {
@@ -267,7 +284,7 @@ static void test_split_search(void **state)
     for (int t = 0; t < 60; t++) {
         int use_mask;
         make_query(&r, src, src, 8, t % Q_KINDS, val, known, &use_mask);
-        gs_field_query q = {8, val, use_mask ? known : NULL};
+        gs_field_query q = {8, val, use_mask ? known : NULL, (t / Q_KINDS) % 2 ? 37 : 0};
         gs_field_match serial, part;
         OK(gs_field_tree_best_match(s, &q, NULL, &serial));
         for (int ranks = 2; ranks <= 4; ranks++) {
@@ -321,7 +338,7 @@ static void test_identical_blocks(void **state)
     OK(gs_field_searcher_create(tree, &s));
     uint8_t val[64];
     memset(val, 255, 64);
-    gs_field_query q = {4, val, NULL};
+    gs_field_query q = {4, val, NULL, 0};
     gs_field_match m;
     OK(gs_field_tree_best_match(s, &q, NULL, &m));
     assert_int_equal(m.index, 0);
