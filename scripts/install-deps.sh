@@ -11,6 +11,7 @@ packages=(
   liblapacke-dev liblapack-dev libblas-dev libpng-dev zlib1g-dev
   libcmocka-dev valgrind clang libclang-rt-14-dev
   libfftw3-dev
+  libosmesa6-dev chromium xvfb    # headless thumbnails (OSMesa), page tests (Chromium), VTK under xvfb-run
   python3-numpy python3-h5py python3-matplotlib
   slurm-wlm munge
 )
