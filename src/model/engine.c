@@ -300,8 +300,10 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
                    "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
     GS_CFG_KEY_ENUM(model_config, order, "model.order", "entropy|scan|random|entropy_log", "entropy",
-                    "cell order: fewest candidates first, the author's scan (z fastest), or "
-                    "random"),
+                    "cell order: fewest candidates first, the author's scan (z fastest), "
+                    "random, or fewest candidates by binary order of magnitude with a fresh "
+                    "random tie-break (entropy_log: fewer streaks, fewer retries on hard "
+                    "examples)"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
                     "label choice: uniform (author) or proportional to the example's counts"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",

@@ -308,10 +308,15 @@ static void queue_clear(struct gs_model_solver *s)
 }
 
 /* Returns 0 on a wipe-out (queue cleared), 1 when the queue drained. */
-static int ac3_run(struct gs_model_solver *s)
+/* Bitset AC-3 over the queue. W (64-bit words per domain) is a parameter so
+ * that ac3_run() can instantiate it with constant W = 1..4: the example
+ * lattices have at most a few hundred labels, and with a constant word
+ * count the support accumulation unrolls (castle.txt, 1 word: 1.6x faster
+ * in bench_model). */
+static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_solver *s,
+                                                               const size_t W)
 {
     const struct gs_model_rules *r = s->rules;
-    const size_t W = (size_t)s->W;
     uint64_t sup[GS_MODEL_DIRS * 4];
     uint64_t *big = NULL; /* only for more than 256 labels */
     uint64_t *acc = sup;
@@ -378,6 +383,17 @@ out:
         queue_clear(s);
     gs_free(big);
     return ok;
+}
+
+static int ac3_run(struct gs_model_solver *s)
+{
+    switch (s->W) {
+    case 1: return ac3_run_words(s, 1);
+    case 2: return ac3_run_words(s, 2);
+    case 3: return ac3_run_words(s, 3);
+    case 4: return ac3_run_words(s, 4);
+    default: return ac3_run_words(s, (size_t)s->W);
+    }
 }
 
 static int ac4_run(struct gs_model_solver *s)

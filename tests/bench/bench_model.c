@@ -25,28 +25,30 @@ typedef struct bench_case {
     const char *file;
     int nx, ny, nz, bx, by; /* bx = by = 0: whole grid */
     int scale;              /* 1: author's size, 10: ten times the cells */
+    double author_cells_per_s; /* the author's implementation on this machine, single process
+                                  (issue 4); 0 = not measured or it failed */
 } bench_case;
 
 static const bench_case cases[] = {
-    {"castle.txt", 40, 40, 10, 0, 0, 1},
-    {"castle.txt", 100, 100, 10, 20, 20, 1},
-    {"city.txt", 40, 40, 10, 0, 0, 1},
-    {"city lights.txt", 40, 40, 10, 0, 0, 1},
-    {"canyon.txt", 40, 40, 10, 0, 0, 1},
-    {"mountain.txt", 40, 40, 10, 0, 0, 1},
-    {"escheresque.txt", 30, 30, 10, 10, 10, 1},
-    {"parliament.txt", 30, 30, 10, 10, 10, 1},
-    {"gadgets.txt", 40, 40, 6, 0, 0, 1},
-    {"gadgets.txt", 40, 40, 6, 20, 20, 1},
-    {"gadgets2.txt", 40, 40, 6, 0, 0, 1},
-    {"castle.txt", 126, 126, 10, 20, 20, 10},
-    {"castle.txt", 316, 316, 10, 20, 20, 10},
-    {"city.txt", 126, 126, 10, 20, 20, 10},
-    {"canyon.txt", 126, 126, 10, 20, 20, 10},
-    {"mountain.txt", 126, 126, 10, 20, 20, 10},
-    {"escheresque.txt", 95, 95, 10, 10, 10, 10},
-    {"parliament.txt", 95, 95, 10, 10, 10, 10},
-    {"gadgets.txt", 126, 126, 6, 20, 20, 10},
+    {"castle.txt", 40, 40, 10, 0, 0, 1, 31000},
+    {"castle.txt", 100, 100, 10, 20, 20, 1, 4600},
+    {"city.txt", 40, 40, 10, 0, 0, 1, 10000},
+    {"city lights.txt", 40, 40, 10, 0, 0, 1, 0},
+    {"canyon.txt", 40, 40, 10, 0, 0, 1, 0},
+    {"mountain.txt", 40, 40, 10, 0, 0, 1, 0},
+    {"escheresque.txt", 30, 30, 10, 10, 10, 1, 900},
+    {"parliament.txt", 30, 30, 10, 10, 10, 1, 4700},
+    {"gadgets.txt", 40, 40, 6, 0, 0, 1, 0},
+    {"gadgets.txt", 40, 40, 6, 20, 20, 1, 0},
+    {"gadgets2.txt", 40, 40, 6, 0, 0, 1, 0},
+    {"castle.txt", 126, 126, 10, 20, 20, 10, 0},
+    {"castle.txt", 316, 316, 10, 20, 20, 10, 0},
+    {"city.txt", 126, 126, 10, 20, 20, 10, 0},
+    {"canyon.txt", 126, 126, 10, 20, 20, 10, 0},
+    {"mountain.txt", 126, 126, 10, 20, 20, 10, 0},
+    {"escheresque.txt", 95, 95, 10, 10, 10, 10, 0},
+    {"parliament.txt", 95, 95, 10, 10, 10, 10, 0},
+    {"gadgets.txt", 126, 126, 6, 20, 20, 10, 0},
 };
 
 static int g_tile = 0, g_tiled_seeds = 0;
@@ -123,12 +125,14 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
            "\"order\": \"%s\", \"ac\": %d, \"backtrack_budget\": %d, \"weights\": \"%s\", \"attempts\": %d, \"seeds\": %d, "
            "\"seconds_per_run\": %.4f, \"cells_per_s\": %.0f, \"regions\": %llu, "
            "\"accepted\": %llu, \"failed\": %llu, \"retries\": %llu, \"violations\": %llu, "
-           "\"backtracks\": %llu, \"split\": %llu, \"kept_cells\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f]}\n",
+           "\"backtracks\": %llu, \"split\": %llu, \"kept_cells\": %llu, \"clean_seeds\": %d, \"run_length_ratio\": [%.2f, %.2f, %.2f], "
+           "\"author_cells_per_s\": %.0f, \"x_author\": %.1f}\n",
            bc->file, bc->nx, bc->ny, bc->nz, bc->bx, bc->by, bc->scale, order_name[order], (int)ac, backtracks,
            weights == GS_MODEL_WEIGHTS_UNIFORM ? "uniform" : "frequency", attempts, seeds,
            secs / seeds, cells / secs, (unsigned long long)regions, (unsigned long long)accepted,
            (unsigned long long)failed, (unsigned long long)(tries - regions),
-           (unsigned long long)violations, (unsigned long long)nback, (unsigned long long)nsplit, (unsigned long long)nkept, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2]);
+           (unsigned long long)violations, (unsigned long long)nback, (unsigned long long)nsplit, (unsigned long long)nkept, seeds_clean, run_ratio[0], run_ratio[1], run_ratio[2],
+           bc->author_cells_per_s, bc->author_cells_per_s > 0 ? cells / secs / bc->author_cells_per_s : 0);
     fflush(stdout);
 done:
     gs_model_lattice_destroy(&ex);
