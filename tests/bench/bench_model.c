@@ -4,9 +4,10 @@
  * adjacency violations (independent checker), run-length ratio vs example.
  *
  *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME]
- *       [--order scan|random|entropy|all] [--ac 3|4|both] [--weights uniform|frequency]
+ *       [--order config|scan|random|entropy|entropy_log|all] [--ac 3|4|both] [--weights uniform|frequency]
  *       [--scale 1|10|all] [--attempts K] [--tile T]
  *
+ * --order config (the default) uses each case's shipped config's order.
  * --tile T starts from gs_model_initial_tiled() with a periodic TxT tile.
  *
  * DIR defaults to $GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
@@ -28,28 +29,30 @@ typedef struct bench_case {
     int scale;              /* 1: author's size, 10: ten times the cells */
     double author_cells_per_s; /* the author's implementation on this machine, single process
                                   (issue 4); 0 = not measured or it failed */
+    int order;              /* cell order of the shipped config (configs/model/NAME.ini);
+                               --order overrides */
 } bench_case;
 
 static const bench_case cases[] = {
-    {"castle.txt", 40, 40, 10, 0, 0, 1, 31000},
-    {"castle.txt", 100, 100, 10, 20, 20, 1, 4600},
-    {"city.txt", 40, 40, 10, 0, 0, 1, 10000},
-    {"city lights.txt", 40, 40, 10, 0, 0, 1, 0},
-    {"canyon.txt", 40, 40, 10, 0, 0, 1, 0},
-    {"mountain.txt", 40, 40, 10, 0, 0, 1, 0},
-    {"escheresque.txt", 30, 30, 10, 10, 10, 1, 900},
-    {"parliament.txt", 30, 30, 10, 10, 10, 1, 4700},
-    {"gadgets.txt", 40, 40, 6, 0, 0, 1, 0},
-    {"gadgets.txt", 40, 40, 6, 20, 20, 1, 0},
-    {"gadgets2.txt", 40, 40, 6, 0, 0, 1, 0},
-    {"castle.txt", 126, 126, 10, 20, 20, 10, 0},
-    {"castle.txt", 316, 316, 10, 20, 20, 10, 0},
-    {"city.txt", 126, 126, 10, 20, 20, 10, 0},
-    {"canyon.txt", 126, 126, 10, 20, 20, 10, 0},
-    {"mountain.txt", 126, 126, 10, 20, 20, 10, 0},
-    {"escheresque.txt", 95, 95, 10, 10, 10, 10, 0},
-    {"parliament.txt", 95, 95, 10, 10, 10, 10, 0},
-    {"gadgets.txt", 126, 126, 6, 20, 20, 10, 0},
+    {"castle.txt", 40, 40, 10, 0, 0, 1, 31000, GS_MODEL_ORDER_ENTROPY},
+    {"castle.txt", 100, 100, 10, 20, 20, 1, 4600, GS_MODEL_ORDER_ENTROPY},
+    {"city.txt", 40, 40, 10, 0, 0, 1, 10000, GS_MODEL_ORDER_ENTROPY},
+    {"city lights.txt", 40, 40, 10, 0, 0, 1, 0, GS_MODEL_ORDER_ENTROPY},
+    {"canyon.txt", 40, 40, 10, 0, 0, 1, 0, GS_MODEL_ORDER_ENTROPY},
+    {"mountain.txt", 40, 40, 10, 0, 0, 1, 0, GS_MODEL_ORDER_ENTROPY_LOG},
+    {"escheresque.txt", 30, 30, 10, 10, 10, 1, 900, GS_MODEL_ORDER_ENTROPY_LOG},
+    {"parliament.txt", 30, 30, 10, 10, 10, 1, 4700, GS_MODEL_ORDER_ENTROPY},
+    {"gadgets.txt", 40, 40, 6, 0, 0, 1, 0, GS_MODEL_ORDER_ENTROPY},
+    {"gadgets.txt", 40, 40, 6, 20, 20, 1, 0, GS_MODEL_ORDER_ENTROPY},
+    {"gadgets2.txt", 40, 40, 6, 0, 0, 1, 0, GS_MODEL_ORDER_ENTROPY},
+    {"castle.txt", 126, 126, 10, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
+    {"castle.txt", 316, 316, 10, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
+    {"city.txt", 126, 126, 10, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
+    {"canyon.txt", 126, 126, 10, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
+    {"mountain.txt", 126, 126, 10, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY_LOG},
+    {"escheresque.txt", 95, 95, 10, 10, 10, 10, 0, GS_MODEL_ORDER_ENTROPY_LOG},
+    {"parliament.txt", 95, 95, 10, 10, 10, 10, 0, GS_MODEL_ORDER_ENTROPY},
+    {"gadgets.txt", 126, 126, 6, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
 };
 
 static int g_tile = 0, g_tiled_seeds = 0;
@@ -160,7 +163,7 @@ int main(int argc, char **argv)
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
              shared ? shared : "../shared");
-    int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = GS_MODEL_ORDER_ENTROPY, ac_sel = 3;
+    int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = -2, ac_sel = 3;
     gs_model_weights weights = GS_MODEL_WEIGHTS_UNIFORM;
     const char *only = NULL;
     for (int i = 1; i < argc; i++) {
@@ -193,6 +196,7 @@ int main(int argc, char **argv)
                         : !strcmp(v, "random") ? 1
                         : !strcmp(v, "all")    ? -1
                         : !strcmp(v, "entropy_log") ? 3
+                        : !strcmp(v, "config")      ? -2
                                                : 2;
         } else if (!strcmp(a, "--ac")) {
             ac_sel = !strcmp(v, "4") ? 4 : !strcmp(v, "both") ? 0 : 3;
@@ -209,7 +213,7 @@ int main(int argc, char **argv)
         if (only && !strstr(cases[c].file, only))
             continue;
         for (int o = 0; o < 4; o++) {
-            if (order_sel >= 0 && o != order_sel)
+            if (order_sel >= 0 ? o != order_sel : order_sel == -2 && o != cases[c].order)
                 continue;
             for (int ac = 3; ac <= 4; ac++) {
                 if (ac_sel && ac != ac_sel)
