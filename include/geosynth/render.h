@@ -11,8 +11,9 @@
  * Camera: perspective, vertical field of view 30 degrees, looking at the
  * centre of the mesh's bounding box from the direction given by azimuth
  * (around +y, 0 = from +z) and elevation (above the xz plane); the distance
- * is chosen so the bounding box's circumscribed sphere fits the picture, so
- * any mesh fills the frame without clipping.
+ * is chosen so the bounding box's circumscribed sphere fits the picture, then
+ * the view is zoomed until the mesh's vertices span 92% of the narrower side,
+ * so any mesh fills the frame without clipping.
  *
  * Cost: O(triangles) on the CPU (llvmpipe or softpipe), a 256^2 thumbnail of
  * a 100k-triangle mesh takes well under a second. Memory: width * height *
@@ -51,7 +52,8 @@ typedef struct gs_render_camera {
     int width, height;
 } gs_render_camera;
 
-/* The camera gs_render_mesh uses for a mesh with this bounding box. */
+/* The camera for a mesh with this bounding box before the zoom to the
+ * vertices (gs_render_mesh reports the zoomed one it used). */
 void gs_render_camera_fit(const float lo[3], const float hi[3], const gs_render_opts *o,
                           gs_render_camera *cam);
 

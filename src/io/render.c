@@ -104,6 +104,27 @@ int gs_render_project(const gs_render_camera *cam, const double p[3], double *x,
     return 1;
 }
 
+/* Zooms the camera (same position, narrower field of view) so the mesh's
+ * own vertices, not just its bounding sphere, fill the frame with a small
+ * margin: a sphere would otherwise cover only ~58% of the picture's height.
+ * O(vertices). The depth range is unchanged, so nothing is clipped. */
+static void frame_vertices(const gs_mesh *m, gs_render_camera *cam)
+{
+    double ext = 0;
+    for (size_t v = 0; v < m->nverts; v++) {
+        double p[4] = {m->pos[3 * v], m->pos[3 * v + 1], m->pos[3 * v + 2], 1}, e[4], c[4];
+        mat_vec(cam->view, p, e);
+        mat_vec(cam->proj, e, c);
+        if (c[3] > 0)
+            ext = fmax(ext, fmax(fabs(c[0] / c[3]), fabs(c[1] / c[3])));
+    }
+    if (ext > 0 && ext < 1) {
+        double zoom = 0.92 / ext;
+        cam->proj[0] *= zoom;
+        cam->proj[5] *= zoom;
+    }
+}
+
 /* Draws the mesh into the current context (state set by the caller). */
 static void draw_mesh(const gs_mesh *m, const float *normals, const gs_render_opts *o)
 {
@@ -181,6 +202,7 @@ gs_err gs_render_mesh(const gs_mesh *m, const gs_render_opts *o, gs_image *out,
     gs_mesh_bbox(m, lo, hi);
     gs_render_camera cam;
     gs_render_camera_fit(lo, hi, o, &cam);
+    frame_vertices(m, &cam);
     if (cam_out)
         *cam_out = cam;
 

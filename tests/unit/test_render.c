@@ -62,8 +62,8 @@ static void check_picture(const gs_mesh *m, const gs_render_opts *o, double min_
         assert_true(gs_render_project(&cam, p, &x, &y));
         x0 = fmin(x0, x), x1 = fmax(x1, x), y0 = fmin(y0, y), y1 = fmax(y1, y);
     }
-    /* the camera fits the box inside the frame */
-    assert_true(x0 >= 0 && y0 >= 0 && x1 <= o->width && y1 <= o->height);
+    /* the vertices fill the frame: the box reaches at least 80% of it */
+    assert_true(x1 - x0 >= 0.8 * o->width || y1 - y0 >= 0.8 * o->height);
     size_t inside = 0, lit_inside = 0, lit_outside = 0;
     int levels[256] = {0}, nlevels = 0;
     for (int y = 0; y < img.height; y++) {
