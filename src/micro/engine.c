@@ -10,7 +10,8 @@
  * checkpointed between rounds), output (displacement, verifier, files per
  * instance, instances.json). The digest is the digest of the instance
  * digests in instance order, identical for any rank count and across
- * stop/resume. */
+ * stop/resume. With micro.explore.enable the run is a gallery of random
+ * candidates instead (engine_explore.c). */
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>

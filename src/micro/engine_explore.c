@@ -393,7 +393,7 @@ static const char PAGE_STYLE[] =
     "table.params{border-collapse:collapse;width:100%;font-size:12.5px}"
     "table.params th{text-align:left;font-weight:normal;color:#666;padding:1px 6px 1px 0}"
     "table.params td{font-family:ui-monospace,monospace;padding:1px 0}"
-    "details{margin-top:.4em}pre{font-size:11px;max-height:22em;overflow:auto;background:#f7f7f7;"
+    "p.files{margin:.3em 0 0;font-size:12.5px}details{margin-top:.2em}pre{font-size:11px;max-height:22em;overflow:auto;background:#f7f7f7;"
     "padding:6px;border:1px solid #eee}code{font-size:12px}";
 
 /* Counts the thumbnails that loaded into body data-loaded / data-failed (the
@@ -470,9 +470,11 @@ static gs_err write_index_html(const explore_job *ej, uint64_t digest, const cha
         html_param(f, "unassigned", "%.3f%%", 100 * r->res.unassigned_share);
         html_param(f, "violations", "%llu", (unsigned long long)r->res.violations);
         html_param(f, "digest", "%s", dh);
-        fprintf(f, "</table>\n<details><summary>config (<a href=\"%s/%s.ini\">%s.ini</a>)"
-                   "</summary><pre>",
-                name, name, name);
+        const char *mesh = strcmp(cfg->output_format, "obj") ? "mesh.ply" : "mesh.obj";
+        fprintf(f, "</table>\n<p class=\"files\">files: <a href=\"%s/%s\">%s</a> &middot; "
+                   "<a href=\"%s/micro.h5\">micro.h5</a></p>\n"
+                   "<details><summary>config (<a href=\"%s/%s.ini\">%s.ini</a>)</summary><pre>",
+                name, mesh, mesh, name, name, name, name);
         /* Rank 0 rebuilds the text from the drawn values: the same pure
          * function the candidate's rank wrote its .ini with. */
         micro_config cc;
