@@ -17,14 +17,17 @@ NP       ?= 1 2 3 4
 
 HDF5_CFLAGS := $(shell pkg-config --cflags hdf5-openmpi 2>/dev/null)
 HDF5_LIBS   := $(shell pkg-config --libs hdf5-openmpi 2>/dev/null)
+# Thumbnails (src/io/render.c): Mesa's off-screen GL, MIT licence.
+OSMESA_CFLAGS := $(shell pkg-config --cflags osmesa 2>/dev/null)
+OSMESA_LIBS   := $(shell pkg-config --libs osmesa 2>/dev/null || echo -lOSMesa)
 MPI_CFLAGS  := $(shell mpicc --showme:compile 2>/dev/null)
 
 WARN     := -Wall -Wextra -Wstrict-prototypes -Wshadow -Wno-unused-parameter
 CFLAGS   ?= -O2 -g
-CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L $(WARN) -Iinclude -Isrc $(HDF5_CFLAGS) -MMD -MP
+CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L $(WARN) -Iinclude -Isrc $(HDF5_CFLAGS) $(OSMESA_CFLAGS) -MMD -MP
 CXXFLAGS ?= -O2 -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Wno-unused-parameter -Iinclude -Isrc $(MPI_CFLAGS) -MMD -MP
-LDLIBS   := $(HDF5_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz \
+LDLIBS   := $(HDF5_LIBS) $(OSMESA_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz \
             -lopenvdb -ltbb -lstdc++ -lm
 
 ifeq ($(SANITIZE),)

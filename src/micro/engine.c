@@ -10,7 +10,8 @@
  * checkpointed between rounds), output (displacement, verifier, files per
  * instance, instances.json). The digest is the digest of the instance
  * digests in instance order, identical for any rank count and across
- * stop/resume. */
+ * stop/resume. With micro.explore.enable the run is a gallery of random
+ * candidates instead (engine_explore.c). */
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -26,8 +27,8 @@
 #include "geosynth/regions.h"
 #include "micro/engine_impl.h"
 
-#define DIRECTIONS "out|in|none"
-#define FUNCS "linear|sqrt|square|cbrt|step"
+#define DIRECTIONS MICRO_DIRECTIONS
+#define FUNCS MICRO_FUNCS
 
 static const gs_cfg_key micro_keys[] = {
     GS_CFG_KEY_ENUM(micro_config, shape, "micro.shape", "file|sphere|disk|bar", "sphere",
@@ -107,6 +108,36 @@ static const gs_cfg_key micro_keys[] = {
                    "triangles whose 2K neighbourhood the verifier checks (0 = all)"),
     GS_CFG_KEY_ENUM(micro_config, output_format, "micro.output_format", "ply|obj|both", "ply",
                     "displaced mesh format (PLY carries the vertex label)"),
+    GS_CFG_KEY_BOOL(micro_config, explore, "micro.explore.enable", "no",
+                    "parameter-space exploration (paper 5.1): instead of micro.instances, produce "
+                    "micro.explore.count candidates with random parameters from the ranges below, "
+                    "each with a thumbnail and its own config, and RUN_DIR/gallery/index.html"),
+    GS_CFG_KEY_INT(micro_config, explore_count, "micro.explore.count", 1, 100000, 0, "12",
+                   "gallery: number of candidates N"),
+    GS_CFG_KEY_REAL_LIST(micro_config, explore_scale_units, "micro.explore.scale_units", 0, 1e6,
+                         GS_CFG_OPEN_LO, "",
+                         "gallery: range 'lo, hi' of the unit ratio u (one value: fixed; empty: "
+                         "micro.scale_units); cost grows with u^2"),
+    GS_CFG_KEY_REAL_LIST(micro_config, explore_pos_scale, "micro.explore.pos_scale", 0, 100, 0,
+                         "0.005, 0.05", "gallery: range 'lo, hi' of the positive region's scale k "
+                         "(one value: fixed)"),
+    GS_CFG_KEY_REAL_LIST(micro_config, explore_neg_scale, "micro.explore.neg_scale", 0, 100, 0,
+                         "0.005, 0.05", "gallery: range 'lo, hi' of the negative region's scale k "
+                         "(one value: fixed)"),
+    GS_CFG_KEY_STRING(micro_config, explore_pos_func, "micro.explore.pos_func",
+                      "linear, sqrt, square, cbrt, step",
+                      "gallery: functions f the positive region draws from (any of " FUNCS
+                      ", comma-separated; one name: fixed)"),
+    GS_CFG_KEY_STRING(micro_config, explore_neg_func, "micro.explore.neg_func",
+                      "linear, sqrt, square, cbrt, step",
+                      "gallery: functions f the negative region draws from"),
+    GS_CFG_KEY_STRING(micro_config, explore_pos_direction, "micro.explore.pos_direction",
+                      "out, in", "gallery: directions the positive region draws from (any of "
+                      DIRECTIONS ", comma-separated; one name: fixed)"),
+    GS_CFG_KEY_STRING(micro_config, explore_neg_direction, "micro.explore.neg_direction",
+                      "in, out", "gallery: directions the negative region draws from"),
+    GS_CFG_KEY_INT(micro_config, explore_thumbnail, "micro.explore.thumbnail", 16, 2048, 0, "256",
+                   "gallery: thumbnail edge in pixels (PNG rendered off-screen with OSMesa)"),
     GS_CFG_RUN_KEYS(micro_config, run, "micro"),
 };
 
@@ -161,10 +192,10 @@ static void micro_validate(const void *vcfg, gs_cfg_ctx *ctx)
     if (c->random_per_instance && strcmp(c->dist, "random") != 0)
         gs_cfg_report(ctx, "micro.random_per_instance", "needs micro.dist = random (is %s)",
                       c->dist);
+    micro_explore_validate(c, ctx);
 }
 
-static const gs_cfg_table micro_table =
-    GS_CFG_TABLE("micro", micro_config, micro_keys, micro_validate);
+const gs_cfg_table micro_cfg_table = GS_CFG_TABLE("micro", micro_config, micro_keys, micro_validate);
 
 /* Rank 0: the INPUT SUMMARY of the prepared job, with a memory estimate of
  * what the reconstruction will still allocate on every rank. */
@@ -206,6 +237,35 @@ static void log_inputs(const micro_job *job)
            (double)(100 * (tris / (uint64_t)job->ninst)) / 1048576.0);
 }
 
+gs_err micro_json_write(gs_json *j, const char *path)
+{
+    gs_err err = GS_OK;
+    if (j->failed) {
+        err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "%s: JSON too large", path);
+    } else {
+        size_t n = j->len;
+        j->buf[n] = '\n';
+        err = gs_file_write_atomic(path, j->buf, n + 1);
+    }
+    gs_json_free(j);
+    return err;
+}
+
+void micro_result_json(gs_json *j, const micro_result *r)
+{
+    gs_json_u64(j, "triangles", r->ntris);
+    gs_json_u64(j, "vertices", r->nverts);
+    gs_json_u64(j, "bins_per_region", r->nbins);
+    gs_json_u64(j, "violations", r->violations);
+    gs_json_u64(j, "pairs_checked", r->pairs_checked);
+    gs_json_f64(j, "max_excess", r->max_excess);
+    gs_json_u64(j, "unassigned", r->unassigned);
+    gs_json_f64(j, "unassigned_share", r->unassigned_share);
+    gs_json_i64(j, "abs_bin_error", r->abs_error_sum);
+    gs_json_i64(j, "max_bin_error", r->max_bin_error);
+    gs_json_f64(j, "bin_error_share", r->error_share);
+}
+
 static gs_err write_instances_json(const micro_job *job, const char *path)
 {
     gs_json j;
@@ -222,17 +282,7 @@ static gs_err write_instances_json(const micro_job *job, const char *path)
         gs_json_str(&j, "dir", dir);
         gs_json_str(&j, "mesh", job->meshes[in->mesh].source);
         gs_json_u64(&j, "seed", in->seed);
-        gs_json_u64(&j, "triangles", r->ntris);
-        gs_json_u64(&j, "vertices", r->nverts);
-        gs_json_u64(&j, "bins_per_region", r->nbins);
-        gs_json_u64(&j, "violations", r->violations);
-        gs_json_u64(&j, "pairs_checked", r->pairs_checked);
-        gs_json_f64(&j, "max_excess", r->max_excess);
-        gs_json_u64(&j, "unassigned", r->unassigned);
-        gs_json_f64(&j, "unassigned_share", r->unassigned_share);
-        gs_json_i64(&j, "abs_bin_error", r->abs_error_sum);
-        gs_json_i64(&j, "max_bin_error", r->max_bin_error);
-        gs_json_f64(&j, "bin_error_share", r->error_share);
+        micro_result_json(&j, r);
         gs_json_u64(&j, "forced", in->cnt.forced);
         gs_json_u64(&j, "random_accepted", in->cnt.random_accepted);
         gs_json_u64(&j, "random_rejected", in->cnt.random_rejected);
@@ -243,16 +293,7 @@ static gs_err write_instances_json(const micro_job *job, const char *path)
         gs_json_end_object(&j);
     }
     gs_json_end_array(&j);
-    gs_err err = GS_OK;
-    if (j.failed) {
-        err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "instances.json too large");
-    } else {
-        size_t n = j.len;
-        j.buf[n] = '\n';
-        err = gs_file_write_atomic(path, j.buf, n + 1);
-    }
-    gs_json_free(&j);
-    return err;
+    return micro_json_write(&j, path);
 }
 
 /* Rank 0: per-instance log lines, run metrics, instances.json, outputs. */
@@ -343,6 +384,30 @@ static gs_err end_phase(gs_run *run, gs_json *j)
     return GS_OK;
 }
 
+gs_err micro_queue_create(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
+                          gs_regions_t *queue)
+{
+    gs_region *regs = gs_calloc((size_t)n, sizeof *regs);
+    GS_CHECK(regs != NULL, GS_ERR_MEM, "region list of %lld items", (long long)n);
+    for (int64_t i = 0; i < n; i++)
+        regs[i] = (gs_region){i, 0};
+    gs_err err = gs_regions_create(comm, regs, n, seed, rng_domain, queue);
+    gs_free(regs);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+gs_err micro_queue_pass(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
+                        gs_region_run_fn run, gs_region_apply_fn apply, void *ctx)
+{
+    gs_regions_t queue = NULL;
+    GS_CALL(micro_queue_create(comm, n, seed, rng_domain, &queue));
+    gs_err err = gs_regions_run_pass(queue, 0, run, apply, ctx);
+    gs_regions_destroy(&queue);
+    GS_CALL(err);
+    return GS_OK;
+}
+
 static gs_err micro_run(gs_run *run, void *vcfg, int resume)
 {
     const micro_config *cfg = vcfg;
@@ -350,6 +415,12 @@ static gs_err micro_run(gs_run *run, void *vcfg, int resume)
     memset(&job, 0, sizeof job);
     job.run = run;
     job.cfg = cfg;
+    if (cfg->explore) {
+        GS_CHECK(!resume, GS_ERR_ARG, "%s: a gallery run (micro.explore.enable) keeps no "
+                 "checkpoint; run it again (each candidate is a short, complete run)", run->dir);
+        GS_CALL(micro_explore_run(run, cfg));
+        return GS_OK;
+    }
     gs_regions_t queue = NULL;
     gs_err err = GS_OK;
     gs_json pj;
@@ -381,14 +452,9 @@ static gs_err micro_run(gs_run *run, void *vcfg, int resume)
          * kill at any moment leaves something to resume. */
         GS_TRY(err, micro_ckpt_write(&job, 0, 0), done);
     }
-    gs_region *regs = gs_calloc((size_t)job.ninst, sizeof *regs);
-    GS_TRY_CHECK(err, regs != NULL, GS_ERR_MEM, done, "region list");
-    for (int64_t i = 0; i < job.ninst; i++)
-        regs[i] = (gs_region){i, 0};
-    err = gs_regions_create(run->comm, regs, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_QUEUE,
-                            &queue);
-    gs_free(regs);
-    GS_TRY(err, err, done);
+    GS_TRY(err, micro_queue_create(run->comm, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_QUEUE,
+                                   &queue),
+           done);
     int64_t units = micro_units_done(&job), total = micro_units_total(&job);
     int64_t rounds_here = 0;
     gs_progress prog;
@@ -437,15 +503,9 @@ static gs_err micro_run(gs_run *run, void *vcfg, int resume)
     gs_regions_destroy(&queue);
 
     gs_run_phase_begin(run, "output");
-    regs = gs_calloc((size_t)job.ninst, sizeof *regs);
-    GS_TRY_CHECK(err, regs != NULL, GS_ERR_MEM, done, "region list");
-    for (int64_t i = 0; i < job.ninst; i++)
-        regs[i] = (gs_region){i, 0};
-    err = gs_regions_create(run->comm, regs, job.ninst, (uint64_t)cfg->run.seed,
-                            MICRO_DOMAIN_OUTPUT, &queue);
-    gs_free(regs);
-    GS_TRY(err, err, done);
-    GS_TRY(err, gs_regions_run_pass(queue, 0, micro_output_run, micro_output_apply, &job), done);
+    GS_TRY(err, micro_queue_pass(run->comm, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_OUTPUT,
+                                 micro_output_run, micro_output_apply, &job),
+           done);
     uint64_t *digests = gs_malloc((size_t)job.ninst * sizeof *digests);
     GS_TRY_CHECK(err, digests != NULL, GS_ERR_MEM, done, "instance digests");
     for (int64_t i = 0; i < job.ninst; i++)
@@ -469,7 +529,7 @@ const gs_engine gs_engine_micro = {
     "micro",
     "stochastic microgeometry: displace a triangle mesh by labels reconstructed from two contact "
     "distributions (Schroeder et al.)",
-    &micro_table,
+    &micro_cfg_table,
     sizeof(micro_config),
     offsetof(micro_config, run),
     micro_run,

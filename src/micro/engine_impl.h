@@ -17,6 +17,15 @@
  * A final pass of the same queue displaces, verifies and writes each
  * instance's outputs (RUN_DIR/instance-XXXX/); the run digest is the digest
  * of the instance digests in instance order.
+ *
+ * Gallery (micro.explore.enable, engine_explore.c): the paper's
+ * parameter-space exploration. Candidate i's parameters come from a Philox
+ * stream keyed by (run.seed, i); its config is the run's resolved config
+ * with those values (and its own run.seed), and it is produced by exactly
+ * the code above, as a one-instance job on MPI_COMM_SELF (micro_setup, one
+ * reconstruction slice to the end, the output pass), so `geosynth micro -c
+ * candidate-XXX.ini` reproduces its digest. The candidates go over the ranks
+ * through the rank-0 work queue of gs_regions, one region per candidate.
  */
 #ifndef GEOSYNTH_MICRO_ENGINE_IMPL_H
 #define GEOSYNTH_MICRO_ENGINE_IMPL_H
@@ -24,6 +33,7 @@
 #include <stdint.h>
 
 #include "geosynth/config.h"
+#include "geosynth/json.h"
 #include "geosynth/micro.h"
 #include "geosynth/regions.h"
 #include "geosynth/run.h"
@@ -34,6 +44,8 @@
 #define MICRO_DOMAIN_VERIFY 0x6d733033u  /* verifier samples */
 #define MICRO_DOMAIN_QUEUE 0x6d733034u   /* gs_regions (streams unused) */
 #define MICRO_DOMAIN_OUTPUT 0x6d733035u
+#define MICRO_DOMAIN_EXPLORE 0x6d733036u  /* gallery candidate parameters */
+#define MICRO_DOMAIN_GALLERY 0x6d733037u  /* gs_regions of the gallery (streams unused) */
 
 typedef struct micro_config {
     char *shape;
@@ -63,8 +75,17 @@ typedef struct micro_config {
     int64_t steps_per_round;
     int64_t verify_samples;
     char *output_format;
+    /* [micro.explore]: the gallery (engine_explore.c) */
+    int explore;
+    int64_t explore_count;
+    gs_cfg_real_list explore_scale_units, explore_pos_scale, explore_neg_scale;
+    char *explore_pos_func, *explore_neg_func, *explore_pos_direction, *explore_neg_direction;
+    int64_t explore_thumbnail;
     gs_run_config run;
 } micro_config;
+
+/* The micro engine's config table (engine.c). */
+extern const gs_cfg_table micro_cfg_table;
 
 /* One prepared input mesh (identical on every rank). */
 typedef struct micro_mesh_in {
@@ -110,13 +131,39 @@ typedef struct micro_job {
     int64_t ninst;
     gs_micro_recon_opts opts;
     gs_micro_displace_params disp;
-    uint32_t steps_per_round;
+    uint32_t steps_per_round;    /* 0 = each slice runs to the end */
+    int flat_output;             /* outputs straight into the run dir (gallery candidates) */
+    int thumbnail;               /* > 0: also thumb.png of this many pixels per side */
 } micro_job;
 
 /* engine_setup.c. Collective: reads the inputs on rank 0, broadcasts them,
  * prepares meshes and instances on every rank. */
 gs_err micro_setup(micro_job *job);
 void micro_job_free(micro_job *job);
+
+/* engine.c. Collective on comm: a gs_regions work queue of items 0 .. n-1
+ * (one colour; instances, candidates), and one pass of such a queue. */
+gs_err micro_queue_create(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
+                          gs_regions_t *queue);
+gs_err micro_queue_pass(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
+                        gs_region_run_fn run, gs_region_apply_fn apply, void *ctx);
+
+/* engine.c: the output pass's checks of one instance as members of the
+ * open JSON object j (instances.json, gallery/candidates.json). */
+void micro_result_json(gs_json *j, const micro_result *r);
+/* engine.c: writes j's text + '\n' to path atomically and frees j. */
+gs_err micro_json_write(gs_json *j, const char *path);
+
+/* engine_setup.c: names of the displacement choices. */
+#define MICRO_DIRECTIONS "out|in|none"
+#define MICRO_FUNCS "linear|sqrt|square|cbrt|step"
+int micro_direction_of(const char *s);
+gs_micro_func micro_func_of(const char *s);
+
+/* engine_explore.c: cross-key checks of [micro.explore] (from micro_validate)
+ * and the gallery run (from micro_run when micro.explore.enable). */
+void micro_explore_validate(const micro_config *c, gs_cfg_ctx *ctx);
+gs_err micro_explore_run(gs_run *run, const micro_config *cfg);
 
 /* engine_state.c */
 static inline int micro_instance_done(const micro_instance *in)

@@ -13,6 +13,10 @@
  * Vertex label = 128 + floor(vertex value) clamped to [0, 255]: >= 128 is the
  * positive region, < 128 the negative one, and the distance to 128 the bin
  * (the vertex value is the mean of the incident triangles' values).
+ *   thumb.png                   (gallery candidates, job->thumbnail > 0) the
+ *                               displaced mesh rendered off-screen
+ *                               (geosynth/render.h), positive region warm,
+ *                               negative region blue
  * The instance digest covers the triangle labels and values, the displaced
  * positions and the vertex labels. */
 #include <limits.h>
@@ -26,6 +30,7 @@
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
+#include "geosynth/render.h"
 #include "micro/engine_impl.h"
 
 void micro_instance_dir(int64_t id, char *out, size_t len)
@@ -78,6 +83,29 @@ fail:
     return err;
 }
 
+/* Thumbnail of the displaced mesh, coloured by region: positive (label >=
+ * 128) sand, negative blue, both darker further from the boundary so the
+ * bins show. */
+static gs_err write_thumbnail(const gs_mesh *om, int size, const char *path)
+{
+    uint8_t *rgb = NULL;
+    GS_CALL(gs_alloc_array((void **)&rgb, om->nverts, 3, "thumbnail colours"));
+    static const uint8_t warm[3] = {232, 178, 112}, cool[3] = {104, 150, 214};
+    for (size_t v = 0; v < om->nverts; v++) {
+        int l = om->label[v], pos = l >= 128, mag = pos ? l - 128 : 127 - l;
+        double shade = 1.0 - 0.35 * (mag > 12 ? 1.0 : mag / 12.0);
+        for (int c = 0; c < 3; c++)
+            rgb[3 * v + c] = (uint8_t)((pos ? warm : cool)[c] * shade);
+    }
+    gs_render_opts o;
+    gs_render_defaults(&o, size, size);
+    o.colors = rgb;
+    gs_err err = gs_render_mesh_png(om, &o, path);
+    gs_free(rgb);
+    GS_CALL(err);
+    return GS_OK;
+}
+
 /* The displaced mesh as a gs_mesh with outward normals and vertex labels. */
 static gs_err write_meshes(const micro_job *job, const micro_instance *in, const char *dir,
                            const float *pos, const uint8_t *vlabel)
@@ -99,6 +127,10 @@ static gs_err write_meshes(const micro_job *job, const micro_instance *in, const
     if (strcmp(fmt, "ply") != 0) {
         snprintf(path, sizeof path, "%s/mesh.obj", dir);
         GS_TRY(err, gs_mesh_write(path, &om, NULL), done);
+    }
+    if (job->thumbnail > 0) {
+        snprintf(path, sizeof path, "%s/thumb.png", dir);
+        GS_TRY(err, write_thumbnail(&om, job->thumbnail, path), done);
     }
 done:
     gs_mesh_destroy(&om);
@@ -165,7 +197,10 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
 
     char rel[64], dir[PATH_MAX], path[PATH_MAX + 32];
     micro_instance_dir(id, rel, sizeof rel);
-    gs_run_path(job->run, rel, dir, sizeof dir);
+    if (job->flat_output)
+        snprintf(dir, sizeof dir, "%s", job->run->dir);
+    else
+        gs_run_path(job->run, rel, dir, sizeof dir);
     GS_TRY(err, gs_mkdir_p(dir), done);
     GS_TRY(err, write_meshes(job, in, dir, pos, vlabel), done);
     snprintf(path, sizeof path, "%s/micro.h5", dir);

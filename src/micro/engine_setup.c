@@ -362,12 +362,12 @@ static gs_err setup_dist(micro_job *job, gs_micro_dist *d)
     return GS_OK;
 }
 
-static int direction_of(const char *s)
+int micro_direction_of(const char *s)
 {
     return !strcmp(s, "out") ? 1 : !strcmp(s, "in") ? -1 : 0;
 }
 
-static gs_micro_func func_of(const char *s)
+gs_micro_func micro_func_of(const char *s)
 {
     static const char *names[] = {"linear", "sqrt", "square", "cbrt", "step"};
     for (int i = 0; i < 5; i++)
@@ -399,9 +399,9 @@ gs_err micro_setup(micro_job *job)
     job->opts.capacity = cfg->capacity;
     job->opts.max_rejects_per_bin = (uint64_t)cfg->max_rejects_per_bin;
     job->disp = (gs_micro_displace_params){
-        {direction_of(cfg->pos_direction), direction_of(cfg->neg_direction)},
+        {micro_direction_of(cfg->pos_direction), micro_direction_of(cfg->neg_direction)},
         {cfg->pos_scale, cfg->neg_scale},
-        {func_of(cfg->pos_func), func_of(cfg->neg_func)}};
+        {micro_func_of(cfg->pos_func), micro_func_of(cfg->neg_func)}};
     job->steps_per_round = (uint32_t)cfg->steps_per_round;
     GS_CALL(setup_meshes(job));
     gs_micro_dist shared = {0};
