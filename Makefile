@@ -117,9 +117,19 @@ FUZZ_LIB_OBJ := $(LIB_SRC:%.c=build-fuzz/%.o)
 build-fuzz/%.o: %.c
 	@mkdir -p $(dir $@)
 	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -c $< -o $@
-build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ) $(BRIDGE_OBJ)
+# The fuzz programs link an uninstrumented bridge: g++'s UBSan runtime does not
+# link into clang's libFuzzer binaries, so a SANITIZE build compiles its own.
+ifeq ($(SANITIZE),)
+FUZZ_BRIDGE_OBJ := $(BRIDGE_OBJ)
+else
+FUZZ_BRIDGE_OBJ := build-fuzz/src/io/vdb_bridge.o
+$(FUZZ_BRIDGE_OBJ): $(BRIDGE)
 	@mkdir -p $(dir $@)
-	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer $< $(FUZZ_LIB_OBJ) $(BRIDGE_OBJ) $(LDLIBS) -o $@
+	$(CXX) $(filter-out -fsanitize=%,$(CXXFLAGS)) -c $< -o $@
+endif
+build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ) $(FUZZ_BRIDGE_OBJ)
+	@mkdir -p $(dir $@)
+	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer $< $(FUZZ_LIB_OBJ) $(FUZZ_BRIDGE_OBJ) $(LDLIBS) -o $@
 
 fuzz: $(FUZZ_BIN)
 
