@@ -294,8 +294,8 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
                       resolved, (uint64_t)rc->seed, resume);
     if (!err) {
         gs_log_section("INPUT SUMMARY");
-        gs_log(GS_LOG_INFO, "geosynth %s %s, %d rank%s, seed %llu, run directory %s", e->name,
-               resume ? "(resumed)" : "", run.size, run.size > 1 ? "s" : "",
+        gs_log(GS_LOG_INFO, "geosynth %s%s, %d rank%s, seed %llu, run directory %s", e->name,
+               resume ? " (resumed)" : "", run.size, run.size > 1 ? "s" : "",
                (unsigned long long)rc->seed, run.dir);
         gs_run_set_checkpointing(&run, rc->checkpoint_seconds, rc->checkpoint_every);
         *collective = 0; /* engine failures may be local to one rank */
