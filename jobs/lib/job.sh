@@ -24,7 +24,9 @@
 #   Either way the next job resumes from the checkpoint and the final output
 #   is bit-identical to an uninterrupted run (same digest).
 # - The batch shell forwards TERM/USR1 it receives itself (scancel --signal,
-#   #SBATCH --signal=B:...) to the job step.
+#   #SBATCH --signal=B:...) to the job step. TERM to the batch shell is
+#   scancel (or the hard limit): geosynth still checkpoints, but the run is
+#   not continued. One job at a time per RUN_DIR.
 # Exit code: geosynth's (0 done, 9 interrupted and continued, others: README).
 
 # gs_job_script: absolute path of the submitted script. sbatch runs a copy
@@ -74,8 +76,10 @@ gs_job() {
   fi
   echo "geosynth job $job: ${cmd[*]}"
   "${cmd[@]}" &
-  local pid=$! rc
-  trap 'kill -TERM $pid 2>/dev/null' TERM
+  local pid=$! rc cancelled=0
+  # TERM to the batch shell itself means scancel (or the hard time limit):
+  # forward it, and do not continue the run afterwards.
+  trap 'cancelled=1; kill -TERM $pid 2>/dev/null' TERM
   trap 'kill -USR1 $pid 2>/dev/null' USR1
   wait $pid
   rc=$?
@@ -83,7 +87,9 @@ gs_job() {
   while kill -0 $pid 2>/dev/null; do wait $pid; rc=$?; done
   trap - TERM USR1
   echo "geosynth job $job: geosynth exited with code $rc"
-  if [[ $rc -eq 9 && -n "${SLURM_JOB_ID:-}" ]]; then
+  if [[ $rc -eq 9 && $cancelled -eq 1 ]]; then
+    echo "geosynth job $job: cancelled; checkpoint kept, resume with the same sbatch command"
+  elif [[ $rc -eq 9 && -n "${SLURM_JOB_ID:-}" ]]; then
     case ${GS_CONTINUE:-requeue} in
       requeue)
         echo "geosynth job $job: interrupted with a checkpoint; requeueing"
@@ -92,6 +98,7 @@ gs_job() {
         local script next
         script=$(gs_job_script)
         next=$(sbatch --parsable --dependency=afterany:"$SLURM_JOB_ID" --ntasks="${SLURM_NTASKS:-1}" \
+          --output="$run_dir/slurm-%j.out" --open-mode=append \
           ${SLURM_CPUS_PER_TASK:+--cpus-per-task=$SLURM_CPUS_PER_TASK} \
           "$script" "${GS_JOB_ARGS[@]}")
         echo "geosynth job $job: interrupted with a checkpoint; chained job $next resumes it" ;;

@@ -7,6 +7,7 @@
 #     requeued job resumes; final digest == an uninterrupted direct run.
 #  2. jobs/field.sbatch with GS_CONTINUE=chain: the same, but the script
 #     submits a dependent job that resumes (a two-job chain).
+#     scancel instead: checkpoint, but no requeue.
 #  3. jobs/campaign.sh as job arrays (one per rank count); digests agree.
 # Logs: RUN_DIR/slurm-JOBID.out (the scripts redirect themselves there).
 source "$GS_ROOT/tests/e2e/lib.bash"
@@ -47,8 +48,8 @@ set_args=(--set run.checkpoint_every=20)
 run_gs 2 model -c "$config" -o ref-model "${set_args[@]}"
 expect_rc 0 "reference model run (direct, np 2)"
 ref=$(digest_of ref-model)
-job=$(cd "$GS_ROOT" && sbatch --parsable --ntasks=2 --output="$here/sbatch-%j.out" \
-  jobs/model.sbatch "$config" "$here/model" "${set_args[@]}")
+job=$(sbatch --parsable --ntasks=2 --output="$here/sbatch-%j.out" \
+  "$GS_ROOT/jobs/model.sbatch" "$config" "$here/model" "${set_args[@]}")
 [[ -n "$job" ]] && ok "sbatch jobs/model.sbatch: job $job" || { bad "sbatch failed"; finish; }
 signal_after_checkpoint model "$job"
 wait_end "$job" 300 || bad "job $job still '$state' after 300 s"
@@ -71,8 +72,8 @@ set_args=(--set field.target=96x80x64 --set run.checkpoint_every=1500)
 run_gs 1 field -c "$config" -o ref-field "${set_args[@]}"
 expect_rc 0 "reference field run (direct, np 1)"
 ref=$(digest_of ref-field)
-job=$(cd "$GS_ROOT" && GS_CONTINUE=chain sbatch --parsable --ntasks=1 --cpus-per-task=2 \
-  --output="$here/sbatch-%j.out" jobs/field.sbatch "$config" "$here/field" "${set_args[@]}")
+job=$(GS_CONTINUE=chain sbatch --parsable --ntasks=1 --cpus-per-task=2 \
+  --output="$here/sbatch-%j.out" "$GS_ROOT/jobs/field.sbatch" "$config" "$here/field" "${set_args[@]}")
 [[ -n "$job" ]] && ok "sbatch jobs/field.sbatch (GS_CONTINUE=chain): job $job" || { bad "sbatch failed"; finish; }
 signal_after_checkpoint field "$job"
 wait_end "$job" 120 || bad "job $job still '$state' after 120 s"
@@ -92,13 +93,23 @@ fi
 [[ "$got" == "$ref" ]] && ok "field: digest after USR1 + chained resume equals the direct run ($ref)" \
   || bad "field: digest $got differs from the direct run $ref"
 
+# 2b. scancel (TERM to the batch shell too): checkpoint, but no requeue/chain.
+job=$(sbatch --parsable --ntasks=1 --output="$here/sbatch-%j.out" \
+  "$GS_ROOT/jobs/field.sbatch" "$config" "$here/cancel" "${set_args[@]}")
+for ((i = 0; i < 600; i++)); do [[ -f cancel/checkpoint.h5 ]] && break; sleep 0.2; done
+scancel "$job"
+wait_end "$job" 120
+log=$(cat cancel/slurm-"$job".out 2>/dev/null)
+[[ "$state" == CANCELLED ]] && grep -q "cancelled; checkpoint kept" <<<"$log" && ! grep -q "requeueing" <<<"$log" \
+  && ok "scancel: job $job stopped with a checkpoint and was not requeued" || bad "scancel: '$state': $(tail -c 600 <<<"$log")"
+
 # 3. A campaign as job arrays.
 cat >camp.campaign <<CAMP
 ranks 1 2
 config field $GS_ROOT/configs/field/quick.ini
 config model $GS_ROOT/configs/model/demo.ini
 CAMP
-cout=$(cd "$GS_ROOT" && timeout 300 jobs/campaign.sh "$here/camp.campaign" --slurm --wait --out "$here/camp" 2>&1)
+cout=$(timeout 300 "$GS_ROOT/jobs/campaign.sh" "$here/camp.campaign" --slurm --wait --out "$here/camp" 2>&1)
 rc=$?
 [[ $rc -eq 0 ]] && ok "campaign of 4 runs as job arrays finished" || bad "campaign.sh --slurm (rc=$rc): $(tail -c 800 <<<"$cout")"
 grep -q -- "--array=0-1 --ntasks=1" <<<"$cout" && grep -q -- "--array=0-1 --ntasks=2" <<<"$cout" \
