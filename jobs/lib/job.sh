@@ -83,8 +83,14 @@ gs_job() {
   trap 'kill -USR1 $pid 2>/dev/null' USR1
   wait $pid
   rc=$?
-  # wait returns early (>128) when a trapped signal arrives: wait again.
+  # wait returns early (>128) when a trapped signal arrives: wait again, and
+  # once more after it is gone (its status is still held if the interrupted
+  # wait did not collect it; 127 means it was collected already).
   while kill -0 $pid 2>/dev/null; do wait $pid; rc=$?; done
+  local last
+  wait $pid 2>/dev/null
+  last=$?
+  [[ $last -ne 127 ]] && rc=$last
   trap - TERM USR1
   echo "geosynth job $job: geosynth exited with code $rc"
   if [[ $rc -eq 9 && $cancelled -eq 1 ]]; then
@@ -95,11 +101,15 @@ gs_job() {
         echo "geosynth job $job: interrupted with a checkpoint; requeueing"
         scontrol requeue "$SLURM_JOB_ID" ;;
       chain)
-        local script next
+        local script next limit
         script=$(gs_job_script)
+        # The same shape as this job: ranks, threads, time limit, partition, account.
+        limit=$(scontrol show job "$SLURM_JOB_ID" 2>/dev/null | grep -o 'TimeLimit=[^ ]*' | head -1 | cut -d= -f2)
+        [[ "$limit" == UNLIMITED || "$limit" == Partition_Limit ]] && limit=""
         next=$(sbatch --parsable --dependency=afterany:"$SLURM_JOB_ID" --ntasks="${SLURM_NTASKS:-1}" \
           --output="$run_dir/slurm-%j.out" --open-mode=append \
-          ${SLURM_CPUS_PER_TASK:+--cpus-per-task=$SLURM_CPUS_PER_TASK} \
+          ${SLURM_CPUS_PER_TASK:+--cpus-per-task=$SLURM_CPUS_PER_TASK} ${limit:+--time=$limit} \
+          ${SLURM_JOB_PARTITION:+--partition=$SLURM_JOB_PARTITION} ${SLURM_JOB_ACCOUNT:+--account=$SLURM_JOB_ACCOUNT} \
           "$script" "${GS_JOB_ARGS[@]}")
         echo "geosynth job $job: interrupted with a checkpoint; chained job $next resumes it" ;;
       *)
