@@ -97,11 +97,13 @@ done <"$file"
 emit
 [[ ${#rows[@]} -gt 0 ]] || { echo "$file: no config lines" >&2; exit 2; }
 
-mkdir -p "$out"
-out=$(cd "$out" && pwd)
-printf '%s\n' "${rows[@]}" >"$out/campaign.tsv"
-cp "$file" "$out/campaign.txt"
-echo "campaign $name: ${#rows[@]} runs into $out ($mode)"
+if [[ $dry -eq 0 ]]; then
+  mkdir -p "$out"
+  out=$(cd "$out" && pwd)
+  printf '%s\n' "${rows[@]}" >"$out/campaign.tsv"
+  cp "$file" "$out/campaign.txt"
+fi
+echo "campaign $name: ${#rows[@]} runs into $out ($mode$([[ $dry -eq 1 ]] && echo ', dry run: nothing written'))"
 
 todo() { [[ ! -f "$out/$1/summary.json" ]]; }
 
@@ -133,12 +135,13 @@ fi
 jobs=()
 for np in $(printf '%s\n' "${rows[@]}" | cut -f5 | sort -nu); do
   list=$out/array-np$np.tsv
-  : >"$list"
+  selected=()
   for row in "${rows[@]}"; do
     IFS=$'\t' read -r run _ _ _ rnp _ _ <<<"$row"
-    [[ $rnp == "$np" ]] && todo "$run" && printf '%s\n' "$row" >>"$list"
+    [[ $rnp == "$np" ]] && todo "$run" && selected+=("$row")
   done
-  n=$(wc -l <"$list")
+  n=${#selected[@]}
+  [[ $dry -eq 0 && $n -gt 0 ]] && printf '%s\n' "${selected[@]}" >"$list"
   [[ $n -gt 0 ]] || continue
   cmd=(sbatch --parsable --array=0-$((n - 1)) --ntasks="$np" --job-name="gs-$name-np$np"
        --output="$out/slurm-%A_%a.out" "${sbatch_extra[@]}" "$here/campaign.sbatch" "$list")
