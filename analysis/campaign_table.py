@@ -7,37 +7,16 @@ Prints one row per run directory: engine, config name, ranks, seed, wall
 seconds, the slowest phase, peak memory and digest, then checks that runs
 differing only in rank count agree on the digest (the determinism contract)
 and reports speed-up relative to the smallest rank count. Reads only the
-machine-readable files; never scrapes logs.
+machine-readable files (analysis/gsio.py); never scrapes logs. The HTML
+report with figures: analysis/report.py.
 """
 import argparse
 import json
 import os
 import sys
-from collections import defaultdict
 
-
-def load_runs(root):
-    runs = []
-    for dirpath, _dirs, files in os.walk(root):
-        if "summary.json" not in files:
-            continue
-        path = os.path.join(dirpath, "summary.json")
-        try:
-            with open(path) as f:
-                s = json.load(f)
-        except (OSError, ValueError) as e:
-            print(f"warning: {path}: {e}", file=sys.stderr)
-            continue
-        s["_dir"] = os.path.relpath(dirpath, root)
-        runs.append(s)
-    return runs
-
-
-def config_key(run):
-    """Everything that must be equal for two runs to be comparable: the resolved
-    config without the run.output line."""
-    lines = [l for l in run.get("config", "").splitlines() if not l.startswith("output")]
-    return (run.get("engine"), "\n".join(lines))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import gsio  # noqa: E402
 
 
 def main():
@@ -45,7 +24,7 @@ def main():
     ap.add_argument("root")
     ap.add_argument("--json", help="also write the table as JSON here")
     args = ap.parse_args()
-    runs = load_runs(args.root)
+    runs = gsio.load_runs(args.root)
     if not runs:
         print(f"no summary.json under {args.root}", file=sys.stderr)
         return 1
@@ -55,13 +34,9 @@ def main():
         print(f"{r['_dir'][:40]:40s} {r.get('engine',''):7s} {r.get('ranks',0):3d} "
               f"{r.get('seed',0):6d} {r.get('wall_seconds',0):8.2f} "
               f"{r.get('mem_peak_bytes',0)/2**20:9.1f}  {r.get('digest','')}")
-    groups = defaultdict(list)
-    for r in runs:
-        groups[config_key(r)].append(r)
     bad = 0
-    for (_engine, _cfg), members in groups.items():
-        digests = {m.get("digest") for m in members}
-        if len(digests) > 1:
+    for members in gsio.comparable_groups(runs):
+        if len({m.get("digest") for m in members}) > 1:
             bad += 1
             print("DIGEST MISMATCH between " + ", ".join(m["_dir"] for m in members))
         base = min(members, key=lambda m: m.get("ranks", 1))
@@ -71,7 +46,8 @@ def main():
                       f"over np={base.get('ranks')}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump([{k: v for k, v in r.items() if k != "config"} for r in runs], f, indent=1)
+            json.dump([{k: v for k, v in r.items() if k != "config" and not k.startswith("_")}
+                       | {"dir": r["_dir"]} for r in runs], f, indent=1)
     return 1 if bad else 0
 
 

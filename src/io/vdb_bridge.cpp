@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <mutex>
@@ -20,6 +21,7 @@
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/global_control.h>
 
 // error.h and mem.h are plain C headers without extern "C" guards.
 #include "geosynth/error.h"
@@ -35,7 +37,31 @@ namespace {
 
 std::once_flag vdb_once;
 
-void vdb_init() { std::call_once(vdb_once, [] { openvdb::initialize(); }); }
+// Threads per rank: OpenVDB's TBB pool would otherwise take every core of the
+// node on every rank. GS_THREADS (or OMP_NUM_THREADS, which the job scripts in
+// jobs/ set from SLURM_CPUS_PER_TASK) caps it; unset = TBB's default.
+int threads_from_env()
+{
+    for (const char *name : {"GS_THREADS", "OMP_NUM_THREADS"}) {
+        const char *v = std::getenv(name);
+        if (v && *v) {
+            long n = std::strtol(v, nullptr, 10);
+            if (n >= 1 && n <= 4096)
+                return (int)n;
+        }
+    }
+    return 0;
+}
+
+void vdb_init()
+{
+    std::call_once(vdb_once, [] {
+        openvdb::initialize();
+        int n = threads_from_env();
+        if (n > 0) // lives until exit, like the pool it limits
+            new tbb::global_control(tbb::global_control::max_allowed_parallelism, (size_t)n);
+    });
+}
 
 // Converts the exception in flight into a raised gs_err.
 gs_err raise_current(const char *func, const char *what)

@@ -7,8 +7,16 @@
 set -euo pipefail
 if [[ "${1:-}" == "--stop" ]]; then
   dir=$2
+  pids=()
   for p in slurmd slurmctld munged; do
-    [[ -f "$dir/$p.pid" ]] && kill "$(cat "$dir/$p.pid")" 2>/dev/null || true
+    [[ -f "$dir/$p.pid" ]] && pid=$(cat "$dir/$p.pid") && kill "$pid" 2>/dev/null && pids+=("$pid")
+  done
+  # Wait (bounded) until they are gone, so that the caller may remove DIR.
+  for _ in $(seq 100); do
+    alive=0
+    for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && alive=1; done
+    [[ $alive -eq 0 ]] && break
+    sleep 0.1
   done
   exit 0
 fi
@@ -23,6 +31,8 @@ SlurmctldHost=$host
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
+# A requeued job waits cred_expire + 1 s before it may start again (default 120).
+AuthInfo=cred_expire=10
 CredType=cred/munge
 StateSaveLocation=$dir/state
 SlurmdSpoolDir=$dir/spool

@@ -1,0 +1,299 @@
+"""Shared readers for geosynth run directories and campaigns (analysis/*.py).
+
+Reads only machine-readable outputs: RUN_DIR/summary.json, RUN_DIR/metrics.jsonl,
+the HDF5 outputs listed in summary.json "outputs", PLY meshes, the campaign
+index CAMPAIGN/campaign.tsv written by jobs/campaign.sh, and benchmark JSON
+(tests/bench, bench-results/*.json). Never scrapes logs. Debian's
+/usr/bin/python3 with numpy and h5py; no PyPI packages.
+"""
+import json
+import os
+import sys
+from collections import defaultdict
+
+import numpy as np
+
+CAMPAIGN_COLUMNS = ("name", "engine", "config", "size", "np", "seed", "overrides")
+
+
+def warn(msg):
+    print(f"warning: {msg}", file=sys.stderr)
+
+
+def read_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def read_jsonl(path):
+    """One JSON object per line; blank lines skipped, a bad line is a warning."""
+    rows = []
+    try:
+        with open(path) as f:
+            for n, line in enumerate(f, 1):
+                if line.strip():
+                    try:
+                        rows.append(json.loads(line))
+                    except ValueError as e:
+                        warn(f"{path}:{n}: {e}")
+    except OSError:
+        pass
+    return rows
+
+
+def read_campaign_index(root):
+    """CAMPAIGN/campaign.tsv -> {run name: {column: value}} (empty without one)."""
+    path = os.path.join(root, "campaign.tsv")
+    index = {}
+    if not os.path.exists(path):
+        return index
+    with open(path) as f:
+        for line in f:
+            cols = line.rstrip("\n").split("\t")
+            if len(cols) >= 6:
+                row = dict(zip(CAMPAIGN_COLUMNS, cols))
+                row["np"], row["seed"] = int(row["np"]), int(row["seed"])
+                index[row["name"]] = row
+    return index
+
+
+def config_name(run):
+    """Config label of a run: the campaign index's config file (+ size), else the directory."""
+    c = run.get("_campaign")
+    if c:
+        name = os.path.splitext(os.path.basename(c["config"]))[0]
+        return f"{c['engine']}/{name}" + (f" [{c['size']}]" if c.get("size", "-") != "-" else "")
+    return f"{run.get('engine', '?')}/{run['_dir']}"
+
+
+def load_run(run_dir, rel=None):
+    """summary.json + metrics.jsonl of one run directory, or None without a summary."""
+    path = os.path.join(run_dir, "summary.json")
+    try:
+        s = read_json(path)
+    except (OSError, ValueError) as e:
+        if os.path.exists(path):
+            warn(f"{path}: {e}")
+        return None
+    s["_path"] = os.path.abspath(run_dir)
+    s["_dir"] = rel if rel is not None else os.path.basename(os.path.abspath(run_dir))
+    s["_metrics"] = read_jsonl(os.path.join(run_dir, "metrics.jsonl"))
+    return s
+
+
+def load_runs(root):
+    """Every run under root (any depth) with a summary.json, sorted by directory."""
+    index = read_campaign_index(root)
+    runs = []
+    for dirpath, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "report")
+        if "summary.json" not in files:
+            continue
+        rel = os.path.relpath(dirpath, root)
+        r = load_run(dirpath, rel)
+        if r is not None:
+            r["_campaign"] = index.get(rel)
+            r["_config_name"] = config_name(r)
+            runs.append(r)
+    runs.sort(key=lambda r: (r["_config_name"], r.get("seed", 0), r.get("ranks", 0)))
+    return runs
+
+
+def config_key(run):
+    """Everything that must be equal for two runs to be comparable: engine and
+    the resolved config without run.output (and the comments)."""
+    lines = [l for l in run.get("config", "").splitlines()
+             if l.strip() and not l.lstrip().startswith(("#", ";")) and not l.startswith("output")]
+    return (run.get("engine"), "\n".join(lines))
+
+
+def comparable_groups(runs):
+    """Runs grouped by config_key: members differ only in rank count (and output dir)."""
+    groups = defaultdict(list)
+    for r in runs:
+        groups[config_key(r)].append(r)
+    return list(groups.values())
+
+
+def digest_agreement(runs):
+    """{id(run): True/False/None}: does the run's digest equal every other run of
+    its group (None: alone in its group)."""
+    agree = {}
+    for members in comparable_groups(runs):
+        digests = {m.get("digest") for m in members}
+        for m in members:
+            agree[id(m)] = None if len(members) == 1 else len(digests) == 1
+    return agree
+
+
+def phase_seconds(run, stat="max"):
+    """[(phase name, seconds)] from summary.json phases (max over ranks by default)."""
+    return [(p["name"], float(p.get(stat, 0.0))) for p in run.get("phases", [])]
+
+
+def outputs(run, kind=None):
+    """Absolute paths of the outputs listed in summary.json, optionally of one kind."""
+    return [os.path.join(run["_path"], o["path"]) for o in run.get("outputs", [])
+            if kind is None or o.get("kind") == kind]
+
+
+# --- HDF5 ----------------------------------------------------------------
+
+def read_h5(path, dataset):
+    import h5py
+    with h5py.File(path, "r") as f:
+        return f[dataset][()]
+
+
+def read_h5_group(path, group):
+    """{dataset name: array} and {attribute: value} of one HDF5 group."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        g = f[group]
+        data = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
+        attrs = {k: g.attrs[k] for k in g.attrs}
+    return data, attrs
+
+
+def field_volume(run):
+    """The synthesized distance field {nz, ny, nx} of a field run, or None."""
+    for p in outputs(run, "field_h5"):
+        return read_h5(p, "/field/distance")
+    return None
+
+
+def model_lattice(run):
+    """The label lattice {nz, ny, nx} of a model run, or None."""
+    for p in [p for p in outputs(run, "lattice") if p.endswith(".h5")]:
+        return read_h5(p, "/model/labels")
+    return None
+
+
+def micro_histograms(run):
+    """[(instance dir, target_count, achieved_count, bins of the negative region)] of a
+    micro run. The histogram runs over signed distance: the negative region's
+    bins (farthest first), then the positive region's."""
+    res = []
+    for p in outputs(run, "labels"):
+        if p.endswith(".h5"):
+            d, _ = read_h5_group(p, "/micro")
+            if "target_count" in d and "achieved_count" in d:
+                res.append((os.path.basename(os.path.dirname(p)), d["target_count"], d["achieved_count"],
+                            len(d.get("dist_neg", ()))))
+    return res
+
+
+# --- meshes --------------------------------------------------------------
+
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+
+
+def read_ply(path):
+    """(vertices float32 (n, 3), faces int (m, k)) of a PLY file (ascii or binary);
+    faces must all have the same corner count."""
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"ply":
+            raise ValueError(f"{path}: not a PLY file")
+        fmt, elements = None, []
+        while True:
+            line = f.readline()
+            if not line:
+                raise ValueError(f"{path}: no end_header")
+            w = line.decode("ascii", "replace").split()
+            if not w or w[0] in ("comment", "obj_info"):
+                continue
+            if w[0] == "format":
+                fmt = w[1]
+            elif w[0] == "element":
+                elements.append((w[1], int(w[2]), []))
+            elif w[0] == "property":
+                elements[-1][2].append(w[1:])
+            elif w[0] == "end_header":
+                break
+        body = f.read()
+    if fmt == "ascii":
+        return _ply_ascii(body, elements)
+    end = "<" if fmt == "binary_little_endian" else ">"
+    verts = faces = None
+    off = 0
+    for name, count, props in elements:
+        if any(p[0] == "list" for p in props):
+            # Fixed corner count: read the first row's count, verify all rows.
+            fields, k = [], None
+            for p in props:
+                if p[0] == "list":
+                    ct, it = np.dtype(end + _PLY_TYPES[p[1]]), _PLY_TYPES[p[2]]
+                    k = int(np.frombuffer(body, ct, 1, off)[0])
+                    fields += [("n", ct), (p[3], end + it, (k,))]
+                else:
+                    fields.append((p[1], end + _PLY_TYPES[p[0]]))
+            dt = np.dtype(fields)
+            arr = np.frombuffer(body, dt, count, off)
+            if count and not np.all(arr["n"] == k):
+                raise ValueError(f"{path}: faces with different corner counts are not supported")
+            off += dt.itemsize * count
+            if name == "face":
+                faces = np.asarray(arr[[p for p in dt.names if p != "n"][0]], dtype=np.int64)
+        else:
+            dt = np.dtype([(p[1], end + _PLY_TYPES[p[0]]) for p in props])
+            arr = np.frombuffer(body, dt, count, off)
+            off += dt.itemsize * count
+            if name == "vertex":
+                verts = np.stack([arr["x"], arr["y"], arr["z"]], axis=1).astype(np.float32)
+    return verts, faces
+
+
+def _ply_ascii(body, elements):
+    lines = body.decode("ascii").splitlines()
+    pos, verts, faces = 0, None, None
+    for name, count, props in elements:
+        rows = [l.split() for l in lines[pos:pos + count]]
+        pos += count
+        if name == "vertex":
+            names = [p[1] for p in props]
+            ix = [names.index(c) for c in "xyz"]
+            verts = np.array([[float(r[i]) for i in ix] for r in rows], dtype=np.float32)
+        elif name == "face":
+            faces = np.array([[int(v) for v in r[1:1 + int(r[0])]] for r in rows], dtype=np.int64)
+    return verts, faces
+
+
+def read_obj(path):
+    """(vertices, triangles) of a Wavefront OBJ (polygons fanned into triangles)."""
+    v, tri = [], []
+    with open(path) as f:
+        for line in f:
+            w = line.split()
+            if not w:
+                continue
+            if w[0] == "v":
+                v.append([float(x) for x in w[1:4]])
+            elif w[0] == "f":
+                idx = [int(x.split("/")[0]) for x in w[1:]]
+                idx = [i - 1 if i > 0 else len(v) + i for i in idx]
+                tri += [[idx[0], idx[j], idx[j + 1]] for j in range(1, len(idx) - 1)]
+    return np.array(v, dtype=np.float32), np.array(tri, dtype=np.int64)
+
+
+def read_mesh(path):
+    return read_obj(path) if path.lower().endswith(".obj") else read_ply(path)
+
+
+def mesh_outputs(run):
+    """Mesh files of a run (PLY/OBJ outputs in summary.json)."""
+    return [p for p in outputs(run) if p.lower().endswith((".ply", ".obj"))
+            and "point" not in os.path.basename(p)]
+
+
+# --- benchmarks ----------------------------------------------------------
+
+def read_bench_field(path):
+    """tests/bench field JSON -> [(case label, {query kind: {tree_s, brute_s, fft_s}})]."""
+    b = read_json(path)
+    res = []
+    for c in b.get("cases", []):
+        label = f"{c.get('shape', '?')} {c.get('source')}^3 / {c.get('block')}"
+        res.append((label, c.get("queries", {})))
+    return res

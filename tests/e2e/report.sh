@@ -1,0 +1,54 @@
+# End-to-end: a small real campaign (jobs/campaign.sh --local: field quick,
+# micro quick, model demo at np 1 and 2) turned into a report by
+# analysis/report.py, opened in headless Chromium: every figure must load
+# (the page marks each <img> with data-loaded, the body with data-images)
+# and the run table must have one row per run. The matcher figure comes from
+# tests/e2e/data/bench_field.json (bench_field --sizes 32/8 output).
+source "$GS_ROOT/tests/e2e/lib.bash"
+PY=/usr/bin/python3
+export GEOSYNTH=$GS_BIN
+cout=$("$GS_ROOT/jobs/campaign.sh" "$GS_ROOT/jobs/campaigns/small.campaign" --local --out camp 2>&1)
+rc=$?
+[[ $rc -eq 0 ]] && ok "campaign small (6 runs, local mpirun) finished" || bad "campaign.sh --local (rc=$rc): $(tail -c 800 <<<"$cout")"
+n=$(ls camp/*/summary.json 2>/dev/null | wc -l)
+[[ $n -eq 6 ]] && ok "6 runs wrote summary.json into one campaign folder" || bad "$n summary.json files"
+again=$("$GS_ROOT/jobs/campaign.sh" "$GS_ROOT/jobs/campaigns/small.campaign" --local --out camp 2>&1)
+[[ $(grep -c "done already" <<<"$again") -eq 6 ]] && ok "a second campaign.sh skips the finished runs" || bad "rerun: $again"
+
+rout=$($PY "$GS_ROOT/analysis/report.py" camp --bench "$GS_ROOT/tests/e2e/data/bench_field.json" 2>&1)
+rc=$?
+[[ $rc -eq 0 && -f camp/report/index.html ]] && ok "report.py wrote camp/report/index.html" || bad "report.py (rc=$rc): $rout"
+nfig=$(ls camp/report/*.png 2>/dev/null | wc -l)
+# scaling, phases, matchers, micro histograms, field slices, lattice slices, 3 mesh renders
+[[ $nfig -eq 9 ]] && ok "9 figures written" || bad "$nfig figures: $(ls camp/report)"
+for f in scaling phases matchers; do
+  [[ -s camp/report/$f.png ]] && ok "figure $f.png" || bad "no $f.png"
+done
+ls camp/report/micro_*.png camp/report/field_*.png camp/report/lattice_*.png >/dev/null 2>&1 \
+  && ok "micro histogram, field slice and lattice slice figures" || bad "data figures missing: $(ls camp/report)"
+
+chromium=(/usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run
+  --disable-background-networking --disable-component-update --disable-sync
+  --user-data-dir="$(mktemp -d)" --virtual-time-budget=3000)
+page=file://$PWD/camp/report/index.html
+dom=$(timeout 120 "${chromium[@]}" --dump-dom "$page" 2>/dev/null)
+[[ -n "$dom" ]] && ok "headless Chromium rendered the page" || bad "chromium --dump-dom gave nothing"
+grep -q "data-images=\"$nfig/$nfig\"" <<<"$dom" && ok "Chromium: all $nfig figures loaded" \
+  || bad "figures not all loaded: $(grep -o 'data-images="[^"]*"' <<<"$dom")"
+nno=$(grep -o 'data-loaded="no"' <<<"$dom" | wc -l)
+[[ $nno -eq 0 ]] && ok "no image marked not loaded" || bad "$nno images did not load"
+rows=$(grep -o '<tr class="run">' <<<"$dom" | wc -l)
+[[ $rows -eq 6 ]] && ok "run table has 6 rows" || bad "run table has $rows rows"
+agree=$(grep -o 'class="l good">yes' <<<"$dom" | wc -l)
+[[ $agree -eq 6 ]] && ok "every run's digest agrees with its other rank count" || bad "$agree of 6 runs agree"
+timeout 120 "${chromium[@]}" --window-size=1280,2400 --screenshot="$PWD/report.png" "$page" >/dev/null 2>&1
+[[ -s report.png ]] && ok "screenshot of the report ($(stat -c %s report.png) bytes)" || bad "no screenshot"
+[[ -n "${GS_KEEP_REPORT:-}" ]] && cp -r camp/report report.png "$GS_KEEP_REPORT"/ 2>/dev/null
+
+# A differing digest shows in the table and fails the report.
+sed -i 's/"digest":"\([0-9a-f]\)/"digest":"f\1/' camp/model-demo-np2-s1/summary.json
+$PY "$GS_ROOT/analysis/report.py" camp >/dev/null 2>&1
+rc=$?
+[[ $rc -eq 1 ]] && grep -q 'class="l bad">NO' camp/report/index.html && ok "a differing digest is flagged (exit 1)" \
+  || bad "tampered digest not flagged (rc=$rc)"
+finish
