@@ -55,11 +55,11 @@ done
   ok "weighted matching: digest identical at np=1,2 and differs from masked" ||
   bad "weighted digests np1=$(digest_of w1) np2=$(digest_of w2) masked=$ref"
 
-# --- demo: two seeds give different outputs with the source's statistics ------
-D=$GS_ROOT/configs/field/demo.ini
+# --- small chain mail: two seeds give different outputs with the source's statistics ------
+D=$GS_ROOT/configs/field/chainmail-small.ini
 for s in 1 2; do
   run_gs 1 field -c "$D" -o "demo$s" --set run.seed=$s --set output.geometry=none --set output.vdb=no
-  expect_rc 0 "demo.ini with run.seed=$s"
+  expect_rc 0 "chainmail-small.ini with run.seed=$s"
 done
 [[ -n "$(digest_of demo1)" && "$(digest_of demo1)" != "$(digest_of demo2)" ]] &&
   ok "demo: seeds 1 and 2 give different outputs" || bad "demo: seeds 1 and 2 give the same output"
