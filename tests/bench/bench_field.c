@@ -382,7 +382,9 @@ static int run_synthesis(gs_field_shape shape)
 int main(int argc, char **argv)
 {
     const char *sizes = "64/8,128/16,256/32";
-    int64_t queries = 40, brute = 3, brute_max = 2000000, synth = 1, fft = 2;
+    /* Defaults keep `make bench` near 15 minutes here: a seeded 256^3/32 tree query
+     * takes ~18 s, a masked brute-force one over 2M blocks ~5 min. */
+    int64_t queries = 12, brute = 2, brute_max = 500000, synth = 1, fft = 2;
     gs_field_shape shape = GS_FIELD_BALLS;
     const char *mesh_path = "../shared/data/meshes/armadillo.obj";
     for (int i = 1; i < argc; i++) {
