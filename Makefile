@@ -39,6 +39,10 @@ BIN   := build-san/bin
 CFLAGS   += -fsanitize=$(SANITIZE) -fno-omit-frame-pointer
 CXXFLAGS += -fsanitize=$(SANITIZE) -fno-omit-frame-pointer
 LDFLAGS  += -fsanitize=$(SANITIZE)
+# Keep dlopen'ed plugins loaded so LeakSanitizer names their modules
+# (tests/san/nodlclose.c says why); only in sanitizer builds.
+SAN_OBJ  := $(BUILD)/tests/san/nodlclose.o
+LDFLAGS  += -Wl,--export-dynamic-symbol=dlclose
 endif
 
 LIB_SRC  := $(filter-out src/cli/main.c,$(sort $(wildcard src/*/*.c)))
@@ -92,17 +96,17 @@ $(LIB): $(LIB_OBJ) $(BRIDGE_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(BIN)/geosynth: $(BUILD)/src/cli/main.o $(LIB)
+$(BIN)/geosynth: $(BUILD)/src/cli/main.o $(LIB) $(SAN_OBJ)
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/tests/unit/%: tests/unit/%.c $(LIB) $(TEST_UTIL_OBJ)
+$(BUILD)/tests/unit/%: tests/unit/%.c $(LIB) $(TEST_UTIL_OBJ) $(SAN_OBJ)
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(LIB) -lcmocka $(LDLIBS) -o $@
+	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(SAN_OBJ) $(LIB) -lcmocka $(LDLIBS) -o $@
 
-$(BUILD)/tests/mpi/%: tests/mpi/%.c $(LIB) $(TEST_UTIL_OBJ)
+$(BUILD)/tests/mpi/%: tests/mpi/%.c $(LIB) $(TEST_UTIL_OBJ) $(SAN_OBJ)
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(LIB) $(LDLIBS) -o $@
+	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(SAN_OBJ) $(LIB) $(LDLIBS) -o $@
 
 $(BUILD)/tests/bench/%: tests/bench/%.c $(LIB)
 	@mkdir -p $(dir $@)
