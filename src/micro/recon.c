@@ -34,7 +34,9 @@
  * (it can end nowhere else), demand[bin] = labelled + committed, and a random
  * placement is accepted only if the commitments it creates keep demand <=
  * count in every bin. Forced assignments then never overflow and the leftover
- * comes only from bins that found no admissible seed. */
+ * comes only from bins that found no admissible seed. Once the next lower bin
+ * is full, seeds are drawn next to existing structures, including the ones
+ * this bin has placed (see run_bin), so a bin fills by growing plateaus. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -60,6 +62,7 @@ struct gs_micro_recon {
     uint32_t *cand;          /* random candidates, fill queue */
     forced_item *forced;     /* forced assignments of a bin */
     uint32_t *near;          /* random candidates next to higher structures */
+    uint8_t *innear;         /* [n] 1 while a triangle is in near (bin-local) */
     uint32_t *live;          /* triangles unlabelled at the last bin start */
     size_t nlive;
     uint32_t *rec_t;         /* propagation record */
@@ -196,6 +199,7 @@ static gs_err recon_alloc(const gs_micro_dual *d, const gs_micro_hist *h, const 
     GS_TRY(err, gs_alloc_array((void **)&r->forced, n, sizeof *r->forced, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->live, n, sizeof *r->live, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->near, n, sizeof *r->near, "candidates"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->innear, n, sizeof *r->innear, "candidates"), fail);
     for (uint32_t j = 0; j < n; j++)
         r->live[j] = j;
     r->nlive = n;
@@ -289,6 +293,7 @@ void gs_micro_recon_destroy(gs_micro_recon_t *rp)
     gs_free(r->forced);
     gs_free(r->live);
     gs_free(r->near);
+    gs_free(r->innear);
     gs_free(r->rec_t);
     gs_free(r->rec_b);
     gs_micro_geo_destroy(&r->geo);
@@ -471,8 +476,10 @@ static gs_err run_bin(struct gs_micro_recon *r)
             f[nf++] = (forced_item){b, j};
         if (b <= a && bound(st, 1 - s, j) <= -a) {
             r->cand[nc++] = j;
-            if (b >= a - 2)
+            if (b >= a - 2) {
                 r->near[nn++] = j;
+                r->innear[j] = 1;
+            }
         }
     }
     r->nlive = keep;
@@ -484,8 +491,11 @@ static gs_err run_bin(struct gs_micro_recon *r)
         assign(r, f[i].t, idx, x == 0 ? 0.0 : x);
         r->c.forced++;
     }
-    if (st->placed[idx] >= count)
+    if (st->placed[idx] >= count) {
+        for (size_t i = 0; i < nn; i++)
+            r->innear[r->near[i]] = 0;
         return GS_OK;
+    }
 
     /* 2. Random placements at the bin's inner edge. Candidates are drawn
      * without replacement (incremental Fisher-Yates) and re-checked on draw,
@@ -495,7 +505,11 @@ static gs_err run_bin(struct gs_micro_recon *r)
      * 1-Lipschitz), so draws then come from the "near" pool (range reaching
      * m - 2, i.e. next to higher structures) only, and the bin ends when that
      * pool is used up. This keeps the cost per bin proportional to the seeds
-     * placed instead of to the mesh. */
+     * placed instead of to the mesh. The pool also takes in every triangle an
+     * accepted placement of this bin lifts to a bound >= m - 2, so once the
+     * lower bin is full the bin's own plateaus grow (a seed beside one needs
+     * next to no new room in the lower bin) instead of the bin stopping short
+     * (top bins of a random distribution lost most of their counts so). */
     gs_rng rng;
     gs_rng_restore(&rng, st->rng);
     double value = s && a != 0 ? -a : a;
@@ -544,10 +558,20 @@ static gs_err run_bin(struct gs_micro_recon *r)
                 if (nb != UINT32_MAX)
                     r->demand[nb]++;
             }
+            /* The near pool grows with this bin's own structures: a seed
+             * next to a plateau already placed at a costs the full lower
+             * bin little or nothing (its ring is mostly committed), where an
+             * isolated one is rejected. Record order is deterministic. */
+            if (r->o.capacity && r->rec_b[k] >= a - 2 && !r->innear[j]) {
+                r->innear[j] = 1;
+                r->near[nn++] = j;
+            }
         }
         assign(r, c, idx, value);
         r->c.random_accepted++;
     }
+    for (size_t i = 0; i < nn; i++)
+        r->innear[r->near[i]] = 0;
     return GS_OK;
 }
 
