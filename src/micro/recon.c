@@ -62,7 +62,8 @@ struct gs_micro_recon {
     uint32_t *cand;          /* random candidates, fill queue */
     forced_item *forced;     /* forced assignments of a bin */
     uint32_t *near;          /* random candidates next to higher structures */
-    uint8_t *innear;         /* [n] 1 while a triangle is in near (bin-local) */
+    size_t cap_near;
+    uint8_t *innear;         /* [n] 1 while a triangle waits in near (bin-local) */
     uint32_t *live;          /* triangles unlabelled at the last bin start */
     size_t nlive;
     uint32_t *rec_t;         /* propagation record */
@@ -199,6 +200,7 @@ static gs_err recon_alloc(const gs_micro_dual *d, const gs_micro_hist *h, const 
     GS_TRY(err, gs_alloc_array((void **)&r->forced, n, sizeof *r->forced, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->live, n, sizeof *r->live, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->near, n, sizeof *r->near, "candidates"), fail);
+    r->cap_near = n;
     GS_TRY(err, gs_alloc_array((void **)&r->innear, n, sizeof *r->innear, "candidates"), fail);
     for (uint32_t j = 0; j < n; j++)
         r->live[j] = j;
@@ -441,6 +443,22 @@ static int sure_overflow(const struct gs_micro_recon *r, uint32_t c, int s, doub
     return 0;
 }
 
+/* Appends j to the near pool (which can outgrow n: a rejected seed may come
+ * back, see run_bin). */
+static gs_err near_push(struct gs_micro_recon *r, size_t *nn, uint32_t j)
+{
+    if (*nn == r->cap_near) {
+        size_t cap = 2 * r->cap_near + 16;
+        uint32_t *p = gs_realloc(r->near, cap * sizeof *p);
+        GS_CHECK(p, GS_ERR_MEM, "near pool of %zu entries", cap);
+        r->near = p;
+        r->cap_near = cap;
+    }
+    r->near[(*nn)++] = j;
+    r->innear[j] = 1;
+    return GS_OK;
+}
+
 static int cmp_forced(const void *x, const void *y)
 {
     const forced_item *a = x, *b = y;
@@ -476,10 +494,8 @@ static gs_err run_bin(struct gs_micro_recon *r)
             f[nf++] = (forced_item){b, j};
         if (b <= a && bound(st, 1 - s, j) <= -a) {
             r->cand[nc++] = j;
-            if (b >= a - 2) {
-                r->near[nn++] = j;
-                r->innear[j] = 1;
-            }
+            if (b >= a - 2)
+                GS_CALL(near_push(r, &nn, j));
         }
     }
     r->nlive = keep;
@@ -509,7 +525,12 @@ static gs_err run_bin(struct gs_micro_recon *r)
      * accepted placement of this bin lifts to a bound >= m - 2, so once the
      * lower bin is full the bin's own plateaus grow (a seed beside one needs
      * next to no new room in the lower bin) instead of the bin stopping short
-     * (top bins of a random distribution lost most of their counts so). */
+     * (top bins of a random distribution lost most of their counts so).
+     * When the whole candidate pool has been drawn, draws go on from the near
+     * pool; a seed rejected for capacity may rejoin it when a later accepted
+     * placement tightens its range (its neighbourhood then has more room
+     * committed), so the pool only grows with accepted placements and the
+     * bin ends. */
     gs_rng rng;
     gs_rng_restore(&rng, st->rng);
     double value = s && a != 0 ? -a : a;
@@ -518,8 +539,9 @@ static gs_err run_bin(struct gs_micro_recon *r)
     size_t ic = 0, in = 0;
     while (st->placed[idx] < count) {
         int lower_full = r->o.capacity && m > 0 && r->demand[lower] >= r->h->count[lower];
-        uint32_t *pool = lower_full ? r->near : r->cand;
-        size_t *pi = lower_full ? &in : &ic, pn = lower_full ? nn : nc;
+        int use_near = lower_full || (r->o.capacity && ic >= nc);
+        uint32_t *pool = use_near ? r->near : r->cand;
+        size_t *pi = use_near ? &in : &ic, pn = use_near ? nn : nc;
         if (*pi >= pn)
             break;
         size_t i = (*pi)++;
@@ -530,6 +552,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         if (st->label[c] != GS_MICRO_UNASSIGNED || bound(st, s, c) > a || bound(st, 1 - s, c) > -a)
             continue;
         if (r->o.capacity && lower_full && sure_overflow(r, c, s, a)) {
+            r->innear[c] = 0;
             r->c.random_rejected++;
             if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
                 break;
@@ -539,6 +562,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         int ok;
         GS_CALL(probe(r, c, s, a, a, idx, r->o.capacity, &nrec, &ok));
         if (!ok) {
+            r->innear[c] = 0;
             r->c.random_rejected++;
             if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
                 break;
@@ -562,10 +586,8 @@ static gs_err run_bin(struct gs_micro_recon *r)
              * next to a plateau already placed at a costs the full lower
              * bin little or nothing (its ring is mostly committed), where an
              * isolated one is rejected. Record order is deterministic. */
-            if (r->o.capacity && r->rec_b[k] >= a - 2 && !r->innear[j]) {
-                r->innear[j] = 1;
-                r->near[nn++] = j;
-            }
+            if (r->o.capacity && r->rec_b[k] >= a - 2 && !r->innear[j])
+                GS_CALL(near_push(r, &nn, j));
         }
         assign(r, c, idx, value);
         r->c.random_accepted++;
