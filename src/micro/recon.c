@@ -36,7 +36,18 @@
  * count in every bin. Forced assignments then never overflow and the leftover
  * comes only from bins that found no admissible seed. Once the next lower bin
  * is full, seeds are drawn next to existing structures, including the ones
- * this bin has placed (see run_bin), so a bin fills by growing plateaus. */
+ * this bin has placed (see run_bin), so a bin fills by growing plateaus.
+ *
+ * Band accounting (with capacity): a triangle whose side-s bound is above -1
+ * can only take a value of side s or of bin 0 of the other side, so their
+ * number, band[s], must stay within those bins' counts; a placement that
+ * would push it over is rejected like a bin overflow. Without it the
+ * scattered seeds of a large positive region (stone: 69% of the area) left
+ * too few triangles at distance >= 1 from it for the negative bins (1.9%
+ * unassigned, bin 0 of both sides full). band[] counts the stored bounds
+ * (every write of lo/hi updates it), so a resumed run recomputes the same
+ * numbers. Probes reach radius 2a >= a + 1 for a >= 1, so every crossing of
+ * -1 a placement causes is seen. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,6 +69,8 @@ struct gs_micro_recon {
     gs_micro_recon_opts o;
     gs_micro_state st;
     int64_t *demand;         /* [2K] */
+    int64_t band[2];         /* triangles whose side-s bound is > -1 */
+    int64_t band_cap[2];     /* counts of side s + bin 0 of the other side */
     struct gs_micro_geo *geo;
     uint32_t *cand;          /* random candidates, fill queue */
     forced_item *forced;     /* forced assignments of a bin */
@@ -216,9 +229,18 @@ fail:
 static void recompute_demand(struct gs_micro_recon *r)
 {
     const gs_micro_state *st = &r->st;
+    uint32_t K = st->nbins;
     for (uint32_t i = 0; i < 2 * st->nbins; i++)
         r->demand[i] = st->placed[i];
+    for (int s = 0; s < 2; s++) {
+        r->band[s] = 0;
+        r->band_cap[s] = r->h->count[gs_micro_bin_index(K, 1 - s, 0)];
+        for (uint32_t k = 0; k < K; k++)
+            r->band_cap[s] += r->h->count[gs_micro_bin_index(K, s, k)];
+    }
     for (uint32_t j = 0; j < st->ntris; j++) {
+        r->band[0] += bound(st, 0, j) > -1;
+        r->band[1] += bound(st, 1, j) > -1;
         if (st->label[j] != GS_MICRO_UNASSIGNED)
             continue;
         uint32_t b = commit_bin(st, j);
@@ -324,7 +346,11 @@ static void assign(struct gs_micro_recon *r, uint32_t j, uint32_t idx, double x)
     st->placed[idx]++;
     st->label[j] = (uint16_t)idx;
     st->value[j] = x;
+    r->band[0] -= bound(st, 0, j) > -1;
+    r->band[1] -= bound(st, 1, j) > -1;
     st->lo[j] = st->hi[j] = x;
+    r->band[0] += bound(st, 0, j) > -1;
+    r->band[1] += bound(st, 1, j) > -1;
 }
 
 static gs_err record_push(struct gs_micro_recon *r, size_t n, uint32_t j, double b)
@@ -363,6 +389,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
     uint32_t K = st->nbins, ntb = 0;
     micro_geo_reset(g);
     size_t n = 0;
+    int64_t dband = 0;
     *ok = 1;
 #define DELTA(bin, v)                                                                              \
     do {                                                                                           \
@@ -372,6 +399,11 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
         if (r->demand[bin] + r->delta[bin] > count[bin])                                           \
             *ok = 0;                                                                               \
     } while (0)
+#define BAND(old, nb)                                                                              \
+    do {                                                                                           \
+        if ((old) <= -1 && (nb) > -1 && r->band[s] + ++dband > r->band_cap[s])                   \
+            *ok = 0;                                                                               \
+    } while (0)
     if (check) {
         uint32_t oc = commit_bin(st, c);
         if (oc != idx) {
@@ -379,6 +411,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
                 DELTA(oc, -1);
             DELTA(idx, 1);
         }
+        BAND(bound(st, s, c), a);
     }
     g->dist[c] = 0;
     g->touched[g->ntouched++] = c;
@@ -397,6 +430,8 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
             if (nb <= bound(st, s, u))
                 continue; /* not tightened: prune */
             GS_CALL(record_push(r, n++, u, nb));
+            if (check)
+                BAND(bound(st, s, u), nb);
             if (check && nb >= 0) {
                 uint32_t k = nb >= (double)(K - 1) ? K - 1 : (uint32_t)nb;
                 uint32_t nbin = gs_micro_bin_index(K, s, k), obin = commit_bin(st, u);
@@ -419,6 +454,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
         }
     }
 #undef DELTA
+#undef BAND
     for (uint32_t i = 0; i < ntb; i++)
         r->delta[r->delta_bins[i]] = 0;
     *nrec = n;
@@ -571,6 +607,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         for (size_t k = 0; k < nrec; k++) {
             uint32_t j = r->rec_t[k];
             uint32_t ob = commit_bin(st, j);
+            r->band[s] += bound(st, s, j) <= -1 && r->rec_b[k] > -1;
             if (s)
                 st->hi[j] = -r->rec_b[k];
             else
