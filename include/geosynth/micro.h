@@ -230,8 +230,11 @@ static inline uint32_t gs_micro_bin_index(uint32_t nbins, int side, uint32_t k)
 /* Algorithm switches. Defaults (gs_micro_recon_defaults): capacity = 1. */
 typedef struct gs_micro_recon_opts {
     /* 1: a random placement is accepted only if the triangles it forces into
-     * lower bins still fit their counts (see recon.c); 0: the paper as printed
-     * (random placements unchecked, overflow left for the fill). */
+     * lower bins still fit their counts, and those it keeps off the other
+     * side's bins >= 1 fit that side's bin 0 and its own bins; once the next
+     * lower bin is full, seeds come from next to existing structures (see
+     * recon.c); 0: the paper as printed (random placements unchecked,
+     * overflow left for the fill). */
     int capacity;
     /* Upper bound on rejected candidates per bin (0 = no bound). */
     uint64_t max_rejects_per_bin;

@@ -34,7 +34,20 @@
  * (it can end nowhere else), demand[bin] = labelled + committed, and a random
  * placement is accepted only if the commitments it creates keep demand <=
  * count in every bin. Forced assignments then never overflow and the leftover
- * comes only from bins that found no admissible seed. */
+ * comes only from bins that found no admissible seed. Once the next lower bin
+ * is full, seeds are drawn next to existing structures, including the ones
+ * this bin has placed (see run_bin), so a bin fills by growing plateaus.
+ *
+ * Band accounting (with capacity): a triangle whose side-s bound is above -1
+ * can only take a value of side s or of bin 0 of the other side, so their
+ * number, band[s], must stay within those bins' counts; a placement that
+ * would push it over is rejected like a bin overflow. Without it the
+ * scattered seeds of a large positive region (stone: 69% of the area) left
+ * too few triangles at distance >= 1 from it for the negative bins (1.9%
+ * unassigned, bin 0 of both sides full). band[] counts the stored bounds
+ * (every write of lo/hi updates it), so a resumed run recomputes the same
+ * numbers. Probes reach radius 2a >= a + 1 for a >= 1, so every crossing of
+ * -1 a placement causes is seen. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,10 +69,14 @@ struct gs_micro_recon {
     gs_micro_recon_opts o;
     gs_micro_state st;
     int64_t *demand;         /* [2K] */
+    int64_t band[2];         /* triangles whose side-s bound is > -1 */
+    int64_t band_cap[2];     /* counts of side s + bin 0 of the other side */
     struct gs_micro_geo *geo;
     uint32_t *cand;          /* random candidates, fill queue */
     forced_item *forced;     /* forced assignments of a bin */
     uint32_t *near;          /* random candidates next to higher structures */
+    size_t cap_near;
+    uint8_t *innear;         /* [n] 1 while a triangle waits in near (bin-local) */
     uint32_t *live;          /* triangles unlabelled at the last bin start */
     size_t nlive;
     uint32_t *rec_t;         /* propagation record */
@@ -196,6 +213,8 @@ static gs_err recon_alloc(const gs_micro_dual *d, const gs_micro_hist *h, const 
     GS_TRY(err, gs_alloc_array((void **)&r->forced, n, sizeof *r->forced, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->live, n, sizeof *r->live, "candidates"), fail);
     GS_TRY(err, gs_alloc_array((void **)&r->near, n, sizeof *r->near, "candidates"), fail);
+    r->cap_near = n;
+    GS_TRY(err, gs_alloc_array((void **)&r->innear, n, sizeof *r->innear, "candidates"), fail);
     for (uint32_t j = 0; j < n; j++)
         r->live[j] = j;
     r->nlive = n;
@@ -210,9 +229,18 @@ fail:
 static void recompute_demand(struct gs_micro_recon *r)
 {
     const gs_micro_state *st = &r->st;
+    uint32_t K = st->nbins;
     for (uint32_t i = 0; i < 2 * st->nbins; i++)
         r->demand[i] = st->placed[i];
+    for (int s = 0; s < 2; s++) {
+        r->band[s] = 0;
+        r->band_cap[s] = r->h->count[gs_micro_bin_index(K, 1 - s, 0)];
+        for (uint32_t k = 0; k < K; k++)
+            r->band_cap[s] += r->h->count[gs_micro_bin_index(K, s, k)];
+    }
     for (uint32_t j = 0; j < st->ntris; j++) {
+        r->band[0] += bound(st, 0, j) > -1;
+        r->band[1] += bound(st, 1, j) > -1;
         if (st->label[j] != GS_MICRO_UNASSIGNED)
             continue;
         uint32_t b = commit_bin(st, j);
@@ -289,6 +317,7 @@ void gs_micro_recon_destroy(gs_micro_recon_t *rp)
     gs_free(r->forced);
     gs_free(r->live);
     gs_free(r->near);
+    gs_free(r->innear);
     gs_free(r->rec_t);
     gs_free(r->rec_b);
     gs_micro_geo_destroy(&r->geo);
@@ -317,7 +346,11 @@ static void assign(struct gs_micro_recon *r, uint32_t j, uint32_t idx, double x)
     st->placed[idx]++;
     st->label[j] = (uint16_t)idx;
     st->value[j] = x;
+    r->band[0] -= bound(st, 0, j) > -1;
+    r->band[1] -= bound(st, 1, j) > -1;
     st->lo[j] = st->hi[j] = x;
+    r->band[0] += bound(st, 0, j) > -1;
+    r->band[1] += bound(st, 1, j) > -1;
 }
 
 static gs_err record_push(struct gs_micro_recon *r, size_t n, uint32_t j, double b)
@@ -356,6 +389,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
     uint32_t K = st->nbins, ntb = 0;
     micro_geo_reset(g);
     size_t n = 0;
+    int64_t dband = 0;
     *ok = 1;
 #define DELTA(bin, v)                                                                              \
     do {                                                                                           \
@@ -365,6 +399,11 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
         if (r->demand[bin] + r->delta[bin] > count[bin])                                           \
             *ok = 0;                                                                               \
     } while (0)
+#define BAND(old, nb)                                                                              \
+    do {                                                                                           \
+        if ((old) <= -1 && (nb) > -1 && r->band[s] + ++dband > r->band_cap[s])                   \
+            *ok = 0;                                                                               \
+    } while (0)
     if (check) {
         uint32_t oc = commit_bin(st, c);
         if (oc != idx) {
@@ -372,6 +411,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
                 DELTA(oc, -1);
             DELTA(idx, 1);
         }
+        BAND(bound(st, s, c), a);
     }
     g->dist[c] = 0;
     g->touched[g->ntouched++] = c;
@@ -390,6 +430,8 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
             if (nb <= bound(st, s, u))
                 continue; /* not tightened: prune */
             GS_CALL(record_push(r, n++, u, nb));
+            if (check)
+                BAND(bound(st, s, u), nb);
             if (check && nb >= 0) {
                 uint32_t k = nb >= (double)(K - 1) ? K - 1 : (uint32_t)nb;
                 uint32_t nbin = gs_micro_bin_index(K, s, k), obin = commit_bin(st, u);
@@ -412,6 +454,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
         }
     }
 #undef DELTA
+#undef BAND
     for (uint32_t i = 0; i < ntb; i++)
         r->delta[r->delta_bins[i]] = 0;
     *nrec = n;
@@ -434,6 +477,22 @@ static int sure_overflow(const struct gs_micro_recon *r, uint32_t c, int s, doub
             return 1;
     }
     return 0;
+}
+
+/* Appends j to the near pool (which can outgrow n: a rejected seed may come
+ * back, see run_bin). */
+static gs_err near_push(struct gs_micro_recon *r, size_t *nn, uint32_t j)
+{
+    if (*nn == r->cap_near) {
+        size_t cap = 2 * r->cap_near + 16;
+        uint32_t *p = gs_realloc(r->near, cap * sizeof *p);
+        GS_CHECK(p, GS_ERR_MEM, "near pool of %zu entries", cap);
+        r->near = p;
+        r->cap_near = cap;
+    }
+    r->near[(*nn)++] = j;
+    r->innear[j] = 1;
+    return GS_OK;
 }
 
 static int cmp_forced(const void *x, const void *y)
@@ -472,7 +531,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         if (b <= a && bound(st, 1 - s, j) <= -a) {
             r->cand[nc++] = j;
             if (b >= a - 2)
-                r->near[nn++] = j;
+                GS_CALL(near_push(r, &nn, j));
         }
     }
     r->nlive = keep;
@@ -484,8 +543,11 @@ static gs_err run_bin(struct gs_micro_recon *r)
         assign(r, f[i].t, idx, x == 0 ? 0.0 : x);
         r->c.forced++;
     }
-    if (st->placed[idx] >= count)
+    if (st->placed[idx] >= count) {
+        for (size_t i = 0; i < nn; i++)
+            r->innear[r->near[i]] = 0;
         return GS_OK;
+    }
 
     /* 2. Random placements at the bin's inner edge. Candidates are drawn
      * without replacement (incremental Fisher-Yates) and re-checked on draw,
@@ -495,7 +557,16 @@ static gs_err run_bin(struct gs_micro_recon *r)
      * 1-Lipschitz), so draws then come from the "near" pool (range reaching
      * m - 2, i.e. next to higher structures) only, and the bin ends when that
      * pool is used up. This keeps the cost per bin proportional to the seeds
-     * placed instead of to the mesh. */
+     * placed instead of to the mesh. The pool also takes in every triangle an
+     * accepted placement of this bin lifts to a bound >= m - 2, so once the
+     * lower bin is full the bin's own plateaus grow (a seed beside one needs
+     * next to no new room in the lower bin) instead of the bin stopping short
+     * (top bins of a random distribution lost most of their counts so).
+     * When the whole candidate pool has been drawn, draws go on from the near
+     * pool; a seed rejected for capacity may rejoin it when a later accepted
+     * placement tightens its range (its neighbourhood then has more room
+     * committed), so the pool only grows with accepted placements and the
+     * bin ends. */
     gs_rng rng;
     gs_rng_restore(&rng, st->rng);
     double value = s && a != 0 ? -a : a;
@@ -504,8 +575,9 @@ static gs_err run_bin(struct gs_micro_recon *r)
     size_t ic = 0, in = 0;
     while (st->placed[idx] < count) {
         int lower_full = r->o.capacity && m > 0 && r->demand[lower] >= r->h->count[lower];
-        uint32_t *pool = lower_full ? r->near : r->cand;
-        size_t *pi = lower_full ? &in : &ic, pn = lower_full ? nn : nc;
+        int use_near = lower_full || (r->o.capacity && ic >= nc);
+        uint32_t *pool = use_near ? r->near : r->cand;
+        size_t *pi = use_near ? &in : &ic, pn = use_near ? nn : nc;
         if (*pi >= pn)
             break;
         size_t i = (*pi)++;
@@ -516,6 +588,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         if (st->label[c] != GS_MICRO_UNASSIGNED || bound(st, s, c) > a || bound(st, 1 - s, c) > -a)
             continue;
         if (r->o.capacity && lower_full && sure_overflow(r, c, s, a)) {
+            r->innear[c] = 0;
             r->c.random_rejected++;
             if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
                 break;
@@ -525,6 +598,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         int ok;
         GS_CALL(probe(r, c, s, a, a, idx, r->o.capacity, &nrec, &ok));
         if (!ok) {
+            r->innear[c] = 0;
             r->c.random_rejected++;
             if (++rejects >= r->o.max_rejects_per_bin && r->o.max_rejects_per_bin)
                 break;
@@ -533,6 +607,7 @@ static gs_err run_bin(struct gs_micro_recon *r)
         for (size_t k = 0; k < nrec; k++) {
             uint32_t j = r->rec_t[k];
             uint32_t ob = commit_bin(st, j);
+            r->band[s] += bound(st, s, j) <= -1 && r->rec_b[k] > -1;
             if (s)
                 st->hi[j] = -r->rec_b[k];
             else
@@ -544,10 +619,18 @@ static gs_err run_bin(struct gs_micro_recon *r)
                 if (nb != UINT32_MAX)
                     r->demand[nb]++;
             }
+            /* The near pool grows with this bin's own structures: a seed
+             * next to a plateau already placed at a costs the full lower
+             * bin little or nothing (its ring is mostly committed), where an
+             * isolated one is rejected. Record order is deterministic. */
+            if (r->o.capacity && r->rec_b[k] >= a - 2 && !r->innear[j])
+                GS_CALL(near_push(r, &nn, j));
         }
         assign(r, c, idx, value);
         r->c.random_accepted++;
     }
+    for (size_t i = 0; i < nn; i++)
+        r->innear[r->near[i]] = 0;
     return GS_OK;
 }
 
