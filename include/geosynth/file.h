@@ -55,6 +55,10 @@ gs_err gs_dir_check_writable(const char *dir);
 gs_err gs_path_absolute(const char *path, const char *base_dir, char **out);
 
 int gs_file_exists(const char *path);
+/* Writes s to f with & < > " ' as XML/HTML character references. Other
+ * control characters become '_' (XML 1.0 text allows none); with
+ * keep_newlines, '\n' and '\t' are written as they are (HTML <pre> text). */
+void gs_fput_markup(FILE *f, const char *s, int keep_newlines);
 
 #ifdef __cplusplus
 }

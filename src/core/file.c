@@ -268,3 +268,22 @@ int gs_file_exists(const char *path)
     struct stat st;
     return stat(path, &st) == 0;
 }
+
+void gs_fput_markup(FILE *f, const char *s, int keep_newlines)
+{
+    for (; *s; s++) {
+        switch (*s) {
+        case '&': fputs("&amp;", f); break;
+        case '<': fputs("&lt;", f); break;
+        case '>': fputs("&gt;", f); break;
+        case '"': fputs("&quot;", f); break;
+        case '\'': fputs("&apos;", f); break;
+        case '\n':
+        case '\t':
+            fputc(keep_newlines ? *s : '_', f);
+            break;
+        default:
+            fputc((unsigned char)*s < 0x20 ? '_' : *s, f);
+        }
+    }
+}

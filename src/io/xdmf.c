@@ -7,6 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "geosynth/file.h"
 #include "geosynth/h5.h"
 
 gs_err gs_xdmf_path(const char *h5_path, char *out, size_t len)
@@ -18,22 +19,6 @@ gs_err gs_xdmf_path(const char *h5_path, char *out, size_t len)
     memcpy(out, h5_path, stem);
     memcpy(out + stem, ".xmf", 5);
     return GS_OK;
-}
-
-static void put_escaped(FILE *f, const char *s)
-{
-    for (; *s; s++) {
-        switch (*s) {
-        case '&': fputs("&amp;", f); break;
-        case '<': fputs("&lt;", f); break;
-        case '>': fputs("&gt;", f); break;
-        case '"': fputs("&quot;", f); break;
-        case '\'': fputs("&apos;", f); break;
-        default:
-            /* Control characters are not allowed in XML 1.0 text. */
-            fputc((unsigned char)*s < 0x20 ? '_' : *s, f);
-        }
-    }
 }
 
 /* XDMF 2 NumberType + Precision for a geosynth element type. */
@@ -87,7 +72,7 @@ static void write_xml(FILE *f, const char *h5_name, const gs_xdmf_grid *g,
     fputs("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
           "<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"",
           f);
-    put_escaped(f, g->name);
+    gs_fput_markup(f, g->name, 0);
     fputs("\" GridType=\"Uniform\">\n", f);
     fprintf(f, "      <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"%llu %llu %llu\"/>\n",
             tz, ty, tx);
@@ -106,16 +91,16 @@ static void write_xml(FILE *f, const char *h5_name, const gs_xdmf_grid *g,
         int prec;
         number_type(attrs[a].type, &nt, &prec);
         fputs("      <Attribute Name=\"", f);
-        put_escaped(f, attrs[a].name);
+        gs_fput_markup(f, attrs[a].name, 0);
         fprintf(f, "\" AttributeType=\"Scalar\" Center=\"%s\">\n", cell ? "Cell" : "Node");
         fprintf(f,
                 "        <DataItem Dimensions=\"%llu %llu %llu\" NumberType=\"%s\" "
                 "Precision=\"%d\" Format=\"HDF\">",
                 (unsigned long long)g->dims[0], (unsigned long long)g->dims[1],
                 (unsigned long long)g->dims[2], nt, prec);
-        put_escaped(f, h5_name);
+        gs_fput_markup(f, h5_name, 0);
         fputc(':', f);
-        put_escaped(f, attrs[a].dataset);
+        gs_fput_markup(f, attrs[a].dataset, 0);
         fputs("</DataItem>\n      </Attribute>\n", f);
     }
     fputs("    </Grid>\n  </Domain>\n</Xdmf>\n", f);

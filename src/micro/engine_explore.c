@@ -370,19 +370,6 @@ static gs_err candidate_apply(void *ctx, int64_t id, const void *buf, size_t len
 
 /* ------------------------------------------------------------ pages -- */
 
-static void html_escape(FILE *f, const char *s)
-{
-    for (; *s; s++) {
-        switch (*s) {
-        case '<': fputs("&lt;", f); break;
-        case '>': fputs("&gt;", f); break;
-        case '&': fputs("&amp;", f); break;
-        case '"': fputs("&quot;", f); break;
-        default: fputc(*s, f);
-        }
-    }
-}
-
 static const char PAGE_STYLE[] =
     "body{font:14px/1.4 system-ui,sans-serif;margin:1.5em;background:#f4f4f2;color:#222}"
     "h1{font-size:1.4em;margin:0 0 .3em}p.run{color:#555;margin:0 0 1em}"
@@ -418,7 +405,7 @@ static void html_param(FILE *f, const char *name, const char *fmt, ...)
     vsnprintf(v, sizeof v, fmt, ap);
     va_end(ap);
     fprintf(f, "<tr><th>%s</th><td>", name);
-    html_escape(f, v);
+    gs_fput_markup(f, v, 1);
     fputs("</td></tr>\n", f);
 }
 
@@ -438,7 +425,7 @@ static gs_err write_index_html(const explore_job *ej, uint64_t digest, const cha
             (long long)n, PAGE_STYLE, (long long)n);
     fprintf(f, "<h1>Stochastic microgeometry: %lld candidates</h1>\n<p class=\"run\">", (long long)n);
     fputs("surface ", f);
-    html_escape(f, !strcmp(cfg->shape, "file") ? cfg->mesh : cfg->shape);
+    gs_fput_markup(f, !strcmp(cfg->shape, "file") ? cfg->mesh : cfg->shape, 1);
     fprintf(f, ", distribution %s, gallery seed %lld, digest <code>%s</code>. Each card: the "
                "drawn parameters and the config that reproduces it "
                "(<code>geosynth micro -c candidate-XXX/candidate-XXX.ini</code>).</p>\n"
@@ -489,7 +476,7 @@ static gs_err write_index_html(const explore_job *ej, uint64_t digest, const cha
             gs_free(body);
             GS_CALL(err);
         }
-        html_escape(f, body);
+        gs_fput_markup(f, body, 1);
         gs_free(body);
         fputs("</pre></details>\n</div>\n", f);
     }

@@ -8,6 +8,7 @@
 
 #include "geosynth/digest.h"
 #include "geosynth/error.h"
+#include "geosynth/file.h"
 #include "geosynth/mem.h"
 #include "geosynth/parse.h"
 #include "geosynth/rng.h"
@@ -155,12 +156,28 @@ static void test_memory_accounting(void **state)
     gs_error_clear();
 }
 
+/* XML (XDMF names) and HTML (gallery config text) share one escaper. */
+static void test_markup_escape(void **state)
+{
+    (void)state;
+    const char *in = "a<b>&\"q'\n\tz\x01";
+    const char *want[2] = {"a&lt;b&gt;&amp;&quot;q&apos;__z_", "a&lt;b&gt;&amp;&quot;q&apos;\n\tz_"};
+    for (int keep = 0; keep < 2; keep++) {
+        char buf[128] = {0};
+        FILE *f = fmemopen(buf, sizeof buf - 1, "w");
+        assert_non_null(f);
+        gs_fput_markup(f, in, keep);
+        fclose(f);
+        assert_string_equal(buf, want[keep]);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_error_traceback),  cmocka_unit_test(test_parse_numbers),
         cmocka_unit_test(test_rng_streams),      cmocka_unit_test(test_digest),
-        cmocka_unit_test(test_memory_accounting),
+        cmocka_unit_test(test_memory_accounting), cmocka_unit_test(test_markup_escape),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
