@@ -53,6 +53,7 @@ struct gs_points_synth {
     double *Fv;
     size_t Fv_cap;
     struct blend_item *blend;
+    size_t *blend_idx;
     size_t blend_cap;
 };
 
@@ -221,6 +222,7 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->S);
     gs_free(s->Fv);
     gs_free(s->blend);
+    gs_free(s->blend_idx);
     gs_free(s);
     *sp = NULL;
 }
@@ -717,8 +719,12 @@ typedef struct blend_ctx {
     struct gs_points_synth *s;
     int mode;
     const double *o;
+    const size_t *idx; /* item -> index in F: the points in an active strip */
 } blend_ctx;
 
+/* Items are the points of F inside B_k with blend weight t > 0 (the only
+ * ones that need the surface), so every item costs about the same and an
+ * even split of items is an even split of work. */
 static gs_err blend_points(void *vctx, size_t lo, size_t hi, void *vout)
 {
     const blend_ctx *c = vctx;
@@ -730,34 +736,30 @@ static gs_err blend_points(void *vctx, size_t lo, size_t hi, void *vout)
     for (size_t i = lo; i < hi; i++) {
         blend_item *it = &out[i - lo];
         memset(it, 0, sizeof *it);
-        gs_opoint q = s->F.v[i];
-        if (!in_xy(q.p, blo, bhi))
-            continue;
-        double t = c->mode ? blend_weight(s, c->mode, o, q.p) : 0;
-        if (t > 0) {
-            double y[3], n[3];
-            int ok = 0;
-            if (s->p.ray_blend)
-                GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
-            if (!ok) {
-                gs_points_mls_result r;
-                GS_CALL(gs_points_mls_project(s->out, R, R, q.p, &s->scratch, &r));
-                ok = r.ok;
-                memcpy(y, r.y, sizeof y);
-                memcpy(n, r.n, sizeof n);
+        gs_opoint q = s->F.v[c->idx[i]];
+        double t = blend_weight(s, c->mode, o, q.p);
+        double y[3], n[3];
+        int ok = 0;
+        if (s->p.ray_blend)
+            GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
+        if (!ok) {
+            gs_points_mls_result r;
+            GS_CALL(gs_points_mls_project(s->out, R, R, q.p, &s->scratch, &r));
+            ok = r.ok;
+            memcpy(y, r.y, sizeof y);
+            memcpy(n, r.n, sizeof n);
+        }
+        if (ok) {
+            it->resid = sqrt(v3_dist2(y, q.p));
+            it->counted = 1;
+            for (int k = 0; k < 3; k++) {
+                q.p[k] = (1 - t) * q.p[k] + t * y[k];
+                q.n[k] = (1 - t) * q.n[k] + t * n[k];
             }
-            if (ok) {
-                it->resid = sqrt(v3_dist2(y, q.p));
-                it->counted = 1;
-                for (int k = 0; k < 3; k++) {
-                    q.p[k] = (1 - t) * q.p[k] + t * y[k];
-                    q.n[k] = (1 - t) * q.n[k] + t * n[k];
-                }
-                if (v3_normalize(q.n) <= 0)
-                    continue;
-                if (!in_xy(q.p, blo, bhi))
-                    continue;
-            }
+            if (v3_normalize(q.n) <= 0)
+                continue;
+            if (!in_xy(q.p, blo, bhi))
+                continue;
         }
         it->q = q;
         it->keep = 1;
@@ -774,21 +776,36 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
         blend_item *v = gs_realloc(s->blend, s->F.n * sizeof *v);
         GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", s->F.n);
         s->blend = v;
+        size_t *ix = gs_realloc(s->blend_idx, s->F.n * sizeof *ix);
+        GS_CHECK(ix != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", s->F.n);
+        s->blend_idx = ix;
         s->blend_cap = s->F.n;
     }
-    blend_ctx bc = {s, mode, o};
-    GS_CALL(par_map(s, s->F.n, sizeof(blend_item), blend_points, &bc, s->blend));
+    /* Points outside B_k go, points with t = 0 stay as they are; the rest
+     * are blended over the map hook. */
+    size_t nwork = 0;
+    for (size_t i = 0; i < s->F.n; i++) {
+        const double *q = s->F.v[i].p;
+        if (mode && in_xy(q, blo, bhi) && blend_weight(s, mode, o, q) > 0)
+            s->blend_idx[nwork++] = i;
+    }
+    blend_ctx bc = {s, mode, o, s->blend_idx};
+    GS_CALL(par_map(s, nwork, sizeof(blend_item), blend_points, &bc, s->blend));
     /* Assembled in point order: the same sums and order for any split. */
     double resid = 0;
     size_t nres = 0;
-    for (size_t i = 0; i < s->F.n; i++) {
-        const blend_item *it = &s->blend[i];
-        if (it->counted) {
-            resid += it->resid;
-            nres++;
+    for (size_t i = 0, w = 0; i < s->F.n; i++) {
+        if (w < nwork && s->blend_idx[w] == i) {
+            const blend_item *it = &s->blend[w++];
+            if (it->counted) {
+                resid += it->resid;
+                nres++;
+            }
+            if (it->keep)
+                GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
+        } else if (in_xy(s->F.v[i].p, blo, bhi)) {
+            GS_CALL(gs_points_append(&s->Fb, &s->F.v[i], 1));
         }
-        if (it->keep)
-            GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
     }
     met->warp_residual = nres ? resid / (double)nres : 0;
     gs_points_grid_remove_xy(s->out, blo, bhi);
