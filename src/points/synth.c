@@ -49,11 +49,11 @@ struct gs_points_synth {
     gs_points_times times;
     /* scratch */
     float *query;
-    gs_points scratch, scratch2, F, Fw, Fb, Qall, S;
+    gs_points scratch, scratch2, F, Fb, Qall, S;
     double *Fv;
     size_t Fv_cap;
     struct blend_item *blend;
-    size_t *blend_idx;
+    size_t *blend_idx; /* 2 * blend_cap: blend order, then each point's slot */
     size_t blend_cap;
 };
 
@@ -216,7 +216,6 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->scratch);
     gs_points_free(&s->scratch2);
     gs_points_free(&s->F);
-    gs_points_free(&s->Fw);
     gs_points_free(&s->Fb);
     gs_points_free(&s->Qall);
     gs_points_free(&s->S);
@@ -397,9 +396,13 @@ const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s,
 static gs_err par_map(struct gs_points_synth *s, size_t n, size_t bytes, gs_points_range_fn fn,
                       void *ctx, void *out)
 {
+    /* n is the same on every process, so an empty map is skipped by all
+     * (each map hook call costs an exchange). */
+    if (n == 0)
+        return GS_OK;
     if (s->map_fn)
         GS_CALL(s->map_fn(s->map_user, n, bytes, fn, ctx, out));
-    else if (n > 0)
+    else
         GS_CALL(fn(ctx, 0, n, out));
     return GS_OK;
 }
@@ -550,27 +553,11 @@ static gs_err ray_hit(struct gs_points_synth *s, const double x[3], const double
     return GS_OK;
 }
 
-/* Points through the spline (gs_points_range_fn). */
-typedef struct warp_ctx {
-    const gs_points_tps *tps;
-    const gs_opoint *in;
-} warp_ctx;
-
-static gs_err warp_points(void *vctx, size_t lo, size_t hi, void *vout)
-{
-    const warp_ctx *c = vctx;
-    gs_opoint *out = vout;
-    for (size_t i = lo; i < hi; i++) {
-        double J[9];
-        gs_opoint *q = &out[i - lo];
-        gs_points_tps_eval(c->tps, c->in[i].p, q->p, J);
-        gs_points_tps_normal(J, c->in[i].n, q->n);
-    }
-    return GS_OK;
-}
-
+/* Pairs the overlap strips of F with the output and fits the warp. On
+ * success *have says whether *tps holds a spline (caller frees it); it is
+ * applied to F with the blend (blend_and_paste). */
 static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
-                         gs_points_patch_metrics *met)
+                         gs_points_patch_metrics *met, gs_points_tps *tps_out, int *have)
 {
     const gs_points_params *p = &s->p;
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
@@ -593,8 +580,6 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
     double *qv = NULL, *src = NULL, *dst = NULL;
     long *pair = NULL;
     gs_points Q = {0};
-    gs_points_tps tps = {0};
-    int have_tps = 0;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&k, nq_all, sizeof *k, "clusters"), done);
     GS_TRY(err, gs_alloc_array((void **)&reps, nq_all, sizeof *reps, "clusters"), done);
@@ -678,7 +663,7 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
                 nc++;
             }
         }
-    err = gs_points_tps_fit(src, dst, (int)nc, p->tps_lambda, &tps);
+    err = gs_points_tps_fit(src, dst, (int)nc, p->tps_lambda, tps_out);
     if (err == GS_ERR_ARG) { /* degenerate pairing: keep the patch unwarped */
         gs_error_clear();
         err = GS_OK;
@@ -686,16 +671,8 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
         goto done;
     }
     GS_TRY(err, err, done);
-    have_tps = 1;
-    {
-        warp_ctx wc = {&tps, s->F.v};
-        GS_TRY(err, gs_points_reserve(&s->Fw, s->F.n), done);
-        GS_TRY(err, par_map(s, s->F.n, sizeof(gs_opoint), warp_points, &wc, s->Fw.v), done);
-        memcpy(s->F.v, s->Fw.v, s->F.n * sizeof *s->F.v);
-    }
+    *have = 1;
 done:
-    if (have_tps)
-        gs_points_tps_free(&tps);
     gs_free(k);
     gs_free(reps);
     gs_free(smap);
@@ -719,25 +696,23 @@ typedef struct blend_ctx {
     struct gs_points_synth *s;
     int mode;
     const double *o;
-    const size_t *idx; /* item -> index in F: the points in an active strip */
+    const gs_points_tps *tps; /* NULL: no warp */
+    const size_t *order;      /* item -> index in F */
+    double warp_seconds, blend_seconds; /* this process's share */
 } blend_ctx;
 
-/* Items are the points of F inside B_k with blend weight t > 0 (the only
- * ones that need the surface), so every item costs about the same and an
- * even split of items is an even split of work. */
-static gs_err blend_points(void *vctx, size_t lo, size_t hi, void *vout)
+/* One point of F through the warp (if any) and the blend (fig. 3c). */
+static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2],
+                          blend_item *it)
 {
-    const blend_ctx *c = vctx;
-    struct gs_points_synth *s = c->s;
-    blend_item *out = vout;
-    const double *o = c->o;
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
     double R = s->p.mls_radius;
-    for (size_t i = lo; i < hi; i++) {
-        blend_item *it = &out[i - lo];
-        memset(it, 0, sizeof *it);
-        gs_opoint q = s->F.v[c->idx[i]];
-        double t = blend_weight(s, c->mode, o, q.p);
+    gs_opoint q = it->q;
+    it->keep = 0;
+    if (!in_xy(q.p, blo, bhi))
+        return GS_OK;
+    double t = mode ? blend_weight(s, mode, o, q.p) : 0;
+    if (t > 0) {
         double y[3], n[3];
         int ok = 0;
         if (s->p.ray_blend)
@@ -757,57 +732,113 @@ static gs_err blend_points(void *vctx, size_t lo, size_t hi, void *vout)
                 q.n[k] = (1 - t) * q.n[k] + t * n[k];
             }
             if (v3_normalize(q.n) <= 0)
-                continue;
+                return GS_OK;
             if (!in_xy(q.p, blo, bhi))
-                continue;
+                return GS_OK;
         }
-        it->q = q;
-        it->keep = 1;
     }
+    it->q = q;
+    it->keep = 1;
     return GS_OK;
 }
 
+/* gs_points_range_fn: items [lo, hi) of the blend order, warped, then
+ * blended (two passes, so the two are timed apart). */
+static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    blend_ctx *c = vctx;
+    struct gs_points_synth *s = c->s;
+    blend_item *out = vout;
+    double t0 = gs_time_now();
+    for (size_t i = lo; i < hi; i++) {
+        blend_item *it = &out[i - lo];
+        memset(it, 0, sizeof *it);
+        const gs_opoint *f = &s->F.v[c->order[i]];
+        if (c->tps) {
+            double J[9];
+            gs_points_tps_eval(c->tps, f->p, it->q.p, J);
+            gs_points_tps_normal(J, f->n, it->q.n);
+        } else {
+            it->q = *f;
+        }
+    }
+    double t1 = gs_time_now();
+    for (size_t i = lo; i < hi; i++)
+        GS_CALL(blend_point(s, c->mode, c->o, &out[i - lo]));
+    c->warp_seconds += t1 - t0;
+    c->blend_seconds += gs_time_now() - t1;
+    return GS_OK;
+}
+
+/* Warps F through tps (NULL: none), blends it with the output and pastes
+ * B_k. The warp and blend of a point depend on nothing else that changes,
+ * so both run in one map; *warp_seconds gets this process's warp time. */
 static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double o[2],
-                              gs_points_patch_metrics *met)
+                              const gs_points_tps *tps, gs_points_patch_metrics *met,
+                              double *warp_seconds)
 {
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    size_t n = s->F.n;
     s->Fb.n = 0;
-    if (s->F.n > s->blend_cap) {
-        blend_item *v = gs_realloc(s->blend, s->F.n * sizeof *v);
-        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", s->F.n);
+    *warp_seconds = 0;
+    if (n > s->blend_cap) {
+        blend_item *v = gs_realloc(s->blend, n * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", n);
         s->blend = v;
-        size_t *ix = gs_realloc(s->blend_idx, s->F.n * sizeof *ix);
-        GS_CHECK(ix != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", s->F.n);
+        size_t *ix = gs_realloc(s->blend_idx, 2 * n * sizeof *ix);
+        GS_CHECK(ix != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", n);
         s->blend_idx = ix;
-        s->blend_cap = s->F.n;
+        s->blend_cap = n;
     }
-    /* Points outside B_k go, points with t = 0 stay as they are; the rest
-     * are blended over the map hook. */
-    size_t nwork = 0;
-    for (size_t i = 0; i < s->F.n; i++) {
+    if (!tps && !mode) { /* the seed patch: B_k as it is */
+        for (size_t i = 0; i < n; i++)
+            if (in_xy(s->F.v[i].p, blo, bhi))
+                GS_CALL(gs_points_append(&s->Fb, &s->F.v[i], 1));
+        goto paste;
+    }
+    /* Only points in an active strip cost much (the surface is queried),
+     * and F comes row by row, so the bottom strip is all at its start. The
+     * items go in an order that spreads the (probably) costly ones evenly,
+     * so any contiguous split of it is an even split of the work; the
+     * guess uses the unwarped point and affects nothing but the order. */
+    size_t *order = s->blend_idx, *slot = s->blend_idx + n, ncost = 0;
+    for (size_t i = 0; i < n; i++) {
         const double *q = s->F.v[i].p;
-        if (mode && in_xy(q, blo, bhi) && blend_weight(s, mode, o, q) > 0)
-            s->blend_idx[nwork++] = i;
+        slot[i] = mode && in_xy(q, blo, bhi) && blend_weight(s, mode, o, q) > 0;
+        ncost += slot[i];
     }
-    blend_ctx bc = {s, mode, o, s->blend_idx};
-    GS_CALL(par_map(s, nwork, sizeof(blend_item), blend_points, &bc, s->blend));
+    {
+        size_t costly = 0, cheap = ncost; /* cheap ones follow the costly in order[] */
+        for (size_t i = 0; i < n; i++)
+            order[slot[i] ? costly++ : cheap++] = i;
+        /* Interleave: item j takes the next costly point while fewer than
+         * (j + 1) * ncost / n have been taken. */
+        size_t *tmp = slot, a = 0, b = ncost;
+        for (size_t j = 0; j < n; j++) {
+            int take = a < ncost && (b >= n || (double)a * n < (double)(j + 1) * ncost);
+            tmp[j] = order[take ? a++ : b++];
+        }
+        memcpy(order, tmp, n * sizeof *order);
+        for (size_t j = 0; j < n; j++)
+            slot[order[j]] = j;
+    }
+    blend_ctx bc = {s, mode, o, tps, order, 0, 0};
+    GS_CALL(par_map(s, n, sizeof(blend_item), warp_blend_points, &bc, s->blend));
+    *warp_seconds = bc.warp_seconds;
     /* Assembled in point order: the same sums and order for any split. */
     double resid = 0;
     size_t nres = 0;
-    for (size_t i = 0, w = 0; i < s->F.n; i++) {
-        if (w < nwork && s->blend_idx[w] == i) {
-            const blend_item *it = &s->blend[w++];
-            if (it->counted) {
-                resid += it->resid;
-                nres++;
-            }
-            if (it->keep)
-                GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
-        } else if (in_xy(s->F.v[i].p, blo, bhi)) {
-            GS_CALL(gs_points_append(&s->Fb, &s->F.v[i], 1));
+    for (size_t i = 0; i < n; i++) {
+        const blend_item *it = &s->blend[slot[i]];
+        if (it->counted) {
+            resid += it->resid;
+            nres++;
         }
+        if (it->keep)
+            GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
     }
     met->warp_residual = nres ? resid / (double)nres : 0;
+paste:
     gs_points_grid_remove_xy(s->out, blo, bhi);
     for (size_t i = 0; i < s->Fb.n; i++)
         GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
@@ -907,15 +938,22 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
     double tr[2] = {o[0] - pin[0], o[1] - pin[1]};
     GS_CALL(gather_patch(s, glo, ghi, tr));
     double t2 = gs_time_now();
+    gs_points_tps tps = {0};
+    int have_tps = 0;
     if (mode)
-        GS_CALL(warp_patch(s, mode, o, &met));
-    double t3 = gs_time_now();
-    GS_CALL(blend_and_paste(s, mode, o, &met));
+        GS_CALL(warp_patch(s, mode, o, &met, &tps, &have_tps));
+    double t3 = gs_time_now(), warp_map = 0;
+    gs_err err = blend_and_paste(s, mode, o, have_tps ? &tps : NULL, &met, &warp_map);
+    if (have_tps)
+        gs_points_tps_free(&tps);
+    GS_CALL(err);
     double t4 = gs_time_now();
+    /* The warp of the points runs inside the blend's map: its time there
+     * (this process's share) moves from blend to warp. */
     s->times.search += t1 - t0;
     s->times.other += t2 - t1;
-    s->times.warp += t3 - t2;
-    s->times.blend += t4 - t3;
+    s->times.warp += t3 - t2 + warp_map;
+    s->times.blend += t4 - t3 - warp_map;
     s->metrics[k] = met;
     s->cursor++;
     return GS_OK;
