@@ -65,9 +65,42 @@ static double hf_value(const hf_image *im, double fx, double fy)
     return im->scale * ((v[0] * (1 - tx) + v[1] * tx) * (1 - ty) + (v[2] * (1 - tx) + v[3] * tx) * ty);
 }
 
-/* Point at parameters (u, v) in [0,1)^2 and a reference point the outward
- * normal points away from. */
-static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
+/* The trigonometric terms of a primitive that depend on u alone (v = 0) or
+ * on v alone (v = 1), so a frame's three evaluations share them. */
+static void prim_trig(const prim *pr, int v, double t, double out[3])
+{
+    switch (pr->kind) {
+    case PRIM_TORUS: {
+        double A = 2 * GS_PI * t;
+        out[0] = cos((v ? 3 : 12) * A);
+        out[1] = cos(A);
+        out[2] = sin(A);
+        return;
+    }
+    case PRIM_TUBE_X:
+    case PRIM_TUBE_Y: {
+        double A = v ? 2 * GS_PI * t : GS_PI * (pr->lo[0] + t * (pr->hi[0] - pr->lo[0])) / pr->e +
+                                          pr->phase;
+        out[0] = cos(A);
+        out[1] = sin(A);
+        return;
+    }
+    case PRIM_ELLIPSOID: {
+        double A = v ? GS_PI * t : 2 * GS_PI * t;
+        out[0] = cos(A);
+        out[1] = sin(A);
+        return;
+    }
+    default:
+        return;
+    }
+}
+
+/* Point at parameters (u, v) in [0,1)^2 (tu, tv: prim_trig of u and v)
+ * and, when ref != NULL, a reference point the outward normal points away
+ * from. */
+static void prim_point(const prim *pr, double u, double v, const double tu[3],
+                       const double tv[3], double p[3], double ref[3])
 {
     switch (pr->kind) {
     case PRIM_HEIGHT: {
@@ -76,30 +109,32 @@ static void prim_eval(const prim *pr, double u, double v, double p[3], double re
         p[0] = x;
         p[1] = y;
         p[2] = hf_value(pr->img, u, v);
-        ref[0] = x;
-        ref[1] = y;
-        ref[2] = p[2] - 1;
+        if (ref) {
+            ref[0] = x;
+            ref[1] = y;
+            ref[2] = p[2] - 1;
+        }
         return;
     }
     case PRIM_TORUS: {
-        double U = 2 * GS_PI * u, V = 2 * GS_PI * v;
-        double bu = cos(12 * U), bv = cos(3 * V);
+        double bu = tu[0], bv = tv[0];
         bu = bu > 0 ? bu * bu : 0;
         bv = bv > 0 ? bv * bv : 0;
         double rt = pr->b + pr->e * bu * bv;
-        double l[3] = {(pr->a + rt * cos(V)) * cos(U), (pr->a + rt * cos(V)) * sin(U), rt * sin(V)};
-        double lc[3] = {pr->a * cos(U), pr->a * sin(U), 0};
+        double l[3] = {(pr->a + rt * tv[1]) * tu[1], (pr->a + rt * tv[1]) * tu[2], rt * tv[2]};
         to_world(pr, l, p);
-        to_world(pr, lc, ref);
+        if (ref) {
+            double lc[3] = {pr->a * tu[1], pr->a * tu[2], 0};
+            to_world(pr, lc, ref);
+        }
         return;
     }
     case PRIM_TUBE_X:
     case PRIM_TUBE_Y: {
         int ax = pr->kind == PRIM_TUBE_X ? 0 : 1;
         double t = pr->lo[0] + u * (pr->hi[0] - pr->lo[0]);
-        double ph = GS_PI * t / pr->e + pr->phase;
-        double z = pr->c[2] + pr->a * 0 + pr->b * cos(ph);
-        double dz = -pr->b * GS_PI / pr->e * sin(ph);
+        double z = pr->c[2] + pr->a * 0 + pr->b * tu[0];
+        double dz = -pr->b * GS_PI / pr->e * tu[1];
         double T[3] = {0, 0, dz}, N1[3] = {0, 0, 0}, N2[3];
         T[ax] = 1;
         N1[1 - ax] = 1;
@@ -109,21 +144,29 @@ static void prim_eval(const prim *pr, double u, double v, double p[3], double re
         cc[ax] = t;
         cc[1 - ax] = pr->c[1 - ax];
         cc[2] = z;
-        double phi = 2 * GS_PI * v;
         for (int d = 0; d < 3; d++) {
-            p[d] = cc[d] + pr->a * (cos(phi) * N1[d] + sin(phi) * N2[d]);
-            ref[d] = cc[d];
+            p[d] = cc[d] + pr->a * (tv[0] * N1[d] + tv[1] * N2[d]);
+            if (ref)
+                ref[d] = cc[d];
         }
         return;
     }
-    default: { /* ellipsoid */
-        double th = GS_PI * v, ph = 2 * GS_PI * u;
-        double l[3] = {pr->a * sin(th) * cos(ph), pr->b * sin(th) * sin(ph), pr->e * cos(th)};
+    default: { /* ellipsoid: th = pi v, ph = 2 pi u */
+        double l[3] = {pr->a * tv[1] * tu[0], pr->b * tv[1] * tu[1], pr->e * tv[0]};
         to_world(pr, l, p);
-        memcpy(ref, pr->c, 3 * sizeof *ref);
+        if (ref)
+            memcpy(ref, pr->c, 3 * sizeof *ref);
         return;
     }
     }
+}
+
+static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
+{
+    double tu[3], tv[3];
+    prim_trig(pr, 0, u, tu);
+    prim_trig(pr, 1, v, tv);
+    prim_point(pr, u, v, tu, tv, p, ref);
 }
 
 /* 1 when p is inside the solid bounded by pr (with a small margin). */
@@ -146,11 +189,16 @@ static int prim_inside(const prim *pr, const double p[3])
 
 static double prim_frame(const prim *pr, double u, double v, double p[3], double n[3])
 {
-    double ref[3], pu[3], pv[3], r2[3];
+    double ref[3], pu[3], pv[3];
     const double h = 1e-5;
-    prim_eval(pr, u, v, p, ref);
-    prim_eval(pr, u + h, v, pu, r2);
-    prim_eval(pr, u, v + h, pv, r2);
+    double tu[3], tv[3], tuh[3], tvh[3];
+    prim_trig(pr, 0, u, tu);
+    prim_trig(pr, 0, u + h, tuh);
+    prim_trig(pr, 1, v, tv);
+    prim_trig(pr, 1, v + h, tvh);
+    prim_point(pr, u, v, tu, tv, p, ref);
+    prim_point(pr, u + h, v, tuh, tv, pu, NULL);
+    prim_point(pr, u, v + h, tu, tvh, pv, NULL);
     for (int d = 0; d < 3; d++) {
         pu[d] = (pu[d] - p[d]) / h;
         pv[d] = (pv[d] - p[d]) / h;
