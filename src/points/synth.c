@@ -422,24 +422,64 @@ static int keyed_cmp(const void *pa, const void *pb)
     return a->idx < b->idx ? -1 : a->idx > b->idx;
 }
 
+static int keyed_less(const keyed *a, const keyed *b)
+{
+    return a->key < b->key || (a->key == b->key && a->idx < b->idx);
+}
+
+/* Reorders k so that k[m] is the element a full sort by keyed_cmp would put
+ * there, with every smaller element before it (Hoare's selection with the
+ * median of three; the order is total, so the two sides are exactly those of
+ * a sort, whatever the input order). */
+static void keyed_select(keyed *k, size_t n, size_t m)
+{
+    size_t lo = 0, hi = n - 1;
+    while (hi > lo) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (keyed_less(&k[mid], &k[lo])) { keyed t = k[mid]; k[mid] = k[lo]; k[lo] = t; }
+        if (keyed_less(&k[hi], &k[lo])) { keyed t = k[hi]; k[hi] = k[lo]; k[lo] = t; }
+        if (keyed_less(&k[hi], &k[mid])) { keyed t = k[hi]; k[hi] = k[mid]; k[mid] = t; }
+        keyed pivot = k[mid];
+        size_t i = lo, j = hi;
+        for (;;) {
+            while (keyed_less(&k[i], &pivot))
+                i++;
+            while (keyed_less(&pivot, &k[j]))
+                j--;
+            if (i >= j)
+                break;
+            keyed t = k[i];
+            k[i] = k[j];
+            k[j] = t;
+            i++;
+            j--;
+        }
+        /* [lo, j] <= pivot <= [j + 1, hi] */
+        if (m <= j)
+            hi = j;
+        else
+            lo = j + 1;
+    }
+}
+
 /* Adaptive hierarchical clustering (after Pauly et al.): split along the
  * longest extent at the median until at most nmax points; each cluster is
- * represented by its point nearest to the centroid. */
-static void cluster(const gs_opoint *pts, keyed *k, size_t n, int nmax, size_t *reps,
-                    size_t *nreps)
+ * represented by its point nearest to the centroid. The halves are found by
+ * selection, not a sort; a leaf's points are then sorted by its parent's key
+ * (sorted is nonzero below the root), so the centroid is summed in the order
+ * a sort at every level gives. */
+static void cluster(const gs_opoint *pts, keyed *k, size_t n, int nmax, int sorted,
+                    size_t *reps, size_t *nreps)
 {
     if (n == 0)
         return;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    double c[3] = {0, 0, 0};
-    for (size_t i = 0; i < n; i++)
-        for (int a = 0; a < 3; a++) {
-            double v = pts[k[i].idx].p[a];
-            lo[a] = fmin(lo[a], v);
-            hi[a] = fmax(hi[a], v);
-            c[a] += v;
-        }
     if (n <= (size_t)nmax) {
+        if (sorted)
+            qsort(k, n, sizeof *k, keyed_cmp);
+        double c[3] = {0, 0, 0};
+        for (size_t i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++)
+                c[a] += pts[k[i].idx].p[a];
         for (int a = 0; a < 3; a++)
             c[a] /= (double)n;
         size_t best = k[0].idx;
@@ -454,15 +494,22 @@ static void cluster(const gs_opoint *pts, keyed *k, size_t n, int nmax, size_t *
         reps[(*nreps)++] = best;
         return;
     }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double v = pts[k[i].idx].p[a];
+            lo[a] = fmin(lo[a], v);
+            hi[a] = fmax(hi[a], v);
+        }
     int ax = 0;
     for (int a = 1; a < 3; a++)
         if (hi[a] - lo[a] > hi[ax] - lo[ax])
             ax = a;
     for (size_t i = 0; i < n; i++)
         k[i].key = pts[k[i].idx].p[ax];
-    qsort(k, n, sizeof *k, keyed_cmp);
-    cluster(pts, k, n / 2, nmax, reps, nreps);
-    cluster(pts, k + n / 2, n - n / 2, nmax, reps, nreps);
+    keyed_select(k, n, n / 2);
+    cluster(pts, k, n / 2, nmax, 1, reps, nreps);
+    cluster(pts, k + n / 2, n - n / 2, nmax, 1, reps, nreps);
 }
 
 /* ------------------------------------------------------------------- steps */
@@ -588,7 +635,7 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
     size_t nmax = (nq_all + (size_t)p->max_pairs - 1) / (size_t)p->max_pairs;
     if (nmax < (size_t)p->cluster_max)
         nmax = (size_t)p->cluster_max;
-    cluster(s->Qall.v, k, nq_all, (int)nmax, reps, &nreps);
+    cluster(s->Qall.v, k, nq_all, (int)nmax, 0, reps, &nreps);
     GS_TRY(err, gs_alloc_array((void **)&qv, nreps, sizeof *qv, "target variation"), done);
     for (size_t i = 0; i < nreps; i++) {
         GS_TRY(err, gs_points_append(&Q, &s->Qall.v[reps[i]], 1), done);
