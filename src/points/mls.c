@@ -111,6 +111,20 @@ gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, dou
     return GS_OK;
 }
 
+gs_err gs_points_field_range(const gs_points_grid *g, double R, double trunc, double max_reach,
+                             const double lo[3], const double step[3], int nx, int ny,
+                             size_t first, size_t count, gs_points *scratch, float *out)
+{
+    size_t nxy = (size_t)nx * ny;
+    for (size_t node = first; node < first + count; node++) {
+        int i = (int)(node % (size_t)nx), j = (int)(node / (size_t)nx % (size_t)ny);
+        int k = (int)(node / nxy);
+        double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
+        GS_CALL(gs_points_field_node(g, R, trunc, max_reach, x, scratch, out + 4 * (node - first)));
+    }
+    return GS_OK;
+}
+
 gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double max_reach,
                        const double lo[3], const double step[3], int nx, int ny, int nz,
                        float *out)
@@ -118,15 +132,8 @@ gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double m
     GS_CHECK(trunc > 0 && R > 0, GS_ERR_ARG, "distance field: trunc %g and radius %g must be > 0",
              trunc, R);
     gs_points scratch = {0};
-    gs_err err = GS_OK;
-    for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
-            for (int i = 0; i < nx; i++) {
-                double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
-                float *o = out + 4 * (((size_t)k * ny + j) * nx + i);
-                GS_TRY(err, gs_points_field_node(g, R, trunc, max_reach, x, &scratch, o), done);
-            }
-done:
+    gs_err err = gs_points_field_range(g, R, trunc, max_reach, lo, step, nx, ny, 0,
+                                       (size_t)nx * ny * nz, &scratch, out);
     gs_points_free(&scratch);
     return err;
 }

@@ -262,6 +262,44 @@ gs_err gs_points_patch_count(const gs_points_texture *tex, const gs_points_param
     return GS_OK;
 }
 
+/* Items [0, n) of `bytes` each through the map hook (or here). */
+static gs_err par_map(struct gs_points_synth *s, size_t n, size_t bytes, gs_points_range_fn fn,
+                      void *ctx, void *out)
+{
+    /* n is the same on every process, so an empty map is skipped by all
+     * (each map hook call costs an exchange). */
+    if (n == 0)
+        return GS_OK;
+    if (s->map_fn)
+        GS_CALL(s->map_fn(s->map_user, n, bytes, fn, ctx, out));
+    else
+        GS_CALL(fn(ctx, 0, n, out));
+    return GS_OK;
+}
+
+/* Surface variation of input points [lo, hi) (gs_points_range_fn). */
+static gs_err input_variation(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    struct gs_points_synth *s = vctx;
+    double *out = vout, r = s->p.variation_radius;
+    for (size_t i = lo; i < hi; i++) {
+        s->scratch.n = 0;
+        GS_CALL(gs_points_grid_query(s->in_grid, s->in.v[i].p, r, &s->scratch));
+        out[i - lo] = gs_points_surface_variation(&s->scratch, s->in.v[i].p, r);
+    }
+    return GS_OK;
+}
+
+/* Nodes [lo, hi) of D(T_in) (gs_points_range_fn). */
+static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    struct gs_points_synth *s = vctx;
+    double step[3] = {s->g, s->g, s->gz};
+    GS_CALL(gs_points_field_range(s->in_grid, s->p.mls_radius, s->p.trunc, s->reach, s->box_lo,
+                                  step, s->nx, s->ny, lo, hi - lo, &s->scratch, vout));
+    return GS_OK;
+}
+
 static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *tex,
                           const gs_points_params *p, const gs_points_synth_share *share)
 {
@@ -295,12 +333,12 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     GS_CALL(gs_points_grid_create(lo, hi, R, &s->in_grid));
     for (size_t i = 0; i < s->in.n; i++)
         GS_CALL(gs_points_grid_add(s->in_grid, &s->in.v[i]));
+    /* The per-point and per-node precomputation goes over the map hook
+     * (every rank would otherwise repeat all of it). */
+    s->map_fn = share ? share->map : NULL;
+    s->map_user = share ? share->map_user : NULL;
     GS_CALL(gs_alloc_array((void **)&s->in_var, s->in.n, sizeof *s->in_var, "surface variation"));
-    for (size_t i = 0; i < s->in.n; i++) {
-        s->scratch.n = 0;
-        GS_CALL(gs_points_grid_query(s->in_grid, s->in.v[i].p, p->variation_radius, &s->scratch));
-        s->in_var[i] = gs_points_surface_variation(&s->scratch, s->in.v[i].p, p->variation_radius);
-    }
+    GS_CALL(par_map(s, s->in.n, sizeof *s->in_var, input_variation, s, s->in_var));
     GS_CALL(columns_build(&s->cols_in, &s->in, s->g));
     size_t inside = 0;
     for (size_t i = 0; i < s->in.n; i++) {
@@ -312,9 +350,7 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     /* D(T_in) and the patch bank (every patch: one share). */
     size_t nodes = (size_t)s->nx * s->ny * s->nz;
     GS_CALL(gs_alloc_array((void **)&s->field_in, nodes, 4 * sizeof(float), "input field"));
-    double step[3] = {s->g, s->g, s->gz};
-    GS_CALL(gs_points_field(s->in_grid, R, p->trunc, s->reach, s->box_lo, step, s->nx, s->ny,
-                            s->nz, s->field_in));
+    GS_CALL(par_map(s, nodes, 4 * sizeof(float), input_field_nodes, s, s->field_in));
     gs_points_layout_init(&s->lay, p->patch_cells, p->overlap_cells, s->nz);
     s->npatch = gs_points_bank_total(s->nx, s->ny, &s->lay);
     s->npx = s->nx - p->patch_cells;
@@ -328,8 +364,6 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
              s->npatch);
     s->search_fn = share ? share->fn : NULL;
     s->search_user = share ? share->user : NULL;
-    s->map_fn = share ? share->map : NULL;
-    s->map_user = share ? share->map_user : NULL;
     GS_CHECK(s->search_fn || count == s->npatch, GS_ERR_ARG,
              "points: a bank share of %zu of %zu patches needs a search hook", count, s->npatch);
     GS_CALL(gs_points_bank_create(s->field_in, s->nx, s->ny, &s->lay, first, count, &s->bank));
@@ -390,21 +424,6 @@ const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s,
 {
     *n = (size_t)s->cursor;
     return s->metrics;
-}
-
-/* Items [0, n) of `bytes` each through the map hook (or here). */
-static gs_err par_map(struct gs_points_synth *s, size_t n, size_t bytes, gs_points_range_fn fn,
-                      void *ctx, void *out)
-{
-    /* n is the same on every process, so an empty map is skipped by all
-     * (each map hook call costs an exchange). */
-    if (n == 0)
-        return GS_OK;
-    if (s->map_fn)
-        GS_CALL(s->map_fn(s->map_user, n, bytes, fn, ctx, out));
-    else
-        GS_CALL(fn(ctx, 0, n, out));
-    return GS_OK;
 }
 
 /* --------------------------------------------------------------- clustering */
