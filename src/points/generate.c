@@ -1,6 +1,7 @@
 /* Example geometry textures of the paper's kinds (height field, chain mail,
  * weave, flowers) as Poisson-disk samplings of unions of parametric
  * primitives, and the padding check; see include/geosynth/points.h. */
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -231,6 +232,75 @@ static int any_within(const struct gs_points_grid *g, const double c[3], double 
     return 0;
 }
 
+static int prim_bounded(const prim *pr)
+{
+    return pr->kind == PRIM_TORUS || pr->kind == PRIM_ELLIPSOID;
+}
+
+/* For each bounded primitive i (its surface lies within bound_r of c), the
+ * bounded primitives j != i whose bounding spheres come near its own
+ * (CSR: nb[start[i] .. start[i + 1])): the only ones whose prim_inside can
+ * be true at a point of i (the others fail its bounding-sphere test, and
+ * unbounded kinds never contain a point). The test is an OR, so checking
+ * fewer primitives changes nothing. Sweep over centres sorted by x. */
+static gs_err prim_neighbours(const prim *prims, int np, int **start_out, int **nb_out)
+{
+    keyed *key = NULL;
+    int *order = NULL, *start = NULL, *nb = NULL, *fill = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&key, (size_t)np + 1, sizeof *key, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&order, (size_t)np + 1, sizeof *order, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&start, (size_t)np + 1, sizeof *start, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&fill, (size_t)np + 1, sizeof *fill, "prim order"), done);
+    int nbounded = 0;
+    double maxb = 0;
+    for (int i = 0; i < np; i++)
+        if (prim_bounded(&prims[i])) {
+            key[nbounded++] = (keyed){prims[i].c[0], (size_t)i};
+            maxb = fmax(maxb, prims[i].bound_r);
+        }
+    qsort(key, (size_t)nbounded, sizeof *key, gs_points_keyed_cmp);
+    for (int a = 0; a < nbounded; a++)
+        order[a] = (int)key[a].idx;
+    /* Two passes over the pairs: count, then fill. */
+    for (int pass = 0; pass < 2; pass++) {
+        for (int a = 0; a < nbounded; a++) {
+            const prim *pa = &prims[order[a]];
+            for (int b = a + 1; b < nbounded; b++) {
+                const prim *pb = &prims[order[b]];
+                double reach = 1.01 * (pa->bound_r + pb->bound_r) + 1e-9;
+                if (pb->c[0] - pa->c[0] > 1.01 * (pa->bound_r + maxb) + 1e-9)
+                    break;
+                if (v3_dist2(pa->c, pb->c) > reach * reach)
+                    continue;
+                if (pass == 0) {
+                    start[order[a] + 1]++;
+                    start[order[b] + 1]++;
+                } else {
+                    nb[start[order[a]] + fill[order[a]]++] = order[b];
+                    nb[start[order[b]] + fill[order[b]]++] = order[a];
+                }
+            }
+        }
+        if (pass == 0) {
+            for (int i = 0; i < np; i++)
+                start[i + 1] += start[i];
+            GS_TRY(err, gs_alloc_array((void **)&nb, start[np] ? (size_t)start[np] : 1, sizeof *nb,
+                                       "prim neighbours"), done);
+        }
+    }
+    *start_out = start;
+    *nb_out = nb;
+    start = nb = NULL;
+done:
+    gs_free(key);
+    gs_free(order);
+    gs_free(start);
+    gs_free(nb);
+    gs_free(fill);
+    return err;
+}
+
 /* Dart throwing over the union of prims, then the texture's box. */
 static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, int np,
                            uint32_t kind, gs_points_texture *out)
@@ -256,9 +326,14 @@ static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, in
     hi[2] = zmax + 2 * s;
     gs_points_grid_t grid = NULL;
     GS_CALL(gs_points_grid_create(lo, hi, s, &grid));
+    int *nb_start = NULL, *nb = NULL;
+    gs_err err = prim_neighbours(prims, np, &nb_start, &nb);
+    if (err != GS_OK) {
+        gs_points_grid_destroy(&grid);
+        GS_CALL(err);
+    }
     gs_rng rng;
     gs_rng_init(&rng, gp->seed, gs_rng_stream_id(0x50544753u, kind, 0, 0));
-    gs_err err = GS_OK;
     const int scan = 48;
     for (int i = 0; i < np && err == GS_OK; i++) {
         const prim *pr = &prims[i];
@@ -280,8 +355,12 @@ static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, in
             if (p[0] < lo[0] + s || p[0] > hi[0] - s || p[1] < lo[1] + s || p[1] > hi[1] - s)
                 continue;
             int inside = 0;
-            for (int j = 0; j < np && !inside; j++)
-                inside = j != i && prim_inside(&prims[j], p);
+            if (prim_bounded(pr))
+                for (int q = nb_start[i]; q < nb_start[i + 1] && !inside; q++)
+                    inside = prim_inside(&prims[nb[q]], p);
+            else
+                for (int j = 0; j < np && !inside; j++)
+                    inside = j != i && prim_inside(&prims[j], p);
             if (inside || any_within(grid, p, s))
                 continue;
             gs_opoint op;
@@ -309,6 +388,8 @@ done:
     if (err != GS_OK)
         gs_points_free(&out->pts);
     gs_points_grid_destroy(&grid);
+    gs_free(nb_start);
+    gs_free(nb);
     return err;
 }
 

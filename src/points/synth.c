@@ -428,12 +428,7 @@ const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s,
 
 /* --------------------------------------------------------------- clustering */
 
-typedef struct keyed {
-    double key;
-    size_t idx;
-} keyed;
-
-static int keyed_cmp(const void *pa, const void *pb)
+int gs_points_keyed_cmp(const void *pa, const void *pb)
 {
     const keyed *a = pa, *b = pb;
     if (a->key != b->key)
@@ -446,7 +441,7 @@ static int keyed_less(const keyed *a, const keyed *b)
     return a->key < b->key || (a->key == b->key && a->idx < b->idx);
 }
 
-/* Reorders k so that k[m] is the element a full sort by keyed_cmp would put
+/* Reorders k so that k[m] is the element a full sort by gs_points_keyed_cmp would put
  * there, with every smaller element before it (Hoare's selection with the
  * median of three; the order is total, so the two sides are exactly those of
  * a sort, whatever the input order). */
@@ -494,7 +489,7 @@ static void cluster(const gs_opoint *pts, keyed *k, size_t n, int nmax, int sort
         return;
     if (n <= (size_t)nmax) {
         if (sorted)
-            qsort(k, n, sizeof *k, keyed_cmp);
+            qsort(k, n, sizeof *k, gs_points_keyed_cmp);
         double c[3] = {0, 0, 0};
         for (size_t i = 0; i < n; i++)
             for (int a = 0; a < 3; a++)
