@@ -541,33 +541,108 @@ done:
 }
 
 /* Up to this many bytes of items a map exchanges in one collective that
- * also carries each rank's status (items are copied through a buffer);
- * larger maps agree first and gather in place. */
+ * also carries each rank's status and compute time (items are copied
+ * through a buffer); larger maps agree first and gather in place. */
 #define MAP_ONE_EXCHANGE_BYTES ((size_t)16 << 20)
+#define MAP_MAX_RANKS_ADAPTIVE 4096
 
-/* The one-collective exchange of mpi_map: every rank sends its items and
- * its status, then every rank copies all items into out. On a failure
- * anywhere every rank returns it (gs_par_agree names the first). */
-static gs_err map_exchange_with_status(MPI_Comm comm, int size, int rank, size_t n,
-                                       size_t bytes, gs_err local, void *out)
+/* State of the map hook: the share of the items each rank computes. Shares
+ * start equal and follow each rank's measured speed (items per second of
+ * its last maps): on a shared machine a rank whose core also runs another
+ * job is slower, and an equal split would make every map wait for it. Who
+ * computes an item never changes its value, and every rank updates the
+ * shares from the same gathered numbers with the same arithmetic, so the
+ * split is the same everywhere and the output does not depend on it. */
+typedef struct map_state {
+    MPI_Comm comm;
+    int size;
+    double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
+} map_state;
+
+static void map_state_init(map_state *m, MPI_Comm comm, int size)
 {
-    const size_t st_bytes = sizeof(int64_t);
+    m->comm = comm;
+    m->size = size;
+    for (int r = 0; r < size && r < MAP_MAX_RANKS_ADAPTIVE; r++)
+        m->share[r] = 1.0 / size;
+}
+
+/* Items [start, start + count) of rank r out of n under the shares. */
+static void map_split(const map_state *m, uint64_t n, int r, uint64_t *start, uint64_t *count)
+{
+    if (m->size > MAP_MAX_RANKS_ADAPTIVE) {
+        gs_h5_split_rows(n, m->size, r, start, count);
+        return;
+    }
+    double cum = 0;
+    for (int q = 0; q < r; q++)
+        cum += m->share[q];
+    uint64_t lo = r == 0 ? 0 : (uint64_t)(cum * (double)n);
+    uint64_t hi = r == m->size - 1 ? n : (uint64_t)((cum + m->share[r]) * (double)n);
+    if (lo > n)
+        lo = n;
+    if (hi > n)
+        hi = n;
+    if (hi < lo)
+        hi = lo;
+    *start = lo;
+    *count = hi - lo;
+}
+
+/* New shares from every rank's (items, seconds) of one map: half the old
+ * share, half the measured speed; every rank keeps at least a tenth of an
+ * equal share so its speed stays measured. Maps too short to time are
+ * ignored. */
+static void map_adapt(map_state *m, const double *items, const double *seconds)
+{
+    if (m->size > MAP_MAX_RANKS_ADAPTIVE)
+        return;
+    double speed[MAP_MAX_RANKS_ADAPTIVE], total = 0;
+    for (int r = 0; r < m->size; r++) {
+        if (items[r] < 1 || seconds[r] < 2e-4)
+            return;
+        speed[r] = items[r] / seconds[r];
+        total += speed[r];
+    }
+    double floor_share = 0.1 / m->size, sum = 0;
+    for (int r = 0; r < m->size; r++) {
+        double sh = 0.5 * m->share[r] + 0.5 * speed[r] / total;
+        m->share[r] = sh < floor_share ? floor_share : sh;
+        sum += m->share[r];
+    }
+    for (int r = 0; r < m->size; r++)
+        m->share[r] /= sum;
+}
+
+/* The one-collective exchange of mpi_map: every rank sends its items, its
+ * status and its compute seconds, then every rank copies all items into out
+ * and adapts the shares. On a failure anywhere every rank returns it
+ * (gs_par_agree names the first). */
+static gs_err map_exchange_with_status(map_state *m, int rank, size_t n, size_t bytes,
+                                       gs_err local, double seconds, void *out)
+{
+    enum { TRAILER = 2 * sizeof(int64_t) }; /* status, seconds */
+    int size = m->size;
     int *counts = NULL, *displs = NULL;
+    double *items = NULL, *secs = NULL;
     char *send = NULL, *recv = NULL;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"),
            done);
+    GS_TRY(err, gs_alloc_array((void **)&items, (size_t)size, 2 * sizeof *items, "map counts"),
+           done);
     displs = counts + size;
+    secs = items + size;
     int off = 0;
     uint64_t mine_start = 0, mine_count = 0;
     for (int r = 0; r < size; r++) {
         uint64_t st, ct;
-        gs_h5_split_rows(n, size, r, &st, &ct);
+        map_split(m, n, r, &st, &ct);
         if (r == rank) {
             mine_start = st;
             mine_count = ct;
         }
-        counts[r] = (int)(ct * bytes + st_bytes);
+        counts[r] = (int)(ct * bytes + TRAILER);
         displs[r] = off;
         off += counts[r];
     }
@@ -575,8 +650,9 @@ static gs_err map_exchange_with_status(MPI_Comm comm, int size, int rank, size_t
     GS_TRY(err, gs_alloc_array((void **)&recv, (size_t)off, 1, "map exchange"), done);
     int64_t status = (int64_t)local;
     memcpy(send, (char *)out + mine_start * bytes, mine_count * bytes);
-    memcpy(send + mine_count * bytes, &status, st_bytes);
-    int rc = MPI_Allgatherv(send, counts[rank], MPI_BYTE, recv, counts, displs, MPI_BYTE, comm);
+    memcpy(send + mine_count * bytes, &status, sizeof status);
+    memcpy(send + mine_count * bytes + sizeof status, &seconds, sizeof seconds);
+    int rc = MPI_Allgatherv(send, counts[rank], MPI_BYTE, recv, counts, displs, MPI_BYTE, m->comm);
     if (rc != MPI_SUCCESS) {
         err = gs_mpi_error(rc, "MPI_Allgatherv", __FILE__, __LINE__, __func__);
         goto done;
@@ -584,41 +660,49 @@ static gs_err map_exchange_with_status(MPI_Comm comm, int size, int rank, size_t
     int failed = 0;
     for (int r = 0; r < size; r++) {
         uint64_t st, ct;
-        gs_h5_split_rows(n, size, r, &st, &ct);
-        memcpy(&status, recv + displs[r] + ct * bytes, st_bytes);
+        map_split(m, n, r, &st, &ct);
+        const char *tail = recv + displs[r] + ct * bytes;
+        memcpy(&status, tail, sizeof status);
+        memcpy(&secs[r], tail + sizeof status, sizeof secs[r]);
+        items[r] = (double)ct;
         failed |= status != GS_OK;
         if (r != rank)
             memcpy((char *)out + st * bytes, recv + displs[r], ct * bytes);
     }
     if (failed) /* every rank saw it: all of them agree on the message */
-        err = gs_par_agree(comm, local);
+        err = gs_par_agree(m->comm, local);
+    else
+        map_adapt(m, items, secs);
 done:
     gs_free(counts);
+    gs_free(items);
     gs_free(send);
     gs_free(recv);
     return err;
 }
 
-/* gs_points_map_fn over the ranks: balanced contiguous split, each rank
- * computes its items, then every rank gets all items and the failure
- * status is agreed: in one MPI_Allgatherv that carries the statuses up to
- * MAP_ONE_EXCHANGE_BYTES (each exchange waits for the slowest rank, and
- * maps run twice per patch), else gs_par_agree then MPI_Allgatherv in
- * place. Collective. */
+/* gs_points_map_fn over the ranks (user: map_state): each rank computes its
+ * part of the items (map_split), then every rank gets all items and the
+ * failure status is agreed: in one MPI_Allgatherv that also carries the
+ * statuses and compute times up to MAP_ONE_EXCHANGE_BYTES (each exchange
+ * waits for the slowest rank, and maps run twice per patch), else
+ * gs_par_agree then MPI_Allgatherv in place. Collective. */
 static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
                       void *out)
 {
-    MPI_Comm comm = *(MPI_Comm *)user;
-    int rank, size;
+    map_state *m = user;
+    MPI_Comm comm = m->comm;
+    int rank, size = m->size;
     GS_MPI(MPI_Comm_rank(comm, &rank));
-    GS_MPI(MPI_Comm_size(comm, &size));
     uint64_t start, count;
-    gs_h5_split_rows(n, size, rank, &start, &count);
+    map_split(m, n, rank, &start, &count);
+    double t0 = gs_time_now();
     gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
                             (char *)out + (size_t)start * bytes)
                        : GS_OK;
+    double seconds = gs_time_now() - t0;
     if (size > 1 && n > 0 && n <= MAP_ONE_EXCHANGE_BYTES / bytes) {
-        GS_CALL(map_exchange_with_status(comm, size, rank, n, bytes, err, out));
+        GS_CALL(map_exchange_with_status(m, rank, n, bytes, err, seconds, out));
         return GS_OK;
     }
     GS_CALL(gs_par_agree(comm, err));
@@ -631,7 +715,7 @@ static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
     displs = counts + size;
     for (int r = 0; r < size; r++) {
         uint64_t st, ct;
-        gs_h5_split_rows(n, size, r, &st, &ct);
+        map_split(m, n, r, &st, &ct);
         counts[r] = (int)ct;
         displs[r] = (int)st;
     }
@@ -847,7 +931,7 @@ typedef struct run_state {
     gs_points_synth_t synth;
     gs_points out;
     uint64_t tex_digest;
-    MPI_Comm comm; /* for the map hook */
+    map_state map; /* the map hook's state */
 } run_state;
 
 static void run_state_free(run_state *r)
@@ -940,13 +1024,13 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     rs->sctx.size = run->size;
     rs->sctx.lo = lo;
     rs->sctx.hi = hi;
-    rs->comm = run->comm;
+    map_state_init(&rs->map, run->comm, run->size);
     gs_points_synth_share share = {.first = (size_t)lo,
                                    .count = (size_t)(hi - lo),
                                    .fn = distributed_search,
                                    .user = &rs->sctx,
                                    .map = run->size > 1 ? mpi_map : NULL,
-                                   .map_user = &rs->comm};
+                                   .map_user = &rs->map};
     err = GS_OK;
     if (hi == lo) { /* more ranks than patches: an empty share still joins every search */
         share.first = 0;
