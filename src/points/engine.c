@@ -11,9 +11,9 @@
  * Parallel model: every rank holds the whole synthesis state (output point
  * grid, RNG, metrics) and does the same deterministic steps; the search over
  * the input patches is distributed: each rank's patch bank holds only its
- * share [lo, hi) of gs_psearch's partition, and gs_psearch_within gathers
- * every candidate under (1 + eps) * global best, sorted by (distance,
- * index), on every rank. Each patch's distance is summed in a fixed order
+ * share [lo, hi) of gs_psearch's partition, each rank scans it and one
+ * all-gather brings every candidate under (1 + eps) * global best, sorted by
+ * (distance, index), to every rank (distributed_search). Each patch's distance is summed in a fixed order
  * independent of the partition, so Psi_k, the random pick and therefore the
  * output are bit-identical for any rank count.
  *
@@ -398,74 +398,313 @@ static uint64_t texture_digest(const gs_points_texture *tex)
 
 /* -------------------------------------------------------- distributed search */
 
+/* Candidates a rank sends in the one exchange of a search; a rank with more
+ * (rare: the mean |Psi_k| is 1 to 2) makes every rank gather again. */
+#define SEARCH_SLOTS 32
+
 typedef struct search_ctx {
-    gs_psearch_t ps;
-    const float *query;
-    int mode;
-    const gs_points_bank *bank;
+    MPI_Comm comm;
+    int rank, size;
+    int64_t lo, hi;        /* this rank's share of the patches */
+    double scale;          /* 1 + eps */
+    gs_points_cands local; /* offers of this rank's scan */
+    int oom;               /* an offer could not be stored (reported after the scan) */
+    int64_t offers, regathers;
 } search_ctx;
 
-static double ps_bound(void *user) { return gs_psearch_bound((gs_psearch_t)user); }
-
-static void ps_offer(void *user, double d, uint64_t index)
-{
-    gs_psearch_offer((gs_psearch_t)user, d, (int64_t)index);
-}
-
-static gs_err ps_scan(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
+static double local_bound(void *user)
 {
     search_ctx *c = user;
-    GS_CALL(gs_points_search_scan(c->bank, c->query, c->mode, (uint64_t)lo, (uint64_t)hi, ps_bound,
-                                  ps_offer, ps));
-    return GS_OK;
+    return c->scale * c->local.best;
 }
 
-/* gs_points_search_fn: Psi_k over all ranks (collective). */
+static void local_offer(void *user, double d, uint64_t index)
+{
+    search_ctx *c = user;
+    gs_points_cands *o = &c->local;
+    c->offers++;
+    if (c->oom)
+        return;
+    if (o->n == o->cap) {
+        size_t cap = o->cap ? 2 * o->cap : 64;
+        gs_points_cand *v = gs_realloc(o->v, cap * sizeof *v);
+        if (!v) {
+            c->oom = 1;
+            return;
+        }
+        o->v = v;
+        o->cap = cap;
+    }
+    o->v[o->n].dist = d;
+    o->v[o->n++].index = index;
+    if (d < o->best)
+        o->best = d;
+}
+
+/* gs_points_search_fn: Psi_k over all ranks (collective). Each rank scans
+ * its share with its own running bound (every patch within (1 + eps) x its
+ * best: a superset of its part of Psi_k, since its best is >= the global
+ * one), then one MPI_Allgather of {status, count, SEARCH_SLOTS candidates}
+ * per rank, and gs_points_search_merge keeps exactly the serial Psi_k. One
+ * exchange per patch instead of psearch's four plus bound messages: on a
+ * shared machine every exchange waits for the slowest rank, and the scan is
+ * a small part of a step, so a shared bound saves less than it costs. */
 static gs_err distributed_search(void *user, const gs_points_synth *s, const float *query,
                                  int mode, double eps, gs_points_cands *out)
 {
     search_ctx *c = user;
-    c->query = query;
-    c->mode = mode;
-    c->bank = gs_points_synth_bank(s);
-    gs_psearch_hit *hits = NULL;
-    int64_t n = 0;
-    GS_CALL(gs_psearch_within(c->ps, eps, ps_scan, c, &hits, &n));
-    gs_err err = GS_OK;
-    if (n > 0) {
-        gs_points_cand *v = gs_realloc(out->v, (size_t)n * sizeof *v);
-        if (!v) {
-            gs_free(hits);
-            GS_RAISE(GS_ERR_MEM, "points: out of memory (%lld candidates)", (long long)n);
-        }
-        out->v = v;
-        out->cap = (size_t)n;
-        for (int64_t i = 0; i < n; i++) {
-            v[i].dist = hits[i].dist;
-            v[i].index = (uint64_t)hits[i].index;
-        }
-        out->n = (size_t)n;
-        out->best = v[0].dist;
+    const gs_points_bank *bank = gs_points_synth_bank(s);
+    c->scale = 1.0 + eps;
+    c->local.n = 0;
+    c->local.best = INFINITY;
+    c->oom = 0;
+    gs_err status = GS_OK;
+    if (c->hi > c->lo)
+        status = gs_points_search_scan(bank, query, mode, (uint64_t)c->lo, (uint64_t)c->hi,
+                                       local_bound, local_offer, c);
+    if (status == GS_OK && c->oom)
+        status = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                "points: out of memory (search candidates)");
+    /* Only what can survive the merge is sent. */
+    size_t kept = 0;
+    if (status == GS_OK)
+        for (size_t i = 0; i < c->local.n; i++)
+            if (c->local.v[i].dist <= c->scale * c->local.best)
+                c->local.v[kept++] = c->local.v[i];
+    c->local.n = kept;
+    enum { REC = 2 + 2 * SEARCH_SLOTS }; /* int64 words per rank */
+    int64_t mine[REC];
+    memset(mine, 0, sizeof mine);
+    mine[0] = (int64_t)status;
+    mine[1] = (int64_t)kept;
+    for (size_t i = 0; i < kept && i < SEARCH_SLOTS; i++) {
+        memcpy(&mine[2 + 2 * i], &c->local.v[i].dist, sizeof(double));
+        mine[3 + 2 * i] = (int64_t)c->local.v[i].index;
     }
-    gs_free(hits);
+    int64_t *all = NULL;
+    gs_points_cands *parts = NULL; /* views into more */
+    gs_points_cand *more = NULL;
+    int *counts = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&all, (size_t)c->size, sizeof mine, "search exchange"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&parts, (size_t)c->size, sizeof *parts, "search parts"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)c->size, 2 * sizeof *counts,
+                               "search parts"), done);
+    int rc = MPI_Allgather(mine, REC, MPI_INT64_T, all, REC, MPI_INT64_T, c->comm);
+    GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgather of the search "
+                 "candidates failed");
+    int failed = 0, overflow = 0;
+    int64_t total = 0;
+    for (int r = 0; r < c->size; r++) {
+        failed |= all[(size_t)r * REC] != GS_OK;
+        overflow |= all[(size_t)r * REC + 1] > SEARCH_SLOTS;
+        total += all[(size_t)r * REC + 1];
+    }
+    if (failed) {
+        err = gs_par_agree(c->comm, status);
+        goto done;
+    }
+    GS_TRY_CHECK(err, total <= INT_MAX / (int64_t)sizeof *more, GS_ERR_ARG, done,
+                 "points: %lld search candidates within (1 + %g) x best are too many for one "
+                 "exchange: lower points.eps", (long long)total, eps);
+    GS_TRY(err, gs_alloc_array((void **)&more, total ? (size_t)total : 1, sizeof *more,
+                               "search candidates"), done);
+    int *displs = counts + c->size, off = 0;
+    for (int r = 0; r < c->size; r++) {
+        int64_t nr = all[(size_t)r * REC + 1];
+        parts[r].v = more + off;
+        parts[r].n = (size_t)nr;
+        counts[r] = (int)nr * (int)sizeof *more;
+        displs[r] = off * (int)sizeof *more;
+        for (int64_t i = 0; i < nr && !overflow; i++) {
+            memcpy(&more[off + i].dist, &all[(size_t)r * REC + 2 + 2 * i], sizeof(double));
+            more[off + i].index = (uint64_t)all[(size_t)r * REC + 3 + 2 * i];
+        }
+        off += (int)nr;
+    }
+    if (overflow) { /* every rank saw it: all gather every candidate */
+        c->regathers++;
+        rc = MPI_Allgatherv(c->local.v, counts[c->rank], MPI_BYTE, more, counts, displs, MPI_BYTE,
+                            c->comm);
+        GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgatherv of the "
+                     "search candidates failed");
+    }
+    GS_TRY(err, gs_points_search_merge(parts, c->size, eps, out), done);
+done:
+    gs_free(all);
+    gs_free(parts);
+    gs_free(more);
+    gs_free(counts);
     return err;
 }
 
-/* gs_points_map_fn over the ranks: balanced contiguous split, each rank
- * computes its items, the failure status is agreed, then every rank gets
- * all items (MPI_Allgatherv in place). Collective. */
+/* Up to this many bytes of items a map exchanges in one collective that
+ * also carries each rank's status and compute time (items are copied
+ * through a buffer); larger maps agree first and gather in place. */
+#define MAP_ONE_EXCHANGE_BYTES ((size_t)16 << 20)
+#define MAP_MAX_RANKS_ADAPTIVE 4096
+
+/* State of the map hook: the share of the items each rank computes. Shares
+ * start equal and follow each rank's measured speed (items per second of
+ * its last maps): on a shared machine a rank whose core also runs another
+ * job is slower, and an equal split would make every map wait for it. Who
+ * computes an item never changes its value, and every rank updates the
+ * shares from the same gathered numbers with the same arithmetic, so the
+ * split is the same everywhere and the output does not depend on it. */
+typedef struct map_state {
+    MPI_Comm comm;
+    int size;
+    double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
+} map_state;
+
+static void map_state_init(map_state *m, MPI_Comm comm, int size)
+{
+    m->comm = comm;
+    m->size = size;
+    for (int r = 0; r < size && r < MAP_MAX_RANKS_ADAPTIVE; r++)
+        m->share[r] = 1.0 / size;
+}
+
+/* Items [start, start + count) of rank r out of n under the shares. */
+static void map_split(const map_state *m, uint64_t n, int r, uint64_t *start, uint64_t *count)
+{
+    if (m->size > MAP_MAX_RANKS_ADAPTIVE) {
+        gs_h5_split_rows(n, m->size, r, start, count);
+        return;
+    }
+    double cum = 0;
+    for (int q = 0; q < r; q++)
+        cum += m->share[q];
+    uint64_t lo = r == 0 ? 0 : (uint64_t)(cum * (double)n);
+    uint64_t hi = r == m->size - 1 ? n : (uint64_t)((cum + m->share[r]) * (double)n);
+    if (lo > n)
+        lo = n;
+    if (hi > n)
+        hi = n;
+    if (hi < lo)
+        hi = lo;
+    *start = lo;
+    *count = hi - lo;
+}
+
+/* New shares from every rank's (items, seconds) of one map: half the old
+ * share, half the measured speed; every rank keeps at least a tenth of an
+ * equal share so its speed stays measured. Maps too short to time are
+ * ignored. */
+static void map_adapt(map_state *m, const double *items, const double *seconds)
+{
+    if (m->size > MAP_MAX_RANKS_ADAPTIVE)
+        return;
+    double speed[MAP_MAX_RANKS_ADAPTIVE], total = 0;
+    for (int r = 0; r < m->size; r++) {
+        if (items[r] < 1 || seconds[r] < 2e-4)
+            return;
+        speed[r] = items[r] / seconds[r];
+        total += speed[r];
+    }
+    double floor_share = 0.1 / m->size, sum = 0;
+    for (int r = 0; r < m->size; r++) {
+        double sh = 0.5 * m->share[r] + 0.5 * speed[r] / total;
+        m->share[r] = sh < floor_share ? floor_share : sh;
+        sum += m->share[r];
+    }
+    for (int r = 0; r < m->size; r++)
+        m->share[r] /= sum;
+}
+
+/* The one-collective exchange of mpi_map: every rank sends its items, its
+ * status and its compute seconds, then every rank copies all items into out
+ * and adapts the shares. On a failure anywhere every rank returns it
+ * (gs_par_agree names the first). */
+static gs_err map_exchange_with_status(map_state *m, int rank, size_t n, size_t bytes,
+                                       gs_err local, double seconds, void *out)
+{
+    enum { TRAILER = 2 * sizeof(int64_t) }; /* status, seconds */
+    int size = m->size;
+    int *counts = NULL, *displs = NULL;
+    double *items = NULL, *secs = NULL;
+    char *send = NULL, *recv = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&items, (size_t)size, 2 * sizeof *items, "map counts"),
+           done);
+    displs = counts + size;
+    secs = items + size;
+    int off = 0;
+    uint64_t mine_start = 0, mine_count = 0;
+    for (int r = 0; r < size; r++) {
+        uint64_t st, ct;
+        map_split(m, n, r, &st, &ct);
+        if (r == rank) {
+            mine_start = st;
+            mine_count = ct;
+        }
+        counts[r] = (int)(ct * bytes + TRAILER);
+        displs[r] = off;
+        off += counts[r];
+    }
+    GS_TRY(err, gs_alloc_array((void **)&send, (size_t)counts[rank], 1, "map exchange"), done);
+    GS_TRY(err, gs_alloc_array((void **)&recv, (size_t)off, 1, "map exchange"), done);
+    int64_t status = (int64_t)local;
+    memcpy(send, (char *)out + mine_start * bytes, mine_count * bytes);
+    memcpy(send + mine_count * bytes, &status, sizeof status);
+    memcpy(send + mine_count * bytes + sizeof status, &seconds, sizeof seconds);
+    int rc = MPI_Allgatherv(send, counts[rank], MPI_BYTE, recv, counts, displs, MPI_BYTE, m->comm);
+    if (rc != MPI_SUCCESS) {
+        err = gs_mpi_error(rc, "MPI_Allgatherv", __FILE__, __LINE__, __func__);
+        goto done;
+    }
+    int failed = 0;
+    for (int r = 0; r < size; r++) {
+        uint64_t st, ct;
+        map_split(m, n, r, &st, &ct);
+        const char *tail = recv + displs[r] + ct * bytes;
+        memcpy(&status, tail, sizeof status);
+        memcpy(&secs[r], tail + sizeof status, sizeof secs[r]);
+        items[r] = (double)ct;
+        failed |= status != GS_OK;
+        if (r != rank)
+            memcpy((char *)out + st * bytes, recv + displs[r], ct * bytes);
+    }
+    if (failed) /* every rank saw it: all of them agree on the message */
+        err = gs_par_agree(m->comm, local);
+    else
+        map_adapt(m, items, secs);
+done:
+    gs_free(counts);
+    gs_free(items);
+    gs_free(send);
+    gs_free(recv);
+    return err;
+}
+
+/* gs_points_map_fn over the ranks (user: map_state): each rank computes its
+ * part of the items (map_split), then every rank gets all items and the
+ * failure status is agreed: in one MPI_Allgatherv that also carries the
+ * statuses and compute times up to MAP_ONE_EXCHANGE_BYTES (each exchange
+ * waits for the slowest rank, and maps run twice per patch), else
+ * gs_par_agree then MPI_Allgatherv in place. Collective. */
 static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
                       void *out)
 {
-    MPI_Comm comm = *(MPI_Comm *)user;
-    int rank, size;
+    map_state *m = user;
+    MPI_Comm comm = m->comm;
+    int rank, size = m->size;
     GS_MPI(MPI_Comm_rank(comm, &rank));
-    GS_MPI(MPI_Comm_size(comm, &size));
     uint64_t start, count;
-    gs_h5_split_rows(n, size, rank, &start, &count);
+    map_split(m, n, rank, &start, &count);
+    double t0 = gs_time_now();
     gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
                             (char *)out + (size_t)start * bytes)
                        : GS_OK;
+    double seconds = gs_time_now() - t0;
+    if (size > 1 && n > 0 && n <= MAP_ONE_EXCHANGE_BYTES / bytes) {
+        GS_CALL(map_exchange_with_status(m, rank, n, bytes, err, seconds, out));
+        return GS_OK;
+    }
     GS_CALL(gs_par_agree(comm, err));
     if (size == 1 || n == 0)
         return GS_OK;
@@ -476,7 +715,7 @@ static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
     displs = counts + size;
     for (int r = 0; r < size; r++) {
         uint64_t st, ct;
-        gs_h5_split_rows(n, size, r, &st, &ct);
+        map_split(m, n, r, &st, &ct);
         counts[r] = (int)ct;
         displs[r] = (int)st;
     }
@@ -692,13 +931,14 @@ typedef struct run_state {
     gs_points_synth_t synth;
     gs_points out;
     uint64_t tex_digest;
-    MPI_Comm comm; /* for the map hook */
+    map_state map; /* the map hook's state */
 } run_state;
 
 static void run_state_free(run_state *r)
 {
     gs_points_synth_destroy(&r->synth);
     gs_psearch_destroy(&r->ps);
+    gs_points_cands_free(&r->sctx.local);
     gs_points_texture_free(&r->tex);
     gs_points_free(&r->out);
 }
@@ -779,14 +1019,18 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     GS_CALL(gs_psearch_create(run->comm, (int64_t)npatch, NULL, &rs->ps));
     int64_t lo, hi;
     gs_psearch_share(rs->ps, &lo, &hi);
-    rs->sctx.ps = rs->ps;
-    rs->comm = run->comm;
+    rs->sctx.comm = run->comm;
+    rs->sctx.rank = run->rank;
+    rs->sctx.size = run->size;
+    rs->sctx.lo = lo;
+    rs->sctx.hi = hi;
+    map_state_init(&rs->map, run->comm, run->size);
     gs_points_synth_share share = {.first = (size_t)lo,
                                    .count = (size_t)(hi - lo),
                                    .fn = distributed_search,
                                    .user = &rs->sctx,
                                    .map = run->size > 1 ? mpi_map : NULL,
-                                   .map_user = &rs->comm};
+                                   .map_user = &rs->map};
     err = GS_OK;
     if (hi == lo) { /* more ranks than patches: an empty share still joins every search */
         share.first = 0;
@@ -847,7 +1091,6 @@ static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
     }
     gs_progress_end(&prog);
     gs_points_times tm = gs_points_synth_times(s);
-    gs_psearch_stats ps = gs_psearch_get_stats(rs->ps);
     gs_json j;
     gs_json_init(&j);
     gs_json_begin_object(&j, NULL);
@@ -856,8 +1099,8 @@ static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
     gs_json_f64(&j, "warp_seconds", tm.warp);
     gs_json_f64(&j, "blend_seconds", tm.blend);
     gs_json_f64(&j, "other_seconds", tm.other);
-    gs_json_i64(&j, "candidates_offered_rank0", ps.offers);
-    gs_json_i64(&j, "bound_messages_rank0", ps.bcasts);
+    gs_json_i64(&j, "candidates_offered_rank0", rs->sctx.offers);
+    gs_json_i64(&j, "search_regathers", rs->sctx.regathers);
     gs_json_end_object(&j);
     gs_err err = gs_run_phase_end(run, j.buf);
     gs_json_free(&j);

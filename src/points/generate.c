@@ -1,6 +1,7 @@
 /* Example geometry textures of the paper's kinds (height field, chain mail,
  * weave, flowers) as Poisson-disk samplings of unions of parametric
  * primitives, and the padding check; see include/geosynth/points.h. */
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -65,9 +66,42 @@ static double hf_value(const hf_image *im, double fx, double fy)
     return im->scale * ((v[0] * (1 - tx) + v[1] * tx) * (1 - ty) + (v[2] * (1 - tx) + v[3] * tx) * ty);
 }
 
-/* Point at parameters (u, v) in [0,1)^2 and a reference point the outward
- * normal points away from. */
-static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
+/* The trigonometric terms of a primitive that depend on u alone (v = 0) or
+ * on v alone (v = 1), so a frame's three evaluations share them. */
+static void prim_trig(const prim *pr, int v, double t, double out[3])
+{
+    switch (pr->kind) {
+    case PRIM_TORUS: {
+        double A = 2 * GS_PI * t;
+        out[0] = cos((v ? 3 : 12) * A);
+        out[1] = cos(A);
+        out[2] = sin(A);
+        return;
+    }
+    case PRIM_TUBE_X:
+    case PRIM_TUBE_Y: {
+        double A = v ? 2 * GS_PI * t : GS_PI * (pr->lo[0] + t * (pr->hi[0] - pr->lo[0])) / pr->e +
+                                          pr->phase;
+        out[0] = cos(A);
+        out[1] = sin(A);
+        return;
+    }
+    case PRIM_ELLIPSOID: {
+        double A = v ? GS_PI * t : 2 * GS_PI * t;
+        out[0] = cos(A);
+        out[1] = sin(A);
+        return;
+    }
+    default:
+        return;
+    }
+}
+
+/* Point at parameters (u, v) in [0,1)^2 (tu, tv: prim_trig of u and v)
+ * and, when ref != NULL, a reference point the outward normal points away
+ * from. */
+static void prim_point(const prim *pr, double u, double v, const double tu[3],
+                       const double tv[3], double p[3], double ref[3])
 {
     switch (pr->kind) {
     case PRIM_HEIGHT: {
@@ -76,30 +110,32 @@ static void prim_eval(const prim *pr, double u, double v, double p[3], double re
         p[0] = x;
         p[1] = y;
         p[2] = hf_value(pr->img, u, v);
-        ref[0] = x;
-        ref[1] = y;
-        ref[2] = p[2] - 1;
+        if (ref) {
+            ref[0] = x;
+            ref[1] = y;
+            ref[2] = p[2] - 1;
+        }
         return;
     }
     case PRIM_TORUS: {
-        double U = 2 * GS_PI * u, V = 2 * GS_PI * v;
-        double bu = cos(12 * U), bv = cos(3 * V);
+        double bu = tu[0], bv = tv[0];
         bu = bu > 0 ? bu * bu : 0;
         bv = bv > 0 ? bv * bv : 0;
         double rt = pr->b + pr->e * bu * bv;
-        double l[3] = {(pr->a + rt * cos(V)) * cos(U), (pr->a + rt * cos(V)) * sin(U), rt * sin(V)};
-        double lc[3] = {pr->a * cos(U), pr->a * sin(U), 0};
+        double l[3] = {(pr->a + rt * tv[1]) * tu[1], (pr->a + rt * tv[1]) * tu[2], rt * tv[2]};
         to_world(pr, l, p);
-        to_world(pr, lc, ref);
+        if (ref) {
+            double lc[3] = {pr->a * tu[1], pr->a * tu[2], 0};
+            to_world(pr, lc, ref);
+        }
         return;
     }
     case PRIM_TUBE_X:
     case PRIM_TUBE_Y: {
         int ax = pr->kind == PRIM_TUBE_X ? 0 : 1;
         double t = pr->lo[0] + u * (pr->hi[0] - pr->lo[0]);
-        double ph = GS_PI * t / pr->e + pr->phase;
-        double z = pr->c[2] + pr->a * 0 + pr->b * cos(ph);
-        double dz = -pr->b * GS_PI / pr->e * sin(ph);
+        double z = pr->c[2] + pr->a * 0 + pr->b * tu[0];
+        double dz = -pr->b * GS_PI / pr->e * tu[1];
         double T[3] = {0, 0, dz}, N1[3] = {0, 0, 0}, N2[3];
         T[ax] = 1;
         N1[1 - ax] = 1;
@@ -109,21 +145,29 @@ static void prim_eval(const prim *pr, double u, double v, double p[3], double re
         cc[ax] = t;
         cc[1 - ax] = pr->c[1 - ax];
         cc[2] = z;
-        double phi = 2 * GS_PI * v;
         for (int d = 0; d < 3; d++) {
-            p[d] = cc[d] + pr->a * (cos(phi) * N1[d] + sin(phi) * N2[d]);
-            ref[d] = cc[d];
+            p[d] = cc[d] + pr->a * (tv[0] * N1[d] + tv[1] * N2[d]);
+            if (ref)
+                ref[d] = cc[d];
         }
         return;
     }
-    default: { /* ellipsoid */
-        double th = GS_PI * v, ph = 2 * GS_PI * u;
-        double l[3] = {pr->a * sin(th) * cos(ph), pr->b * sin(th) * sin(ph), pr->e * cos(th)};
+    default: { /* ellipsoid: th = pi v, ph = 2 pi u */
+        double l[3] = {pr->a * tv[1] * tu[0], pr->b * tv[1] * tu[1], pr->e * tv[0]};
         to_world(pr, l, p);
-        memcpy(ref, pr->c, 3 * sizeof *ref);
+        if (ref)
+            memcpy(ref, pr->c, 3 * sizeof *ref);
         return;
     }
     }
+}
+
+static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
+{
+    double tu[3], tv[3];
+    prim_trig(pr, 0, u, tu);
+    prim_trig(pr, 1, v, tv);
+    prim_point(pr, u, v, tu, tv, p, ref);
 }
 
 /* 1 when p is inside the solid bounded by pr (with a small margin). */
@@ -146,11 +190,16 @@ static int prim_inside(const prim *pr, const double p[3])
 
 static double prim_frame(const prim *pr, double u, double v, double p[3], double n[3])
 {
-    double ref[3], pu[3], pv[3], r2[3];
+    double ref[3], pu[3], pv[3];
     const double h = 1e-5;
-    prim_eval(pr, u, v, p, ref);
-    prim_eval(pr, u + h, v, pu, r2);
-    prim_eval(pr, u, v + h, pv, r2);
+    double tu[3], tv[3], tuh[3], tvh[3];
+    prim_trig(pr, 0, u, tu);
+    prim_trig(pr, 0, u + h, tuh);
+    prim_trig(pr, 1, v, tv);
+    prim_trig(pr, 1, v + h, tvh);
+    prim_point(pr, u, v, tu, tv, p, ref);
+    prim_point(pr, u + h, v, tuh, tv, pu, NULL);
+    prim_point(pr, u, v + h, tu, tvh, pv, NULL);
     for (int d = 0; d < 3; d++) {
         pu[d] = (pu[d] - p[d]) / h;
         pv[d] = (pv[d] - p[d]) / h;
@@ -183,6 +232,75 @@ static int any_within(const struct gs_points_grid *g, const double c[3], double 
     return 0;
 }
 
+static int prim_bounded(const prim *pr)
+{
+    return pr->kind == PRIM_TORUS || pr->kind == PRIM_ELLIPSOID;
+}
+
+/* For each bounded primitive i (its surface lies within bound_r of c), the
+ * bounded primitives j != i whose bounding spheres come near its own
+ * (CSR: nb[start[i] .. start[i + 1])): the only ones whose prim_inside can
+ * be true at a point of i (the others fail its bounding-sphere test, and
+ * unbounded kinds never contain a point). The test is an OR, so checking
+ * fewer primitives changes nothing. Sweep over centres sorted by x. */
+static gs_err prim_neighbours(const prim *prims, int np, int **start_out, int **nb_out)
+{
+    keyed *key = NULL;
+    int *order = NULL, *start = NULL, *nb = NULL, *fill = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&key, (size_t)np + 1, sizeof *key, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&order, (size_t)np + 1, sizeof *order, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&start, (size_t)np + 1, sizeof *start, "prim order"), done);
+    GS_TRY(err, gs_alloc_array((void **)&fill, (size_t)np + 1, sizeof *fill, "prim order"), done);
+    int nbounded = 0;
+    double maxb = 0;
+    for (int i = 0; i < np; i++)
+        if (prim_bounded(&prims[i])) {
+            key[nbounded++] = (keyed){prims[i].c[0], (size_t)i};
+            maxb = fmax(maxb, prims[i].bound_r);
+        }
+    qsort(key, (size_t)nbounded, sizeof *key, gs_points_keyed_cmp);
+    for (int a = 0; a < nbounded; a++)
+        order[a] = (int)key[a].idx;
+    /* Two passes over the pairs: count, then fill. */
+    for (int pass = 0; pass < 2; pass++) {
+        for (int a = 0; a < nbounded; a++) {
+            const prim *pa = &prims[order[a]];
+            for (int b = a + 1; b < nbounded; b++) {
+                const prim *pb = &prims[order[b]];
+                double reach = 1.01 * (pa->bound_r + pb->bound_r) + 1e-9;
+                if (pb->c[0] - pa->c[0] > 1.01 * (pa->bound_r + maxb) + 1e-9)
+                    break;
+                if (v3_dist2(pa->c, pb->c) > reach * reach)
+                    continue;
+                if (pass == 0) {
+                    start[order[a] + 1]++;
+                    start[order[b] + 1]++;
+                } else {
+                    nb[start[order[a]] + fill[order[a]]++] = order[b];
+                    nb[start[order[b]] + fill[order[b]]++] = order[a];
+                }
+            }
+        }
+        if (pass == 0) {
+            for (int i = 0; i < np; i++)
+                start[i + 1] += start[i];
+            GS_TRY(err, gs_alloc_array((void **)&nb, start[np] ? (size_t)start[np] : 1, sizeof *nb,
+                                       "prim neighbours"), done);
+        }
+    }
+    *start_out = start;
+    *nb_out = nb;
+    start = nb = NULL;
+done:
+    gs_free(key);
+    gs_free(order);
+    gs_free(start);
+    gs_free(nb);
+    gs_free(fill);
+    return err;
+}
+
 /* Dart throwing over the union of prims, then the texture's box. */
 static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, int np,
                            uint32_t kind, gs_points_texture *out)
@@ -208,9 +326,14 @@ static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, in
     hi[2] = zmax + 2 * s;
     gs_points_grid_t grid = NULL;
     GS_CALL(gs_points_grid_create(lo, hi, s, &grid));
+    int *nb_start = NULL, *nb = NULL;
+    gs_err err = prim_neighbours(prims, np, &nb_start, &nb);
+    if (err != GS_OK) {
+        gs_points_grid_destroy(&grid);
+        GS_CALL(err);
+    }
     gs_rng rng;
     gs_rng_init(&rng, gp->seed, gs_rng_stream_id(0x50544753u, kind, 0, 0));
-    gs_err err = GS_OK;
     const int scan = 48;
     for (int i = 0; i < np && err == GS_OK; i++) {
         const prim *pr = &prims[i];
@@ -232,8 +355,12 @@ static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, in
             if (p[0] < lo[0] + s || p[0] > hi[0] - s || p[1] < lo[1] + s || p[1] > hi[1] - s)
                 continue;
             int inside = 0;
-            for (int j = 0; j < np && !inside; j++)
-                inside = j != i && prim_inside(&prims[j], p);
+            if (prim_bounded(pr))
+                for (int q = nb_start[i]; q < nb_start[i + 1] && !inside; q++)
+                    inside = prim_inside(&prims[nb[q]], p);
+            else
+                for (int j = 0; j < np && !inside; j++)
+                    inside = j != i && prim_inside(&prims[j], p);
             if (inside || any_within(grid, p, s))
                 continue;
             gs_opoint op;
@@ -261,6 +388,8 @@ done:
     if (err != GS_OK)
         gs_points_free(&out->pts);
     gs_points_grid_destroy(&grid);
+    gs_free(nb_start);
+    gs_free(nb);
     return err;
 }
 

@@ -8,27 +8,34 @@
 double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], double a[3],
                            double n[3])
 {
-    double inv_r2 = 1.0 / (R * R);
-    double sw = 0, sa[3] = {0, 0, 0}, sn[3] = {0, 0, 0};
-    for (size_t i = 0; i < nb->n; i++) {
-        const gs_opoint *q = &nb->v[i];
-        double t = 1.0 - v3_dist2(q->p, y) * inv_r2;
-        if (t <= 0)
-            continue;
+    /* Branch-free: a point beyond R gets weight +0, which leaves every sum
+     * exactly as skipping it would (the sums start at +0 and x + 0 = x), so
+     * the result is the same while the loop has no unpredictable branch. */
+    const double inv_r2 = 1.0 / (R * R), y0 = y[0], y1 = y[1], y2 = y[2];
+    double sw = 0, sa0 = 0, sa1 = 0, sa2 = 0, sn0 = 0, sn1 = 0, sn2 = 0;
+    const gs_opoint *q = nb->v, *end = nb->v + nb->n;
+    for (; q < end; q++) {
+        double dx = q->p[0] - y0, dy = q->p[1] - y1, dz = q->p[2] - y2;
+        double t = 1.0 - (dx * dx + dy * dy + dz * dz) * inv_r2;
+        t = t > 0 ? t : 0;
         t *= t;
         double w = t * t;
         sw += w;
-        for (int c = 0; c < 3; c++) {
-            sa[c] += w * q->p[c];
-            sn[c] += w * q->n[c];
-        }
+        sa0 += w * q->p[0];
+        sa1 += w * q->p[1];
+        sa2 += w * q->p[2];
+        sn0 += w * q->n[0];
+        sn1 += w * q->n[1];
+        sn2 += w * q->n[2];
     }
     if (sw <= 0)
         return 0;
-    for (int c = 0; c < 3; c++) {
-        a[c] = sa[c] / sw;
-        n[c] = sn[c];
-    }
+    a[0] = sa0 / sw;
+    a[1] = sa1 / sw;
+    a[2] = sa2 / sw;
+    n[0] = sn0;
+    n[1] = sn1;
+    n[2] = sn2;
     if (v3_normalize(n) <= 0)
         return 0; /* opposing normals cancel: no defined surface here */
     return sw;
@@ -104,6 +111,20 @@ gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, dou
     return GS_OK;
 }
 
+gs_err gs_points_field_range(const gs_points_grid *g, double R, double trunc, double max_reach,
+                             const double lo[3], const double step[3], int nx, int ny,
+                             size_t first, size_t count, gs_points *scratch, float *out)
+{
+    size_t nxy = (size_t)nx * ny;
+    for (size_t node = first; node < first + count; node++) {
+        int i = (int)(node % (size_t)nx), j = (int)(node / (size_t)nx % (size_t)ny);
+        int k = (int)(node / nxy);
+        double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
+        GS_CALL(gs_points_field_node(g, R, trunc, max_reach, x, scratch, out + 4 * (node - first)));
+    }
+    return GS_OK;
+}
+
 gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double max_reach,
                        const double lo[3], const double step[3], int nx, int ny, int nz,
                        float *out)
@@ -111,15 +132,8 @@ gs_err gs_points_field(const gs_points_grid *g, double R, double trunc, double m
     GS_CHECK(trunc > 0 && R > 0, GS_ERR_ARG, "distance field: trunc %g and radius %g must be > 0",
              trunc, R);
     gs_points scratch = {0};
-    gs_err err = GS_OK;
-    for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
-            for (int i = 0; i < nx; i++) {
-                double x[3] = {lo[0] + i * step[0], lo[1] + j * step[1], lo[2] + k * step[2]};
-                float *o = out + 4 * (((size_t)k * ny + j) * nx + i);
-                GS_TRY(err, gs_points_field_node(g, R, trunc, max_reach, x, &scratch, o), done);
-            }
-done:
+    gs_err err = gs_points_field_range(g, R, trunc, max_reach, lo, step, nx, ny, 0,
+                                       (size_t)nx * ny * nz, &scratch, out);
     gs_points_free(&scratch);
     return err;
 }

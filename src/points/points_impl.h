@@ -68,6 +68,20 @@ gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double
 gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
                             const double x[3], gs_points *scratch, float o[4]);
 
+/* Nodes [first, first + count) of gs_points_field (x fastest) into out
+ * (4 floats each). */
+gs_err gs_points_field_range(const gs_points_grid *g, double R, double trunc, double max_reach,
+                             const double lo[3], const double step[3], int nx, int ny,
+                             size_t first, size_t count, gs_points *scratch, float *out);
+
+/* An index sorted by a double key, ties by index (a total order, so a sort
+ * gives one result whatever the input order). */
+typedef struct keyed {
+    double key;
+    size_t idx;
+} keyed;
+int gs_points_keyed_cmp(const void *a, const void *b); /* qsort comparator */
+
 /* Pairing of the warp (eq. 1-3): see warp.c. */
 typedef struct gs_points_pairing_in {
     const gs_opoint *S; const double *Sv; size_t ns;   /* source points + variation */

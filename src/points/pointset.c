@@ -157,7 +157,7 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
         lo[a] = grid_coord(g, a, c[a] - r);
         hi[a] = grid_coord(g, a, c[a] + r);
     }
-    double r2 = r * r;
+    double r2 = r * r, c0 = c[0], c1 = c[1], c2 = c[2];
     /* Cells whose box lies farther than r are skipped (they hold no answer;
      * the order of the answers is unchanged). The margin keeps rounding in
      * the box distance from ever skipping a cell that holds an answer. */
@@ -175,9 +175,16 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
                 if (cl->n == 0 || djk + slab_dist2(g, 0, i, c[0]) > skip2)
                     continue;
                 GS_CALL(gs_points_reserve(out, out->n + cl->n));
-                for (size_t q = 0; q < cl->n; q++)
-                    if (v3_dist2(cl->v[q].p, c) <= r2)
-                        out->v[out->n++] = cl->v[q];
+                /* Branch-free: copy every point, keep it only when within r
+                 * (the room is reserved; the test is unpredictable). */
+                gs_opoint *dst = out->v + out->n;
+                const gs_opoint *src = cl->v, *end = cl->v + cl->n;
+                for (; src < end; src++) {
+                    double dx = src->p[0] - c0, dy = src->p[1] - c1, dz = src->p[2] - c2;
+                    *dst = *src;
+                    dst += dx * dx + dy * dy + dz * dz <= r2;
+                }
+                out->n = (size_t)(dst - out->v);
             }
         }
     }

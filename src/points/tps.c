@@ -79,23 +79,41 @@ void gs_points_tps_free(gs_points_tps *t)
 
 void gs_points_tps_eval(const gs_points_tps *t, const double x[3], double y[3], double J[9])
 {
-    for (int d = 0; d < 3; d++)
-        y[d] = t->b[d] + t->A[3 * d] * x[0] + t->A[3 * d + 1] * x[1] + t->A[3 * d + 2] * x[2];
-    if (J)
-        memcpy(J, t->A, 9 * sizeof *J);
-    for (int i = 0; i < t->n; i++) {
-        const double *c = t->c + 3 * i, *w = t->w + 3 * i;
-        double e[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
-        double r = sqrt(v3_dot(e, e));
-        for (int d = 0; d < 3; d++)
-            y[d] += w[d] * r;
+    /* Sums in locals: y and J may alias nothing, but the compiler cannot
+     * know, and stores through them every term otherwise. The terms and
+     * their order are those of the formula (the result does not change). */
+    const double x0 = x[0], x1 = x[1], x2 = x[2];
+    double y0 = t->b[0] + t->A[0] * x0 + t->A[1] * x1 + t->A[2] * x2;
+    double y1 = t->b[1] + t->A[3] * x0 + t->A[4] * x1 + t->A[5] * x2;
+    double y2 = t->b[2] + t->A[6] * x0 + t->A[7] * x1 + t->A[8] * x2;
+    const double *c = t->c, *w = t->w;
+    const int n = t->n;
+    double j[9];
+    memcpy(j, t->A, sizeof j);
+    for (int i = 0; i < n; i++, c += 3, w += 3) {
+        double e0 = x0 - c[0], e1 = x1 - c[1], e2 = x2 - c[2];
+        double r = sqrt(e0 * e0 + e1 * e1 + e2 * e2);
+        y0 += w[0] * r;
+        y1 += w[1] * r;
+        y2 += w[2] * r;
         if (J && r > 0) {
             double inv = 1.0 / r;
-            for (int d = 0; d < 3; d++)
-                for (int k = 0; k < 3; k++)
-                    J[3 * d + k] += w[d] * e[k] * inv;
+            j[0] += w[0] * e0 * inv;
+            j[1] += w[0] * e1 * inv;
+            j[2] += w[0] * e2 * inv;
+            j[3] += w[1] * e0 * inv;
+            j[4] += w[1] * e1 * inv;
+            j[5] += w[1] * e2 * inv;
+            j[6] += w[2] * e0 * inv;
+            j[7] += w[2] * e1 * inv;
+            j[8] += w[2] * e2 * inv;
         }
     }
+    if (J)
+        memcpy(J, j, sizeof j);
+    y[0] = y0;
+    y[1] = y1;
+    y[2] = y2;
 }
 
 void gs_points_tps_normal(const double J[9], const double n[3], double out[3])

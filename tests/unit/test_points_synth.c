@@ -238,7 +238,7 @@ static void test_split_bank_matches_serial(void **state)
     ctx.banks[1] = gs_points_synth_bank(sb);
     assert_int_equal(gs_points_synth_run(sa), GS_OK);
     assert_true(ctx.calls > 0);
-    assert_true(map_calls > 3 * ctx.calls); /* query nodes, warp, blend per patch */
+    assert_true(map_calls >= 2 * ctx.calls); /* query nodes, warp + blend per patch */
     assert_int_equal(gs_points_synth_finish(sa, &split), GS_OK);
     assert_true(gs_points_digest(&split) == d_serial);
     /* A share without a hook is refused (it would search only part). */
