@@ -410,7 +410,33 @@ typedef struct search_ctx {
     gs_points_cands local; /* offers of this rank's scan */
     int oom;               /* an offer could not be stored (reported after the scan) */
     int64_t offers, regathers;
+    /* Exchange buffers, sized by the rank count at set-up (search_ctx_alloc)
+     * so a search allocates nothing before its exchange. */
+    int64_t *all;          /* size x REC words */
+    gs_points_cands *parts;
+    int *counts;           /* counts, then displacements */
 } search_ctx;
+
+enum { SEARCH_REC = 2 + 2 * SEARCH_SLOTS }; /* int64 words per rank in the exchange */
+
+static gs_err search_ctx_alloc(search_ctx *c)
+{
+    GS_CALL(gs_alloc_array((void **)&c->all, (size_t)c->size, SEARCH_REC * sizeof *c->all,
+                           "search exchange"));
+    GS_CALL(gs_alloc_array((void **)&c->parts, (size_t)c->size, sizeof *c->parts,
+                           "search parts"));
+    GS_CALL(gs_alloc_array((void **)&c->counts, (size_t)c->size, 2 * sizeof *c->counts,
+                           "search parts"));
+    return GS_OK;
+}
+
+static void search_ctx_free(search_ctx *c)
+{
+    gs_points_cands_free(&c->local);
+    GS_FREE(c->all);
+    GS_FREE(c->parts);
+    GS_FREE(c->counts);
+}
 
 static double local_bound(void *user)
 {
@@ -472,7 +498,7 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
             if (c->local.v[i].dist <= c->scale * c->local.best)
                 c->local.v[kept++] = c->local.v[i];
     c->local.n = kept;
-    enum { REC = 2 + 2 * SEARCH_SLOTS }; /* int64 words per rank */
+    enum { REC = SEARCH_REC };
     int64_t mine[REC];
     memset(mine, 0, sizeof mine);
     mine[0] = (int64_t)status;
@@ -481,17 +507,11 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
         memcpy(&mine[2 + 2 * i], &c->local.v[i].dist, sizeof(double));
         mine[3 + 2 * i] = (int64_t)c->local.v[i].index;
     }
-    int64_t *all = NULL;
-    gs_points_cands *parts = NULL; /* views into more */
+    int64_t *all = c->all;
+    gs_points_cands *parts = c->parts; /* views into more */
     gs_points_cand *more = NULL;
-    int *counts = NULL;
+    int *counts = c->counts;
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&all, (size_t)c->size, sizeof mine, "search exchange"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&parts, (size_t)c->size, sizeof *parts, "search parts"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)c->size, 2 * sizeof *counts,
-                               "search parts"), done);
     int rc = MPI_Allgather(mine, REC, MPI_INT64_T, all, REC, MPI_INT64_T, c->comm);
     GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgather of the search "
                  "candidates failed");
@@ -533,10 +553,7 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
     }
     GS_TRY(err, gs_points_search_merge(parts, c->size, eps, out), done);
 done:
-    gs_free(all);
-    gs_free(parts);
     gs_free(more);
-    gs_free(counts);
     return err;
 }
 
@@ -938,7 +955,7 @@ static void run_state_free(run_state *r)
 {
     gs_points_synth_destroy(&r->synth);
     gs_psearch_destroy(&r->ps);
-    gs_points_cands_free(&r->sctx.local);
+    search_ctx_free(&r->sctx);
     gs_points_texture_free(&r->tex);
     gs_points_free(&r->out);
 }
@@ -1024,6 +1041,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     rs->sctx.size = run->size;
     rs->sctx.lo = lo;
     rs->sctx.hi = hi;
+    GS_CALL(search_ctx_alloc(&rs->sctx));
     map_state_init(&rs->map, run->comm, run->size);
     gs_points_synth_share share = {.first = (size_t)lo,
                                    .count = (size_t)(hi - lo),
