@@ -48,6 +48,9 @@ typedef struct gs_run {
     int64_t ckpt_count;     /* checkpoints written by this process */
     gs_json metrics;        /* quality metrics for summary.json (rank 0) */
     gs_json outputs;        /* output files written (rank 0) */
+    int failed_together;    /* set by an engine returning an error that every rank returned
+                             * from the same collective (gs_par_agree): the CLI then ends
+                             * the run collectively (rank 0 reports once), not by MPI_Abort */
 } gs_run;
 
 /* Collective. Creates dir (and parents) on rank 0, checks it is writable,

@@ -343,6 +343,8 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
         err = e->run(&run, cfg, resume);
         if (err)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
+        if (err && run.failed_together)
+            *collective = 1;
     }
     gs_run_close(&run);
     gs_config_free(e->config, cfg);

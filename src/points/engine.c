@@ -26,10 +26,22 @@
  * mesh.ply (implicit function of the points on a dense grid, contoured by
  * OpenVDB), patches.csv (per-patch metrics); summary.json metrics: search
  * distances, warp residual, densities, search/warp/blend/other/relax times.
+ *
+ * Errors (STYLE.md: MPI code never hangs on error). A failure that every
+ * rank learns in the same exchange (a status word travels in the search
+ * all-gather and in the map all-gather; rank 0's set-up and output go
+ * through gs_par_agree) is collective: every rank returns the same gs_err
+ * (the failing one with its message, the others with "rank N failed: ...")
+ * and the run ends cleanly with one report (gs_run.failed_together). Any
+ * other failure is local to one rank (an allocation, a merge, the warp's
+ * solve, the paste, between two exchanges): points_run ends it with
+ * gs_fatal(err, 0) at once, before any clean-up collective, so MPI_Abort
+ * stops every rank wherever it waits. No extra collective per patch.
  */
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/config.h"
@@ -396,6 +408,89 @@ static uint64_t texture_digest(const gs_points_texture *tex)
     return gs_digest_final(&d);
 }
 
+/* --------------------------------------------------------- fault injection */
+
+/* Test-only hook (tests/e2e/points_errors.sh): GS_FAIL_RANK=R
+ * GS_FAIL_POINTS_AT=SITE@K makes rank R fail at SITE while it places patch K
+ * (0-based; default 1), to prove that no failure leaves a rank hung. SITE:
+ *   map-alloc     the map exchange cannot allocate its buffers (before it)
+ *   map-fn        a map callback (query nodes, warp + blend) fails
+ *   search-scan   the scan of this rank's share fails (before the exchange)
+ *   search-merge  the merge after the exchange fails (it allocates)
+ *   step          after the step's last exchange (like a failed warp solve
+ *                 or paste: local, between two exchanges)
+ * Unset (the normal case) it costs one int test per exchange. */
+enum { FAULT_NONE, FAULT_MAP_ALLOC, FAULT_MAP_FN, FAULT_SEARCH_SCAN, FAULT_SEARCH_MERGE,
+       FAULT_STEP };
+
+typedef struct fault_inject {
+    int site;       /* FAULT_*, FAULT_NONE when not injecting on this rank */
+    uint64_t patch; /* the patch during which it fires */
+    int armed;      /* set while this rank places that patch */
+} fault_inject;
+
+static const char *const fault_sites[] = {"", "map-alloc", "map-fn", "search-scan",
+                                          "search-merge", "step"};
+
+/* Reads GS_FAIL_RANK / GS_FAIL_POINTS_AT for this rank. */
+static gs_err fault_init(fault_inject *f, int rank)
+{
+    memset(f, 0, sizeof *f);
+    const char *at = getenv("GS_FAIL_POINTS_AT"), *r = getenv("GS_FAIL_RANK");
+    if (!at || !at[0])
+        return GS_OK;
+    char *end;
+    long fr = r && r[0] ? strtol(r, &end, 10) : 0;
+    GS_CHECK(!r || !r[0] || *end == '\0', GS_ERR_USAGE, "GS_FAIL_RANK = '%s': expected a rank",
+             r);
+    const char *k = strchr(at, '@');
+    size_t len = k ? (size_t)(k - at) : strlen(at);
+    int site = FAULT_NONE;
+    for (int i = 1; i < (int)(sizeof fault_sites / sizeof *fault_sites); i++)
+        if (strlen(fault_sites[i]) == len && !strncmp(at, fault_sites[i], len))
+            site = i;
+    GS_CHECK(site != FAULT_NONE, GS_ERR_USAGE, "GS_FAIL_POINTS_AT = '%s': expected SITE[@PATCH], "
+             "SITE one of map-alloc map-fn search-scan search-merge step", at);
+    long long patch = 1;
+    if (k) {
+        patch = strtoll(k + 1, &end, 10);
+        GS_CHECK(k[1] && *end == '\0' && patch >= 0, GS_ERR_USAGE,
+                 "GS_FAIL_POINTS_AT = '%s': expected a patch index after '@'", at);
+    }
+    if (fr == rank) {
+        f->site = site;
+        f->patch = (uint64_t)patch;
+    }
+    return GS_OK;
+}
+
+/* 1 when the injected failure fires here (and then never again). */
+static int fault_fires(fault_inject *f, int site)
+{
+    if (!f || !f->armed || f->site != site)
+        return 0;
+    f->armed = 0;
+    f->site = FAULT_NONE;
+    return 1;
+}
+
+static gs_err fault_raise(const fault_inject *f, int site, gs_err code)
+{
+    return gs_error_raise(code, __FILE__, __LINE__, __func__,
+                          "points: injected failure at %s of patch %llu (GS_FAIL_POINTS_AT)",
+                          fault_sites[site], (unsigned long long)f->patch);
+}
+
+/* gs_par_agree that remembers a collective failure in *together (every rank
+ * returned it from the same collective: the run may end without MPI_Abort). */
+static gs_err agree(int *together, MPI_Comm comm, gs_err local)
+{
+    gs_err err = gs_par_agree(comm, local);
+    if (err != GS_OK)
+        *together = 1;
+    return err;
+}
+
 /* -------------------------------------------------------- distributed search */
 
 /* Candidates a rank sends in the one exchange of a search; a rank with more
@@ -410,7 +505,35 @@ typedef struct search_ctx {
     gs_points_cands local; /* offers of this rank's scan */
     int oom;               /* an offer could not be stored (reported after the scan) */
     int64_t offers, regathers;
+    fault_inject *fault;
+    int *together;         /* set on a failure every rank returns (see agree) */
+    /* Exchange buffers, sized by the rank count at set-up (search_ctx_alloc)
+     * so a search allocates nothing before its exchange. */
+    int64_t *all;          /* size x REC words */
+    gs_points_cands *parts;
+    int *counts;           /* counts, then displacements */
 } search_ctx;
+
+enum { SEARCH_REC = 2 + 2 * SEARCH_SLOTS }; /* int64 words per rank in the exchange */
+
+static gs_err search_ctx_alloc(search_ctx *c)
+{
+    GS_CALL(gs_alloc_array((void **)&c->all, (size_t)c->size, SEARCH_REC * sizeof *c->all,
+                           "search exchange"));
+    GS_CALL(gs_alloc_array((void **)&c->parts, (size_t)c->size, sizeof *c->parts,
+                           "search parts"));
+    GS_CALL(gs_alloc_array((void **)&c->counts, (size_t)c->size, 2 * sizeof *c->counts,
+                           "search parts"));
+    return GS_OK;
+}
+
+static void search_ctx_free(search_ctx *c)
+{
+    gs_points_cands_free(&c->local);
+    GS_FREE(c->all);
+    GS_FREE(c->parts);
+    GS_FREE(c->counts);
+}
 
 static double local_bound(void *user)
 {
@@ -465,6 +588,8 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
     if (status == GS_OK && c->oom)
         status = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                 "points: out of memory (search candidates)");
+    if (status == GS_OK && fault_fires(c->fault, FAULT_SEARCH_SCAN))
+        status = fault_raise(c->fault, FAULT_SEARCH_SCAN, GS_ERR_INTERNAL);
     /* Only what can survive the merge is sent. */
     size_t kept = 0;
     if (status == GS_OK)
@@ -472,7 +597,7 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
             if (c->local.v[i].dist <= c->scale * c->local.best)
                 c->local.v[kept++] = c->local.v[i];
     c->local.n = kept;
-    enum { REC = 2 + 2 * SEARCH_SLOTS }; /* int64 words per rank */
+    enum { REC = SEARCH_REC };
     int64_t mine[REC];
     memset(mine, 0, sizeof mine);
     mine[0] = (int64_t)status;
@@ -481,17 +606,11 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
         memcpy(&mine[2 + 2 * i], &c->local.v[i].dist, sizeof(double));
         mine[3 + 2 * i] = (int64_t)c->local.v[i].index;
     }
-    int64_t *all = NULL;
-    gs_points_cands *parts = NULL; /* views into more */
+    int64_t *all = c->all;
+    gs_points_cands *parts = c->parts; /* views into more */
     gs_points_cand *more = NULL;
-    int *counts = NULL;
+    int *counts = c->counts;
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&all, (size_t)c->size, sizeof mine, "search exchange"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&parts, (size_t)c->size, sizeof *parts, "search parts"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)c->size, 2 * sizeof *counts,
-                               "search parts"), done);
     int rc = MPI_Allgather(mine, REC, MPI_INT64_T, all, REC, MPI_INT64_T, c->comm);
     GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgather of the search "
                  "candidates failed");
@@ -503,12 +622,16 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
         total += all[(size_t)r * REC + 1];
     }
     if (failed) {
-        err = gs_par_agree(c->comm, status);
+        err = agree(c->together, c->comm, status);
         goto done;
     }
-    GS_TRY_CHECK(err, total <= INT_MAX / (int64_t)sizeof *more, GS_ERR_ARG, done,
-                 "points: %lld search candidates within (1 + %g) x best are too many for one "
-                 "exchange: lower points.eps", (long long)total, eps);
+    if (total > INT_MAX / (int64_t)sizeof *more) { /* every rank sees the same total */
+        *c->together = 1;
+        err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                             "points: %lld search candidates within (1 + %g) x best are too many "
+                             "for one exchange: lower points.eps", (long long)total, eps);
+        goto done;
+    }
     GS_TRY(err, gs_alloc_array((void **)&more, total ? (size_t)total : 1, sizeof *more,
                                "search candidates"), done);
     int *displs = counts + c->size, off = 0;
@@ -531,12 +654,15 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
         GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgatherv of the "
                      "search candidates failed");
     }
+    /* After the exchange a failure (the allocations of more and of the
+     * merge) is local: points_run aborts every rank. */
+    if (fault_fires(c->fault, FAULT_SEARCH_MERGE)) {
+        err = fault_raise(c->fault, FAULT_SEARCH_MERGE, GS_ERR_MEM);
+        goto done;
+    }
     GS_TRY(err, gs_points_search_merge(parts, c->size, eps, out), done);
 done:
-    gs_free(all);
-    gs_free(parts);
     gs_free(more);
-    gs_free(counts);
     return err;
 }
 
@@ -556,6 +682,8 @@ done:
 typedef struct map_state {
     MPI_Comm comm;
     int size;
+    fault_inject *fault;
+    int *together; /* set on a failure every rank returns (see agree) */
     double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
 } map_state;
 
@@ -627,6 +755,11 @@ static gs_err map_exchange_with_status(map_state *m, int rank, size_t n, size_t 
     double *items = NULL, *secs = NULL;
     char *send = NULL, *recv = NULL;
     gs_err err = GS_OK;
+    /* A failure before the exchange is local: points_run aborts every rank. */
+    if (fault_fires(m->fault, FAULT_MAP_ALLOC)) {
+        err = fault_raise(m->fault, FAULT_MAP_ALLOC, GS_ERR_MEM);
+        goto done;
+    }
     GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"),
            done);
     GS_TRY(err, gs_alloc_array((void **)&items, (size_t)size, 2 * sizeof *items, "map counts"),
@@ -670,7 +803,7 @@ static gs_err map_exchange_with_status(map_state *m, int rank, size_t n, size_t 
             memcpy((char *)out + st * bytes, recv + displs[r], ct * bytes);
     }
     if (failed) /* every rank saw it: all of them agree on the message */
-        err = gs_par_agree(m->comm, local);
+        err = agree(m->together, m->comm, local);
     else
         map_adapt(m, items, secs);
 done:
@@ -700,12 +833,14 @@ static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
     gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
                             (char *)out + (size_t)start * bytes)
                        : GS_OK;
+    if (err == GS_OK && fault_fires(m->fault, FAULT_MAP_FN))
+        err = fault_raise(m->fault, FAULT_MAP_FN, GS_ERR_INTERNAL);
     double seconds = gs_time_now() - t0;
     if (size > 1 && n > 0 && n <= MAP_ONE_EXCHANGE_BYTES / bytes) {
         GS_CALL(map_exchange_with_status(m, rank, n, bytes, err, seconds, out));
         return GS_OK;
     }
-    GS_CALL(gs_par_agree(comm, err));
+    GS_CALL(agree(m->together, comm, err));
     if (size == 1 || n == 0)
         return GS_OK;
     GS_CHECK(n < (size_t)INT_MAX && bytes < (size_t)INT_MAX, GS_ERR_ARG,
@@ -932,13 +1067,15 @@ typedef struct run_state {
     gs_points out;
     uint64_t tex_digest;
     map_state map; /* the map hook's state */
+    fault_inject fault;
+    int together;  /* the error being returned is collective (see agree) */
 } run_state;
 
 static void run_state_free(run_state *r)
 {
     gs_points_synth_destroy(&r->synth);
     gs_psearch_destroy(&r->ps);
-    gs_points_cands_free(&r->sctx.local);
+    search_ctx_free(&r->sctx);
     gs_points_texture_free(&r->tex);
     gs_points_free(&r->out);
 }
@@ -957,7 +1094,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
                                  "input: %zu example points, expected at most 2^28",
                                  rs->tex.pts.n);
     }
-    GS_CALL(gs_par_agree(run->comm, err));
+    GS_CALL(agree(&rs->together, run->comm, err));
     GS_CALL(bcast_texture(run->comm, run->rank, &rs->tex));
     gs_points_texture *t = &rs->tex;
     double lx = t->box_hi[0] - t->box_lo[0], ly = t->box_hi[1] - t->box_lo[1];
@@ -974,8 +1111,11 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
         rs->params.out_size[0] = lx * f;
         rs->params.out_size[1] = ly * f;
     }
+    /* These checks see the same broadcast example and config on every rank
+     * and allocate nothing, so a failure is collective. */
     err = gs_points_texture_check(t, gs_points_params_padding(&rs->params));
     if (err != GS_OK) {
+        rs->together = 1;
         if (kind_is(c, "ply") || kind_is(c, "mesh"))
             gs_error_add_context("example %s with box input.box_lo = (%g, %g, %g), input.box_hi "
                                  "= (%g, %g, %g), up = %s", c->path, c->box_lo.v[0],
@@ -986,7 +1126,10 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
         GS_CALL(err);
     }
     size_t npatch = 0;
-    GS_CALL(gs_points_patch_count(t, &rs->params, &npatch));
+    err = gs_points_patch_count(t, &rs->params, &npatch);
+    if (err != GS_OK)
+        rs->together = 1;
+    GS_CALL(err);
     rs->tex_digest = texture_digest(t);
     const gs_points_params *p = &rs->params;
     double area_out = p->out_size[0] * p->out_size[1];
@@ -1024,7 +1167,12 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     rs->sctx.size = run->size;
     rs->sctx.lo = lo;
     rs->sctx.hi = hi;
+    rs->sctx.fault = &rs->fault;
+    rs->sctx.together = &rs->together;
+    GS_CALL(search_ctx_alloc(&rs->sctx));
     map_state_init(&rs->map, run->comm, run->size);
+    rs->map.fault = &rs->fault;
+    rs->map.together = &rs->together;
     gs_points_synth_share share = {.first = (size_t)lo,
                                    .count = (size_t)(hi - lo),
                                    .fn = distributed_search,
@@ -1073,7 +1221,12 @@ static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
     gs_progress_update(&prog, gs_points_synth_cursor(s));
     *stopped = 0;
     while (gs_points_synth_cursor(s) < gs_points_synth_total(s)) {
+        fault_inject *f = &rs->fault;
+        f->armed = f->site != FAULT_NONE && gs_points_synth_cursor(s) == f->patch;
         GS_CALL(gs_points_synth_step(s));
+        if (fault_fires(f, FAULT_STEP))
+            GS_CALL(fault_raise(f, FAULT_STEP, GS_ERR_LIB));
+        f->armed = 0;
         uint64_t done = gs_points_synth_cursor(s);
         gs_progress_update(&prog, done);
         int stop = 0;
@@ -1168,6 +1321,11 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
     memset(&rs, 0, sizeof rs);
     gs_err err = GS_OK;
     int stopped = 0;
+    err = fault_init(&rs.fault, run->rank);
+    if (err != GS_OK) { /* the same environment, so the same error, on every rank */
+        rs.together = 1;
+        goto done;
+    }
     GS_TRY(err, phase_setup(run, c, &rs, resume), done);
     GS_TRY(err, phase_synthesis(run, &rs, &stopped), done);
     if (stopped) {
@@ -1229,7 +1387,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
         if (local == GS_OK)
             record_metrics(run, c, &rs, dens_out);
     }
-    GS_TRY(err, gs_par_agree(run->comm, local), done);
+    GS_TRY(err, agree(&rs.together, run->comm, local), done);
     {
         gs_json j;
         gs_json_init(&j);
@@ -1245,6 +1403,12 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
            dens_out / gs_points_synth_input_density(rs.synth));
     GS_TRY(err, gs_run_finish(run, digest), done);
 done:
+    /* A local failure (see the header): the other ranks may be waiting in
+     * an exchange, and the clean-up below has collectives (MPI_Comm_free of
+     * the search communicator), so end every rank now. */
+    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs.together && run->size > 1)
+        gs_fatal(err, 0);
+    run->failed_together = err != GS_OK && rs.together;
     run_state_free(&rs);
     return err;
 }
