@@ -156,6 +156,32 @@ done:
     return err;
 }
 
+/* Does [lo, hi) grown by the shell along one axis meet [blo, bhi)? */
+static int axis_reads(int lo, int hi, int blo, int bhi, int n, int periodic, int mirror)
+{
+    int rlo = lo - 1, rhi = hi + 1;
+    if (mirror && hi == n && n - 2 < rlo)
+        rlo = n - 2; /* the mirror image of the upper face: itself or the cell below */
+    for (int t = periodic ? -1 : 0; t <= (periodic ? 1 : 0); t++)
+        if (rlo < bhi + t * n && blo + t * n < rhi)
+            return 1;
+    return 0;
+}
+
+int gs_model_regions_interact(const gs_model_params *p, int nx, int ny, int nz,
+                              const gs_model_box *a, const gs_model_box *b)
+{
+    const int n[3] = {nx, ny, nz};
+    const int alo[3] = {a->x0, a->y0, a->z0}, ahi[3] = {a->x1, a->y1, a->z1};
+    const int blo[3] = {b->x0, b->y0, b->z0}, bhi[3] = {b->x1, b->y1, b->z1};
+    int ab = 1, ba = 1;
+    for (int d = 0; d < 3; d++) {
+        ab &= axis_reads(alo[d], ahi[d], blo[d], bhi[d], n[d], p->periodic[d], p->mirror[d]);
+        ba &= axis_reads(blo[d], bhi[d], alo[d], ahi[d], n[d], p->periodic[d], p->mirror[d]);
+    }
+    return ab || ba;
+}
+
 gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
                            gs_model_lattice *lat, gs_model_stats *stats)
 {
