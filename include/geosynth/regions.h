@@ -91,10 +91,13 @@ gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
  * are the regions of LOWER colors whose write box meets its read box or
  * whose read box meets its write box (model: boxes grown by the one-cell
  * shell overlap). Regions not listed must not interact. Then
- * gs_regions_run_pass no longer waits at the end of each color: a region
- * is handed out as soon as the regions it depends on are computed, and
- * every rank applies a result once the results it depends on are applied
- * there (dataflow). The final state is the same as with the color-by-color
+ * gs_regions_run_pass no longer waits at the end of each color and has no
+ * rank-0 queue: every rank runs a region once the results it depends on
+ * are applied there, picking among the ready ones (claims sent to all keep
+ * ranks from picking the same one; when two still do, both compute the
+ * same bytes and one copy is kept), and applies every result once its
+ * predecessors are applied there (dataflow). The final state is the same
+ * as with the color-by-color
  * schedule, hence the same as the serial loop, for any rank count; the
  * apply callback then sees the regions of one color in no fixed order, so
  * it must not depend on the order of non-interacting results (counters,

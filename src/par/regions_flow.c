@@ -4,35 +4,38 @@
  * Serial index k = position in s->order (colors ascending, list order
  * inside a color): the order of the serial loop the result must equal.
  * pred[k] are the interacting regions of lower colors, so every pred of k
- * has a smaller serial index. Two rules give the serial result on every
- * rank, whatever the rank count and timing:
- *  - hand out k only when every pred of k has been computed (rank 0 sees
- *    its result), so k's result cannot exist before the results it reads;
- *  - on every rank apply k only after its preds were applied there, and
- *    compute k only when they are. What else is applied at that moment does
- *    not touch k's read box: a region that does is a pred (applied) or a
- *    successor of k (not computed yet, it waits for k).
+ * has a smaller serial index. On every rank:
+ *  - run k only when every pred of k is applied here; apply a record only
+ *    when its preds are applied here. What else is applied at that moment
+ *    does not touch k's read box: a region that does is a pred (applied) or
+ *    a successor of k, which no rank can run before k's record exists.
+ * So a region's result is the same whichever rank runs it and whenever, and
+ * equals the serial loop's.
  *
- * Messages on the scheduler's private communicator:
- *   0 -> worker  TAG_FLOW_ASSIGN  int64: k >= 0 = compute region k;
- *                                 -1 - n = no more regions, n records in all
- *   every rank -> every other rank, for each region it ran:
- *                TAG_FLOW_HEADER  int64 {k, status, len}
- *                TAG_FLOW_DATA    len bytes in chunks of at most FLOW_CHUNK
+ * No coordinator: every rank sees every record, so every rank knows which
+ * regions are ready, and picks the lowest ready one nobody claimed, from its
+ * own share (k mod size = rank) first, then from the share of a rank that
+ * is busy. Before running it sends a claim to everyone. Two ranks can still
+ * pick the same region when they choose within a message latency of each
+ * other; both then run it, the bytes are the same, receivers keep the first. (A rank-0 work queue
+ * that answers only between rank 0's own regions left workers waiting about
+ * half a region per region: simulated on castle-10x's region costs, 1.73x
+ * on 2 ranks against 1.93x without a coordinator.)
+ *
+ * Messages on the scheduler's private communicator, to every other rank:
+ *   TAG_FLOW_HEADER  int64 {k, FLOW_CLAIM, 0}: k is being run
+ *                    int64 {k, status, len}: the record of k; status GS_OK
+ *                    (then TAG_FLOW_DATA: len bytes in chunks of at most
+ *                    FLOW_CHUNK) or the gs_err of the failed run
+ *                    int64 {-1, status, 0}: this rank failed (apply, memory)
+ *   TAG_FLOW_FIN     int64: headers sent to that rank in this pass
  * Chunks stay under Open MPI's shared-memory eager limit (4 KiB) so a
- * result reaches the others while its sender computes the next region;
- * a rendezvous transfer would wait for the sender's next MPI call. status:
- * GS_OK, FLOW_SKIPPED (not run: a failure was known), or the run's gs_err.
- * A record with status != GS_OK stops the pass on every rank that sees it:
- * rank 0 hands out nothing more and sends every worker the number of
- * records to expect; held regions are skipped. Every rank leaves once it has
- * that many records, so no message is left pending; local failures are
- * then made collective with gs_par_agree.
- *
- * Rank 0 answers between its own regions, so a worker holds up to
- * `prefetch` regions (the second one hides rank 0's region); a worker that
- * already holds one gets another only while at least `size` regions are
- * ready, so the end of the pass is not left to one rank's backlog.
+ * record reaches the others while its sender computes the next region; a
+ * rendezvous transfer would wait for the sender's next MPI call. A failure
+ * stops the pass on every rank that hears of it. A rank leaves once every
+ * region has a record there (or it stopped), it sent its FIN counts and it
+ * received every header the others sent it, so no message is left for the
+ * next pass; local failures are then made collective with gs_par_agree.
  */
 #include <limits.h>
 #include <sched.h>
@@ -45,9 +48,9 @@
 #include "geosynth/par.h"
 #include "par/regions_impl.h"
 
-enum { TAG_FLOW_ASSIGN = 211, TAG_FLOW_HEADER = 212, TAG_FLOW_DATA = 213 };
+enum { TAG_FLOW_HEADER = 212, TAG_FLOW_DATA = 213, TAG_FLOW_FIN = 214 };
 #define FLOW_CHUNK 3840
-#define FLOW_SKIPPED (-1)
+#define FLOW_CLAIM (-2)
 #define FLOW_MAX_SENDS 4096
 
 /* ---- conflicts ---- */
@@ -159,27 +162,25 @@ typedef struct flow {
     void *ctx;
     int64_t n;
     int64_t (*hdr)[3];      /* [n] {k, status, len} of every record here */
-    unsigned char **data;   /* [n] result bytes (8-aligned), NULL until known */
-    char *have, *applied;   /* [n] */
+    unsigned char **data;   /* [n] result bytes, NULL until known */
+    char *have, *applied;   /* [n] record here; applied here */
+    char *claimed;          /* [n] some rank runs or ran it (as far as this rank knows) */
     int64_t *npend;         /* [n] preds not applied on this rank */
     int64_t *stack;         /* [2n + 1] apply worklist */
-    int64_t seen;           /* records on this rank (own and received) */
-    int64_t total;          /* records to expect; -1 = not known yet */
-    int stop;
+    int64_t *heap[2];       /* [n] each: candidates (preds applied): this rank's share
+                               (min-heap), the others' share (list) */
+    char *busy;             /* [size] last header from that rank was a claim */
+    int64_t nheap[2];
+    int64_t nhave;          /* records here (distinct regions) */
+    int stop;               /* a failure somewhere: run nothing more */
     gs_err local;           /* first failure on this rank (run or apply) */
+    int64_t notice[3];      /* {-1, status, 0}: this rank stopped (send buffer) */
+    int64_t *claim_msg;     /* [n][3] send buffers of claims */
+    int64_t *sent, *got;    /* [size] header messages sent to / received from each rank */
+    int64_t *fin;           /* [size] header messages each rank says it sent here; -1 = not yet */
+    int fin_sent;
     MPI_Request sends[FLOW_MAX_SENDS];
     int nsends;
-    /* worker: assigned, not yet run (FIFO) */
-    int64_t held[GS_REGIONS_PREFETCH_MAX];
-    int nheld, held_head;
-    /* rank 0: scheduler */
-    int64_t *undone;        /* [n] preds not computed anywhere */
-    int64_t *heap;          /* [n] ready serial indices, min-heap */
-    int64_t nheap;
-    int64_t *owned;         /* [size] regions each worker holds (assigned, no record) */
-    int64_t handed;         /* regions handed out (to anyone, rank 0 included) */
-    int end_sent;
-    int64_t end_msg, *assign_msg; /* [n] send buffers */
 } flow;
 
 static void fail_local(flow *f, gs_err e)
@@ -189,33 +190,44 @@ static void fail_local(flow *f, gs_err e)
     f->stop = 1;
 }
 
-static void heap_push(flow *f, int64_t k)
+static void heap_push(int64_t *h, int64_t *n, int64_t k)
 {
-    int64_t i = f->nheap++;
-    while (i > 0 && f->heap[(i - 1) / 2] > k) {
-        f->heap[i] = f->heap[(i - 1) / 2];
+    int64_t i = (*n)++;
+    while (i > 0 && h[(i - 1) / 2] > k) {
+        h[i] = h[(i - 1) / 2];
         i = (i - 1) / 2;
     }
-    f->heap[i] = k;
+    h[i] = k;
 }
 
-static int64_t heap_pop(flow *f)
+static int64_t heap_pop(int64_t *h, int64_t *n)
 {
-    int64_t top = f->heap[0], last = f->heap[--f->nheap], i = 0;
+    int64_t top = h[0], last = h[--*n], i = 0;
     for (;;) {
         int64_t c = 2 * i + 1;
-        if (c >= f->nheap)
+        if (c >= *n)
             break;
-        if (c + 1 < f->nheap && f->heap[c + 1] < f->heap[c])
+        if (c + 1 < *n && h[c + 1] < h[c])
             c++;
-        if (f->heap[c] >= last)
+        if (h[c] >= last)
             break;
-        f->heap[i] = f->heap[c];
+        h[i] = h[c];
         i = c;
     }
-    if (f->nheap > 0)
-        f->heap[i] = last;
+    if (*n > 0)
+        h[i] = last;
     return top;
+}
+
+/* k's preds are applied here: a candidate to run. Class 0 = this rank's
+ * share (k mod size = rank), taken first, so ranks rarely pick the same
+ * region; class 1 = the others' share, taken when the own share is empty. */
+static void add_candidate(flow *f, int64_t k)
+{
+    if (k % f->s->size == f->s->rank)
+        heap_push(f->heap[0], &f->nheap[0], k);
+    else
+        f->heap[1][f->nheap[1]++] = k; /* scanned by pick() */
 }
 
 /* Applies k and everything it unblocks, if k's preds are applied here. */
@@ -239,22 +251,14 @@ static void try_apply(flow *f, int64_t k)
         f->applied[j] = 1;
         for (int64_t q = s->succ_off[j]; q < s->succ_off[j + 1]; q++) {
             int64_t m = s->succ[q];
-            if (--f->npend[m] == 0 && f->have[m])
-                f->stack[top++] = m;
+            if (--f->npend[m] == 0) {
+                add_candidate(f, m);
+                if (f->have[m])
+                    f->stack[top++] = m;
+            }
         }
     }
     s->stats.t_apply += gs_time_now() - t0;
-}
-
-/* Rank 0: record k exists (OK): its successors may become ready. */
-static void mark_done(flow *f, int64_t k)
-{
-    gs_regions_t s = f->s;
-    for (int64_t q = s->succ_off[k]; q < s->succ_off[k + 1]; q++) {
-        int64_t m = s->succ[q];
-        if (--f->undone[m] == 0)
-            heap_push(f, m);
-    }
 }
 
 static gs_err flush_sends(flow *f)
@@ -269,111 +273,137 @@ static gs_err post_send(flow *f, const void *buf, int64_t len, int to, int tag)
     if (f->nsends == FLOW_MAX_SENDS)
         GS_CALL(flush_sends(f));
     GS_MPI(MPI_Isend(buf, (int)len, MPI_BYTE, to, tag, f->s->comm, &f->sends[f->nsends++]));
+    if (tag == TAG_FLOW_HEADER)
+        f->sent[to]++;
     return GS_OK;
 }
 
-/* Record k of this rank to every other rank. */
-static gs_err send_record(flow *f, int64_t k)
+/* A header (claim, record or stop notice), and for a record its bytes, to
+ * every other rank. */
+static gs_err send_all(flow *f, const int64_t hdr[3], const unsigned char *data)
 {
     gs_regions_t s = f->s;
     double t0 = gs_time_now();
     for (int r = 0; r < s->size; r++) {
         if (r == s->rank)
             continue;
-        GS_CALL(post_send(f, f->hdr[k], sizeof f->hdr[k], r, TAG_FLOW_HEADER));
-        for (int64_t at = 0; at < f->hdr[k][2]; at += FLOW_CHUNK) {
-            int64_t len = f->hdr[k][2] - at < FLOW_CHUNK ? f->hdr[k][2] - at : FLOW_CHUNK;
-            GS_CALL(post_send(f, f->data[k] + at, len, r, TAG_FLOW_DATA));
+        GS_CALL(post_send(f, hdr, 3 * sizeof *hdr, r, TAG_FLOW_HEADER));
+        for (int64_t at = 0; hdr[1] == GS_OK && at < hdr[2]; at += FLOW_CHUNK) {
+            int64_t len = hdr[2] - at < FLOW_CHUNK ? hdr[2] - at : FLOW_CHUNK;
+            GS_CALL(post_send(f, data + at, len, r, TAG_FLOW_DATA));
         }
     }
     s->stats.t_exchange += gs_time_now() - t0;
     return GS_OK;
 }
 
-/* A record arrived or was made here: count it, store it, apply it. */
-static void take_record(flow *f, int64_t k, int from)
+/* Tells the others this rank stopped (a local failure they cannot see). */
+static gs_err announce_stop(flow *f)
 {
-    gs_regions_t s = f->s;
+    if (f->notice[0] == -1)
+        return GS_OK;
+    f->notice[0] = -1;
+    f->notice[1] = f->local != GS_OK ? f->local : GS_ERR_INTERNAL;
+    f->notice[2] = 0;
+    return send_all(f, f->notice, NULL);
+}
+
+/* A record arrived or was made here. */
+static void take_record(flow *f, int64_t k)
+{
     f->have[k] = 1;
-    f->seen++;
-    if (f->hdr[k][1] != GS_OK) {
+    f->claimed[k] = 1;
+    f->nhave++;
+    if (f->hdr[k][1] != GS_OK)
         f->stop = 1;
-        if (f->hdr[k][1] != FLOW_SKIPPED && f->local == GS_OK && from == s->rank)
-            f->local = (gs_err)f->hdr[k][1];
-    }
-    if (s->rank == 0) {
-        if (from != 0)
-            f->owned[from]--;
-        if (f->hdr[k][1] == GS_OK)
-            mark_done(f, k);
-    }
-    if (f->hdr[k][1] == GS_OK)
+    else
         try_apply(f, k);
 }
 
-/* Runs region k here (or skips it after a failure) and sends the record. */
+/* Claims k, runs it and sends the record. */
 static gs_err run_region(flow *f, int64_t k)
 {
     gs_regions_t s = f->s;
-    int64_t status = FLOW_SKIPPED, len = 0;
-    if (!f->stop) {
-        s->pack.len = 0;
-        gs_err e = gs_regions_compute_one(s, s->order[k], f->pass, f->run, f->ctx);
-        if (e == GS_OK) {
-            int64_t h[2];
-            memcpy(h, s->pack.data, sizeof h);
-            len = h[1];
-            f->data[k] = gs_malloc(len ? (size_t)len : 1);
-            if (f->data[k]) {
-                memcpy(f->data[k], s->pack.data + sizeof h, (size_t)len);
-                status = GS_OK;
-            } else {
-                e = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
-                                   "regions: cannot keep a result of %lld bytes", (long long)len);
-            }
-        }
-        if (e != GS_OK) {
-            fail_local(f, e);
-            status = e;
-            len = 0;
-        }
+    f->claimed[k] = 1;
+    int64_t *claim = f->claim_msg + 3 * k;
+    claim[0] = k;
+    claim[1] = FLOW_CLAIM;
+    claim[2] = 0;
+    GS_CALL(send_all(f, claim, NULL));
+    int64_t status = GS_OK, len = 0;
+    s->pack.len = 0;
+    gs_err e = gs_regions_compute_one(s, s->order[k], f->pass, f->run, f->ctx);
+    if (e == GS_OK) {
+        int64_t h[2];
+        memcpy(h, s->pack.data, sizeof h);
+        len = h[1];
+        f->data[k] = gs_malloc(len ? (size_t)len : 1);
+        if (f->data[k])
+            memcpy(f->data[k], s->pack.data + sizeof h, (size_t)len);
+        else
+            e = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                               "regions: cannot keep a result of %lld bytes", (long long)len);
+    }
+    if (e != GS_OK) {
+        fail_local(f, e);
+        status = e;
+        len = 0;
     }
     f->hdr[k][0] = k;
     f->hdr[k][1] = status;
     f->hdr[k][2] = len;
-    GS_CALL(send_record(f, k));
-    take_record(f, k, s->rank);
+    GS_CALL(send_all(f, f->hdr[k], f->data[k]));
+    take_record(f, k);
     return GS_OK;
 }
 
-/* Receives one record whose header is waiting from `from`. */
-static gs_err recv_record(flow *f, int from)
+/* Receives one header (and a record's bytes) waiting from `from`. */
+static gs_err recv_header(flow *f, int from)
 {
     gs_regions_t s = f->s;
     double t0 = gs_time_now();
     int64_t h[3];
     GS_MPI(MPI_Recv(h, (int)sizeof h, MPI_BYTE, from, TAG_FLOW_HEADER, s->comm, MPI_STATUS_IGNORE));
-    GS_CHECK(h[0] >= 0 && h[0] < f->n && !f->have[h[0]] && h[2] >= 0 && h[2] <= INT_MAX,
-             GS_ERR_INTERNAL, "regions: malformed record header {%lld, %lld, %lld} from rank %d",
-             (long long)h[0], (long long)h[1], (long long)h[2], from);
-    int64_t k = h[0];
-    memcpy(f->hdr[k], h, sizeof h);
-    unsigned char scratch[FLOW_CHUNK];
-    f->data[k] = f->local == GS_OK ? gs_malloc(h[2] ? (size_t)h[2] : 1) : NULL;
-    if (!f->data[k] && f->local == GS_OK)
-        fail_local(f, gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
-                                     "regions: cannot receive a result of %lld bytes",
-                                     (long long)h[2]));
-    for (int64_t at = 0; at < h[2]; at += FLOW_CHUNK) {
-        int64_t len = h[2] - at < FLOW_CHUNK ? h[2] - at : FLOW_CHUNK;
-        GS_MPI(MPI_Recv(f->data[k] ? f->data[k] + at : scratch, (int)len, MPI_BYTE, from,
-                        TAG_FLOW_DATA, s->comm, MPI_STATUS_IGNORE));
+    f->got[from]++;
+    GS_CHECK(h[0] >= -1 && h[0] < f->n && h[2] >= 0 && h[2] <= INT_MAX, GS_ERR_INTERNAL,
+             "regions: malformed header {%lld, %lld, %lld} from rank %d", (long long)h[0],
+             (long long)h[1], (long long)h[2], from);
+    if (h[0] < 0) { /* stop notice */
+        f->stop = 1;
+        return GS_OK;
     }
-    if (!f->data[k])
-        f->hdr[k][1] = FLOW_SKIPPED; /* not kept: cannot be applied here */
-    s->stats.bytes += h[2];
+    int64_t k = h[0];
+    f->busy[from] = h[1] == FLOW_CLAIM;
+    if (h[1] == FLOW_CLAIM) {
+        f->claimed[k] = 1;
+        return GS_OK;
+    }
+    /* A second record of k (two ranks picked it at once) has the same bytes
+     * (results depend only on the state, which both had): drop it. */
+    int keep = !f->have[k];
+    unsigned char scratch[FLOW_CHUNK];
+    unsigned char *dst = NULL;
+    if (keep && h[1] == GS_OK) {
+        dst = gs_malloc(h[2] ? (size_t)h[2] : 1);
+        if (!dst)
+            fail_local(f, gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                         "regions: cannot receive a result of %lld bytes",
+                                         (long long)h[2]));
+    }
+    for (int64_t at = 0; h[1] == GS_OK && at < h[2]; at += FLOW_CHUNK) {
+        int64_t len = h[2] - at < FLOW_CHUNK ? h[2] - at : FLOW_CHUNK;
+        GS_MPI(MPI_Recv(dst ? dst + at : scratch, (int)len, MPI_BYTE, from, TAG_FLOW_DATA,
+                        s->comm, MPI_STATUS_IGNORE));
+    }
+    s->stats.bytes += h[1] == GS_OK ? h[2] : 0;
     s->stats.t_exchange += gs_time_now() - t0;
-    take_record(f, k, from);
+    if (!keep)
+        return GS_OK;
+    memcpy(f->hdr[k], h, sizeof h);
+    f->data[k] = dst;
+    if (h[1] == GS_OK && !dst)
+        f->hdr[k][1] = GS_ERR_MEM; /* not kept: cannot be applied here */
+    take_record(f, k);
     return GS_OK;
 }
 
@@ -384,98 +414,90 @@ static gs_err progress(flow *f, int *got)
     for (;;) {
         int flag = 0;
         MPI_Status st;
-        GS_MPI(MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, s->comm, &flag, &st));
+        /* Open MPI's Iprobe looks at the matched queue, then polls the
+         * transports without looking again: after a long region the first
+         * call says "nothing" while the messages sit in the shared-memory
+         * FIFO. Ask twice before deciding there is none. */
+        for (int tries = 0; tries < 2 && !flag; tries++)
+            GS_MPI(MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, s->comm, &flag, &st));
         if (!flag)
             return GS_OK;
         *got = 1;
         if (st.MPI_TAG == TAG_FLOW_HEADER) {
-            GS_CALL(recv_record(f, st.MPI_SOURCE));
+            GS_CALL(recv_header(f, st.MPI_SOURCE));
         } else {
-            GS_CHECK(st.MPI_TAG == TAG_FLOW_ASSIGN && st.MPI_SOURCE == 0 && s->rank != 0,
-                     GS_ERR_INTERNAL, "regions: unexpected message tag %d from rank %d",
-                     st.MPI_TAG, st.MPI_SOURCE);
-            int64_t v;
-            GS_MPI(MPI_Recv(&v, (int)sizeof v, MPI_BYTE, 0, TAG_FLOW_ASSIGN, s->comm, MPI_STATUS_IGNORE));
-            if (v >= 0) {
-                GS_CHECK(v < f->n && f->nheld < s->prefetch, GS_ERR_INTERNAL,
-                         "regions: assignment %lld with %d held", (long long)v, f->nheld);
-                f->held[(f->held_head + f->nheld++) % GS_REGIONS_PREFETCH_MAX] = v;
-            } else {
-                f->total = -1 - v;
-            }
+            GS_CHECK(st.MPI_TAG == TAG_FLOW_FIN, GS_ERR_INTERNAL,
+                     "regions: unexpected message tag %d from rank %d", st.MPI_TAG, st.MPI_SOURCE);
+            GS_MPI(MPI_Recv(&f->fin[st.MPI_SOURCE], (int)sizeof(int64_t), MPI_BYTE, st.MPI_SOURCE,
+                            TAG_FLOW_FIN, s->comm, MPI_STATUS_IGNORE));
         }
     }
 }
 
-/* Rank 0: hands ready regions to workers. */
-static gs_err serve(flow *f)
+/* The lowest candidate nobody claimed from this rank's share; else the
+ * lowest one of a rank that is busy (its last header was a claim): an
+ * idle owner takes its region itself, so two idle ranks do not both grab
+ * the one region that just became ready. -1 if none. */
+static int64_t pick(flow *f)
+{
+    while (f->nheap[0] > 0) {
+        int64_t k = heap_pop(f->heap[0], &f->nheap[0]);
+        if (!f->claimed[k])
+            return k;
+    }
+    int64_t best = -1, n = 0;
+    for (int64_t i = 0; i < f->nheap[1]; i++) {
+        int64_t k = f->heap[1][i];
+        if (f->claimed[k])
+            continue;
+        f->heap[1][n++] = k;
+        if (f->busy[k % f->s->size] && (best < 0 || k < best))
+            best = k;
+    }
+    f->nheap[1] = n;
+    return best;
+}
+
+/* Every rank runs regions until every region has a record here (or a
+ * failure stops the pass), then says how many headers it sent to each rank
+ * and leaves once it received as many from each. */
+static gs_err run_flow(flow *f)
 {
     gs_regions_t s = f->s;
-    for (int w = 1; w < s->size && !f->stop; w++)
-        while (f->nheap > 0 && f->owned[w] < s->prefetch &&
-               (f->owned[w] == 0 || f->nheap >= s->size)) {
-            int64_t k = heap_pop(f);
-            f->assign_msg[k] = k;
-            GS_CALL(post_send(f, &f->assign_msg[k], sizeof f->assign_msg[k], w, TAG_FLOW_ASSIGN));
-            f->owned[w]++;
-            f->handed++;
-        }
-    if (!f->end_sent && (f->stop || f->handed == f->n)) {
-        f->end_sent = 1;
-        f->total = f->handed;
-        f->end_msg = -1 - f->handed;
-        for (int w = 1; w < s->size; w++)
-            GS_CALL(post_send(f, &f->end_msg, sizeof f->end_msg, w, TAG_FLOW_ASSIGN));
-    }
-    return GS_OK;
-}
-
-static void idle(flow *f)
-{
-    double t0 = gs_time_now();
-    sched_yield();
-    f->s->stats.t_wait += gs_time_now() - t0;
-}
-
-static gs_err coordinate(flow *f)
-{
     for (int64_t k = 0; k < f->n; k++)
-        if ((f->undone[k] = f->s->pred_off[k + 1] - f->s->pred_off[k]) == 0)
-            heap_push(f, k);
+        if (f->npend[k] == 0)
+            add_candidate(f, k);
     for (;;) {
         int got = 0;
         GS_CALL(progress(f, &got));
-        GS_CALL(serve(f));
-        if (!f->stop && f->nheap > 0) {
-            f->handed++;
-            GS_CALL(run_region(f, heap_pop(f)));
-            continue;
-        }
-        if (f->end_sent && f->seen == f->total)
-            return GS_OK;
-        if (!got)
-            idle(f);
-    }
-}
-
-static gs_err work(flow *f)
-{
-    for (;;) {
-        int got = 0;
-        GS_CALL(progress(f, &got));
-        if (f->nheld > 0) {
-            int64_t k = f->held[f->held_head];
-            if (f->stop || f->npend[k] == 0) {
-                f->held_head = (f->held_head + 1) % GS_REGIONS_PREFETCH_MAX;
-                f->nheld--;
+        if (f->stop && f->local != GS_OK)
+            GS_CALL(announce_stop(f));
+        if (!f->stop && f->nhave < f->n) {
+            int64_t k = pick(f);
+            if (k >= 0) {
                 GS_CALL(run_region(f, k));
                 continue;
             }
+        } else if (!f->fin_sent) {
+            f->fin_sent = 1;
+            for (int r = 0; r < s->size; r++)
+                if (r != s->rank) {
+                    f->fin[s->size + r] = f->sent[r];
+                    GS_CALL(post_send(f, &f->fin[s->size + r], sizeof(int64_t), r, TAG_FLOW_FIN));
+                }
         }
-        if (f->total >= 0 && f->seen == f->total && f->nheld == 0)
-            return GS_OK;
-        if (!got)
-            idle(f);
+        if (f->fin_sent) {
+            int all = 1;
+            for (int r = 0; r < s->size; r++)
+                all &= r == s->rank || (f->fin[r] >= 0 && f->got[r] == f->fin[r]);
+            if (all)
+                return GS_OK;
+        }
+        if (!got) {
+            double t0 = gs_time_now();
+            sched_yield();
+            s->stats.t_wait += gs_time_now() - t0;
+        }
     }
 }
 
@@ -488,12 +510,16 @@ static void flow_free(flow *f)
     gs_free(f->hdr);
     gs_free(f->have);
     gs_free(f->applied);
+    gs_free(f->claimed);
     gs_free(f->npend);
     gs_free(f->stack);
-    gs_free(f->undone);
-    gs_free(f->heap);
-    gs_free(f->owned);
-    gs_free(f->assign_msg);
+    gs_free(f->heap[0]);
+    gs_free(f->heap[1]);
+    gs_free(f->claim_msg);
+    gs_free(f->sent);
+    gs_free(f->got);
+    gs_free(f->fin);
+    gs_free(f->busy);
 }
 
 gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
@@ -503,33 +529,38 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
     gs_err local = f ? GS_OK
                      : gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                       "regions: cannot allocate the dataflow state");
-    size_t nn = s->count ? (size_t)s->count : 1;
+    size_t nn = s->count ? (size_t)s->count : 1, np = (size_t)s->size;
     if (f) {
-        *f = (flow){.s = s, .pass = pass, .run = run, .apply = apply, .ctx = ctx, .n = s->count,
-                    .total = -1};
+        *f = (flow){.s = s, .pass = pass, .run = run, .apply = apply, .ctx = ctx, .n = s->count};
         f->data = gs_calloc(nn, sizeof *f->data);
         f->hdr = gs_calloc(nn, sizeof *f->hdr);
         f->have = gs_calloc(nn, 1);
         f->applied = gs_calloc(nn, 1);
+        f->claimed = gs_calloc(nn, 1);
         f->npend = gs_calloc(nn, sizeof *f->npend);
         f->stack = gs_calloc(2 * nn + 1, sizeof *f->stack);
-        if (s->rank == 0) {
-            f->undone = gs_calloc(nn, sizeof *f->undone);
-            f->heap = gs_calloc(nn, sizeof *f->heap);
-            f->owned = gs_calloc((size_t)s->size, sizeof *f->owned);
-            f->assign_msg = gs_calloc(nn, sizeof *f->assign_msg);
-        }
-        if (!f->data || !f->hdr || !f->have || !f->applied || !f->npend || !f->stack ||
-            (s->rank == 0 && (!f->undone || !f->heap || !f->owned || !f->assign_msg)))
+        f->heap[0] = gs_calloc(nn, sizeof *f->heap[0]);
+        f->heap[1] = gs_calloc(nn, sizeof *f->heap[1]);
+        f->claim_msg = gs_calloc(3 * nn, sizeof *f->claim_msg);
+        f->sent = gs_calloc(np, sizeof *f->sent);
+        f->got = gs_calloc(np, sizeof *f->got);
+        f->fin = gs_calloc(2 * np, sizeof *f->fin); /* [0, size): received; [size, 2 size): sent */
+        f->busy = gs_calloc(np, 1);
+        if (!f->data || !f->hdr || !f->have || !f->applied || !f->claimed || !f->npend ||
+            !f->stack || !f->heap[0] || !f->heap[1] || !f->claim_msg || !f->sent || !f->got ||
+            !f->fin || !f->busy)
             local = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                    "regions: cannot allocate the dataflow state of %lld regions",
                                    (long long)s->count);
+        else
+            for (size_t r = 0; r < np; r++)
+                f->fin[r] = -1;
     }
     gs_err err = gs_par_agree(s->comm, local);
     if (err == GS_OK) {
         for (int64_t k = 0; k < f->n; k++)
             f->npend[k] = s->pred_off[k + 1] - s->pred_off[k];
-        err = s->rank == 0 ? coordinate(f) : work(f);
+        err = run_flow(f);
         /* An MPI failure is local (see regions.h): return it without the
          * collective agreement the other ranks may never reach. */
         if (err == GS_OK)
@@ -538,7 +569,7 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
             int64_t applied = 0;
             for (int64_t k = 0; k < f->n; k++)
                 applied += f->applied[k];
-            if (f->local == GS_OK && applied != f->n)
+            if (f->local == GS_OK && !f->stop && applied != f->n)
                 fail_local(f, gs_error_raise(GS_ERR_INTERNAL, __FILE__, __LINE__, __func__,
                                              "regions: %lld of %lld results applied",
                                              (long long)applied, (long long)f->n));
