@@ -247,6 +247,14 @@ gs_err gs_regions_compute_one(gs_regions_t s, int64_t pos, int pass, gs_region_r
     return GS_OK;
 }
 
+int gs_regions_iprobe(MPI_Comm comm, int tag, int *flag, MPI_Status *st)
+{
+    int rc = MPI_Iprobe(MPI_ANY_SOURCE, tag, comm, flag, st);
+    if (rc == MPI_SUCCESS && !*flag)
+        rc = MPI_Iprobe(MPI_ANY_SOURCE, tag, comm, flag, st);
+    return rc;
+}
+
 /* Waits for req without spinning a core away from a rank that computes
  * (ranks are often oversubscribed): MPI_Test, then yield the processor. */
 static gs_err polite_wait(MPI_Request *req, double *waited)
@@ -341,7 +349,7 @@ static gs_err coordinate(gs_regions_t s, const color_span *c, int pass, gs_regio
     while (q.pending > 0 || (!q.stop && q.next < q.end)) {
         int have = 0;
         MPI_Status st;
-        int rc = MPI_Iprobe(MPI_ANY_SOURCE, TAG_REQUEST, s->comm, &have, &st);
+        int rc = gs_regions_iprobe(s->comm, TAG_REQUEST, &have, &st);
         GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Iprobe failed");
         if (!have) {
             if (!q.stop && q.next < q.end) {

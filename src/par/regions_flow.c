@@ -414,12 +414,7 @@ static gs_err progress(flow *f, int *got)
     for (;;) {
         int flag = 0;
         MPI_Status st;
-        /* Open MPI's Iprobe looks at the matched queue, then polls the
-         * transports without looking again: after a long region the first
-         * call says "nothing" while the messages sit in the shared-memory
-         * FIFO. Ask twice before deciding there is none. */
-        for (int tries = 0; tries < 2 && !flag; tries++)
-            GS_MPI(MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, s->comm, &flag, &st));
+        GS_MPI(gs_regions_iprobe(s->comm, MPI_ANY_TAG, &flag, &st));
         if (!flag)
             return GS_OK;
         *got = 1;

@@ -41,6 +41,12 @@ struct gs_regions {
 gs_err gs_regions_compute_one(gs_regions_t s, int64_t pos, int pass, gs_region_run_fn run,
                               void *ctx);
 
+/* MPI_Iprobe from any source, asked twice when the first says nothing:
+ * Open MPI's Iprobe looks at the matched queue, then polls the transports
+ * without looking again, so after a long region the first call misses
+ * messages waiting in the shared-memory FIFO. Returns MPI's code. */
+int gs_regions_iprobe(MPI_Comm comm, int tag, int *flag, MPI_Status *st);
+
 /* gs_regions_run_pass when conflicts are set: all colours at once. */
 gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                             gs_region_apply_fn apply, void *ctx);
