@@ -5,10 +5,12 @@
  *
  * Phases: setup (rank 0 reads the example and the optional start lattice and
  * broadcasts them; every rank learns the same rules and builds the same
- * start model), synthesis (pass after pass; inside a pass the colours of
- * gs_model_plan run in order, the regions of one colour on all ranks at
- * once through gs_regions; the results are applied in region id order on
- * every rank, which is exactly the core's serial driver gs_model_synthesize),
+ * start model), synthesis (pass after pass; the regions of a pass run on all
+ * ranks through gs_regions as one dataflow over the colours of
+ * gs_model_plan: a region starts once the regions of lower colours it
+ * touches (gs_model_regions_interact) are applied, and every rank applies
+ * each result after those; the outcome is exactly the core's serial driver
+ * gs_model_synthesize, colours in order, regions in id order),
  * output (rank 0: lattice.h5 + lattice.xmf, lattice.vox, the merged-face
  * mesh, lattice.png when nz == 1, optionally Merrell's .txt; quality
  * metrics).
@@ -24,8 +26,11 @@
  * overlapping model's ground are not supported.
  *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
- * finished; checkpoints are taken between colours, since the regions of one
- * colour run concurrently. The checkpoint (group /model) holds the lattice,
+ * finished; checkpoints are taken between colours, since regions of
+ * neighbouring colours run concurrently: a window of colours (at most
+ * MODEL_WINDOW_REGIONS regions) ends where a unit-based checkpoint or stop
+ * would fall, so those land on the same colour as with one colour at a
+ * time; time-based checkpoints and signals are seen at the window's end. The checkpoint (group /model) holds the lattice,
  * the per-cell count of accepted regions (coverage, which decides when the
  * sweep may stop), the position (pass, next colour), the per-region status
  * and attempt counters of the pass in progress and the statistics; a resumed
