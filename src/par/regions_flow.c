@@ -177,7 +177,8 @@ typedef struct flow {
     int64_t notice[3];      /* {-1, status, 0}: this rank stopped (send buffer) */
     int64_t *claim_msg;     /* [n][3] send buffers of claims */
     int64_t *sent, *got;    /* [size] header messages sent to / received from each rank */
-    int64_t *fin;           /* [size] header messages each rank says it sent here; -1 = not yet */
+    int64_t *fin;           /* [2 size]: headers each rank says it sent here (-1 = no FIN
+                               yet), then the FIN send buffers */
     int fin_sent;
     MPI_Request sends[FLOW_MAX_SENDS];
     int nsends;
