@@ -65,5 +65,8 @@ void gs_progress_end(gs_progress *p);
 
 /* Monotonic wall-clock seconds. */
 double gs_time_now(void);
+/* CPU seconds of this process (all threads): on a shared machine it
+ * swings much less than wall time. */
+double gs_cpu_now(void);
 
 #endif

@@ -261,6 +261,15 @@ typedef struct gs_model_region {
 gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
                      gs_model_region **regions, size_t *nregions, int *ncolors);
 
+/* 1 when regions a and b of an nx*ny*nz output interact: one writes a cell
+ * the other reads (its box and the face neighbours around it, across
+ * periodic wraps and mirror faces as gs_model_region_run reads them).
+ * Symmetric. Regions of
+ * one colour of a plan never interact; the parallel engine runs regions of
+ * different colours at once when they do not. */
+int gs_model_regions_interact(const gs_model_params *p, int nx, int ny, int nz,
+                              const gs_model_box *a, const gs_model_box *b);
+
 typedef struct gs_model_solver *gs_model_solver_t;
 
 /* Scratch space for region synthesis (grows on demand). One per thread. */

@@ -85,6 +85,30 @@ void gs_regions_destroy(gs_regions_t *s);
 gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                            gs_region_apply_fn apply, void *ctx);
 
+/* Collective (same lists on every rank, checked by digest). Declares which
+ * regions of different colors interact: for the region at list index i
+ * (the list given to gs_regions_create), ids[offsets[i] .. offsets[i+1])
+ * are the regions of LOWER colors whose write box meets its read box or
+ * whose read box meets its write box (model: boxes grown by the one-cell
+ * shell overlap). Regions not listed must not interact. Then
+ * gs_regions_run_pass no longer waits at the end of each color and has no
+ * rank-0 queue: every rank runs a region once the results it depends on
+ * are applied there, picking among the ready ones (claims sent to all keep
+ * ranks from picking the same one; when two still do, both compute the
+ * same bytes and one copy is kept), and applies every result once its
+ * predecessors are applied there (dataflow). The final state is the same
+ * as with the color-by-color
+ * schedule, hence the same as the serial loop, for any rank count; the
+ * apply callback then sees the regions of one color in no fixed order, so
+ * it must not depend on the order of non-interacting results (counters,
+ * disjoint writes). Cost: each result goes from the rank that computed it
+ * to every other rank as soon as it exists (point to point, in chunks that
+ * fit the eager protocol so delivery does not wait for the sender's next
+ * MPI call), instead of one Allgatherv per color. Memory: every result of
+ * the pass is kept until the pass ends. Errors: ids not in the list, or of
+ * the same or a higher color (GS_ERR_ARG, on every rank). */
+gs_err gs_regions_set_conflicts(gs_regions_t s, const int64_t *offsets, const int64_t *ids);
+
 typedef struct gs_regions_stats {
     int64_t computed;   /* regions this rank ran */
     int64_t bytes;      /* result bytes received in exchanges */

@@ -96,6 +96,15 @@ void gs_run_set_checkpointing(gs_run *run, double seconds, int64_t every_units);
  * run only, so the resumed run can finish). */
 int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop);
 
+/* Collective: how many more work units may be done before
+ * gs_run_checkpoint_due(run, units, ...) can become due by unit count
+ * (run.checkpoint_every) or stop by the GS_STOP_AFTER_UNITS hook: >= 1, or
+ * INT64_MAX when neither applies (rank 0 decides; the same on every rank).
+ * Engines that run several colours between two checks use it to end at
+ * the same boundary a check after every colour would have stopped at;
+ * time and signals are still seen only at the next check. */
+gs_err gs_run_units_until_due(gs_run *run, int64_t units_done, int64_t *units);
+
 /* Collective: starts RUN_DIR/checkpoint.h5 (written to .tmp, committed with
  * gs_ckpt_commit) with this run's identity (engine, seed, resolved config). */
 gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out);

@@ -95,6 +95,13 @@ double gs_time_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+double gs_cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 void gs_progress_begin(gs_progress *p, const char *label, uint64_t total)
 {
     memset(p, 0, sizeof *p);

@@ -5,10 +5,12 @@
  *
  * Phases: setup (rank 0 reads the example and the optional start lattice and
  * broadcasts them; every rank learns the same rules and builds the same
- * start model), synthesis (pass after pass; inside a pass the colours of
- * gs_model_plan run in order, the regions of one colour on all ranks at
- * once through gs_regions; the results are applied in region id order on
- * every rank, which is exactly the core's serial driver gs_model_synthesize),
+ * start model), synthesis (pass after pass; the regions of a pass run on all
+ * ranks through gs_regions as one dataflow over the colours of
+ * gs_model_plan: a region starts once the regions of lower colours it
+ * touches (gs_model_regions_interact) are applied, and every rank applies
+ * each result after those; the outcome is exactly the core's serial driver
+ * gs_model_synthesize, colours in order, regions in id order),
  * output (rank 0: lattice.h5 + lattice.xmf, lattice.vox, the merged-face
  * mesh, lattice.png when nz == 1, optionally Merrell's .txt; quality
  * metrics).
@@ -24,8 +26,11 @@
  * overlapping model's ground are not supported.
  *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
- * finished; checkpoints are taken between colours, since the regions of one
- * colour run concurrently. The checkpoint (group /model) holds the lattice,
+ * finished; checkpoints are taken between colours, since regions of
+ * neighbouring colours run concurrently: a window of colours (at most
+ * MODEL_WINDOW_REGIONS regions) ends where a unit-based checkpoint or stop
+ * would fall, so those land on the same colour as with one colour at a
+ * time; time-based checkpoints and signals are seen at the window's end. The checkpoint (group /model) holds the lattice,
  * the per-cell count of accepted regions (coverage, which decides when the
  * sweep may stop), the position (pass, next colour), the per-region status
  * and attempt counters of the pass in progress and the statistics; a resumed
@@ -389,6 +394,7 @@ typedef struct model_engine {
     gs_model_stats stats;
     uint64_t region_cells; /* cells of all region runs */
     double synth_seconds;  /* synthesis wall time, summed over resumes */
+    gs_regions_stats queue; /* this rank's region runs and waits, this process only */
     uint64_t example_digest;
 } model_engine;
 
@@ -775,33 +781,88 @@ done:
 
 /* ---- synthesis ------------------------------------------------------------ */
 
-/* Collective: runs colour e->color of pass e->pass on all ranks. */
-static gs_err run_color(gs_run *run, model_engine *e)
+/* Colours run together at most this many regions at a time (one colour
+ * alone may have more): bounds the results kept, the O(n^2) conflict
+ * search and how late a time-based checkpoint or a signal is seen. */
+#define MODEL_WINDOW_REGIONS 2048
+
+/* Collective: runs colours e->color.. of pass e->pass on all ranks, as many
+ * as fit a window (see MODEL_WINDOW_REGIONS) and end no later than a
+ * unit-based checkpoint or stop would after one colour, as one dataflow
+ * (gs_regions_set_conflicts): a region starts when the regions of earlier
+ * colours it touches are done, not when the whole colour is. */
+static gs_err run_window(gs_run *run, model_engine *e)
 {
+    int64_t budget = 0;
+    GS_CALL(gs_run_units_until_due(run, e->units, &budget));
     size_t first = 0;
     while (first < e->nplan && (int)e->plan[first].color < e->color)
         first++;
     size_t last = first;
-    while (last < e->nplan && (int)e->plan[last].color == e->color)
-        last++;
-    if (last == first)
+    int next = e->color;
+    do {
+        size_t end = last;
+        while (end < e->nplan && (int)e->plan[end].color == next)
+            end++;
+        if (end > last && last > first && end - first > MODEL_WINDOW_REGIONS)
+            break;
+        last = end;
+        next++;
+    } while (next < e->ncolors && (int64_t)(last - first) < budget);
+    size_t n = last - first;
+    if (n == 0) {
+        e->color = next;
         return GS_OK;
+    }
     gs_region *list = NULL;
-    GS_CALL(gs_alloc_array((void **)&list, last - first, sizeof *list, "colour regions"));
+    int64_t *off = NULL, *ids = NULL;
+    gs_regions_t s = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "colour regions"), done);
+    GS_TRY(err, gs_alloc_array((void **)&off, n + 1, sizeof *off, "region conflicts"), done);
     for (size_t i = first; i < last; i++) {
         list[i - first].id = (int64_t)e->plan[i].id;
-        list[i - first].color = 0;
+        list[i - first].color = (int)e->plan[i].color;
     }
-    gs_regions_t s = NULL;
-    gs_err err = gs_regions_create(run->comm, list, (int64_t)(last - first), e->params.seed,
-                                   MODEL_RNG_DOMAIN, &s);
-    gs_free(list);
-    GS_CALL(err);
-    err = gs_regions_run_pass(s, e->pass, region_run, region_apply, e);
+    /* conflicts: interacting regions of lower colours (the plan is sorted
+     * by colour), counted first, then listed */
+    size_t m = 0;
+    for (int fill = 0; fill < 2; fill++) {
+        m = 0;
+        for (size_t i = first; i < last; i++) {
+            off[i - first] = (int64_t)m;
+            for (size_t j = first; j < i && e->plan[j].color < e->plan[i].color; j++)
+                if (gs_model_regions_interact(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
+                                              &e->plan[i].box, &e->plan[j].box)) {
+                    if (fill)
+                        ids[m] = (int64_t)e->plan[j].id;
+                    m++;
+                }
+        }
+        off[n] = (int64_t)m;
+        if (!fill)
+            GS_TRY(err, gs_alloc_array((void **)&ids, m ? m : 1, sizeof *ids, "region conflicts"),
+                   done);
+    }
+    GS_TRY(err, gs_regions_create(run->comm, list, (int64_t)n, e->params.seed, MODEL_RNG_DOMAIN, &s),
+           done);
+    GS_TRY(err, gs_regions_set_conflicts(s, off, ids), done);
+    GS_TRY(err, gs_regions_run_pass(s, e->pass, region_run, region_apply, e), done);
+    gs_regions_stats qs = gs_regions_get_stats(s);
+    e->queue.computed += qs.computed;
+    e->queue.bytes += qs.bytes;
+    e->queue.t_compute += qs.t_compute;
+    e->queue.t_wait += qs.t_wait;
+    e->queue.t_exchange += qs.t_exchange;
+    e->queue.t_apply += qs.t_apply;
+    e->units += (int64_t)n;
+    e->color = next;
+done:
     gs_regions_destroy(&s);
-    GS_CALL(err);
-    e->units += (int64_t)(last - first);
-    return GS_OK;
+    gs_free(list);
+    gs_free(off);
+    gs_free(ids);
+    return err;
 }
 
 static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
@@ -814,8 +875,7 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
         if (e->color == 0)
             gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
                    e->ncolors);
-        GS_CALL(run_color(run, e));
-        e->color++;
+        GS_CALL(run_window(run, e));
         if (e->color >= e->ncolors) {
             uint64_t acc = 0, fail = 0;
             for (size_t i = 0; i < e->nplan; i++) {
@@ -850,6 +910,20 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
         }
     }
     e->stats.passes = e->pass;
+    return GS_OK;
+}
+
+/* Collective: where this process's synthesis time went, over ranks, into
+ * q[]: {region seconds summed, max, wait max, exchange max, apply max,
+ * CPU seconds max} (rank 0). The ideal speed-up over one rank is the sum
+ * over the max of the region seconds: robust to a shared machine's noise,
+ * unlike wall time. */
+static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, double q[6])
+{
+    double mine[6] = {e->queue.t_compute, e->queue.t_compute, e->queue.t_wait,
+                      e->queue.t_exchange, e->queue.t_apply, cpu};
+    GS_MPI(MPI_Reduce(mine, q, 1, MPI_DOUBLE, MPI_SUM, 0, run->comm));
+    GS_MPI(MPI_Reduce(mine + 1, q + 1, 5, MPI_DOUBLE, MPI_MAX, 0, run->comm));
     return GS_OK;
 }
 
@@ -1131,6 +1205,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
 
     gs_run_phase_begin(run, "synthesis");
     int stopped = 0;
+    double cpu0 = gs_cpu_now();
     err = synthesize(run, &e, &stopped);
     if (err)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
@@ -1140,6 +1215,8 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         goto done;
     }
     const double cells = (double)lattice_cells(&e.lat);
+    double qr[6] = {0};
+    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, qr), done);
     snprintf(extra, sizeof extra,
              "{\"passes\": %d, \"regions\": %llu, \"accepted\": %llu, \"failed\": %llu, "
              "\"retries\": %llu, \"rejected_attempts\": %llu, \"backtracks\": %llu, "
@@ -1206,6 +1283,19 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                               q.run_ex[a] > 0 ? q.run_out[a] / q.run_ex[a] : 0.0);
         }
         gs_run_metric_f64(run, "synthesis_seconds", e.synth_seconds);
+        /* this process's share (a resumed run: since the resume) */
+        gs_run_metric_f64(run, "region_seconds_total", qr[0]);
+        gs_run_metric_f64(run, "region_seconds_max_rank", qr[1]);
+        gs_run_metric_f64(run, "ideal_speedup", qr[1] > 0 ? qr[0] / qr[1] : 0);
+        gs_run_metric_f64(run, "queue_wait_seconds_max_rank", qr[2]);
+        gs_run_metric_f64(run, "exchange_seconds_max_rank", qr[3]);
+        gs_run_metric_f64(run, "apply_seconds_max_rank", qr[4]);
+        gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qr[5]);
+        gs_log(GS_LOG_INFO,
+               "regions: %.3f s of region runs over %d ranks (%.3f s on the busiest: ideal "
+               "speed-up %.2f); per rank at most %.3f s waiting, %.3f s exchanging, %.3f s "
+               "applying, %.3f s CPU",
+               qr[0], run->size, qr[1], qr[1] > 0 ? qr[0] / qr[1] : 0, qr[2], qr[3], qr[4], qr[5]);
         gs_run_metric_f64(run, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0);
         gs_run_metric_f64(run, "region_cells_per_second",
                           e.synth_seconds > 0 ? (double)e.region_cells / e.synth_seconds : 0);

@@ -156,6 +156,44 @@ done:
     return err;
 }
 
+/* Does [lo, hi), grown by `grow` cells (the shell, 0 or 1), meet [blo, bhi)
+ * along one axis, across the wrap of a periodic axis? */
+static int axis_meets(int lo, int hi, int grow, int blo, int bhi, int n, int periodic, int mirror)
+{
+    int rlo = lo - grow, rhi = hi + grow;
+    if (grow && mirror && hi == n && n - 2 < rlo)
+        rlo = n - 2; /* the mirror image of the upper face: itself or the cell below */
+    for (int t = periodic ? -1 : 0; t <= (periodic ? 1 : 0); t++)
+        if (rlo < bhi + t * n && blo + t * n < rhi)
+            return 1;
+    return 0;
+}
+
+/* Does a read (box + face-neighbour shell) meet b's box? The shell of a box
+ * is the box grown by one cell along one axis at a time (no edges or
+ * corners: the solver reads face neighbours only). */
+static int box_reads(const gs_model_params *p, const int n[3], const int alo[3], const int ahi[3],
+                     const int blo[3], const int bhi[3])
+{
+    int plain[3], grown[3];
+    for (int d = 0; d < 3; d++) {
+        plain[d] = axis_meets(alo[d], ahi[d], 0, blo[d], bhi[d], n[d], p->periodic[d], 0);
+        grown[d] = axis_meets(alo[d], ahi[d], 1, blo[d], bhi[d], n[d], p->periodic[d],
+                              p->mirror[d]);
+    }
+    return (grown[0] && plain[1] && plain[2]) || (plain[0] && grown[1] && plain[2]) ||
+           (plain[0] && plain[1] && grown[2]);
+}
+
+int gs_model_regions_interact(const gs_model_params *p, int nx, int ny, int nz,
+                              const gs_model_box *a, const gs_model_box *b)
+{
+    const int n[3] = {nx, ny, nz};
+    const int alo[3] = {a->x0, a->y0, a->z0}, ahi[3] = {a->x1, a->y1, a->z1};
+    const int blo[3] = {b->x0, b->y0, b->z0}, bhi[3] = {b->x1, b->y1, b->z1};
+    return box_reads(p, n, alo, ahi, blo, bhi) || box_reads(p, n, blo, bhi, alo, ahi);
+}
+
 gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
                            gs_model_lattice *lat, gs_model_stats *stats)
 {

@@ -30,35 +30,9 @@
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
+#include "par/regions_impl.h"
 
 enum { TAG_REQUEST = 201, TAG_ASSIGN = 202 };
-
-struct gs_region_out {
-    unsigned char *data;
-    size_t len, cap;
-};
-
-typedef struct color_span {
-    int color;
-    int64_t begin, end; /* range of s->order for this color */
-} color_span;
-
-struct gs_regions {
-    MPI_Comm comm;
-    int rank, size;
-    uint64_t seed;
-    uint32_t domain;
-    gs_region *regions;  /* copy of the input list */
-    int64_t count;
-    int64_t *order;      /* positions in regions, grouped by color, input order inside */
-    color_span *colors;
-    int ncolors;
-    gs_regions_stats stats;
-    int prefetch;        /* requests a worker keeps outstanding */
-    gs_region_out pack;  /* this rank's records of the current color */
-    int64_t *gathered;   /* [2 * size] pack sizes and statuses */
-    int *rcounts, *displs;
-};
 
 /* ---- result buffers ---- */
 
@@ -121,6 +95,7 @@ static void free_sched(gs_regions_t s)
     gs_free(s->gathered);
     gs_free(s->rcounts);
     gs_free(s->displs);
+    gs_regions_free_conflicts(s);
     gs_free(s);
 }
 
@@ -241,7 +216,8 @@ void gs_regions_set_prefetch(gs_regions_t s, int depth)
 
 /* Runs region at position pos of the list and appends its record to the
  * pack. On failure the pack is left as before. */
-static gs_err compute_one(gs_regions_t s, int64_t pos, int pass, gs_region_run_fn run, void *ctx)
+gs_err gs_regions_compute_one(gs_regions_t s, int64_t pos, int pass, gs_region_run_fn run,
+                              void *ctx)
 {
     const gs_region *r = &s->regions[pos];
     size_t start = s->pack.len;
@@ -269,6 +245,14 @@ static gs_err compute_one(gs_regions_t s, int64_t pos, int pass, gs_region_run_f
     }
     s->stats.computed++;
     return GS_OK;
+}
+
+int gs_regions_iprobe(MPI_Comm comm, int tag, int *flag, MPI_Status *st)
+{
+    int rc = MPI_Iprobe(MPI_ANY_SOURCE, tag, comm, flag, st);
+    if (rc == MPI_SUCCESS && !*flag)
+        rc = MPI_Iprobe(MPI_ANY_SOURCE, tag, comm, flag, st);
+    return rc;
 }
 
 /* Waits for req without spinning a core away from a rank that computes
@@ -365,11 +349,11 @@ static gs_err coordinate(gs_regions_t s, const color_span *c, int pass, gs_regio
     while (q.pending > 0 || (!q.stop && q.next < q.end)) {
         int have = 0;
         MPI_Status st;
-        int rc = MPI_Iprobe(MPI_ANY_SOURCE, TAG_REQUEST, s->comm, &have, &st);
+        int rc = gs_regions_iprobe(s->comm, TAG_REQUEST, &have, &st);
         GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "regions: MPI_Iprobe failed");
         if (!have) {
             if (!q.stop && q.next < q.end) {
-                gs_err e = compute_one(s, s->order[q.next++], pass, run, ctx);
+                gs_err e = gs_regions_compute_one(s, s->order[q.next++], pass, run, ctx);
                 if (e != GS_OK) {
                     *status = e;
                     q.stop = 1;
@@ -429,7 +413,7 @@ static gs_err work(gs_regions_t s, int pass, gs_region_run_fn run, void *ctx, gs
         GS_MPI(MPI_Isend(&request[k], 1, MPI_INT64_T, 0, TAG_REQUEST, s->comm, &req[k]));
         outstanding++;
         if (*status == GS_OK)
-            *status = compute_one(s, assigned, pass, run, ctx);
+            *status = gs_regions_compute_one(s, assigned, pass, run, ctx);
     }
     GS_MPI(MPI_Waitall(d, req, MPI_STATUSES_IGNORE));
     return GS_OK;
@@ -530,13 +514,15 @@ done:
 gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                            gs_region_apply_fn apply, void *ctx)
 {
+    if (s->pred_off)
+        return gs_regions_flow_pass(s, pass, run, apply, ctx);
     for (int ci = 0; ci < s->ncolors; ci++) {
         const color_span *c = &s->colors[ci];
         gs_err status = GS_OK;
         s->pack.len = 0;
         if (s->size == 1) {
             for (int64_t i = c->begin; i < c->end && status == GS_OK; i++)
-                status = compute_one(s, s->order[i], pass, run, ctx);
+                status = gs_regions_compute_one(s, s->order[i], pass, run, ctx);
         } else if (s->rank == 0) {
             GS_CALL(coordinate(s, c, pass, run, ctx, &status));
         } else {

@@ -215,6 +215,17 @@ void gs_run_set_checkpointing(gs_run *run, double seconds, int64_t every_units)
     run->ckpt_last_time = gs_time_now();
 }
 
+/* The GS_STOP_AFTER_UNITS test hook: N, or -1 when unset (or resumed). */
+static int64_t stop_hook_units(const gs_run *run)
+{
+    const char *hook = getenv("GS_STOP_AFTER_UNITS");
+    if (!hook || !hook[0] || run->resumed)
+        return -1;
+    char *end;
+    long long n = strtoll(hook, &end, 10);
+    return *end == '\0' && n >= 0 ? (int64_t)n : -1;
+}
+
 int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
 {
     int flags[2] = {0, 0}; /* {due, stop} decided from rank 0's clock and every rank's signals */
@@ -223,13 +234,9 @@ int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
             flags[0] = 1;
         if (run->ckpt_every > 0 && units_done - run->ckpt_last_units >= run->ckpt_every)
             flags[0] = 1;
-        const char *hook = getenv("GS_STOP_AFTER_UNITS");
-        if (hook && hook[0] && !run->resumed) {
-            char *end;
-            long long n = strtoll(hook, &end, 10);
-            if (*end == '\0' && units_done >= n)
-                flags[1] = 1;
-        }
+        int64_t n = stop_hook_units(run);
+        if (n >= 0 && units_done >= n)
+            flags[1] = 1;
     }
     if (gs_par_interrupted())
         flags[1] = 1;
@@ -241,6 +248,26 @@ int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
         return 1;
     }
     return all[0];
+}
+
+gs_err gs_run_units_until_due(gs_run *run, int64_t units_done, int64_t *units)
+{
+    int64_t left = INT64_MAX;
+    if (run->rank == 0) {
+        if (run->ckpt_every > 0) {
+            int64_t d = run->ckpt_every - (units_done - run->ckpt_last_units);
+            left = d < left ? d : left;
+        }
+        int64_t n = stop_hook_units(run);
+        if (n >= 0 && n - units_done < left)
+            left = n - units_done;
+        if (left < 1)
+            left = 1;
+    }
+    if (run->size > 1)
+        GS_MPI(MPI_Bcast(&left, 1, MPI_INT64_T, 0, run->comm));
+    *units = left;
+    return GS_OK;
 }
 
 gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out)

@@ -3,7 +3,9 @@
  * neighbouring regions) plus noise from its random stream, several passes
  * over all colors. The scheduled result must equal a serial in-place sweep
  * (which also proves same-colored regions do not interact) and be identical
- * for every rank count. np=1 vs np=2 wall times are logged, not asserted.
+ * for every rank count, with the colour-by-colour schedule and with the
+ * dataflow one (gs_regions_set_conflicts). np=1 vs np=2 wall times are
+ * logged, not asserted.
  * np: 1 2 3 4
  */
 #include <stdio.h>
@@ -108,6 +110,14 @@ static gs_err toy_apply(void *ctx, int64_t id, const void *buf, size_t len)
     return GS_OK;
 }
 
+/* Fails on one region: the error must reach every rank. */
+static gs_err toy_run_failing(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
+                              gs_region_out *out)
+{
+    GS_CHECK(id != 37, GS_ERR_ARG, "region %lld refuses to run", (long long)id);
+    return toy_run(ctx, id, color, pass, rng, out);
+}
+
 static void init_grid(double *g)
 {
     gs_rng rng;
@@ -145,6 +155,18 @@ static gs_err check_grid_helpers(void)
     return GS_OK;
 }
 
+/* PASSES passes of the toy on every rank; wall seconds in *elapsed. */
+static gs_err timed_passes(gs_regions_t sched, toy *t, double *elapsed)
+{
+    GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
+    double t0 = MPI_Wtime();
+    for (int pass = 0; pass < PASSES; pass++)
+        GS_CALL(gs_regions_run_pass(sched, pass, toy_run, toy_apply, t));
+    GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
+    *elapsed = MPI_Wtime() - t0;
+    return GS_OK;
+}
+
 static gs_err run(void)
 {
     int rank = gs_par_rank(), size = gs_par_size();
@@ -167,14 +189,65 @@ static gs_err run(void)
     init_grid(grid);
     gs_regions_t sched = NULL;
     GS_CALL(gs_regions_create(MPI_COMM_WORLD, list, nreg, SEED, DOMAIN, &sched));
-    GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
-    double t0 = MPI_Wtime();
-    for (int pass = 0; pass < PASSES; pass++)
-        GS_CALL(gs_regions_run_pass(sched, pass, toy_run, toy_apply, &t));
-    GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
-    double elapsed = MPI_Wtime() - t0;
+    double elapsed = 0;
+    GS_CALL(timed_passes(sched, &t, &elapsed));
     gs_regions_stats st = gs_regions_get_stats(sched);
     gs_regions_destroy(&sched);
+
+    /* The same passes as one dataflow (gs_regions_set_conflicts): each
+     * region lists the lower-coloured regions whose write box meets its read
+     * box or the other way round; the result must not change. */
+    double *flow_grid = malloc((size_t)NX * NY * NZ * sizeof *flow_grid);
+    int64_t *off = malloc((size_t)(nreg + 1) * sizeof *off);
+    int64_t *ids = malloc((size_t)nreg * 64 * sizeof *ids);
+    TOY_CHECK(flow_grid && off && ids, "out of memory");
+    int64_t m = 0;
+    for (int64_t i = 0; i < nreg; i++) {
+        off[i] = m;
+        const gs_region_box *a = &boxes[list[i].id];
+        for (int64_t j = 0; j < nreg; j++) {
+            const gs_region_box *b = &boxes[j];
+            if (b->color >= a->color)
+                continue;
+            int ab = 1, ba = 1;
+            for (int d = 0; d < 3; d++) {
+                ab &= a->wlo[d] < b->rhi[d] && b->rlo[d] < a->whi[d];
+                ba &= b->wlo[d] < a->rhi[d] && a->rlo[d] < b->whi[d];
+            }
+            if (ab || ba) {
+                TOY_CHECK(m < nreg * 64, "too many conflicts");
+                ids[m++] = b->id;
+            }
+        }
+    }
+    off[nreg] = m;
+    toy tf = {flow_grid, boxes};
+    init_grid(flow_grid);
+    GS_CALL(gs_regions_create(MPI_COMM_WORLD, list, nreg, SEED, DOMAIN, &sched));
+    GS_CALL(gs_regions_set_conflicts(sched, off, ids));
+    double flow_elapsed = 0;
+    GS_CALL(timed_passes(sched, &tf, &flow_elapsed));
+    gs_regions_stats fst = gs_regions_get_stats(sched);
+    /* a failing region stops the dataflow pass with the same code everywhere */
+    toy tfail = {ref, boxes}; /* scratch: ref is rebuilt below */
+    TOY_CHECK(gs_regions_run_pass(sched, 0, toy_run_failing, toy_apply, &tfail) == GS_ERR_ARG,
+              "a failing region must fail the dataflow pass on every rank");
+    TOY_CHECK(strstr(gs_error_message(), "refuses") != NULL, "message: %s", gs_error_message());
+    gs_error_clear();
+    /* a conflict of the same colour is refused on every rank */
+    int64_t bad_ids[1];
+    gs_regions_t one = NULL;
+    gs_region two[2] = {{0, 1}, {1, 1}};
+    GS_CALL(gs_regions_create(MPI_COMM_WORLD, two, 2, SEED, DOMAIN, &one));
+    int64_t bad_off2[3] = {0, 1, 1};
+    bad_ids[0] = 1;
+    TOY_CHECK(gs_regions_set_conflicts(one, bad_off2, bad_ids) == GS_ERR_ARG,
+              "a same-coloured conflict must be refused");
+    gs_error_clear();
+    gs_regions_destroy(&one);
+    gs_regions_destroy(&sched);
+    free(off);
+    free(ids);
 
     /* Serial reference: colors in order, regions in id order, each result
      * written at once (in place). Equal only if same-colored regions are
@@ -194,6 +267,9 @@ static gs_err run(void)
     uint64_t h = gs_digest_bytes(grid, (size_t)NX * NY * NZ * sizeof *grid);
     uint64_t href = gs_digest_bytes(ref, (size_t)NX * NY * NZ * sizeof *ref);
     TOY_CHECK(h == href, "scheduled grid differs from the serial sweep");
+    TOY_CHECK(gs_digest_bytes(flow_grid, (size_t)NX * NY * NZ * sizeof *flow_grid) == href,
+              "dataflow grid differs from the serial sweep");
+    free(flow_grid);
     GS_CALL(gs_par_check_same_i64(MPI_COMM_WORLD, (int64_t)h, "regions grid digest"));
 
     int64_t computed_all[64] = {0};
@@ -211,6 +287,8 @@ static gs_err run(void)
         }
         TOY_CHECK(total == nreg * PASSES, "%lld regions computed, expected %lld",
                   (long long)total, (long long)(nreg * PASSES));
+        fprintf(stderr, "regions_toy np=%d dataflow: %.3f s wall (rank 0: %lld regions, wait "
+                "%.3f s)\n", size, flow_elapsed, (long long)fst.computed, fst.t_wait);
         fprintf(stderr, "regions_toy np=%d: %lld regions x %d passes in 8 colors: %.3f s wall "
                 "(regions per rank: %s; rank 0 compute %.3f s, exchange %.3f s)\n",
                 size, (long long)nreg, PASSES, elapsed, per, st.t_compute, st.t_exchange);

@@ -148,6 +148,66 @@ static void test_periodic_plan_gap(void **state)
     }
 }
 
+/* gs_model_regions_interact against cell sets: a region reads its box and
+ * its 6-neighbour shell (wrapped on periodic axes), writes its box; two
+ * regions interact iff one writes a cell the other reads. Regions of one
+ * colour never interact. Periodic x, free y, uneven regions, both passes. */
+static void test_regions_interact(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = 10;
+    p.region[1] = 8;
+    p.periodic[0] = 1;
+    enum { NX = 37, NY = 23, NZ = 6 };
+    static unsigned char reads[NX * NY * NZ];
+    for (int pass = 0; pass < 2; pass++) {
+        gs_model_region *reg = NULL;
+        size_t n = 0;
+        int ncol = 0;
+        assert_int_equal(gs_model_plan(&p, NX, NY, NZ, pass, &reg, &n, &ncol), GS_OK);
+        size_t pairs = 0;
+        unsigned char *hit = calloc(n * n, 1); /* hit[i * n + j]: j writes what i reads */
+        assert_non_null(hit);
+        for (size_t i = 0; i < n; i++) {
+            const gs_model_box *a = &reg[i].box;
+            memset(reads, 0, sizeof reads);
+            for (int z = a->z0 - 1; z <= a->z1; z++)
+                for (int y = a->y0 - 1; y <= a->y1; y++)
+                    for (int x = a->x0 - 1; x <= a->x1; x++) {
+                        int inx = x >= a->x0 && x < a->x1, iny = y >= a->y0 && y < a->y1,
+                            inz = z >= a->z0 && z < a->z1;
+                        if (inx + iny + inz < 2) /* box and face neighbours only */
+                            continue;
+                        if (y < 0 || y >= NY || z < 0 || z >= NZ)
+                            continue;
+                        reads[(x + NX) % NX + NX * (y + NY * z)] = 1;
+                    }
+            for (size_t j = 0; j < n; j++) {
+                const gs_model_box *b = &reg[j].box;
+                for (int z = b->z0; z < b->z1 && j != i && !hit[i * n + j]; z++)
+                    for (int y = b->y0; y < b->y1 && !hit[i * n + j]; y++)
+                        for (int x = b->x0; x < b->x1 && !hit[i * n + j]; x++)
+                            hit[i * n + j] = reads[x + NX * (y + NY * z)];
+            }
+        }
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < n; j++) {
+                if (j == i)
+                    continue;
+                int fn = gs_model_regions_interact(&p, NX, NY, NZ, &reg[i].box, &reg[j].box);
+                assert_int_equal(fn, hit[i * n + j] || hit[j * n + i]);
+                if (reg[i].color == reg[j].color)
+                    assert_false(fn);
+                pairs += (size_t)fn;
+            }
+        free(hit);
+        assert_true(pairs > 0);
+        gs_free(reg);
+    }
+}
+
 /* gadgets 40x40x6 whole grid: with seeds 1-3 some region exhausts its tries
  * (split_depth 0 keeps the start content there); splitting rescues it with 0
  * violations. */
@@ -355,6 +415,7 @@ int main(void)
         cmocka_unit_test(test_city_regions_tiled_start),
         cmocka_unit_test(test_periodic_output),
         cmocka_unit_test(test_periodic_plan_gap),
+        cmocka_unit_test(test_regions_interact),
         cmocka_unit_test(test_split_rescues_failed_region),
         cmocka_unit_test(test_pins),
         cmocka_unit_test(test_mirror),
