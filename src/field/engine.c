@@ -479,7 +479,14 @@ static gs_err field_region_apply(void *ctx_, int64_t id, const void *buf, size_t
 
 #define FIELD_REGIONS_DOMAIN 0x46524547u /* "FREG" */
 
-static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t first, int64_t n)
+/* Seconds of this rank in region colors (gs_regions_stats, summed). */
+typedef struct region_times {
+    double compute, wait, exchange, apply;
+    int64_t regions;
+} region_times;
+
+static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t first, int64_t n,
+                                region_times *rt)
 {
     gs_region *list = NULL;
     GS_CALL(gs_alloc_array((void **)&list, (size_t)n, sizeof *list, "colour regions"));
@@ -491,6 +498,10 @@ static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t fir
     GS_CALL(err);
     region_ctx rc = {synth};
     err = gs_regions_run_pass(rs, 0, field_region_run, field_region_apply, &rc);
+    gs_regions_stats st = gs_regions_get_stats(rs);
+    rt->compute += st.t_compute, rt->wait += st.t_wait;
+    rt->exchange += st.t_exchange, rt->apply += st.t_apply;
+    rt->regions += st.computed;
     gs_regions_destroy(&rs);
     return err;
 }
@@ -790,16 +801,21 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     double t0 = gs_time_now();
     int64_t start_units = units_done(st);
     int64_t region_colors = 0, serial_colors = 0;
+    region_times rt = {0};
+    double t_setup = 0, t_order = 0;
     while (!finished) {
         int64_t begin, end, r0, nr;
         const gs_field_region *regs;
+        double ta = gs_time_now();
         GS_TRY(err, gs_field_synth_color(synth, &begin, &end, &regs, &r0, &nr, &finished), done);
+        double tb = gs_time_now();
+        t_setup += tb - ta; /* a new iteration: level source, tree */
         if (finished)
             break;
         st = gs_field_synth_get_state(synth);
         if (run->size > 1 && nr >= run->size && st->cursor == begin) {
             /* a color with a region for every rank: regions in parallel */
-            GS_TRY(err, run_color_regions(run, synth, r0, nr), done);
+            GS_TRY(err, run_color_regions(run, synth, r0, nr, &rt), done);
             region_colors++;
         } else {
             /* one region (or fewer than ranks, or a color resumed in its
@@ -809,6 +825,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             int64_t left = end - st->cursor, n = left < FIELD_UNIT_BATCH ? left : FIELD_UNIT_BATCH;
             GS_TRY(err, gs_field_synth_run(synth, n, &finished), done);
             serial_colors += n == left;
+            t_order += gs_time_now() - tb;
         }
         st = gs_field_synth_get_state(synth);
         finished = finished || synth_finished(st, sc.iterations);
@@ -829,10 +846,14 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     double syn_s = gs_time_now() - t0;
     snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
              "\"colors_in_regions\":%lld,\"colors_in_order\":%lld,"
+             "\"rank0_seconds\":{\"iteration_setup\":%.3f,\"in_order\":%.3f,"
+             "\"regions_compute\":%.3f,\"regions_wait\":%.3f,\"regions_exchange\":%.3f,"
+             "\"regions_apply\":%.3f},\"rank0_regions\":%lld,"
              "\"queries_local\":%lld,\"queries_spread\":%lld}",
              (long long)units_done(st), (long long)(units_done(st) - start_units),
              syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
-             (long long)region_colors, (long long)serial_colors, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
+             (long long)region_colors, (long long)serial_colors, t_setup, t_order, rt.compute,
+             rt.wait, rt.exchange, rt.apply, (long long)rt.regions, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
     GS_TRY(err, gs_run_phase_end(run, js), done);
 
     gs_run_phase_begin(run, "output");
