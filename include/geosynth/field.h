@@ -296,6 +296,12 @@ typedef struct gs_field_synth_config {
     int seed_blocks;                 /* 1: iteration 0 seeds the target with random source
                                         blocks (tiles of block[0]) instead of random samples */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
+    int region_blocks;               /* target regions (see below): block positions per region
+                                        along each axis, >= 2; 0 = one region, the paper's
+                                        raster order */
+    int32_t *prov;                   /* optional, final target size: the source sample each
+                                        sample of the last iteration was copied from (-1: none);
+                                        owned by the caller, kept across resume by the caller */
     /* Optional (NULL = local search): called for every block instead of
      * gs_field_tree_best_match(searcher, q, opts, out), with the iteration,
      * the block's position in the current target and the iteration's tree.
@@ -349,6 +355,47 @@ const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s);
 /* Copy of the final (or current) target as a quantized field with the
  * source's range, spacing and origin 0. */
 gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out);
+
+/* Target regions (DESIGN.md). With region_blocks = R > 0 an iteration's block
+ * positions (a grid of npos[0] x npos[1] x npos[2], stride B/2) are cut into
+ * regions of R x R x R positions (a last region of fewer than 3 positions
+ * joins the one before). Region (rx, ry, rz) has id rx + nrx * (ry + nry *
+ * rz) and color rx + ry + rz (a wavefront). Its blocks cover the sample box
+ * [lo, hi); it synthesizes its core, the box without the B/2 samples at its
+ * low faces, which its lower neighbours synthesized: the cores tile the
+ * target and a region reads only its own core and lower-colored ones. The
+ * visit order is: colors ascending, regions of a color by id, blocks of a
+ * region in raster order (x fastest). It gives exactly the result of the
+ * raster order over the whole target (R = 0, the paper's), see
+ * src/field/synth.c. One color's regions never read what another writes, so
+ * they may be computed in any order or in parallel
+ * (gs_field_synth_region_run on a private copy of the region's box) and
+ * then applied in id order (gs_field_synth_region_apply), with exactly the
+ * result of gs_field_synth_run. */
+typedef struct gs_field_region {
+    int64_t id;                      /* gs_regions_grid id in this iteration */
+    int color;
+    int64_t first, count;            /* its blocks: order[first .. first+count) */
+    int64_t lo[3], hi[3];            /* sample box of its blocks, [lo, hi) */
+} gs_field_region;
+
+/* The color that the cursor is in: cursor range [*begin, *end) and its
+ * regions reg[*first_region .. + *nregions) (the array stays valid until the
+ * iteration changes). Advances to the next iteration first when the cursor
+ * is at the end of one. *finished = 1 (and nothing else set) at the end. */
+gs_err gs_field_synth_color(gs_field_synth_t s, int64_t *begin, int64_t *end,
+                            const gs_field_region **regions, int64_t *first_region,
+                            int64_t *nregions, int *finished);
+/* Bytes of a region's result. */
+size_t gs_field_synth_region_bytes(gs_field_synth_t s, int64_t region);
+/* Synthesizes region `region` of the current iteration on a private copy of
+ * its box (the synthesis state is not modified) and writes its result (one
+ * record per block, gs_field_synth_region_bytes) to out. Local search only
+ * (the config's match hook is not called). */
+gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out);
+/* Applies a region's result: the cursor must be at the region's first block
+ * (regions are applied in visit order); advances it past the region. */
+gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const void *buf, size_t len);
 
 /* Quality metrics of an output against its source. */
 typedef struct gs_field_quality {

@@ -12,8 +12,19 @@
  *             two ranks). Then the synthesis is created, or restored from
  *             RUN_DIR/checkpoint.h5.
  *  synthesis  the core's multi-resolution synthesis (src/field/synth.c). Every
- *             rank holds the whole (small) target and runs the same block
- *             sequence. Each query is first searched whole on every rank
+ *             rank holds the whole (small) target. Each iteration's block
+ *             positions are cut into target regions (field.region_blocks)
+ *             visited in wavefront colors; the core's visit order (colors,
+ *             regions by id, raster inside) gives exactly the paper's raster
+ *             order's result (see gs_field_region), so the region size never
+ *             changes the output. A color with at least one region per rank
+ *             runs on the gs_regions work queue: each rank synthesizes whole
+ *             regions on private copies with its local tree, the results
+ *             (source block per target block) are exchanged and applied in id
+ *             order on every rank. Other colors (the first and last of the
+ *             wavefront, coarse iterations with few regions, a color resumed
+ *             in its middle) run block by block on every rank, and each
+ *             query is first searched whole on every rank
  *             with a pop budget (FIELD_LOCAL_POPS; the same answer, or the
  *             same give-up, everywhere, no messages); only queries over the
  *             budget are distributed: the search
@@ -26,8 +37,8 @@
  *             each block gets exactly the serial answer of
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
- *             Work unit = one block; the checkpoint test (a collective) runs
- *             every FIELD_UNIT_BATCH blocks. Checkpoints hold target, mask, iteration,
+ *             Checkpoint tests (a collective) run after every region color
+ *             and every FIELD_UNIT_BATCH blocks in order. Checkpoints hold target, mask, iteration,
  *             cursor, match statistics and the provenance map; the only
  *             randomness (the seeds of iteration 0) is drawn from gs_rng keyed
  *             by run.seed when the synthesis is created, so it is part of the
@@ -59,6 +70,7 @@
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
 #include "geosynth/psearch.h"
+#include "geosynth/regions.h"
 #include "geosynth/vdb.h"
 
 typedef struct field_config {
@@ -82,6 +94,7 @@ typedef struct field_config {
     double seed_weight;
     int seed_blocks;
     int upper_bound;
+    int64_t region_blocks;
     char *geometry;
     char *mesh_format;
     double adaptivity;
@@ -160,6 +173,10 @@ static const gs_cfg_key field_keys[] = {
                     "iteration 0 starts from random source blocks instead of random samples"),
     GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
                     "queue pruning with the paper's upper bound (eq. 3); same result"),
+    GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
+                   "target regions run in parallel on the ranks: block positions (stride "
+                   "block/2) per region along each axis; 0 = one region; any value gives the "
+                   "paper's raster-order result, for any rank count"),
     GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
                     "output mesh: contour of the field (OpenVDB), copied source triangles "
                     "(paper 5.3), both, or none"),
@@ -374,25 +391,6 @@ static gs_err search_share(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
     return GS_OK;
 }
 
-static gs_err record_provenance(match_ctx *ctx, gs_field_tree_t tree, const int64_t pos[3],
-                                int64_t index)
-{
-    const gs_field_synth_state *st = gs_field_synth_get_state(ctx->synth);
-    const gs_qfield *ls = gs_field_tree_source(tree);
-    int B = gs_field_tree_block(tree);
-    int64_t bp[3];
-    gs_field_block_position(ls, B, index, bp);
-    int64_t tx = st->tn[0], txy = st->tn[0] * st->tn[1];
-    for (int k = 0; k < B; k++)
-        for (int j = 0; j < B; j++)
-            for (int i = 0; i < B; i++) {
-                int64_t t = pos[0] + i + tx * (pos[1] + j) + txy * (pos[2] + k);
-                if (!st->mask[t])
-                    ctx->prov[t] = (int32_t)(bp[0] + i + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k)));
-            }
-    return GS_OK;
-}
-
 /* The synthesis' match hook: exact best match, spread over the ranks. */
 static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t searcher,
                           int iteration, const int64_t pos[3], const gs_field_query *q,
@@ -449,9 +447,69 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         out->index = best;
         out->dist = (uint64_t)hit.dist;
     }
-    if (iteration == ctx->iterations - 1)
-        GS_CALL(record_provenance(ctx, tree, pos, out->index));
+    (void)pos;
     return GS_OK;
+}
+
+/* ------------------------------------------------------ target regions */
+
+/* Regions of one color on the gs_regions work queue: each rank synthesizes
+ * its regions on private copies with the whole local tree, the results (one
+ * source block per target block) are exchanged and applied in id order on
+ * every rank. Same state as the serial order (gs_field_synth_run). */
+typedef struct region_ctx {
+    gs_field_synth_t synth; /* gs_regions ids are the synthesis' region indices */
+} region_ctx;
+
+static gs_err field_region_run(void *ctx_, int64_t id, int color, int pass, gs_rng *rng,
+                               gs_region_out *out)
+{
+    (void)color, (void)pass, (void)rng; /* the synthesis has no randomness after seeding */
+    region_ctx *rc = ctx_;
+    void *dst = NULL;
+    GS_CALL(gs_region_out_reserve(out, gs_field_synth_region_bytes(rc->synth, id), &dst));
+    return gs_field_synth_region_run(rc->synth, id, dst);
+}
+
+static gs_err field_region_apply(void *ctx_, int64_t id, const void *buf, size_t len)
+{
+    region_ctx *rc = ctx_;
+    return gs_field_synth_region_apply(rc->synth, id, buf, len);
+}
+
+#define FIELD_REGIONS_DOMAIN 0x46524547u /* "FREG" */
+
+/* Seconds of this rank in region colors (gs_regions_stats, summed). */
+typedef struct region_times {
+    double compute, wait, exchange, apply;
+    int64_t regions;
+} region_times;
+
+static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t first, int64_t n,
+                                region_times *rt)
+{
+    gs_region *list = NULL;
+    GS_CALL(gs_alloc_array((void **)&list, (size_t)n, sizeof *list, "colour regions"));
+    for (int64_t i = 0; i < n; i++)
+        list[i].id = first + i, list[i].color = 0;
+    gs_regions_t rs = NULL;
+    gs_err err = gs_regions_create(run->comm, list, n, (uint64_t)run->seed, FIELD_REGIONS_DOMAIN, &rs);
+    gs_free(list);
+    GS_CALL(err);
+    region_ctx rc = {synth};
+    err = gs_regions_run_pass(rs, 0, field_region_run, field_region_apply, &rc);
+    gs_regions_stats st = gs_regions_get_stats(rs);
+    rt->compute += st.t_compute, rt->wait += st.t_wait;
+    rt->exchange += st.t_exchange, rt->apply += st.t_apply;
+    rt->regions += st.computed;
+    gs_regions_destroy(&rs);
+    return err;
+}
+
+static int synth_finished(const gs_field_synth_state *st, int iterations)
+{
+    return st->iteration >= iterations ||
+           (st->iteration == iterations - 1 && st->cursor >= st->blocks_in_iteration);
 }
 
 /* ---------------------------------------------------------- checkpoint */
@@ -682,6 +740,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         sc.seed_weight = 1;
     sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
+    sc.region_blocks = (int)c->region_blocks;
     sc.match = match_block;
     sc.match_ctx = &ctx;
     ctx.run = run;
@@ -710,6 +769,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     GS_TRY(err, gs_alloc_array((void **)&ctx.prov, (size_t)nt, sizeof *ctx.prov, "provenance map"), done);
     for (int64_t i = 0; i < nt; i++)
         ctx.prov[i] = -1;
+    sc.prov = ctx.prov;
     if (resume)
         err = read_checkpoint(run, q, &sc, &ctx, src_digest, &synth);
     else
@@ -740,11 +800,35 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     int finished = st->iteration >= sc.iterations;
     double t0 = gs_time_now();
     int64_t start_units = units_done(st);
+    int64_t region_colors = 0, serial_colors = 0;
+    region_times rt = {0};
+    double t_setup = 0, t_order = 0;
     while (!finished) {
-        /* batches: the checkpoint test is a collective, and most blocks take
-         * microseconds (identical batches on every rank) */
-        GS_TRY(err, gs_field_synth_run(synth, FIELD_UNIT_BATCH, &finished), done);
+        int64_t begin, end, r0, nr;
+        const gs_field_region *regs;
+        double ta = gs_time_now();
+        GS_TRY(err, gs_field_synth_color(synth, &begin, &end, &regs, &r0, &nr, &finished), done);
+        double tb = gs_time_now();
+        t_setup += tb - ta; /* a new iteration: level source, tree */
+        if (finished)
+            break;
         st = gs_field_synth_get_state(synth);
+        if (run->size > 1 && nr >= run->size && st->cursor == begin) {
+            /* a color with a region for every rank: regions in parallel */
+            GS_TRY(err, run_color_regions(run, synth, r0, nr, &rt), done);
+            region_colors++;
+        } else {
+            /* one region (or fewer than ranks, or a color resumed in its
+             * middle): the color's blocks in order, each query spread over
+             * the ranks. Batches: the checkpoint test is a collective, and
+             * most blocks take microseconds (identical batches on every rank) */
+            int64_t left = end - st->cursor, n = left < FIELD_UNIT_BATCH ? left : FIELD_UNIT_BATCH;
+            GS_TRY(err, gs_field_synth_run(synth, n, &finished), done);
+            serial_colors += n == left;
+            t_order += gs_time_now() - tb;
+        }
+        st = gs_field_synth_get_state(synth);
+        finished = finished || synth_finished(st, sc.iterations);
         int64_t u = units_done(st);
         gs_progress_update(&prog, (uint64_t)u);
         int stop = 0;
@@ -761,10 +845,15 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     st = gs_field_synth_get_state(synth);
     double syn_s = gs_time_now() - t0;
     snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
+             "\"colors_in_regions\":%lld,\"colors_in_order\":%lld,"
+             "\"rank0_seconds\":{\"iteration_setup\":%.3f,\"in_order\":%.3f,"
+             "\"regions_compute\":%.3f,\"regions_wait\":%.3f,\"regions_exchange\":%.3f,"
+             "\"regions_apply\":%.3f},\"rank0_regions\":%lld,"
              "\"queries_local\":%lld,\"queries_spread\":%lld}",
              (long long)units_done(st), (long long)(units_done(st) - start_units),
              syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
-             (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
+             (long long)region_colors, (long long)serial_colors, t_setup, t_order, rt.compute,
+             rt.wait, rt.exchange, rt.apply, (long long)rt.regions, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
     GS_TRY(err, gs_run_phase_end(run, js), done);
 
     gs_run_phase_begin(run, "output");

@@ -27,10 +27,12 @@
  * The paper reuses one tree for all iterations by dropping leaves; with
  * every overlapping block position in the tree, the subsampled source has
  * different block positions, so each iteration builds its (small) tree. */
+#include <stdlib.h>
 #include <string.h>
 
 #include "field_impl.h"
 #include "geosynth/mem.h"
+#include "geosynth/regions.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 
@@ -44,7 +46,28 @@ struct gs_field_synth {
     int64_t pos[3][4096];         /* visit positions per axis */
     int64_t npos[3];
     uint8_t *qval, *qknown;
+    /* target regions of the current iteration (region_blocks > 0), sorted
+     * by (color, id); order[cursor] = block index (x fastest over npos) */
+    int64_t *order;               /* NULL: the raster order */
+    int64_t nreg;
+    gs_field_region *reg;
+    uint8_t *scratch;             /* 2 x the largest region box: target, mask */
+    size_t scratch_len;
 };
+
+/* What the region path needs to replay one block (apply). */
+typedef struct block_result {
+    int64_t index;                /* matched source block */
+    double nd;                    /* normalized match distance */
+    uint64_t pops;
+} block_result;
+
+/* A box of samples the blocks read and write: the whole target, or a
+ * region's private copy. */
+typedef struct synth_view {
+    uint8_t *target, *mask;
+    int64_t o[3], n[3];           /* origin in the target, size */
+} synth_view;
 
 void gs_field_synth_config_default(gs_field_synth_config *c, const gs_qfield *src)
 {
@@ -71,6 +94,9 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
                  "source size %lld along axis %d: expected a multiple of %lld for %d iterations",
                  (long long)sn[a], a, (long long)f, c->iterations);
     }
+    GS_CHECK(c->region_blocks >= 0 && c->region_blocks <= 4096, GS_ERR_ARG,
+             "field.region_blocks = %d: expected 0 (one region) or 1..4096 block positions per "
+             "region", c->region_blocks);
     for (int i = 0; i < c->iterations; i++) {
         int B = c->block[i];
         int64_t fi = (int64_t)1 << (c->iterations - 1 - i);
@@ -83,6 +109,97 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
                  i, B, (long long)(sn[0] / fi), (long long)(c->target[0] / fi));
     }
     return GS_OK;
+}
+
+static int cmp_region(const void *a_, const void *b_)
+{
+    const gs_field_region *a = a_, *b = b_;
+    if (a->color != b->color)
+        return a->color < b->color ? -1 : 1;
+    return a->id < b->id ? -1 : a->id > b->id;
+}
+
+/* Regions of the current iteration and the visit order (region_blocks > 0).
+ * Along each axis region r starts at block position r*R (a last region of
+ * fewer than 3 positions joins the one before, so the clamped last position
+ * and the two before it share a region); its blocks cover the samples
+ * [pos[first], pos[last] + B), its core (what it synthesizes) starts B/2
+ * higher, where the block before it ends, so the cores tile the target and a
+ * region reads the top B/2 of its lower neighbours' cores. Color = rx + ry +
+ * rz (a wavefront): every region it reads is of a lower color.
+ *
+ * Why this is the raster order's result (tests/unit/test_field.c checks it):
+ * two blocks P, Q interact only where they overlap, i.e. when their
+ * positions differ by at most one along every axis (stride B/2; near the
+ * clamped end by two, inside one region). The block M = min(P, Q)
+ * (componentwise) covers that overlap. If M is neither P nor Q, M comes
+ * before both in the raster order and in the region order (M's region is
+ * componentwise <= theirs, so of a lower color or the same region), so the
+ * overlap is synthesized before either reads it and their order does not
+ * matter; if M = P, P comes first in both orders. So every pair that
+ * interacts is visited in the same relative order. */
+static gs_err build_regions(struct gs_field_synth *s, int B)
+{
+    gs_free(s->order);
+    gs_free(s->reg);
+    s->order = NULL, s->reg = NULL, s->nreg = 0;
+    if (s->cfg.region_blocks <= 0)
+        return GS_OK;
+    int64_t R = s->cfg.region_blocks, nr[3];
+    for (int a = 0; a < 3; a++) {
+        nr[a] = (s->npos[a] + R - 1) / R;
+        if (nr[a] > 1 && s->npos[a] - (nr[a] - 1) * R < 3)
+            nr[a]--;
+    }
+    int64_t n = nr[0] * nr[1] * nr[2];
+    gs_region_box *boxes = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&boxes, (size_t)n, sizeof *boxes, "region boxes"), done);
+    GS_TRY(err, gs_alloc_array((void **)&s->reg, (size_t)n, sizeof *s->reg, "target regions"), done);
+    GS_TRY(err, gs_alloc_array((void **)&s->order, (size_t)s->st.blocks_in_iteration,
+                               sizeof *s->order, "block visit order"), done);
+    for (int64_t r = 0; r < n; r++) {
+        int64_t idx[3] = {r % nr[0], r / nr[0] % nr[1], r / (nr[0] * nr[1])};
+        gs_field_region *g = &s->reg[r];
+        gs_region_box *bx = &boxes[r];
+        g->id = bx->id = r;
+        g->color = bx->color = (int)(idx[0] + idx[1] + idx[2]);
+        for (int a = 0; a < 3; a++) {
+            int64_t f = idx[a] * R, l = idx[a] == nr[a] - 1 ? s->npos[a] : f + R;
+            bx->lo[a] = f, bx->hi[a] = l; /* block positions */
+            g->lo[a] = bx->rlo[a] = s->pos[a][f];
+            g->hi[a] = bx->rhi[a] = bx->whi[a] = s->pos[a][l - 1] + B;
+            bx->wlo[a] = f == 0 ? 0 : s->pos[a][f] + B / 2;
+        }
+    }
+    /* one color's regions never write what another reads (checked: cheap) */
+    GS_TRY(err, gs_regions_check_separated(boxes, n), done);
+    qsort(s->reg, (size_t)n, sizeof *s->reg, cmp_region);
+    int64_t c = 0;
+    size_t big = 0;
+    for (int64_t r = 0; r < n; r++) {
+        const gs_region_box *bx = &boxes[s->reg[r].id];
+        s->reg[r].first = c;
+        for (int64_t z = bx->lo[2]; z < bx->hi[2]; z++)
+            for (int64_t y = bx->lo[1]; y < bx->hi[1]; y++)
+                for (int64_t x = bx->lo[0]; x < bx->hi[0]; x++)
+                    s->order[c++] = x + s->npos[0] * (y + s->npos[1] * z);
+        s->reg[r].count = c - s->reg[r].first;
+        const gs_field_region *g = &s->reg[r];
+        size_t v = (size_t)((g->hi[0] - g->lo[0]) * (g->hi[1] - g->lo[1]) * (g->hi[2] - g->lo[2]));
+        if (v > big)
+            big = v;
+    }
+    s->nreg = n;
+    if (2 * big > s->scratch_len) {
+        gs_free(s->scratch);
+        s->scratch_len = 0;
+        GS_TRY(err, gs_alloc_array((void **)&s->scratch, 2, big, "region scratch box"), done);
+        s->scratch_len = 2 * big;
+    }
+done:
+    gs_free(boxes);
+    return err;
 }
 
 /* Builds the level source, tree, searcher and visit order of st.iteration. */
@@ -107,6 +224,7 @@ static gs_err enter_iteration(struct gs_field_synth *s)
         s->npos[a] = n;
     }
     s->st.blocks_in_iteration = s->npos[0] * s->npos[1] * s->npos[2];
+    GS_CALL(build_regions(s, B));
     gs_free(s->qval);
     gs_free(s->qknown);
     s->qval = gs_malloc((size_t)B * B * B);
@@ -226,6 +344,9 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_free(s->st.mask);
     gs_free(s->qval);
     gs_free(s->qknown);
+    gs_free(s->order);
+    gs_free(s->reg);
+    gs_free(s->scratch);
     GS_FREE(*sp);
 }
 
@@ -259,21 +380,29 @@ static gs_err advance_iteration(struct gs_field_synth *s)
     return GS_OK;
 }
 
-static gs_err synth_block(struct gs_field_synth *s)
+static void block_pos(const struct gs_field_synth *s, int64_t cursor, int64_t p[3])
+{
+    int64_t b = s->order ? s->order[cursor] : cursor;
+    p[0] = s->pos[0][b % s->npos[0]];
+    p[1] = s->pos[1][b / s->npos[0] % s->npos[1]];
+    p[2] = s->pos[2][b / (s->npos[0] * s->npos[1])];
+}
+
+/* Matches the block at target position p on view v; the hook (serial path
+ * only) sees target coordinates. */
+static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
+                          int use_hook, block_result *r)
 {
     int it = s->st.iteration, B = s->cfg.block[it];
-    int64_t c = s->st.cursor;
-    int64_t px = s->pos[0][c % s->npos[0]], py = s->pos[1][c / s->npos[0] % s->npos[1]],
-            pz = s->pos[2][c / (s->npos[0] * s->npos[1])];
-    int64_t tx = s->st.tn[0], txy = s->st.tn[0] * s->st.tn[1];
+    int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
     int64_t any_known = 0;
     for (int k = 0; k < B; k++)
         for (int j = 0; j < B; j++) {
-            int64_t o = px + tx * (py + j) + txy * (pz + k);
-            memcpy(s->qval + B * (j + B * k), s->st.target + o, (size_t)B);
-            memcpy(s->qknown + B * (j + B * k), s->st.mask + o, (size_t)B);
+            int64_t o = p[0] - v->o[0] + vx * (p[1] - v->o[1] + j) + vxy * (p[2] - v->o[2] + k);
+            memcpy(s->qval + B * (j + B * k), v->target + o, (size_t)B);
+            memcpy(s->qknown + B * (j + B * k), v->mask + o, (size_t)B);
             for (int i = 0; i < B; i++)
-                any_known += s->st.mask[o + i];
+                any_known += v->mask[o + i];
         }
     /* with masking, the first block (nothing known yet) is matched on its seeds */
     int masked = s->cfg.mask_unsynthesized && any_known > 0;
@@ -281,36 +410,170 @@ static gs_err synth_block(struct gs_field_synth *s)
     gs_field_search_opts opts = {0};
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     gs_field_match m;
-    const int64_t pos[3] = {px, py, pz};
-    if (s->cfg.match)
-        GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, pos, &q, &opts, &m));
+    if (use_hook && s->cfg.match)
+        GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, p, &q, &opts, &m));
     else
         GS_CALL(gs_field_tree_best_match(s->searcher, &q, &opts, &m));
-    int64_t bp[3];
-    gs_field_block_position(s->level_src, B, m.index, bp);
-    const gs_qfield *ls = s->level_src;
-    for (int k = 0; k < B; k++)
-        for (int j = 0; j < B; j++) {
-            int64_t o = px + tx * (py + j) + txy * (pz + k);
-            const uint8_t *from = ls->q + bp[0] + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k));
-            for (int i = 0; i < B; i++)
-                if (!s->st.mask[o + i]) {
-                    s->st.target[o + i] = from[i];
-                    s->st.mask[o + i] = 1;
-                }
-        }
     /* normalized: per known sample, in squared levels (the weighted part included) */
     uint64_t wk, wu;
     gs_field_query_weights(&q, &wk, &wu);
-    double nd = m.known ? (double)m.dist / (double)wk / (double)m.known : 0;
+    r->index = m.index;
+    r->nd = m.known ? (double)m.dist / (double)wk / (double)m.known : 0;
+    r->pops = m.pops;
+    return GS_OK;
+}
+
+/* Copies source block `index` into the unsynthesized samples of the block
+ * at p on view v; records provenance (last iteration, whole target only). */
+static void copy_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
+                       int64_t index, int record)
+{
+    int it = s->st.iteration, B = s->cfg.block[it];
+    int64_t bp[3];
+    gs_field_block_position(s->level_src, B, index, bp);
+    const gs_qfield *ls = s->level_src;
+    int32_t *prov = record && it == s->cfg.iterations - 1 ? s->cfg.prov : NULL;
+    int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++) {
+            int64_t o = p[0] - v->o[0] + vx * (p[1] - v->o[1] + j) + vxy * (p[2] - v->o[2] + k);
+            int64_t so = bp[0] + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k));
+            const uint8_t *from = ls->q + so;
+            for (int i = 0; i < B; i++)
+                if (!v->mask[o + i]) {
+                    v->target[o + i] = from[i];
+                    v->mask[o + i] = 1;
+                    if (prov)
+                        prov[o + i] = (int32_t)(so + i);
+                }
+        }
+}
+
+/* Statistics of one block, and the cursor past it. */
+static void account(struct gs_field_synth *s, const block_result *r)
+{
+    int it = s->st.iteration;
     s->st.stat_count[it]++;
-    s->st.stat_sum[it] += nd;
-    if (nd < s->st.stat_min[it])
-        s->st.stat_min[it] = nd;
-    if (nd > s->st.stat_max[it])
-        s->st.stat_max[it] = nd;
-    s->st.stat_pops[it] += m.pops;
+    s->st.stat_sum[it] += r->nd;
+    if (r->nd < s->st.stat_min[it])
+        s->st.stat_min[it] = r->nd;
+    if (r->nd > s->st.stat_max[it])
+        s->st.stat_max[it] = r->nd;
+    s->st.stat_pops[it] += r->pops;
     s->st.cursor++;
+}
+
+static synth_view whole_view(struct gs_field_synth *s)
+{
+    synth_view v = {s->st.target, s->st.mask, {0, 0, 0}, {s->st.tn[0], s->st.tn[1], s->st.tn[2]}};
+    return v;
+}
+
+static gs_err synth_block(struct gs_field_synth *s)
+{
+    int64_t p[3];
+    block_pos(s, s->st.cursor, p);
+    synth_view v = whole_view(s);
+    block_result r;
+    GS_CALL(match_block(s, &v, p, 1, &r));
+    copy_block(s, &v, p, r.index, 1);
+    account(s, &r);
+    return GS_OK;
+}
+
+gs_err gs_field_synth_color(gs_field_synth_t s, int64_t *begin, int64_t *end,
+                            const gs_field_region **regions, int64_t *first_region,
+                            int64_t *nregions, int *finished)
+{
+    if (s->st.iteration < s->cfg.iterations && s->st.cursor >= s->st.blocks_in_iteration)
+        GS_CALL(advance_iteration(s));
+    *finished = s->st.iteration >= s->cfg.iterations;
+    if (*finished)
+        return GS_OK;
+    *regions = s->reg;
+    if (!s->reg) {
+        *begin = 0, *end = s->st.blocks_in_iteration;
+        *first_region = 0, *nregions = 0;
+        return GS_OK;
+    }
+    int64_t r = 0;
+    while (r + 1 < s->nreg && s->reg[r].first + s->reg[r].count <= s->st.cursor)
+        r++;
+    int color = s->reg[r].color;
+    int64_t a = r, b = r;
+    while (a > 0 && s->reg[a - 1].color == color)
+        a--;
+    while (b + 1 < s->nreg && s->reg[b + 1].color == color)
+        b++;
+    *begin = s->reg[a].first;
+    *end = s->reg[b].first + s->reg[b].count;
+    *first_region = a;
+    *nregions = b - a + 1;
+    return GS_OK;
+}
+
+size_t gs_field_synth_region_bytes(gs_field_synth_t s, int64_t region)
+{
+    if (!s->reg || region < 0 || region >= s->nreg)
+        return 0;
+    return (size_t)s->reg[region].count * sizeof(block_result);
+}
+
+gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out)
+{
+    GS_CHECK(s->reg && region >= 0 && region < s->nreg && s->st.iteration < s->cfg.iterations,
+             GS_ERR_ARG, "field region %lld: expected 0..%lld of the current iteration",
+             (long long)region, (long long)s->nreg - 1);
+    const gs_field_region *g = &s->reg[region];
+    synth_view v = {NULL, NULL, {g->lo[0], g->lo[1], g->lo[2]},
+                    {g->hi[0] - g->lo[0], g->hi[1] - g->lo[1], g->hi[2] - g->lo[2]}};
+    size_t n = (size_t)(v.n[0] * v.n[1] * v.n[2]);
+    v.target = s->scratch, v.mask = s->scratch + n;
+    int64_t tx = s->st.tn[0], txy = s->st.tn[0] * s->st.tn[1];
+    for (int64_t z = 0; z < v.n[2]; z++)
+        for (int64_t y = 0; y < v.n[1]; y++) {
+            int64_t o = v.o[0] + tx * (v.o[1] + y) + txy * (v.o[2] + z), d = v.n[0] * (y + v.n[1] * z);
+            memcpy(v.target + d, s->st.target + o, (size_t)v.n[0]);
+            memcpy(v.mask + d, s->st.mask + o, (size_t)v.n[0]);
+        }
+    block_result *res = out;
+    for (int64_t i = 0; i < g->count; i++) {
+        int64_t p[3];
+        block_pos(s, g->first + i, p);
+        block_result r;
+        GS_CALL(match_block(s, &v, p, 0, &r));
+        copy_block(s, &v, p, r.index, 0);
+        memcpy(&res[i], &r, sizeof r);
+    }
+    return GS_OK;
+}
+
+gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const void *buf, size_t len)
+{
+    GS_CHECK(s->reg && region >= 0 && region < s->nreg && s->st.iteration < s->cfg.iterations,
+             GS_ERR_ARG, "field region %lld: expected 0..%lld of the current iteration",
+             (long long)region, (long long)s->nreg - 1);
+    const gs_field_region *g = &s->reg[region];
+    GS_CHECK(s->st.cursor == g->first, GS_ERR_INTERNAL,
+             "field region %lld applied at block %lld: it starts at block %lld", (long long)region,
+             (long long)s->st.cursor, (long long)g->first);
+    GS_CHECK(len == gs_field_synth_region_bytes(s, region), GS_ERR_INTERNAL,
+             "field region %lld: result of %zu bytes, expected %zu", (long long)region, len,
+             gs_field_synth_region_bytes(s, region));
+    int64_t M = gs_field_block_count(s->level_src, s->cfg.block[s->st.iteration]);
+    synth_view v = whole_view(s);
+    const unsigned char *b = buf;
+    for (int64_t i = 0; i < g->count; i++) {
+        block_result r;
+        memcpy(&r, b + (size_t)i * sizeof r, sizeof r);
+        GS_CHECK(r.index >= 0 && r.index < M, GS_ERR_INTERNAL,
+                 "field region %lld: block %lld matched source block %lld of %lld",
+                 (long long)region, (long long)i, (long long)r.index, (long long)M);
+        int64_t p[3];
+        block_pos(s, s->st.cursor, p);
+        copy_block(s, &v, p, r.index, 1);
+        account(s, &r);
+    }
     return GS_OK;
 }
 

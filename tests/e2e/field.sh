@@ -18,6 +18,29 @@ done
   ok "digest identical at np=1,2,3 (${dig[1]})" || bad "digests differ: np1=${dig[1]} np2=${dig[2]} np3=${dig[3]}"
 ref=${dig[1]}
 
+# --- target regions: parallel at np>1, and the paper's raster-order result ---
+# quick.ini (default field.region_blocks = 4): per iteration 3x2x2 regions in 5
+# wavefront colors of 1, 3, 4, 3, 1 regions; at np=2 the 3 colors with >= 2
+# regions run region-parallel (6 over both iterations), the rest in order.
+phase_field() { /usr/bin/python3 -c '
+import json, sys
+for line in open(sys.argv[1] + "/metrics.jsonl"):
+    r = json.loads(line)
+    if r.get("phase") == "synthesis" and sys.argv[2] in r: print(r[sys.argv[2]])' "$1" "$2" | tail -1; }
+cr=$(phase_field np2 colors_in_regions) co=$(phase_field np2 colors_in_order)
+[[ "$cr" == 6 && "$co" == 4 ]] && ok "np=2: 6 colors ran region-parallel, 4 in order" ||
+  bad "np=2: colors in regions '$cr' (expected 6), in order '$co' (expected 4)"
+cr=$(phase_field np1 colors_in_regions)
+[[ "$cr" == 0 ]] && ok "np=1: no region exchange" || bad "np=1: colors in regions '$cr'"
+run_gs 2 field -c "$Q" -o raster --set field.region_blocks=0 --set output.geometry=none --set output.vdb=no
+expect_rc 0 "quick.ini with one region (raster order) at np=2"
+[[ "$(digest_of raster)" == "$ref" ]] && ok "regions give the raster order's digest" ||
+  bad "raster digest $(digest_of raster) != regions $ref"
+run_gs 3 field -c "$Q" -o r1 --set field.region_blocks=1 --set output.geometry=none --set output.vdb=no
+expect_rc 0 "quick.ini with one-position regions at np=3"
+[[ "$(digest_of r1)" == "$ref" ]] && ok "one-position regions at np=3: the same digest" ||
+  bad "region_blocks=1 digest $(digest_of r1) != $ref"
+
 # --- quality: GRID statistics of the output within tolerance of the source --
 # Masked matching (the default, see configs/field/grid.ini). Tolerances:
 # volume fraction and surface per volume within 25% of the source's, mean

@@ -477,6 +477,122 @@ static void test_synthesis_resume(void **state)
     gs_qfield_destroy(&src);
 }
 
+/* Runs a synthesis the way the engine does on many ranks: colors with
+ * regions are computed region by region on private copies, in reverse id
+ * order (any order must do), then applied in id order; without regions an
+ * iteration runs in order. */
+static void run_by_regions(gs_field_synth_t s, int64_t *colors, int64_t *regions)
+{
+    for (;;) {
+        int64_t begin, end, r0, nr;
+        const gs_field_region *reg;
+        int finished = 0;
+        OK(gs_field_synth_color(s, &begin, &end, &reg, &r0, &nr, &finished));
+        if (finished)
+            break;
+        assert_int_equal(gs_field_synth_get_state(s)->cursor, begin);
+        (*colors)++;
+        if (nr == 0) { /* no regions: the raster order */
+            OK(gs_field_synth_run(s, end - begin, &finished));
+            continue;
+        }
+        void **res = gs_calloc((size_t)nr, sizeof *res);
+        for (int64_t i = nr - 1; i >= 0; i--) {
+            res[i] = gs_malloc(gs_field_synth_region_bytes(s, r0 + i));
+            OK(gs_field_synth_region_run(s, r0 + i, res[i]));
+            assert_int_equal(reg[r0 + i].color, reg[r0].color);
+        }
+        if (nr > 1) { /* applying out of order is refused */
+            assert_int_equal(gs_field_synth_region_apply(s, r0 + 1, res[1],
+                                                         gs_field_synth_region_bytes(s, r0 + 1)),
+                             GS_ERR_INTERNAL);
+            gs_error_clear();
+        }
+        for (int64_t i = 0; i < nr; i++) {
+            OK(gs_field_synth_region_apply(s, r0 + i, res[i], gs_field_synth_region_bytes(s, r0 + i)));
+            gs_free(res[i]);
+        }
+        gs_free(res);
+        assert_int_equal(gs_field_synth_get_state(s)->cursor, end);
+        *regions += nr;
+    }
+}
+
+/* Target regions: the region path (parallel on the ranks) gives exactly the
+ * serial visit order's target, statistics and provenance, and that is the
+ * raster order's result (R = 0), also with clamped last block positions
+ * off the B/2 stride (62 x 46 x 38: 31 x 23 x 19 at iteration 0, block 4),
+ * on a noise source where every match is poor; colors form a wavefront. */
+static void test_synthesis_regions(void **state)
+{
+    (void)state;
+    /* noise: every block is a poor match, so the result depends on the order */
+    gs_qfield *src = NULL;
+    OK(gs_qfield_create(24, 24, 24, -3, 3, &src));
+    gs_rng r;
+    gs_rng_init(&r, 9, 0);
+    for (int64_t i = 0; i < 24 * 24 * 24; i++)
+        src->q[i] = (uint8_t)gs_rng_below(&r, 256);
+    gs_field_synth_config c = small_config(src);
+    c.target[0] = 62, c.target[1] = 46, c.target[2] = 38;
+    c.mask_unsynthesized = 1;
+    c.seed_weight = 64;
+    int64_t nt = c.target[0] * c.target[1] * c.target[2];
+    int32_t *pa = gs_malloc((size_t)nt * sizeof *pa), *pb = gs_malloc((size_t)nt * sizeof *pb);
+    uint64_t raster = 0;
+    for (int R = 0; R <= 4; R += R ? 3 : 1) { /* 0, 1, 4 */
+        for (int64_t i = 0; i < nt; i++)
+            pa[i] = pb[i] = -1;
+        c.region_blocks = R;
+        c.prov = pa;
+        gs_field_synth_t a = NULL, b = NULL;
+        OK(gs_field_synth_create(src, &c, &a));
+        uint64_t da = run_all(src, &c, a);
+        c.prov = pb;
+        OK(gs_field_synth_create(src, &c, &b));
+        int64_t colors = 0, regions = 0;
+        run_by_regions(b, &colors, &regions);
+        const gs_field_synth_state *sa = gs_field_synth_get_state(a), *sb = gs_field_synth_get_state(b);
+        int64_t n = sb->tn[0] * sb->tn[1] * sb->tn[2];
+        assert_int_equal(n, nt);
+        for (int64_t i = 0; i < n; i++)
+            assert_int_equal(sb->mask[i], 1);
+        assert_true(gs_digest_bytes(sb->target, (size_t)n) == da);
+        assert_memory_equal(pa, pb, (size_t)nt * sizeof *pa);
+        for (int64_t i = 0; i < nt; i++)
+            assert_true(pa[i] >= 0 && pa[i] < 24 * 24 * 24);
+        for (int i = 0; i < c.iterations; i++) {
+            assert_int_equal(sa->stat_count[i], sb->stat_count[i]);
+            assert_true(sa->stat_sum[i] == sb->stat_sum[i]);
+            assert_true(sa->stat_pops[i] == sb->stat_pops[i]);
+        }
+        fprintf(stderr, "regions %d: %lld colors, %lld regions, digest %016llx\n", R,
+                (long long)colors, (long long)regions, (unsigned long long)da);
+        if (R == 0) {
+            raster = da;
+            assert_true(regions == 0 && colors == 2); /* the raster order per iteration */
+        } else {
+            assert_true(da == raster);
+            /* iteration 1 has 15 x 11 x 9 positions (block 8, stride 4 over
+             * 62 x 46 x 38, the last ones clamped); with R = 1: 13 x 9 x 7
+             * regions (a last region of 1 or 2 positions joins the one
+             * before), colors 0 .. 12 + 8 + 6 */
+            if (R == 1)
+                assert_true(regions >= 13 * 9 * 7 && colors >= 27);
+        }
+        gs_field_synth_destroy(&a);
+        gs_field_synth_destroy(&b);
+    }
+    c.region_blocks = -1;
+    gs_field_synth_t o = NULL;
+    assert_int_equal(gs_field_synth_create(src, &c, &o), GS_ERR_ARG);
+    assert_non_null(strstr(gs_error_message(), "field.region_blocks = -1"));
+    gs_error_clear();
+    gs_free(pa);
+    gs_free(pb);
+    gs_qfield_destroy(&src);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -487,6 +603,7 @@ int main(void)
         cmocka_unit_test(test_split_search),
         cmocka_unit_test(test_tree_matches_brute_force),
         cmocka_unit_test(test_synthesis_resume),
+        cmocka_unit_test(test_synthesis_regions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
