@@ -302,15 +302,15 @@ typedef struct gs_field_synth_config {
     int32_t *prov;                   /* optional, final target size: the source sample each
                                         sample of the last iteration was copied from (-1: none);
                                         owned by the caller, kept across resume by the caller */
-    /* Optional (NULL = local search): called for every block instead of
-     * gs_field_tree_best_match(searcher, q, opts, out), with the iteration,
-     * the block's position in the current target and the iteration's tree.
-     * It must give exactly that answer (found, index, dist, known); the
-     * engine (src/field/engine.c) uses it to spread the search over MPI ranks
-     * and to record which source block each target sample came from. */
+    /* Optional (NULL = local search): called for every block that
+     * gs_field_synth_run synthesizes (not by the region functions) instead of
+     * gs_field_tree_best_match(searcher, q, opts, out), with the iteration
+     * and its tree. It must give exactly that answer (found, index, dist,
+     * known); the engine (src/field/engine.c) uses it to spread the search
+     * over MPI ranks. */
     gs_err (*match)(void *ctx, gs_field_tree_t tree, gs_field_searcher_t searcher, int iteration,
-                    const int64_t pos[3], const gs_field_query *q,
-                    const gs_field_search_opts *opts, gs_field_match *out);
+                    const gs_field_query *q, const gs_field_search_opts *opts,
+                    gs_field_match *out);
     void *match_ctx;
 } gs_field_synth_config;
 

@@ -344,8 +344,6 @@ static void source_free(field_source *s)
 typedef struct match_ctx {
     gs_run *run;
     gs_field_synth_t synth;
-    int iterations;
-    int last_block;
     int64_t target[3];     /* final target size */
     int32_t *prov;         /* final-iteration provenance: source sample of each target sample */
     gs_psearch_t ps;
@@ -393,7 +391,7 @@ static gs_err search_share(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
 
 /* The synthesis' match hook: exact best match, spread over the ranks. */
 static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t searcher,
-                          int iteration, const int64_t pos[3], const gs_field_query *q,
+                          int iteration, const gs_field_query *q,
                           const gs_field_search_opts *opts, gs_field_match *out)
 {
     match_ctx *ctx = ctx_;
@@ -447,7 +445,6 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         out->index = best;
         out->dist = (uint64_t)hit.dist;
     }
-    (void)pos;
     return GS_OK;
 }
 
@@ -457,24 +454,19 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
  * its regions on private copies with the whole local tree, the results (one
  * source block per target block) are exchanged and applied in id order on
  * every rank. Same state as the serial order (gs_field_synth_run). */
-typedef struct region_ctx {
-    gs_field_synth_t synth; /* gs_regions ids are the synthesis' region indices */
-} region_ctx;
-
-static gs_err field_region_run(void *ctx_, int64_t id, int color, int pass, gs_rng *rng,
+/* ctx is the synthesis; gs_regions ids are its region indices. */
+static gs_err field_region_run(void *synth, int64_t id, int color, int pass, gs_rng *rng,
                                gs_region_out *out)
 {
     (void)color, (void)pass, (void)rng; /* the synthesis has no randomness after seeding */
-    region_ctx *rc = ctx_;
     void *dst = NULL;
-    GS_CALL(gs_region_out_reserve(out, gs_field_synth_region_bytes(rc->synth, id), &dst));
-    return gs_field_synth_region_run(rc->synth, id, dst);
+    GS_CALL(gs_region_out_reserve(out, gs_field_synth_region_bytes(synth, id), &dst));
+    return gs_field_synth_region_run(synth, id, dst);
 }
 
-static gs_err field_region_apply(void *ctx_, int64_t id, const void *buf, size_t len)
+static gs_err field_region_apply(void *synth, int64_t id, const void *buf, size_t len)
 {
-    region_ctx *rc = ctx_;
-    return gs_field_synth_region_apply(rc->synth, id, buf, len);
+    return gs_field_synth_region_apply(synth, id, buf, len);
 }
 
 #define FIELD_REGIONS_DOMAIN 0x46524547u /* "FREG" */
@@ -496,8 +488,7 @@ static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t fir
     gs_err err = gs_regions_create(run->comm, list, n, (uint64_t)run->seed, FIELD_REGIONS_DOMAIN, &rs);
     gs_free(list);
     GS_CALL(err);
-    region_ctx rc = {synth};
-    err = gs_regions_run_pass(rs, 0, field_region_run, field_region_apply, &rc);
+    err = gs_regions_run_pass(rs, 0, field_region_run, field_region_apply, synth);
     gs_regions_stats st = gs_regions_get_stats(rs);
     rt->compute += st.t_compute, rt->wait += st.t_wait;
     rt->exchange += st.t_exchange, rt->apply += st.t_apply;
@@ -744,7 +735,6 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     sc.match = match_block;
     sc.match_ctx = &ctx;
     ctx.run = run;
-    ctx.iterations = sc.iterations;
     memcpy(ctx.target, c->target, sizeof ctx.target);
     int64_t nt = c->target[0] * c->target[1] * c->target[2];
     int L = 0;

@@ -32,7 +32,6 @@
 
 #include "field_impl.h"
 #include "geosynth/mem.h"
-#include "geosynth/regions.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 
@@ -138,6 +137,15 @@ static int cmp_region(const void *a_, const void *b_)
  * overlap is synthesized before either reads it and their order does not
  * matter; if M = P, P comes first in both orders. So every pair that
  * interacts is visited in the same relative order. */
+/* Block positions [*f, *l) of region `id` along axis a (nr regions per axis). */
+static void region_span(const struct gs_field_synth *s, const int64_t nr[3], int64_t id, int a,
+                        int64_t *f, int64_t *l)
+{
+    int64_t idx = a == 0 ? id % nr[0] : a == 1 ? id / nr[0] % nr[1] : id / (nr[0] * nr[1]);
+    *f = idx * s->cfg.region_blocks;
+    *l = idx == nr[a] - 1 ? s->npos[a] : *f + s->cfg.region_blocks;
+}
+
 static gs_err build_regions(struct gs_field_synth *s, int B)
 {
     gs_free(s->order);
@@ -152,40 +160,35 @@ static gs_err build_regions(struct gs_field_synth *s, int B)
             nr[a]--;
     }
     int64_t n = nr[0] * nr[1] * nr[2];
-    gs_region_box *boxes = NULL;
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&boxes, (size_t)n, sizeof *boxes, "region boxes"), done);
-    GS_TRY(err, gs_alloc_array((void **)&s->reg, (size_t)n, sizeof *s->reg, "target regions"), done);
-    GS_TRY(err, gs_alloc_array((void **)&s->order, (size_t)s->st.blocks_in_iteration,
-                               sizeof *s->order, "block visit order"), done);
+    GS_CALL(gs_alloc_array((void **)&s->reg, (size_t)n, sizeof *s->reg, "target regions"));
+    GS_CALL(gs_alloc_array((void **)&s->order, (size_t)s->st.blocks_in_iteration, sizeof *s->order,
+                           "block visit order"));
     for (int64_t r = 0; r < n; r++) {
-        int64_t idx[3] = {r % nr[0], r / nr[0] % nr[1], r / (nr[0] * nr[1])};
         gs_field_region *g = &s->reg[r];
-        gs_region_box *bx = &boxes[r];
-        g->id = bx->id = r;
-        g->color = bx->color = (int)(idx[0] + idx[1] + idx[2]);
+        g->id = r;
+        g->color = 0;
         for (int a = 0; a < 3; a++) {
-            int64_t f = idx[a] * R, l = idx[a] == nr[a] - 1 ? s->npos[a] : f + R;
-            bx->lo[a] = f, bx->hi[a] = l; /* block positions */
-            g->lo[a] = bx->rlo[a] = s->pos[a][f];
-            g->hi[a] = bx->rhi[a] = bx->whi[a] = s->pos[a][l - 1] + B;
-            bx->wlo[a] = f == 0 ? 0 : s->pos[a][f] + B / 2;
+            int64_t f, l;
+            region_span(s, nr, r, a, &f, &l);
+            g->color += (int)(f / R);
+            g->lo[a] = s->pos[a][f];
+            g->hi[a] = s->pos[a][l - 1] + B;
         }
     }
-    /* one color's regions never write what another reads (checked: cheap) */
-    GS_TRY(err, gs_regions_check_separated(boxes, n), done);
     qsort(s->reg, (size_t)n, sizeof *s->reg, cmp_region);
     int64_t c = 0;
     size_t big = 0;
     for (int64_t r = 0; r < n; r++) {
-        const gs_region_box *bx = &boxes[s->reg[r].id];
-        s->reg[r].first = c;
-        for (int64_t z = bx->lo[2]; z < bx->hi[2]; z++)
-            for (int64_t y = bx->lo[1]; y < bx->hi[1]; y++)
-                for (int64_t x = bx->lo[0]; x < bx->hi[0]; x++)
+        gs_field_region *g = &s->reg[r];
+        int64_t f[3], l[3];
+        for (int a = 0; a < 3; a++)
+            region_span(s, nr, g->id, a, &f[a], &l[a]);
+        g->first = c;
+        for (int64_t z = f[2]; z < l[2]; z++)
+            for (int64_t y = f[1]; y < l[1]; y++)
+                for (int64_t x = f[0]; x < l[0]; x++)
                     s->order[c++] = x + s->npos[0] * (y + s->npos[1] * z);
-        s->reg[r].count = c - s->reg[r].first;
-        const gs_field_region *g = &s->reg[r];
+        g->count = c - g->first;
         size_t v = (size_t)((g->hi[0] - g->lo[0]) * (g->hi[1] - g->lo[1]) * (g->hi[2] - g->lo[2]));
         if (v > big)
             big = v;
@@ -194,12 +197,10 @@ static gs_err build_regions(struct gs_field_synth *s, int B)
     if (2 * big > s->scratch_len) {
         gs_free(s->scratch);
         s->scratch_len = 0;
-        GS_TRY(err, gs_alloc_array((void **)&s->scratch, 2, big, "region scratch box"), done);
+        GS_CALL(gs_alloc_array((void **)&s->scratch, 2, big, "region scratch box"));
         s->scratch_len = 2 * big;
     }
-done:
-    gs_free(boxes);
-    return err;
+    return GS_OK;
 }
 
 /* Builds the level source, tree, searcher and visit order of st.iteration. */
@@ -388,8 +389,8 @@ static void block_pos(const struct gs_field_synth *s, int64_t cursor, int64_t p[
     p[2] = s->pos[2][b / (s->npos[0] * s->npos[1])];
 }
 
-/* Matches the block at target position p on view v; the hook (serial path
- * only) sees target coordinates. */
+/* Matches the block at target position p on view v (the hook: serial path
+ * only). */
 static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
                           int use_hook, block_result *r)
 {
@@ -411,7 +412,7 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     gs_field_match m;
     if (use_hook && s->cfg.match)
-        GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, p, &q, &opts, &m));
+        GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, &q, &opts, &m));
     else
         GS_CALL(gs_field_tree_best_match(s->searcher, &q, &opts, &m));
     /* normalized: per known sample, in squared levels (the weighted part included) */

@@ -480,8 +480,49 @@ static void test_synthesis_resume(void **state)
 /* Runs a synthesis the way the engine does on many ranks: colors with
  * regions are computed region by region on private copies, in reverse id
  * order (any order must do), then applied in id order; without regions an
- * iteration runs in order. */
-static void run_by_regions(gs_field_synth_t s, int64_t *colors, int64_t *regions)
+ * iteration runs in order. Checks each color's reads first. */
+/* Core of a region: its box without the B/2 samples at its low faces. */
+static void region_core(const gs_field_region *g, int B, int64_t lo[3])
+{
+    for (int a = 0; a < 3; a++)
+        lo[a] = g->lo[a] > 0 ? g->lo[a] + B / 2 : 0;
+}
+
+static int boxes_meet(const int64_t alo[3], const int64_t ahi[3], const int64_t blo[3],
+                      const int64_t bhi[3])
+{
+    for (int a = 0; a < 3; a++)
+        if (ahi[a] <= blo[a] || bhi[a] <= alo[a])
+            return 0;
+    return 1;
+}
+
+/* Before a color runs: what its regions read outside their cores is
+ * synthesized already (lower colors), and no region's box meets the core
+ * of another region of its color (so the color's regions are independent). */
+static void check_color_reads(gs_field_synth_t s, const gs_field_region *reg, int64_t nr, int B)
+{
+    const gs_field_synth_state *st = gs_field_synth_get_state(s);
+    for (int64_t i = 0; i < nr; i++) {
+        const gs_field_region *g = &reg[i];
+        int64_t core[3];
+        region_core(g, B, core);
+        for (int64_t z = g->lo[2]; z < g->hi[2]; z++)
+            for (int64_t y = g->lo[1]; y < g->hi[1]; y++)
+                for (int64_t x = g->lo[0]; x < g->hi[0]; x++)
+                    if (x < core[0] || y < core[1] || z < core[2])
+                        assert_int_equal(st->mask[x + st->tn[0] * (y + st->tn[1] * z)], 1);
+        for (int64_t j = 0; j < nr; j++) {
+            int64_t cj[3];
+            region_core(&reg[j], B, cj);
+            if (j != i)
+                assert_false(boxes_meet(g->lo, g->hi, cj, reg[j].hi));
+        }
+    }
+}
+
+static void run_by_regions(gs_field_synth_t s, const gs_field_synth_config *c, int64_t *colors,
+                           int64_t *regions)
 {
     for (;;) {
         int64_t begin, end, r0, nr;
@@ -496,6 +537,7 @@ static void run_by_regions(gs_field_synth_t s, int64_t *colors, int64_t *regions
             OK(gs_field_synth_run(s, end - begin, &finished));
             continue;
         }
+        check_color_reads(s, reg + r0, nr, c->block[gs_field_synth_get_state(s)->iteration]);
         void **res = gs_calloc((size_t)nr, sizeof *res);
         for (int64_t i = nr - 1; i >= 0; i--) {
             res[i] = gs_malloc(gs_field_synth_region_bytes(s, r0 + i));
@@ -551,7 +593,7 @@ static void test_synthesis_regions(void **state)
         c.prov = pb;
         OK(gs_field_synth_create(src, &c, &b));
         int64_t colors = 0, regions = 0;
-        run_by_regions(b, &colors, &regions);
+        run_by_regions(b, &c, &colors, &regions);
         const gs_field_synth_state *sa = gs_field_synth_get_state(a), *sb = gs_field_synth_get_state(b);
         int64_t n = sb->tn[0] * sb->tn[1] * sb->tn[2];
         assert_int_equal(n, nt);
