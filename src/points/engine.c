@@ -55,6 +55,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
+#include "geosynth/parse.h"
 #include "geosynth/pointply.h"
 #include "geosynth/points.h"
 #include "geosynth/psearch.h"
@@ -439,10 +440,10 @@ static gs_err fault_init(fault_inject *f, int rank)
     const char *at = getenv("GS_FAIL_POINTS_AT"), *r = getenv("GS_FAIL_RANK");
     if (!at || !at[0])
         return GS_OK;
-    char *end;
-    long fr = r && r[0] ? strtol(r, &end, 10) : 0;
-    GS_CHECK(!r || !r[0] || *end == '\0', GS_ERR_USAGE, "GS_FAIL_RANK = '%s': expected a rank",
-             r);
+    char why[128];
+    int64_t fr = 0;
+    GS_CHECK(!r || !r[0] || gs_parse_i64(r, 0, INT_MAX, &fr, why, sizeof why), GS_ERR_USAGE,
+             "GS_FAIL_RANK = '%s': expected a rank (%s)", r, why);
     const char *k = strchr(at, '@');
     size_t len = k ? (size_t)(k - at) : strlen(at);
     int site = FAULT_NONE;
@@ -451,12 +452,9 @@ static gs_err fault_init(fault_inject *f, int rank)
             site = i;
     GS_CHECK(site != FAULT_NONE, GS_ERR_USAGE, "GS_FAIL_POINTS_AT = '%s': expected SITE[@PATCH], "
              "SITE one of map-alloc map-fn search-scan search-merge step", at);
-    long long patch = 1;
-    if (k) {
-        patch = strtoll(k + 1, &end, 10);
-        GS_CHECK(k[1] && *end == '\0' && patch >= 0, GS_ERR_USAGE,
-                 "GS_FAIL_POINTS_AT = '%s': expected a patch index after '@'", at);
-    }
+    int64_t patch = 1;
+    GS_CHECK(!k || gs_parse_i64(k + 1, 0, INT64_MAX, &patch, why, sizeof why), GS_ERR_USAGE,
+             "GS_FAIL_POINTS_AT = '%s': expected a patch index after '@' (%s)", at, why);
     if (fr == rank) {
         f->site = site;
         f->patch = (uint64_t)patch;
