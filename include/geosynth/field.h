@@ -221,6 +221,17 @@ typedef struct gs_field_tree_info {
  * (at most 2^31 blocks). Keeps a pointer to src: src must outlive the tree.
  * Caller frees with gs_field_tree_destroy(). On error *out is unchanged. */
 gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out);
+/* Slab tree: the tree of the blocks of src whose z position is in [z0, z1)
+ * (0 <= z0 < z1 <= nz - B + 1), built on a private copy of the samples they
+ * cover (z0 .. z1 + B - 2), so its pyramid and nodes hold only that share of
+ * the source. Searches report global block indices of src; distances are
+ * those of the whole tree, and reducing the answers of slabs that split
+ * [0, nz - B + 1) in (dist, index) order gives the whole tree's answer. The
+ * copy is counted in info.tree_bytes; gs_field_tree_source gives the copy.
+ * Slabs are how the engine spreads the tree over ranks so that memory per
+ * rank falls with the rank count (field.tree = sharded). */
+gs_err gs_field_tree_build_slab(const gs_qfield *src, int block, int64_t z0, int64_t z1,
+                                gs_field_tree_t *out);
 void gs_field_tree_destroy(gs_field_tree_t *t);
 void gs_field_tree_get_info(gs_field_tree_t t, gs_field_tree_info *info);
 const gs_qfield *gs_field_tree_source(gs_field_tree_t t);
@@ -296,6 +307,12 @@ typedef struct gs_field_synth_config {
     int seed_blocks;                 /* 1: iteration 0 seeds the target with random source
                                         blocks (tiles of block[0]) instead of random samples */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
+    int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
+                                        (0-based) of tree_shards z-slabs of each iteration's
+                                        tree (gs_field_tree_build_slab, split by count; shards
+                                        beyond the z positions hold none, tree NULL). Needs a
+                                        match hook that combines the shards' answers; the
+                                        region functions are refused. 0 or 1: whole tree */
     int region_blocks;               /* target regions (see below): block positions per region
                                         along each axis, >= 2; 0 = one region, the paper's
                                         raster order */
@@ -386,6 +403,9 @@ typedef struct gs_field_region {
 gs_err gs_field_synth_color(gs_field_synth_t s, int64_t *begin, int64_t *end,
                             const gs_field_region **regions, int64_t *first_region,
                             int64_t *nregions, int *finished);
+/* The current iteration's (slab) tree, NULL when finished or when this
+ * shard has no blocks. For reports. */
+gs_field_tree_t gs_field_synth_tree(gs_field_synth_t s);
 /* Bytes of a region's result. */
 size_t gs_field_synth_region_bytes(gs_field_synth_t s, int64_t region);
 /* Synthesizes region `region` of the current iteration on a private copy of
@@ -412,5 +432,12 @@ typedef struct gs_field_quality {
 /* tree: built on src with the block size to measure coherence with. */
 gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
                                 gs_field_quality *q);
+/* The same with any exact matcher of blocks of size B on src (global block
+ * indices), e.g. slab trees on several ranks combined (src/field/engine.c);
+ * every rank of such a matcher calls it. */
+gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src, int B,
+                                     gs_err (*match)(void *ctx, const gs_field_query *q,
+                                                     gs_field_match *m),
+                                     void *ctx, gs_field_quality *qm);
 
 #endif

@@ -37,6 +37,13 @@
  *             each block gets exactly the serial answer of
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
+ *             field.tree = sharded: each rank builds only the tree of one
+ *             z-slab of every iteration's block positions (gs_field_tree_build_slab,
+ *             split by count), so tree + pyramid memory per rank falls with
+ *             the rank count; every query is then spread (one psearch
+ *             candidate per rank: its slab, bound shared), regions run in
+ *             order (a region needs the whole tree), and the quality measure
+ *             searches the slabs together too. Same output.
  *             Checkpoint tests (a collective) run after every region color
  *             and every FIELD_UNIT_BATCH blocks in order. Checkpoints hold target, mask, iteration,
  *             cursor, match statistics and the provenance map; the only
@@ -49,9 +56,12 @@
  *             triangles (welded, seams relaxed). Quality metrics go to
  *             summary.json. The digest is that of the final quantized target.
  *
- * Memory per rank: source 1 byte/sample + pyramid 1+4L bytes/sample + tree
- * (~20 bytes/node); target 2 bytes/sample + provenance 4 bytes/sample of the
- * final target; rank 0 also the float source (4 bytes/sample) and meshes.
+ * Memory per rank: source 1 byte/sample + pyramid 8L bytes/sample + tree
+ * (~20 bytes/node), the last two for the rank's slab only when sharded
+ * (1/np + (B-1)/nz of the source, plus 1 byte/sample for the slab's copy);
+ * target 2 bytes/sample + provenance 4 bytes/sample of the final target;
+ * rank 0 also the float source (4 bytes/sample) and meshes. The largest
+ * rank's tree + pyramid bytes are reported (tree_bytes_rank_max).
  */
 #include <limits.h>
 #include <math.h>
@@ -69,6 +79,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
+#include "geosynth/partition.h"
 #include "geosynth/psearch.h"
 #include "geosynth/regions.h"
 #include "geosynth/vdb.h"
@@ -95,6 +106,7 @@ typedef struct field_config {
     int seed_blocks;
     int upper_bound;
     int64_t region_blocks;
+    char *tree;
     char *geometry;
     char *mesh_format;
     double adaptivity;
@@ -177,6 +189,11 @@ static const gs_cfg_key field_keys[] = {
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "
                    "paper's raster-order result, for any rank count"),
+    GS_CFG_KEY_ENUM(field_config, tree, "field.tree", "whole|sharded", "whole",
+                    "search tree per rank: whole = every rank holds the whole tree and pyramid "
+                    "(fastest, target regions in parallel); sharded = each rank holds a z-slab "
+                    "of them, so memory per rank falls with the rank count, and every match is "
+                    "searched by all ranks together; same output"),
     GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
                     "output mesh: contour of the field (OpenVDB), copied source triangles "
                     "(paper 5.3), both, or none"),
@@ -348,7 +365,11 @@ typedef struct match_ctx {
     int32_t *prov;         /* final-iteration provenance: source sample of each target sample */
     gs_psearch_t ps;
     int ps_iteration;      /* iteration the psearch handle was built for (-1: none) */
+    int sharded;           /* field.tree = sharded: each rank holds one z-slab of the tree */
+    gs_field_tree_t qtree; /* sharded: this rank's slab of the quality measure's tree */
+    gs_field_searcher_t qsearcher;
     /* per query */
+    gs_field_tree_t tree;
     gs_field_searcher_t searcher;
     const gs_field_query *q;
     gs_field_search_opts opts;
@@ -375,13 +396,20 @@ static gs_err search_share(void *user, gs_psearch_t ps, int64_t lo, int64_t hi)
 {
     match_ctx *ctx = user;
     ctx->cur = ps;
+    int64_t t0 = lo, t1 = hi;
+    if (ctx->sharded) {
+        /* the unit is this rank's slab: its whole tree (none when the slab is empty) */
+        if (!ctx->tree)
+            return GS_OK;
+        t0 = 0, t1 = gs_field_tree_top_count(ctx->tree);
+    }
     double b = gs_psearch_bound(ps);
     uint64_t bound = isfinite(b) ? (uint64_t)b : UINT64_MAX;
     gs_field_search_opts o = ctx->opts;
     o.poll = poll_bound;
     o.poll_ctx = ctx;
     o.poll_every = 16;
-    GS_CALL(gs_field_tree_search(ctx->searcher, lo, hi, ctx->q, &o, &bound, &ctx->local));
+    GS_CALL(gs_field_tree_search(ctx->searcher, t0, t1, ctx->q, &o, &bound, &ctx->local));
     if (ctx->local.found) {
         gs_psearch_offer(ps, (double)ctx->local.dist, lo);
         (void)gs_psearch_bound(ps); /* poll interval 1: sends the improvement now */
@@ -398,7 +426,9 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
     gs_run *run = ctx->run;
     ctx->queries++;
     int done = 0;
-    if (run->size == 1) {
+    if (ctx->sharded) {
+        /* every rank holds one slab of the tree: always spread */
+    } else if (run->size == 1) {
         GS_CALL(gs_field_tree_best_match(searcher, q, opts, out));
         done = 1;
     } else {
@@ -415,7 +445,13 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
             ctx->local_queries++;
     }
     if (!done) {
-        if (ctx->ps_iteration != iteration) {
+        if (ctx->sharded && ctx->ps_iteration != iteration) {
+            /* one candidate per rank: its slab */
+            gs_psearch_destroy(&ctx->ps);
+            GS_CALL(gs_psearch_create(run->comm, run->size, NULL, &ctx->ps));
+            gs_psearch_set_poll_interval(ctx->ps, 1);
+            ctx->ps_iteration = iteration;
+        } else if (ctx->ps_iteration != iteration) {
             gs_psearch_destroy(&ctx->ps);
             int64_t top = gs_field_tree_top_count(tree);
             double *w = NULL;
@@ -429,6 +465,7 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
             ctx->ps_iteration = iteration;
         }
         ctx->searcher = searcher;
+        ctx->tree = tree;
         ctx->q = q;
         ctx->opts = opts ? *opts : (gs_field_search_opts){0};
         memset(&ctx->local, 0, sizeof ctx->local);
@@ -444,8 +481,21 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         out->found = 1;
         out->index = best;
         out->dist = (uint64_t)hit.dist;
+        /* the same on every rank, also on one whose slab found nothing */
+        out->known = 0;
+        for (int64_t i = 0, n = (int64_t)q->block * q->block * q->block; i < n; i++)
+            out->known += q->known ? q->known[i] != 0 : 1;
     }
     return GS_OK;
+}
+
+/* Sharded quality measure: every rank matches every output block with its
+ * slab of the full-resolution tree (its own key for the psearch handle). */
+#define QUALITY_ITERATION GS_FIELD_MAX_ITER
+static gs_err quality_match(void *ctx_, const gs_field_query *q, gs_field_match *out)
+{
+    match_ctx *ctx = ctx_;
+    return match_block(ctx, ctx->qtree, ctx->qsearcher, QUALITY_ITERATION, q, NULL, out);
 }
 
 /* ------------------------------------------------------ target regions */
@@ -495,6 +545,12 @@ static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t fir
     rt->regions += st.computed;
     gs_regions_destroy(&rs);
     return err;
+}
+
+static gs_err max_over_ranks(gs_run *run, unsigned long long v, unsigned long long *out)
+{
+    GS_MPI(MPI_Allreduce(&v, out, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    return GS_OK;
 }
 
 static int synth_finished(const gs_field_synth_state *st, int iterations)
@@ -732,6 +788,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
     sc.region_blocks = (int)c->region_blocks;
+    ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;
+    if (ctx.sharded)
+        sc.tree_shards = run->size, sc.tree_shard = run->rank;
     sc.match = match_block;
     sc.match_ctx = &ctx;
     ctx.run = run;
@@ -741,7 +800,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     while ((1 << L) < c->block)
         L++;
     double ns = (double)(q->nx * q->ny * q->nz);
-    double est = ns * (1 + 1 + 4.0 * L) + 20.0 * ns + (double)nt * (2 + 4);
+    /* source + (tree slab copy, pyramid 8L, nodes ~20) per sample of the tree's share */
+    double share = ctx.sharded ? 1.0 / run->size + (double)c->block / (double)q->nz : 1.0;
+    double est = ns + ns * (share < 1 ? share : 1) * (1 + 8.0 * L + 20.0) + (double)nt * (2 + 4);
     if (run->rank == 0) {
         gs_log(GS_LOG_INFO, "example: %s", src.desc);
         gs_log(GS_LOG_INFO, "source: %lldx%lldx%lld samples, spacing %g, quantized over [%g, %g]",
@@ -754,7 +815,8 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256, iteration 0 seeded with "
                                 "random %s", sc.seed_weight, sc.seed_blocks ? "blocks" : "samples");
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
-                            "mask, provenance)", est / 1048576.0);
+                            "mask, provenance)%s", est / 1048576.0,
+               ctx.sharded ? "; tree and pyramid sharded over the ranks" : "");
     }
     GS_TRY(err, gs_alloc_array((void **)&ctx.prov, (size_t)nt, sizeof *ctx.prov, "provenance map"), done);
     for (int64_t i = 0; i < nt; i++)
@@ -793,6 +855,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     int64_t region_colors = 0, serial_colors = 0;
     region_times rt = {0};
     double t_setup = 0, t_order = 0;
+    unsigned long long tree_peak = 0, tree_peak_max = 0; /* bytes: this rank's tree + pyramid */
     while (!finished) {
         int64_t begin, end, r0, nr;
         const gs_field_region *regs;
@@ -803,7 +866,14 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         if (finished)
             break;
         st = gs_field_synth_get_state(synth);
-        if (run->size > 1 && nr >= run->size && st->cursor == begin) {
+        gs_field_tree_t tr = gs_field_synth_tree(synth);
+        if (tr) {
+            gs_field_tree_info ti;
+            gs_field_tree_get_info(tr, &ti);
+            if (ti.tree_bytes + ti.pyramid_bytes > tree_peak)
+                tree_peak = ti.tree_bytes + ti.pyramid_bytes;
+        }
+        if (run->size > 1 && nr >= run->size && st->cursor == begin && !ctx.sharded) {
             /* a color with a region for every rank: regions in parallel */
             GS_TRY(err, run_color_regions(run, synth, r0, nr, &rt), done);
             region_colors++;
@@ -834,12 +904,19 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     gs_progress_end(&prog);
     st = gs_field_synth_get_state(synth);
     double syn_s = gs_time_now() - t0;
-    snprintf(js, sizeof js, "{\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
+    GS_TRY(err, max_over_ranks(run, tree_peak, &tree_peak_max), done);
+    if (run->rank == 0) {
+        gs_log(GS_LOG_INFO, "search tree + pyramid per rank: %.1f MiB (largest rank), %s",
+               (double)tree_peak_max / 1048576.0, ctx.sharded ? "sharded" : "whole");
+        gs_run_metric_i64(run, "tree_bytes_rank_max", (int64_t)tree_peak_max);
+    }
+    snprintf(js, sizeof js, "{\"tree\":\"%s\",\"tree_bytes_rank_max\":%llu,\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
              "\"colors_in_regions\":%lld,\"colors_in_order\":%lld,"
              "\"rank0_seconds\":{\"iteration_setup\":%.3f,\"in_order\":%.3f,"
              "\"regions_compute\":%.3f,\"regions_wait\":%.3f,\"regions_exchange\":%.3f,"
              "\"regions_apply\":%.3f},\"rank0_regions\":%lld,"
              "\"queries_local\":%lld,\"queries_spread\":%lld}",
+             ctx.sharded ? "sharded" : "whole", tree_peak_max,
              (long long)units_done(st), (long long)(units_done(st) - start_units),
              syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
              (long long)region_colors, (long long)serial_colors, t_setup, t_order, rt.compute,
@@ -852,6 +929,24 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     GS_TRY(err, gs_qfield_dequantize(res, &resf), done);
     uint64_t digest = gs_digest_bytes(res->q, (size_t)(res->nx * res->ny * res->nz));
     GS_TRY(err, write_field_h5(run, res, resf), done);
+    /* quality: coherence needs the nearest source block of every output
+     * block; sharded, every rank searches its slab of the full-resolution
+     * tree together (the distributed matcher), else rank 0 alone below */
+    gs_field_quality qm;
+    memset(&qm, 0, sizeof qm);
+    gs_err qerr = GS_OK;
+    double tq = gs_time_now();
+    if (ctx.sharded) {
+        int64_t bz = q->nz - c->block + 1, z0, z1;
+        qerr = gs_partition(bz, run->size, run->rank, &z0, &z1);
+        if (!qerr && z1 > z0)
+            qerr = gs_field_tree_build_slab(q, (int)c->block, z0, z1, &ctx.qtree);
+        if (!qerr && ctx.qtree)
+            qerr = gs_field_searcher_create(ctx.qtree, &ctx.qsearcher);
+        GS_TRY(err, gs_par_agree(run->comm, qerr), done);
+        GS_TRY(err, gs_field_quality_measure_with(res, q, (int)c->block, quality_match, &ctx, &qm),
+               done);
+    }
     gs_json pm;
     gs_json_init(&pm);
     gs_json_begin_object(&pm, NULL);
@@ -874,12 +969,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         int last = sc.iterations - 1;
         gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
         gs_field_tree_t tree = NULL;
-        gs_field_quality qm;
-        memset(&qm, 0, sizeof qm);
-        double tq = gs_time_now();
-        if (!lerr)
+        if (!lerr && !ctx.sharded)
             lerr = gs_field_tree_build(q, (int)c->block, &tree);
-        if (!lerr)
+        if (!lerr && !ctx.sharded)
             lerr = gs_field_quality_measure(res, q, tree, &qm);
         gs_field_tree_destroy(&tree);
         if (!lerr) {
@@ -910,6 +1002,8 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         goto done;
     GS_TRY(err, gs_run_finish(run, digest), done);
 done:
+    gs_field_searcher_destroy(&ctx.qsearcher);
+    gs_field_tree_destroy(&ctx.qtree);
     gs_psearch_destroy(&ctx.ps);
     gs_field_synth_destroy(&synth);
     gs_free(ctx.prov);

@@ -62,6 +62,8 @@ struct gs_field_tree {
     int64_t *top_blocks;
     int64_t ntop;
     int source_step_max;
+    gs_qfield *own_src;            /* slab trees: the private copy src points to */
+    int64_t index_offset;          /* slab trees: global index of local block 0 */
     gs_field_tree_info info;
 };
 

@@ -374,7 +374,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
             continue;
         if (nd->end == steps_total) {
             out->found = 1;
-            out->index = e.rep;
+            out->index = (int64_t)e.rep + s->tree->index_offset;
             out->dist = e.lb >> (3 * L);
             if (out->dist < bnd)
                 bnd = out->dist;

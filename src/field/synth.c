@@ -32,6 +32,7 @@
 
 #include "field_impl.h"
 #include "geosynth/mem.h"
+#include "geosynth/partition.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 
@@ -93,6 +94,10 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
                  "source size %lld along axis %d: expected a multiple of %lld for %d iterations",
                  (long long)sn[a], a, (long long)f, c->iterations);
     }
+    GS_CHECK(c->tree_shards <= 1 || (c->tree_shard >= 0 && c->tree_shard < c->tree_shards &&
+                                     c->match),
+             GS_ERR_ARG, "tree shard %d of %d: expected 0..%d and a match hook that combines the "
+             "shards", c->tree_shard, c->tree_shards, c->tree_shards - 1);
     GS_CHECK(c->region_blocks >= 0 && c->region_blocks <= 4096, GS_ERR_ARG,
              "field.region_blocks = %d: expected 0 (one region) or 1..4096 block positions per "
              "region", c->region_blocks);
@@ -215,8 +220,17 @@ static gs_err enter_iteration(struct gs_field_synth *s)
     int64_t f = (int64_t)1 << (s->cfg.iterations - 1 - it);
     int B = s->cfg.block[it];
     GS_CALL(gs_qfield_downsample(s->src, (int)f, &s->level_src));
-    GS_CALL(gs_field_tree_build(s->level_src, B, &s->tree));
-    GS_CALL(gs_field_searcher_create(s->tree, &s->searcher));
+    if (s->cfg.tree_shards > 1) {
+        /* this shard's z-slab of block positions (by count) */
+        int64_t bz = s->level_src->nz - B + 1, z0, z1;
+        GS_CALL(gs_partition(bz, s->cfg.tree_shards, s->cfg.tree_shard, &z0, &z1));
+        if (z1 > z0)
+            GS_CALL(gs_field_tree_build_slab(s->level_src, B, z0, z1, &s->tree));
+    } else {
+        GS_CALL(gs_field_tree_build(s->level_src, B, &s->tree));
+    }
+    if (s->tree)
+        GS_CALL(gs_field_searcher_create(s->tree, &s->searcher));
     for (int a = 0; a < 3; a++) {
         int64_t T = s->cfg.target[a] / f, n = 0;
         for (int64_t p = 0; p + B < T; p += B / 2)
@@ -520,11 +534,19 @@ size_t gs_field_synth_region_bytes(gs_field_synth_t s, int64_t region)
     return (size_t)s->reg[region].count * sizeof(block_result);
 }
 
+gs_field_tree_t gs_field_synth_tree(gs_field_synth_t s)
+{
+    return s->tree;
+}
+
 gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out)
 {
     GS_CHECK(s->reg && region >= 0 && region < s->nreg && s->st.iteration < s->cfg.iterations,
              GS_ERR_ARG, "field region %lld: expected 0..%lld of the current iteration",
              (long long)region, (long long)s->nreg - 1);
+    GS_CHECK(s->cfg.tree_shards <= 1, GS_ERR_ARG,
+             "field region %lld: a region is synthesized with the whole tree, this synthesis "
+             "holds shard %d of %d", (long long)region, s->cfg.tree_shard, s->cfg.tree_shards);
     const gs_field_region *g = &s->reg[region];
     synth_view v = {NULL, NULL, {g->lo[0], g->lo[1], g->lo[2]},
                     {g->hi[0] - g->lo[0], g->hi[1] - g->lo[1], g->hi[2] - g->lo[2]}};
@@ -639,22 +661,33 @@ static void sign_stats(const gs_qfield *q, double *vf, double *spv)
     *spv = (double)changes / ((double)n * q->spacing);
 }
 
+static gs_err tree_match(void *searcher, const gs_field_query *q, gs_field_match *out)
+{
+    return gs_field_tree_best_match(searcher, q, NULL, out);
+}
+
 gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
                                 gs_field_quality *qm)
+{
+    gs_field_searcher_t s = NULL;
+    GS_CALL(gs_field_searcher_create(tree, &s));
+    gs_err err = gs_field_quality_measure_with(out, src, gs_field_tree_block(tree), tree_match, s, qm);
+    gs_field_searcher_destroy(&s);
+    return err;
+}
+
+gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src, int B,
+                                     gs_err (*match)(void *ctx, const gs_field_query *q,
+                                                     gs_field_match *m),
+                                     void *ctx, gs_field_quality *qm)
 {
     memset(qm, 0, sizeof *qm);
     sign_stats(out, &qm->volume_fraction_out, &qm->surface_per_volume_out);
     sign_stats(src, &qm->volume_fraction_src, &qm->surface_per_volume_src);
-    int B = gs_field_tree_block(tree);
     GS_CHECK(out->nx >= B && out->ny >= B && out->nz >= B, GS_ERR_ARG,
              "coherence with blocks of %d needs an output of at least %d^3", B, B);
-    gs_field_searcher_t s = NULL;
-    GS_CALL(gs_field_searcher_create(tree, &s));
     uint8_t *val = gs_malloc((size_t)B * B * B);
-    if (!val) {
-        gs_field_searcher_destroy(&s);
-        GS_RAISE(GS_ERR_MEM, "out of memory for a block of %d^3", B);
-    }
+    GS_CHECK(val, GS_ERR_MEM, "out of memory for a block of %d^3", B);
     double sum = 0;
     int64_t cnt = 0, verb = 0, run = 0, prev[3] = {0, 0, 0};
     gs_err err = GS_OK;
@@ -667,11 +700,11 @@ gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_f
                                (size_t)B);
                 gs_field_query q = {B, val, NULL, 0};
                 gs_field_match m;
-                GS_TRY(err, gs_field_tree_best_match(s, &q, NULL, &m), done);
+                GS_TRY(err, match(ctx, &q, &m), done);
                 sum += (double)m.dist / (double)m.known;
                 cnt++;
                 int64_t bp[3];
-                gs_field_block_position(gs_field_tree_source(tree), B, m.index, bp);
+                gs_field_block_position(src, B, m.index, bp);
                 if (m.dist == 0) {
                     verb++;
                     /* the run continues when the source continues, too */
@@ -691,6 +724,5 @@ gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_f
     qm->coherence_blocks = cnt;
 done:
     gs_free(val);
-    gs_field_searcher_destroy(&s);
     return err;
 }

@@ -497,11 +497,42 @@ fail:
     return err;
 }
 
+gs_err gs_field_tree_build_slab(const gs_qfield *src, int block, int64_t z0, int64_t z1,
+                                gs_field_tree_t *out)
+{
+    int64_t bz = src->nz - block + 1;
+    GS_CHECK(block >= 1 && bz >= 1 && z0 >= 0 && z0 < z1 && z1 <= bz, GS_ERR_ARG,
+             "tree slab of block z positions [%lld, %lld): expected a non-empty range within "
+             "[0, %lld) for blocks of %d in a %lldx%lldx%lld source",
+             (long long)z0, (long long)z1, (long long)(bz > 0 ? bz : 0), block,
+             (long long)src->nx, (long long)src->ny, (long long)src->nz);
+    /* samples z0 .. z1 + B - 2: every block of the slab and nothing else */
+    gs_qfield *slab = NULL;
+    int64_t nzs = z1 - z0 + block - 1, plane = src->nx * src->ny;
+    GS_CALL(gs_qfield_create(src->nx, src->ny, nzs, src->lo, src->hi, &slab));
+    memcpy(slab->q, src->q + plane * z0, (size_t)(plane * nzs));
+    slab->spacing = src->spacing;
+    memcpy(slab->origin, src->origin, sizeof slab->origin);
+    slab->origin[2] += src->spacing * (double)z0;
+    gs_field_tree_t t = NULL;
+    gs_err err = gs_field_tree_build(slab, block, &t);
+    if (err != GS_OK) {
+        gs_qfield_destroy(&slab);
+        return err;
+    }
+    t->own_src = slab;
+    t->index_offset = (src->nx - block + 1) * (src->ny - block + 1) * z0;
+    t->info.tree_bytes += (size_t)(plane * nzs); /* the slab copy */
+    *out = t;
+    return GS_OK;
+}
+
 void gs_field_tree_destroy(gs_field_tree_t *tp)
 {
     if (!tp || !*tp)
         return;
     struct gs_field_tree *t = *tp;
+    gs_qfield_destroy(&t->own_src);
     gs_field_pyramid_destroy(&t->pyr);
     gs_step_layout_free(&t->lay);
     gs_free(t->nodes);

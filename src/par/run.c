@@ -10,6 +10,7 @@
 #include "geosynth/digest.h"
 #include "geosynth/file.h"
 #include "geosynth/log.h"
+#include "geosynth/parse.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 #include "geosynth/version.h"
@@ -221,9 +222,15 @@ static int64_t stop_hook_units(const gs_run *run)
     const char *hook = getenv("GS_STOP_AFTER_UNITS");
     if (!hook || !hook[0] || run->resumed)
         return -1;
-    char *end;
-    long long n = strtoll(hook, &end, 10);
-    return *end == '\0' && n >= 0 ? (int64_t)n : -1;
+    int64_t n;
+    char why[160];
+    if (!gs_parse_i64(hook, 0, INT64_MAX, &n, why, sizeof why)) {
+        static int warned;
+        if (!warned++)
+            gs_log(GS_LOG_WARN, "GS_STOP_AFTER_UNITS = '%s' ignored: %s", hook, why);
+        return -1;
+    }
+    return n;
 }
 
 int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)

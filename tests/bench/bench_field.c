@@ -5,6 +5,7 @@
  *
  * usage: bench_field [--sizes 64/8,128/16,256/32] [--queries N] [--brute N] [--fft N]
  *                    [--brute-max-blocks N] [--synth 0|1] [--shape balls] [--mesh FILE]
+ *                    [--shards 2,4|none] [--shard-queries N]
  * The matcher cases use the signed distance field of a closed mesh (--mesh,
  * default the armadillo of ../shared/data, as the paper's table 1) sampled at
  * N along its longest axis; --mesh none uses the procedural --shape instead.
@@ -199,9 +200,147 @@ static gs_qfield *make_source(int64_t n, gs_field_shape shape, const gs_mesh *me
     return src;
 }
 
+/* field.tree = sharded: the tree split into P z-slabs, one per rank
+ * (gs_field_tree_build_slab). Memory: the largest slab's tree + pyramid
+ * against the whole. Work: every query (the kinds below; the seeded kinds
+ * are left out, a 256^3/32 one takes ~18 s whole) searched on each slab,
+ * without a bound (no sharing: the slowest a rank can be) and with the
+ * whole tree's best as bound (perfect sharing: the fastest); a distributed
+ * query takes about the slowest slab's time, between the two (an unshared
+ * search stops at SHARD_UNSHARED_POPS pops, so that figure is a lower
+ * bound where "unshared_capped" > 0). Slabs are
+ * built one at a time, so the process holds one slab besides the whole. */
+#define SHARD_UNSHARED_POPS 1000000 /* unshared slab searches stop here (counted as capped) */
+static const int shard_kinds[] = {K_SOURCE, K_PERTURBED, K_MASKED, K_WEIGHTED};
+#define SHARD_KINDS ((int)(sizeof shard_kinds / sizeof *shard_kinds))
+
+static int run_shards(const gs_qfield *src, int B, gs_field_searcher_t whole,
+                      const gs_field_tree_info *wi, const int *ranks, int nranks, int queries)
+{
+    int64_t nb = (int64_t)B * B * B, bz = src->nz - B + 1;
+    uint8_t *val = gs_malloc((size_t)nb), *known = gs_malloc((size_t)nb);
+    int nq = SHARD_KINDS * queries;
+    double *wt = gs_calloc((size_t)nq, sizeof *wt), *un = gs_calloc((size_t)nq, sizeof *un),
+           *sh = gs_calloc((size_t)nq, sizeof *sh);
+    uint64_t *wd = gs_calloc((size_t)nq, sizeof *wd);
+    int64_t *wix = gs_calloc((size_t)nq, sizeof *wix);
+    if (!val || !known || !wt || !un || !sh || !wd || !wix)
+        return 0;
+    int ok = 1;
+    /* the whole tree's answers and times */
+    for (int kk = 0; kk < SHARD_KINDS; kk++) {
+        gs_rng r;
+        gs_rng_init(&r, 7, gs_rng_stream_id(6, (uint64_t)shard_kinds[kk], (uint64_t)src->nx, (uint64_t)B));
+        for (int t = 0; t < queries; t++) {
+            int kind = shard_kinds[kk];
+            make_query(&r, src, B, kind, val, known);
+            gs_field_query q = {B, val, kind >= K_MASKED ? known : NULL,
+                                kind == K_WEIGHTED ? BENCH_SEED_WEIGHT : 0};
+            gs_field_match m;
+            double t0 = gs_time_now();
+            if (gs_field_tree_best_match(whole, &q, NULL, &m) != GS_OK)
+                return 0;
+            wt[kk * queries + t] = gs_time_now() - t0;
+            wd[kk * queries + t] = m.dist, wix[kk * queries + t] = m.index;
+        }
+    }
+    printf(",\n     \"shards\": [");
+    for (int ri = 0; ri < nranks; ri++) {
+        int P = ranks[ri];
+        if (P > bz)
+            continue;
+        size_t bytes_max = 0;
+        double build_max = 0;
+        memset(un, 0, (size_t)nq * sizeof *un);
+        memset(sh, 0, (size_t)nq * sizeof *sh);
+        int agree = 0, capped = 0;
+        for (int k = 0; k < P; k++) {
+            int64_t z0 = bz * k / P, z1 = bz * (k + 1) / P;
+            gs_field_tree_t t = NULL;
+            gs_field_searcher_t ss = NULL;
+            if (gs_field_tree_build_slab(src, B, z0, z1, &t) != GS_OK ||
+                gs_field_searcher_create(t, &ss) != GS_OK) {
+                gs_error_report("bench_field: ");
+                return 0;
+            }
+            gs_field_tree_info ti;
+            gs_field_tree_get_info(t, &ti);
+            if (ti.tree_bytes + ti.pyramid_bytes > bytes_max)
+                bytes_max = ti.tree_bytes + ti.pyramid_bytes;
+            if (ti.build_seconds > build_max)
+                build_max = ti.build_seconds;
+            for (int kk = 0; kk < SHARD_KINDS; kk++) {
+                gs_rng r;
+                gs_rng_init(&r, 7, gs_rng_stream_id(6, (uint64_t)shard_kinds[kk], (uint64_t)src->nx,
+                                                    (uint64_t)B));
+                for (int qi = 0; qi < queries; qi++) {
+                    int kind = shard_kinds[kk], j = kk * queries + qi;
+                    make_query(&r, src, B, kind, val, known);
+                    gs_field_query q = {B, val, kind >= K_MASKED ? known : NULL,
+                                        kind == K_WEIGHTED ? BENCH_SEED_WEIGHT : 0};
+                    gs_field_match m;
+                    uint64_t bound = UINT64_MAX;
+                    gs_field_search_opts cap = {0};
+                    cap.max_pops = SHARD_UNSHARED_POPS;
+                    double t0 = gs_time_now();
+                    gs_field_tree_search(ss, 0, gs_field_tree_top_count(t), &q, &cap, &bound, &m);
+                    double tu = gs_time_now() - t0;
+                    if (tu > un[j])
+                        un[j] = tu;
+                    capped += m.truncated;
+                    bound = wd[j];
+                    t0 = gs_time_now();
+                    gs_field_tree_search(ss, 0, gs_field_tree_top_count(t), &q, NULL, &bound, &m);
+                    /* with the whole answer as bound, the slab holding it finds it exactly */
+                    if (m.found && m.dist == wd[j] && m.index == wix[j])
+                        agree++;
+                    double ts = gs_time_now() - t0;
+                    if (ts > sh[j])
+                        sh[j] = ts;
+                }
+            }
+            gs_field_searcher_destroy(&ss);
+            gs_field_tree_destroy(&t);
+        }
+        size_t whole_bytes = wi->tree_bytes + wi->pyramid_bytes;
+        printf("%s\n       {\"ranks\": %d, \"rank_bytes_max\": %zu, \"rank_bytes_vs_whole\": %.3f, "
+               "\"rank_build_s_max\": %.3f, \"agree\": %d, \"n\": %d, \"unshared_capped\": %d, "
+               "\"kinds\": {",
+               ri ? "," : "", P, bytes_max, (double)bytes_max / (double)whole_bytes, build_max, agree,
+               nq, capped);
+        for (int kk = 0; kk < SHARD_KINDS; kk++) {
+            double w = 0, u = 0, h = 0;
+            for (int qi = 0; qi < queries; qi++) {
+                int j = kk * queries + qi;
+                w += wt[j], u += un[j], h += sh[j];
+            }
+            printf("%s\"%s\": {\"whole_s\": %.6f, \"slowest_rank_s_unshared\": %.6f, "
+                   "\"slowest_rank_s_shared\": %.6f, \"rank_vs_whole_unshared\": %.3f, "
+                   "\"rank_vs_whole_shared\": %.3f}",
+                   kk ? ", " : "", kind_name[shard_kinds[kk]], w / queries, u / queries, h / queries,
+                   w > 0 ? u / w : 0, w > 0 ? h / w : 0);
+        }
+        printf("}}");
+        fflush(stdout);
+        fprintf(stderr, "bench_field: %lld/%d sharded over %d: largest rank %.1f MB of %.1f MB\n",
+                (long long)src->nx, B, P, bytes_max / 1e6, whole_bytes / 1e6);
+        if (agree != nq)
+            ok = 0;
+    }
+    printf("]");
+    gs_free(val);
+    gs_free(known);
+    gs_free(wt);
+    gs_free(un);
+    gs_free(sh);
+    gs_free(wd);
+    gs_free(wix);
+    return ok;
+}
+
 static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t brute_max,
                     int fft_queries, gs_field_shape shape, const gs_mesh *mesh, const char *mesh_path,
-                    int first)
+                    const int *shards, int nshards, int shard_queries, int first)
 {
     gs_qfield *src = make_source(n, shape, mesh, mesh_path);
     if (!src)
@@ -308,9 +447,12 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
         fprintf(stderr, "bench_field: %lld/%d %s tree %.4f s brute %.4f s fft %.4f s\n", (long long)n,
                 B, kind_name[kind], tq, bq, fq);
     }
-    printf("},\n     \"fft_setup_s\": %.3f}", fft_setup);
+    printf("},\n     \"fft_setup_s\": %.3f", fft_setup);
     if (fft_queries > 0)
         fft_destroy(&fm);
+    if (nshards > 0 && shard_queries > 0)
+        ok &= run_shards(src, B, s, &info, shards, nshards, shard_queries);
+    printf("}");
     gs_free(val);
     gs_free(known);
     gs_field_searcher_destroy(&s);
@@ -385,6 +527,9 @@ int main(int argc, char **argv)
     /* Defaults keep `make bench` near 15 minutes here: a seeded 256^3/32 tree query
      * takes ~18 s, a masked brute-force one over 2M blocks ~5 min. */
     int64_t queries = 12, brute = 2, brute_max = 500000, synth = 1, fft = 2;
+    int64_t shard_queries = 2;
+    int shards[8], nshards = 0;
+    const char *shard_list = "2,4";
     gs_field_shape shape = GS_FIELD_BALLS;
     const char *mesh_path = "../shared/data/meshes/armadillo.obj";
     for (int i = 1; i < argc; i++) {
@@ -420,12 +565,28 @@ int main(int argc, char **argv)
                 fprintf(stderr, "bench_field: --shape %s: expected spheres, grid, chainmail or balls\n", v);
                 return 1;
             }
+        } else if (!strcmp(a, "--shards")) {
+            shard_list = v;
+        } else if (!strcmp(a, "--shard-queries")) {
+            if (!parse_int_arg(v, 0, 1000000, &shard_queries, a))
+                return 1;
         } else if (!strcmp(a, "--mesh")) {
             mesh_path = strcmp(v, "none") ? v : NULL;
         } else {
             fprintf(stderr, "bench_field: unknown option %s\n", a);
             return 1;
         }
+    }
+    for (const char *sp = shard_list; *sp && strcmp(shard_list, "none");) {
+        int64_t r;
+        if (nshards == 8 || !gs_scan_i64(&sp, 2, 64, &r) || (*sp && *sp != ',')) {
+            fprintf(stderr, "bench_field: --shards '%s': expected up to 8 rank counts in [2, 64] "
+                            "(R[,R...]) or none\n", shard_list);
+            return 1;
+        }
+        shards[nshards++] = (int)r;
+        if (*sp == ',')
+            sp++;
     }
     gs_mesh mesh, *meshp = NULL;
     if (mesh_path) {
@@ -452,7 +613,7 @@ int main(int argc, char **argv)
         if (*p == ',')
             p++;
         ok &= run_case(n, (int)b, (int)queries, (int)brute, brute_max, (int)fft, shape, meshp, mesh_path,
-                       first);
+                       shards, nshards, (int)shard_queries, first);
         first = 0;
     }
     printf("\n  ]");

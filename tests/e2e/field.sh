@@ -41,6 +41,30 @@ expect_rc 0 "quick.ini with one-position regions at np=3"
 [[ "$(digest_of r1)" == "$ref" ]] && ok "one-position regions at np=3: the same digest" ||
   bad "region_blocks=1 digest $(digest_of r1) != $ref"
 
+# --- sharded tree (field.tree = sharded): each rank holds a z-slab of every
+# iteration's tree and pyramid, every match is searched by all ranks with the
+# bound shared; the same output and quality, less tree memory per rank
+for np in 2 3; do
+  run_gs "$np" field -c "$Q" -o "sh$np" --set field.tree=sharded --set output.geometry=none --set output.vdb=no
+  expect_rc 0 "quick.ini with field.tree=sharded at np=$np"
+  [[ "$(digest_of "sh$np")" == "$ref" ]] && ok "sharded tree at np=$np: the same digest" ||
+    bad "sharded np=$np digest $(digest_of "sh$np") != $ref"
+done
+tb1=$(phase_field np1 tree_bytes_rank_max) tb2=$(phase_field sh2 tree_bytes_rank_max) tb3=$(phase_field sh3 tree_bytes_rank_max)
+[[ -n "$tb1" && -n "$tb2" && -n "$tb3" && "$tb2" -lt $((tb1 * 3 / 4)) && "$tb3" -lt $((tb2 * 9 / 10)) ]] &&
+  ok "tree + pyramid bytes on the largest rank fall with the rank count ($tb1 > $tb2 > $tb3)" ||
+  bad "tree bytes per rank: np1 '$tb1' np2 sharded '$tb2' np3 sharded '$tb3'"
+for k in coherence verbatim_share volume_fraction_out; do
+  [[ "$(metric sh3 $k)" == "$(metric np1 $k)" ]] && ok "sharded np=3: quality $k as np=1" ||
+    bad "sharded np=3 $k $(metric sh3 $k) != np=1 $(metric np1 $k)"
+done
+GS_STOP_AFTER_UNITS=300 run_gs 3 field -c "$Q" -o shstop --set field.tree=sharded --set output.geometry=none --set output.vdb=no
+expect_rc 9 "sharded run stops after 300 blocks"
+run_gs 2 resume shstop
+expect_rc 0 "sharded run resumed at np=2"
+[[ "$(digest_of shstop)" == "$ref" ]] && ok "sharded stop at np=3 + resume at np=2 = uninterrupted digest" ||
+  bad "sharded resumed digest $(digest_of shstop) != $ref"
+
 # --- quality: GRID statistics of the output within tolerance of the source --
 # Masked matching (the default, see configs/field/grid.ini). Tolerances:
 # volume fraction and surface per volume within 25% of the source's, mean

@@ -321,6 +321,93 @@ static void test_split_search(void **state)
     gs_qfield_destroy(&src);
 }
 
+/* Slab trees (field.tree = sharded): the blocks split into z-slabs, each
+ * slab's tree on its own copy of the samples; reducing the slabs' answers
+ * with a shared bound gives the whole tree's answer (and brute force's),
+ * with global block indices, while each slab holds less than the whole. */
+static void check_slabs(gs_field_shape kind, int64_t n, int B, int queries, uint64_t seed)
+{
+    gs_qfield *src = make_source(kind, n, seed);
+    gs_field_tree_t whole = NULL;
+    OK(gs_field_tree_build(src, B, &whole));
+    gs_field_tree_info wi;
+    gs_field_tree_get_info(whole, &wi);
+    gs_field_searcher_t ws = NULL;
+    OK(gs_field_searcher_create(whole, &ws));
+    int64_t bz = src->nz - B + 1, plane = (src->nx - B + 1) * (src->ny - B + 1);
+    enum { MAXP = 5 };
+    static const int splits[] = {2, 3, MAXP};
+    gs_rng r;
+    gs_rng_init(&r, seed, 31);
+    int64_t nb = (int64_t)B * B * B;
+    uint8_t *val = gs_malloc((size_t)nb), *known = gs_malloc((size_t)nb);
+    for (size_t si = 0; si < sizeof splits / sizeof *splits; si++) {
+        int P = splits[si];
+        gs_field_tree_t t[MAXP] = {NULL};
+        gs_field_searcher_t ss[MAXP] = {NULL};
+        int64_t z0[MAXP], z1[MAXP], blocks = 0;
+        for (int k = 0; k < P; k++) {
+            z0[k] = bz * k / P, z1[k] = bz * (k + 1) / P;
+            OK(gs_field_tree_build_slab(src, B, z0[k], z1[k], &t[k]));
+            OK(gs_field_searcher_create(t[k], &ss[k]));
+            gs_field_tree_info ti;
+            gs_field_tree_get_info(t[k], &ti);
+            assert_int_equal(ti.blocks, plane * (z1[k] - z0[k]));
+            assert_true(ti.pyramid_bytes < wi.pyramid_bytes);
+            assert_true(ti.tree_bytes + ti.pyramid_bytes < wi.tree_bytes + wi.pyramid_bytes);
+            blocks += ti.blocks;
+        }
+        assert_int_equal(blocks, wi.blocks);
+        for (int qn = 0; qn < queries; qn++) {
+            int use_mask;
+            make_query(&r, src, src, B, qn % Q_KINDS, val, known, &use_mask);
+            static const int weights[3] = {0, 37, 256};
+            gs_field_query q = {B, val, use_mask ? known : NULL, weights[(qn / Q_KINDS) % 3]};
+            gs_field_match serial, part, brute;
+            OK(gs_field_tree_best_match(ws, &q, NULL, &serial));
+            uint64_t shared = UINT64_MAX, bb = UINT64_MAX, bd = 0;
+            int64_t bi = -1;
+            for (int k = P - 1; k >= 0; k--) { /* reverse: a later slab holds higher indices */
+                OK(gs_field_tree_search(ss[k], 0, gs_field_tree_top_count(t[k]), &q, NULL, &shared,
+                                        &part));
+                if (!part.found)
+                    continue;
+                assert_true(part.index >= plane * z0[k] && part.index < plane * z1[k]);
+                assert_int_equal(part.dist, gs_field_block_distance(src, part.index, &q));
+                if (bi < 0 || part.dist < bd || (part.dist == bd && part.index < bi))
+                    bd = part.dist, bi = part.index;
+            }
+            OK(gs_field_brute_search(src, &q, 0, wi.blocks, &bb, &brute));
+            assert_int_equal(bi, serial.index);
+            assert_int_equal(bd, serial.dist);
+            assert_int_equal(bi, brute.index);
+            assert_int_equal(bd, brute.dist);
+        }
+        for (int k = 0; k < P; k++) {
+            gs_field_searcher_destroy(&ss[k]);
+            gs_field_tree_destroy(&t[k]);
+        }
+    }
+    /* a slab outside the block positions is refused */
+    gs_field_tree_t bad = NULL;
+    assert_int_not_equal(gs_field_tree_build_slab(src, B, 0, bz + 1, &bad), GS_OK);
+    assert_int_not_equal(gs_field_tree_build_slab(src, B, 3, 3, &bad), GS_OK);
+    assert_null(bad);
+    gs_free(val);
+    gs_free(known);
+    gs_field_searcher_destroy(&ws);
+    gs_field_tree_destroy(&whole);
+    gs_qfield_destroy(&src);
+}
+
+static void test_slab_trees(void **state)
+{
+    (void)state;
+    check_slabs(GS_FIELD_BALLS, 32, 8, 70, 41);
+    check_slabs(GS_FIELD_GRID, 32, 16, 35, 42); /* 17 z positions: slabs of 3 and 4 */
+    check_slabs(GS_FIELD_CHAINMAIL, 24, 4, 70, 43);
+}
+
 /* Identical blocks: one leaf lists them all, the lowest index wins. */
 static void test_identical_blocks(void **state)
 {
@@ -641,6 +728,7 @@ int main(void)
         cmocka_unit_test(test_level_bounds),
         cmocka_unit_test(test_identical_blocks),
         cmocka_unit_test(test_split_search),
+        cmocka_unit_test(test_slab_trees),
         cmocka_unit_test(test_tree_matches_brute_force),
         cmocka_unit_test(test_synthesis_resume),
         cmocka_unit_test(test_synthesis_regions),
