@@ -10,7 +10,8 @@
 #
 # Every config here is an engine's paper-scale case: the field engine's
 # default 64^3 -> 128^3 three-iteration synthesis (issue target: < 30 s at
-# 2 ranks), the points engine's large chain mail (2.9M points, < 30 s at 2
+# 2 ranks; grid-sharded is the same with the tree sharded over the ranks, its
+# tree_bytes_rank_max falls with the rank count), the points engine's large chain mail (2.9M points, < 30 s at 2
 # ranks) and small cases, the model engine at the author's sizes and 10x (2
 # ranks should give 1.8x the cells/s of one: cells_per_second_ratio_best and
 # _median over the repeats; ideal_speedup, the load balance, next to it).
@@ -25,7 +26,7 @@ PY=/usr/bin/python3
 configs=("$@")
 if [[ ${#configs[@]} -eq 0 ]]; then
   configs=(
-    configs/field/grid.ini
+    configs/field/grid.ini configs/field/grid-sharded.ini
     configs/points/heightfield.ini configs/points/chainmail.ini configs/points/weave.ini
     configs/points/flowers.ini configs/points/chainmail-large.ini
     configs/model/castle.ini configs/model/castle-10x.ini configs/model/city.ini
@@ -85,7 +86,8 @@ for name, by_np in runs.items():
         # model: ideal_speedup = region seconds summed over ranks / the
         # busiest rank's (load balance, robust to a shared machine's noise)
         for k in ("cells", "cells_per_second", "output_points", "failed_regions", "violations",
-                  "ideal_speedup", "synthesis_cpu_seconds_max_rank", "queue_wait_seconds_max_rank"):
+                  "ideal_speedup", "synthesis_cpu_seconds_max_rank", "queue_wait_seconds_max_rank",
+                  "tree_bytes_rank_max"):
             if k in m:
                 rec[k] = m[k]
         cps = sorted(s["metrics"]["cells_per_second"] for s in good
