@@ -376,6 +376,7 @@ typedef struct match_ctx {
     gs_field_match local;
     gs_psearch_t cur;
     int64_t queries;
+    uint64_t pops;         /* queue pops of this rank's searches through the hook */
     int64_t local_queries; /* np > 1: queries answered by the local budgeted search */
 } match_ctx;
 
@@ -481,11 +482,13 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         out->found = 1;
         out->index = best;
         out->dist = (uint64_t)hit.dist;
+        out->pops = ctx->local.pops; /* this rank's work */
         /* the same on every rank, also on one whose slab found nothing */
         out->known = 0;
         for (int64_t i = 0, n = (int64_t)q->block * q->block * q->block; i < n; i++)
             out->known += q->known ? q->known[i] != 0 : 1;
     }
+    ctx->pops += out->pops;
     return GS_OK;
 }
 
@@ -905,6 +908,8 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     st = gs_field_synth_get_state(synth);
     double syn_s = gs_time_now() - t0;
     GS_TRY(err, max_over_ranks(run, tree_peak, &tree_peak_max), done);
+    unsigned long long pops_max = 0;
+    GS_TRY(err, max_over_ranks(run, ctx.pops, &pops_max), done);
     if (run->rank == 0) {
         gs_log(GS_LOG_INFO, "search tree + pyramid per rank: %.1f MiB (largest rank), %s",
                (double)tree_peak_max / 1048576.0, ctx.sharded ? "sharded" : "whole");
@@ -915,12 +920,13 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
              "\"rank0_seconds\":{\"iteration_setup\":%.3f,\"in_order\":%.3f,"
              "\"regions_compute\":%.3f,\"regions_wait\":%.3f,\"regions_exchange\":%.3f,"
              "\"regions_apply\":%.3f},\"rank0_regions\":%lld,"
-             "\"queries_local\":%lld,\"queries_spread\":%lld}",
+             "\"queries_local\":%lld,\"queries_spread\":%lld,\"search_pops_rank_max\":%llu}",
              ctx.sharded ? "sharded" : "whole", tree_peak_max,
              (long long)units_done(st), (long long)(units_done(st) - start_units),
              syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
              (long long)region_colors, (long long)serial_colors, t_setup, t_order, rt.compute,
-             rt.wait, rt.exchange, rt.apply, (long long)rt.regions, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0));
+             rt.wait, rt.exchange, rt.apply, (long long)rt.regions, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0),
+             pops_max);
     GS_TRY(err, gs_run_phase_end(run, js), done);
 
     gs_run_phase_begin(run, "output");
