@@ -72,8 +72,10 @@
  * block index below, node, step) in this total order; a popped entry is
  * refined step by step (the incremental distance evaluation of paper 4.4)
  * while it stays at the front; children are refined through step 8 (the
- * exact octants) before they are queued. The first complete leaf to reach
- * the front is the exact best match with the lowest index among equals.
+ * exact octants) before they are queued; a leaf that reaches the front is
+ * completed at once with its exact distance (src/field/search.c). The first
+ * complete leaf to reach the front is the exact best match with the lowest
+ * index among equals.
  *
  * Costs: pyramid 1 + 8*L bytes per source sample (sums and squares); tree build O(M log M)
  * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
