@@ -14,8 +14,9 @@
  * first --brute-max-blocks blocks and extrapolated linearly (its cost is
  * exactly proportional to the block count); the JSON says so per case.
  *
- * FFT baseline (--fft N queries per kind): the exact masked SSD of every
- * block at once, sum M q^2 - 2 corr(M q, s) + corr(M, s^2), with the two
+ * FFT baseline (--fft N queries per kind): the exact weighted SSD of every
+ * block at once, sum W q^2 - 2 corr(W q, s) + corr(W, s^2) (W the per-sample
+ * weight of the distance: 0/1 for masked queries), with the two
  * source spectra precomputed and, by linearity, one inverse transform per
  * query (two forward ones). FFTW is GPL: it is linked into this benchmark
  * only, never into the library. */
@@ -132,13 +133,15 @@ static void fft_match(fft_matcher *m, const gs_qfield *src, const gs_field_query
 {
     int B = q->block;
     int64_t nx = src->nx, nxy = src->nx * src->ny;
+    uint64_t wk, wu; /* per-sample weights of the distance (field.h): known, unknown */
+    gs_field_query_weights(q, &wk, &wu);
     double qq = 0;
     memset(m->in, 0, (size_t)m->n * sizeof *m->in);
     for (int k = 0; k < B; k++)
         for (int j = 0; j < B; j++)
             for (int i = 0; i < B; i++) {
                 int64_t o = i + B * (j + (int64_t)B * k);
-                double w = q->known ? q->known[o] != 0 : 1, v = q->values[o];
+                double w = (double)(q->known && !q->known[o] ? wu : wk), v = q->values[o];
                 m->in[i + nx * j + nxy * k] = w * v;
                 qq += w * v * v;
             }
@@ -148,7 +151,7 @@ static void fft_match(fft_matcher *m, const gs_qfield *src, const gs_field_query
         for (int j = 0; j < B; j++)
             for (int i = 0; i < B; i++) {
                 int64_t o = i + B * (j + (int64_t)B * k);
-                m->in[i + nx * j + nxy * k] = q->known ? q->known[o] != 0 : 1;
+                m->in[i + nx * j + nxy * k] = (double)(q->known && !q->known[o] ? wu : wk);
             }
     fftw_execute_dft_r2c(m->fwd_b, m->in, m->fb);
     /* corr(a, s)(p) = sum_x a(x) s(p + x)  <->  conj(A) S */
@@ -407,7 +410,7 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
             refinements += mt.refinements;
             if (mt.queue_peak > qpeak)
                 qpeak = mt.queue_peak;
-            if (t < fft_queries && kind != K_WEIGHTED) { /* the FFT matcher has no weights */
+            if (t < fft_queries) {
                 int64_t fi;
                 uint64_t fd = 0;
                 t0 = gs_time_now();
