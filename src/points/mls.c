@@ -91,7 +91,8 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
     if (!near) {
         gs_opoint nearest;
         int found;
-        GS_CALL(gs_points_grid_nearest(g, x, max_reach, scratch, &nearest, &found));
+        GS_CALL(gs_points_grid_nearest_known(g, x, max_reach, 1.25 * R, scratch, &nearest,
+                                             &found));
         if (!found)
             return GS_OK;
         memcpy(c, nearest.p, sizeof c);

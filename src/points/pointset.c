@@ -223,32 +223,69 @@ gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
     return GS_OK;
 }
 
-gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
-                              gs_points *scratch, gs_opoint *out, int *found)
+/* First point of pts (n of them) nearest to x (the order breaks ties). */
+static const gs_opoint *first_nearest(const gs_opoint *pts, size_t n, const double x[3])
 {
+    size_t best = 0;
+    double bd = v3_dist2(pts[0].p, x);
+    for (size_t i = 1; i < n; i++) {
+        double d = v3_dist2(pts[i].p, x);
+        if (d < bd) {
+            bd = d;
+            best = i;
+        }
+    }
+    return &pts[best];
+}
+
+gs_err gs_points_grid_nearest_known(const gs_points_grid *g, const double x[3], double max_reach,
+                                    double known_r, gs_points *scratch, gs_opoint *out,
+                                    int *found)
+{
+    /* The radii are those of gs_points_grid_nearest. Its answers within r
+     * are the points with the query's d2 <= r * r in the grid's cell order,
+     * whatever r: for r <= known_r those of the known points, and for
+     * r > known_r every known point and others, all farther than any known
+     * one. So while r <= known_r the nearest known point is the answer if it
+     * is within r, and beyond that it is the answer if any point is known
+     * (ties: the first in the order either way). */
+    const gs_opoint *near = scratch->n ? first_nearest(scratch->v, scratch->n, x) : NULL;
+    double bd = near ? v3_dist2(near->p, x) : INFINITY;
     double r = g->cell;
     *found = 0;
     for (;;) {
         if (r > max_reach)
             r = max_reach;
-        scratch->n = 0;
-        GS_CALL(gs_points_grid_query(g, x, r, scratch));
-        if (scratch->n > 0) {
-            size_t best = 0;
-            double bd = v3_dist2(scratch->v[0].p, x);
-            for (size_t i = 1; i < scratch->n; i++) {
-                double d = v3_dist2(scratch->v[i].p, x);
-                if (d < bd) {
-                    bd = d;
-                    best = i;
-                }
+        if (r <= known_r) {
+            if (bd <= r * r) {
+                *out = *near;
+                *found = 1;
+                return GS_OK;
             }
-            *out = scratch->v[best];
+        } else if (near) {
+            *out = *near;
             *found = 1;
             return GS_OK;
+        } else {
+            /* Nothing within known_r: the plain search from this radius on. */
+            scratch->n = 0;
+            GS_CALL(gs_points_grid_query(g, x, r, scratch));
+            if (scratch->n > 0) {
+                *out = *first_nearest(scratch->v, scratch->n, x);
+                *found = 1;
+                return GS_OK;
+            }
         }
         if (r >= max_reach)
             return GS_OK;
         r *= 2;
     }
+}
+
+gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
+                              gs_points *scratch, gs_opoint *out, int *found)
+{
+    scratch->n = 0; /* nothing known: every radius is queried */
+    GS_CALL(gs_points_grid_nearest_known(g, x, max_reach, -1, scratch, out, found));
+    return GS_OK;
 }
