@@ -162,23 +162,34 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
      * the order of the answers is unchanged). The margin keeps rounding in
      * the box distance from ever skipping a cell that holds an answer. */
     double skip2 = r2 * (1 + 1e-9) + 1e-300;
+    /* Most cells of a query are empty (the points lie on a surface): the
+     * loops keep the per-cell work small (row pointers, the x slab
+     * distances tabulated, the room checked before the call). */
+    enum { TAB = 32 };
+    double sx[TAB];
+    const int nx = hi[0] - lo[0] + 1, tab = nx <= TAB;
+    for (int i = 0; tab && i < nx; i++)
+        sx[i] = slab_dist2(g, 0, lo[0] + i, c0);
     for (int k = lo[2]; k <= hi[2]; k++) {
-        double dk = slab_dist2(g, 2, k, c[2]);
+        double dk = slab_dist2(g, 2, k, c2);
         if (dk > skip2)
             continue;
         for (int j = lo[1]; j <= hi[1]; j++) {
-            double djk = dk + slab_dist2(g, 1, j, c[1]);
+            double djk = dk + slab_dist2(g, 1, j, c1);
             if (djk > skip2)
                 continue;
-            for (int i = lo[0]; i <= hi[0]; i++) {
-                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                if (cl->n == 0 || djk + slab_dist2(g, 0, i, c[0]) > skip2)
+            const gs_points *row = g->cells + ((size_t)k * g->dim[1] + j) * g->dim[0] + lo[0];
+            for (int i = 0; i < nx; i++) {
+                const gs_points *cl = row + i;
+                size_t n = cl->n;
+                if (n == 0 || djk + (tab ? sx[i] : slab_dist2(g, 0, lo[0] + i, c0)) > skip2)
                     continue;
-                GS_CALL(gs_points_reserve(out, out->n + cl->n));
+                if (out->cap - out->n < n)
+                    GS_CALL(gs_points_reserve(out, out->n + n));
                 /* Branch-free: copy every point, keep it only when within r
                  * (the room is reserved; the test is unpredictable). */
                 gs_opoint *dst = out->v + out->n;
-                const gs_opoint *src = cl->v, *end = cl->v + cl->n;
+                const gs_opoint *src = cl->v, *end = cl->v + n;
                 for (; src < end; src++) {
                     double dx = src->p[0] - c0, dy = src->p[1] - c1, dz = src->p[2] - c2;
                     *dst = *src;
