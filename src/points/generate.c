@@ -354,9 +354,16 @@ typedef struct dart_ctx {
 } dart_ctx;
 
 typedef struct dart {
-    gs_opoint q;
+    double p[3];
     int64_t keep; /* passed every test but the distance one */
 } dart;
+
+/* The stream at try t of the dart throwing. */
+static void dart_rng(const dart_ctx *c, uint64_t t, gs_rng *rng)
+{
+    uint64_t word = 6 * t;
+    gs_rng_restore(rng, (gs_rng_state){c->seed, c->stream, word / 4, word % 4});
+}
 
 /* (area, max_dA) of primitives [lo, hi) (gs_points_range_fn). */
 static gs_err prim_scan(void *vctx, size_t lo, size_t hi, void *vout)
@@ -389,8 +396,7 @@ static gs_err throw_darts(void *vctx, size_t lo, size_t hi, void *vout)
     while (c->first[i + 1] <= t0)
         i++;
     gs_rng rng;
-    uint64_t word = 6 * t0;
-    gs_rng_restore(&rng, (gs_rng_state){c->seed, c->stream, word / 4, word % 4});
+    dart_rng(c, t0, &rng);
     for (size_t k = lo; k < hi; k++) {
         while (c->first[i + 1] <= c->base + k)
             i++;
@@ -398,7 +404,7 @@ static gs_err throw_darts(void *vctx, size_t lo, size_t hi, void *vout)
         dart *d = &out[k - lo];
         d->keep = 0;
         double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng), acc = gs_rng_uniform(&rng);
-        double tu[3], tv[3], ref[3], *p = d->q.p;
+        double tu[3], tv[3], ref[3], n[3], *p = d->p;
         prim_pos(pr, u, v, tu, tv, p, ref);
         if (p[0] < c->lo[0] || p[0] > c->hi[0] || p[1] < c->lo[1] || p[1] > c->hi[1])
             continue;
@@ -411,13 +417,26 @@ static gs_err throw_darts(void *vctx, size_t lo, size_t hi, void *vout)
                 inside = j != i && prim_inside(&c->prims[j], p);
         if (inside)
             continue;
-        double dA = prim_normal(pr, u, v, tu, tv, p, ref, d->q.n);
+        double dA = prim_normal(pr, u, v, tu, tv, p, ref, n);
         d->keep = !(acc * c->max_dA[i] > dA);
     }
     return GS_OK;
 }
 
-/* Tries per map of the dart throwing (bounds its buffer: 56 bytes each). */
+/* The sample of try t on primitive i (a dart that throw_darts kept): its
+ * point and normal computed again, the same values (a fortieth of the tries
+ * become samples, so the exchange carries no normals). */
+static void dart_sample(const dart_ctx *c, uint64_t t, int i, gs_opoint *q)
+{
+    gs_rng rng;
+    dart_rng(c, t, &rng);
+    double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng);
+    double tu[3], tv[3], ref[3];
+    prim_pos(&c->prims[i], u, v, tu, tv, q->p, ref);
+    prim_normal(&c->prims[i], u, v, tu, tv, q->p, ref, q->n);
+}
+
+/* Tries per map of the dart throwing (bounds its buffer: 32 bytes each). */
 #define DART_CHUNK ((uint64_t)1 << 16)
 
 /* Dart throwing over the union of prims, then the texture's box. pre: a
@@ -483,13 +502,20 @@ static gs_err sample_prims(const gs_points_gen_params *gp, gs_err pre, const pri
     size_t chunk = total < DART_CHUNK ? (size_t)total : (size_t)DART_CHUNK;
     err = gs_alloc_array((void **)&darts, chunk ? chunk : 1, sizeof *darts, "dart throwing");
     GS_TRY(err, gen_agree(gp, err), done);
+    int pi = 0; /* the primitive of try at + k */
     for (uint64_t at = 0; at < total; at += chunk) {
         size_t m = total - at < chunk ? (size_t)(total - at) : chunk;
         dc.base = at;
         GS_TRY(err, gen_map(gp, m, sizeof *darts, throw_darts, &dc, darts), done);
-        for (size_t k = 0; k < m && err == GS_OK; k++)
-            if (darts[k].keep && !any_within(grid, darts[k].q.p, s))
-                err = gs_points_grid_add(grid, &darts[k].q);
+        for (size_t k = 0; k < m && err == GS_OK; k++) {
+            while (first[pi + 1] <= at + k)
+                pi++;
+            if (darts[k].keep && !any_within(grid, darts[k].p, s)) {
+                gs_opoint q;
+                dart_sample(&dc, at + k, pi, &q);
+                err = gs_points_grid_add(grid, &q);
+            }
+        }
         GS_TRY(err, gen_agree(gp, err), done);
     }
     GS_TRY(err, gs_points_grid_collect(grid, &out->pts), done);
