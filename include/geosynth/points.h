@@ -102,6 +102,18 @@ void gs_points_texture_free(gs_points_texture *t);
  * GS_ERR_ARG naming the side, how far geometry reaches and what is needed. */
 gs_err gs_points_texture_check(const gs_points_texture *t, double need);
 
+/* A parallel "for" over independent items: fn(ctx, lo, hi, out_lo) writes
+ * items [lo, hi) (bytes each) starting at out_lo. A map hook computes items
+ * [0, n) spread over processes (each calls fn on its part) and returns with
+ * all n items in out on every process, exactly what fn(ctx, 0, n, out)
+ * gives, so results do not depend on the split. Used for the example
+ * generators' dart throwing, the query field nodes, the warp, the blend and
+ * the relaxation; if the hook is collective, so are the generators,
+ * gs_points_synth_step and gs_points_synth_finish. */
+typedef gs_err (*gs_points_range_fn)(void *ctx, size_t lo, size_t hi, void *out_lo);
+typedef gs_err (*gs_points_map_fn)(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
+                                   void *ctx, void *out);
+
 /* Generators of the paper's kinds of example (figures 4, 5, 7, 8). The box
  * is [0, size_x] x [0, size_y] x [z range of the geometry]; geometry covers
  * [-pad, size + pad] in x and y. Points are a dart-throwing Poisson-disk
@@ -113,6 +125,15 @@ typedef struct gs_points_gen_params {
     double pad;       /* geometry beyond each side, >= 0 */
     double spacing;   /* sampling radius, > 0 */
     uint64_t seed;
+    /* Optional (NULL: all in this process): the per-try work of the dart
+     * throwing through a map hook, and agree(map_user, local), which returns
+     * the status every process gets (a failure anywhere fails all). With
+     * collective hooks every process calls the generator, each one makes
+     * the same hook calls whatever fails, and all get the same points (the
+     * same as without hooks) or the same error. */
+    gs_points_map_fn map;
+    void *map_user;
+    gs_err (*agree)(void *map_user, gs_err local);
 } gs_points_gen_params;
 
 /* Height field from an image of w x h pixels (x fastest, row 0 at y low),
@@ -363,16 +384,6 @@ typedef gs_points_synth *gs_points_synth_t;
 typedef gs_err (*gs_points_search_fn)(void *user, const gs_points_synth *s, const float *query,
                                       int mode, double eps, gs_points_cands *out);
 
-/* A parallel "for" over independent items: fn(ctx, lo, hi, out_lo) writes
- * items [lo, hi) (bytes each) starting at out_lo. A map hook computes items
- * [0, n) spread over processes (each calls fn on its part) and returns with
- * all n items in out on every process, exactly what fn(ctx, 0, n, out)
- * gives, so results do not depend on the split. Used for the query field
- * nodes, the warp, the blend and the relaxation; if the hook is collective,
- * so are gs_points_synth_step and gs_points_synth_finish. */
-typedef gs_err (*gs_points_range_fn)(void *ctx, size_t lo, size_t hi, void *out_lo);
-typedef gs_err (*gs_points_map_fn)(void *user, size_t n, size_t bytes, gs_points_range_fn fn,
-                                   void *ctx, void *out);
 
 /* Which patches this synthesizer's bank holds and who searches them.
  * count == 0 means all patches [0, total); fn == NULL the built-in serial

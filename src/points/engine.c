@@ -194,6 +194,9 @@ static const gs_cfg_key points_keys[] = {
 
 static int kind_is(const points_config *c, const char *k) { return !strcmp(c->kind, k); }
 
+/* An example the user gives (read by rank 0), not one generated here. */
+static int kind_is_user(const points_config *c) { return kind_is(c, "ply") || kind_is(c, "mesh"); }
+
 static void points_validate(const void *vcfg, gs_cfg_ctx *ctx)
 {
     const points_config *c = vcfg;
@@ -303,11 +306,21 @@ done:
     return err;
 }
 
-/* Rank 0: builds the example texture (z up) from the config. */
-static gs_err build_texture(const points_config *c, gs_points_texture *tex)
+/* Every rank, with the map hook (see gs_points_gen_params) when there are
+ * several; defined with the exchanges below. */
+typedef struct map_state map_state;
+static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
+                      void *out);
+static gs_err map_agree(void *user, gs_err local);
+
+/* Builds the example texture (z up) from the config: a user example on rank
+ * 0 alone (ms == NULL), a generated one on every rank (ms: the map hook's
+ * state when there are several ranks, else NULL), each rank getting the
+ * same points or the same error. */
+static gs_err build_texture(const points_config *c, map_state *ms, gs_points_texture *tex)
 {
     memset(tex, 0, sizeof *tex);
-    if (kind_is(c, "ply") || kind_is(c, "mesh")) {
+    if (kind_is_user(c)) {
         int up = up_axis(c);
         gs_err err = GS_OK;
         if (kind_is(c, "ply")) {
@@ -349,12 +362,16 @@ static gs_err build_texture(const points_config *c, gs_points_texture *tex)
     params_from_config(c, c->size.v[0], c->size.v[1], c->spacing, &p);
     double pad = c->pad > 0 ? c->pad : 1.2 * gs_points_params_padding(&p);
     gs_points_gen_params gp = {{c->size.v[0], c->size.v[1]}, pad, c->spacing,
-                               (uint64_t)c->input_seed};
+                               (uint64_t)c->input_seed, ms ? mpi_map : NULL, ms,
+                               ms ? map_agree : NULL};
     if (kind_is(c, "heightfield")) {
-        int w, h;
+        int w = 0, h = 0;
         float *img = NULL;
-        GS_CALL(read_heightmap(c->path, &w, &h, &img));
-        gs_err err = gs_points_gen_heightfield(&gp, w, h, NULL, img, c->height_scale, tex);
+        gs_err err = read_heightmap(c->path, &w, &h, &img);
+        if (ms)
+            err = map_agree(ms, err); /* every rank reads the image */
+        if (err == GS_OK)
+            err = gs_points_gen_heightfield(&gp, w, h, NULL, img, c->height_scale, tex);
         gs_free(img);
         GS_CALL(err);
     } else if (kind_is(c, "chainmail")) {
@@ -677,13 +694,20 @@ done:
  * computes an item never changes its value, and every rank updates the
  * shares from the same gathered numbers with the same arithmetic, so the
  * split is the same everywhere and the output does not depend on it. */
-typedef struct map_state {
+struct map_state {
     MPI_Comm comm;
     int size;
     fault_inject *fault;
     int *together; /* set on a failure every rank returns (see agree) */
     double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
-} map_state;
+};
+
+/* gs_points_gen_params.agree over the ranks (user: map_state). */
+static gs_err map_agree(void *user, gs_err local)
+{
+    map_state *m = user;
+    return agree(m->together, m->comm, local);
+}
 
 static void map_state_init(map_state *m, MPI_Comm comm, int size)
 {
@@ -1082,8 +1106,19 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
 {
     gs_run_phase_begin(run, "setup");
     gs_err err = GS_OK;
-    if (run->rank == 0) {
-        err = build_texture(c, &rs->tex);
+    map_state_init(&rs->map, run->comm, run->size);
+    rs->map.fault = &rs->fault;
+    rs->map.together = &rs->together;
+    int user = kind_is_user(c);
+    if (!user) {
+        /* Every rank generates it (the dart throwing over the map hook). */
+        err = build_texture(c, run->size > 1 ? &rs->map : NULL, &rs->tex);
+        if (err != GS_OK && rs->together)
+            return err; /* every rank returns it */
+    } else if (run->rank == 0) {
+        err = build_texture(c, NULL, &rs->tex);
+    }
+    if (!user || run->rank == 0) {
         if (err == GS_OK && rs->tex.pts.n == 0)
             err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
                                  "input: the example has no points");
@@ -1093,7 +1128,8 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
                                  rs->tex.pts.n);
     }
     GS_CALL(agree(&rs->together, run->comm, err));
-    GS_CALL(bcast_texture(run->comm, run->rank, &rs->tex));
+    if (user)
+        GS_CALL(bcast_texture(run->comm, run->rank, &rs->tex));
     gs_points_texture *t = &rs->tex;
     double lx = t->box_hi[0] - t->box_lo[0], ly = t->box_hi[1] - t->box_lo[1];
     params_from_config(c, lx, ly, t->spacing, &rs->params);
@@ -1168,9 +1204,6 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     rs->sctx.fault = &rs->fault;
     rs->sctx.together = &rs->together;
     GS_CALL(search_ctx_alloc(&rs->sctx));
-    map_state_init(&rs->map, run->comm, run->size);
-    rs->map.fault = &rs->fault;
-    rs->map.together = &rs->together;
     gs_points_synth_share share = {.first = (size_t)lo,
                                    .count = (size_t)(hi - lo),
                                    .fn = distributed_search,

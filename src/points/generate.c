@@ -188,16 +188,26 @@ static int prim_inside(const prim *pr, const double p[3])
     return s < 0.97;
 }
 
-static double prim_frame(const prim *pr, double u, double v, double p[3], double n[3])
+/* Point at (u, v) (prim_point) with the trigonometric terms it used, so
+ * prim_normal can take them up. */
+static void prim_pos(const prim *pr, double u, double v, double tu[3], double tv[3], double p[3],
+                     double ref[3])
 {
-    double ref[3], pu[3], pv[3];
-    const double h = 1e-5;
-    double tu[3], tv[3], tuh[3], tvh[3];
     prim_trig(pr, 0, u, tu);
-    prim_trig(pr, 0, u + h, tuh);
     prim_trig(pr, 1, v, tv);
-    prim_trig(pr, 1, v + h, tvh);
     prim_point(pr, u, v, tu, tv, p, ref);
+}
+
+/* Outward unit normal n at p = prim_pos(u, v) by forward differences;
+ * returns the area element |dp/du x dp/dv|. */
+static double prim_normal(const prim *pr, double u, double v, const double tu[3],
+                          const double tv[3], const double p[3], const double ref[3], double n[3])
+{
+    double pu[3], pv[3];
+    const double h = 1e-5;
+    double tuh[3], tvh[3];
+    prim_trig(pr, 0, u + h, tuh);
+    prim_trig(pr, 1, v + h, tvh);
     prim_point(pr, u + h, v, tuh, tv, pu, NULL);
     prim_point(pr, u, v + h, tu, tvh, pv, NULL);
     for (int d = 0; d < 3; d++) {
@@ -211,6 +221,13 @@ static double prim_frame(const prim *pr, double u, double v, double p[3], double
         for (int d = 0; d < 3; d++)
             n[d] = -n[d];
     return dA;
+}
+
+static double prim_frame(const prim *pr, double u, double v, double p[3], double n[3])
+{
+    double ref[3], tu[3], tv[3];
+    prim_pos(pr, u, v, tu, tv, p, ref);
+    return prim_normal(pr, u, v, tu, tv, p, ref, n);
 }
 
 static int any_within(const struct gs_points_grid *g, const double c[3], double r)
@@ -301,42 +318,61 @@ done:
     return err;
 }
 
-/* Dart throwing over the union of prims, then the texture's box. */
-static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, int np,
-                           uint32_t kind, gs_points_texture *out)
+/* The status every process returns (gp->agree; here alone: local). */
+static gs_err gen_agree(const gs_points_gen_params *gp, gs_err local)
 {
-    GS_CHECK(gp->size[0] > 0 && gp->size[1] > 0 && gp->spacing > 0 && gp->pad >= 0, GS_ERR_ARG,
-             "point generator: size %g x %g, spacing %g, pad %g: expected positive sizes and "
-             "spacing, pad >= 0", gp->size[0], gp->size[1], gp->spacing, gp->pad);
-    double s = gp->spacing;
-    double lo[3] = {-gp->pad - s, -gp->pad - s, -1e300}, hi[3] = {gp->size[0] + gp->pad + s,
-                                                                 gp->size[1] + gp->pad + s, 1e300};
-    /* z bounds from a coarse scan of every primitive. */
-    double zmin = INFINITY, zmax = -INFINITY;
-    for (int i = 0; i < np; i++)
-        for (int a = 0; a <= 16; a++)
-            for (int b = 0; b <= 16; b++) {
-                double p[3], r[3];
-                prim_eval(&prims[i], a / 16.0, b / 16.0, p, r);
-                zmin = fmin(zmin, p[2]);
-                zmax = fmax(zmax, p[2]);
-            }
-    GS_CHECK(np > 0 && zmax >= zmin, GS_ERR_INTERNAL, "point generator: no geometry");
-    lo[2] = zmin - 2 * s;
-    hi[2] = zmax + 2 * s;
-    gs_points_grid_t grid = NULL;
-    GS_CALL(gs_points_grid_create(lo, hi, s, &grid));
-    int *nb_start = NULL, *nb = NULL;
-    gs_err err = prim_neighbours(prims, np, &nb_start, &nb);
-    if (err != GS_OK) {
-        gs_points_grid_destroy(&grid);
-        GS_CALL(err);
-    }
-    gs_rng rng;
-    gs_rng_init(&rng, gp->seed, gs_rng_stream_id(0x50544753u, kind, 0, 0));
+    return gp->agree ? gp->agree(gp->map_user, local) : local;
+}
+
+/* Items [0, n) of fn through gp->map (or here). */
+static gs_err gen_map(const gs_points_gen_params *gp, size_t n, size_t bytes,
+                      gs_points_range_fn fn, void *ctx, void *out)
+{
+    if (n == 0)
+        return GS_OK;
+    if (gp->map)
+        return gp->map(gp->map_user, n, bytes, fn, ctx, out);
+    return fn(ctx, 0, n, out);
+}
+
+/* The dart throwing of sample_prims. Try t (over all primitives, in order)
+ * takes words 6t .. 6t + 5 of the stream (three uniforms u, v, acc), so any
+ * range of tries starts from its own position in the stream. Everything a
+ * try decides but the distance to the samples already taken (the acceptance
+ * by area, the box, the other primitives) depends on the try alone; those
+ * run over the map hook, the distance test then runs here in try order,
+ * exactly the serial loop. */
+typedef struct dart_ctx {
+    const prim *prims;
+    int np;
+    const int *nb_start, *nb;
+    const double *max_dA;   /* per primitive, with the rejection's margin */
+    const uint64_t *first;  /* np + 1: first try of each primitive */
+    uint64_t base;          /* first try of this map */
+    double lo[2], hi[2];    /* the sampled xy range, already shrunk by s */
+    uint64_t seed, stream;
+} dart_ctx;
+
+typedef struct dart {
+    double p[3];
+    int64_t keep; /* passed every test but the distance one */
+} dart;
+
+/* The stream at try t of the dart throwing. */
+static void dart_rng(const dart_ctx *c, uint64_t t, gs_rng *rng)
+{
+    uint64_t word = 6 * t;
+    gs_rng_restore(rng, (gs_rng_state){c->seed, c->stream, word / 4, word % 4});
+}
+
+/* (area, max_dA) of primitives [lo, hi) (gs_points_range_fn). */
+static gs_err prim_scan(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    const dart_ctx *c = vctx;
+    double *out = vout;
     const int scan = 48;
-    for (int i = 0; i < np && err == GS_OK; i++) {
-        const prim *pr = &prims[i];
+    for (size_t i = lo; i < hi; i++) {
+        const prim *pr = &c->prims[i];
         double area = 0, max_dA = 0, p[3], n[3];
         for (int a = 0; a < scan; a++)
             for (int b = 0; b < scan; b++) {
@@ -344,32 +380,144 @@ static gs_err sample_prims(const gs_points_gen_params *gp, const prim *prims, in
                 area += dA / (scan * scan);
                 max_dA = fmax(max_dA, dA);
             }
-        max_dA *= 1.25;
-        double want = 6.0 * area / (s * s);
-        uint64_t tries = (uint64_t)(want * 1.25 * 1.25) + 16; /* x acceptance of the rejection */
-        for (uint64_t t = 0; t < tries; t++) {
-            double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng), acc = gs_rng_uniform(&rng);
-            double dA = prim_frame(pr, u, v, p, n);
-            if (acc * max_dA > dA)
-                continue;
-            if (p[0] < lo[0] + s || p[0] > hi[0] - s || p[1] < lo[1] + s || p[1] > hi[1] - s)
-                continue;
-            int inside = 0;
-            if (prim_bounded(pr))
-                for (int q = nb_start[i]; q < nb_start[i + 1] && !inside; q++)
-                    inside = prim_inside(&prims[nb[q]], p);
-            else
-                for (int j = 0; j < np && !inside; j++)
-                    inside = j != i && prim_inside(&prims[j], p);
-            if (inside || any_within(grid, p, s))
-                continue;
-            gs_opoint op;
-            memcpy(op.p, p, sizeof op.p);
-            memcpy(op.n, n, sizeof op.n);
-            GS_TRY(err, gs_points_grid_add(grid, &op), done);
-        }
+        out[2 * (i - lo)] = area;
+        out[2 * (i - lo) + 1] = max_dA;
     }
+    return GS_OK;
+}
+
+/* Tries base + [lo, hi) (gs_points_range_fn). */
+static gs_err throw_darts(void *vctx, size_t lo, size_t hi, void *vout)
+{
+    const dart_ctx *c = vctx;
+    dart *out = vout;
+    uint64_t t0 = c->base + lo;
+    int i = 0;
+    while (c->first[i + 1] <= t0)
+        i++;
+    gs_rng rng;
+    dart_rng(c, t0, &rng);
+    for (size_t k = lo; k < hi; k++) {
+        while (c->first[i + 1] <= c->base + k)
+            i++;
+        const prim *pr = &c->prims[i];
+        dart *d = &out[k - lo];
+        d->keep = 0;
+        double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng), acc = gs_rng_uniform(&rng);
+        double tu[3], tv[3], ref[3], n[3], *p = d->p;
+        prim_pos(pr, u, v, tu, tv, p, ref);
+        if (p[0] < c->lo[0] || p[0] > c->hi[0] || p[1] < c->lo[1] || p[1] > c->hi[1])
+            continue;
+        int inside = 0;
+        if (prim_bounded(pr))
+            for (int q = c->nb_start[i]; q < c->nb_start[i + 1] && !inside; q++)
+                inside = prim_inside(&c->prims[c->nb[q]], p);
+        else
+            for (int j = 0; j < c->np && !inside; j++)
+                inside = j != i && prim_inside(&c->prims[j], p);
+        if (inside)
+            continue;
+        double dA = prim_normal(pr, u, v, tu, tv, p, ref, n);
+        d->keep = !(acc * c->max_dA[i] > dA);
+    }
+    return GS_OK;
+}
+
+/* The sample of try t on primitive i (a dart that throw_darts kept): its
+ * point and normal computed again, the same values (a fortieth of the tries
+ * become samples, so the exchange carries no normals). */
+static void dart_sample(const dart_ctx *c, uint64_t t, int i, gs_opoint *q)
+{
+    gs_rng rng;
+    dart_rng(c, t, &rng);
+    double u = gs_rng_uniform(&rng), v = gs_rng_uniform(&rng);
+    double tu[3], tv[3], ref[3];
+    prim_pos(&c->prims[i], u, v, tu, tv, q->p, ref);
+    prim_normal(&c->prims[i], u, v, tu, tv, q->p, ref, q->n);
+}
+
+/* Tries per map of the dart throwing (bounds its buffer: 32 bytes each). */
+#define DART_CHUNK ((uint64_t)1 << 16)
+
+/* Dart throwing over the union of prims, then the texture's box. pre: a
+ * failure of the caller's set-up, returned (by every process) from the
+ * first agreement. With gp->map and gp->agree collective, every process
+ * makes the same calls to them whatever fails, and a failure before the
+ * end is returned by all. */
+static gs_err sample_prims(const gs_points_gen_params *gp, gs_err pre, const prim *prims, int np,
+                           uint32_t kind, gs_points_texture *out)
+{
     memset(out, 0, sizeof *out);
+    gs_err err = pre;
+    double s = gp->spacing;
+    gs_points_grid_t grid = NULL;
+    int *nb_start = NULL, *nb = NULL;
+    double *scan = NULL;
+    uint64_t *first = NULL;
+    dart *darts = NULL;
+    if (err == GS_OK && !(gp->size[0] > 0 && gp->size[1] > 0 && gp->spacing > 0 && gp->pad >= 0))
+        err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                             "point generator: size %g x %g, spacing %g, pad %g: expected positive "
+                             "sizes and spacing, pad >= 0", gp->size[0], gp->size[1], gp->spacing,
+                             gp->pad);
+    double lo[3] = {-gp->pad - s, -gp->pad - s, -1e300}, hi[3] = {gp->size[0] + gp->pad + s,
+                                                                 gp->size[1] + gp->pad + s, 1e300};
+    if (err == GS_OK) {
+        /* z bounds from a coarse scan of every primitive. */
+        double zmin = INFINITY, zmax = -INFINITY;
+        for (int i = 0; i < np; i++)
+            for (int a = 0; a <= 16; a++)
+                for (int b = 0; b <= 16; b++) {
+                    double p[3], r[3];
+                    prim_eval(&prims[i], a / 16.0, b / 16.0, p, r);
+                    zmin = fmin(zmin, p[2]);
+                    zmax = fmax(zmax, p[2]);
+                }
+        if (!(np > 0 && zmax >= zmin))
+            err = gs_error_raise(GS_ERR_INTERNAL, __FILE__, __LINE__, __func__,
+                                 "point generator: no geometry");
+        lo[2] = zmin - 2 * s;
+        hi[2] = zmax + 2 * s;
+    }
+    if (err == GS_OK)
+        err = gs_points_grid_create(lo, hi, s, &grid);
+    if (err == GS_OK)
+        err = prim_neighbours(prims, np, &nb_start, &nb);
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)&scan, (size_t)np, 3 * sizeof *scan, "primitive areas");
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)&first, (size_t)np + 1, sizeof *first, "primitive tries");
+    GS_TRY(err, gen_agree(gp, err), done);
+    dart_ctx dc = {prims, np, nb_start, nb, scan + 2 * np, first, 0, {lo[0] + s, lo[1] + s},
+                   {hi[0] - s, hi[1] - s}, gp->seed, gs_rng_stream_id(0x50544753u, kind, 0, 0)};
+    GS_TRY(err, gen_map(gp, (size_t)np, 2 * sizeof *scan, prim_scan, &dc, scan), done);
+    first[0] = 0;
+    for (int i = 0; i < np; i++) {
+        double want = 6.0 * scan[2 * i] / (s * s);
+        uint64_t tries = (uint64_t)(want * 1.25 * 1.25) + 16; /* x acceptance of the rejection */
+        scan[2 * np + i] = scan[2 * i + 1] * 1.25;
+        first[i + 1] = first[i] + tries;
+    }
+    uint64_t total = first[np];
+    size_t chunk = total < DART_CHUNK ? (size_t)total : (size_t)DART_CHUNK;
+    err = gs_alloc_array((void **)&darts, chunk ? chunk : 1, sizeof *darts, "dart throwing");
+    GS_TRY(err, gen_agree(gp, err), done);
+    int pi = 0; /* the primitive of try at + k */
+    for (uint64_t at = 0; at < total; at += chunk) {
+        size_t m = total - at < chunk ? (size_t)(total - at) : chunk;
+        dc.base = at;
+        GS_TRY(err, gen_map(gp, m, sizeof *darts, throw_darts, &dc, darts), done);
+        for (size_t k = 0; k < m && err == GS_OK; k++) {
+            while (first[pi + 1] <= at + k)
+                pi++;
+            if (darts[k].keep && !any_within(grid, darts[k].p, s)) {
+                gs_opoint q;
+                dart_sample(&dc, at + k, pi, &q);
+                err = gs_points_grid_add(grid, &q);
+            }
+        }
+        GS_TRY(err, gen_agree(gp, err), done);
+    }
     GS_TRY(err, gs_points_grid_collect(grid, &out->pts), done);
     out->box_lo[0] = 0;
     out->box_lo[1] = 0;
@@ -390,6 +538,9 @@ done:
     gs_points_grid_destroy(&grid);
     gs_free(nb_start);
     gs_free(nb);
+    gs_free(scan);
+    gs_free(first);
+    gs_free(darts);
     return err;
 }
 
@@ -399,9 +550,8 @@ static void prim_identity(prim *p)
     rot_zy(0, 0, p->R);
 }
 
-gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
-                                 const uint8_t *u8, const float *f32, double height_scale,
-                                 gs_points_texture *out)
+static gs_err heightfield_check(int w, int h, const uint8_t *u8, const float *f32,
+                                double height_scale)
 {
     GS_CHECK(w >= 2 && h >= 2 && w <= 65536 && h <= 65536, GS_ERR_ARG,
              "height field image: %d x %d pixels, expected 2..65536 on each side", w, h);
@@ -414,6 +564,14 @@ gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
             GS_CHECK(isfinite(f32[i]), GS_ERR_ARG,
                      "height field image: pixel (%zu, %zu) is not finite", i % (size_t)w,
                      i / (size_t)w);
+    return GS_OK;
+}
+
+gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
+                                 const uint8_t *u8, const float *f32, double height_scale,
+                                 gs_points_texture *out)
+{
+    gs_err err = heightfield_check(w, h, u8, f32, height_scale);
     hf_image im = {w, h, u8, f32, height_scale};
     prim pr;
     prim_identity(&pr);
@@ -423,8 +581,22 @@ gs_err gs_points_gen_heightfield(const gs_points_gen_params *gp, int w, int h,
     pr.lo[1] = -gp->pad;
     pr.hi[0] = gp->size[0] + gp->pad;
     pr.hi[1] = gp->size[1] + gp->pad;
-    GS_CALL(sample_prims(gp, &pr, 1, 1, out));
+    GS_CALL(sample_prims(gp, err, &pr, 1, 1, out));
     return GS_OK;
+}
+
+/* sample_prims of the primitives build makes (its failure goes to every
+ * process through sample_prims), then frees them. */
+typedef gs_err (*prims_fn)(const gs_points_gen_params *gp, int cells, prim **out, int *nout);
+static gs_err sample_built(const gs_points_gen_params *gp, int cells, prims_fn build,
+                           uint32_t kind, gs_points_texture *out)
+{
+    prim *prims = NULL;
+    int np = 0;
+    gs_err err = build(gp, cells, &prims, &np);
+    err = sample_prims(gp, err, prims, np, kind, out);
+    gs_free(prims);
+    return err;
 }
 
 /* Lattice sites (i, j) covering [-pad - a, size + pad + a]. */
@@ -434,7 +606,7 @@ static void lattice_range(const gs_points_gen_params *gp, double a, int axis, in
     *i1 = (int)ceil((gp->size[axis] + gp->pad + a) / a);
 }
 
-gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+static gs_err chainmail_prims(const gs_points_gen_params *gp, int cells, prim **out, int *nout)
 {
     GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "chain mail: %d cells, expected 1..64", cells);
     GS_CHECK(gp->size[0] > 0 && gp->spacing > 0, GS_ERR_ARG, "chain mail: bad size or spacing");
@@ -462,13 +634,17 @@ gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_poi
             pr->bound_r = pr->a + pr->b + pr->e;
             rot_zy(0, ((i + j) & 1) ? 0.45 : -0.45, pr->R);
         }
-    gs_err err = sample_prims(gp, prims, np, 2, out);
-    gs_free(prims);
-    GS_CALL(err);
+    *out = prims;
+    *nout = np;
     return GS_OK;
 }
 
-gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+gs_err gs_points_gen_chainmail(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    return sample_built(gp, cells, chainmail_prims, 2, out);
+}
+
+static gs_err weave_prims(const gs_points_gen_params *gp, int cells, prim **out, int *nout)
 {
     GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "weave: %d cells, expected 1..64", cells);
     GS_CHECK(gp->size[0] > 0 && gp->spacing > 0, GS_ERR_ARG, "weave: bad size or spacing");
@@ -505,13 +681,17 @@ gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_
         pr->lo[0] = -gp->pad - 2 * r;
         pr->hi[0] = gp->size[1] + gp->pad + 2 * r;
     }
-    gs_err err = sample_prims(gp, prims, np, 3, out);
-    gs_free(prims);
-    GS_CALL(err);
+    *out = prims;
+    *nout = np;
     return GS_OK;
 }
 
-gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+gs_err gs_points_gen_weave(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    return sample_built(gp, cells, weave_prims, 3, out);
+}
+
+static gs_err flowers_prims(const gs_points_gen_params *gp, int cells, prim **out, int *nout)
 {
     GS_CHECK(cells >= 1 && cells <= 64, GS_ERR_ARG, "flowers: %d cells, expected 1..64", cells);
     GS_CHECK(gp->size[0] > 0 && gp->size[1] > 0 && gp->spacing > 0, GS_ERR_ARG,
@@ -566,11 +746,18 @@ gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_point
             rot_zy(al, -0.35, pe->R);
         }
     }
-    GS_TRY(err, sample_prims(gp, prims, np, 4, out), done);
+    *out = prims;
+    *nout = np;
+    prims = NULL;
 done:
     gs_free(centers);
     gs_free(prims);
     return err;
+}
+
+gs_err gs_points_gen_flowers(const gs_points_gen_params *gp, int cells, gs_points_texture *out)
+{
+    return sample_built(gp, cells, flowers_prims, 4, out);
 }
 
 void gs_points_texture_free(gs_points_texture *t)

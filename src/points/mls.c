@@ -2,6 +2,9 @@
  * surface variation; see include/geosynth/points.h. */
 #include <float.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "points/points_impl.h"
 
@@ -14,6 +17,38 @@ double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], dou
     const double inv_r2 = 1.0 / (R * R), y0 = y[0], y1 = y[1], y2 = y[2];
     double sw = 0, sa0 = 0, sa1 = 0, sa2 = 0, sn0 = 0, sn1 = 0, sn2 = 0;
     const gs_opoint *q = nb->v, *end = nb->v + nb->n;
+#ifdef __SSE2__
+    /* The same operations as the scalar loop below, each rounded alike (a
+     * lane of mulpd/addpd/subpd is the IEEE mulsd/addsd/subsd, and maxsd of
+     * (t, 0) is t > 0 ? t : 0, NaN giving 0), two sums per instruction and
+     * no branch on the weight (the compiler made t > 0 one). */
+    const __m128d vy01 = _mm_set_pd(y1, y0), vy2 = _mm_set_sd(y2), one = _mm_set_sd(1.0);
+    const __m128d vinv = _mm_set_sd(inv_r2), zero = _mm_setzero_pd();
+    __m128d vsw = zero, vp01 = zero, vp2n0 = zero, vn12 = zero;
+    for (; q < end; q++) {
+        __m128d p01 = _mm_loadu_pd(q->p), p2n0 = _mm_loadu_pd(q->p + 2);
+        __m128d n12 = _mm_loadu_pd(q->n + 1);
+        __m128d d01 = _mm_sub_pd(p01, vy01), dz = _mm_sub_sd(p2n0, vy2);
+        __m128d sq = _mm_mul_pd(d01, d01);
+        __m128d d2 = _mm_add_sd(sq, _mm_unpackhi_pd(sq, sq));
+        d2 = _mm_add_sd(d2, _mm_mul_sd(dz, dz));
+        __m128d t = _mm_max_sd(_mm_sub_sd(one, _mm_mul_sd(d2, vinv)), zero);
+        t = _mm_mul_sd(t, t);
+        t = _mm_mul_sd(t, t);
+        __m128d w = _mm_unpacklo_pd(t, t);
+        vsw = _mm_add_sd(vsw, w);
+        vp01 = _mm_add_pd(vp01, _mm_mul_pd(w, p01));
+        vp2n0 = _mm_add_pd(vp2n0, _mm_mul_pd(w, p2n0));
+        vn12 = _mm_add_pd(vn12, _mm_mul_pd(w, n12));
+    }
+    sw = _mm_cvtsd_f64(vsw);
+    sa0 = _mm_cvtsd_f64(vp01);
+    sa1 = _mm_cvtsd_f64(_mm_unpackhi_pd(vp01, vp01));
+    sa2 = _mm_cvtsd_f64(vp2n0);
+    sn0 = _mm_cvtsd_f64(_mm_unpackhi_pd(vp2n0, vp2n0));
+    sn1 = _mm_cvtsd_f64(vn12);
+    sn2 = _mm_cvtsd_f64(_mm_unpackhi_pd(vn12, vn12));
+#else
     for (; q < end; q++) {
         double dx = q->p[0] - y0, dy = q->p[1] - y1, dz = q->p[2] - y2;
         double t = 1.0 - (dx * dx + dy * dy + dz * dz) * inv_r2;
@@ -28,6 +63,7 @@ double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], dou
         sn1 += w * q->n[1];
         sn2 += w * q->n[2];
     }
+#endif
     if (sw <= 0)
         return 0;
     a[0] = sa0 / sw;
@@ -55,7 +91,8 @@ gs_err gs_points_mls_project(const gs_points_grid *g, double R, double max_reach
     if (!near) {
         gs_opoint nearest;
         int found;
-        GS_CALL(gs_points_grid_nearest(g, x, max_reach, scratch, &nearest, &found));
+        GS_CALL(gs_points_grid_nearest_known(g, x, max_reach, 1.25 * R, scratch, &nearest,
+                                             &found));
         if (!found)
             return GS_OK;
         memcpy(c, nearest.p, sizeof c);

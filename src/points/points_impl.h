@@ -64,6 +64,14 @@ double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], dou
 gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
                               gs_points *scratch, gs_opoint *out, int *found);
 
+/* gs_points_grid_nearest when scratch already holds the answers of
+ * gs_points_grid_query(g, x, known_r) (in its order): the same result, with
+ * the queries it makes answered from them where they can be. Overwrites
+ * scratch. */
+gs_err gs_points_grid_nearest_known(const gs_points_grid *g, const double x[3], double max_reach,
+                                    double known_r, gs_points *scratch, gs_opoint *out,
+                                    int *found);
+
 /* One node of a distance field (see gs_points_field). */
 gs_err gs_points_field_node(const gs_points_grid *g, double R, double trunc, double max_reach,
                             const double x[3], gs_points *scratch, float o[4]);

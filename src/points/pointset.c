@@ -162,23 +162,34 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
      * the order of the answers is unchanged). The margin keeps rounding in
      * the box distance from ever skipping a cell that holds an answer. */
     double skip2 = r2 * (1 + 1e-9) + 1e-300;
+    /* Most cells of a query are empty (the points lie on a surface): the
+     * loops keep the per-cell work small (row pointers, the x slab
+     * distances tabulated, the room checked before the call). */
+    enum { TAB = 32 };
+    double sx[TAB];
+    const int nx = hi[0] - lo[0] + 1, tab = nx <= TAB;
+    for (int i = 0; tab && i < nx; i++)
+        sx[i] = slab_dist2(g, 0, lo[0] + i, c0);
     for (int k = lo[2]; k <= hi[2]; k++) {
-        double dk = slab_dist2(g, 2, k, c[2]);
+        double dk = slab_dist2(g, 2, k, c2);
         if (dk > skip2)
             continue;
         for (int j = lo[1]; j <= hi[1]; j++) {
-            double djk = dk + slab_dist2(g, 1, j, c[1]);
+            double djk = dk + slab_dist2(g, 1, j, c1);
             if (djk > skip2)
                 continue;
-            for (int i = lo[0]; i <= hi[0]; i++) {
-                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                if (cl->n == 0 || djk + slab_dist2(g, 0, i, c[0]) > skip2)
+            const gs_points *row = g->cells + ((size_t)k * g->dim[1] + j) * g->dim[0] + lo[0];
+            for (int i = 0; i < nx; i++) {
+                const gs_points *cl = row + i;
+                size_t n = cl->n;
+                if (n == 0 || djk + (tab ? sx[i] : slab_dist2(g, 0, lo[0] + i, c0)) > skip2)
                     continue;
-                GS_CALL(gs_points_reserve(out, out->n + cl->n));
+                if (out->cap - out->n < n)
+                    GS_CALL(gs_points_reserve(out, out->n + n));
                 /* Branch-free: copy every point, keep it only when within r
                  * (the room is reserved; the test is unpredictable). */
                 gs_opoint *dst = out->v + out->n;
-                const gs_opoint *src = cl->v, *end = cl->v + cl->n;
+                const gs_opoint *src = cl->v, *end = cl->v + n;
                 for (; src < end; src++) {
                     double dx = src->p[0] - c0, dy = src->p[1] - c1, dz = src->p[2] - c2;
                     *dst = *src;
@@ -223,32 +234,69 @@ gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
     return GS_OK;
 }
 
-gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
-                              gs_points *scratch, gs_opoint *out, int *found)
+/* First point of pts (n of them) nearest to x (the order breaks ties). */
+static const gs_opoint *first_nearest(const gs_opoint *pts, size_t n, const double x[3])
 {
+    size_t best = 0;
+    double bd = v3_dist2(pts[0].p, x);
+    for (size_t i = 1; i < n; i++) {
+        double d = v3_dist2(pts[i].p, x);
+        if (d < bd) {
+            bd = d;
+            best = i;
+        }
+    }
+    return &pts[best];
+}
+
+gs_err gs_points_grid_nearest_known(const gs_points_grid *g, const double x[3], double max_reach,
+                                    double known_r, gs_points *scratch, gs_opoint *out,
+                                    int *found)
+{
+    /* The radii are those of gs_points_grid_nearest. Its answers within r
+     * are the points with the query's d2 <= r * r in the grid's cell order,
+     * whatever r: for r <= known_r those of the known points, and for
+     * r > known_r every known point and others, all farther than any known
+     * one. So while r <= known_r the nearest known point is the answer if it
+     * is within r, and beyond that it is the answer if any point is known
+     * (ties: the first in the order either way). */
+    const gs_opoint *near = scratch->n ? first_nearest(scratch->v, scratch->n, x) : NULL;
+    double bd = near ? v3_dist2(near->p, x) : INFINITY;
     double r = g->cell;
     *found = 0;
     for (;;) {
         if (r > max_reach)
             r = max_reach;
-        scratch->n = 0;
-        GS_CALL(gs_points_grid_query(g, x, r, scratch));
-        if (scratch->n > 0) {
-            size_t best = 0;
-            double bd = v3_dist2(scratch->v[0].p, x);
-            for (size_t i = 1; i < scratch->n; i++) {
-                double d = v3_dist2(scratch->v[i].p, x);
-                if (d < bd) {
-                    bd = d;
-                    best = i;
-                }
+        if (r <= known_r) {
+            if (bd <= r * r) {
+                *out = *near;
+                *found = 1;
+                return GS_OK;
             }
-            *out = scratch->v[best];
+        } else if (near) {
+            *out = *near;
             *found = 1;
             return GS_OK;
+        } else {
+            /* Nothing within known_r: the plain search from this radius on. */
+            scratch->n = 0;
+            GS_CALL(gs_points_grid_query(g, x, r, scratch));
+            if (scratch->n > 0) {
+                *out = *first_nearest(scratch->v, scratch->n, x);
+                *found = 1;
+                return GS_OK;
+            }
         }
         if (r >= max_reach)
             return GS_OK;
         r *= 2;
     }
+}
+
+gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
+                              gs_points *scratch, gs_opoint *out, int *found)
+{
+    scratch->n = 0; /* nothing known: every radius is queried */
+    GS_CALL(gs_points_grid_nearest_known(g, x, max_reach, -1, scratch, out, found));
+    return GS_OK;
 }

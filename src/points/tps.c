@@ -2,6 +2,9 @@
  * see include/geosynth/points.h. */
 #include <lapacke.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "geosynth/mem.h"
 #include "points/points_impl.h"
@@ -90,6 +93,49 @@ void gs_points_tps_eval(const gs_points_tps *t, const double x[3], double y[3], 
     const int n = t->n;
     double j[9];
     memcpy(j, t->A, sizeof j);
+#ifdef __SSE2__
+    /* The loop below with two sums per instruction: each lane rounds like
+     * the scalar operation and every sum keeps its terms and their order,
+     * so the result is bit-identical. Lanes: (y0, y1) y2, (j0, j1) (j3, j4)
+     * (j6, j7), (j2, j5) j8. */
+    if (J) {
+        const __m128d x01 = _mm_loadu_pd(x), vx2 = _mm_set_sd(x2);
+        __m128d vy01 = _mm_set_pd(y1, y0), vy2 = _mm_set_sd(y2);
+        __m128d J01 = _mm_loadu_pd(j), J34 = _mm_loadu_pd(j + 3), J67 = _mm_loadu_pd(j + 6);
+        __m128d J25 = _mm_set_pd(j[5], j[2]), J8 = _mm_set_sd(j[8]);
+        for (int i = 0; i < n; i++, c += 3, w += 3) {
+            __m128d e01 = _mm_sub_pd(x01, _mm_loadu_pd(c));
+            __m128d e2 = _mm_sub_sd(vx2, _mm_load_sd(c + 2));
+            __m128d sq = _mm_mul_pd(e01, e01);
+            __m128d r = _mm_add_sd(sq, _mm_unpackhi_pd(sq, sq));
+            r = _mm_sqrt_sd(r, _mm_add_sd(r, _mm_mul_sd(e2, e2)));
+            __m128d w01 = _mm_loadu_pd(w), w2 = _mm_load_sd(w + 2);
+            __m128d rr = _mm_unpacklo_pd(r, r);
+            vy01 = _mm_add_pd(vy01, _mm_mul_pd(w01, rr));
+            vy2 = _mm_add_sd(vy2, _mm_mul_sd(w2, r));
+            if (!(_mm_cvtsd_f64(r) > 0))
+                continue;
+            __m128d inv = _mm_div_sd(_mm_set_sd(1.0), r);
+            inv = _mm_unpacklo_pd(inv, inv);
+            __m128d w0 = _mm_unpacklo_pd(w01, w01), w1 = _mm_unpackhi_pd(w01, w01);
+            J01 = _mm_add_pd(J01, _mm_mul_pd(_mm_mul_pd(w0, e01), inv));
+            J34 = _mm_add_pd(J34, _mm_mul_pd(_mm_mul_pd(w1, e01), inv));
+            J67 = _mm_add_pd(J67, _mm_mul_pd(_mm_mul_pd(_mm_unpacklo_pd(w2, w2), e01), inv));
+            J25 = _mm_add_pd(J25, _mm_mul_pd(_mm_mul_pd(w01, _mm_unpacklo_pd(e2, e2)), inv));
+            J8 = _mm_add_sd(J8, _mm_mul_sd(_mm_mul_sd(w2, e2), inv));
+        }
+        _mm_storeu_pd(J, J01);
+        J[2] = _mm_cvtsd_f64(J25);
+        _mm_storeu_pd(J + 3, J34);
+        J[5] = _mm_cvtsd_f64(_mm_unpackhi_pd(J25, J25));
+        _mm_storeu_pd(J + 6, J67);
+        J[8] = _mm_cvtsd_f64(J8);
+        y[0] = _mm_cvtsd_f64(vy01);
+        y[1] = _mm_cvtsd_f64(_mm_unpackhi_pd(vy01, vy01));
+        y[2] = _mm_cvtsd_f64(vy2);
+        return;
+    }
+#endif
     for (int i = 0; i < n; i++, c += 3, w += 3) {
         double e0 = x0 - c[0], e1 = x1 - c[1], e2 = x2 - c[2];
         double r = sqrt(e0 * e0 + e1 * e1 + e2 * e2);
