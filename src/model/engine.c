@@ -395,6 +395,7 @@ typedef struct model_engine {
     uint64_t region_cells; /* cells of all region runs */
     double synth_seconds;  /* synthesis wall time, summed over resumes */
     gs_regions_stats queue; /* this rank's region runs and waits, this process only */
+    double t_windows;       /* this rank's seconds in run_window (set-up + dataflow) */
     uint64_t example_digest;
 } model_engine;
 
@@ -793,6 +794,7 @@ done:
  * colours it touches are done, not when the whole colour is. */
 static gs_err run_window(gs_run *run, model_engine *e)
 {
+    double t0 = gs_time_now();
     int64_t budget = 0;
     GS_CALL(gs_run_units_until_due(run, e->units, &budget));
     size_t first = 0;
@@ -855,6 +857,9 @@ static gs_err run_window(gs_run *run, model_engine *e)
     e->queue.t_wait += qs.t_wait;
     e->queue.t_exchange += qs.t_exchange;
     e->queue.t_apply += qs.t_apply;
+    e->queue.t_pass += qs.t_pass;
+    e->queue.t_tail += qs.t_tail;
+    e->queue.duplicates += qs.duplicates;
     e->units += (int64_t)n;
     e->color = next;
 done:
@@ -862,6 +867,7 @@ done:
     gs_free(list);
     gs_free(off);
     gs_free(ids);
+    e->t_windows += gs_time_now() - t0;
     return err;
 }
 
@@ -913,17 +919,63 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
     return GS_OK;
 }
 
-/* Collective: where this process's synthesis time went, over ranks, into
- * q[]: {region seconds summed, max, wait max, exchange max, apply max,
- * CPU seconds max} (rank 0). The ideal speed-up over one rank is the sum
- * over the max of the region seconds: robust to a shared machine's noise,
- * unlike wall time. */
-static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, double q[6])
+/* Where each rank's synthesis time went (this process: a resumed run
+ * counts since the resume), gathered on rank 0. */
+enum {
+    Q_REGIONS, Q_COMPUTE, Q_WAIT, Q_TAIL, Q_EXCHANGE, Q_APPLY, Q_FLOW, Q_WINDOW_SETUP, Q_OUTSIDE,
+    Q_CPU, Q_DUPLICATES, Q_N
+};
+static const char *const q_key[Q_N] = {
+    "regions", "region_s", "wait_s", "tail_s", "exchange_s", "apply_s", "flow_s",
+    "window_setup_s", "outside_windows_s", "cpu_s", "duplicates"};
+
+typedef struct queue_report_t {
+    double sum[Q_N], max[Q_N];
+    char json[4096]; /* ", \"per_rank\": {key: [rank 0, rank 1, ...], ...}" (rank 0; ""
+                        when too many ranks to list) */
+} queue_report_t;
+
+/* Collective. The ideal speed-up over one rank is the sum over the max of
+ * the region seconds: robust to a shared machine's noise, unlike wall
+ * time. Per rank: wait_s = nothing ready to run here (tail_s of it: every
+ * region was claimed, the end of a pass), flow_s = in the dataflow passes,
+ * window_setup_s = building the window's conflict lists and scheduler
+ * (every rank does it, serial), outside_windows_s = the rest of the
+ * synthesis phase (plans, coverage, checkpoints). */
+static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q)
 {
-    double mine[6] = {e->queue.t_compute, e->queue.t_compute, e->queue.t_wait,
-                      e->queue.t_exchange, e->queue.t_apply, cpu};
-    GS_MPI(MPI_Reduce(mine, q, 1, MPI_DOUBLE, MPI_SUM, 0, run->comm));
-    GS_MPI(MPI_Reduce(mine + 1, q + 1, 5, MPI_DOUBLE, MPI_MAX, 0, run->comm));
+    double mine[Q_N] = {(double)e->queue.computed, e->queue.t_compute, e->queue.t_wait,
+                        e->queue.t_tail, e->queue.t_exchange, e->queue.t_apply, e->queue.t_pass,
+                        e->t_windows - e->queue.t_pass, e->synth_seconds - e->t_windows, cpu,
+                        (double)e->queue.duplicates};
+    double *all = run->rank == 0 ? gs_calloc((size_t)run->size * Q_N, sizeof *all) : NULL;
+    gs_err local = run->rank == 0 && !all
+                       ? gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                        "cannot gather the per-rank times")
+                       : GS_OK;
+    GS_CALL(gs_par_agree(run->comm, local));
+    GS_MPI(MPI_Gather(mine, Q_N, MPI_DOUBLE, all, Q_N, MPI_DOUBLE, 0, run->comm));
+    memset(q, 0, sizeof *q);
+    if (run->rank != 0)
+        return GS_OK;
+    size_t at = (size_t)snprintf(q->json, sizeof q->json, ", \"per_rank\": {");
+    for (int k = 0; k < Q_N; k++) {
+        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
+                               "%s\"%s\": [", k ? ", " : "", q_key[k]);
+        for (int r = 0; r < run->size; r++) {
+            double v = all[(size_t)r * Q_N + k];
+            q->sum[k] += v;
+            q->max[k] = r == 0 || v > q->max[k] ? v : q->max[k];
+            at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
+                                   k == Q_REGIONS || k == Q_DUPLICATES ? "%s%.0f" : "%s%.4f",
+                                   r ? ", " : "", v);
+        }
+        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "]");
+    }
+    at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "}");
+    if (at >= sizeof q->json) /* too many ranks to list: leave the arrays out */
+        q->json[0] = '\0';
+    gs_free(all);
     return GS_OK;
 }
 
@@ -1189,7 +1241,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     memset(&e, 0, sizeof e);
     e.cfg = cfgp;
     gs_err err = GS_OK;
-    char extra[1024];
+    char extra[6144];
 
     gs_run_phase_begin(run, "setup");
     err = setup(run, &e, resume);
@@ -1215,18 +1267,18 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         goto done;
     }
     const double cells = (double)lattice_cells(&e.lat);
-    double qr[6] = {0};
-    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, qr), done);
+    queue_report_t qr;
+    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, &qr), done);
     snprintf(extra, sizeof extra,
              "{\"passes\": %d, \"regions\": %llu, \"accepted\": %llu, \"failed\": %llu, "
              "\"retries\": %llu, \"rejected_attempts\": %llu, \"backtracks\": %llu, "
-             "\"min_coverage\": %llu, \"cells_per_second\": %.1f}",
+             "\"min_coverage\": %llu, \"cells_per_second\": %.1f%s}",
              e.stats.passes, (unsigned long long)e.stats.regions,
              (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
              (unsigned long long)(e.stats.attempts - e.stats.regions),
              (unsigned long long)(e.stats.attempts - e.stats.accepted),
              (unsigned long long)e.stats.backtracks, (unsigned long long)e.stats.min_coverage,
-             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0, qr.json);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
 
     if (e.params.mirror[0] || e.params.mirror[1]) {
@@ -1284,18 +1336,25 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         }
         gs_run_metric_f64(run, "synthesis_seconds", e.synth_seconds);
         /* this process's share (a resumed run: since the resume) */
-        gs_run_metric_f64(run, "region_seconds_total", qr[0]);
-        gs_run_metric_f64(run, "region_seconds_max_rank", qr[1]);
-        gs_run_metric_f64(run, "ideal_speedup", qr[1] > 0 ? qr[0] / qr[1] : 0);
-        gs_run_metric_f64(run, "queue_wait_seconds_max_rank", qr[2]);
-        gs_run_metric_f64(run, "exchange_seconds_max_rank", qr[3]);
-        gs_run_metric_f64(run, "apply_seconds_max_rank", qr[4]);
-        gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qr[5]);
+        const double *qs = qr.sum, *qm = qr.max;
+        gs_run_metric_f64(run, "region_seconds_total", qs[Q_COMPUTE]);
+        gs_run_metric_f64(run, "region_seconds_max_rank", qm[Q_COMPUTE]);
+        gs_run_metric_f64(run, "ideal_speedup", qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0);
+        gs_run_metric_f64(run, "queue_wait_seconds_max_rank", qm[Q_WAIT]);
+        gs_run_metric_f64(run, "tail_wait_seconds_max_rank", qm[Q_TAIL]);
+        gs_run_metric_f64(run, "exchange_seconds_max_rank", qm[Q_EXCHANGE]);
+        gs_run_metric_f64(run, "apply_seconds_max_rank", qm[Q_APPLY]);
+        gs_run_metric_f64(run, "window_setup_seconds_max_rank", qm[Q_WINDOW_SETUP]);
+        gs_run_metric_f64(run, "outside_windows_seconds_max_rank", qm[Q_OUTSIDE]);
+        gs_run_metric_i64(run, "duplicate_regions", (int64_t)qs[Q_DUPLICATES]);
+        gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qm[Q_CPU]);
         gs_log(GS_LOG_INFO,
                "regions: %.3f s of region runs over %d ranks (%.3f s on the busiest: ideal "
                "speed-up %.2f); per rank at most %.3f s waiting, %.3f s exchanging, %.3f s "
                "applying, %.3f s CPU",
-               qr[0], run->size, qr[1], qr[1] > 0 ? qr[0] / qr[1] : 0, qr[2], qr[3], qr[4], qr[5]);
+               qs[Q_COMPUTE], run->size, qm[Q_COMPUTE],
+               qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0, qm[Q_WAIT], qm[Q_EXCHANGE],
+               qm[Q_APPLY], qm[Q_CPU]);
         gs_run_metric_f64(run, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0);
         gs_run_metric_f64(run, "region_cells_per_second",
                           e.synth_seconds > 0 ? (double)e.region_cells / e.synth_seconds : 0);

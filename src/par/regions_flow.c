@@ -172,6 +172,7 @@ typedef struct flow {
     char *busy;             /* [size] last header from that rank was a claim */
     int64_t nheap[2];
     int64_t nhave;          /* records here (distinct regions) */
+    int64_t nclaimed;       /* regions with claimed[] set */
     int stop;               /* a failure somewhere: run nothing more */
     gs_err local;           /* first failure on this rank (run or apply) */
     int64_t notice[3];      /* {-1, status, 0}: this rank stopped (send buffer) */
@@ -183,6 +184,12 @@ typedef struct flow {
     MPI_Request sends[FLOW_MAX_SENDS];
     int nsends;
 } flow;
+
+static void mark_claimed(flow *f, int64_t k)
+{
+    f->nclaimed += !f->claimed[k];
+    f->claimed[k] = 1;
+}
 
 static void fail_local(flow *f, gs_err e)
 {
@@ -313,7 +320,7 @@ static gs_err announce_stop(flow *f)
 static void take_record(flow *f, int64_t k)
 {
     f->have[k] = 1;
-    f->claimed[k] = 1;
+    mark_claimed(f, k);
     f->nhave++;
     if (f->hdr[k][1] != GS_OK)
         f->stop = 1;
@@ -325,7 +332,7 @@ static void take_record(flow *f, int64_t k)
 static gs_err run_region(flow *f, int64_t k)
 {
     gs_regions_t s = f->s;
-    f->claimed[k] = 1;
+    mark_claimed(f, k);
     int64_t *claim = f->claim_msg + 3 * k;
     claim[0] = k;
     claim[1] = FLOW_CLAIM;
@@ -376,7 +383,7 @@ static gs_err recv_header(flow *f, int from)
     int64_t k = h[0];
     f->busy[from] = h[1] == FLOW_CLAIM;
     if (h[1] == FLOW_CLAIM) {
-        f->claimed[k] = 1;
+        mark_claimed(f, k);
         return GS_OK;
     }
     /* A second record of k (two ranks picked it at once) has the same bytes
@@ -398,8 +405,10 @@ static gs_err recv_header(flow *f, int from)
     }
     s->stats.bytes += h[1] == GS_OK ? h[2] : 0;
     s->stats.t_exchange += gs_time_now() - t0;
-    if (!keep)
+    if (!keep) {
+        s->stats.duplicates += h[1] == GS_OK;
         return GS_OK;
+    }
     memcpy(f->hdr[k], h, sizeof h);
     f->data[k] = dst;
     if (h[1] == GS_OK && !dst)
@@ -492,7 +501,10 @@ static gs_err run_flow(flow *f)
         if (!got) {
             double t0 = gs_time_now();
             sched_yield();
-            s->stats.t_wait += gs_time_now() - t0;
+            double dt = gs_time_now() - t0;
+            s->stats.t_wait += dt;
+            if (f->nclaimed == f->n || f->stop)
+                s->stats.t_tail += dt;
         }
     }
 }
@@ -521,6 +533,7 @@ static void flow_free(flow *f)
 gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                             gs_region_apply_fn apply, void *ctx)
 {
+    double t_start = gs_time_now();
     flow *f = gs_calloc(1, sizeof *f);
     gs_err local = f ? GS_OK
                      : gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
@@ -576,6 +589,7 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
         flow_free(f);
         gs_free(f);
     }
+    s->stats.t_pass += gs_time_now() - t_start;
     if (err != GS_OK)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
     return err;
