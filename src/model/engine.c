@@ -821,31 +821,15 @@ static gs_err run_window(gs_run *run, model_engine *e)
     gs_regions_t s = NULL;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "colour regions"), done);
-    GS_TRY(err, gs_alloc_array((void **)&off, n + 1, sizeof *off, "region conflicts"), done);
     for (size_t i = first; i < last; i++) {
         list[i - first].id = (int64_t)e->plan[i].id;
         list[i - first].color = (int)e->plan[i].color;
     }
     /* conflicts: interacting regions of lower colours (the plan is sorted
-     * by colour), counted first, then listed */
-    size_t m = 0;
-    for (int fill = 0; fill < 2; fill++) {
-        m = 0;
-        for (size_t i = first; i < last; i++) {
-            off[i - first] = (int64_t)m;
-            for (size_t j = first; j < i && e->plan[j].color < e->plan[i].color; j++)
-                if (gs_model_regions_interact(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
-                                              &e->plan[i].box, &e->plan[j].box)) {
-                    if (fill)
-                        ids[m] = (int64_t)e->plan[j].id;
-                    m++;
-                }
-        }
-        off[n] = (int64_t)m;
-        if (!fill)
-            GS_TRY(err, gs_alloc_array((void **)&ids, m ? m : 1, sizeof *ids, "region conflicts"),
-                   done);
-    }
+     * by colour) */
+    GS_TRY(err, gs_model_plan_conflicts(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
+                                        e->plan + first, n, &off, &ids),
+           done);
     GS_TRY(err, gs_regions_create(run->comm, list, (int64_t)n, e->params.seed, MODEL_RNG_DOMAIN, &s),
            done);
     GS_TRY(err, gs_regions_set_conflicts(s, off, ids), done);
