@@ -14,7 +14,9 @@
 # cells_per_second_ratio_best (best over best), _median (median over
 # median) and _pairs_median (median of each adjacent pair's ratio), with
 # ideal_speedup (region seconds summed over ranks / the busiest rank's: the
-# load balance, which noise does not move) and the machine's load: the
+# load balance, which noise does not move), region_seconds_total_ratio_2_over_1
+# (the same regions' compute seconds summed over 2 ranks over 1 rank's: what
+# sharing the machine between 2 busy ranks costs) and the machine's load: the
 # 1-minute load average and the runnable processes of other jobs before
 # each run (min/median/max). On 2 cores a third busy process caps 2 ranks
 # near 4/3 of one: read the ratios next to the load.
@@ -50,7 +52,7 @@ for cfg in "${configs[@]}"; do
   while :; do
     pair=$((pair + 1))
     for np in 1 2; do
-      dir=$work/run-$pair-np$np
+      dir=$work/$(basename "$cfg" .ini)-$pair-np$np
       load=$(cut -d' ' -f1 /proc/loadavg) busy=$(others)
       if mpirun -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none \
           --set model.vox=false >"$dir.log" 2>&1; then
@@ -77,7 +79,7 @@ print(int(all(cnt.get(k, 0) >= pairs and tot.get(k, 0) >= secs for k in ("1", "2
 EOF
 )
     [[ "$enough" == 1 || $pair -ge $MAX_PAIRS ]] && break
-    rm -rf "$work"/run-*/lattice.h5
+    rm -f "$work/$(basename "$cfg" .ini)"-*/lattice.h5
   done
   echo "model_scaling: $name $pair pairs" >&2
 done
@@ -100,6 +102,7 @@ for line in open(sys.argv[1]):
         m = s["metrics"]
         run = {"cps": m["cells_per_second"], "synth": m["synthesis_seconds"],
                "wall": s["wall_seconds"], "ideal": m.get("ideal_speedup"),
+               "regions_s": m.get("region_seconds_total"),
                "digest": s["digest"], "cells": m.get("cells")}
     cases[name].setdefault(int(np_), []).append(
         {"pair": int(pair), "load": float(load), "busy": int(busy), "run": run})
@@ -123,6 +126,7 @@ for name in order:
             "wall_seconds_best": r(min(g["wall"] for g in good)) if good else None,
             "wall_seconds_median": r(med([g["wall"] for g in good])),
             "ideal_speedup_median": r(med([g["ideal"] for g in good if g["ideal"]])),
+            "region_seconds_total_median": r(med([g["regions_s"] for g in good if g["regions_s"]]), 4),
             "load_1min": [min(loads), r(med(loads), 2), max(loads)],
             "other_runnable": [min(busy), med(busy), max(busy)],
         }
@@ -139,6 +143,11 @@ for name in order:
         pr = sorted(p[2] / p[1] for p in pairs.values() if 1 in p and 2 in p)
         case["cells_per_second_ratio_pairs_median"] = r(med(pr), 2)
         case["cells_per_second_ratio_pairs_range"] = [r(pr[0], 2), r(pr[-1], 2)] if pr else None
+        # the same regions take longer summed over 2 busy cores than on 1
+        # (shared caches, clocks, the hypervisor): a cap the scheduler
+        # cannot lift
+        a, b = lo["region_seconds_total_median"], hi["region_seconds_total_median"]
+        case["region_seconds_total_ratio_2_over_1"] = r(b / a, 3) if a and b else None
         wl, wh = lo["wall_seconds_median"], hi["wall_seconds_median"]
         case["wall_speedup_median"] = r(wl / wh, 2) if wl and wh else None
     case["digests_agree"] = len(digests) == 1
