@@ -3,7 +3,9 @@
 # line per config: seeds clean (0 violations, 0 rule violations and every
 # cell in at least one accepted region, i.e. no region failed for good),
 # failed regions summed (tries that kept the old content; the cells are
-# then covered by overlapping regions or not), synthesis seconds mean/max.
+# then covered by overlapping regions or not), synthesis seconds and the
+# busiest rank's synthesis CPU seconds mean/max (CPU time moves less with
+# the other jobs' load than wall time), and the load average at the end.
 # Issue 4 target (a): every config clean in N of N seeds.
 #
 # Usage: [N=20] [NP=1] [GS_BIN=bin/geosynth] scripts/model-seeds.sh CONFIG.ini ...   (repository root)
@@ -26,7 +28,7 @@ for cfg in "$@"; do
     /usr/bin/python3 - "$cfg" "$N" "$NP" "$tmp" <<'EOF'
 import json, os, statistics, sys
 cfg, n, np_, tmp = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
-clean, failed, viol, runs_failed, secs, mincov, bad = 0, 0, 0, 0, [], None, []
+clean, failed, viol, runs_failed, secs, cpu, mincov, bad = 0, 0, 0, 0, [], [], None, []
 for s in range(1, n + 1):
     p = os.path.join(tmp, "r%d" % s, "summary.json")
     if os.path.exists(os.path.join(tmp, "r%d.fail" % s)) or not os.path.exists(p):
@@ -38,6 +40,7 @@ for s in range(1, n + 1):
     failed += m["failed_regions"]
     viol += v
     secs.append(m["synthesis_seconds"])
+    cpu.append(m["synthesis_cpu_seconds_max_rank"])
     mincov = m["min_coverage"] if mincov is None else min(mincov, m["min_coverage"])
     ok = v == 0 and m["min_coverage"] >= 1
     clean += ok
@@ -47,7 +50,10 @@ print(json.dumps({"config": cfg, "np": np_, "seeds": n, "clean_seeds": clean,
                   "unclean_seeds": bad, "runs_failed": runs_failed, "violations": viol,
                   "failed_regions": failed, "min_coverage": mincov,
                   "synthesis_seconds_mean": round(statistics.mean(secs), 4) if secs else None,
-                  "synthesis_seconds_max": round(max(secs), 4) if secs else None}), flush=True)
+                  "synthesis_seconds_max": round(max(secs), 4) if secs else None,
+                  "synthesis_cpu_seconds_mean": round(statistics.mean(cpu), 4) if cpu else None,
+                  "synthesis_cpu_seconds_max": round(max(cpu), 4) if cpu else None,
+                  "load_1min_end": float(open("/proc/loadavg").read().split()[0])}), flush=True)
 EOF
     rm -rf "$tmp"/r* "$tmp"/log*
 done
