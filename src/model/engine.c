@@ -1005,7 +1005,28 @@ typedef struct model_quality {
     int labels_used, vox_renumbered;
 } model_quality;
 
-/* Rank 0: every output file and the quality measures. */
+/* The mesh (model.mesh), on the last rank: with 2 or more ranks it is
+ * written while rank 0 checks the lattice and writes the other files
+ * (every rank holds the whole lattice). */
+static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
+{
+    const model_config *c = e->cfg;
+    counts[0] = counts[1] = 0;
+    if (!strcmp(c->mesh, "none"))
+        return GS_OK;
+    gs_model_quads quads;
+    GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
+    counts[0] = (int64_t)quads.n;
+    counts[1] = (int64_t)quads.unit_faces;
+    char name[16], path[PATH_MAX];
+    snprintf(name, sizeof name, "mesh.%s", c->mesh);
+    gs_run_path(run, name, path, sizeof path);
+    gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
+    gs_model_quads_free(&quads);
+    return err;
+}
+
+/* Rank 0: every output file but the mesh, and the quality measures. */
 static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q)
 {
     const model_config *c = e->cfg;
@@ -1051,17 +1072,9 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
                    q->labels_used);
     }
     if (strcmp(c->mesh, "none")) {
-        gs_model_quads quads;
-        GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
-        q->quads = quads.n;
-        q->unit_faces = quads.unit_faces;
         char name[16];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
-        gs_run_path(run, name, path, sizeof path);
-        gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
-        gs_model_quads_free(&quads);
-        GS_CALL(err);
-        gs_run_output(run, "mesh", name);
+        gs_run_output(run, "mesh", name); /* written by write_mesh */
     }
     if (e->lat.nz == 1) {
         gs_run_path(run, "lattice.png", path, sizeof path);
@@ -1283,12 +1296,19 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     gs_run_phase_begin(run, "output");
     model_quality q;
     memset(&q, 0, sizeof q);
-    if (run->rank == 0) {
+    int64_t mesh_counts[2] = {0, 0};
+    if (run->rank == 0)
         err = write_outputs(run, &e, &q);
-        if (err)
-            gs_error_push_frame(__FILE__, __LINE__, __func__);
-    }
+    if (err == GS_OK && run->rank == run->size - 1)
+        err = write_mesh(run, &e, mesh_counts);
+    if (err)
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
     GS_TRY(err, gs_par_agree(run->comm, err), done);
+    int rc = MPI_Bcast(mesh_counts, 2, MPI_INT64_T, run->size - 1, run->comm);
+    GS_TRY(err, rc == MPI_SUCCESS ? GS_OK : gs_mpi_error(rc, "MPI_Bcast", __FILE__, __LINE__, __func__),
+           done);
+    q.quads = (size_t)mesh_counts[0];
+    q.unit_faces = (size_t)mesh_counts[1];
     snprintf(extra, sizeof extra, "{\"violations\": %zu, \"quads\": %zu, \"unit_faces\": %zu}",
              q.violations, q.quads, q.unit_faces);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
