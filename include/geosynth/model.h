@@ -270,6 +270,16 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
 int gs_model_regions_interact(const gs_model_params *p, int nx, int ny, int nz,
                               const gs_model_box *a, const gs_model_box *b);
 
+/* The interacting pairs of plan[0..n) (sorted by colour, as gs_model_plan
+ * makes them): for region i, ids[offsets[i] .. offsets[i+1]) are the ids
+ * of the regions j < i of a lower colour with gs_model_regions_interact,
+ * in ascending j: the list gs_regions_set_conflicts takes. O(n) through
+ * buckets of the region edge, not a test of every pair. Caller frees
+ * *offsets ([n + 1]) and *ids with gs_free. */
+gs_err gs_model_plan_conflicts(const gs_model_params *p, int nx, int ny, int nz,
+                               const gs_model_region *plan, size_t n, int64_t **offsets,
+                               int64_t **ids);
+
 typedef struct gs_model_solver *gs_model_solver_t;
 
 /* Scratch space for region synthesis (grows on demand). One per thread. */

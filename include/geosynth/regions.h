@@ -113,9 +113,16 @@ typedef struct gs_regions_stats {
     int64_t computed;   /* regions this rank ran */
     int64_t bytes;      /* result bytes received in exchanges */
     double t_compute;   /* seconds in run */
-    double t_wait;      /* seconds waiting for the queue (workers) or requests (rank 0) */
+    double t_wait;      /* seconds waiting for the queue (workers) or requests (rank 0);
+                           dataflow: with nothing ready to run here */
     double t_exchange;  /* seconds in the result exchange */
     double t_apply;     /* seconds in apply */
+    /* dataflow passes (gs_regions_set_conflicts) only: */
+    double t_pass;      /* seconds in gs_regions_run_pass (all of it, this rank) */
+    double t_tail;      /* part of t_wait after every region was claimed as far as this
+                           rank knew: the end of a pass, nothing left to start here */
+    int64_t duplicates; /* records received of regions this rank had already: work that
+                           two ranks did at once */
 } gs_regions_stats;
 gs_regions_stats gs_regions_get_stats(const gs_regions_t s);
 

@@ -395,6 +395,7 @@ typedef struct model_engine {
     uint64_t region_cells; /* cells of all region runs */
     double synth_seconds;  /* synthesis wall time, summed over resumes */
     gs_regions_stats queue; /* this rank's region runs and waits, this process only */
+    double t_windows;       /* this rank's seconds in run_window (set-up + dataflow) */
     uint64_t example_digest;
 } model_engine;
 
@@ -793,6 +794,7 @@ done:
  * colours it touches are done, not when the whole colour is. */
 static gs_err run_window(gs_run *run, model_engine *e)
 {
+    double t0 = gs_time_now();
     int64_t budget = 0;
     GS_CALL(gs_run_units_until_due(run, e->units, &budget));
     size_t first = 0;
@@ -819,31 +821,15 @@ static gs_err run_window(gs_run *run, model_engine *e)
     gs_regions_t s = NULL;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "colour regions"), done);
-    GS_TRY(err, gs_alloc_array((void **)&off, n + 1, sizeof *off, "region conflicts"), done);
     for (size_t i = first; i < last; i++) {
         list[i - first].id = (int64_t)e->plan[i].id;
         list[i - first].color = (int)e->plan[i].color;
     }
     /* conflicts: interacting regions of lower colours (the plan is sorted
-     * by colour), counted first, then listed */
-    size_t m = 0;
-    for (int fill = 0; fill < 2; fill++) {
-        m = 0;
-        for (size_t i = first; i < last; i++) {
-            off[i - first] = (int64_t)m;
-            for (size_t j = first; j < i && e->plan[j].color < e->plan[i].color; j++)
-                if (gs_model_regions_interact(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
-                                              &e->plan[i].box, &e->plan[j].box)) {
-                    if (fill)
-                        ids[m] = (int64_t)e->plan[j].id;
-                    m++;
-                }
-        }
-        off[n] = (int64_t)m;
-        if (!fill)
-            GS_TRY(err, gs_alloc_array((void **)&ids, m ? m : 1, sizeof *ids, "region conflicts"),
-                   done);
-    }
+     * by colour) */
+    GS_TRY(err, gs_model_plan_conflicts(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
+                                        e->plan + first, n, &off, &ids),
+           done);
     GS_TRY(err, gs_regions_create(run->comm, list, (int64_t)n, e->params.seed, MODEL_RNG_DOMAIN, &s),
            done);
     GS_TRY(err, gs_regions_set_conflicts(s, off, ids), done);
@@ -855,6 +841,9 @@ static gs_err run_window(gs_run *run, model_engine *e)
     e->queue.t_wait += qs.t_wait;
     e->queue.t_exchange += qs.t_exchange;
     e->queue.t_apply += qs.t_apply;
+    e->queue.t_pass += qs.t_pass;
+    e->queue.t_tail += qs.t_tail;
+    e->queue.duplicates += qs.duplicates;
     e->units += (int64_t)n;
     e->color = next;
 done:
@@ -862,6 +851,7 @@ done:
     gs_free(list);
     gs_free(off);
     gs_free(ids);
+    e->t_windows += gs_time_now() - t0;
     return err;
 }
 
@@ -913,17 +903,63 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
     return GS_OK;
 }
 
-/* Collective: where this process's synthesis time went, over ranks, into
- * q[]: {region seconds summed, max, wait max, exchange max, apply max,
- * CPU seconds max} (rank 0). The ideal speed-up over one rank is the sum
- * over the max of the region seconds: robust to a shared machine's noise,
- * unlike wall time. */
-static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, double q[6])
+/* Where each rank's synthesis time went (this process: a resumed run
+ * counts since the resume), gathered on rank 0. */
+enum {
+    Q_REGIONS, Q_COMPUTE, Q_WAIT, Q_TAIL, Q_EXCHANGE, Q_APPLY, Q_FLOW, Q_WINDOW_SETUP, Q_OUTSIDE,
+    Q_CPU, Q_DUPLICATES, Q_N
+};
+static const char *const q_key[Q_N] = {
+    "regions", "region_s", "wait_s", "tail_s", "exchange_s", "apply_s", "flow_s",
+    "window_setup_s", "outside_windows_s", "cpu_s", "duplicates"};
+
+typedef struct queue_report_t {
+    double sum[Q_N], max[Q_N];
+    char json[4096]; /* ", \"per_rank\": {key: [rank 0, rank 1, ...], ...}" (rank 0; ""
+                        when too many ranks to list) */
+} queue_report_t;
+
+/* Collective. The ideal speed-up over one rank is the sum over the max of
+ * the region seconds: robust to a shared machine's noise, unlike wall
+ * time. Per rank: wait_s = nothing ready to run here (tail_s of it: every
+ * region was claimed, the end of a pass), flow_s = in the dataflow passes,
+ * window_setup_s = building the window's conflict lists and scheduler
+ * (every rank does it, serial), outside_windows_s = the rest of the
+ * synthesis phase (plans, coverage, checkpoints). */
+static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q)
 {
-    double mine[6] = {e->queue.t_compute, e->queue.t_compute, e->queue.t_wait,
-                      e->queue.t_exchange, e->queue.t_apply, cpu};
-    GS_MPI(MPI_Reduce(mine, q, 1, MPI_DOUBLE, MPI_SUM, 0, run->comm));
-    GS_MPI(MPI_Reduce(mine + 1, q + 1, 5, MPI_DOUBLE, MPI_MAX, 0, run->comm));
+    double mine[Q_N] = {(double)e->queue.computed, e->queue.t_compute, e->queue.t_wait,
+                        e->queue.t_tail, e->queue.t_exchange, e->queue.t_apply, e->queue.t_pass,
+                        e->t_windows - e->queue.t_pass, e->synth_seconds - e->t_windows, cpu,
+                        (double)e->queue.duplicates};
+    double *all = run->rank == 0 ? gs_calloc((size_t)run->size * Q_N, sizeof *all) : NULL;
+    gs_err local = run->rank == 0 && !all
+                       ? gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                        "cannot gather the per-rank times")
+                       : GS_OK;
+    GS_CALL(gs_par_agree(run->comm, local));
+    GS_MPI(MPI_Gather(mine, Q_N, MPI_DOUBLE, all, Q_N, MPI_DOUBLE, 0, run->comm));
+    memset(q, 0, sizeof *q);
+    if (run->rank != 0)
+        return GS_OK;
+    size_t at = (size_t)snprintf(q->json, sizeof q->json, ", \"per_rank\": {");
+    for (int k = 0; k < Q_N; k++) {
+        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
+                               "%s\"%s\": [", k ? ", " : "", q_key[k]);
+        for (int r = 0; r < run->size; r++) {
+            double v = all[(size_t)r * Q_N + k];
+            q->sum[k] += v;
+            q->max[k] = r == 0 || v > q->max[k] ? v : q->max[k];
+            at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
+                                   k == Q_REGIONS || k == Q_DUPLICATES ? "%s%.0f" : "%s%.4f",
+                                   r ? ", " : "", v);
+        }
+        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "]");
+    }
+    at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "}");
+    if (at >= sizeof q->json) /* too many ranks to list: leave the arrays out */
+        q->json[0] = '\0';
+    gs_free(all);
     return GS_OK;
 }
 
@@ -969,7 +1005,28 @@ typedef struct model_quality {
     int labels_used, vox_renumbered;
 } model_quality;
 
-/* Rank 0: every output file and the quality measures. */
+/* The mesh (model.mesh), on the last rank: with 2 or more ranks it is
+ * written while rank 0 checks the lattice and writes the other files
+ * (every rank holds the whole lattice). */
+static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
+{
+    const model_config *c = e->cfg;
+    counts[0] = counts[1] = 0;
+    if (!strcmp(c->mesh, "none"))
+        return GS_OK;
+    gs_model_quads quads;
+    GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
+    counts[0] = (int64_t)quads.n;
+    counts[1] = (int64_t)quads.unit_faces;
+    char name[16], path[PATH_MAX];
+    snprintf(name, sizeof name, "mesh.%s", c->mesh);
+    gs_run_path(run, name, path, sizeof path);
+    gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
+    gs_model_quads_free(&quads);
+    return err;
+}
+
+/* Rank 0: every output file but the mesh, and the quality measures. */
 static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q)
 {
     const model_config *c = e->cfg;
@@ -1015,17 +1072,9 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
                    q->labels_used);
     }
     if (strcmp(c->mesh, "none")) {
-        gs_model_quads quads;
-        GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
-        q->quads = quads.n;
-        q->unit_faces = quads.unit_faces;
         char name[16];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
-        gs_run_path(run, name, path, sizeof path);
-        gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
-        gs_model_quads_free(&quads);
-        GS_CALL(err);
-        gs_run_output(run, "mesh", name);
+        gs_run_output(run, "mesh", name); /* written by write_mesh */
     }
     if (e->lat.nz == 1) {
         gs_run_path(run, "lattice.png", path, sizeof path);
@@ -1189,7 +1238,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     memset(&e, 0, sizeof e);
     e.cfg = cfgp;
     gs_err err = GS_OK;
-    char extra[1024];
+    char extra[6144];
 
     gs_run_phase_begin(run, "setup");
     err = setup(run, &e, resume);
@@ -1215,18 +1264,18 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         goto done;
     }
     const double cells = (double)lattice_cells(&e.lat);
-    double qr[6] = {0};
-    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, qr), done);
+    queue_report_t qr;
+    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, &qr), done);
     snprintf(extra, sizeof extra,
              "{\"passes\": %d, \"regions\": %llu, \"accepted\": %llu, \"failed\": %llu, "
              "\"retries\": %llu, \"rejected_attempts\": %llu, \"backtracks\": %llu, "
-             "\"min_coverage\": %llu, \"cells_per_second\": %.1f}",
+             "\"min_coverage\": %llu, \"cells_per_second\": %.1f%s}",
              e.stats.passes, (unsigned long long)e.stats.regions,
              (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
              (unsigned long long)(e.stats.attempts - e.stats.regions),
              (unsigned long long)(e.stats.attempts - e.stats.accepted),
              (unsigned long long)e.stats.backtracks, (unsigned long long)e.stats.min_coverage,
-             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0, qr.json);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
 
     if (e.params.mirror[0] || e.params.mirror[1]) {
@@ -1247,12 +1296,19 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     gs_run_phase_begin(run, "output");
     model_quality q;
     memset(&q, 0, sizeof q);
-    if (run->rank == 0) {
+    int64_t mesh_counts[2] = {0, 0};
+    if (run->rank == 0)
         err = write_outputs(run, &e, &q);
-        if (err)
-            gs_error_push_frame(__FILE__, __LINE__, __func__);
-    }
+    if (err == GS_OK && run->rank == run->size - 1)
+        err = write_mesh(run, &e, mesh_counts);
+    if (err)
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
     GS_TRY(err, gs_par_agree(run->comm, err), done);
+    int rc = MPI_Bcast(mesh_counts, 2, MPI_INT64_T, run->size - 1, run->comm);
+    GS_TRY(err, rc == MPI_SUCCESS ? GS_OK : gs_mpi_error(rc, "MPI_Bcast", __FILE__, __LINE__, __func__),
+           done);
+    q.quads = (size_t)mesh_counts[0];
+    q.unit_faces = (size_t)mesh_counts[1];
     snprintf(extra, sizeof extra, "{\"violations\": %zu, \"quads\": %zu, \"unit_faces\": %zu}",
              q.violations, q.quads, q.unit_faces);
     GS_TRY(err, gs_run_phase_end(run, extra), done);
@@ -1284,18 +1340,25 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         }
         gs_run_metric_f64(run, "synthesis_seconds", e.synth_seconds);
         /* this process's share (a resumed run: since the resume) */
-        gs_run_metric_f64(run, "region_seconds_total", qr[0]);
-        gs_run_metric_f64(run, "region_seconds_max_rank", qr[1]);
-        gs_run_metric_f64(run, "ideal_speedup", qr[1] > 0 ? qr[0] / qr[1] : 0);
-        gs_run_metric_f64(run, "queue_wait_seconds_max_rank", qr[2]);
-        gs_run_metric_f64(run, "exchange_seconds_max_rank", qr[3]);
-        gs_run_metric_f64(run, "apply_seconds_max_rank", qr[4]);
-        gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qr[5]);
+        const double *qs = qr.sum, *qm = qr.max;
+        gs_run_metric_f64(run, "region_seconds_total", qs[Q_COMPUTE]);
+        gs_run_metric_f64(run, "region_seconds_max_rank", qm[Q_COMPUTE]);
+        gs_run_metric_f64(run, "ideal_speedup", qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0);
+        gs_run_metric_f64(run, "queue_wait_seconds_max_rank", qm[Q_WAIT]);
+        gs_run_metric_f64(run, "tail_wait_seconds_max_rank", qm[Q_TAIL]);
+        gs_run_metric_f64(run, "exchange_seconds_max_rank", qm[Q_EXCHANGE]);
+        gs_run_metric_f64(run, "apply_seconds_max_rank", qm[Q_APPLY]);
+        gs_run_metric_f64(run, "window_setup_seconds_max_rank", qm[Q_WINDOW_SETUP]);
+        gs_run_metric_f64(run, "outside_windows_seconds_max_rank", qm[Q_OUTSIDE]);
+        gs_run_metric_i64(run, "duplicate_regions", (int64_t)qs[Q_DUPLICATES]);
+        gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qm[Q_CPU]);
         gs_log(GS_LOG_INFO,
                "regions: %.3f s of region runs over %d ranks (%.3f s on the busiest: ideal "
                "speed-up %.2f); per rank at most %.3f s waiting, %.3f s exchanging, %.3f s "
                "applying, %.3f s CPU",
-               qr[0], run->size, qr[1], qr[1] > 0 ? qr[0] / qr[1] : 0, qr[2], qr[3], qr[4], qr[5]);
+               qs[Q_COMPUTE], run->size, qm[Q_COMPUTE],
+               qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0, qm[Q_WAIT], qm[Q_EXCHANGE],
+               qm[Q_APPLY], qm[Q_CPU]);
         gs_run_metric_f64(run, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0);
         gs_run_metric_f64(run, "region_cells_per_second",
                           e.synth_seconds > 0 ? (double)e.region_cells / e.synth_seconds : 0);

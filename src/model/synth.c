@@ -194,6 +194,125 @@ int gs_model_regions_interact(const gs_model_params *p, int nx, int ny, int nz,
     return box_reads(p, n, alo, ahi, blo, bhi) || box_reads(p, n, blo, bhi, alo, ahi);
 }
 
+static int cmp_size(const void *a, const void *b)
+{
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Buckets of edge E + 1 along each axis (E = the longest region edge):
+ * regions that interact have lower corners less than E + 1 apart along
+ * every axis (straight or across a periodic wrap), so they sit in
+ * neighbouring buckets: +-1 along a plain axis; +-2 along a periodic one
+ * (its last bucket may be narrower), or every bucket when there are < 5. */
+gs_err gs_model_plan_conflicts(const gs_model_params *p, int nx, int ny, int nz,
+                               const gs_model_region *plan, size_t n, int64_t **offsets,
+                               int64_t **ids)
+{
+    const int dim[3] = {nx, ny, nz};
+    int edge[3] = {1, 1, 1}, nb[3];
+    for (size_t i = 0; i < n; i++) {
+        const gs_model_box *b = &plan[i].box;
+        const int len[3] = {b->x1 - b->x0, b->y1 - b->y0, b->z1 - b->z0};
+        for (int a = 0; a < 3; a++)
+            edge[a] = len[a] > edge[a] ? len[a] : edge[a];
+    }
+    for (int a = 0; a < 3; a++) {
+        edge[a]++;
+        nb[a] = dim[a] > 0 ? (dim[a] + edge[a] - 1) / edge[a] : 1;
+    }
+    size_t nbuckets = (size_t)nb[0] * (size_t)nb[1] * (size_t)nb[2];
+    size_t *start = NULL, *member = NULL, *bucket = NULL, *cand = NULL;
+    int64_t *off = NULL, *list = NULL;
+    size_t cap = 0, m = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&start, nbuckets + 1, sizeof *start, "buckets"), done);
+    GS_TRY(err, gs_alloc_array((void **)&member, n ? n : 1, sizeof *member, "buckets"), done);
+    GS_TRY(err, gs_alloc_array((void **)&bucket, n ? n : 1, sizeof *bucket, "buckets"), done);
+    GS_TRY(err, gs_alloc_array((void **)&cand, n ? n : 1, sizeof *cand, "conflicts"), done);
+    GS_TRY(err, gs_alloc_array((void **)&off, n + 1, sizeof *off, "conflicts"), done);
+    memset(start, 0, (nbuckets + 1) * sizeof *start);
+    for (size_t i = 0; i < n; i++) {
+        const gs_model_box *b = &plan[i].box;
+        const int lo[3] = {b->x0, b->y0, b->z0};
+        size_t at = 0;
+        for (int a = 2; a >= 0; a--) {
+            int k = lo[a] / edge[a];
+            k = k < 0 ? 0 : k >= nb[a] ? nb[a] - 1 : k;
+            at = at * (size_t)nb[a] + (size_t)k;
+        }
+        bucket[i] = at;
+        start[at + 1]++;
+    }
+    for (size_t k = 0; k < nbuckets; k++)
+        start[k + 1] += start[k];
+    for (size_t i = 0; i < n; i++)
+        member[start[bucket[i]]++] = i;
+    for (size_t k = nbuckets; k > 0; k--) /* back to bucket starts */
+        start[k] = start[k - 1];
+    start[0] = 0;
+    for (size_t i = 0; i < n; i++) {
+        int near[3][5], nnear[3];
+        size_t rest = bucket[i];
+        for (int a = 0; a < 3; a++) {
+            int k = (int)(rest % (size_t)nb[a]);
+            rest /= (size_t)nb[a];
+            nnear[a] = 0;
+            if (p->periodic[a] && nb[a] < 5) {
+                for (int t = 0; t < nb[a]; t++)
+                    near[a][nnear[a]++] = t;
+            } else {
+                int reach = p->periodic[a] ? 2 : 1;
+                for (int t = k - reach; t <= k + reach; t++)
+                    if (p->periodic[a])
+                        near[a][nnear[a]++] = (t + nb[a]) % nb[a];
+                    else if (t >= 0 && t < nb[a])
+                        near[a][nnear[a]++] = t;
+            }
+        }
+        size_t nc = 0;
+        for (int z = 0; z < nnear[2]; z++)
+            for (int y = 0; y < nnear[1]; y++)
+                for (int x = 0; x < nnear[0]; x++) {
+                    size_t bk = (size_t)near[0][x] +
+                                (size_t)nb[0] * ((size_t)near[1][y] + (size_t)nb[1] * (size_t)near[2][z]);
+                    for (size_t q = start[bk]; q < start[bk + 1]; q++) {
+                        size_t j = member[q];
+                        if (j < i && plan[j].color < plan[i].color &&
+                            gs_model_regions_interact(p, nx, ny, nz, &plan[i].box, &plan[j].box))
+                            cand[nc++] = j;
+                    }
+                }
+        qsort(cand, nc, sizeof *cand, cmp_size);
+        off[i] = (int64_t)m;
+        if (m + nc > cap) {
+            size_t ncap = 2 * (m + nc) + 16;
+            int64_t *grown = gs_realloc(list, ncap * sizeof *list);
+            GS_TRY_CHECK(err, grown != NULL, GS_ERR_MEM, done, "out of memory (%zu conflicts)",
+                         ncap);
+            list = grown;
+            cap = ncap;
+        }
+        for (size_t c = 0; c < nc; c++)
+            list[m++] = (int64_t)plan[cand[c]].id;
+    }
+    off[n] = (int64_t)m;
+    if (!list)
+        GS_TRY(err, gs_alloc_array((void **)&list, 1, sizeof *list, "conflicts"), done);
+    *offsets = off;
+    *ids = list;
+    off = NULL;
+    list = NULL;
+done:
+    gs_free(start);
+    gs_free(member);
+    gs_free(bucket);
+    gs_free(cand);
+    gs_free(off);
+    gs_free(list);
+    return err;
+}
+
 gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
                            gs_model_lattice *lat, gs_model_stats *stats)
 {

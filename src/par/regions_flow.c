@@ -15,7 +15,9 @@
  * No coordinator: every rank sees every record, so every rank knows which
  * regions are ready, and picks the lowest ready one nobody claimed, from its
  * own share (k mod size = rank) first, then from the share of a rank that
- * is busy. Before running it sends a claim to everyone. Two ranks can still
+ * is busy or has left a ready region unclaimed for FLOW_STEAL_AFTER (its
+ * process is not running: another job on its core). Before running it
+ * sends a claim to everyone. Two ranks can still
  * pick the same region when they choose within a message latency of each
  * other; both then run it, the bytes are the same, receivers keep the first. (A rank-0 work queue
  * that answers only between rank 0's own regions left workers waiting about
@@ -52,6 +54,11 @@ enum { TAG_FLOW_HEADER = 212, TAG_FLOW_DATA = 213, TAG_FLOW_FIN = 214 };
 #define FLOW_CHUNK 3840
 #define FLOW_CLAIM (-2)
 #define FLOW_MAX_SENDS 4096
+/* A ready region of an idle rank's share that rank has not claimed after
+ * this many seconds is taken by another idle rank: its owner is most
+ * likely descheduled (a shared machine; an idle rank polls, so it claims
+ * within microseconds when it runs). */
+#define FLOW_STEAL_AFTER 0.001
 
 /* ---- conflicts ---- */
 
@@ -169,9 +176,11 @@ typedef struct flow {
     int64_t *stack;         /* [2n + 1] apply worklist */
     int64_t *heap[2];       /* [n] each: candidates (preds applied): this rank's share
                                (min-heap), the others' share (list) */
+    double *ready_at;       /* [n] when a region of the others' share became a candidate */
     char *busy;             /* [size] last header from that rank was a claim */
     int64_t nheap[2];
     int64_t nhave;          /* records here (distinct regions) */
+    int64_t nclaimed;       /* regions with claimed[] set */
     int stop;               /* a failure somewhere: run nothing more */
     gs_err local;           /* first failure on this rank (run or apply) */
     int64_t notice[3];      /* {-1, status, 0}: this rank stopped (send buffer) */
@@ -183,6 +192,12 @@ typedef struct flow {
     MPI_Request sends[FLOW_MAX_SENDS];
     int nsends;
 } flow;
+
+static void mark_claimed(flow *f, int64_t k)
+{
+    f->nclaimed += !f->claimed[k];
+    f->claimed[k] = 1;
+}
 
 static void fail_local(flow *f, gs_err e)
 {
@@ -227,8 +242,10 @@ static void add_candidate(flow *f, int64_t k)
 {
     if (k % f->s->size == f->s->rank)
         heap_push(f->heap[0], &f->nheap[0], k);
-    else
+    else {
         f->heap[1][f->nheap[1]++] = k; /* scanned by pick() */
+        f->ready_at[k] = gs_time_now();
+    }
 }
 
 /* Applies k and everything it unblocks, if k's preds are applied here. */
@@ -313,7 +330,7 @@ static gs_err announce_stop(flow *f)
 static void take_record(flow *f, int64_t k)
 {
     f->have[k] = 1;
-    f->claimed[k] = 1;
+    mark_claimed(f, k);
     f->nhave++;
     if (f->hdr[k][1] != GS_OK)
         f->stop = 1;
@@ -325,7 +342,7 @@ static void take_record(flow *f, int64_t k)
 static gs_err run_region(flow *f, int64_t k)
 {
     gs_regions_t s = f->s;
-    f->claimed[k] = 1;
+    mark_claimed(f, k);
     int64_t *claim = f->claim_msg + 3 * k;
     claim[0] = k;
     claim[1] = FLOW_CLAIM;
@@ -376,7 +393,7 @@ static gs_err recv_header(flow *f, int from)
     int64_t k = h[0];
     f->busy[from] = h[1] == FLOW_CLAIM;
     if (h[1] == FLOW_CLAIM) {
-        f->claimed[k] = 1;
+        mark_claimed(f, k);
         return GS_OK;
     }
     /* A second record of k (two ranks picked it at once) has the same bytes
@@ -398,8 +415,10 @@ static gs_err recv_header(flow *f, int from)
     }
     s->stats.bytes += h[1] == GS_OK ? h[2] : 0;
     s->stats.t_exchange += gs_time_now() - t0;
-    if (!keep)
+    if (!keep) {
+        s->stats.duplicates += h[1] == GS_OK;
         return GS_OK;
+    }
     memcpy(f->hdr[k], h, sizeof h);
     f->data[k] = dst;
     if (h[1] == GS_OK && !dst)
@@ -431,11 +450,13 @@ static gs_err progress(flow *f, int *got)
 }
 
 /* The lowest candidate nobody claimed from this rank's share; else the
- * lowest one of a rank that is busy (its last header was a claim): an
- * idle owner takes its region itself, so two idle ranks do not both grab
- * the one region that just became ready. -1 if none. */
+ * lowest one of a rank that is busy (its last header was a claim) or that
+ * left it unclaimed for FLOW_STEAL_AFTER: an idle owner takes its region
+ * itself, so two idle ranks do not both grab the one region that just
+ * became ready, unless the owner does not run. -1 if none. */
 static int64_t pick(flow *f)
 {
+    double now = -1;
     while (f->nheap[0] > 0) {
         int64_t k = heap_pop(f->heap[0], &f->nheap[0]);
         if (!f->claimed[k])
@@ -447,8 +468,15 @@ static int64_t pick(flow *f)
         if (f->claimed[k])
             continue;
         f->heap[1][n++] = k;
-        if (f->busy[k % f->s->size] && (best < 0 || k < best))
-            best = k;
+        if (best >= 0 && k > best)
+            continue;
+        if (!f->busy[k % f->s->size]) {
+            if (now < 0)
+                now = gs_time_now();
+            if (now - f->ready_at[k] < FLOW_STEAL_AFTER)
+                continue;
+        }
+        best = k;
     }
     f->nheap[1] = n;
     return best;
@@ -492,7 +520,10 @@ static gs_err run_flow(flow *f)
         if (!got) {
             double t0 = gs_time_now();
             sched_yield();
-            s->stats.t_wait += gs_time_now() - t0;
+            double dt = gs_time_now() - t0;
+            s->stats.t_wait += dt;
+            if (f->nclaimed == f->n || f->stop)
+                s->stats.t_tail += dt;
         }
     }
 }
@@ -511,6 +542,7 @@ static void flow_free(flow *f)
     gs_free(f->stack);
     gs_free(f->heap[0]);
     gs_free(f->heap[1]);
+    gs_free(f->ready_at);
     gs_free(f->claim_msg);
     gs_free(f->sent);
     gs_free(f->got);
@@ -521,6 +553,7 @@ static void flow_free(flow *f)
 gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                             gs_region_apply_fn apply, void *ctx)
 {
+    double t_start = gs_time_now();
     flow *f = gs_calloc(1, sizeof *f);
     gs_err local = f ? GS_OK
                      : gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
@@ -537,13 +570,14 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
         f->stack = gs_calloc(2 * nn + 1, sizeof *f->stack);
         f->heap[0] = gs_calloc(nn, sizeof *f->heap[0]);
         f->heap[1] = gs_calloc(nn, sizeof *f->heap[1]);
+        f->ready_at = gs_calloc(nn, sizeof *f->ready_at);
         f->claim_msg = gs_calloc(3 * nn, sizeof *f->claim_msg);
         f->sent = gs_calloc(np, sizeof *f->sent);
         f->got = gs_calloc(np, sizeof *f->got);
         f->fin = gs_calloc(2 * np, sizeof *f->fin); /* [0, size): received; [size, 2 size): sent */
         f->busy = gs_calloc(np, 1);
         if (!f->data || !f->hdr || !f->have || !f->applied || !f->claimed || !f->npend ||
-            !f->stack || !f->heap[0] || !f->heap[1] || !f->claim_msg || !f->sent || !f->got ||
+            !f->stack || !f->heap[0] || !f->heap[1] || !f->ready_at || !f->claim_msg || !f->sent || !f->got ||
             !f->fin || !f->busy)
             local = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                    "regions: cannot allocate the dataflow state of %lld regions",
@@ -576,6 +610,7 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
         flow_free(f);
         gs_free(f);
     }
+    s->stats.t_pass += gs_time_now() - t_start;
     if (err != GS_OK)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
     return err;

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "geosynth/digest.h"
 #include "geosynth/mem.h"
@@ -155,13 +156,32 @@ static gs_err check_grid_helpers(void)
     return GS_OK;
 }
 
-/* PASSES passes of the toy on every rank; wall seconds in *elapsed. */
+/* PASSES passes of the toy on every rank; wall seconds in *elapsed. With
+ * g_stall_ms > 0 the last rank sleeps that long in its first apply of
+ * every pass, between regions, when the others see it idle (its last
+ * header was a record, not a claim), like a process another job keeps off
+ * its core: the others take the regions of its share that it leaves
+ * unclaimed. */
+static int g_stall_ms;
+static int64_t g_stall_every; /* applies per pass */
+
+static gs_err stalling_apply(void *ctx, int64_t id, const void *buf, size_t len)
+{
+    static int64_t applies;
+    if (g_stall_ms > 0 && applies++ % g_stall_every == 0 && gs_par_size() > 1 &&
+        gs_par_rank() == gs_par_size() - 1) {
+        struct timespec ts = {0, (long)g_stall_ms * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+    return toy_apply(ctx, id, buf, len);
+}
+
 static gs_err timed_passes(gs_regions_t sched, toy *t, double *elapsed)
 {
     GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
     double t0 = MPI_Wtime();
     for (int pass = 0; pass < PASSES; pass++)
-        GS_CALL(gs_regions_run_pass(sched, pass, toy_run, toy_apply, t));
+        GS_CALL(gs_regions_run_pass(sched, pass, toy_run, stalling_apply, t));
     GS_MPI(MPI_Barrier(MPI_COMM_WORLD));
     *elapsed = MPI_Wtime() - t0;
     return GS_OK;
@@ -228,6 +248,23 @@ static gs_err run(void)
     double flow_elapsed = 0;
     GS_CALL(timed_passes(sched, &tf, &flow_elapsed));
     gs_regions_stats fst = gs_regions_get_stats(sched);
+    /* Again with the last rank stalled in every pass (its ready regions are
+     * taken by the others after FLOW_STEAL_AFTER, or it runs them late):
+     * the same grid. */
+    double *stall_grid = malloc((size_t)NX * NY * NZ * sizeof *stall_grid);
+    TOY_CHECK(stall_grid != NULL, "out of memory");
+    toy ts = {stall_grid, boxes};
+    init_grid(stall_grid);
+    gs_regions_t stalled = NULL;
+    GS_CALL(gs_regions_create(MPI_COMM_WORLD, list, nreg, SEED, DOMAIN, &stalled));
+    GS_CALL(gs_regions_set_conflicts(stalled, off, ids));
+    double stall_elapsed = 0;
+    g_stall_ms = 100;
+    g_stall_every = nreg;
+    GS_CALL(timed_passes(stalled, &ts, &stall_elapsed));
+    g_stall_ms = 0;
+    gs_regions_stats sst = gs_regions_get_stats(stalled);
+    gs_regions_destroy(&stalled);
     /* a failing region stops the dataflow pass with the same code everywhere */
     toy tfail = {ref, boxes}; /* scratch: ref is rebuilt below */
     TOY_CHECK(gs_regions_run_pass(sched, 0, toy_run_failing, toy_apply, &tfail) == GS_ERR_ARG,
@@ -269,7 +306,10 @@ static gs_err run(void)
     TOY_CHECK(h == href, "scheduled grid differs from the serial sweep");
     TOY_CHECK(gs_digest_bytes(flow_grid, (size_t)NX * NY * NZ * sizeof *flow_grid) == href,
               "dataflow grid differs from the serial sweep");
+    TOY_CHECK(gs_digest_bytes(stall_grid, (size_t)NX * NY * NZ * sizeof *stall_grid) == href,
+              "dataflow grid with a stalled rank differs from the serial sweep");
     free(flow_grid);
+    free(stall_grid);
     GS_CALL(gs_par_check_same_i64(MPI_COMM_WORLD, (int64_t)h, "regions grid digest"));
 
     int64_t computed_all[64] = {0};
@@ -289,6 +329,9 @@ static gs_err run(void)
                   (long long)total, (long long)(nreg * PASSES));
         fprintf(stderr, "regions_toy np=%d dataflow: %.3f s wall (rank 0: %lld regions, wait "
                 "%.3f s)\n", size, flow_elapsed, (long long)fst.computed, fst.t_wait);
+        fprintf(stderr, "regions_toy np=%d dataflow, last rank stalled %d x 100 ms: %.3f s wall "
+                "(rank 0: %lld regions, %lld duplicates received)\n", size, PASSES,
+                stall_elapsed, (long long)sst.computed, (long long)sst.duplicates);
         fprintf(stderr, "regions_toy np=%d: %lld regions x %d passes in 8 colors: %.3f s wall "
                 "(regions per rank: %s; rank 0 compute %.3f s, exchange %.3f s)\n",
                 size, (long long)nreg, PASSES, elapsed, per, st.t_compute, st.t_exchange);

@@ -208,6 +208,59 @@ static void test_regions_interact(void **state)
     }
 }
 
+/* gs_model_plan_conflicts (buckets) lists exactly the pairs the all-pairs
+ * test finds, in the same order, for free, periodic and mirrored axes,
+ * region edges that divide the extent or not, both passes, and windows
+ * that start inside the plan. */
+static void test_plan_conflicts_match_all_pairs(void **state)
+{
+    (void)state;
+    static const int dims[][3] = {{37, 23, 6}, {95, 95, 10}, {12, 9, 5}, {64, 64, 1}, {21, 30, 12}};
+    static const int regs[][3] = {{10, 8, 0}, {10, 10, 0}, {4, 3, 0}, {8, 8, 0}, {6, 7, 4}};
+    static const int modes[][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 1}, {1, 1, 1}};
+    size_t total = 0;
+    for (size_t c = 0; c < sizeof dims / sizeof dims[0]; c++)
+        for (size_t md = 0; md < sizeof modes / sizeof modes[0]; md++)
+            for (int pass = 0; pass < 2; pass++) {
+                gs_model_params p;
+                gs_model_params_default(&p);
+                for (int a = 0; a < 3; a++)
+                    p.region[a] = regs[c][a];
+                p.periodic[0] = modes[md][0];
+                p.periodic[1] = modes[md][1];
+                p.mirror[0] = modes[md][2];
+                p.mirror[1] = modes[md][2] && !modes[md][1];
+                const int *d = dims[c];
+                gs_model_region *reg = NULL;
+                size_t n = 0;
+                int ncol = 0;
+                assert_int_equal(gs_model_plan(&p, d[0], d[1], d[2], pass, &reg, &n, &ncol), GS_OK);
+                for (size_t first = 0; first < n; first += n / 2 + 1) {
+                    int64_t *off = NULL, *ids = NULL;
+                    assert_int_equal(gs_model_plan_conflicts(&p, d[0], d[1], d[2], reg + first,
+                                                             n - first, &off, &ids),
+                                     GS_OK);
+                    int64_t m = 0;
+                    for (size_t i = first; i < n; i++) {
+                        assert_int_equal(off[i - first], m);
+                        for (size_t j = first; j < i && reg[j].color < reg[i].color; j++)
+                            if (gs_model_regions_interact(&p, d[0], d[1], d[2], &reg[i].box,
+                                                          &reg[j].box)) {
+                                assert_true(m < off[i - first + 1]);
+                                assert_int_equal(ids[m], reg[j].id);
+                                m++;
+                            }
+                        assert_int_equal(off[i - first + 1], m);
+                    }
+                    total += (size_t)m;
+                    gs_free(off);
+                    gs_free(ids);
+                }
+                gs_free(reg);
+            }
+    assert_true(total > 0);
+}
+
 /* gadgets 40x40x6 whole grid: with seeds 1-3 some region exhausts its tries
  * (split_depth 0 keeps the start content there); splitting rescues it with 0
  * violations. */
@@ -416,6 +469,7 @@ int main(void)
         cmocka_unit_test(test_periodic_output),
         cmocka_unit_test(test_periodic_plan_gap),
         cmocka_unit_test(test_regions_interact),
+        cmocka_unit_test(test_plan_conflicts_match_all_pairs),
         cmocka_unit_test(test_split_rescues_failed_region),
         cmocka_unit_test(test_pins),
         cmocka_unit_test(test_mirror),
