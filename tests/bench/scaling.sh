@@ -21,6 +21,7 @@ GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
 NP=${NP:-1 2}
 REPEAT=${SCALING_REPEAT:-1}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+export OMPI_MCA_pml=${OMPI_MCA_pml:-ob1} # one machine: see tests/bench/run.sh
 PY=/usr/bin/python3
 
 configs=("$@")
