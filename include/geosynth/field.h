@@ -72,7 +72,7 @@
  * block index below, node, step) in this total order; a popped entry is
  * refined step by step (the incremental distance evaluation of paper 4.4)
  * while it stays at the front; children are refined through step 8 (the
- * exact octants) before they are queued; a leaf that reaches the front is
+ * exact octants) before they are queued; a leaf that comes back to the front is
  * completed at once with its exact distance (src/field/search.c). The first
  * complete leaf to reach the front is the exact best match with the lowest
  * index among equals.
