@@ -1,6 +1,6 @@
 /* Raster images: PNG in (8 and 16 bit; grey, grey+alpha, RGB, RGBA; JPEG
- * 8-bit too) through stb_image, PNG out 8-bit through stb_image_write and
- * 16-bit through libpng, so 16-bit height maps round-trip exactly.
+ * 8-bit too) through stb_image, PNG out (8 and 16 bit) through libpng, so
+ * 16-bit height maps round-trip exactly.
  *
  * Layout: row-major, row 0 = top row of the file, channels interleaved:
  * sample (x, y, c) is data[(y * width + x) * channels + c]. Exactly one of

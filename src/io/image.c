@@ -1,4 +1,4 @@
-/* PNG/JPEG images through stb_image / stb_image_write / libpng; see
+/* PNG/JPEG images in through stb_image, PNG out through libpng; see
  * include/geosynth/image.h.
  *
  * The stb implementations are compiled here (not linked from libstb) with
