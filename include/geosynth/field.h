@@ -168,6 +168,8 @@ typedef struct gs_field_query {
 } gs_field_query;
 /* The (wk, wu) weights of a query (see top). */
 void gs_field_query_weights(const gs_field_query *q, uint64_t *wk, uint64_t *wu);
+/* Number of known samples of a query (B^3 without a mask). */
+int64_t gs_field_query_known(const gs_field_query *q);
 gs_err gs_field_level_bound(gs_field_pyramid_t p, int64_t index, const gs_field_query *q,
                             int level, uint64_t *out);
 
@@ -229,14 +231,18 @@ gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out
  * the source. Searches report global block indices of src; distances are
  * those of the whole tree, and reducing the answers of slabs that split
  * [0, nz - B + 1) in (dist, index) order gives the whole tree's answer. The
- * copy is counted in info.tree_bytes; gs_field_tree_source gives the copy.
+ * copy is counted in info.tree_bytes.
  * Slabs are how the engine spreads the tree over ranks so that memory per
  * rank falls with the rank count (field.tree = sharded). */
 gs_err gs_field_tree_build_slab(const gs_qfield *src, int block, int64_t z0, int64_t z1,
                                 gs_field_tree_t *out);
+/* Shard `shard` of `shards` (> 1): the slab of its share of the z positions
+ * (gs_partition, by count); *out = NULL when that share is empty (more
+ * shards than positions). shards <= 1: the whole tree. */
+gs_err gs_field_tree_build_shard(const gs_qfield *src, int block, int shards, int shard,
+                                 gs_field_tree_t *out);
 void gs_field_tree_destroy(gs_field_tree_t *t);
 void gs_field_tree_get_info(gs_field_tree_t t, gs_field_tree_info *info);
-const gs_qfield *gs_field_tree_source(gs_field_tree_t t);
 int gs_field_tree_block(gs_field_tree_t t);
 
 /* Top-level subtrees: the children of the root (the root itself when all
@@ -311,7 +317,7 @@ typedef struct gs_field_synth_config {
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's
-                                        tree (gs_field_tree_build_slab, split by count; shards
+                                        tree (gs_field_tree_build_shard, split by count; shards
                                         beyond the z positions hold none, tree NULL). Needs a
                                         match hook that combines the shards' answers; the
                                         region functions are refused. 0 or 1: whole tree */

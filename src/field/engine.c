@@ -38,7 +38,7 @@
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
  *             field.tree = sharded: each rank builds only the tree of one
- *             z-slab of every iteration's block positions (gs_field_tree_build_slab,
+ *             z-slab of every iteration's block positions (gs_field_tree_build_shard,
  *             split by count), so tree + pyramid memory per rank falls with
  *             the rank count; every query is then spread (one psearch
  *             candidate per rank: its slab, bound shared), regions run in
@@ -79,7 +79,6 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
-#include "geosynth/partition.h"
 #include "geosynth/psearch.h"
 #include "geosynth/regions.h"
 #include "geosynth/vdb.h"
@@ -446,19 +445,17 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
             ctx->local_queries++;
     }
     if (!done) {
-        if (ctx->sharded && ctx->ps_iteration != iteration) {
-            /* one candidate per rank: its slab */
+        if (ctx->ps_iteration != iteration) {
+            /* candidates: the top-level subtrees weighted by their blocks, or
+             * sharded one per rank (its slab) */
             gs_psearch_destroy(&ctx->ps);
-            GS_CALL(gs_psearch_create(run->comm, run->size, NULL, &ctx->ps));
-            gs_psearch_set_poll_interval(ctx->ps, 1);
-            ctx->ps_iteration = iteration;
-        } else if (ctx->ps_iteration != iteration) {
-            gs_psearch_destroy(&ctx->ps);
-            int64_t top = gs_field_tree_top_count(tree);
+            int64_t top = ctx->sharded ? run->size : gs_field_tree_top_count(tree);
             double *w = NULL;
-            GS_CALL(gs_alloc_array((void **)&w, (size_t)top, sizeof *w, "subtree weights"));
-            for (int64_t i = 0; i < top; i++)
-                w[i] = (double)gs_field_tree_top_blocks(tree, i);
+            if (!ctx->sharded) {
+                GS_CALL(gs_alloc_array((void **)&w, (size_t)top, sizeof *w, "subtree weights"));
+                for (int64_t i = 0; i < top; i++)
+                    w[i] = (double)gs_field_tree_top_blocks(tree, i);
+            }
             gs_err err = gs_psearch_create(run->comm, top, w, &ctx->ps);
             gs_free(w);
             GS_CALL(err);
@@ -484,9 +481,7 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         out->dist = (uint64_t)hit.dist;
         out->pops = ctx->local.pops; /* this rank's work */
         /* the same on every rank, also on one whose slab found nothing */
-        out->known = 0;
-        for (int64_t i = 0, n = (int64_t)q->block * q->block * q->block; i < n; i++)
-            out->known += q->known ? q->known[i] != 0 : 1;
+        out->known = gs_field_query_known(q);
     }
     ctx->pops += out->pops;
     return GS_OK;
@@ -943,10 +938,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     gs_err qerr = GS_OK;
     double tq = gs_time_now();
     if (ctx.sharded) {
-        int64_t bz = q->nz - c->block + 1, z0, z1;
-        qerr = gs_partition(bz, run->size, run->rank, &z0, &z1);
-        if (!qerr && z1 > z0)
-            qerr = gs_field_tree_build_slab(q, (int)c->block, z0, z1, &ctx.qtree);
+        qerr = gs_field_tree_build_shard(q, (int)c->block, run->size, run->rank, &ctx.qtree);
         if (!qerr && ctx.qtree)
             qerr = gs_field_searcher_create(ctx.qtree, &ctx.qsearcher);
         GS_TRY(err, gs_par_agree(run->comm, qerr), done);

@@ -181,6 +181,16 @@ void gs_field_query_weights(const gs_field_query *q, uint64_t *wk, uint64_t *wu)
         *wk = 256, *wu = (uint64_t)q->seed_weight;
 }
 
+int64_t gs_field_query_known(const gs_field_query *q)
+{
+    int64_t n = (int64_t)q->block * q->block * q->block, known = 0;
+    if (!q->known)
+        return n;
+    for (int64_t i = 0; i < n; i++)
+        known += q->known[i] != 0;
+    return known;
+}
+
 uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_field_query *q)
 {
     int B = q->block;

@@ -494,19 +494,21 @@ DEFINE_SSD(ssd_8, 8)
 DEFINE_SSD(ssd_16, 16)
 DEFINE_SSD(ssd_32, 32)
 
+typedef uint64_t (*ssd_fn)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *,
+                           uint64_t, uint64_t, int);
+
+static ssd_fn ssd_for(int B)
+{
+    return B == 8 ? ssd_8 : B == 16 ? ssd_16 : B == 32 ? ssd_32 : ssd_any;
+}
+
+/* Exact weighted distance of the searched query to the block at base. */
 static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base)
 {
     const struct gs_field_tree *t = s->tree;
     int B = t->lay.B;
-    const gs_field_query *q = s->q;
-    const uint8_t *src = t->src->q + base;
-    int64_t nx = t->src->nx, nxy = t->src->nx * t->src->ny;
-    const uint8_t *known = q->known;
-    uint64_t wk = s->wk, wu = s->wu;
-    return B == 8 ? ssd_8(src, nx, nxy, q->values, known, wk, wu, B)
-         : B == 16 ? ssd_16(src, nx, nxy, q->values, known, wk, wu, B)
-         : B == 32 ? ssd_32(src, nx, nxy, q->values, known, wk, wu, B)
-                   : ssd_any(src, nx, nxy, q->values, known, wk, wu, B);
+    return ssd_for(B)(t->src->q + base, t->src->nx, t->src->nx * t->src->ny, s->q->values,
+                      s->q->known, s->wk, s->wu, B);
 }
 
 gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
@@ -518,14 +520,9 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
     GS_CHECK(begin >= 0 && begin <= end && end <= M, GS_ERR_ARG,
              "block range [%lld, %lld): expected within [0, %lld]", (long long)begin,
              (long long)end, (long long)M);
-    uint64_t (*ssd)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *, uint64_t,
-                    uint64_t, int) =
-        B == 8 ? ssd_8 : B == 16 ? ssd_16 : B == 32 ? ssd_32 : ssd_any;
+    ssd_fn ssd = ssd_for(B);
     memset(out, 0, sizeof *out);
-    int64_t known = 0;
-    for (int64_t i = 0; i < (int64_t)B * B * B; i++)
-        known += q->known ? q->known[i] != 0 : 1;
-    out->known = known;
+    out->known = gs_field_query_known(q);
     uint64_t wk, wu;
     gs_field_query_weights(q, &wk, &wu);
     int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;

@@ -32,7 +32,6 @@
 
 #include "field_impl.h"
 #include "geosynth/mem.h"
-#include "geosynth/partition.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 
@@ -220,15 +219,9 @@ static gs_err enter_iteration(struct gs_field_synth *s)
     int64_t f = (int64_t)1 << (s->cfg.iterations - 1 - it);
     int B = s->cfg.block[it];
     GS_CALL(gs_qfield_downsample(s->src, (int)f, &s->level_src));
-    if (s->cfg.tree_shards > 1) {
-        /* this shard's z-slab of block positions (by count) */
-        int64_t bz = s->level_src->nz - B + 1, z0, z1;
-        GS_CALL(gs_partition(bz, s->cfg.tree_shards, s->cfg.tree_shard, &z0, &z1));
-        if (z1 > z0)
-            GS_CALL(gs_field_tree_build_slab(s->level_src, B, z0, z1, &s->tree));
-    } else {
-        GS_CALL(gs_field_tree_build(s->level_src, B, &s->tree));
-    }
+    /* the whole tree, or this shard's z-slab of it (NULL when empty) */
+    GS_CALL(gs_field_tree_build_shard(s->level_src, B, s->cfg.tree_shards, s->cfg.tree_shard,
+                                      &s->tree));
     if (s->tree)
         GS_CALL(gs_field_searcher_create(s->tree, &s->searcher));
     for (int a = 0; a < 3; a++) {

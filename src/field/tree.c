@@ -14,6 +14,7 @@
 #include "field_impl.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
+#include "geosynth/partition.h"
 
 /* ------------------------------------------------------ block hashing */
 
@@ -527,6 +528,17 @@ gs_err gs_field_tree_build_slab(const gs_qfield *src, int block, int64_t z0, int
     return GS_OK;
 }
 
+gs_err gs_field_tree_build_shard(const gs_qfield *src, int block, int shards, int shard,
+                                 gs_field_tree_t *out)
+{
+    if (shards <= 1)
+        return gs_field_tree_build(src, block, out);
+    int64_t z0, z1;
+    GS_CALL(gs_partition(src->nz - block + 1, shards, shard, &z0, &z1));
+    *out = NULL;
+    return z1 > z0 ? gs_field_tree_build_slab(src, block, z0, z1, out) : GS_OK;
+}
+
 void gs_field_tree_destroy(gs_field_tree_t *tp)
 {
     if (!tp || !*tp)
@@ -545,11 +557,6 @@ void gs_field_tree_destroy(gs_field_tree_t *tp)
 void gs_field_tree_get_info(gs_field_tree_t t, gs_field_tree_info *info)
 {
     *info = t->info;
-}
-
-const gs_qfield *gs_field_tree_source(gs_field_tree_t t)
-{
-    return t->src;
 }
 
 int gs_field_tree_block(gs_field_tree_t t)
