@@ -11,7 +11,7 @@
  * Parallel model: every rank holds the whole synthesis state (output point
  * grid, RNG, metrics) and does the same deterministic steps; the search over
  * the input patches is distributed: each rank's patch bank holds only its
- * share [lo, hi) of gs_psearch's partition, each rank scans it and one
+ * share [lo, hi) of gs_partition's split, each rank scans it and one
  * all-gather brings every candidate under (1 + eps) * global best, sorted by
  * (distance, index), to every rank (distributed_search). Each patch's distance is summed in a fixed order
  * independent of the partition, so Psi_k, the random pick and therefore the
@@ -58,7 +58,7 @@
 #include "geosynth/parse.h"
 #include "geosynth/pointply.h"
 #include "geosynth/points.h"
-#include "geosynth/psearch.h"
+#include "geosynth/partition.h"
 #include "geosynth/run.h"
 #include "geosynth/vdb.h"
 
@@ -200,7 +200,7 @@ static int kind_is_user(const points_config *c) { return kind_is(c, "ply") || ki
 static void points_validate(const void *vcfg, gs_cfg_ctx *ctx)
 {
     const points_config *c = vcfg;
-    int user = kind_is(c, "ply") || kind_is(c, "mesh");
+    int user = kind_is_user(c);
     if ((user || kind_is(c, "heightfield")) && !c->path[0])
         gs_cfg_report(ctx, "input.path", "is required for input.kind = %s", c->kind);
     if (user) {
@@ -428,7 +428,7 @@ static uint64_t texture_digest(const gs_points_texture *tex)
 
 /* --------------------------------------------------------- fault injection */
 
-/* Test-only hook (tests/e2e/points_errors.sh): GS_FAIL_RANK=R
+/* Test-only hook (tests/e2e/mpi_errors_points.sh): GS_FAIL_RANK=R
  * GS_FAIL_POINTS_AT=SITE@K makes rank R fail at SITE while it places patch K
  * (0-based; default 1), to prove that no failure leaves a rank hung. SITE:
  *   map-alloc     the map exchange cannot allocate its buffers (before it)
@@ -1083,7 +1083,6 @@ done:
 typedef struct run_state {
     gs_points_texture tex;
     gs_points_params params;
-    gs_psearch_t ps;
     search_ctx sctx;
     gs_points_synth_t synth;
     gs_points out;
@@ -1096,7 +1095,6 @@ typedef struct run_state {
 static void run_state_free(run_state *r)
 {
     gs_points_synth_destroy(&r->synth);
-    gs_psearch_destroy(&r->ps);
     search_ctx_free(&r->sctx);
     gs_points_texture_free(&r->tex);
     gs_points_free(&r->out);
@@ -1150,7 +1148,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     err = gs_points_texture_check(t, gs_points_params_padding(&rs->params));
     if (err != GS_OK) {
         rs->together = 1;
-        if (kind_is(c, "ply") || kind_is(c, "mesh"))
+        if (kind_is_user(c))
             gs_error_add_context("example %s with box input.box_lo = (%g, %g, %g), input.box_hi "
                                  "= (%g, %g, %g), up = %s", c->path, c->box_lo.v[0],
                                  c->box_lo.v[1], c->box_lo.v[2], c->box_hi.v[0], c->box_hi.v[1],
@@ -1173,7 +1171,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
            c->kind, c->path[0] ? " " : "", c->path, t->pts.n, inside, t->spacing);
     gs_log(GS_LOG_INFO, "box: [%g, %g] x [%g, %g] x [%g, %g] (z = height, up = %s)", t->box_lo[0],
            t->box_hi[0], t->box_lo[1], t->box_hi[1], t->box_lo[2], t->box_hi[2],
-           kind_is(c, "ply") || kind_is(c, "mesh") ? c->up : "z");
+           kind_is_user(c) ? c->up : "z");
     gs_log(GS_LOG_INFO, "field step %g, patch %d cells, overlap %d, extra %d, MLS radius %g, "
            "eps %g, weights w_p %g w_n %g w_v %g w_l %g w_d %g",
            p->field_step, p->patch_cells, p->overlap_cells, p->extra_cells, p->mls_radius,
@@ -1193,9 +1191,8 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
                "share %.1f, output %.1f)", bytes / 1048576.0, t->pts.n * 112.0 / 1048576.0,
                nx * ny * nz * 16 / 1048576.0, bank / 1048576.0, est_out * 288.0 / 1048576.0);
     }
-    GS_CALL(gs_psearch_create(run->comm, (int64_t)npatch, NULL, &rs->ps));
     int64_t lo, hi;
-    gs_psearch_share(rs->ps, &lo, &hi);
+    GS_CALL(gs_partition((int64_t)npatch, run->size, run->rank, &lo, &hi));
     rs->sctx.comm = run->comm;
     rs->sctx.rank = run->rank;
     rs->sctx.size = run->size;
@@ -1366,7 +1363,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
     /* Relaxation, trimming, back to the example's axes. */
     gs_run_phase_begin(run, "finish");
     GS_TRY(err, gs_points_synth_finish(rs.synth, &rs.out), done);
-    gs_points_permute_from_z(&rs.out, kind_is(c, "ply") || kind_is(c, "mesh") ? up_axis(c) : 2);
+    gs_points_permute_from_z(&rs.out, kind_is_user(c) ? up_axis(c) : 2);
     double area = rs.params.out_size[0] * rs.params.out_size[1];
     double dens_out = rs.out.n / area;
     {
@@ -1407,7 +1404,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             gs_points zup = {0};
             local = gs_points_append(&zup, rs.out.v, rs.out.n);
             if (local == GS_OK) {
-                gs_points_permute_to_z(&zup, kind_is(c, "ply") || kind_is(c, "mesh") ? up_axis(c) : 2);
+                gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
                 gs_run_path(run, "mesh.ply", path, sizeof path);
                 local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
             }
@@ -1435,8 +1432,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
     GS_TRY(err, gs_run_finish(run, digest), done);
 done:
     /* A local failure (see the header): the other ranks may be waiting in
-     * an exchange, and the clean-up below has collectives (MPI_Comm_free of
-     * the search communicator), so end every rank now. */
+     * an exchange, so end every rank now. */
     if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs.together && run->size > 1)
         gs_fatal(err, 0);
     run->failed_together = err != GS_OK && rs.together;

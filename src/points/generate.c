@@ -162,14 +162,6 @@ static void prim_point(const prim *pr, double u, double v, const double tu[3],
     }
 }
 
-static void prim_eval(const prim *pr, double u, double v, double p[3], double ref[3])
-{
-    double tu[3], tv[3];
-    prim_trig(pr, 0, u, tu);
-    prim_trig(pr, 1, v, tv);
-    prim_point(pr, u, v, tu, tv, p, ref);
-}
-
 /* 1 when p is inside the solid bounded by pr (with a small margin). */
 static int prim_inside(const prim *pr, const double p[3])
 {
@@ -468,8 +460,8 @@ static gs_err sample_prims(const gs_points_gen_params *gp, gs_err pre, const pri
         for (int i = 0; i < np; i++)
             for (int a = 0; a <= 16; a++)
                 for (int b = 0; b <= 16; b++) {
-                    double p[3], r[3];
-                    prim_eval(&prims[i], a / 16.0, b / 16.0, p, r);
+                    double p[3], r[3], tu[3], tv[3];
+                    prim_pos(&prims[i], a / 16.0, b / 16.0, tu, tv, p, r);
                     zmin = fmin(zmin, p[2]);
                     zmax = fmax(zmax, p[2]);
                 }
