@@ -783,8 +783,9 @@ done:
 /* ---- synthesis ------------------------------------------------------------ */
 
 /* Colours run together at most this many regions at a time (one colour
- * alone may have more): bounds the results kept, the O(n^2) conflict
- * search and how late a time-based checkpoint or a signal is seen. */
+ * alone may have more): bounds the results kept, the conflict lists
+ * (gs_model_plan_conflicts, linear in the window) and how late a
+ * time-based checkpoint or a signal is seen. */
 #define MODEL_WINDOW_REGIONS 2048
 
 /* Collective: runs colours e->color.. of pass e->pass on all ranks, as many

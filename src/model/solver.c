@@ -33,6 +33,15 @@ static inline int popcount64(uint64_t v)
 }
 static inline int ctz64(uint64_t v) { return __builtin_ctzll(v); }
 
+/* The lowest label of a non-empty domain (the label of a decided cell). */
+static inline int first_label(const uint64_t *dc)
+{
+    size_t w = 0;
+    while (!dc[w])
+        w++;
+    return (int)(w * 64) + ctz64(dc[w]);
+}
+
 /* ---- buffers ----------------------------------------------------------------- */
 
 static gs_err grow(void **p, size_t count, size_t size, const char *what)
@@ -351,10 +360,7 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
         if (s->size[c] == r->npresent) {
             use = r->full_support;
         } else if (s->size[c] == 1) { /* a decided cell: its label's rows as they are */
-            size_t w = 0;
-            while (!dc[w])
-                w++;
-            use = gs_model_allow(r, (int)(w * 64) + ctz64(dc[w]), 0);
+            use = gs_model_allow(r, first_label(dc), 0);
         } else {
             memset(acc, 0, GS_MODEL_DIRS * W * 8);
             for (size_t w = 0; w < W; w++)
@@ -864,14 +870,10 @@ static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, co
     for (int z = b->z0; z < b->z1; z++)
         for (int y = b->y0; y < b->y1; y++)
             for (int x = b->x0; x < b->x1; x++, c++) {
-                const uint64_t *dc = s->dom + c * W;
-                size_t w = 0;
-                while (!dc[w])
-                    w++;
                 obuf[(size_t)(x - o->x0) +
                      (size_t)(o->x1 - o->x0) *
                          ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))] =
-                    (uint16_t)(w * 64 + (size_t)ctz64(dc[w]));
+                    (uint16_t)first_label(s->dom + c * W);
             }
     return GS_OK;
 }
