@@ -569,7 +569,7 @@ static int split_tokens(const char *s, const char *seps, const char **tb, const 
 
 /* Text that can be written back into an INI file and read as the same
  * string: no control characters, no blanks at either end, no inline
- * comment start. */
+ * comment start (also none at the start: "key = ;x" reads as empty). */
 static int text_round_trips(const char *s, char *why, size_t wl)
 {
     size_t n = strlen(s);
@@ -583,8 +583,10 @@ static int text_round_trips(const char *s, char *why, size_t wl)
             snprintf(why, wl, "control character 0x%02x in the value", c);
             return 0;
         }
-        if ((c == ';' || c == '#') && i > 0 && isspace((unsigned char)s[i - 1])) {
-            snprintf(why, wl, "'%c' after a blank would start a comment", c);
+        /* written back as "key = value", a first ';' or '#' follows a blank too */
+        if ((c == ';' || c == '#') && (i == 0 || isspace((unsigned char)s[i - 1]))) {
+            snprintf(why, wl, "'%c' %s would start a comment", c,
+                     i ? "after a blank" : "at the start");
             return 0;
         }
     }

@@ -438,10 +438,10 @@ static void test_overrides(void **state)
     gs_config_free(&table, &c);
 
     const char *bad[] = {"field.block=3", "field.blok=4", "noequals", "field.name=a ;b",
-                         "feild.block=4", "field.weight=0"};
-    assert_int_equal(gs_config_load(&table, path, bad, 6, &c, &p), GS_ERR_ARG);
+                         "feild.block=4", "field.weight=0", "field.name=;b"};
+    assert_int_equal(gs_config_load(&table, path, bad, 7, &c, &p), GS_ERR_ARG);
     dump(&p);
-    assert_int_equal(p.n, 6);
+    assert_int_equal(p.n, 7);
     assert_true(find_problem(&p, "--set field.weight=0: expected a number in (0, 10] (out of range)",
                              NULL) >= 0);
     assert_true(find_problem(&p, "--set field.block=3: expected an integer power of two in [2, 64]",
@@ -450,6 +450,9 @@ static void test_overrides(void **state)
                              NULL) >= 0);
     assert_true(find_problem(&p, "--set noequals: expected section.key=value", NULL) >= 0);
     assert_true(find_problem(&p, "--set field.name=a ;b:", "would start a comment", NULL) >= 0);
+    /* written back as "name = ;b" it would read as empty (found by fuzz_config) */
+    assert_true(find_problem(&p, "--set field.name=;b:", "at the start would start a comment",
+                             NULL) >= 0);
     assert_true(find_problem(&p, "--set feild.block=4: unknown key; did you mean 'field.block'?",
                              NULL) >= 0);
     gs_cfg_problems_free(&p);
