@@ -457,6 +457,151 @@ static void test_search_partition_matches_serial(void **state)
     gs_free(q);
 }
 
+/* The paper's pairing (eqs. 1-3, the iterated greedy) written plainly: every
+ * S point tested for every target in S order, weights formed where used. */
+static void pairing_reference(const gs_points_pairing_in *in, long *pair)
+{
+    const gs_points_params *p = in->p;
+    size_t nq = in->nq, ns = in->ns;
+    double inv_sp = 1.0 / in->spacing, md2 = p->max_pair_dist * p->max_pair_dist;
+    double *c = malloc(nq * ns * sizeof *c), *fl = malloc(nq * sizeof *fl);
+    double *fd = malloc(3 * nq * sizeof *fd);
+    long *prev = malloc(nq * sizeof *prev);
+    unsigned char *used = calloc(ns, 1);
+    assert_non_null(c);
+    for (size_t q = 0; q < nq; q++)
+        for (size_t k = 0; k < ns; k++) {
+            const gs_opoint *a = &in->S[k], *b = &in->Q[q];
+            double d2 = v3_dist2(a->p, b->p), nt = 0.5 * (1.0 - v3_dot(a->n, b->n));
+            double dv = in->Sv[k] - in->Qv[q];
+            c[q * ns + k] = d2 > md2 || nt > p->max_normal || fabs(dv) > p->max_variation
+                                ? INFINITY
+                                : p->w_p * sqrt(d2) * inv_sp + p->w_n * nt + p->w_v * dv * dv;
+        }
+    for (size_t q = 0; q < nq; q++) {
+        long best = -1;
+        double bc = INFINITY;
+        for (size_t k = 0; k < ns; k++)
+            if (!used[k] && c[q * ns + k] < bc) {
+                bc = c[q * ns + k];
+                best = (long)k;
+            }
+        pair[q] = best;
+        if (best >= 0)
+            used[best] = 1;
+    }
+    double two_sig2 = 2.0 * p->coherence_sigma * p->coherence_sigma;
+    for (int it = 0; it < p->greedy_iterations; it++) {
+        memcpy(prev, pair, nq * sizeof *prev);
+        for (size_t q = 0; q < nq; q++) {
+            double sw = 0, sl = 0, sd[3] = {0, 0, 0};
+            for (size_t r = 0; r < nq; r++) {
+                if (r == q || prev[r] < 0)
+                    continue;
+                double th = exp(-v3_dist2(in->Q[q].p, in->Q[r].p) / two_sig2);
+                const double *pt = in->S[prev[r]].p, *pr = in->Q[r].p;
+                double e[3] = {pt[0] - pr[0], pt[1] - pr[1], pt[2] - pr[2]};
+                sw += th;
+                sl += th * sqrt(v3_dot(e, e));
+                for (int k = 0; k < 3; k++)
+                    sd[k] += th * e[k];
+            }
+            fl[q] = sw > 0 ? sl / sw : -1;
+            v3_normalize(sd);
+            memcpy(fd + 3 * q, sd, sizeof sd);
+        }
+        memset(used, 0, ns);
+        for (size_t q = 0; q < nq; q++) {
+            pair[q] = -1;
+            if (prev[q] < 0)
+                continue;
+            double bc = INFINITY;
+            for (size_t k = 0; k < ns; k++) {
+                if (used[k] || !isfinite(c[q * ns + k]))
+                    continue;
+                double cost = c[q * ns + k];
+                if (fl[q] >= 0) {
+                    const double *ps = in->S[k].p, *pq = in->Q[q].p;
+                    double e[3] = {ps[0] - pq[0], ps[1] - pq[1], ps[2] - pq[2]};
+                    double len = sqrt(v3_dot(e, e));
+                    cost += p->w_l * fabs(len - fl[q]) * inv_sp;
+                    if (len > 0)
+                        cost += 0.5 * p->w_d * (1.0 - v3_dot(fd + 3 * q, e) / len);
+                }
+                if (cost < bc) {
+                    bc = cost;
+                    pair[q] = (long)k;
+                }
+            }
+            if (pair[q] >= 0)
+                used[pair[q]] = 1;
+        }
+    }
+    free(c);
+    free(fl);
+    free(fd);
+    free(prev);
+    free(used);
+}
+
+/* gs_points_pairing (xy buckets, tabulated weights) pairs exactly as the
+ * plain full scan: strips like the synthesis's, wide and narrow pairing
+ * distances, and S with exact duplicates (equal costs: lowest index). */
+static void test_pairing_matches_full_scan(void **state)
+{
+    (void)state;
+    gs_rng r;
+    gs_rng_init(&r, 11, 3);
+    int checked = 0;
+    for (int trial = 0; trial < 24; trial++) {
+        size_t ns = 200 + gs_rng_below(&r, 1200), nq = 8 + gs_rng_below(&r, 90);
+        gs_opoint *S = malloc(ns * sizeof *S), *Q = malloc(nq * sizeof *Q);
+        double *Sv = malloc(ns * sizeof *Sv), *Qv = malloc(nq * sizeof *Qv);
+        long *got = malloc(nq * sizeof *got), *want = malloc(nq * sizeof *want);
+        assert_non_null(S);
+        assert_non_null(Q);
+        /* an L-shaped strip of width 0.4 around a 1.6 patch, z a bumpy layer */
+        for (size_t i = 0; i < ns + nq; i++) {
+            gs_opoint *o = i < ns ? &S[i] : &Q[i - ns];
+            double u = gs_rng_uniform(&r) * 2.0, v = gs_rng_uniform(&r) * 0.4;
+            int left = gs_rng_below(&r, 2);
+            o->p[0] = left ? v : u;
+            o->p[1] = left ? u : v;
+            o->p[2] = 0.05 * sin(9 * o->p[0]) * cos(7 * o->p[1]) + 0.02 * gs_rng_uniform(&r);
+            double nn[3] = {0.3 * (gs_rng_uniform(&r) - 0.5), 0.3 * (gs_rng_uniform(&r) - 0.5), 1};
+            v3_normalize(nn);
+            memcpy(o->n, nn, sizeof nn);
+            *(i < ns ? &Sv[i] : &Qv[i - ns]) = 0.05 * gs_rng_uniform(&r);
+        }
+        if (trial % 3 == 2) /* duplicates: every tenth S point repeats an earlier one */
+            for (size_t i = 10; i < ns; i += 10) {
+                size_t j = gs_rng_below(&r, i);
+                S[i] = S[j];
+                Sv[i] = Sv[j];
+            }
+        gs_points_params p;
+        gs_points_params_default(4, 4, 0.033, &p);
+        p.max_pair_dist = trial % 2 ? 0.05 + 0.3 * gs_rng_uniform(&r) : 5.0;
+        p.greedy_iterations = (int)(trial % 4);
+        gs_points_pairing_in in = {S, Sv, ns, Q, Qv, nq, &p, 0.033};
+        assert_int_equal(gs_points_pairing(&in, got), GS_OK);
+        pairing_reference(&in, want);
+        for (size_t q = 0; q < nq; q++) {
+            if (got[q] != want[q])
+                fail_msg("trial %d: target %zu paired with %ld, full scan %ld", trial, q, got[q],
+                         want[q]);
+            checked += want[q] >= 0;
+        }
+        free(S);
+        free(Q);
+        free(Sv);
+        free(Qv);
+        free(got);
+        free(want);
+    }
+    assert_true(checked > 500); /* the cases pair most targets */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -466,6 +611,7 @@ int main(void)
         cmocka_unit_test(test_tps_interpolates_and_affine),
         cmocka_unit_test(test_generators_and_padding_check),
         cmocka_unit_test(test_search_partition_matches_serial),
+        cmocka_unit_test(test_pairing_matches_full_scan),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
