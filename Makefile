@@ -27,8 +27,12 @@ CFLAGS   ?= -O2 -g
 CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L $(WARN) -Iinclude -Isrc $(HDF5_CFLAGS) $(OSMESA_CFLAGS) -MMD -MP
 CXXFLAGS ?= -O2 -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Wno-unused-parameter -Iinclude -Isrc $(MPI_CFLAGS) -MMD -MP
-LDLIBS   := $(HDF5_LIBS) $(OSMESA_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz \
-            -lopenvdb -ltbb -lstdc++ -lm
+LDLIBS   := $(HDF5_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz -lm
+# OpenVDB and OSMesa live in plugins loaded on first use (include/geosynth/plugin.h):
+# linked into the program they cost every rank ~65 ms of start-up. The programs
+# export their symbols (-rdynamic) so the plugins can call gs_* back.
+VDB_LIBS := -lopenvdb -ltbb
+LDFLAGS  += -rdynamic
 
 ifeq ($(SANITIZE),)
 BUILD := build
@@ -45,12 +49,14 @@ SAN_OBJ  := $(BUILD)/tests/san/nodlclose.o
 LDFLAGS  += -Wl,--export-dynamic-symbol=dlclose
 endif
 
-LIB_SRC  := $(filter-out src/cli/main.c,$(sort $(wildcard src/*/*.c)))
+LIB_SRC  := $(filter-out src/cli/main.c src/plugins/%,$(sort $(wildcard src/*/*.c)))
 CLI_SRC  := src/cli/main.c
-BRIDGE   := src/io/vdb_bridge.cpp
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
-BRIDGE_OBJ := $(BUILD)/src/io/vdb_bridge.o
 LIB      := $(BUILD)/libgeosynth.a
+# Plugins: $(BUILD)/plugins/geosynth-NAME.so, found there by programs built here
+# (GS_PLUGIN_BUILD_DIR) and in PREFIX/lib/geosynth once installed.
+PLUGIN_DIR := $(BUILD)/plugins
+PLUGINS  := $(PLUGIN_DIR)/geosynth-vdb.so $(PLUGIN_DIR)/geosynth-render.so
 
 UNIT_SRC := $(sort $(wildcard tests/unit/test_*.c))
 UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/unit/%)
@@ -64,7 +70,7 @@ TEST_UTIL_OBJ := $(TEST_UTIL:%.c=$(BUILD)/%.o)
 FUZZ_SRC := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN := $(FUZZ_SRC:tests/fuzz/%.c=build-fuzz/%)
 
-.PHONY: all deps test unit mpi e2e fuzz valgrind bench demo install clean help tests-build
+.PHONY: all deps test unit mpi e2e fuzz valgrind bench demo install clean help tests-build plugins
 .DEFAULT_GOAL := all
 
 all: $(BIN)/geosynth
@@ -87,16 +93,32 @@ $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -c $< -o $@
 
-# The one C++ file (all OpenVDB includes live here); rebuilt only when it changes.
-$(BRIDGE_OBJ): $(BRIDGE)
-	@mkdir -p $(dir $@)
-	$(CXX) $(CXXFLAGS) -c $< -o $@
+$(BUILD)/src/io/plugin.o: CFLAGS += -DGS_PLUGIN_BUILD_DIR='"$(abspath $(PLUGIN_DIR))"'
 
-$(LIB): $(LIB_OBJ) $(BRIDGE_OBJ)
+# The one C++ file (all OpenVDB includes live here); rebuilt only when it changes.
+$(BUILD)/src/plugins/vdb.o: src/plugins/vdb.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS) -fPIC -c $< -o $@
+
+$(BUILD)/src/plugins/render_gl.o: src/plugins/render_gl.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -fPIC -c $< -o $@
+
+$(PLUGIN_DIR)/geosynth-vdb.so: $(BUILD)/src/plugins/vdb.o
+	@mkdir -p $(dir $@)
+	$(CXX) -shared $(filter -fsanitize=%,$(LDFLAGS)) $< $(VDB_LIBS) -o $@
+
+$(PLUGIN_DIR)/geosynth-render.so: $(BUILD)/src/plugins/render_gl.o
+	@mkdir -p $(dir $@)
+	$(CC) -shared $(filter -fsanitize=%,$(LDFLAGS)) $< $(OSMESA_LIBS) -o $@
+
+plugins: $(PLUGINS)
+
+$(LIB): $(LIB_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(BIN)/geosynth: $(BUILD)/src/cli/main.o $(LIB) $(SAN_OBJ)
+$(BIN)/geosynth: $(BUILD)/src/cli/main.o $(LIB) $(SAN_OBJ) | $(PLUGINS)
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
@@ -108,11 +130,11 @@ $(BUILD)/tests/mpi/%: tests/mpi/%.c $(LIB) $(TEST_UTIL_OBJ) $(SAN_OBJ)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(SAN_OBJ) $(LIB) $(LDLIBS) -o $@
 
-$(BUILD)/tests/bench/%: tests/bench/%.c $(LIB)
+$(BUILD)/tests/bench/%: tests/bench/%.c $(LIB) | $(PLUGINS)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -O3 $(LDFLAGS) $< $(LIB) $(LDLIBS) -lfftw3 -o $@
 
-tests-build: $(BIN)/geosynth $(UNIT_BIN) $(MPI_BIN)
+tests-build: $(BIN)/geosynth $(UNIT_BIN) $(MPI_BIN) $(PLUGINS)
 
 # Fuzz targets: clang + libFuzzer + ASan/UBSan over a separate build of the library.
 FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -g -O1 -Iinclude -Isrc $(HDF5_CFLAGS) \
@@ -121,19 +143,11 @@ FUZZ_LIB_OBJ := $(LIB_SRC:%.c=build-fuzz/%.o)
 build-fuzz/%.o: %.c
 	@mkdir -p $(dir $@)
 	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -c $< -o $@
-# The fuzz programs link an uninstrumented bridge: g++'s UBSan runtime does not
-# link into clang's libFuzzer binaries, so a SANITIZE build compiles its own.
-ifeq ($(SANITIZE),)
-FUZZ_BRIDGE_OBJ := $(BRIDGE_OBJ)
-else
-FUZZ_BRIDGE_OBJ := build-fuzz/src/io/vdb_bridge.o
-$(FUZZ_BRIDGE_OBJ): $(BRIDGE)
+# The fuzz programs never reach the plugins: they are not built for them.
+build-fuzz/src/io/plugin.o: FUZZ_CFLAGS += -DGS_PLUGIN_BUILD_DIR='"$(abspath build-fuzz/plugins)"'
+build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
 	@mkdir -p $(dir $@)
-	$(CXX) $(filter-out -fsanitize=%,$(CXXFLAGS)) -c $< -o $@
-endif
-build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ) $(FUZZ_BRIDGE_OBJ)
-	@mkdir -p $(dir $@)
-	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer $< $(FUZZ_LIB_OBJ) $(FUZZ_BRIDGE_OBJ) $(LDLIBS) -o $@
+	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer -rdynamic $< $(FUZZ_LIB_OBJ) $(LDLIBS) -o $@
 
 fuzz: $(FUZZ_BIN)
 
@@ -157,9 +171,10 @@ demo: deps
 	@$(MAKE) --no-print-directory $(BIN)/geosynth
 	@scripts/demo.sh
 
-install: $(BIN)/geosynth
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/geosynth/configs
+install: $(BIN)/geosynth $(PLUGINS)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/geosynth $(DESTDIR)$(PREFIX)/share/geosynth/configs
 	install -m 755 $(BIN)/geosynth $(DESTDIR)$(PREFIX)/bin/geosynth
+	install -m 755 $(PLUGINS) $(DESTDIR)$(PREFIX)/lib/geosynth/
 	cp -r configs/. $(DESTDIR)$(PREFIX)/share/geosynth/configs/
 
 clean:

@@ -1,4 +1,7 @@
-/* OpenVDB bridge (src/io/vdb_bridge.cpp, the only C++ in geosynth).
+/* OpenVDB bridge (src/plugins/vdb.cpp, the only C++ in geosynth, built as the
+ * plugin geosynth-vdb.so and loaded on the first call that needs it, see
+ * geosynth/plugin.h; the dense-field helpers are plain C in src/io/vdb.c).
+ * A missing or broken plugin gives GS_ERR_LIB naming the files tried.
  *
  * Everything OpenVDB stays behind this C interface. Every C++ exception is
  * caught at the boundary and becomes a gs_err: GS_ERR_IO for file problems

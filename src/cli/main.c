@@ -24,6 +24,7 @@
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/run.h"
+#include "geosynth/plugin.h"
 #include "geosynth/vdb.h"
 #include "geosynth/version.h"
 
@@ -249,7 +250,9 @@ static int cmd_version(void)
         printf("geosynth %s (file format %d)\n", GS_VERSION_STRING, GS_FORMAT_VERSION);
         printf("MPI %d.%d: %s\n", major, minor, lib);
         printf("%s\n", gs_h5_library_version());
-        printf("OpenVDB %s\n", gs_vdb_library_version());
+        const char *vdb = gs_vdb_library_version(); /* loads the plugin */
+        const char *plug = gs_plugin_path("vdb");
+        printf("OpenVDB %s (plugin %s)\n", vdb, plug ? plug : "not found");
         int n;
         const gs_engine *const *engines = gs_engines(&n);
         printf("engines:");

@@ -74,4 +74,25 @@ done
 run_gs 0 field -c "$Q" -o armadillo --set example.kind=file --set example.path=$M/armadillo.obj --set example.size=32 --set field.target=48 --set output.geometry=copy
 expect_rc 0 "closed mesh (armadillo.obj) as a signed example, copied triangles"
 
+# --- plugins (include/geosynth/plugin.h) -------------------------------------------
+# The program does not link OpenVDB or OSMesa; they come from plugins when used.
+ldd "$GS_BIN" | grep -qE 'libopenvdb|libOSMesa|libtbb' && bad "the program links OpenVDB/OSMesa itself" || ok "OpenVDB and OSMesa are not linked into the program"
+run_gs 0 version
+expect_out "OpenVDB" "version loads the OpenVDB plugin"
+expect_out "geosynth-vdb.so" "version names the plugin file"
+# an install tree: the plugins beside the program in ../lib/geosynth
+mkdir -p inst/bin inst/lib/geosynth
+plugdir=$(sed -n 's|.*(plugin \(.*\)/geosynth-vdb.so)|\1|p' <<<"$out")
+cp "$GS_BIN" inst/bin/ && cp "$plugdir"/geosynth-*.so inst/lib/geosynth/
+out=$(inst/bin/geosynth version 2>&1)
+grep -qF "inst/bin/../lib/geosynth/geosynth-vdb.so" <<<"$out" && ok "an installed program finds its plugins in ../lib/geosynth" || bad "installed program: $out"
+# a broken plugin is named, nothing else is tried, no output is left half-written
+mkdir -p badplug && echo "not a shared object" > badplug/geosynth-vdb.so
+GEOSYNTH_PLUGIN_DIR=$PWD/badplug run_gs 2 field -c "$Q" -o badvdb
+expect_rc 7 "a broken OpenVDB plugin stops the run"
+expect_err "badplug/geosynth-vdb.so" "the broken plugin is named"
+expect_err "GEOSYNTH_PLUGIN_DIR" "the error says how to point at the plugins"
+expect_no_crash "broken plugin"
+[[ ! -e badvdb/contour.ply ]] && ok "no mesh output from the failed run" || bad "a mesh was written by the failed run"
+
 finish

@@ -1,6 +1,8 @@
 // The one C++ file: every OpenVDB include lives here, behind extern "C".
-// See include/geosynth/vdb.h. Every entry point wraps its body in
-// GS_VDB_GUARD so no C++ exception crosses into C.
+// It is the plugin geosynth-vdb.so (include/geosynth/plugin.h): entry point
+// gs_vdbp_X implements gs_vdb_X of include/geosynth/vdb.h, which src/io/vdb.c
+// forwards here. Every entry point wraps its body in GS_VDB_GUARD so no C++
+// exception crosses into C.
 // Imath half conversions without the lookup table: the table lives in
 // libImath, which is not on the link line (only libopenvdb is).
 #define IMATH_HALF_NO_LOOKUP_TABLE
@@ -177,35 +179,9 @@ gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_
 
 } // namespace
 
-extern "C" const char *gs_vdb_library_version(void) { return openvdb::getLibraryVersionString(); }
+extern "C" const char *gs_vdbp_library_version(void) { return openvdb::getLibraryVersionString(); }
 
-extern "C" gs_err gs_vdb_dense_alloc(gs_vdb_dense *d, size_t nx, size_t ny, size_t nz)
-{
-    std::memset(d, 0, sizeof *d);
-    size_t n;
-    GS_CHECK(nx >= 1 && ny >= 1 && nz >= 1 && gs_mul_size(nx, ny, &n) && gs_mul_size(n, nz, &n) &&
-                 n <= GS_VDB_MAX_SAMPLES,
-             GS_ERR_ARG, "dense field of %zux%zux%zu samples: expected 1 to %zu samples", nx, ny,
-             nz, GS_VDB_MAX_SAMPLES);
-    void *v = nullptr;
-    GS_CALL(gs_alloc_array(&v, n, sizeof(float), "dense field"));
-    d->v = static_cast<float *>(v);
-    d->nx = nx;
-    d->ny = ny;
-    d->nz = nz;
-    d->voxel = 1.0;
-    return GS_OK;
-}
-
-extern "C" void gs_vdb_dense_destroy(gs_vdb_dense *d)
-{
-    if (!d)
-        return;
-    gs_free(d->v);
-    std::memset(d, 0, sizeof *d);
-}
-
-extern "C" gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
+extern "C" gs_err gs_vdbp_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
                                          gs_vdb_grid_t *out)
 {
     GS_CALL(check_dense(d, name ? name : "grid"));
@@ -217,7 +193,7 @@ extern "C" gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name
     });
 }
 
-extern "C" gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
+extern "C" gs_err gs_vdbp_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
 {
     GS_CHECK(g && g->grid, GS_ERR_ARG, "no grid");
     GS_VDB_GUARD(g->name.c_str(), {
@@ -226,7 +202,7 @@ extern "C" gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
     });
 }
 
-extern "C" void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
+extern "C" void gs_vdbp_grid_destroy(gs_vdb_grid_t *g)
 {
     if (g && *g) {
         delete *g;
@@ -234,17 +210,17 @@ extern "C" void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
     }
 }
 
-extern "C" const char *gs_vdb_grid_name(gs_vdb_grid_t g)
+extern "C" const char *gs_vdbp_grid_name(gs_vdb_grid_t g)
 {
     return g ? g->name.c_str() : "";
 }
 
-extern "C" size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g)
+extern "C" size_t gs_vdbp_grid_active_voxels(gs_vdb_grid_t g)
 {
     return g && g->grid ? (size_t)g->grid->activeVoxelCount() : 0;
 }
 
-extern "C" gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)
+extern "C" gs_err gs_vdbp_write(const char *path, const gs_vdb_grid_t *grids, int n)
 {
     GS_CHECK(path && path[0], GS_ERR_ARG, "vdb output path is empty");
     GS_CHECK(n >= 1 && grids, GS_ERR_ARG, "%s: no grid to write", path);
@@ -273,7 +249,7 @@ extern "C" gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int
     });
 }
 
-extern "C" gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out)
+extern "C" gs_err gs_vdbp_read(const char *path, const char *name, gs_vdb_grid_t *out)
 {
     GS_CHECK(path && path[0], GS_ERR_ARG, "vdb path is empty");
     FILE *f = std::fopen(path, "rb");
@@ -313,28 +289,28 @@ extern "C" gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t 
     });
 }
 
-extern "C" gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense *d)
+extern "C" gs_err gs_vdbp_write_dense(const char *path, const char *name, const gs_vdb_dense *d)
 {
     gs_vdb_grid_t g = nullptr;
-    GS_CALL(gs_vdb_grid_from_dense(d, name, 0.0f, &g));
-    gs_err err = gs_vdb_write(path, &g, 1);
-    gs_vdb_grid_destroy(&g);
+    GS_CALL(gs_vdbp_grid_from_dense(d, name, 0.0f, &g));
+    gs_err err = gs_vdbp_write(path, &g, 1);
+    gs_vdbp_grid_destroy(&g);
     GS_CALL(err);
     return GS_OK;
 }
 
-extern "C" gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out)
+extern "C" gs_err gs_vdbp_read_dense(const char *path, const char *name, gs_vdb_dense *out)
 {
     std::memset(out, 0, sizeof *out);
     gs_vdb_grid_t g = nullptr;
-    GS_CALL(gs_vdb_read(path, name, &g));
+    GS_CALL(gs_vdbp_read(path, name, &g));
     gs_err err = GS_OK;
     try {
         err = dense_from_grid(*g->grid, path, out);
     } catch (...) {
         err = raise_current(__func__, path);
     }
-    gs_vdb_grid_destroy(&g);
+    gs_vdbp_grid_destroy(&g);
     GS_CALL(err);
     return GS_OK;
 }
@@ -370,7 +346,7 @@ double max_distance_bound(const gs_mesh *m, const double lo[3], const double hi[
 
 } // namespace
 
-extern "C" gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
+extern "C" gs_err gs_vdbp_mesh_to_distance(const gs_mesh *m, const char *what,
                                           const gs_vdb_distance_opts *opts, gs_vdb_dense *out)
 {
     const char *w = what ? what : "mesh";
@@ -446,7 +422,7 @@ extern "C" gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
     return GS_OK;
 }
 
-extern "C" gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
+extern "C" gs_err gs_vdbp_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
                                        gs_mesh *out)
 {
     std::memset(out, 0, sizeof *out);

@@ -1,0 +1,162 @@
+/* The gs_vdb_* interface (include/geosynth/vdb.h): dense fields here, the
+ * rest forwarded to the OpenVDB plugin (src/plugins/vdb.cpp, loaded on first
+ * use; include/geosynth/plugin.h says why). */
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "geosynth/plugin.h"
+#include "geosynth/vdb.h"
+
+gs_err gs_vdb_dense_alloc(gs_vdb_dense *d, size_t nx, size_t ny, size_t nz)
+{
+    memset(d, 0, sizeof *d);
+    size_t n;
+    GS_CHECK(nx >= 1 && ny >= 1 && nz >= 1 && gs_mul_size(nx, ny, &n) && gs_mul_size(n, nz, &n) &&
+                 n <= GS_VDB_MAX_SAMPLES,
+             GS_ERR_ARG, "dense field of %zux%zux%zu samples: expected 1 to %zu samples", nx, ny,
+             nz, GS_VDB_MAX_SAMPLES);
+    void *v = NULL;
+    GS_CALL(gs_alloc_array(&v, n, sizeof(float), "dense field"));
+    d->v = v;
+    d->nx = nx;
+    d->ny = ny;
+    d->nz = nz;
+    d->voxel = 1.0;
+    return GS_OK;
+}
+
+void gs_vdb_dense_destroy(gs_vdb_dense *d)
+{
+    if (!d)
+        return;
+    gs_free(d->v);
+    memset(d, 0, sizeof *d);
+}
+
+/* The plugin's gs_vdbp_<fn> into the function pointer f (POSIX: a data
+ * pointer from dlsym converts to a function pointer through memcpy). */
+#define VDB_FN(f, fn)                                                        \
+    do {                                                                     \
+        void *sym_;                                                          \
+        GS_CALL(gs_plugin_sym("vdb", "gs_vdbp_" #fn, &sym_));                \
+        memcpy(&(f), &sym_, sizeof(f));                                      \
+    } while (0)
+
+const char *gs_vdb_library_version(void)
+{
+    const char *(*f)(void);
+    void *sym;
+    if (gs_plugin_sym("vdb", "gs_vdbp_library_version", &sym) != GS_OK) {
+        gs_error_clear();
+        return "unavailable (the OpenVDB plugin did not load)";
+    }
+    memcpy(&f, &sym, sizeof f);
+    return f();
+}
+
+gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
+                              gs_vdb_grid_t *out)
+{
+    gs_err (*f)(const gs_vdb_dense *, const char *, float, gs_vdb_grid_t *);
+    VDB_FN(f, grid_from_dense);
+    GS_CALL(f(d, name, tolerance, out));
+    return GS_OK;
+}
+
+gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
+{
+    gs_err (*f)(gs_vdb_grid_t, gs_vdb_dense *);
+    VDB_FN(f, grid_to_dense);
+    GS_CALL(f(g, out));
+    return GS_OK;
+}
+
+/* A grid exists only once the plugin is loaded, so the lookups of the three
+ * grid accessors below cannot fail (a NULL grid needs no plugin). */
+void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
+{
+    if (!g || !*g)
+        return;
+    void (*f)(gs_vdb_grid_t *);
+    void *sym;
+    if (gs_plugin_sym("vdb", "gs_vdbp_grid_destroy", &sym) != GS_OK) {
+        gs_error_clear();
+        return;
+    }
+    memcpy(&f, &sym, sizeof f);
+    f(g);
+}
+
+const char *gs_vdb_grid_name(gs_vdb_grid_t g)
+{
+    const char *(*f)(gs_vdb_grid_t);
+    void *sym;
+    if (!g || gs_plugin_sym("vdb", "gs_vdbp_grid_name", &sym) != GS_OK) {
+        gs_error_clear();
+        return "";
+    }
+    memcpy(&f, &sym, sizeof f);
+    return f(g);
+}
+
+size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g)
+{
+    size_t (*f)(gs_vdb_grid_t);
+    void *sym;
+    if (!g || gs_plugin_sym("vdb", "gs_vdbp_grid_active_voxels", &sym) != GS_OK) {
+        gs_error_clear();
+        return 0;
+    }
+    memcpy(&f, &sym, sizeof f);
+    return f(g);
+}
+
+gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)
+{
+    gs_err (*f)(const char *, const gs_vdb_grid_t *, int);
+    VDB_FN(f, write);
+    GS_CALL(f(path, grids, n));
+    return GS_OK;
+}
+
+gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out)
+{
+    gs_err (*f)(const char *, const char *, gs_vdb_grid_t *);
+    VDB_FN(f, read);
+    GS_CALL(f(path, name, out));
+    return GS_OK;
+}
+
+gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense *d)
+{
+    gs_err (*f)(const char *, const char *, const gs_vdb_dense *);
+    VDB_FN(f, write_dense);
+    GS_CALL(f(path, name, d));
+    return GS_OK;
+}
+
+gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out)
+{
+    gs_err (*f)(const char *, const char *, gs_vdb_dense *);
+    VDB_FN(f, read_dense);
+    GS_CALL(f(path, name, out));
+    return GS_OK;
+}
+
+gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
+                               const gs_vdb_distance_opts *opts, gs_vdb_dense *out)
+{
+    gs_err (*f)(const gs_mesh *, const char *, const gs_vdb_distance_opts *, gs_vdb_dense *);
+    VDB_FN(f, mesh_to_distance);
+    GS_CALL(f(m, what, opts, out));
+    return GS_OK;
+}
+
+gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
+                            gs_mesh *out)
+{
+    gs_err (*f)(const gs_vdb_dense *, double, double, gs_mesh *);
+    VDB_FN(f, dense_to_mesh);
+    GS_CALL(f(d, isovalue, adaptivity, out));
+    return GS_OK;
+}
