@@ -40,6 +40,7 @@
  * colour, box, params, region id, pass); the gs_regions random stream is not
  * used. So the final lattice is identical for every rank count.
  */
+#include <math.h>
 #include <limits.h>
 #include <stdio.h>
 #include <string.h>
@@ -49,6 +50,7 @@
 #include "geosynth/engine.h"
 #include "geosynth/h5.h"
 #include "geosynth/image.h"
+#include "geosynth/json.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
@@ -915,9 +917,7 @@ static const char *const q_key[Q_N] = {
     "window_setup_s", "outside_windows_s", "cpu_s", "duplicates"};
 
 typedef struct queue_report_t {
-    double sum[Q_N], max[Q_N];
-    char json[4096]; /* ", \"per_rank\": {key: [rank 0, rank 1, ...], ...}" (rank 0; ""
-                        when too many ranks to list) */
+    double sum[Q_N], max[Q_N]; /* over the ranks (rank 0) */
 } queue_report_t;
 
 /* Collective. The ideal speed-up over one rank is the sum over the max of
@@ -927,7 +927,8 @@ typedef struct queue_report_t {
  * window_setup_s = building the window's conflict lists and scheduler
  * (every rank does it, serial), outside_windows_s = the rest of the
  * synthesis phase (plans, coverage, checkpoints). */
-static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q)
+static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q,
+                           gs_json *j)
 {
     double mine[Q_N] = {(double)e->queue.computed, e->queue.t_compute, e->queue.t_wait,
                         e->queue.t_tail, e->queue.t_exchange, e->queue.t_apply, e->queue.t_pass,
@@ -943,23 +944,22 @@ static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue
     memset(q, 0, sizeof *q);
     if (run->rank != 0)
         return GS_OK;
-    size_t at = (size_t)snprintf(q->json, sizeof q->json, ", \"per_rank\": {");
+    /* "per_rank": {key: [rank 0, rank 1, ...], ...} into the open object j */
+    gs_json_begin_object(j, "per_rank");
     for (int k = 0; k < Q_N; k++) {
-        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
-                               "%s\"%s\": [", k ? ", " : "", q_key[k]);
+        gs_json_begin_array(j, q_key[k]);
         for (int r = 0; r < run->size; r++) {
             double v = all[(size_t)r * Q_N + k];
             q->sum[k] += v;
             q->max[k] = r == 0 || v > q->max[k] ? v : q->max[k];
-            at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0,
-                                   k == Q_REGIONS || k == Q_DUPLICATES ? "%s%.0f" : "%s%.4f",
-                                   r ? ", " : "", v);
+            if (k == Q_REGIONS || k == Q_DUPLICATES)
+                gs_json_i64(j, NULL, (int64_t)v);
+            else
+                gs_json_f64(j, NULL, round(v * 1e4) / 1e4);
         }
-        at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "]");
+        gs_json_end_array(j);
     }
-    at += (size_t)snprintf(q->json + at, at < sizeof q->json ? sizeof q->json - at : 0, "}");
-    if (at >= sizeof q->json) /* too many ranks to list: leave the arrays out */
-        q->json[0] = '\0';
+    gs_json_end_object(j);
     gs_free(all);
     return GS_OK;
 }
@@ -1239,7 +1239,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     memset(&e, 0, sizeof e);
     e.cfg = cfgp;
     gs_err err = GS_OK;
-    char extra[6144];
+    char extra[512];
 
     gs_run_phase_begin(run, "setup");
     err = setup(run, &e, resume);
@@ -1266,18 +1266,29 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     }
     const double cells = (double)lattice_cells(&e.lat);
     queue_report_t qr;
-    GS_TRY(err, queue_report(run, &e, gs_cpu_now() - cpu0, &qr), done);
-    snprintf(extra, sizeof extra,
-             "{\"passes\": %d, \"regions\": %llu, \"accepted\": %llu, \"failed\": %llu, "
-             "\"retries\": %llu, \"rejected_attempts\": %llu, \"backtracks\": %llu, "
-             "\"min_coverage\": %llu, \"cells_per_second\": %.1f%s}",
-             e.stats.passes, (unsigned long long)e.stats.regions,
-             (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
-             (unsigned long long)(e.stats.attempts - e.stats.regions),
-             (unsigned long long)(e.stats.attempts - e.stats.accepted),
-             (unsigned long long)e.stats.backtracks, (unsigned long long)e.stats.min_coverage,
-             e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0, qr.json);
-    GS_TRY(err, gs_run_phase_end(run, extra), done);
+    {
+        gs_json j;
+        gs_json_init(&j);
+        gs_json_begin_object(&j, NULL);
+        gs_json_i64(&j, "passes", e.stats.passes);
+        gs_json_u64(&j, "regions", e.stats.regions);
+        gs_json_u64(&j, "accepted", e.stats.accepted);
+        gs_json_u64(&j, "failed", e.stats.failed);
+        gs_json_u64(&j, "retries", e.stats.attempts - e.stats.regions);
+        gs_json_u64(&j, "rejected_attempts", e.stats.attempts - e.stats.accepted);
+        gs_json_u64(&j, "backtracks", e.stats.backtracks);
+        gs_json_u64(&j, "min_coverage", e.stats.min_coverage);
+        gs_json_f64(&j, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+        err = queue_report(run, &e, gs_cpu_now() - cpu0, &qr, &j);
+        gs_json_end_object(&j);
+        if (err == GS_OK && j.failed)
+            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                 "out of memory for the synthesis phase report");
+        if (err == GS_OK)
+            err = gs_run_phase_end(run, j.buf);
+        gs_json_free(&j);
+        GS_TRY(err, err, done);
+    }
 
     if (e.params.mirror[0] || e.params.mirror[1]) {
         /* mirror the synthesized lower half into the full output */

@@ -131,6 +131,16 @@ run_gs 3 model -c flat.ini -o flat
 expect_rc 0 "2D example at np=3"
 [[ -s flat/lattice.png ]] && ok "2D output writes lattice.png" || bad "no lattice.png"
 check_clean rooms.txt flat/lattice.h5 "2D output"
+# the synthesis phase line reports every rank's times, one entry per rank, regions summing up
+/usr/bin/python3 - flat/metrics.jsonl <<'EOF'
+import json, sys
+ph = [json.loads(l) for l in open(sys.argv[1]) if '"synthesis"' in l][-1]
+pr = ph["per_rank"]
+assert ph["ranks"] == 3 and all(len(v) == 3 for v in pr.values()), pr
+assert sum(pr["regions"]) == ph["regions"], (pr["regions"], ph["regions"])
+assert all(x >= 0 for v in pr.values() for x in v)
+EOF
+[[ $? -eq 0 ]] && ok "per-rank synthesis times: 3 entries each, regions add up" || bad "per_rank report wrong"
 
 run_gs 0 model -c small.ini -o col --set model.start_column="1,0,0,0,0,0,0,0,0,0" --set model.max_passes=1
 if [[ $rc -eq 0 ]]; then check_clean "$S/escheresque.txt" col/lattice.h5 "start_column run"
