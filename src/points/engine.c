@@ -437,9 +437,11 @@ static uint64_t texture_digest(const gs_points_texture *tex)
  *   search-merge  the merge after the exchange fails (it allocates)
  *   step          after the step's last exchange (like a failed warp solve
  *                 or paste: local, between two exchanges)
+ *   generate      (no @K) a local failure while every rank generates the
+ *                 example, at the generator's first agreement (gen_agree)
  * Unset (the normal case) it costs one int test per exchange. */
 enum { FAULT_NONE, FAULT_MAP_ALLOC, FAULT_MAP_FN, FAULT_SEARCH_SCAN, FAULT_SEARCH_MERGE,
-       FAULT_STEP };
+       FAULT_STEP, FAULT_GENERATE };
 
 typedef struct fault_inject {
     int site;       /* FAULT_*, FAULT_NONE when not injecting on this rank */
@@ -447,8 +449,8 @@ typedef struct fault_inject {
     int armed;      /* set while this rank places that patch */
 } fault_inject;
 
-static const char *const fault_sites[] = {"", "map-alloc", "map-fn", "search-scan",
-                                          "search-merge", "step"};
+static const char *const fault_sites[] = {"",           "map-alloc", "map-fn", "search-scan",
+                                          "search-merge", "step",      "generate"};
 
 /* Reads GS_FAIL_RANK / GS_FAIL_POINTS_AT for this rank. */
 static gs_err fault_init(fault_inject *f, int rank)
@@ -468,7 +470,7 @@ static gs_err fault_init(fault_inject *f, int rank)
         if (strlen(fault_sites[i]) == len && !strncmp(at, fault_sites[i], len))
             site = i;
     GS_CHECK(site != FAULT_NONE, GS_ERR_USAGE, "GS_FAIL_POINTS_AT = '%s': expected SITE[@PATCH], "
-             "SITE one of map-alloc map-fn search-scan search-merge step", at);
+             "SITE one of map-alloc map-fn search-scan search-merge step generate", at);
     int64_t patch = 1;
     GS_CHECK(!k || gs_parse_i64(k + 1, 0, INT64_MAX, &patch, why, sizeof why), GS_ERR_USAGE,
              "GS_FAIL_POINTS_AT = '%s': expected a patch index after '@' (%s)", at, why);
@@ -491,6 +493,9 @@ static int fault_fires(fault_inject *f, int site)
 
 static gs_err fault_raise(const fault_inject *f, int site, gs_err code)
 {
+    if (site == FAULT_GENERATE)
+        return gs_error_raise(code, __FILE__, __LINE__, __func__,
+                              "points: injected failure at generate (GS_FAIL_POINTS_AT)");
     return gs_error_raise(code, __FILE__, __LINE__, __func__,
                           "points: injected failure at %s of patch %llu (GS_FAIL_POINTS_AT)",
                           fault_sites[site], (unsigned long long)f->patch);
@@ -702,10 +707,14 @@ struct map_state {
     double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
 };
 
-/* gs_points_gen_params.agree over the ranks (user: map_state). */
+/* gs_points_gen_params.agree over the ranks (user: map_state). The
+ * "generate" fault is a local failure of this rank at the generator's first
+ * agreement. */
 static gs_err map_agree(void *user, gs_err local)
 {
     map_state *m = user;
+    if (local == GS_OK && fault_fires(m->fault, FAULT_GENERATE))
+        local = fault_raise(m->fault, FAULT_GENERATE, GS_ERR_INTERNAL);
     return agree(m->together, m->comm, local);
 }
 
@@ -1110,7 +1119,9 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     int user = kind_is_user(c);
     if (!user) {
         /* Every rank generates it (the dart throwing over the map hook). */
+        rs->fault.armed = rs->fault.site == FAULT_GENERATE;
         err = build_texture(c, run->size > 1 ? &rs->map : NULL, &rs->tex);
+        rs->fault.armed = 0;
         if (err != GS_OK && rs->together)
             return err; /* every rank returns it */
     } else if (run->rank == 0) {

@@ -69,6 +69,27 @@ for spec in "map-fn 8 internal 1 collective" "search-scan 8 internal 1 collectiv
     bad "$what: resumed digest $d != uninterrupted $ref"
 done
 
+# A local failure of one rank while every rank generates the example (the
+# generator's agreements, before any checkpoint): all ranks stop, the cause
+# is reported once by rank 0 naming the failing rank, nothing is written.
+for frank in 1 0; do
+  what="np=2, rank $frank fails while generating the example"
+  o=$(mktemp) e=$(mktemp); start=$(date +%s)
+  GS_FAIL_RANK=$frank GS_FAIL_POINTS_AT=generate timeout "$LIMIT" mpirun -np 2 "$GS_BIN" points \
+    -c "$CFG" -o "gen-$frank" >"$o" 2>"$e"
+  rc=$?; secs=$(($(date +%s) - start)); out=$(cat "$o") err=$(cat "$e"); rm -f "$o" "$e"
+  if [[ $rc -eq 124 ]]; then bad "$what: hung (killed after ${LIMIT}s)"; continue; fi
+  ok "$what: ends after ${secs}s"
+  expect_rc 8 "$what: exit code 8"
+  cause="points: injected failure at generate"
+  if [[ $frank -eq 0 ]]; then pat="^error \(internal\): $cause"; else pat="^error \(internal\): rank $frank failed: $cause"; fi
+  n=$(grep -cF "$cause" <<<"$err"); m=$(grep -cE "$pat" <<<"$err")
+  [[ $n -eq 1 && $m -eq 1 ]] && ok "$what: the cause is printed once, naming rank $frank" ||
+    bad "$what: cause printed $n times, $m in the expected form; stderr: $(grep -iE 'error|abort' <<<"$err" | head -6)"
+  grep -q "MPI_ABORT" <<<"$err" && bad "$what: went through MPI_Abort" || ok "$what: no MPI_Abort (every rank returned it)"
+  [[ ! -e gen-$frank/summary.json && ! -e gen-$frank/points.ply ]] && ok "$what: no outputs" || bad "$what: outputs written"
+done
+
 # A bad hook value is a usage error on every rank, reported once.
 GS_FAIL_RANK=1 GS_FAIL_POINTS_AT=nowhere run_gs 2 points -c "$CFG" -o badhook
 expect_rc 1 "unknown GS_FAIL_POINTS_AT site"
