@@ -250,9 +250,13 @@ static int cmd_version(void)
         printf("geosynth %s (file format %d)\n", GS_VERSION_STRING, GS_FORMAT_VERSION);
         printf("MPI %d.%d: %s\n", major, minor, lib);
         printf("%s\n", gs_h5_library_version());
-        const char *vdb = gs_vdb_library_version(); /* loads the plugin */
-        const char *plug = gs_plugin_path("vdb");
-        printf("OpenVDB %s (plugin %s)\n", vdb, plug ? plug : "not found");
+        void *sym; /* loads the plugin, or says why it cannot */
+        if (gs_plugin_sym("vdb", "gs_vdbp_library_version", &sym) == GS_OK) {
+            printf("OpenVDB %s (plugin %s)\n", gs_vdb_library_version(), gs_plugin_path("vdb"));
+        } else {
+            printf("OpenVDB: not available: %s\n", gs_error_message());
+            gs_error_clear();
+        }
         int n;
         const gs_engine *const *engines = gs_engines(&n);
         printf("engines:");
