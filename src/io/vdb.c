@@ -42,15 +42,24 @@ void gs_vdb_dense_destroy(gs_vdb_dense *d)
         memcpy(&(f), &sym_, sizeof(f));                                      \
     } while (0)
 
+/* VDB_FN for the entry points that return no gs_err: 0 (error cleared) when
+ * the plugin cannot be loaded. */
+static int vdb_fn_quiet(const char *sym, void *f, size_t size)
+{
+    void *p;
+    if (gs_plugin_sym("vdb", sym, &p) != GS_OK) {
+        gs_error_clear();
+        return 0;
+    }
+    memcpy(f, &p, size);
+    return 1;
+}
+
 const char *gs_vdb_library_version(void)
 {
     const char *(*f)(void);
-    void *sym;
-    if (gs_plugin_sym("vdb", "gs_vdbp_library_version", &sym) != GS_OK) {
-        gs_error_clear();
+    if (!vdb_fn_quiet("gs_vdbp_library_version", &f, sizeof f))
         return "unavailable (the OpenVDB plugin did not load)";
-    }
-    memcpy(&f, &sym, sizeof f);
     return f();
 }
 
@@ -75,40 +84,21 @@ gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
  * grid accessors below cannot fail (a NULL grid needs no plugin). */
 void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
 {
-    if (!g || !*g)
-        return;
     void (*f)(gs_vdb_grid_t *);
-    void *sym;
-    if (gs_plugin_sym("vdb", "gs_vdbp_grid_destroy", &sym) != GS_OK) {
-        gs_error_clear();
-        return;
-    }
-    memcpy(&f, &sym, sizeof f);
-    f(g);
+    if (g && *g && vdb_fn_quiet("gs_vdbp_grid_destroy", &f, sizeof f))
+        f(g);
 }
 
 const char *gs_vdb_grid_name(gs_vdb_grid_t g)
 {
     const char *(*f)(gs_vdb_grid_t);
-    void *sym;
-    if (!g || gs_plugin_sym("vdb", "gs_vdbp_grid_name", &sym) != GS_OK) {
-        gs_error_clear();
-        return "";
-    }
-    memcpy(&f, &sym, sizeof f);
-    return f(g);
+    return g && vdb_fn_quiet("gs_vdbp_grid_name", &f, sizeof f) ? f(g) : "";
 }
 
 size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g)
 {
     size_t (*f)(gs_vdb_grid_t);
-    void *sym;
-    if (!g || gs_plugin_sym("vdb", "gs_vdbp_grid_active_voxels", &sym) != GS_OK) {
-        gs_error_clear();
-        return 0;
-    }
-    memcpy(&f, &sym, sizeof f);
-    return f(g);
+    return g && vdb_fn_quiet("gs_vdbp_grid_active_voxels", &f, sizeof f) ? f(g) : 0;
 }
 
 gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)

@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "geosynth/points.h"
 
@@ -89,6 +90,25 @@ typedef struct keyed {
     size_t idx;
 } keyed;
 int gs_points_keyed_cmp(const void *a, const void *b); /* qsort comparator */
+
+/* Points bucketed by xy columns of side `cell`, with their indices (a
+ * counting sort: a column lists its points in array order). Used for the
+ * input points of a patch (synth.c) and the pairing candidates (warp.c). */
+typedef struct gs_points_columns {
+    double lo[2], cell;
+    int nx, ny;
+    size_t *start; /* nx*ny + 1 */
+    uint32_t *idx;
+} gs_points_columns;
+
+/* Columns of side cell over v[0, n) (n < 2^32), or wider (doubled) when
+ * that would make more than 4n + 16 columns. */
+gs_err gs_points_columns_build(gs_points_columns *c, const gs_opoint *v, size_t n, double cell);
+void gs_points_columns_free(gs_points_columns *c);
+/* The columns meeting the xy box [lo, hi] as r = {x0, x1, y0, y1}; 0 when
+ * none (the box misses the columns' range). */
+int gs_points_columns_range(const gs_points_columns *c, const double lo[2], const double hi[2],
+                            int r[4]);
 
 /* Pairing of the warp (eq. 1-3): see warp.c. */
 typedef struct gs_points_pairing_in {

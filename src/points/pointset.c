@@ -1,4 +1,5 @@
 /* Oriented point sets and the bucket grid; see include/geosynth/points.h. */
+#include <math.h>
 #include <string.h>
 
 #include "geosynth/digest.h"
@@ -299,4 +300,82 @@ gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double
     scratch->n = 0; /* nothing known: every radius is queried */
     GS_CALL(gs_points_grid_nearest_known(g, x, max_reach, -1, scratch, out, found));
     return GS_OK;
+}
+
+/* ----------------------------------------------------------------- columns */
+
+static size_t column_of(const gs_points_columns *c, const double p[3])
+{
+    int x = (int)((p[0] - c->lo[0]) / c->cell), y = (int)((p[1] - c->lo[1]) / c->cell);
+    x = x >= c->nx ? c->nx - 1 : x;
+    y = y >= c->ny ? c->ny - 1 : y;
+    return (size_t)y * (size_t)c->nx + (size_t)x;
+}
+
+gs_err gs_points_columns_build(gs_points_columns *c, const gs_opoint *v, size_t n, double cell)
+{
+    memset(c, 0, sizeof *c);
+    GS_CHECK(cell > 0 && isfinite(cell) && n < UINT32_MAX, GS_ERR_ARG,
+             "point columns: cell %g over %zu points, expected a positive cell and < 2^32 points",
+             cell, n);
+    double lo[2] = {0, 0}, hi[2] = {0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 2; a++) {
+            lo[a] = i ? fmin(lo[a], v[i].p[a]) : v[i].p[a];
+            hi[a] = i ? fmax(hi[a], v[i].p[a]) : v[i].p[a];
+        }
+    for (;;) { /* wider columns when there would be far more than points */
+        double nx = floor((hi[0] - lo[0]) / cell) + 1, ny = floor((hi[1] - lo[1]) / cell) + 1;
+        if (nx * ny <= 4.0 * (double)n + 16) {
+            c->nx = (int)nx;
+            c->ny = (int)ny;
+            break;
+        }
+        cell *= 2;
+    }
+    c->lo[0] = lo[0];
+    c->lo[1] = lo[1];
+    c->cell = cell;
+    size_t nc = (size_t)c->nx * (size_t)c->ny;
+    gs_err err = gs_alloc_array((void **)&c->start, nc + 1, sizeof *c->start, "point columns");
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)&c->idx, n ? n : 1, sizeof *c->idx, "point columns");
+    if (err != GS_OK) {
+        gs_points_columns_free(c);
+        GS_CALL(err);
+    }
+    memset(c->start, 0, (nc + 1) * sizeof *c->start);
+    for (size_t i = 0; i < n; i++)
+        c->start[column_of(c, v[i].p) + 1]++;
+    for (size_t k = 0; k < nc; k++)
+        c->start[k + 1] += c->start[k];
+    /* start[k] runs through column k's slots, then is put back */
+    for (size_t i = 0; i < n; i++)
+        c->idx[c->start[column_of(c, v[i].p)]++] = (uint32_t)i;
+    for (size_t k = nc; k > 0; k--)
+        c->start[k] = c->start[k - 1];
+    c->start[0] = 0;
+    return GS_OK;
+}
+
+void gs_points_columns_free(gs_points_columns *c)
+{
+    GS_FREE(c->start);
+    GS_FREE(c->idx);
+}
+
+int gs_points_columns_range(const gs_points_columns *c, const double lo[2], const double hi[2],
+                            int r[4])
+{
+    if (!c->start)
+        return 0;
+    double f[4] = {floor((lo[0] - c->lo[0]) / c->cell), floor((hi[0] - c->lo[0]) / c->cell),
+                   floor((lo[1] - c->lo[1]) / c->cell), floor((hi[1] - c->lo[1]) / c->cell)};
+    if (!(f[1] >= 0 && f[3] >= 0 && f[0] < c->nx && f[2] < c->ny))
+        return 0;
+    r[0] = f[0] < 0 ? 0 : (int)f[0];
+    r[1] = f[1] >= c->nx ? c->nx - 1 : (int)f[1];
+    r[2] = f[2] < 0 ? 0 : (int)f[2];
+    r[3] = f[3] >= c->ny ? c->ny - 1 : (int)f[3];
+    return 1;
 }

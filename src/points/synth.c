@@ -10,14 +10,6 @@
 
 #define RNG_DOMAIN_SYNTH 0x50545359u /* "PTSY" */
 
-/* Input points bucketed by xy columns, with their indices (so per-point
- * precomputed surface variation follows a point into a patch). */
-typedef struct columns {
-    double lo[2], cell;
-    int nx, ny;
-    size_t *start; /* nx*ny + 1 */
-    uint32_t *idx;
-} columns;
 
 struct gs_points_synth {
     gs_points_params p;
@@ -26,7 +18,7 @@ struct gs_points_synth {
     gs_points in;
     double *in_var;
     gs_points_grid_t in_grid;
-    columns cols_in;
+    gs_points_columns cols_in; /* input points by xy (their variation follows them) */
     double in_density;
     /* fields */
     int nx, ny, nz, npx;
@@ -160,45 +152,6 @@ static gs_err check_params(const gs_points_params *p, double s)
     return GS_OK;
 }
 
-static gs_err columns_build(columns *c, const gs_points *pts, double cell)
-{
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (size_t i = 0; i < pts->n; i++)
-        for (int a = 0; a < 2; a++) {
-            lo[a] = fmin(lo[a], pts->v[i].p[a]);
-            hi[a] = fmax(hi[a], pts->v[i].p[a]);
-        }
-    c->lo[0] = lo[0];
-    c->lo[1] = lo[1];
-    c->cell = cell;
-    c->nx = (int)((hi[0] - lo[0]) / cell) + 1;
-    c->ny = (int)((hi[1] - lo[1]) / cell) + 1;
-    size_t nc = (size_t)c->nx * c->ny;
-    GS_CALL(gs_alloc_array((void **)&c->start, nc + 1, sizeof *c->start, "input columns"));
-    GS_CALL(gs_alloc_array((void **)&c->idx, pts->n ? pts->n : 1, sizeof *c->idx, "input columns"));
-    for (size_t i = 0; i < pts->n; i++) {
-        int x = (int)((pts->v[i].p[0] - lo[0]) / cell), y = (int)((pts->v[i].p[1] - lo[1]) / cell);
-        c->start[(size_t)y * c->nx + x + 1]++;
-    }
-    for (size_t i = 0; i < nc; i++)
-        c->start[i + 1] += c->start[i];
-    size_t *fill = NULL;
-    GS_CALL(gs_alloc_array((void **)&fill, nc, sizeof *fill, "input columns"));
-    for (size_t i = 0; i < pts->n; i++) {
-        int x = (int)((pts->v[i].p[0] - lo[0]) / cell), y = (int)((pts->v[i].p[1] - lo[1]) / cell);
-        size_t ci = (size_t)y * c->nx + x;
-        c->idx[c->start[ci] + fill[ci]++] = (uint32_t)i;
-    }
-    gs_free(fill);
-    return GS_OK;
-}
-
-static void columns_free(columns *c)
-{
-    GS_FREE(c->start);
-    GS_FREE(c->idx);
-}
-
 void gs_points_synth_destroy(gs_points_synth_t *sp)
 {
     struct gs_points_synth *s = *sp;
@@ -207,7 +160,7 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->in);
     gs_free(s->in_var);
     gs_points_grid_destroy(&s->in_grid);
-    columns_free(&s->cols_in);
+    gs_points_columns_free(&s->cols_in);
     gs_free(s->field_in);
     gs_points_bank_destroy(&s->bank);
     gs_points_grid_destroy(&s->out);
@@ -345,7 +298,7 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     s->map_user = share ? share->map_user : NULL;
     GS_CALL(gs_alloc_array((void **)&s->in_var, s->in.n, sizeof *s->in_var, "surface variation"));
     GS_CALL(par_map(s, s->in.n, sizeof *s->in_var, input_variation, s, s->in_var));
-    GS_CALL(columns_build(&s->cols_in, &s->in, s->g));
+    GS_CALL(gs_points_columns_build(&s->cols_in, s->in.v, s->in.n, s->g));
     size_t inside = 0;
     for (size_t i = 0; i < s->in.n; i++) {
         const double *q = s->in.v[i].p;
@@ -543,17 +496,14 @@ static int in_xy(const double p[3], const double lo[2], const double hi[2])
 static gs_err gather_patch(struct gs_points_synth *s, const double lo[2], const double hi[2],
                            const double t[2])
 {
-    const columns *c = &s->cols_in;
+    const gs_points_columns *c = &s->cols_in;
     s->F.n = 0;
-    int x0 = (int)floor((lo[0] - c->lo[0]) / c->cell), x1 = (int)floor((hi[0] - c->lo[0]) / c->cell);
-    int y0 = (int)floor((lo[1] - c->lo[1]) / c->cell), y1 = (int)floor((hi[1] - c->lo[1]) / c->cell);
-    x0 = x0 < 0 ? 0 : x0;
-    y0 = y0 < 0 ? 0 : y0;
-    x1 = x1 >= c->nx ? c->nx - 1 : x1;
-    y1 = y1 >= c->ny ? c->ny - 1 : y1;
+    int r[4];
+    if (!gs_points_columns_range(c, lo, hi, r))
+        return GS_OK;
     size_t nv = 0;
-    for (int y = y0; y <= y1; y++)
-        for (int x = x0; x <= x1; x++) {
+    for (int y = r[2]; y <= r[3]; y++)
+        for (int x = r[0]; x <= r[1]; x++) {
             size_t ci = (size_t)y * c->nx + x;
             for (size_t k = c->start[ci]; k < c->start[ci + 1]; k++) {
                 const gs_opoint *q = &s->in.v[c->idx[k]];

@@ -14,105 +14,6 @@ typedef struct pair_cand {
     double c;
 } pair_cand;
 
-/* The S points within max_pair_dist of a target, fast: S in xy buckets of
- * that size (a counting sort, so a bucket lists its points in S order). */
-typedef struct s_buckets {
-    double lo[2], cell;
-    long nx, ny;
-    size_t *start, *idx; /* start: nx * ny + 1 */
-} s_buckets;
-
-static gs_err s_buckets_build(s_buckets *b, const gs_opoint *S, size_t ns, double md)
-{
-    memset(b, 0, sizeof *b);
-    if (ns == 0)
-        return GS_OK;
-    double lo[2] = {S[0].p[0], S[0].p[1]}, hi[2] = {lo[0], lo[1]};
-    for (size_t i = 1; i < ns; i++)
-        for (int a = 0; a < 2; a++) {
-            lo[a] = fmin(lo[a], S[i].p[a]);
-            hi[a] = fmax(hi[a], S[i].p[a]);
-        }
-    /* Buckets of md unless that makes more of them than points (then
-     * coarser: the answers are the same, found with more tests). */
-    double cell = md > 0 ? md : INFINITY;
-    for (;;) {
-        double nx = floor((hi[0] - lo[0]) / cell) + 1, ny = floor((hi[1] - lo[1]) / cell) + 1;
-        if (nx * ny <= 4.0 * (double)ns + 16) {
-            b->nx = (long)nx;
-            b->ny = (long)ny;
-            break;
-        }
-        cell *= 2;
-    }
-    b->lo[0] = lo[0];
-    b->lo[1] = lo[1];
-    b->cell = cell;
-    size_t nb = (size_t)b->nx * (size_t)b->ny;
-    GS_CALL(gs_alloc_array((void **)&b->start, nb + 1, sizeof *b->start, "pairing buckets"));
-    gs_err err = gs_alloc_array((void **)&b->idx, ns, sizeof *b->idx, "pairing buckets");
-    if (err != GS_OK) {
-        gs_free(b->start);
-        b->start = NULL;
-        return err;
-    }
-    memset(b->start, 0, (nb + 1) * sizeof *b->start);
-    for (size_t i = 0; i < ns; i++) {
-        long x = isfinite(cell) ? (long)((S[i].p[0] - lo[0]) / cell) : 0;
-        long y = isfinite(cell) ? (long)((S[i].p[1] - lo[1]) / cell) : 0;
-        x = x >= b->nx ? b->nx - 1 : x;
-        y = y >= b->ny ? b->ny - 1 : y;
-        b->start[(size_t)y * (size_t)b->nx + (size_t)x + 1]++;
-    }
-    for (size_t c = 0; c < nb; c++)
-        b->start[c + 1] += b->start[c];
-    for (size_t i = 0; i < ns; i++) {
-        long x = isfinite(cell) ? (long)((S[i].p[0] - lo[0]) / cell) : 0;
-        long y = isfinite(cell) ? (long)((S[i].p[1] - lo[1]) / cell) : 0;
-        x = x >= b->nx ? b->nx - 1 : x;
-        y = y >= b->ny ? b->ny - 1 : y;
-        /* start[c] runs through bucket c's slots (restored below) */
-        b->idx[b->start[(size_t)y * (size_t)b->nx + (size_t)x]++] = i;
-    }
-    for (size_t c = nb; c > 0; c--)
-        b->start[c] = b->start[c - 1];
-    b->start[0] = 0;
-    return GS_OK;
-}
-
-static void s_buckets_free(s_buckets *b)
-{
-    gs_free(b->start);
-    gs_free(b->idx);
-}
-
-/* Indices of the S points in the buckets that meet the xy box of q +- md,
- * bucket by bucket (a superset of those within md). */
-static size_t s_buckets_near(const s_buckets *b, const double q[2], double md, size_t *out)
-{
-    if (!b->start)
-        return 0;
-    long x0 = 0, x1 = b->nx - 1, y0 = 0, y1 = b->ny - 1;
-    if (isfinite(b->cell)) {
-        double fx0 = floor((q[0] - md - b->lo[0]) / b->cell), fx1 = floor((q[0] + md - b->lo[0]) / b->cell);
-        double fy0 = floor((q[1] - md - b->lo[1]) / b->cell), fy1 = floor((q[1] + md - b->lo[1]) / b->cell);
-        if (!(fx1 >= 0 && fy1 >= 0 && fx0 < (double)b->nx && fy0 < (double)b->ny))
-            return 0;
-        x0 = fx0 < 0 ? 0 : (long)fx0;
-        y0 = fy0 < 0 ? 0 : (long)fy0;
-        x1 = fx1 >= (double)b->nx ? b->nx - 1 : (long)fx1;
-        y1 = fy1 >= (double)b->ny ? b->ny - 1 : (long)fy1;
-    }
-    size_t n = 0;
-    for (long y = y0; y <= y1; y++)
-        for (long x = x0; x <= x1; x++) {
-            size_t c = (size_t)y * (size_t)b->nx + (size_t)x;
-            for (size_t k = b->start[c]; k < b->start[c + 1]; k++)
-                out[n++] = b->idx[k];
-        }
-    return n;
-}
-
 gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair)
 {
     const gs_points_params *p = in->p;
@@ -124,45 +25,53 @@ gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair)
     unsigned char *used = NULL;
     double *fl = NULL, *fd = NULL;
     long *prev = NULL;
-    size_t ncand = 0, cap = 0, *near = NULL;
+    size_t ncand = 0, cap = 0;
     double *theta = NULL, *pe = NULL;
-    s_buckets sb = {0};
+    gs_points_columns sc = {0};
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&start, nq + 1, sizeof *start, "pairing index"), done);
     GS_TRY(err, gs_alloc_array((void **)&used, ns ? ns : 1, 1, "pairing marks"), done);
     GS_TRY(err, gs_alloc_array((void **)&fl, nq ? nq : 1, sizeof *fl, "pairing lengths"), done);
     GS_TRY(err, gs_alloc_array((void **)&fd, 3 * (nq ? nq : 1), sizeof *fd, "pairing dirs"), done);
     GS_TRY(err, gs_alloc_array((void **)&prev, nq ? nq : 1, sizeof *prev, "pairing state"), done);
-    GS_TRY(err, gs_alloc_array((void **)&near, ns ? ns : 1, sizeof *near, "pairing candidates"), done);
-    GS_TRY(err, s_buckets_build(&sb, in->S, ns, p->max_pair_dist), done);
+    GS_TRY(err, gs_points_columns_build(&sc, in->S, ns, p->max_pair_dist), done);
     /* Candidate lists with c(s, q) (eq. 2); a term over its threshold = inf.
      * Only S points near q in xy are tested. A list is not in S order, so
      * equal costs go to the lowest S index, as in S order. */
     for (size_t qi = 0; qi < nq; qi++) {
         start[qi] = ncand;
         const gs_opoint *q = &in->Q[qi];
-        size_t nn = s_buckets_near(&sb, q->p, p->max_pair_dist, near);
-        for (size_t ni = 0; ni < nn; ni++) {
-            size_t si = near[ni];
-            const gs_opoint *s = &in->S[si];
-            double d2 = v3_dist2(s->p, q->p);
-            if (d2 > maxd2)
-                continue;
-            double nt = 0.5 * (1.0 - v3_dot(s->n, q->n));
-            if (nt > p->max_normal)
-                continue;
-            double dv = in->Sv[si] - in->Qv[qi];
-            if (fabs(dv) > p->max_variation)
-                continue;
-            if (ncand == cap) {
-                cap = cap ? 2 * cap : 1024;
-                pair_cand *nc = gs_realloc(cand, cap * sizeof *nc);
-                GS_TRY_CHECK(err, nc != NULL, GS_ERR_MEM, done, "pairing: out of memory");
-                cand = nc;
+        double md = p->max_pair_dist, blo[2] = {q->p[0] - md, q->p[1] - md},
+               bhi[2] = {q->p[0] + md, q->p[1] + md};
+        int r[4];
+        if (!gs_points_columns_range(&sc, blo, bhi, r))
+            continue;
+        for (int cy = r[2]; cy <= r[3]; cy++) {
+            for (int cx = r[0]; cx <= r[1]; cx++) {
+                size_t col = (size_t)cy * (size_t)sc.nx + (size_t)cx;
+                for (size_t k = sc.start[col]; k < sc.start[col + 1]; k++) {
+                    size_t si = sc.idx[k];
+                    const gs_opoint *s = &in->S[si];
+                    double d2 = v3_dist2(s->p, q->p);
+                    if (d2 > maxd2)
+                        continue;
+                    double nt = 0.5 * (1.0 - v3_dot(s->n, q->n));
+                    if (nt > p->max_normal)
+                        continue;
+                    double dv = in->Sv[si] - in->Qv[qi];
+                    if (fabs(dv) > p->max_variation)
+                        continue;
+                    if (ncand == cap) {
+                        cap = cap ? 2 * cap : 1024;
+                        pair_cand *nc = gs_realloc(cand, cap * sizeof *nc);
+                        GS_TRY_CHECK(err, nc != NULL, GS_ERR_MEM, done, "pairing: out of memory");
+                        cand = nc;
+                    }
+                    cand[ncand].s = si;
+                    cand[ncand].c = p->w_p * sqrt(d2) * inv_sp + p->w_n * nt + p->w_v * dv * dv;
+                    ncand++;
+                }
             }
-            cand[ncand].s = si;
-            cand[ncand].c = p->w_p * sqrt(d2) * inv_sp + p->w_n * nt + p->w_v * dv * dv;
-            ncand++;
         }
     }
     start[nq] = ncand;
@@ -253,8 +162,7 @@ gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair)
         }
     }
 done:
-    s_buckets_free(&sb);
-    gs_free(near);
+    gs_points_columns_free(&sc);
     gs_free(theta);
     gs_free(pe);
     gs_free(start);
