@@ -11,6 +11,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/plugin.h"
 #include "geosynth/render.h"
+#include "plugins/plugin_api.h"
 
 #define FOV_Y_DEG 30.0
 #define PI 3.14159265358979323846
@@ -152,8 +153,7 @@ gs_err gs_render_mesh(const gs_mesh *m, const gs_render_opts *o, gs_image *out,
     float *normals = m->normals;
     gs_mesh tmp = *m;
     uint8_t *rgba = NULL;
-    gs_err (*draw)(const gs_mesh *, const float *, const gs_render_camera *,
-                   const gs_render_opts *, int, int, uint8_t *);
+    gs_renderp_draw_fn *draw;
     void *sym;
     GS_TRY(err, gs_plugin_sym("render", "gs_renderp_draw", &sym), done);
     memcpy(&draw, &sym, sizeof draw);

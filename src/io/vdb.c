@@ -6,6 +6,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/plugin.h"
 #include "geosynth/vdb.h"
+#include "plugins/plugin_api.h"
 
 gs_err gs_vdb_dense_alloc(gs_vdb_dense *d, size_t nx, size_t ny, size_t nz)
 {
@@ -33,9 +34,11 @@ void gs_vdb_dense_destroy(gs_vdb_dense *d)
     memset(d, 0, sizeof *d);
 }
 
-/* The plugin's gs_vdbp_<fn> into the function pointer f (POSIX: a data
- * pointer from dlsym converts to a function pointer through memcpy). */
+/* Declares f, the plugin's gs_vdbp_<fn> (plugins/plugin_api.h), and looks
+ * it up (POSIX: a data pointer from dlsym converts to a function pointer
+ * through memcpy). */
 #define VDB_FN(f, fn)                                                        \
+    gs_vdbp_##fn##_fn *f;                                                    \
     do {                                                                     \
         void *sym_;                                                          \
         GS_CALL(gs_plugin_sym("vdb", "gs_vdbp_" #fn, &sym_));                \
@@ -57,7 +60,7 @@ static int vdb_fn_quiet(const char *sym, void *f, size_t size)
 
 const char *gs_vdb_library_version(void)
 {
-    const char *(*f)(void);
+    gs_vdbp_library_version_fn *f;
     if (!vdb_fn_quiet("gs_vdbp_library_version", &f, sizeof f))
         return "unavailable (the OpenVDB plugin did not load)";
     return f();
@@ -66,7 +69,6 @@ const char *gs_vdb_library_version(void)
 gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
                               gs_vdb_grid_t *out)
 {
-    gs_err (*f)(const gs_vdb_dense *, const char *, float, gs_vdb_grid_t *);
     VDB_FN(f, grid_from_dense);
     GS_CALL(f(d, name, tolerance, out));
     return GS_OK;
@@ -74,7 +76,6 @@ gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tol
 
 gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
 {
-    gs_err (*f)(gs_vdb_grid_t, gs_vdb_dense *);
     VDB_FN(f, grid_to_dense);
     GS_CALL(f(g, out));
     return GS_OK;
@@ -84,26 +85,25 @@ gs_err gs_vdb_grid_to_dense(gs_vdb_grid_t g, gs_vdb_dense *out)
  * grid accessors below cannot fail (a NULL grid needs no plugin). */
 void gs_vdb_grid_destroy(gs_vdb_grid_t *g)
 {
-    void (*f)(gs_vdb_grid_t *);
+    gs_vdbp_grid_destroy_fn *f;
     if (g && *g && vdb_fn_quiet("gs_vdbp_grid_destroy", &f, sizeof f))
         f(g);
 }
 
 const char *gs_vdb_grid_name(gs_vdb_grid_t g)
 {
-    const char *(*f)(gs_vdb_grid_t);
+    gs_vdbp_grid_name_fn *f;
     return g && vdb_fn_quiet("gs_vdbp_grid_name", &f, sizeof f) ? f(g) : "";
 }
 
 size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g)
 {
-    size_t (*f)(gs_vdb_grid_t);
+    gs_vdbp_grid_active_voxels_fn *f;
     return g && vdb_fn_quiet("gs_vdbp_grid_active_voxels", &f, sizeof f) ? f(g) : 0;
 }
 
 gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)
 {
-    gs_err (*f)(const char *, const gs_vdb_grid_t *, int);
     VDB_FN(f, write);
     GS_CALL(f(path, grids, n));
     return GS_OK;
@@ -111,7 +111,6 @@ gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n)
 
 gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out)
 {
-    gs_err (*f)(const char *, const char *, gs_vdb_grid_t *);
     VDB_FN(f, read);
     GS_CALL(f(path, name, out));
     return GS_OK;
@@ -119,7 +118,6 @@ gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out)
 
 gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense *d)
 {
-    gs_err (*f)(const char *, const char *, const gs_vdb_dense *);
     VDB_FN(f, write_dense);
     GS_CALL(f(path, name, d));
     return GS_OK;
@@ -127,7 +125,6 @@ gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense
 
 gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out)
 {
-    gs_err (*f)(const char *, const char *, gs_vdb_dense *);
     VDB_FN(f, read_dense);
     GS_CALL(f(path, name, out));
     return GS_OK;
@@ -136,7 +133,6 @@ gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out)
 gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
                                const gs_vdb_distance_opts *opts, gs_vdb_dense *out)
 {
-    gs_err (*f)(const gs_mesh *, const char *, const gs_vdb_distance_opts *, gs_vdb_dense *);
     VDB_FN(f, mesh_to_distance);
     GS_CALL(f(m, what, opts, out));
     return GS_OK;
@@ -145,7 +141,6 @@ gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
 gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
                             gs_mesh *out)
 {
-    gs_err (*f)(const gs_vdb_dense *, double, double, gs_mesh *);
     VDB_FN(f, dense_to_mesh);
     GS_CALL(f(d, isovalue, adaptivity, out));
     return GS_OK;

@@ -7,11 +7,9 @@
 #include <string.h>
 
 #include "geosynth/render.h"
+#include "plugins/plugin_api.h"
 
 #define DRAW_CHUNK_TRIS ((size_t)1 << 24) /* glDrawElements counts are GLsizei */
-
-gs_err gs_renderp_draw(const gs_mesh *m, const float *normals, const gs_render_camera *cam,
-                       const gs_render_opts *o, int W, int H, uint8_t *rgba);
 
 /* Draws the mesh into the current context (state set by the caller). */
 static void draw_mesh(const gs_mesh *m, const float *normals, const gs_render_opts *o)
@@ -72,8 +70,6 @@ static void set_state(const gs_render_camera *cam, const gs_render_opts *o, int 
     glLoadMatrixd(cam->view);
 }
 
-/* Renders m (normals per vertex) through cam into rgba (W x H x 4, row 0
- * at the bottom). */
 gs_err gs_renderp_draw(const gs_mesh *m, const float *normals, const gs_render_camera *cam,
                        const gs_render_opts *o, int W, int H, uint8_t *rgba)
 {

@@ -29,6 +29,7 @@
 #include "geosynth/error.h"
 #include "geosynth/mem.h"
 #include "geosynth/vdb.h"
+#include "plugins/plugin_api.h"
 
 struct gs_vdb_grid {
     openvdb::FloatGrid::Ptr grid;
