@@ -33,8 +33,6 @@
 extern "C" {
 #endif
 
-const char *gs_vdb_library_version(void);
-
 typedef struct gs_vdb_dense {
     size_t nx, ny, nz; /* samples per axis, x fastest */
     double origin[3];  /* world position of sample (0,0,0) */

@@ -23,10 +23,11 @@
 #include "geosynth/model_io.h"
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
-#include "geosynth/run.h"
 #include "geosynth/plugin.h"
+#include "geosynth/run.h"
 #include "geosynth/vdb.h"
 #include "geosynth/version.h"
+#include "plugins/plugin_api.h"
 
 #define MAX_OVERRIDES 256
 
@@ -252,7 +253,9 @@ static int cmd_version(void)
         printf("%s\n", gs_h5_library_version());
         void *sym; /* loads the plugin, or says why it cannot */
         if (gs_plugin_sym("vdb", "gs_vdbp_library_version", &sym) == GS_OK) {
-            printf("OpenVDB %s (plugin %s)\n", gs_vdb_library_version(), gs_plugin_path("vdb"));
+            gs_vdbp_library_version_fn *version;
+            memcpy(&version, &sym, sizeof version);
+            printf("OpenVDB %s (plugin %s)\n", version(), gs_plugin_path("vdb"));
         } else {
             printf("OpenVDB: not available: %s\n", gs_error_message());
             gs_error_clear();

@@ -58,14 +58,6 @@ static int vdb_fn_quiet(const char *sym, void *f, size_t size)
     return 1;
 }
 
-const char *gs_vdb_library_version(void)
-{
-    gs_vdbp_library_version_fn *f;
-    if (!vdb_fn_quiet("gs_vdbp_library_version", &f, sizeof f))
-        return "unavailable (the OpenVDB plugin did not load)";
-    return f();
-}
-
 gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
                               gs_vdb_grid_t *out)
 {

@@ -2,7 +2,8 @@
  * each, declared here for both sides, so the program's forwarders
  * (src/io/vdb.c, src/io/render.c) and the plugins (src/plugins/vdb.cpp,
  * render_gl.c) are checked against the same signature by the compiler.
- * gs_vdbp_X implements gs_vdb_X of include/geosynth/vdb.h. */
+ * gs_vdbp_X implements gs_vdb_X of include/geosynth/vdb.h;
+ * gs_vdbp_library_version is OpenVDB's version (geosynth version). */
 #ifndef GEOSYNTH_PLUGIN_API_H
 #define GEOSYNTH_PLUGIN_API_H
 
