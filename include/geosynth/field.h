@@ -66,20 +66,26 @@
  * nodes with one child are merged into it (path compression). Leaves are
  * the distinct full-resolution blocks and list every source block index
  * with that content. Nodes refer to the global pyramid through a
- * representative block index; no block data is copied.
+ * representative block index; no block data is copied. Each node that ends
+ * within the octant floor means (a "trie node") also keeps an octant box:
+ * per octant, the range of the octant means and of the octant standard
+ * deviations of all blocks below (48 bytes).
  *
  * Best-first search (paper fig. 4): a priority queue of (lower bound, lowest
- * block index below, node, step) in this total order; a popped entry is
- * refined step by step (the incremental distance evaluation of paper 4.4)
- * while it stays at the front; children are refined through step 8 (the
- * exact octants) before they are queued; a leaf that comes back to the front is
- * completed at once with its exact distance (src/field/search.c). The first
- * complete leaf to reach the front is the exact best match with the lowest
- * index among equals.
+ * block index below, node, step) in this total order. A trie node is queued
+ * with the bound of its box (all 8 octants, means and spread terms, for
+ * every block below); any other node with the bound of its exact octants
+ * (step 8) or, below those, its parent's bound. A popped entry is refined
+ * step by step (the incremental distance evaluation of paper 4.4) while it
+ * stays at the front; a leaf that comes back to the front is completed at
+ * once with its exact distance (src/field/search.c). The first complete
+ * leaf to reach the front is the exact best match with the lowest index
+ * among equals.
  *
  * Costs: pyramid 1 + 8*L bytes per source sample (sums and squares); tree build O(M log M)
  * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
- * about 20 bytes per node (< 2 per distinct block) + 4 bytes per block.
+ * about 24 bytes per node (< 2 per distinct block), 48 bytes per trie node
+ * (about one per 5 distinct blocks) + 4 bytes per block.
  * Search workspace per searcher: O(B^3) + the queue.
  */
 #ifndef GEOSYNTH_FIELD_H
@@ -191,7 +197,8 @@ typedef struct gs_field_match {
     int64_t known;      /* number of known query samples */
     uint64_t pops;      /* queue entries popped (tree) / blocks scanned (brute) */
     uint64_t pushes;    /* queue entries pushed (tree) */
-    uint64_t refinements; /* refinement steps evaluated (tree) */
+    uint64_t refinements; /* bounds evaluated (tree): refinement steps, nodes opened;
+                             a leaf completed at once counts the steps it skipped */
     size_t queue_peak;  /* largest queue size (tree) */
     int truncated;      /* tree search stopped at opts->max_pops: no answer */
 } gs_field_match;

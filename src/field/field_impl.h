@@ -40,6 +40,20 @@ typedef struct gs_tree_node {
     uint32_t count;
 } gs_tree_node;
 
+/* Octant box of a trie node (one that ends within the octant floor means,
+ * end <= GS_FIELD_QSTEPS): for every octant o, bounds that hold for every
+ * block below: its octant sum S lies in [mlo[o] * c, mhi[o] * c] (c =
+ * 8^(L-1) samples per octant) and its octant's standard deviation
+ * sqrt(c*Q - S^2) / c in [slo[o], shi[o]] / 256 (rounded outwards). The
+ * search bounds a whole subtree with them before it opens it
+ * (src/field/search.c, box_bound). */
+typedef struct gs_tree_box {
+    uint16_t slo[8], shi[8];
+    uint8_t mlo[8], mhi[8];
+} gs_tree_box;
+
+#define GS_TREE_NO_BOX UINT32_MAX
+
 /* Block-relative layout of the step sequence, shared by tree and searcher. */
 typedef struct gs_step_layout {
     int B, L;
@@ -58,6 +72,9 @@ struct gs_field_tree {
     int64_t nnodes;
     uint32_t root;
     uint32_t *members;             /* leaf member lists */
+    gs_tree_box *boxes;            /* octant boxes of the trie nodes */
+    uint32_t *box_of;              /* per node: its box, or GS_TREE_NO_BOX */
+    int64_t nboxes;
     uint32_t *top;                 /* top-level subtree node ids */
     int64_t *top_blocks;
     int64_t ntop;
@@ -72,6 +89,19 @@ struct gs_field_tree {
  * refinement r (r = 0: the exact sums and sums of squares of the 8
  * octants; then each cell of level k >= 1 into its 8 children). */
 #define GS_FIELD_QSTEPS 8
+
+/* Linear source position of block idx (x fastest; bx, by block positions
+ * per row and plane; nx, ny source samples per row and plane). */
+static inline int64_t gs_block_base(int64_t bx, int64_t by, int64_t nx, int64_t ny, uint32_t idx)
+{
+    int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
+    return px + nx * (py + ny * pz);
+}
+
+static inline int64_t gs_tree_block_base(const struct gs_field_tree *t, uint32_t idx)
+{
+    return gs_block_base(t->bx, t->by, t->src->nx, t->src->ny, idx);
+}
 
 /* Helpers in pyramid.c. */
 gs_err gs_step_layout_init(gs_step_layout *lay, int B, int64_t nx, int64_t ny);

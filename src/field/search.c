@@ -197,21 +197,6 @@ static inline uint64_t cell_weight(const struct gs_field_searcher *s, int k, int
     return s->qfull[k][j] ? s->wk : s->wu;
 }
 
-/* Scaled term of octant o's floor mean: the query's octant sum against the
- * interval of sums [lo, lo + c - 1] (c = 8^(L-1) samples) with that floor
- * mean, (d^2 / c) * 8^L = 8 d^2. */
-static inline uint64_t octant_mean_term(const struct gs_field_searcher *s, int o, uint32_t sum)
-{
-    uint64_t w = cell_weight(s, 1, o);
-    if (!w)
-        return 0;
-    int sh = 3 * (s->tree->lay.L - 1);
-    int64_t lo = (int64_t)(sum >> sh) << sh, hi = lo + ((int64_t)1 << sh) - 1;
-    int64_t q = s->qsum[1][o];
-    int64_t d = q < lo ? lo - q : q > hi ? q - hi : 0;
-    return ((uint64_t)(d * d) << 3) * w;
-}
-
 /* Scaled lower bound (times 8^L) of the distance over one fully known cell
  * of level k < L (c = 8^(L-k) samples) whose source sums are Sb (samples)
  * and Qb (squares): with v = c*Q - S^2 (c times the sum of squared
@@ -236,7 +221,9 @@ static inline uint64_t cell_term(int64_t Sq, double a, uint32_t Sb, uint32_t Qb,
     return t << (3 * k);
 }
 
-/* Advances e by one step for the block at base; returns the new bound. */
+/* Advances e by one step for the block at base; returns the new bound.
+ * Entries in the queue are past the exact octants (step > GS_FIELD_QSTEPS)
+ * or are trie nodes bounded by their box, which are never refined. */
 static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, const entry *e)
 {
     const struct gs_field_tree *t = s->tree;
@@ -244,19 +231,14 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
     const struct gs_field_pyramid *p = t->pyr;
     int L = lay->L;
     uint64_t lb = e->lb;
-    if (e->step < GS_FIELD_QSTEPS)
-        return lb + octant_mean_term(s, (int)e->step, gs_pyr_at(p, L - 1, base + lay->cell_off[1][e->step]));
     int64_t r = (int64_t)e->step - GS_FIELD_QSTEPS;
-    int k = 0; /* refinement r splits a cell of level k */
+    int k = 1; /* refinement r >= 1 splits a cell of level k >= 1 */
     while (r >= lay->level_first[k + 2])
         k++;
     int64_t j = r - lay->level_first[k + 1];
     int m = L - k;
     int64_t cell = base + lay->cell_off[k][j];
-    if (k == 0) /* the exact octants replace their floor means */
-        for (int o = 0; o < 8; o++)
-            lb -= octant_mean_term(s, o, gs_pyr_at(p, L - 1, base + lay->cell_off[1][o]));
-    else if (cell_weight(s, k, j))
+    if (cell_weight(s, k, j))
         lb -= cell_weight(s, k, j) *
               cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_sq_at(p, m, cell),
                         (int64_t)1 << (3 * m), k);
@@ -308,10 +290,91 @@ static uint64_t upper_bound(const struct gs_field_searcher *s, uint64_t lb, uint
 
 static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base);
 
-static int64_t block_base(const struct gs_field_tree *t, uint32_t idx)
+/* Scaled lower bound of every block below a trie node from its octant box
+ * (field_impl.h): per octant, the distance of the query's sum Sq to the
+ * box's sum interval and of its deviation a to the box's deviation interval
+ * stand in for |Sq - Sb| and |a - b| in cell_term(), which they cannot
+ * exceed for any block below. It bounds all 8 octants at once, the spread
+ * included, where the floor means that the trie splits on bound only the
+ * octants revealed so far and see no spread: a subtree whose blocks are all
+ * too smooth (or too rough) for the query is dropped without touching the
+ * pyramid. Rounded down like cell_term(). */
+static uint64_t box_bound(const struct gs_field_searcher *s, const gs_tree_box *bx)
 {
-    int64_t px = idx % t->bx, py = idx / t->bx % t->by, pz = idx / (t->bx * t->by);
-    return px + t->src->nx * (py + t->src->ny * pz);
+    int sh = 3 * (s->tree->lay.L - 1);
+    double cs = (double)((int64_t)1 << sh) / 256;
+    uint64_t lb = 0;
+    for (int o = 0; o < 8; o++) {
+        uint64_t w = cell_weight(s, 1, o);
+        if (!w)
+            continue;
+        int64_t Sq = s->qsum[1][o], lo = (int64_t)bx->mlo[o] << sh, hi = (int64_t)bx->mhi[o] << sh;
+        int64_t d = Sq < lo ? lo - Sq : Sq > hi ? Sq - hi : 0;
+        uint64_t t = (uint64_t)(d * d);
+        double a = s->qdev[1][o], bl = bx->slo[o] * cs, bh = bx->shi[o] * cs;
+        double e = a < bl ? bl - a : a > bh ? a - bh : 0;
+        e -= 4e-16 * (a + bh);
+        if (e > 0)
+            t += (uint64_t)(e * e * (1 - 4e-16));
+        lb += w * (t << 3);
+    }
+    return lb;
+}
+
+/* Scaled bound of the block at base from its 8 exact octants (the state
+ * after step GS_FIELD_QSTEPS). */
+static uint64_t octants_bound(const struct gs_field_searcher *s, int64_t base)
+{
+    const struct gs_field_tree *t = s->tree;
+    int L = t->lay.L;
+    int64_t c = (int64_t)1 << (3 * (L - 1));
+    uint64_t lb = 0;
+    for (int o = 0; o < 8; o++) {
+        uint64_t w = cell_weight(s, 1, o);
+        if (!w)
+            continue;
+        int64_t x = base + t->lay.cell_off[1][o];
+        lb += w * cell_term(s->qsum[1][o], s->qdev[1][o], gs_pyr_at(t->pyr, L - 1, x),
+                            gs_pyr_sq_at(t->pyr, L - 1, x), c, 1);
+    }
+    return lb;
+}
+
+/* Queue entry of node id, whose parent was popped with bound lb after
+ * `step` steps: a trie node is bounded by its box; a node past the parent's
+ * steps inherits them; any other node starts from its exact octants. */
+static entry open_node(const struct gs_field_searcher *s, uint32_t id, uint64_t lb, uint32_t step)
+{
+    const struct gs_field_tree *t = s->tree;
+    const gs_tree_node *nd = &t->nodes[id];
+    if (t->box_of[id] != GS_TREE_NO_BOX)
+        return (entry){box_bound(s, &t->boxes[t->box_of[id]]), nd->rep, id, nd->end, 0};
+    if (step > GS_FIELD_QSTEPS)
+        return (entry){lb, nd->rep, id, step, 0};
+    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), nd->rep, id,
+                   GS_FIELD_QSTEPS + 1, 0};
+}
+
+/* Starts loading what open_node(id) will read: a node's box, or its
+ * block's octant sums and squares in the pyramid (scattered over the
+ * source: the children of a node are expanded in a row, so their loads
+ * overlap instead of waiting one by one). */
+static inline void prefetch_node(const struct gs_field_searcher *s, uint32_t id)
+{
+    const struct gs_field_tree *t = s->tree;
+    if (t->box_of[id] != GS_TREE_NO_BOX) {
+        __builtin_prefetch(&t->boxes[t->box_of[id]]);
+        return;
+    }
+    int m = t->lay.L - 1;
+    if (m == 0)
+        return;
+    int64_t base = gs_tree_block_base(t, t->nodes[id].rep);
+    const int64_t *off = t->lay.cell_off[1];
+    for (int o = 0; o < 8; o++) {
+        __builtin_prefetch(t->pyr->sum[m] + base + off[o]);
+        __builtin_prefetch(t->pyr->sq[m] + base + off[o]);
+    }
 }
 
 gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t top_end,
@@ -340,8 +403,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
     uint64_t bnd_scaled = SCALED(bnd);
     s->heap_n = 0;
     for (int64_t i = top_begin; i < top_end; i++) {
-        uint32_t id = t->top[i];
-        GS_CALL(heap_push(s, (entry){0, t->nodes[id].rep, id, 0, 0}));
+        GS_CALL(heap_push(s, open_node(s, t->top[i], 0, 0)));
         out->pushes++;
     }
     uint64_t steps_total = (uint64_t)lay->steps;
@@ -361,7 +423,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         if (e.lb > bnd_scaled)
             break; /* everything left is worse */
         const gs_tree_node *nd = &t->nodes[e.node];
-        int64_t base = block_base(t, e.rep);
+        int64_t base = gs_tree_block_base(t, e.rep);
         int requeued = 0, dropped = 0;
         if (nd->end == steps_total && e.step < nd->end && e.pops >= LEAF_EXACT_AFTER) {
             /* A leaf back at the front is completed at once with its exact
@@ -371,7 +433,8 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
              * still the exact best with the lowest index. With a noisy part
              * in the query (seeds) the step bounds converge slowly and
              * leaves came back to the front again and again. armadillo
-             * 128^3/16, same 4 queries per kind: seeded 352 -> 184 ms,
+             * 128^3/16, same 4 queries per kind (before the octant boxes):
+             * seeded 352 -> 184 ms,
              * perturbed 60 -> 36 ms, weighted seeded 181 -> 138 ms, source
              * and masked unchanged (~0.2 ms). Completing every leaf at its
              * first pop is faster still on those (145, 40, 118 ms) but
@@ -421,19 +484,16 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 bnd_scaled = SCALED(bnd);
             }
         }
-        /* children are refined through the octant means and the exact
-         * octants before queueing: a prefix of floor means is too weak a
-         * bound to order them by, and most children are leaves */
+        /* children are bounded before they are queued: by their box, or
+         * by their exact octants (most children of a trie node are leaves) */
+        enum { PREFETCH_AHEAD = 4 };
+        for (uint32_t c = 0; c < nd->count && c < PREFETCH_AHEAD; c++)
+            prefetch_node(s, nd->first + c);
         for (uint32_t c = 0; c < nd->count; c++) {
-            uint32_t id = nd->first + c;
-            const gs_tree_node *cn = &t->nodes[id];
-            entry ce = {e.lb, cn->rep, id, e.step, 0};
-            int64_t cbase = block_base(t, cn->rep);
-            while (ce.step < cn->end && ce.step <= GS_FIELD_QSTEPS && ce.lb <= bnd_scaled) {
-                ce.lb = refine(s, cbase, &ce);
-                ce.step++;
-                out->refinements++;
-            }
+            if (c + PREFETCH_AHEAD < nd->count)
+                prefetch_node(s, nd->first + c + PREFETCH_AHEAD);
+            entry ce = open_node(s, nd->first + c, e.lb, e.step);
+            out->refinements++;
             if (ce.lb > bnd_scaled)
                 continue;
             GS_CALL(heap_push(s, ce));

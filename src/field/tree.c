@@ -8,6 +8,7 @@
  * predecessor (LCP); (4) the compressed tree linked from sorted order + LCP
  * with a stack, as a suffix tree is built from a suffix array; (5) nodes
  * relaid breadth first so every node's children are contiguous. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -92,8 +93,7 @@ typedef struct build_ctx {
 
 static int64_t block_base(const build_ctx *c, uint32_t idx)
 {
-    int64_t px = idx % c->bx, py = idx / c->bx % c->by, pz = idx / (c->bx * c->by);
-    return px + c->src->nx * (py + c->src->ny * pz);
+    return gs_block_base(c->bx, c->by, c->src->nx, c->src->ny, idx);
 }
 
 static int blocks_identical(const build_ctx *c, uint32_t a, uint32_t b)
@@ -231,6 +231,83 @@ static int level_of_end(const gs_step_layout *lay, int64_t end, int *full)
     }
     *full = 1;
     return lay->L;
+}
+
+/* ------------------------------------------------------- octant boxes */
+
+static void box_empty(gs_tree_box *b)
+{
+    for (int o = 0; o < 8; o++)
+        b->mlo[o] = UINT8_MAX, b->mhi[o] = 0, b->slo[o] = UINT16_MAX, b->shi[o] = 0;
+}
+
+static void box_merge(gs_tree_box *b, const gs_tree_box *c)
+{
+    for (int o = 0; o < 8; o++) {
+        if (c->mlo[o] < b->mlo[o])
+            b->mlo[o] = c->mlo[o];
+        if (c->mhi[o] > b->mhi[o])
+            b->mhi[o] = c->mhi[o];
+        if (c->slo[o] < b->slo[o])
+            b->slo[o] = c->slo[o];
+        if (c->shi[o] > b->shi[o])
+            b->shi[o] = c->shi[o];
+    }
+}
+
+/* The box of the single block at base: the octant floor and ceiling means,
+ * and the octant deviations rounded outwards to 1/256 (the square root of an
+ * exact integer is correctly rounded; the 1e-12 margins cover it). */
+static void box_of_block(const struct gs_field_tree *t, int64_t base, gs_tree_box *b)
+{
+    int L = t->lay.L, sh = 3 * (L - 1);
+    int64_t c = (int64_t)1 << sh;
+    for (int o = 0; o < 8; o++) {
+        int64_t x = base + t->lay.cell_off[1][o];
+        int64_t S = gs_pyr_at(t->pyr, L - 1, x), Q = gs_pyr_sq_at(t->pyr, L - 1, x);
+        b->mlo[o] = (uint8_t)(S >> sh);
+        b->mhi[o] = (uint8_t)((S + c - 1) >> sh);
+        double dev = sqrt((double)(c * Q - S * S)) / (double)c * 256;
+        double lo = floor(dev * (1 - 1e-12)), hi = ceil(dev * (1 + 1e-12));
+        b->slo[o] = (uint16_t)(lo < 0 ? 0 : lo);
+        b->shi[o] = (uint16_t)(hi > UINT16_MAX ? UINT16_MAX : hi);
+    }
+}
+
+/* Boxes of every trie node, bottom-up: children follow their parents in
+ * the breadth-first layout, so a trie child's box is ready when its parent
+ * merges it; other children (which share their exact octants with every
+ * block below) contribute their representative's box. */
+static gs_err build_boxes(struct gs_field_tree *t)
+{
+    int64_t n = 0;
+    for (int64_t i = 0; i < t->nnodes; i++)
+        n += t->nodes[i].end <= GS_FIELD_QSTEPS;
+    GS_CALL(gs_alloc_array((void **)&t->box_of, (size_t)t->nnodes, sizeof *t->box_of,
+                           "tree box index"));
+    GS_CALL(gs_alloc_array((void **)&t->boxes, (size_t)(n ? n : 1), sizeof *t->boxes,
+                           "tree boxes"));
+    t->nboxes = n;
+    n = 0;
+    for (int64_t i = 0; i < t->nnodes; i++)
+        t->box_of[i] = t->nodes[i].end <= GS_FIELD_QSTEPS ? (uint32_t)n++ : GS_TREE_NO_BOX;
+    for (int64_t i = t->nnodes - 1; i >= 0; i--) {
+        if (t->box_of[i] == GS_TREE_NO_BOX)
+            continue;
+        const gs_tree_node *nd = &t->nodes[i];
+        gs_tree_box *b = &t->boxes[t->box_of[i]], cb;
+        box_empty(b);
+        for (uint32_t c = 0; c < nd->count; c++) {
+            uint32_t id = nd->first + c;
+            if (t->box_of[id] != GS_TREE_NO_BOX) {
+                box_merge(b, &t->boxes[t->box_of[id]]);
+            } else {
+                box_of_block(t, gs_tree_block_base(t, t->nodes[id].rep), &cb);
+                box_merge(b, &cb);
+            }
+        }
+    }
+    return GS_OK;
 }
 
 gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out)
@@ -427,6 +504,7 @@ gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out
     GS_FREE(order);
     GS_FREE(reps);
     GS_FREE(gstart);
+    GS_TRY(err, build_boxes(t), fail);
 
     /* blocks per subtree, top-level subtrees, statistics */
     GS_TRY(err, gs_alloc_array((void **)&cnt, (size_t)t->nnodes, sizeof *cnt, "subtree sizes"), fail);
@@ -471,7 +549,8 @@ gs_err gs_field_tree_build(const gs_qfield *src, int block, gs_field_tree_t *out
     info->top = t->ntop;
     info->steps = t->lay.steps;
     info->source_step_max = t->source_step_max;
-    info->tree_bytes = (size_t)t->nnodes * sizeof(gs_tree_node) + (size_t)M * sizeof(uint32_t) +
+    info->tree_bytes = (size_t)t->nnodes * (sizeof(gs_tree_node) + sizeof(uint32_t)) +
+                       (size_t)t->nboxes * sizeof(gs_tree_box) + (size_t)M * sizeof(uint32_t) +
                        (size_t)t->ntop * (sizeof(uint32_t) + sizeof(int64_t));
     info->pyramid_bytes = t->pyr->bytes;
     info->pyramid_seconds = t1 - t0;
@@ -549,6 +628,8 @@ void gs_field_tree_destroy(gs_field_tree_t *tp)
     gs_step_layout_free(&t->lay);
     gs_free(t->nodes);
     gs_free(t->members);
+    gs_free(t->boxes);
+    gs_free(t->box_of);
     gs_free(t->top);
     gs_free(t->top_blocks);
     GS_FREE(*tp);
