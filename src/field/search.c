@@ -18,13 +18,19 @@
  * exact distance (see the search loop). */
 #define LEAF_EXACT_AFTER 1
 
+/* Queue entry, 16 bytes so that a node's four children in the 4-ary heap
+ * share about one cache line (the queue outgrows the caches on synthesis
+ * queries, and its sift-downs were a third of the search time). The lowest
+ * block index below the node, the second key, is nodes[node].rep. */
 typedef struct entry {
     uint64_t lb;    /* scaled lower bound after `step` steps */
-    uint32_t rep;   /* lowest block index below the node */
     uint32_t node;
-    uint32_t step;
-    uint32_t pops;  /* times this entry was popped and requeued */
+    uint16_t step;
+    uint16_t pops;  /* times this entry was popped and requeued (saturating) */
 } entry;
+_Static_assert(GS_FIELD_QSTEPS + ((1 << (3 * GS_FIELD_MAX_LEVEL)) - 1) / 7 +
+                       (1 << GS_FIELD_MAX_LEVEL) <= UINT16_MAX,
+               "the steps of the largest block and its partial completions fit an entry");
 
 struct gs_field_searcher {
     struct gs_field_tree *tree;
@@ -41,15 +47,18 @@ struct gs_field_searcher {
     const gs_field_query *q;                       /* the query being searched */
 };
 
-static inline int entry_less(const entry *a, const entry *b)
+/* Queue order: (lower bound, lowest block index below, node). */
+static inline int entry_less(const struct gs_field_searcher *s, const entry *a, const entry *b)
 {
     if (a->lb != b->lb)
         return a->lb < b->lb;
-    if (a->rep != b->rep)
-        return a->rep < b->rep;
+    uint32_t ra = s->tree->nodes[a->node].rep, rb = s->tree->nodes[b->node].rep;
+    if (ra != rb)
+        return ra < rb;
     return a->node < b->node;
 }
 
+/* 4-ary min-heap: children of i at 4i+1 .. 4i+4. */
 static gs_err heap_push(struct gs_field_searcher *s, entry e)
 {
     if (s->heap_n == s->heap_cap) {
@@ -61,8 +70,8 @@ static gs_err heap_push(struct gs_field_searcher *s, entry e)
     }
     size_t i = s->heap_n++;
     while (i > 0) {
-        size_t p = (i - 1) / 2;
-        if (!entry_less(&e, &s->heap[p]))
+        size_t p = (i - 1) / 4;
+        if (!entry_less(s, &e, &s->heap[p]))
             break;
         s->heap[i] = s->heap[p];
         i = p;
@@ -77,15 +86,17 @@ static entry heap_pop(struct gs_field_searcher *s)
     entry last = s->heap[--s->heap_n];
     size_t n = s->heap_n, i = 0;
     for (;;) {
-        size_t c = 2 * i + 1;
+        size_t c = 4 * i + 1;
         if (c >= n)
             break;
-        if (c + 1 < n && entry_less(&s->heap[c + 1], &s->heap[c]))
-            c++;
-        if (!entry_less(&s->heap[c], &last))
+        size_t best = c, end = c + 4 < n ? c + 4 : n;
+        for (size_t j = c + 1; j < end; j++)
+            if (entry_less(s, &s->heap[j], &s->heap[best]))
+                best = j;
+        if (!entry_less(s, &s->heap[best], &last))
             break;
-        s->heap[i] = s->heap[c];
-        i = c;
+        s->heap[i] = s->heap[best];
+        i = best;
     }
     if (n > 0)
         s->heap[i] = last;
@@ -288,7 +299,7 @@ static uint64_t upper_bound(const struct gs_field_searcher *s, uint64_t lb, uint
     return (lb >> (3 * L)) + extra * s->wk;
 }
 
-static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base);
+static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base, int k0, int k1);
 
 /* Scaled lower bound of every block below a trie node from its octant box
  * (field_impl.h): per octant, the distance of the query's sum Sq to the
@@ -348,11 +359,10 @@ static entry open_node(const struct gs_field_searcher *s, uint32_t id, uint64_t 
     const struct gs_field_tree *t = s->tree;
     const gs_tree_node *nd = &t->nodes[id];
     if (t->box_of[id] != GS_TREE_NO_BOX)
-        return (entry){box_bound(s, &t->boxes[t->box_of[id]]), nd->rep, id, nd->end, 0};
+        return (entry){box_bound(s, &t->boxes[t->box_of[id]]), id, (uint16_t)nd->end, 0};
     if (step > GS_FIELD_QSTEPS)
-        return (entry){lb, nd->rep, id, step, 0};
-    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), nd->rep, id,
-                   GS_FIELD_QSTEPS + 1, 0};
+        return (entry){lb, id, (uint16_t)step, 0};
+    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), id, GS_FIELD_QSTEPS + 1, 0};
 }
 
 /* Starts loading what open_node(id) will read: a node's box, or its
@@ -423,35 +433,53 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         if (e.lb > bnd_scaled)
             break; /* everything left is worse */
         const gs_tree_node *nd = &t->nodes[e.node];
-        int64_t base = gs_tree_block_base(t, e.rep);
+        int64_t base = gs_tree_block_base(t, nd->rep);
         int requeued = 0, dropped = 0;
-        if (nd->end == steps_total && e.step < nd->end && e.pops >= LEAF_EXACT_AFTER) {
-            /* A leaf back at the front is completed at once with its exact
-             * distance (one vectorized pass over B^3 samples, about the cost
-             * of a few dozen refinement steps) instead of step by step: it
-             * is a valid bound, so the first complete leaf at the front is
-             * still the exact best with the lowest index. With a noisy part
-             * in the query (seeds) the step bounds converge slowly and
-             * leaves came back to the front again and again. armadillo
-             * 128^3/16, same 4 queries per kind (before the octant boxes):
-             * seeded 352 -> 184 ms,
-             * perturbed 60 -> 36 ms, weighted seeded 181 -> 138 ms, source
-             * and masked unchanged (~0.2 ms). Completing every leaf at its
-             * first pop is faster still on those (145, 40, 118 ms) but
-             * slower on the GRID synthesis (synthesis 11.1-15.2 s against
-             * 9.2-12.8 s without, 10.6-12.0 s with this rule, one core). */
-            e.lb = leaf_exact(s, base) << (3 * L);
-            out->refinements += nd->end - e.step;
-            e.step = nd->end;
+        if (nd->end == steps_total &&
+            (e.step > steps_total || (e.step < steps_total && e.pops >= LEAF_EXACT_AFTER))) {
+            /* A leaf back at the front is completed with its exact distance
+             * (vectorized passes over its samples, about the cost of a few
+             * dozen refinement steps) instead of step by step. With a noisy
+             * part in the query (seeds, seams) the step bounds converge
+             * slowly and leaves came back to the front again and again.
+             * The samples are summed a chunk of z-slices at a time, and as
+             * soon as the partial sum passes the next entry's bound the leaf
+             * is requeued with it (a valid bound: the sum only grows) and
+             * resumes there if it comes back (step = steps_total + slices
+             * done); the first complete leaf at the front is still the exact
+             * best with the lowest index. Most leaves completed on synthesis
+             * queries end far above the best. */
+            int z = 0;
+            uint64_t part = 0; /* unscaled distance over slices [0, z) */
+            if (e.step > steps_total) {
+                z = e.step - (int)steps_total;
+                part = e.lb >> (3 * L);
+            } else {
+                out->refinements += nd->end - e.step;
+            }
+            uint64_t front = s->heap_n > 0 ? s->heap[0].lb : UINT64_MAX;
+            int chunk = lay->B >= 8 ? lay->B / 8 : 1, stopped = 0;
+            while (z < lay->B) {
+                int z1 = z + chunk < lay->B ? z + chunk : lay->B;
+                part += leaf_exact(s, base, z, z1);
+                z = z1;
+                if (z < lay->B && (part << (3 * L)) > front) {
+                    stopped = 1;
+                    break;
+                }
+            }
+            e.lb = part << (3 * L);
+            e.step = (uint16_t)(stopped ? steps_total + (uint64_t)z : steps_total);
             if (e.lb > bnd_scaled)
                 continue;
-            if (s->heap_n > 0 && entry_less(&s->heap[0], &e)) {
+            if (stopped || (s->heap_n > 0 && entry_less(s, &s->heap[0], &e))) {
                 GS_CALL(heap_push(s, e));
                 out->pushes++;
                 continue;
             }
         }
-        e.pops++;
+        if (e.pops < UINT16_MAX)
+            e.pops++;
         while (e.step < nd->end) {
             e.lb = refine(s, base, &e);
             e.step++;
@@ -460,7 +488,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 dropped = 1;
                 break;
             }
-            if (s->heap_n > 0 && entry_less(&s->heap[0], &e)) {
+            if (s->heap_n > 0 && entry_less(s, &s->heap[0], &e)) {
                 GS_CALL(heap_push(s, e));
                 out->pushes++;
                 requeued = 1;
@@ -471,7 +499,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
             continue;
         if (nd->end == steps_total) {
             out->found = 1;
-            out->index = (int64_t)e.rep + s->tree->index_offset;
+            out->index = (int64_t)nd->rep + s->tree->index_offset;
             out->dist = e.lb >> (3 * L);
             if (out->dist < bnd)
                 bnd = out->dist;
@@ -516,15 +544,19 @@ gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
 
 /* ---------------------------------------------------------- brute force */
 
-/* Sum of squared differences of one block; B fixed per instantiation so the
- * inner loop vectorizes. */
+/* Weighted sum of squared differences of z-slices [k0, k1) of one block; B
+ * fixed per instantiation so the inner loop vectorizes, built for AVX2 as
+ * well as the baseline and chosen at load time (glibc ifunc): the exact
+ * completion of leaves is most of a 32^3 search (256^3/32 synthesis queries:
+ * 0.26 -> 0.15 s per query). */
 #define DEFINE_SSD(NAME, BB)                                                                       \
-    static uint64_t NAME(const uint8_t *src, int64_t nx, int64_t nxy, const uint8_t *q,           \
-                         const uint8_t *known, uint64_t wk, uint64_t wu, int B_)                   \
+    __attribute__((target_clones("avx2", "default"))) static uint64_t NAME(                       \
+        const uint8_t *src, int64_t nx, int64_t nxy, const uint8_t *q, const uint8_t *known,       \
+        uint64_t wk, uint64_t wu, int B_, int k0, int k1)                                          \
     {                                                                                              \
         const int B = (BB) ? (BB) : B_;                                                            \
         uint64_t d = 0;                                                                            \
-        for (int k = 0; k < B; k++)                                                                \
+        for (int k = k0; k < k1; k++)                                                              \
             for (int j = 0; j < B; j++) {                                                          \
                 const uint8_t *row = src + nx * j + nxy * k;                                       \
                 const uint8_t *qr = q + B * (j + B * k);                                           \
@@ -555,7 +587,7 @@ DEFINE_SSD(ssd_16, 16)
 DEFINE_SSD(ssd_32, 32)
 
 typedef uint64_t (*ssd_fn)(const uint8_t *, int64_t, int64_t, const uint8_t *, const uint8_t *,
-                           uint64_t, uint64_t, int);
+                           uint64_t, uint64_t, int, int, int);
 
 static ssd_fn ssd_for(int B)
 {
@@ -563,12 +595,14 @@ static ssd_fn ssd_for(int B)
 }
 
 /* Exact weighted distance of the searched query to the block at base. */
-static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base)
+/* Exact weighted distance of the searched query over z-slices [k0, k1) of
+ * the block at base. */
+static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base, int k0, int k1)
 {
     const struct gs_field_tree *t = s->tree;
     int B = t->lay.B;
     return ssd_for(B)(t->src->q + base, t->src->nx, t->src->nx * t->src->ny, s->q->values,
-                      s->q->known, s->wk, s->wu, B);
+                      s->q->known, s->wk, s->wu, B, k0, k1);
 }
 
 gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
@@ -590,7 +624,7 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
     for (int64_t idx = begin; idx < end; idx++) {
         int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
         uint64_t d = ssd(src->q + px + src->nx * py + nxy * pz, src->nx, nxy, q->values, q->known,
-                         wk, wu, B);
+                         wk, wu, B, 0, B);
         if (d <= best && (!out->found || d < out->dist)) {
             out->found = 1;
             out->index = idx;
