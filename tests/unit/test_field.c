@@ -241,6 +241,82 @@ static void test_tree_matches_brute_force(void **state)
 }
 
 /* Lower bounds never exceed the distance and grow with the level. */
+/* Every query of real syntheses (not made up): a 3-iteration synthesis of
+ * each shape in the three matching settings of configs/field (the paper's
+ * whole blocks with random seeds, grid.ini's weighted seeds and seed blocks,
+ * the engine's masked default) asks its questions through the match hook,
+ * and each answer of the tree is compared with brute force on the source of
+ * that iteration (the synthesis subsamples it with gs_qfield_downsample). */
+typedef struct synth_check {
+    const gs_qfield *src;
+    gs_qfield *level[3];  /* source of each iteration */
+    int64_t queries, mismatches, exact_zero, far;
+} synth_check;
+
+static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
+                         const gs_field_query *q, const gs_field_search_opts *opts,
+                         gs_field_match *out)
+{
+    synth_check *c = ctx;
+    GS_CALL(gs_field_tree_best_match(s, q, opts, out));
+    const gs_qfield *src = c->level[iteration];
+    uint64_t bound = UINT64_MAX;
+    gs_field_match mb;
+    GS_CALL(gs_field_brute_search(src, q, 0, gs_field_block_count(src, q->block), &bound, &mb));
+    if (mb.index != out->index || mb.dist != out->dist) {
+        fprintf(stderr, "MISMATCH iteration %d query %lld: tree (%lld, %llu) brute (%lld, %llu)\n",
+                iteration, (long long)c->queries, (long long)out->index,
+                (unsigned long long)out->dist, (long long)mb.index, (unsigned long long)mb.dist);
+        c->mismatches++;
+    }
+    c->queries++;
+    c->exact_zero += out->dist == 0;
+    c->far += out->dist > (uint64_t)q->block * q->block * q->block * 100; /* > 10 levels RMS */
+    return GS_OK;
+}
+
+static void test_synthesis_queries_match_brute_force(void **state)
+{
+    (void)state;
+    static const int settings[3][3] = {{0, 0, 0}, {1, 64, 1}, {1, 0, 0}}; /* mask, weight, blocks */
+    int64_t total = 0, far = 0;
+    for (int kind = 0; kind < 4; kind++)
+        for (int st = 0; st < 3; st++) {
+            gs_qfield *src = make_source((gs_field_shape)kind, 24, 5 + (uint64_t)kind);
+            synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0};
+            OK(gs_qfield_downsample(src, 4, &c.level[0]));
+            OK(gs_qfield_downsample(src, 2, &c.level[1]));
+            c.level[2] = src;
+            gs_field_synth_config cfg;
+            gs_field_synth_config_default(&cfg, src);
+            cfg.block[0] = cfg.block[1] = 4, cfg.block[2] = 8;
+            cfg.target[0] = 28, cfg.target[1] = 24, cfg.target[2] = 20;
+            cfg.mask_unsynthesized = settings[st][0];
+            cfg.seed_weight = settings[st][1];
+            cfg.seed_blocks = settings[st][2];
+            cfg.seed = 3 + (uint64_t)st;
+            cfg.match = check_hook;
+            cfg.match_ctx = &c;
+            gs_field_synth_t syn = NULL;
+            int finished = 0;
+            OK(gs_field_synth_create(src, &cfg, &syn));
+            OK(gs_field_synth_run(syn, -1, &finished));
+            assert_true(finished);
+            gs_field_synth_destroy(&syn);
+            assert_int_equal(c.mismatches, 0);
+            assert_true(c.queries > 200);
+            total += c.queries;
+            far += c.far;
+            gs_qfield_destroy(&c.level[0]);
+            gs_qfield_destroy(&c.level[1]);
+            gs_qfield_destroy(&src);
+        }
+    fprintf(stderr, "%lld synthesis queries, %lld far from every block\n", (long long)total,
+            (long long)far);
+    assert_true(total >= 2500);
+    assert_true(far > 0); /* queries far from any block, where the bounds are weakest */
+}
+
 static void test_level_bounds(void **state)
 {
     (void)state;
@@ -730,6 +806,7 @@ int main(void)
         cmocka_unit_test(test_split_search),
         cmocka_unit_test(test_slab_trees),
         cmocka_unit_test(test_tree_matches_brute_force),
+        cmocka_unit_test(test_synthesis_queries_match_brute_force),
         cmocka_unit_test(test_synthesis_resume),
         cmocka_unit_test(test_synthesis_regions),
     };
