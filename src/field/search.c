@@ -566,10 +566,11 @@ gs_err gs_field_tree_best_match(gs_field_searcher_t s, const gs_field_query *q,
                     uint32_t acu = 0;                                                              \
                     for (int i = 0; i < B; i++) {                                                  \
                         int e = (int)qr[i] - (int)row[i];                                          \
-                        acc += (uint32_t)(e * e) * (kr[i] != 0);                                   \
-                        acu += (uint32_t)(e * e) * (kr[i] == 0);                                   \
+                        uint32_t e2 = (uint32_t)(e * e);                                           \
+                        acc += e2;                                                                 \
+                        acu += e2 & (0u - (uint32_t)(kr[i] == 0));                                 \
                     }                                                                              \
-                    d += wk * acc + wu * acu;                                                      \
+                    d += wk * (acc - acu) + wu * acu;                                              \
                     continue;                                                                      \
                 } else {                                                                           \
                     for (int i = 0; i < B; i++) {                                                  \
