@@ -5,11 +5,20 @@
  *
  * usage: bench_field [--sizes 64/8,128/16,256/32] [--queries N] [--brute N] [--fft N]
  *                    [--brute-max-blocks N] [--synth 0|1] [--shape balls] [--mesh FILE]
- *                    [--shards 2,4|none] [--shard-queries N]
+ *                    [--shards 2,4|none] [--shard-queries N] [--synth-queries N]
  * The matcher cases use the signed distance field of a closed mesh (--mesh,
  * default the armadillo of ../shared/data, as the paper's table 1) sampled at
- * N along its longest axis; --mesh none uses the procedural --shape instead.
- * The whole synthesis always runs on the procedural shape.
+ * N along its longest axis and cropped to a multiple of 4 per axis (as the
+ * engine crops for 3 iterations); --mesh none uses the procedural --shape
+ * instead. The whole synthesis always runs on the procedural shape.
+ *
+ * Two families of queries per case: made-up kinds ("queries": a source
+ * block, and source blocks with a perturbed, seeded, coarse, masked or
+ * weighted octant), and the queries real syntheses ask
+ * ("synthesis_queries", --synth-queries N per matching setting, see
+ * run_synth_queries): recorded from a 3-iteration synthesis of the same
+ * source in the paper's whole-block setting, grid.ini's weighted one and the
+ * engine's masked default, with mean, median and worst tree times.
  * Brute force over more than --brute-max-blocks candidates is timed on the
  * first --brute-max-blocks blocks and extrapolated linearly (its cost is
  * exactly proportional to the block count); the JSON says so per case.
@@ -200,7 +209,21 @@ static gs_qfield *make_source(int64_t n, gs_field_shape shape, const gs_mesh *me
         gs_error_report("bench_field: ");
         return NULL;
     }
-    return src;
+    /* cropped to a multiple of 4 per axis, as the engine crops for 3
+     * iterations, so the synthesis queries below come from this very source */
+    gs_qfield *c = NULL;
+    int64_t cx = src->nx & ~3, cy = src->ny & ~3, cz = src->nz & ~3;
+    if (gs_qfield_create(cx, cy, cz, src->lo, src->hi, &c) != GS_OK) {
+        gs_error_report("bench_field: ");
+        gs_qfield_destroy(&src);
+        return NULL;
+    }
+    for (int64_t z = 0; z < cz; z++)
+        for (int64_t y = 0; y < cy; y++)
+            memcpy(c->q + cx * (y + cy * z), src->q + src->nx * (y + src->ny * z), (size_t)cx);
+    c->spacing = src->spacing;
+    gs_qfield_destroy(&src);
+    return c;
 }
 
 /* field.tree = sharded: the tree split into P z-slabs, one per rank
@@ -341,9 +364,190 @@ static int run_shards(const gs_qfield *src, int B, gs_field_searcher_t whole,
     return ok;
 }
 
+/* Real synthesis queries. The made-up kinds above stand for parts of a
+ * synthesis; these are the queries a synthesis asks: every query of the
+ * last iteration of a 3-iteration synthesis of this very source (target N/2
+ * per axis, blocks B/2, B/2, B like the paper's 8, 8, 16; run.seed 1) is
+ * recorded through the engine's match hook, and `n` of them, evenly spread
+ * over the iteration, are timed with the tree, the FFT baseline and brute
+ * force. Three matching settings (see configs/field): */
+typedef struct synth_setting {
+    const char *name;
+    int mask, weight, seed_blocks;
+} synth_setting;
+static const synth_setting synth_settings[] = {
+    {"synthesis_paper", 0, 0, 0},     /* mask_unsynthesized = no: whole blocks, seeds included */
+    {"synthesis_weighted", 1, 64, 1}, /* grid.ini (make demo): seed_weight 0.25, seed_blocks */
+    {"synthesis_masked", 1, 0, 0},    /* the engine default: unsynthesized samples ignored */
+};
+#define SYNTH_SETTINGS ((int)(sizeof synth_settings / sizeof *synth_settings))
+
+typedef struct capture {
+    int last;            /* the iteration recorded */
+    int64_t nb, n, cap;  /* B^3, queries recorded, room */
+    uint8_t *val, *known;
+    uint8_t *has_mask;
+    int *weight;
+} capture;
+
+static gs_err capture_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
+                           const gs_field_query *q, const gs_field_search_opts *opts,
+                           gs_field_match *out)
+{
+    capture *c = ctx;
+    if (iteration == c->last) {
+        if (c->n == c->cap) {
+            int64_t cap = c->cap ? 2 * c->cap : 64;
+            uint8_t *v = gs_realloc(c->val, (size_t)(cap * c->nb)),
+                    *k = v ? gs_realloc(c->known, (size_t)(cap * c->nb)) : NULL;
+            if (v)
+                c->val = v;
+            if (k)
+                c->known = k;
+            uint8_t *h = k ? gs_realloc(c->has_mask, (size_t)cap) : NULL;
+            if (h)
+                c->has_mask = h;
+            int *w = h ? gs_realloc(c->weight, (size_t)cap * sizeof *w) : NULL;
+            if (w)
+                c->weight = w;
+            GS_CHECK(w, GS_ERR_MEM, "out of memory for %lld recorded queries", (long long)cap);
+            c->cap = cap;
+        }
+        memcpy(c->val + c->n * c->nb, q->values, (size_t)c->nb);
+        if (q->known)
+            memcpy(c->known + c->n * c->nb, q->known, (size_t)c->nb);
+        c->has_mask[c->n] = q->known != NULL;
+        c->weight[c->n] = q->seed_weight;
+        c->n++;
+    }
+    return gs_field_tree_best_match(s, q, opts, out);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static int run_synth_queries(int64_t size, const gs_qfield *src, int B, gs_field_searcher_t s,
+                             const gs_field_tree_info *info, fft_matcher *fm, int nq,
+                             int brute_queries, int64_t brute_max)
+{
+    int ok = 1;
+    int64_t nb = (int64_t)B * B * B, T = src->nx > src->ny ? src->nx : src->ny;
+    T = (T > src->nz ? T : src->nz) / 2 & ~(int64_t)3;
+    if (T < 2 * B)
+        T = 2 * B;
+    double *tt = gs_calloc((size_t)nq, sizeof *tt);
+    if (!tt)
+        return 0;
+    printf(",\n     \"synthesis_queries\": {\"target\": %lld, \"blocks\": [%d, %d, %d]",
+           (long long)T, B / 2, B / 2, B);
+    for (int si = 0; si < SYNTH_SETTINGS && ok; si++) {
+        const synth_setting *st = &synth_settings[si];
+        gs_field_synth_config cfg;
+        gs_field_synth_config_default(&cfg, src);
+        cfg.block[0] = cfg.block[1] = B / 2 < 2 ? 2 : B / 2;
+        cfg.block[2] = B;
+        cfg.target[0] = cfg.target[1] = cfg.target[2] = T;
+        cfg.mask_unsynthesized = st->mask;
+        cfg.seed_weight = st->weight;
+        cfg.seed_blocks = st->seed_blocks;
+        capture cap = {cfg.iterations - 1, nb, 0, 0, NULL, NULL, NULL, NULL};
+        cfg.match = capture_hook;
+        cfg.match_ctx = &cap;
+        gs_field_synth_t syn = NULL;
+        int finished = 0;
+        double t0 = gs_time_now();
+        if (gs_field_synth_create(src, &cfg, &syn) != GS_OK ||
+            gs_field_synth_run(syn, -1, &finished) != GS_OK) {
+            gs_error_report("bench_field: ");
+            ok = 0;
+        }
+        double synth_s = gs_time_now() - t0;
+        gs_field_synth_destroy(&syn);
+        int n = cap.n < nq ? (int)cap.n : nq;
+        if (!ok || n == 0) {
+            fprintf(stderr, "bench_field: %s recorded no query\n", st->name);
+            ok = 0;
+        }
+        double tree_sum = 0, fft_sum = 0, brute_sum = 0, dist_sum = 0;
+        int agree = 0, fft_agree = 0, brute_done = 0, extrapolated = 0;
+        uint64_t pops = 0;
+        for (int j = 0; j < n && ok; j++) {
+            int64_t i = (2 * j + 1) * cap.n / (2 * n); /* evenly spread over the iteration */
+            gs_field_query q = {B, cap.val + i * nb, cap.has_mask[i] ? cap.known + i * nb : NULL,
+                                cap.weight[i]};
+            gs_field_match mt, mb;
+            t0 = gs_time_now();
+            if (gs_field_tree_best_match(s, &q, NULL, &mt) != GS_OK) {
+                gs_error_report("bench_field: ");
+                ok = 0;
+                break;
+            }
+            tt[j] = gs_time_now() - t0;
+            tree_sum += tt[j];
+            pops += mt.pops;
+            uint64_t wk, wu;
+            gs_field_query_weights(&q, &wk, &wu);
+            dist_sum += (double)mt.dist / (double)wk / (double)nb;
+            int64_t fi;
+            uint64_t fd = 0;
+            t0 = gs_time_now();
+            fft_match(fm, src, &q, &fi, &fd);
+            fft_sum += gs_time_now() - t0;
+            fft_agree += fi == mt.index && fd == mt.dist;
+            if (j < brute_queries) {
+                int64_t end = info->blocks < brute_max ? info->blocks : brute_max;
+                uint64_t bound = UINT64_MAX;
+                t0 = gs_time_now();
+                gs_field_brute_search(src, &q, 0, end, &bound, &mb);
+                double bt = gs_time_now() - t0;
+                if (end < info->blocks) {
+                    extrapolated = 1;
+                    bt *= (double)info->blocks / (double)end;
+                } else {
+                    agree += mb.index == mt.index && mb.dist == mt.dist;
+                }
+                brute_sum += bt;
+                brute_done++;
+            }
+        }
+        if (ok) {
+            double tq = tree_sum / n, fq = fft_sum / n, bq = brute_done ? brute_sum / brute_done : 0;
+            qsort(tt, (size_t)n, sizeof *tt, cmp_double);
+            double med = n % 2 ? tt[n / 2] : (tt[n / 2 - 1] + tt[n / 2]) / 2;
+            printf(",\n       \"%s\": {\"mask_unsynthesized\": %d, \"seed_weight\": %d, "
+                   "\"seed_blocks\": %d, \"recorded\": %lld, \"synthesis_s\": %.2f, \"n\": %d, "
+                   "\"tree_s\": %.6f, \"tree_median_s\": %.6f, \"tree_max_s\": %.6f, "
+                   "\"fft_s\": %.6f, \"brute_s\": %.6f, \"brute_n\": %d, "
+                   "\"brute_extrapolated\": %s, \"tree_vs_fft\": %.1f, "
+                   "\"tree_vs_fft_median\": %.1f, \"tree_vs_brute\": %.1f, "
+                   "\"tree_vs_brute_median\": %.1f, \"agree\": %d, \"fft_agree\": %d, "
+                   "\"pops\": %.0f, \"mean_match_per_sample\": %.1f}",
+                   st->name, st->mask, st->weight, st->seed_blocks, (long long)cap.n, synth_s, n,
+                   tq, med, tt[n - 1], fq, bq, brute_done, extrapolated ? "true" : "false",
+                   fq / tq, fq / med, bq / tq, bq / med, agree, fft_agree, (double)pops / n,
+                   dist_sum / n);
+            fflush(stdout);
+            fprintf(stderr, "bench_field: %lld/%d %s: tree mean %.4f s median %.4f s, fft %.4f s, "
+                    "brute %.4f s\n", (long long)size, B, st->name, tq, med, fq, bq);
+            if ((!extrapolated && agree != brute_done) || fft_agree != n)
+                ok = 0;
+        }
+        gs_free(cap.val);
+        gs_free(cap.known);
+        gs_free(cap.has_mask);
+        gs_free(cap.weight);
+    }
+    printf("}");
+    gs_free(tt);
+    return ok;
+}
+
 static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t brute_max,
                     int fft_queries, gs_field_shape shape, const gs_mesh *mesh, const char *mesh_path,
-                    const int *shards, int nshards, int shard_queries, int first)
+                    const int *shards, int nshards, int shard_queries, int synth_queries, int first)
 {
     gs_qfield *src = make_source(n, shape, mesh, mesh_path);
     if (!src)
@@ -451,7 +655,14 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
                 B, kind_name[kind], tq, bq, fq);
     }
     printf("},\n     \"fft_setup_s\": %.3f", fft_setup);
-    if (fft_queries > 0)
+    if (synth_queries > 0) {
+        if (fft_queries <= 0 && !fft_create(src, &fm)) {
+            fprintf(stderr, "bench_field: out of memory for the FFT baseline\n");
+            return 0;
+        }
+        ok &= run_synth_queries(n, src, B, s, &info, &fm, synth_queries, brute_queries, brute_max);
+    }
+    if (fft_queries > 0 || synth_queries > 0)
         fft_destroy(&fm);
     if (nshards > 0 && shard_queries > 0)
         ok &= run_shards(src, B, s, &info, shards, nshards, shard_queries);
@@ -530,7 +741,7 @@ int main(int argc, char **argv)
     /* Defaults keep `make bench` near 15 minutes here: a seeded 256^3/32 tree query
      * takes ~18 s, a masked brute-force one over 2M blocks ~5 min. */
     int64_t queries = 12, brute = 2, brute_max = 500000, synth = 1, fft = 2;
-    int64_t shard_queries = 2;
+    int64_t shard_queries = 2, synth_queries = 12;
     int shards[8], nshards = 0;
     const char *shard_list = "2,4";
     gs_field_shape shape = GS_FIELD_BALLS;
@@ -570,6 +781,9 @@ int main(int argc, char **argv)
             }
         } else if (!strcmp(a, "--shards")) {
             shard_list = v;
+        } else if (!strcmp(a, "--synth-queries")) {
+            if (!parse_int_arg(v, 0, 1000000, &synth_queries, a))
+                return 1;
         } else if (!strcmp(a, "--shard-queries")) {
             if (!parse_int_arg(v, 0, 1000000, &shard_queries, a))
                 return 1;
@@ -616,7 +830,7 @@ int main(int argc, char **argv)
         if (*p == ',')
             p++;
         ok &= run_case(n, (int)b, (int)queries, (int)brute, brute_max, (int)fft, shape, meshp, mesh_path,
-                       shards, nshards, (int)shard_queries, first);
+                       shards, nshards, (int)shard_queries, (int)synth_queries, first);
         first = 0;
     }
     printf("\n  ]");
