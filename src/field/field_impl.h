@@ -6,12 +6,17 @@
 
 #define GS_FIELD_MAX_LEVEL 5 /* log2 of the largest block size (32) */
 
+/* A pyramid cell: the sum of its samples and of their squares, side by side
+ * so that a bound reads one cache line per cell, not two. */
+typedef struct gs_pyr_cell {
+    uint32_t sum, sq;
+} gs_pyr_cell;
+
 struct gs_field_pyramid {
     const gs_qfield *src;
     int levels;
     int64_t nx, ny, nz;
-    uint32_t *sum[GS_FIELD_MAX_LEVEL + 1]; /* sum[0] unused: level 0 is src->q */
-    uint32_t *sq[GS_FIELD_MAX_LEVEL + 1];  /* sums of squared samples; sq[0] unused */
+    gs_pyr_cell *cell[GS_FIELD_MAX_LEVEL + 1]; /* cell[0] unused: level 0 is src->q */
     size_t bytes;
 };
 
@@ -19,14 +24,14 @@ struct gs_field_pyramid {
  * stride). */
 static inline uint32_t gs_pyr_at(const struct gs_field_pyramid *p, int m, int64_t x)
 {
-    return m == 0 ? p->src->q[x] : p->sum[m][x];
+    return m == 0 ? p->src->q[x] : p->cell[m][x].sum;
 }
 
 /* Sum of squared samples of the 2^m cube at linear position x (< 2^32: at
  * most 32768 * 255^2). */
 static inline uint32_t gs_pyr_sq_at(const struct gs_field_pyramid *p, int m, int64_t x)
 {
-    return m == 0 ? (uint32_t)p->src->q[x] * p->src->q[x] : p->sq[m][x];
+    return m == 0 ? (uint32_t)p->src->q[x] * p->src->q[x] : p->cell[m][x].sq;
 }
 
 /* Tree node: all blocks below share content for steps [0, end). rep is the

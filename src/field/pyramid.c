@@ -23,19 +23,16 @@ gs_err gs_field_pyramid_create(const gs_qfield *src, int levels, gs_field_pyrami
     gs_err err = GS_OK;
     for (int m = 1; m < levels; m++) {
         void *a = NULL;
-        GS_TRY(err, gs_alloc_array(&a, (size_t)n, sizeof(uint32_t), "pyramid level"), fail);
-        p->sum[m] = a;
-        a = NULL;
-        GS_TRY(err, gs_alloc_array(&a, (size_t)n, sizeof(uint32_t), "pyramid squares level"), fail);
-        p->sq[m] = a;
-        p->bytes += 2 * (size_t)n * sizeof(uint32_t);
+        GS_TRY(err, gs_alloc_array(&a, (size_t)n, sizeof(gs_pyr_cell), "pyramid level"), fail);
+        p->cell[m] = a;
+        p->bytes += (size_t)n * sizeof(gs_pyr_cell);
         /* S_m[x] = sum of the 8 S_{m-1} at x + {0,h}^3, over positions whose cube fits */
         int64_t h = (int64_t)1 << (m - 1), s = 2 * h;
         int64_t sx = p->nx, sxy = p->nx * p->ny;
         for (int64_t z = 0; z + s <= p->nz; z++)
             for (int64_t y = 0; y + s <= p->ny; y++) {
                 int64_t row = sx * y + sxy * z;
-                uint32_t *dst = p->sum[m] + row, *dsq = p->sq[m] + row;
+                gs_pyr_cell *dst = p->cell[m] + row;
                 if (m == 1) {
                     const uint8_t *q = src->q + row;
                     const int64_t o[8] = {0, 1, sx, sx + 1, sxy, sxy + 1, sxy + sx, sxy + sx + 1};
@@ -46,17 +43,19 @@ gs_err gs_field_pyramid_create(const gs_qfield *src, int levels, gs_field_pyrami
                             s1 += v;
                             s2 += v * v;
                         }
-                        dst[x] = s1;
-                        dsq[x] = s2;
+                        dst[x] = (gs_pyr_cell){s1, s2};
                     }
                 } else {
-                    const uint32_t *q = p->sum[m - 1] + row, *qq = p->sq[m - 1] + row;
+                    const gs_pyr_cell *q = p->cell[m - 1] + row;
                     int64_t hy = h * sx, hz = h * sxy;
+                    const int64_t o[8] = {0, h, hy, hy + h, hz, hz + h, hz + hy, hz + hy + h};
                     for (int64_t x = 0; x + s <= p->nx; x++) {
-                        dst[x] = q[x] + q[x + h] + q[x + hy] + q[x + hy + h] + q[x + hz] +
-                                 q[x + hz + h] + q[x + hz + hy] + q[x + hz + hy + h];
-                        dsq[x] = qq[x] + qq[x + h] + qq[x + hy] + qq[x + hy + h] + qq[x + hz] +
-                                 qq[x + hz + h] + qq[x + hz + hy] + qq[x + hz + hy + h];
+                        uint32_t s1 = 0, s2 = 0;
+                        for (int c = 0; c < 8; c++) {
+                            s1 += q[x + o[c]].sum;
+                            s2 += q[x + o[c]].sq;
+                        }
+                        dst[x] = (gs_pyr_cell){s1, s2};
                     }
                 }
             }
@@ -73,8 +72,7 @@ void gs_field_pyramid_destroy(gs_field_pyramid_t *pp)
     if (!pp || !*pp)
         return;
     for (int m = 1; m <= GS_FIELD_MAX_LEVEL; m++) {
-        gs_free((*pp)->sum[m]);
-        gs_free((*pp)->sq[m]);
+        gs_free((*pp)->cell[m]);
     }
     GS_FREE(*pp);
 }

@@ -266,12 +266,12 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
                 lb += w * sq_scaled((int64_t)qs[c] - v[off[c]], k + 1);
         }
     } else {
-        const uint32_t *v = p->sum[m - 1] + base, *vq = p->sq[m - 1] + base;
+        const gs_pyr_cell *v = p->cell[m - 1] + base;
         int64_t cc = (int64_t)1 << (3 * (m - 1));
         for (int c = 0; c < 8; c++) {
             uint64_t w = qf[c] ? wk : wu;
             if (w)
-                lb += w * cell_term(qs[c], qd[c], v[off[c]], vq[off[c]], cc, k + 1);
+                lb += w * cell_term(qs[c], qd[c], v[off[c]].sum, v[off[c]].sq, cc, k + 1);
         }
     }
     return lb;
@@ -382,8 +382,7 @@ static inline void prefetch_node(const struct gs_field_searcher *s, uint32_t id)
     int64_t base = gs_tree_block_base(t, t->nodes[id].rep);
     const int64_t *off = t->lay.cell_off[1];
     for (int o = 0; o < 8; o++) {
-        __builtin_prefetch(t->pyr->sum[m] + base + off[o]);
-        __builtin_prefetch(t->pyr->sq[m] + base + off[o]);
+        __builtin_prefetch(t->pyr->cell[m] + base + off[o]);
     }
 }
 

@@ -158,11 +158,11 @@ static int64_t first_difference(const build_ctx *c, uint32_t a, uint32_t b, int 
                 }
             }
         } else {
-            const uint32_t *q = p->sum[m], *qq = p->sq[m];
+            const gs_pyr_cell *q = p->cell[m];
             for (int64_t t = 0; t < cells; t++) {
-                uint32_t va = q[pa + off[t]], vb = q[pb + off[t]];
+                uint32_t va = q[pa + off[t]].sum, vb = q[pb + off[t]].sum;
                 if (va == vb)
-                    va = qq[pa + off[t]], vb = qq[pb + off[t]];
+                    va = q[pa + off[t]].sq, vb = q[pb + off[t]].sq;
                 if (va != vb) {
                     *sign = va < vb ? -1 : 1;
                     return GS_FIELD_QSTEPS + lay->level_first[k] + (t >> 3);
