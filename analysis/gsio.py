@@ -290,10 +290,17 @@ def mesh_outputs(run):
 # --- benchmarks ----------------------------------------------------------
 
 def read_bench_field(path):
-    """tests/bench field JSON -> [(case label, {query kind: {tree_s, brute_s, fft_s}})]."""
+    """tests/bench field JSON -> [(case label, {query kind: {tree_s, brute_s, fft_s}})]:
+    the made-up query kinds, then the queries recorded from real syntheses
+    (synthesis_paper, _weighted, _masked; tree_s is their mean)."""
     b = read_json(path)
     res = []
     for c in b.get("cases", []):
-        label = f"{c.get('shape', '?')} {c.get('source')}^3 / {c.get('block')}"
-        res.append((label, c.get("queries", {})))
+        shape = os.path.splitext(os.path.basename(str(c.get("shape", "?"))))[0]
+        label = f"{shape} {c.get('source')}^3 / {c.get('block')}"
+        kinds = dict(c.get("queries", {}))
+        for k, v in c.get("synthesis_queries", {}).items():
+            if isinstance(v, dict):
+                kinds[k] = v
+        res.append((label, kinds))
     return res

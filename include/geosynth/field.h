@@ -185,6 +185,8 @@ int64_t gs_field_block_count(const gs_qfield *src, int block);
 void gs_field_block_position(const gs_qfield *src, int block, int64_t index, int64_t pos[3]);
 /* Copies block `index` into out[B^3]. */
 void gs_field_block_copy(const gs_qfield *src, int block, int64_t index, uint8_t *out);
+/* Copies the B^3 samples of f starting at sample pos (x, y, z) into out. */
+void gs_qfield_block_at(const gs_qfield *f, int block, const int64_t pos[3], uint8_t *out);
 /* dist(q, block index) as defined at top. */
 uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_field_query *q);
 

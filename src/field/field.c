@@ -164,10 +164,15 @@ void gs_field_block_copy(const gs_qfield *src, int block, int64_t index, uint8_t
 {
     int64_t p[3];
     gs_field_block_position(src, block, index, p);
+    gs_qfield_block_at(src, block, p, out);
+}
+
+void gs_qfield_block_at(const gs_qfield *f, int block, const int64_t pos[3], uint8_t *out)
+{
     for (int k = 0; k < block; k++)
         for (int j = 0; j < block; j++)
             memcpy(out + block * (j + block * k),
-                   src->q + p[0] + src->nx * (p[1] + j + src->ny * (p[2] + k)), (size_t)block);
+                   f->q + pos[0] + f->nx * (pos[1] + j + f->ny * (pos[2] + k)), (size_t)block);
 }
 
 void gs_field_query_weights(const gs_field_query *q, uint64_t *wk, uint64_t *wu)

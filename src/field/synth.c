@@ -687,10 +687,7 @@ gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src,
     for (int64_t z = 0; z + B <= out->nz; z += B)
         for (int64_t y = 0; y + B <= out->ny; y += B)
             for (int64_t x = 0; x + B <= out->nx; x += B) {
-                for (int k = 0; k < B; k++)
-                    for (int j = 0; j < B; j++)
-                        memcpy(val + B * (j + B * k), out->q + x + out->nx * (y + j + out->ny * (z + k)),
-                               (size_t)B);
+                gs_qfield_block_at(out, B, (const int64_t[3]){x, y, z}, val);
                 gs_field_query q = {B, val, NULL, 0};
                 gs_field_match m;
                 GS_TRY(err, match(ctx, &q, &m), done);
