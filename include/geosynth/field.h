@@ -111,6 +111,10 @@ typedef struct gs_field {
  * Caller frees with gs_field_destroy(). On error *out is unchanged. */
 gs_err gs_field_create(int64_t nx, int64_t ny, int64_t nz, gs_field **out);
 void gs_field_destroy(gs_field **f);
+/* Copy of f cut down to a multiple of mult samples per axis (the low
+ * corner kept, same origin and spacing): what a synthesis of log2(mult)+1
+ * iterations needs. GS_ERR_ARG when an axis is shorter than mult. */
+gs_err gs_field_crop(const gs_field *f, int64_t mult, gs_field **out);
 
 /* Quantized field: 256 levels over [lo, hi]. Owns q (x fastest). */
 typedef struct gs_qfield {

@@ -79,7 +79,6 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
-#include "geosynth/partition.h"
 #include "geosynth/psearch.h"
 #include "geosynth/regions.h"
 #include "geosynth/vdb.h"
@@ -222,24 +221,6 @@ typedef struct field_source {
     char desc[256];
 } field_source;
 
-static gs_err crop_field(gs_field *f, int64_t mult, gs_field **out)
-{
-    int64_t n[3] = {f->nx / mult * mult, f->ny / mult * mult, f->nz / mult * mult};
-    GS_CHECK(n[0] > 0 && n[1] > 0 && n[2] > 0, GS_ERR_ARG,
-             "example of %lldx%lldx%lld samples is smaller than %lld (2^(iterations-1)) along an axis",
-             (long long)f->nx, (long long)f->ny, (long long)f->nz, (long long)mult);
-    gs_field *c = NULL;
-    GS_CALL(gs_field_create(n[0], n[1], n[2], &c));
-    for (int64_t z = 0; z < n[2]; z++)
-        for (int64_t y = 0; y < n[1]; y++)
-            memcpy(c->v + n[0] * (y + n[1] * z), f->v + f->nx * (y + f->ny * z),
-                   (size_t)n[0] * sizeof(float));
-    memcpy(c->origin, f->origin, sizeof c->origin);
-    c->spacing = f->spacing;
-    *out = c;
-    return GS_OK;
-}
-
 /* Mesh vertices from world to sample units of field f. */
 static void mesh_to_samples(gs_mesh *m, const gs_field *f)
 {
@@ -303,7 +284,7 @@ static gs_err build_source_rank0(const field_config *c, int want_mesh, field_sou
 {
     gs_field *raw = NULL;
     GS_CALL(build_example(c, want_mesh, src, &raw));
-    gs_err err = crop_field(raw, (int64_t)1 << (c->iterations - 1), &src->f);
+    gs_err err = gs_field_crop(raw, (int64_t)1 << (c->iterations - 1), &src->f);
     gs_field_destroy(&raw);
     GS_CALL(err);
     double r = c->range * src->f->spacing;
@@ -366,7 +347,7 @@ typedef struct match_ctx {
     gs_psearch_t ps;
     int ps_iteration;      /* iteration the psearch handle was built for (-1: none) */
     int sharded;           /* field.tree = sharded: each rank holds one z-slab of the tree */
-    gs_field_tree_t qtree; /* sharded: this rank's slab of the quality measure's tree */
+    gs_field_tree_t qtree; /* the quality measure's tree (sharded: this rank's slab) */
     gs_field_searcher_t qsearcher;
     /* per query */
     gs_field_tree_t tree;
@@ -488,113 +469,14 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
     return GS_OK;
 }
 
-/* Sharded quality measure: every rank matches every output block with its
- * slab of the full-resolution tree (its own key for the psearch handle). */
+/* Quality measure: every rank matches every output block with its whole
+ * full-resolution tree or its slab of it, through match_block (its own key
+ * for the psearch handle). */
 #define QUALITY_ITERATION GS_FIELD_MAX_ITER
 static gs_err quality_match(void *ctx_, const gs_field_query *q, gs_field_match *out)
 {
     match_ctx *ctx = ctx_;
     return match_block(ctx, ctx->qtree, ctx->qsearcher, QUALITY_ITERATION, q, NULL, out);
-}
-
-/* Whole-tree quality measure over the ranks: the output blocks, in the
- * measure's order, are split by count; each rank matches its share with its
- * own full-resolution tree, and rank 0 gathers the answers and replays them
- * in that order through gs_field_quality_measure_with, so the figures are
- * those of one rank for any rank count. Synthesis queries far from every
- * source block make this measure long (fibers.ini: 37 s of its output). */
-typedef struct quality_replay {
-    const int64_t *ans; /* per block: index, dist, known */
-    int64_t next;
-} quality_replay;
-
-static gs_err replay_match(void *ctx_, const gs_field_query *q, gs_field_match *out)
-{
-    quality_replay *r = ctx_;
-    (void)q;
-    memset(out, 0, sizeof *out);
-    const int64_t *a = r->ans + 3 * r->next++;
-    out->found = 1;
-    out->index = a[0];
-    out->dist = (uint64_t)a[1];
-    out->known = a[2];
-    return GS_OK;
-}
-
-static gs_err quality_whole(gs_run *run, const gs_qfield *res, const gs_qfield *src, int B,
-                            gs_field_quality *qm)
-{
-    int64_t bx = res->nx / B, by = res->ny / B, bz = res->nz / B, n = bx * by * bz, lo, hi;
-    /* the gather counts are ints: beyond that, rank 0 measures alone */
-    int spread = run->size > 1 && 3 * n <= INT_MAX / 2;
-    GS_CALL(gs_partition(n, spread ? run->size : 1, spread ? run->rank : 0, &lo, &hi));
-    if (!spread && run->rank != 0)
-        lo = hi = 0;
-    gs_err err = GS_OK;
-    gs_field_tree_t tree = NULL;
-    gs_field_searcher_t s = NULL;
-    int64_t *mine = NULL, *all = NULL;
-    uint8_t *val = NULL;
-    int *counts = NULL, *displs = NULL;
-    if (hi > lo) {
-        err = gs_field_tree_build(src, B, &tree);
-        if (!err)
-            err = gs_field_searcher_create(tree, &s);
-        if (!err)
-            err = gs_alloc_array((void **)&mine, (size_t)(3 * (hi - lo)), sizeof *mine,
-                                 "quality answers");
-        if (!err)
-            err = gs_alloc_array((void **)&val, (size_t)B * B * B, 1, "quality block");
-        for (int64_t i = lo; i < hi && !err; i++) {
-            int64_t pos[3] = {i % bx * B, i / bx % by * B, i / (bx * by) * B};
-            gs_qfield_block_at(res, B, pos, val);
-            gs_field_query qq = {B, val, NULL, 0};
-            gs_field_match m;
-            err = gs_field_tree_best_match(s, &qq, NULL, &m);
-            int64_t *a = mine + 3 * (i - lo);
-            a[0] = m.index, a[1] = (int64_t)m.dist, a[2] = m.known;
-        }
-    }
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    if (run->rank == 0) {
-        GS_TRY(err, gs_alloc_array((void **)&all, (size_t)(3 * n), sizeof *all, "quality answers"),
-               agree);
-        GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)run->size, sizeof *counts, "counts"),
-               agree);
-        GS_TRY(err, gs_alloc_array((void **)&displs, (size_t)run->size, sizeof *displs, "counts"),
-               agree);
-        for (int r = 0; r < run->size; r++) {
-            int64_t l, h;
-            gs_partition(n, spread ? run->size : 1, spread ? r : 0, &l, &h);
-            if (!spread && r != 0)
-                l = h = 0;
-            counts[r] = (int)(3 * (h - l));
-            displs[r] = (int)(3 * l);
-        }
-    }
-agree:
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    if (spread) {
-        int rc = MPI_Gatherv(mine, (int)(3 * (hi - lo)), MPI_INT64_T, all, counts, displs,
-                             MPI_INT64_T, 0, run->comm);
-        GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done,
-                     "quality measure: MPI_Gatherv of the block answers failed");
-    } else if (run->rank == 0 && n > 0) {
-        memcpy(all, mine, (size_t)(3 * n) * sizeof *all);
-    }
-    if (run->rank == 0) {
-        quality_replay r = {all, 0};
-        err = gs_field_quality_measure_with(res, src, B, replay_match, &r, qm);
-    }
-done:
-    gs_free(val);
-    gs_free(mine);
-    gs_free(all);
-    gs_free(counts);
-    gs_free(displs);
-    gs_field_searcher_destroy(&s);
-    gs_field_tree_destroy(&tree);
-    return err;
 }
 
 /* ------------------------------------------------------ target regions */
@@ -1032,23 +914,21 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     uint64_t digest = gs_digest_bytes(res->q, (size_t)(res->nx * res->ny * res->nz));
     GS_TRY(err, write_field_h5(run, res, resf), done);
     /* quality: coherence needs the nearest source block of every output
-     * block; sharded, every rank searches its slab of the full-resolution
-     * tree together (the distributed matcher), else the blocks are shared
-     * out (quality_whole) */
+     * block; every rank runs the measure with the distributed matcher of
+     * the synthesis (match_block): sharded, each rank searches its slab of
+     * the full-resolution tree; whole, each tries a query alone and the
+     * long ones are spread over the ranks' subtrees. Same figures on every
+     * rank and for any rank count. */
     gs_field_quality qm;
     memset(&qm, 0, sizeof qm);
     gs_err qerr = GS_OK;
     double tq = gs_time_now();
-    if (ctx.sharded) {
-        qerr = gs_field_tree_build_shard(q, (int)c->block, run->size, run->rank, &ctx.qtree);
-        if (!qerr && ctx.qtree)
-            qerr = gs_field_searcher_create(ctx.qtree, &ctx.qsearcher);
-        GS_TRY(err, gs_par_agree(run->comm, qerr), done);
-        GS_TRY(err, gs_field_quality_measure_with(res, q, (int)c->block, quality_match, &ctx, &qm),
-               done);
-    } else {
-        GS_TRY(err, gs_par_agree(run->comm, quality_whole(run, res, q, (int)c->block, &qm)), done);
-    }
+    qerr = gs_field_tree_build_shard(q, (int)c->block, ctx.sharded ? run->size : 1, run->rank,
+                                     &ctx.qtree);
+    if (!qerr && ctx.qtree)
+        qerr = gs_field_searcher_create(ctx.qtree, &ctx.qsearcher);
+    GS_TRY(err, gs_par_agree(run->comm, qerr), done);
+    GS_TRY(err, gs_field_quality_measure_with(res, q, (int)c->block, quality_match, &ctx, &qm), done);
     double quality_s = gs_time_now() - tq;
     gs_json pm;
     gs_json_init(&pm);

@@ -160,6 +160,24 @@ void gs_field_block_position(const gs_qfield *src, int block, int64_t index, int
     pos[2] = index / (bx * by);
 }
 
+gs_err gs_field_crop(const gs_field *f, int64_t mult, gs_field **out)
+{
+    int64_t n[3] = {f->nx / mult * mult, f->ny / mult * mult, f->nz / mult * mult};
+    GS_CHECK(n[0] > 0 && n[1] > 0 && n[2] > 0, GS_ERR_ARG,
+             "example of %lldx%lldx%lld samples is smaller than %lld (2^(iterations-1)) along an axis",
+             (long long)f->nx, (long long)f->ny, (long long)f->nz, (long long)mult);
+    gs_field *c = NULL;
+    GS_CALL(gs_field_create(n[0], n[1], n[2], &c));
+    for (int64_t z = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++)
+            memcpy(c->v + n[0] * (y + n[1] * z), f->v + f->nx * (y + f->ny * z),
+                   (size_t)n[0] * sizeof(float));
+    memcpy(c->origin, f->origin, sizeof c->origin);
+    c->spacing = f->spacing;
+    *out = c;
+    return GS_OK;
+}
+
 void gs_field_block_copy(const gs_qfield *src, int block, int64_t index, uint8_t *out)
 {
     int64_t p[3];

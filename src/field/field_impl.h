@@ -97,7 +97,7 @@ struct gs_field_tree {
 
 /* Linear source position of block idx (x fastest; bx, by block positions
  * per row and plane; nx, ny source samples per row and plane). */
-static inline int64_t gs_block_base(int64_t bx, int64_t by, int64_t nx, int64_t ny, uint32_t idx)
+static inline int64_t gs_block_base(int64_t bx, int64_t by, int64_t nx, int64_t ny, int64_t idx)
 {
     int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
     return px + nx * (py + ny * pz);

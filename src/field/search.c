@@ -600,7 +600,6 @@ static ssd_fn ssd_for(int B)
     return B == 8 ? ssd_8 : B == 16 ? ssd_16 : B == 32 ? ssd_32 : ssd_any;
 }
 
-/* Exact weighted distance of the searched query to the block at base. */
 /* Exact weighted distance of the searched query over z-slices [k0, k1) of
  * the block at base. */
 static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base, int k0, int k1)
@@ -628,9 +627,8 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
     int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;
     uint64_t best = *bound;
     for (int64_t idx = begin; idx < end; idx++) {
-        int64_t px = idx % bx, py = idx / bx % by, pz = idx / (bx * by);
-        uint64_t d = ssd(src->q + px + src->nx * py + nxy * pz, src->nx, nxy, q->values, q->known,
-                         wk, wu, B, 0, B);
+        uint64_t d = ssd(src->q + gs_block_base(bx, by, src->nx, src->ny, idx), src->nx, nxy,
+                         q->values, q->known, wk, wu, B, 0, B);
         if (d <= best && (!out->found || d < out->dist)) {
             out->found = 1;
             out->index = idx;

@@ -200,30 +200,22 @@ static gs_qfield *make_source(int64_t n, gs_field_shape shape, const gs_mesh *me
     gs_qfield *src = NULL;
     gs_err err = mesh ? gs_field_from_mesh(mesh, mesh_path, n, 2, 1, 0, &f)
                       : gs_field_make_shape(shape, n, 1, &f);
+    /* cropped to a multiple of 4 per axis, as the engine crops for 3
+     * iterations, so the synthesis queries below come from this very source */
+    gs_field *c = NULL;
+    if (err == GS_OK)
+        err = gs_field_crop(f, 4, &c);
     if (err == GS_OK) {
-        double r = 3 * f->spacing;
-        err = gs_field_quantize(f, -r, r, &src);
+        double r = 3 * c->spacing;
+        err = gs_field_quantize(c, -r, r, &src);
     }
+    gs_field_destroy(&c);
     gs_field_destroy(&f);
     if (err != GS_OK) {
         gs_error_report("bench_field: ");
         return NULL;
     }
-    /* cropped to a multiple of 4 per axis, as the engine crops for 3
-     * iterations, so the synthesis queries below come from this very source */
-    gs_qfield *c = NULL;
-    int64_t cx = src->nx & ~3, cy = src->ny & ~3, cz = src->nz & ~3;
-    if (gs_qfield_create(cx, cy, cz, src->lo, src->hi, &c) != GS_OK) {
-        gs_error_report("bench_field: ");
-        gs_qfield_destroy(&src);
-        return NULL;
-    }
-    for (int64_t z = 0; z < cz; z++)
-        for (int64_t y = 0; y < cy; y++)
-            memcpy(c->q + cx * (y + cy * z), src->q + src->nx * (y + src->ny * z), (size_t)cx);
-    c->spacing = src->spacing;
-    gs_qfield_destroy(&src);
-    return c;
+    return src;
 }
 
 /* field.tree = sharded: the tree split into P z-slabs, one per rank
@@ -386,54 +378,62 @@ static const synth_setting synth_settings[] = {
 };
 #define SYNTH_SETTINGS ((int)(sizeof synth_settings / sizeof *synth_settings))
 
+/* One recorded query: values and known flags (B^3 each) after the header. */
+typedef struct capture_rec {
+    int has_mask, weight;
+} capture_rec;
+
 typedef struct capture {
     int last;            /* the iteration recorded */
     int64_t nb, n, cap;  /* B^3, queries recorded, room */
-    uint8_t *val, *known;
-    uint8_t *has_mask;
-    int *weight;
+    size_t rec_bytes;    /* header + 2 B^3 */
+    unsigned char *recs;
     double *seconds;     /* the tree's time on each, in the synthesis */
     uint64_t pops;
 } capture;
+
+static capture_rec *capture_at(const capture *c, int64_t i)
+{
+    return (capture_rec *)(c->recs + (size_t)i * c->rec_bytes);
+}
+
+/* Query i as recorded (values and flags point into the record). */
+static gs_field_query capture_query(const capture *c, int B, int64_t i)
+{
+    capture_rec *r = capture_at(c, i);
+    const uint8_t *v = (const uint8_t *)(r + 1);
+    return (gs_field_query){B, v, r->has_mask ? v + c->nb : NULL, r->weight};
+}
 
 static gs_err capture_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
                            const gs_field_query *q, const gs_field_search_opts *opts,
                            gs_field_match *out)
 {
     capture *c = ctx;
-    if (iteration == c->last) {
-        if (c->n == c->cap) {
-            int64_t cap = c->cap ? 2 * c->cap : 64;
-            uint8_t *v = gs_realloc(c->val, (size_t)(cap * c->nb)),
-                    *k = v ? gs_realloc(c->known, (size_t)(cap * c->nb)) : NULL;
-            if (v)
-                c->val = v;
-            if (k)
-                c->known = k;
-            uint8_t *h = k ? gs_realloc(c->has_mask, (size_t)cap) : NULL;
-            if (h)
-                c->has_mask = h;
-            int *w = h ? gs_realloc(c->weight, (size_t)cap * sizeof *w) : NULL;
-            if (w)
-                c->weight = w;
-            double *t = w ? gs_realloc(c->seconds, (size_t)cap * sizeof *t) : NULL;
-            if (t)
-                c->seconds = t;
-            GS_CHECK(t, GS_ERR_MEM, "out of memory for %lld recorded queries", (long long)cap);
-            c->cap = cap;
-        }
-        memcpy(c->val + c->n * c->nb, q->values, (size_t)c->nb);
-        if (q->known)
-            memcpy(c->known + c->n * c->nb, q->known, (size_t)c->nb);
-        c->has_mask[c->n] = q->known != NULL;
-        c->weight[c->n] = q->seed_weight;
-        double t0 = gs_time_now();
-        GS_CALL(gs_field_tree_best_match(s, q, opts, out));
-        c->seconds[c->n++] = gs_time_now() - t0;
-        c->pops += out->pops;
-        return GS_OK;
+    if (iteration != c->last)
+        return gs_field_tree_best_match(s, q, opts, out);
+    if (c->n == c->cap) {
+        int64_t cap = c->cap ? 2 * c->cap : 64;
+        unsigned char *r = gs_realloc(c->recs, (size_t)cap * c->rec_bytes);
+        if (r)
+            c->recs = r;
+        double *t = r ? gs_realloc(c->seconds, (size_t)cap * sizeof *t) : NULL;
+        if (t)
+            c->seconds = t;
+        GS_CHECK(t, GS_ERR_MEM, "out of memory for %lld recorded queries", (long long)cap);
+        c->cap = cap;
     }
-    return gs_field_tree_best_match(s, q, opts, out);
+    capture_rec *r = capture_at(c, c->n);
+    r->has_mask = q->known != NULL;
+    r->weight = q->seed_weight;
+    memcpy(r + 1, q->values, (size_t)c->nb);
+    if (q->known)
+        memcpy((uint8_t *)(r + 1) + c->nb, q->known, (size_t)c->nb);
+    double t0 = gs_time_now();
+    GS_CALL(gs_field_tree_best_match(s, q, opts, out));
+    c->seconds[c->n++] = gs_time_now() - t0;
+    c->pops += out->pops;
+    return GS_OK;
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -463,7 +463,8 @@ static int run_synth_queries(int64_t size, const gs_qfield *src, int B, gs_field
         cfg.mask_unsynthesized = st->mask;
         cfg.seed_weight = st->weight;
         cfg.seed_blocks = st->seed_blocks;
-        capture cap = {cfg.iterations - 1, nb, 0, 0, NULL, NULL, NULL, NULL, NULL, 0};
+        capture cap = {cfg.iterations - 1, nb, 0, 0, sizeof(capture_rec) + 2 * (size_t)nb, NULL,
+                       NULL, 0};
         cfg.match = capture_hook;
         cfg.match_ctx = &cap;
         gs_field_synth_t syn = NULL;
@@ -485,8 +486,7 @@ static int run_synth_queries(int64_t size, const gs_qfield *src, int B, gs_field
         int agree = 0, fft_agree = 0, brute_done = 0, extrapolated = 0;
         for (int j = 0; j < n && ok; j++) {
             int64_t i = (2 * j + 1) * cap.n / (2 * n); /* evenly spread over the iteration */
-            gs_field_query q = {B, cap.val + i * nb, cap.has_mask[i] ? cap.known + i * nb : NULL,
-                                cap.weight[i]};
+            gs_field_query q = capture_query(&cap, B, i);
             gs_field_match mt, mb;
             if (gs_field_tree_best_match(s, &q, NULL, &mt) != GS_OK) {
                 gs_error_report("bench_field: ");
@@ -548,11 +548,8 @@ static int run_synth_queries(int64_t size, const gs_qfield *src, int B, gs_field
             if ((!extrapolated && agree != brute_done) || fft_agree != n)
                 ok = 0;
         }
-        gs_free(cap.val);
-        gs_free(cap.known);
-        gs_free(cap.has_mask);
+        gs_free(cap.recs);
         gs_free(cap.seconds);
-        gs_free(cap.weight);
     }
     printf("}");
     return ok;
