@@ -43,21 +43,22 @@
  *   lb_k(q, b) = sum over cells of level k whose samples are all known of
  *                (Sq - Sb)^2 / c  <=  lb_{k+1}  <=  dist(q, b) = lb_L.
  * (Cauchy-Schwarz on the known samples; cells with unknown samples add 0.)
- * The pyramid also holds sums of squares Q, and the search adds to each
- * cell the spread term (sqrt(vq) - sqrt(vb))^2 / c, v = c*Q - S^2 (c times
- * the squared deviations from the cell mean): sum (q-s)^2 = (Sq-Sb)^2/c +
+ * The pyramid also holds each cell's spread sqrt(v), v = c*Q - S^2 (Q the
+ * sum of squares; v is c times the squared deviations from the cell mean),
+ * as a float, and the search adds to each cell the spread term
+ * (sqrt(vq) - sqrt(vb))^2 / c: sum (q-s)^2 = (Sq-Sb)^2/c +
  * |dq - ds|^2 >= (Sq-Sb)^2/c + (|dq| - |ds|)^2. It sees random seed samples
  * and coarse copies that cell means cannot (exact for cells where either
  * side is constant), stays monotone under refinement, and is rounded down
- * so every comparison stays exact.
+ * with a margin over the float's rounding so every comparison stays exact.
  *
  * Search tree (gs_field_tree_*): the blocks' pyramids are revealed in a
  * fixed sequence of steps: steps 0..7 reveal the floor means of octants
  * 0..7 in Morton order (at most 256 values each, so the root has at most
  * 256 children -- the units split over ranks), step 8 the exact sums and
- * sums of squares of the 8 octants, then each further step refines one cell
- * of level k >= 1 into its 8 cells of level k+1 (levels in order, cells of a
- * level in Morton order; a cell is revealed as (sum, sum of squares)).
+ * spreads of the 8 octants, then each further step refines one cell of
+ * level k >= 1 into its 8 cells of level k+1 (levels in order, cells of a
+ * level in Morton order; a cell is revealed as (sum, spread)).
  * Octants first (rather than the paper's level-0 mean) keep queries with an
  * unknown octant selective from the first step. Blocks with identical
  * content up to a step share one node (the paper's merging of identical
@@ -72,17 +73,20 @@
  * deviations of all blocks below (48 bytes).
  *
  * Best-first search (paper fig. 4): a priority queue of (lower bound, lowest
- * block index below, node, step) in this total order. A trie node is queued
- * with the bound of its box (all 8 octants, means and spread terms, for
- * every block below); any other node with the bound of its exact octants
- * (step 8) or, below those, its parent's bound. A popped entry is refined
- * step by step (the incremental distance evaluation of paper 4.4) while it
- * stays at the front; a leaf that comes back to the front is completed at
- * once with its exact distance (src/field/search.c). The first complete
- * leaf to reach the front is the exact best match with the lowest index
- * among equals.
+ * block index below, node, step) in this total order, holding inner nodes.
+ * A trie node is queued with the bound of its box (all 8 octants, means and
+ * spread terms, for every block below); any other node with the bound of
+ * its exact octants (step 8) or, below those, its parent's bound. A popped
+ * entry is refined step by step (the incremental distance evaluation of
+ * paper 4.4) while it stays at the front. When a node is expanded, its leaf
+ * children are not queued but evaluated at once, in the order of their
+ * octant bounds, against the best distance found so far: whole-level bounds
+ * (levels 2 .. L-2), then the exact distance, given up as soon as a partial
+ * sum passes the best. The search ends when the front's bound passes the
+ * best (or equals it with a higher lowest index): the best is then the
+ * exact best match with the lowest index among equals (src/field/search.c).
  *
- * Costs: pyramid 1 + 8*L bytes per source sample (sums and squares); tree build O(M log M)
+ * Costs: pyramid 1 + 8*L bytes per source sample (sums and spreads); tree build O(M log M)
  * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
  * about 24 bytes per node (< 2 per distinct block), 48 bytes per trie node
  * (about one per 5 distinct blocks) + 4 bytes per block.
@@ -201,10 +205,10 @@ typedef struct gs_field_match {
     int64_t index;      /* best source block index (lowest among equals) */
     uint64_t dist;      /* its distance (weighted sum of squared differences, see top) */
     int64_t known;      /* number of known query samples */
-    uint64_t pops;      /* queue entries popped (tree) / blocks scanned (brute) */
+    uint64_t pops;      /* queue entries popped and leaves evaluated (tree) / blocks scanned (brute) */
     uint64_t pushes;    /* queue entries pushed (tree) */
-    uint64_t refinements; /* bounds evaluated (tree): refinement steps, nodes opened;
-                             a leaf completed at once counts the steps it skipped */
+    uint64_t refinements; /* bounds evaluated (tree): refinement steps, nodes opened,
+                             whole-level leaf bounds and leaf completions */
     size_t queue_peak;  /* largest queue size (tree) */
     int truncated;      /* tree search stopped at opts->max_pops: no answer */
 } gs_field_match;

@@ -6,11 +6,19 @@
 
 #define GS_FIELD_MAX_LEVEL 5 /* log2 of the largest block size (32) */
 
-/* A pyramid cell: the sum of its samples and of their squares, side by side
- * so that a bound reads one cache line per cell, not two. */
+/* A pyramid cell of c = 8^m samples: their sum S and their spread
+ * dev = sqrt(c*Q - S^2) (Q the sum of their squares; c times their standard
+ * deviation), side by side so that a bound reads one cache line per cell,
+ * not two. dev is the exact square root rounded to float (relative error
+ * below 2^-23, see GS_PYR_DEV_EPS): the search's spread term reads it
+ * instead of taking a square root per cell, its most frequent operation. */
 typedef struct gs_pyr_cell {
-    uint32_t sum, sq;
+    uint32_t sum;
+    float dev;
 } gs_pyr_cell;
+
+/* Relative error bound of gs_pyr_cell.dev against the exact square root. */
+#define GS_PYR_DEV_EPS 1.2e-7
 
 struct gs_field_pyramid {
     const gs_qfield *src;
@@ -27,11 +35,11 @@ static inline uint32_t gs_pyr_at(const struct gs_field_pyramid *p, int m, int64_
     return m == 0 ? p->src->q[x] : p->cell[m][x].sum;
 }
 
-/* Sum of squared samples of the 2^m cube at linear position x (< 2^32: at
- * most 32768 * 255^2). */
-static inline uint32_t gs_pyr_sq_at(const struct gs_field_pyramid *p, int m, int64_t x)
+/* Spread sqrt(c*Q - S^2) of the 2^m cube at linear position x (0 for a
+ * single sample), as stored: see gs_pyr_cell. */
+static inline float gs_pyr_dev_at(const struct gs_field_pyramid *p, int m, int64_t x)
 {
-    return m == 0 ? (uint32_t)p->src->q[x] * p->src->q[x] : p->cell[m][x].sq;
+    return m == 0 ? 0.0f : p->cell[m][x].dev;
 }
 
 /* Tree node: all blocks below share content for steps [0, end). rep is the
@@ -91,7 +99,7 @@ struct gs_field_tree {
 
 /* Steps of the sequence (see field.h): t < GS_FIELD_QSTEPS reveals the
  * floor mean of octant t (its sum >> 3(L-1)); GS_FIELD_QSTEPS + r is
- * refinement r (r = 0: the exact sums and sums of squares of the 8
+ * refinement r (r = 0: the exact sums and spreads of the 8
  * octants; then each cell of level k >= 1 into its 8 children). */
 #define GS_FIELD_QSTEPS 8
 

@@ -1,5 +1,6 @@
 /* Global sum pyramid and the block-relative step layout; see
  * include/geosynth/field.h ("Global pyramid"). */
+#include <math.h>
 #include <string.h>
 
 #include "field_impl.h"
@@ -21,48 +22,65 @@ gs_err gs_field_pyramid_create(const gs_qfield *src, int levels, gs_field_pyrami
     int64_t n = p->nx * p->ny * p->nz;
     p->bytes = (size_t)n;
     gs_err err = GS_OK;
+    /* sums of squares of the level below and of this level, kept only while
+     * building: the cells hold the spreads derived from them */
+    uint32_t *qlow = NULL, *qcur = NULL;
+    if (levels > 1) {
+        GS_TRY(err, gs_alloc_array((void **)&qlow, (size_t)n, sizeof(uint32_t), "pyramid squares"),
+               fail);
+        GS_TRY(err, gs_alloc_array((void **)&qcur, (size_t)n, sizeof(uint32_t), "pyramid squares"),
+               fail);
+    }
     for (int m = 1; m < levels; m++) {
         void *a = NULL;
         GS_TRY(err, gs_alloc_array(&a, (size_t)n, sizeof(gs_pyr_cell), "pyramid level"), fail);
         p->cell[m] = a;
         p->bytes += (size_t)n * sizeof(gs_pyr_cell);
-        /* S_m[x] = sum of the 8 S_{m-1} at x + {0,h}^3, over positions whose cube fits */
-        int64_t h = (int64_t)1 << (m - 1), s = 2 * h;
+        /* S_m[x] = sum of the 8 S_{m-1} at x + {0,h}^3, over positions whose
+         * cube fits; Q_m likewise */
+        int64_t h = (int64_t)1 << (m - 1), s = 2 * h, c = (int64_t)1 << (3 * m);
         int64_t sx = p->nx, sxy = p->nx * p->ny;
         for (int64_t z = 0; z + s <= p->nz; z++)
             for (int64_t y = 0; y + s <= p->ny; y++) {
                 int64_t row = sx * y + sxy * z;
                 gs_pyr_cell *dst = p->cell[m] + row;
-                if (m == 1) {
-                    const uint8_t *q = src->q + row;
-                    const int64_t o[8] = {0, 1, sx, sx + 1, sxy, sxy + 1, sxy + sx, sxy + sx + 1};
-                    for (int64_t x = 0; x + s <= p->nx; x++) {
-                        uint32_t s1 = 0, s2 = 0;
-                        for (int c = 0; c < 8; c++) {
-                            uint32_t v = q[x + o[c]];
+                uint32_t *qd = qcur + row;
+                int64_t hy = h * sx, hz = h * sxy;
+                const int64_t o[8] = {0, h, hy, hy + h, hz, hz + h, hz + hy, hz + hy + h};
+                for (int64_t x = 0; x + s <= p->nx; x++) {
+                    uint32_t s1 = 0, s2 = 0;
+                    if (m == 1) {
+                        const uint8_t *q = src->q + row;
+                        for (int k = 0; k < 8; k++) {
+                            uint32_t v = q[x + o[k]];
                             s1 += v;
                             s2 += v * v;
                         }
-                        dst[x] = (gs_pyr_cell){s1, s2};
-                    }
-                } else {
-                    const gs_pyr_cell *q = p->cell[m - 1] + row;
-                    int64_t hy = h * sx, hz = h * sxy;
-                    const int64_t o[8] = {0, h, hy, hy + h, hz, hz + h, hz + hy, hz + hy + h};
-                    for (int64_t x = 0; x + s <= p->nx; x++) {
-                        uint32_t s1 = 0, s2 = 0;
-                        for (int c = 0; c < 8; c++) {
-                            s1 += q[x + o[c]].sum;
-                            s2 += q[x + o[c]].sq;
+                    } else {
+                        const gs_pyr_cell *q = p->cell[m - 1] + row;
+                        const uint32_t *ql = qlow + row;
+                        for (int k = 0; k < 8; k++) {
+                            s1 += q[x + o[k]].sum;
+                            s2 += ql[x + o[k]];
                         }
-                        dst[x] = (gs_pyr_cell){s1, s2};
                     }
+                    qd[x] = s2;
+                    /* exact integer below 2^53, correctly rounded root */
+                    double v = (double)(c * (int64_t)s2 - (int64_t)s1 * s1);
+                    dst[x] = (gs_pyr_cell){s1, (float)sqrt(v)};
                 }
             }
+        uint32_t *t = qlow;
+        qlow = qcur;
+        qcur = t;
     }
+    gs_free(qlow);
+    gs_free(qcur);
     *out = p;
     return GS_OK;
 fail:
+    gs_free(qlow);
+    gs_free(qcur);
     gs_field_pyramid_destroy(&p);
     return err;
 }

@@ -1,5 +1,6 @@
-/* Best-first tree search (paper fig. 4 with incremental evaluation, 4.4)
- * and the brute-force reference; see include/geosynth/field.h.
+/* Best-first tree search (paper fig. 4 with incremental evaluation, 4.4,
+ * and leaves evaluated as their parent is expanded) and the brute-force
+ * reference; see include/geosynth/field.h.
  *
  * Bounds are kept as exact integers scaled by 8^L: a level-k cell of c =
  * 8^(L-k) samples contributes (Sq - Sb)^2 / c, i.e. (Sq - Sb)^2 * 8^k
@@ -14,19 +15,25 @@
 #include "field_impl.h"
 #include "geosynth/mem.h"
 
-/* A leaf entry is completed at once with its exact distance when it comes
- * to the front (blocks up to 16^3), or when it comes back there (32^3):
- * refining a leaf step by step below its octants costs more than summing
- * its samples up to 16^3 (B = 16: 8 + 64 steps of 8 cells each against one
- * vectorized pass over 4096 samples), while the cheap level-2 steps of a
- * 32^3 block still drop many leaves before their 32768 samples are read.
- * Recorded synthesis queries (test inputs of bench_field), first pop
- * against second: balls 64^3/16 36.2 -> 30.4 ms, fibers 57.0 -> 49.9 ms,
- * armadillo 128^3/16 weighted 2.95 -> 2.58 ms, paper setting the same;
- * 256^3/32 paper setting 30.5 ms at the second pop, 37.9 ms at the first. */
-static int leaf_exact_after(int B)
+/* Leaves are not queued: when a node is expanded, its leaf children are
+ * evaluated on the spot, in the order of their octant bounds, against the
+ * best distance found so far: the bound of each staged level (2 .. L-2, one
+ * pass over its cells each) and then the exact distance, summed a chunk of
+ * z-slices at a time and given up once it passes the best. Only inner nodes
+ * go through the queue. Queueing every leaf (the paper's scheme) fills the
+ * queue with hundreds of thousands of entries on queries far from every
+ * block, whose sift-downs then miss the caches; evaluated at once, most
+ * leaves cost their octants and one level, and the best so far stays close
+ * to the final one because the first nodes expanded hold the blocks closest
+ * in their octants. Recorded synthesis queries (bench_field inputs), per
+ * query, queued leaves -> eager leaves on the same machine, same answers:
+ * armadillo 128^3/16 paper setting 6.1 -> 4.5 ms (worst 146 -> 74 ms),
+ * weighted 2.5 -> 2.2 ms; 256^3/32 weighted 141 -> 84 ms, paper setting
+ * 29 -> 19 ms. Staged levels for 32^3 leaves: 2 and 3 (level 2 alone:
+ * 93 ms, none: 185 ms on the weighted ones); for 16^3: 2. */
+static int leaf_stage_max(int L)
 {
-    return B >= 32 ? 1 : 0;
+    return L - 2;
 }
 
 /* Queue entry, 16 bytes so that a node's four children in the 4-ary heap
@@ -36,12 +43,9 @@ static int leaf_exact_after(int B)
 typedef struct entry {
     uint64_t lb;    /* scaled lower bound after `step` steps */
     uint32_t node;
-    uint16_t step;
-    uint16_t pops;  /* times this entry was popped and requeued (saturating) */
+    uint32_t step;
 } entry;
-_Static_assert(GS_FIELD_QSTEPS + ((1 << (3 * GS_FIELD_MAX_LEVEL)) - 1) / 7 +
-                       (1 << GS_FIELD_MAX_LEVEL) <= UINT16_MAX,
-               "the steps of the largest block and its partial completions fit an entry");
+_Static_assert(sizeof(entry) == 16, "queue entries stay 16 bytes");
 
 struct gs_field_searcher {
     struct gs_field_tree *tree;
@@ -50,6 +54,8 @@ struct gs_field_searcher {
     double *qdev[GS_FIELD_MAX_LEVEL + 1];    /* sqrt(c * sum q^2 - (sum q)^2), c = cell samples */
     entry *heap;
     size_t heap_n, heap_cap;
+    struct cand *cand;   /* leaf children of the node being expanded */
+    size_t cand_cap;
     int64_t known;
     uint64_t wk, wu;     /* weights of fully known cells / all other cells (field.h) */
     int query_step_max;
@@ -145,6 +151,7 @@ void gs_field_searcher_destroy(gs_field_searcher_t *sp)
         gs_free((*sp)->qdev[k]);
     }
     gs_free((*sp)->heap);
+    gs_free((*sp)->cand);
     GS_FREE(*sp);
 }
 
@@ -220,24 +227,24 @@ static inline uint64_t cell_weight(const struct gs_field_searcher *s, int k, int
 }
 
 /* Scaled lower bound (times 8^L) of the distance over one fully known cell
- * of level k < L (c = 8^(L-k) samples) whose source sums are Sb (samples)
- * and Qb (squares): with v = c*Q - S^2 (c times the sum of squared
- * deviations from the cell mean) and a = sqrt(vq), b = sqrt(vb),
+ * of level k < L (c = 8^(L-k) samples) whose source sum is Sb and spread b
+ * (gs_pyr_cell): with v = c*Q - S^2 (c times the sum of squared deviations
+ * from the cell mean), a = sqrt(vq) and b = sqrt(vb),
  *   sum (q - s)^2 = ((Sq - Sb)^2 + |dq - ds|^2 * c) / c
  *                >= ((Sq - Sb)^2 + (a - b)^2) / c          (Cauchy-Schwarz),
  * scaled: 8^k * ((Sq - Sb)^2 + (a - b)^2). The first term is the paper's
  * eq. 2; the second sees the spread of the samples (random seeds, a coarse
- * copy against a fine source) that cell averages cannot. The square root
- * part is rounded down with a margin far above the double rounding error
- * (a, b < 2^23, correctly rounded square roots of exact integers), so the
- * sum stays a valid bound; it is monotone under refinement (the children's
- * deviation vectors split the parent's orthogonally). */
-static inline uint64_t cell_term(int64_t Sq, double a, uint32_t Sb, uint32_t Qb, int64_t c, int k)
+ * copy against a fine source) that cell averages cannot. |a - b| is rounded
+ * down with a margin above the errors of a (a correctly rounded root, a <
+ * 2^23) and of the stored b (GS_PYR_DEV_EPS), so the sum stays a valid
+ * bound; it is monotone under refinement (the children's deviation vectors
+ * split the parent's orthogonally) up to that margin. */
+static inline uint64_t cell_term(int64_t Sq, double a, uint32_t Sb, float bf, int k)
 {
     int64_t d = Sq - (int64_t)Sb;
     uint64_t t = (uint64_t)(d * d);
-    double b = sqrt((double)(c * (int64_t)Qb - (int64_t)Sb * Sb));
-    double e = fabs(a - b) - 4e-16 * (a + b);
+    double b = bf;
+    double e = fabs(a - b) - (4e-16 * a + GS_PYR_DEV_EPS * b);
     if (e > 0)
         t += (uint64_t)(e * e * (1 - 4e-16));
     return t << (3 * k);
@@ -262,8 +269,7 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
     int64_t cell = base + lay->cell_off[k][j];
     if (cell_weight(s, k, j))
         lb -= cell_weight(s, k, j) *
-              cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_sq_at(p, m, cell),
-                        (int64_t)1 << (3 * m), k);
+              cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(p, m, cell), gs_pyr_dev_at(p, m, cell), k);
     const int64_t *off = lay->cell_off[k + 1] + 8 * j;
     const uint32_t *qs = s->qsum[k + 1] + 8 * j;
     const double *qd = s->qdev[k + 1] + 8 * j;
@@ -278,11 +284,10 @@ static inline uint64_t refine(const struct gs_field_searcher *s, int64_t base, c
         }
     } else {
         const gs_pyr_cell *v = p->cell[m - 1] + base;
-        int64_t cc = (int64_t)1 << (3 * (m - 1));
         for (int c = 0; c < 8; c++) {
             uint64_t w = qf[c] ? wk : wu;
             if (w)
-                lb += w * cell_term(qs[c], qd[c], v[off[c]].sum, v[off[c]].sq, cc, k + 1);
+                lb += w * cell_term(qs[c], qd[c], v[off[c]].sum, v[off[c]].dev, k + 1);
         }
     }
     return lb;
@@ -347,7 +352,6 @@ static uint64_t octants_bound(const struct gs_field_searcher *s, int64_t base)
 {
     const struct gs_field_tree *t = s->tree;
     int L = t->lay.L;
-    int64_t c = (int64_t)1 << (3 * (L - 1));
     uint64_t lb = 0;
     for (int o = 0; o < 8; o++) {
         uint64_t w = cell_weight(s, 1, o);
@@ -355,7 +359,30 @@ static uint64_t octants_bound(const struct gs_field_searcher *s, int64_t base)
             continue;
         int64_t x = base + t->lay.cell_off[1][o];
         lb += w * cell_term(s->qsum[1][o], s->qdev[1][o], gs_pyr_at(t->pyr, L - 1, x),
-                            gs_pyr_sq_at(t->pyr, L - 1, x), c, 1);
+                            gs_pyr_dev_at(t->pyr, L - 1, x), 1);
+    }
+    return lb;
+}
+
+/* Scaled bound of the block at base from all cells of level k (1 <= k <
+ * L), computed in one pass: the state after the refinements of every cell
+ * of level k - 1 (step GS_FIELD_QSTEPS + level_first[k + 1]), the same
+ * integer as those refinements one by one give. */
+static uint64_t level_bound(const struct gs_field_searcher *s, int64_t base, int k)
+{
+    const struct gs_field_tree *t = s->tree;
+    int L = t->lay.L, m = L - k;
+    int64_t cells = (int64_t)1 << (3 * k);
+    const int64_t *off = t->lay.cell_off[k];
+    const gs_pyr_cell *v = t->pyr->cell[m] + base;
+    const uint32_t *qs = s->qsum[k];
+    const double *qd = s->qdev[k];
+    const uint8_t *qf = s->qfull[k];
+    uint64_t lb = 0;
+    for (int64_t j = 0; j < cells; j++) {
+        uint64_t w = qf[j] ? s->wk : s->wu;
+        if (w)
+            lb += w * cell_term(qs[j], qd[j], v[off[j]].sum, v[off[j]].dev, k);
     }
     return lb;
 }
@@ -368,14 +395,14 @@ static entry open_node(const struct gs_field_searcher *s, uint32_t id, uint64_t 
     const struct gs_field_tree *t = s->tree;
     const gs_tree_node *nd = &t->nodes[id];
     if (t->box_of[id] != GS_TREE_NO_BOX)
-        return (entry){box_bound(s, &t->boxes[t->box_of[id]]), id, (uint16_t)nd->end, 0};
+        return (entry){box_bound(s, &t->boxes[t->box_of[id]]), id, nd->end};
     if (step > GS_FIELD_QSTEPS)
-        return (entry){lb, id, (uint16_t)step, 0};
-    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), id, GS_FIELD_QSTEPS + 1, 0};
+        return (entry){lb, id, step};
+    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), id, GS_FIELD_QSTEPS + 1};
 }
 
 /* Starts loading what open_node(id) will read: a node's box, or its
- * block's octant sums and squares in the pyramid (scattered over the
+ * block's octant sums and spreads in the pyramid (scattered over the
  * source: the children of a node are expanded in a row, so their loads
  * overlap instead of waiting one by one). */
 static inline void prefetch_node(const struct gs_field_searcher *s, uint32_t id)
@@ -395,6 +422,51 @@ static inline void prefetch_node(const struct gs_field_searcher *s, uint32_t id)
     }
 }
 
+/* A leaf child of the node being expanded: its bound after `step` steps
+ * and its block (the leaf's lowest index), sorted by (lb, rep). */
+typedef struct cand {
+    uint64_t lb;
+    uint32_t rep, step;
+} cand;
+
+static int cand_cmp(const void *pa, const void *pb)
+{
+    const cand *a = pa, *b = pb;
+    if (a->lb != b->lb)
+        return a->lb < b->lb ? -1 : 1;
+    return a->rep < b->rep ? -1 : a->rep > b->rep;
+}
+
+/* Exact distance of the leaf whose block is at base, from a state after
+ * `step` steps, if it is at most bnd: the bounds of the staged levels are
+ * checked first, then the samples are summed a chunk of z-slices at a time
+ * and the sum is given up as soon as it passes bnd. */
+static int leaf_eval(const struct gs_field_searcher *s, int64_t base, uint32_t step, uint64_t bnd,
+                     uint64_t bnd_scaled, int smax, gs_field_match *out, uint64_t *dist)
+{
+    const gs_step_layout *lay = &s->tree->lay;
+    int L = lay->L, B = lay->B;
+    for (int k = 2; k < L && k <= smax; k++) {
+        if (step >= GS_FIELD_QSTEPS + lay->level_first[k + 1])
+            continue;
+        out->refinements++;
+        if (level_bound(s, base, k) > bnd_scaled)
+            return 0;
+    }
+    uint64_t part = 0;
+    int chunk = B >= 8 ? B / 8 : 1;
+    for (int z = 0; z < B;) {
+        int z1 = z + chunk < B ? z + chunk : B;
+        part += leaf_exact(s, base, z, z1);
+        z = z1;
+        if (part > bnd)
+            return 0;
+    }
+    out->refinements++;
+    *dist = part;
+    return 1;
+}
+
 gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t top_end,
                             const gs_field_query *q, const gs_field_search_opts *opts,
                             uint64_t *bound, gs_field_match *out)
@@ -412,9 +484,9 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         opts = &none;
     prepare_query(s, q);
     s->q = q;
-    int use_ub = opts->use_upper_bound && s->known == ((int64_t)1 << (3 * L));
     memset(out, 0, sizeof *out);
     out->known = s->known;
+    int use_ub = opts->use_upper_bound && s->known == ((int64_t)1 << (3 * L));
     uint64_t bnd = *bound;
     const uint64_t inf = UINT64_MAX;
 #define SCALED(b) ((b) > (inf >> (3 * L)) ? inf : (b) << (3 * L))
@@ -425,13 +497,36 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         out->pushes++;
     }
     uint64_t steps_total = (uint64_t)lay->steps;
-    int exact_after = leaf_exact_after(lay->B);
+    int smax = leaf_stage_max(L);
+    int have = 0;
+    uint64_t best_d = 0;
+    uint32_t best_rep = 0;
+#define CONSIDER(d, rep)                                                                           \
+    do {                                                                                           \
+        if (!have || (d) < best_d || ((d) == best_d && (rep) < best_rep)) {                        \
+            have = 1;                                                                              \
+            best_d = (d);                                                                          \
+            best_rep = (rep);                                                                      \
+            if (best_d < bnd) {                                                                    \
+                bnd = best_d;                                                                      \
+                bnd_scaled = SCALED(bnd);                                                          \
+            }                                                                                      \
+        }                                                                                          \
+    } while (0)
+    /* nothing below an entry of bound lb and lowest index rep can beat the
+     * best so far (ties go to the lowest index) */
+#define WORSE(lb, rep)                                                                             \
+    ((lb) > bnd_scaled || ((lb) == bnd_scaled && have && best_d == bnd && (rep) > best_rep))
+    /* out->pops counts queue pops and leaves evaluated at once: the units of
+     * work that polling and the pop budget are measured in */
+    uint64_t next_poll = opts->poll_every;
     while (s->heap_n > 0) {
         if (s->heap_n > out->queue_peak)
             out->queue_peak = s->heap_n;
-        if (opts->poll && opts->poll_every && out->pops % opts->poll_every == 0 && out->pops) {
+        if (opts->poll && opts->poll_every && out->pops >= next_poll) {
             opts->poll(opts->poll_ctx, &bnd);
             bnd_scaled = SCALED(bnd);
+            next_poll = out->pops + opts->poll_every;
         }
         if (opts->max_pops && out->pops >= opts->max_pops) {
             out->truncated = 1;
@@ -439,52 +534,17 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         }
         entry e = heap_pop(s);
         out->pops++;
-        if (e.lb > bnd_scaled)
-            break; /* everything left is worse */
         const gs_tree_node *nd = &t->nodes[e.node];
+        if (WORSE(e.lb, nd->rep))
+            break; /* everything left is worse */
         int64_t base = gs_tree_block_base(t, nd->rep);
-        int requeued = 0, dropped = 0;
-        if (nd->end == steps_total &&
-            (e.step > steps_total || (e.step < steps_total && e.pops >= exact_after))) {
-            /* A leaf at the front (leaf_exact_after) is completed with its
-             * exact distance. The samples are summed a chunk of z-slices at
-             * a time, and as soon as the partial sum passes the next entry's
-             * bound the leaf is requeued with it (a valid bound: the sum only
-             * grows) and resumes there if it comes back (step = steps_total
-             * + slices done); the first complete leaf at the front is still
-             * the exact best with the lowest index. Most leaves completed on
-             * synthesis queries end far above the best. */
-            int z = 0;
-            uint64_t part = 0; /* unscaled distance over slices [0, z) */
-            if (e.step > steps_total) {
-                z = e.step - (int)steps_total;
-                part = e.lb >> (3 * L);
-            } else {
-                out->refinements += nd->end - e.step;
-            }
-            uint64_t front = s->heap_n > 0 ? s->heap[0].lb : UINT64_MAX;
-            int chunk = lay->B >= 8 ? lay->B / 8 : 1, stopped = 0;
-            while (z < lay->B) {
-                int z1 = z + chunk < lay->B ? z + chunk : lay->B;
-                part += leaf_exact(s, base, z, z1);
-                z = z1;
-                if (z < lay->B && (part << (3 * L)) > front) {
-                    stopped = 1;
-                    break;
-                }
-            }
-            e.lb = part << (3 * L);
-            e.step = (uint16_t)(stopped ? steps_total + (uint64_t)z : steps_total);
-            if (e.lb > bnd_scaled)
-                continue;
-            if (stopped || (s->heap_n > 0 && entry_less(s, &s->heap[0], &e))) {
-                GS_CALL(heap_push(s, e));
-                out->pushes++;
-                continue;
-            }
+        uint64_t d;
+        if (nd->end == steps_total) {
+            if (leaf_eval(s, base, e.step, bnd, bnd_scaled, smax, out, &d))
+                CONSIDER(d, nd->rep);
+            continue;
         }
-        if (e.pops < UINT16_MAX)
-            e.pops++;
+        int requeued = 0, dropped = 0;
         while (e.step < nd->end) {
             e.lb = refine(s, base, &e);
             e.step++;
@@ -502,14 +562,6 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         }
         if (requeued || dropped)
             continue;
-        if (nd->end == steps_total) {
-            out->found = 1;
-            out->index = (int64_t)nd->rep + s->tree->index_offset;
-            out->dist = e.lb >> (3 * L);
-            if (out->dist < bnd)
-                bnd = out->dist;
-            break;
-        }
         if (use_ub && e.step > GS_FIELD_QSTEPS) {
             uint64_t ub = upper_bound(s, e.lb, e.step);
             if (ub < bnd) {
@@ -517,23 +569,57 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 bnd_scaled = SCALED(bnd);
             }
         }
-        /* children are bounded before they are queued: by their box, or
-         * by their exact octants (most children of a trie node are leaves) */
         enum { PREFETCH_AHEAD = 4 };
         for (uint32_t c = 0; c < nd->count && c < PREFETCH_AHEAD; c++)
             prefetch_node(s, nd->first + c);
+        size_t nc = 0;
         for (uint32_t c = 0; c < nd->count; c++) {
             if (c + PREFETCH_AHEAD < nd->count)
                 prefetch_node(s, nd->first + c + PREFETCH_AHEAD);
-            entry ce = open_node(s, nd->first + c, e.lb, e.step);
+            uint32_t id = nd->first + c;
+            entry ce = open_node(s, id, e.lb, e.step);
             out->refinements++;
             if (ce.lb > bnd_scaled)
                 continue;
+            if (t->nodes[id].end == steps_total) {
+                if (nc == s->cand_cap) {
+                    size_t cap = s->cand_cap ? 2 * s->cand_cap : 256;
+                    cand *a = gs_realloc(s->cand, cap * sizeof *a);
+                    GS_CHECK(a, GS_ERR_MEM, "out of memory for %zu search candidates", cap);
+                    s->cand = a;
+                    s->cand_cap = cap;
+                }
+                s->cand[nc++] = (cand){ce.lb, t->nodes[id].rep, ce.step};
+                continue;
+            }
             GS_CALL(heap_push(s, ce));
             out->pushes++;
         }
+        if (nc > 1)
+            qsort(s->cand, nc, sizeof *s->cand, cand_cmp);
+        for (size_t i = 0; i < nc; i++) {
+            const cand *cd = &s->cand[i];
+            if (WORSE(cd->lb, cd->rep))
+                break;
+            if (opts->max_pops && out->pops >= opts->max_pops) {
+                out->truncated = 1;
+                break;
+            }
+            out->pops++;
+            if (leaf_eval(s, gs_tree_block_base(t, cd->rep), cd->step, bnd, bnd_scaled, smax, out, &d))
+                CONSIDER(d, cd->rep);
+        }
+        if (out->truncated)
+            break;
     }
+#undef WORSE
+#undef CONSIDER
 #undef SCALED
+    if (have && best_d <= bnd && !out->truncated) {
+        out->found = 1;
+        out->index = (int64_t)best_rep + t->index_offset;
+        out->dist = best_d;
+    }
     *bound = bnd;
     return GS_OK;
 }

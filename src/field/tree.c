@@ -96,13 +96,11 @@ static int64_t block_base(const build_ctx *c, uint32_t idx)
     return gs_block_base(c->bx, c->by, c->src->nx, c->src->ny, idx);
 }
 
-/* 1 when the block at base has one value throughout: its sum S and sum of
- * squares Q over c samples satisfy c*Q == S^2 (no spread). */
+/* 1 when the block at base has one value throughout: no spread (the root
+ * of a positive integer is at least 1, so a zero spread is exact). */
 static int block_constant(const build_ctx *c, int64_t base)
 {
-    int L = c->lay->L;
-    int64_t n = (int64_t)1 << (3 * L), S = gs_pyr_at(c->pyr, L, base);
-    return n * (int64_t)gs_pyr_sq_at(c->pyr, L, base) == S * S;
+    return gs_pyr_dev_at(c->pyr, c->lay->L, base) == 0.0f;
 }
 
 static int blocks_identical(const build_ctx *c, uint32_t a, uint32_t b)
@@ -128,7 +126,8 @@ static int blocks_identical(const build_ctx *c, uint32_t a, uint32_t b)
 /* First step at which blocks a and b differ (steps when identical); *sign
  * gets the order (-1: a first). Steps (field_impl.h): t < 8 the floor mean
  * of octant t, then refinement r at step 8 + r; a revealed cell is the pair
- * (sum, sum of squares), compared in that order. */
+ * (sum, spread), compared in that order: blocks that agree on both have
+ * the same bounds at that step (search.c reads nothing else). */
 static int64_t first_difference(const build_ctx *c, uint32_t a, uint32_t b, int *sign)
 {
     const gs_step_layout *lay = c->lay;
@@ -160,11 +159,9 @@ static int64_t first_difference(const build_ctx *c, uint32_t a, uint32_t b, int 
         } else {
             const gs_pyr_cell *q = p->cell[m];
             for (int64_t t = 0; t < cells; t++) {
-                uint32_t va = q[pa + off[t]].sum, vb = q[pb + off[t]].sum;
-                if (va == vb)
-                    va = q[pa + off[t]].sq, vb = q[pb + off[t]].sq;
-                if (va != vb) {
-                    *sign = va < vb ? -1 : 1;
+                gs_pyr_cell ca = q[pa + off[t]], cb = q[pb + off[t]];
+                if (ca.sum != cb.sum || ca.dev != cb.dev) {
+                    *sign = ca.sum != cb.sum ? (ca.sum < cb.sum ? -1 : 1) : (ca.dev < cb.dev ? -1 : 1);
                     return GS_FIELD_QSTEPS + lay->level_first[k] + (t >> 3);
                 }
             }
@@ -272,19 +269,19 @@ static void box_merge(gs_tree_box *b, const gs_tree_box *c)
 }
 
 /* The box of the single block at base: the octant floor and ceiling means,
- * and the octant deviations rounded outwards to 1/256 (the square root of an
- * exact integer is correctly rounded; the 1e-12 margins cover it). */
+ * and the octant deviations rounded outwards to 1/256 (the stored spreads
+ * are within GS_PYR_DEV_EPS of the exact root; the margins cover it). */
 static void box_of_block(const struct gs_field_tree *t, int64_t base, gs_tree_box *b)
 {
     int L = t->lay.L, sh = 3 * (L - 1);
     int64_t c = (int64_t)1 << sh;
     for (int o = 0; o < 8; o++) {
         int64_t x = base + t->lay.cell_off[1][o];
-        int64_t S = gs_pyr_at(t->pyr, L - 1, x), Q = gs_pyr_sq_at(t->pyr, L - 1, x);
+        int64_t S = gs_pyr_at(t->pyr, L - 1, x);
         b->mlo[o] = (uint8_t)(S >> sh);
         b->mhi[o] = (uint8_t)((S + c - 1) >> sh);
-        double dev = sqrt((double)(c * Q - S * S)) / (double)c * 256;
-        double lo = floor(dev * (1 - 1e-12)), hi = ceil(dev * (1 + 1e-12));
+        double dev = (double)gs_pyr_dev_at(t->pyr, L - 1, x) / (double)c * 256;
+        double lo = floor(dev * (1 - 2 * GS_PYR_DEV_EPS)), hi = ceil(dev * (1 + 2 * GS_PYR_DEV_EPS));
         b->slo[o] = (uint16_t)(lo < 0 ? 0 : lo);
         b->shi[o] = (uint16_t)(hi > UINT16_MAX ? UINT16_MAX : hi);
     }

@@ -240,7 +240,6 @@ static void test_tree_matches_brute_force(void **state)
     assert_true(done >= 1000);
 }
 
-/* Lower bounds never exceed the distance and grow with the level. */
 /* Every query of real syntheses (not made up): a 3-iteration synthesis of
  * each shape in the three matching settings of configs/field (the paper's
  * whole blocks with random seeds, grid.ini's weighted seeds and seed blocks,
@@ -250,7 +249,7 @@ static void test_tree_matches_brute_force(void **state)
 typedef struct synth_check {
     const gs_qfield *src;
     gs_qfield *level[3];  /* source of each iteration */
-    int64_t queries, mismatches, exact_zero, far;
+    int64_t queries, mismatches, exact_zero, far, large;
 } synth_check;
 
 static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
@@ -272,6 +271,7 @@ static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s,
     c->queries++;
     c->exact_zero += out->dist == 0;
     c->far += out->dist > (uint64_t)q->block * q->block * q->block * 100; /* > 10 levels RMS */
+    c->large += q->block >= 16;
     return GS_OK;
 }
 
@@ -279,44 +279,60 @@ static void test_synthesis_queries_match_brute_force(void **state)
 {
     (void)state;
     static const int settings[3][3] = {{0, 0, 0}, {1, 64, 1}, {1, 0, 0}}; /* mask, weight, blocks */
-    int64_t total = 0, far = 0;
-    for (int kind = 0; kind < 4; kind++)
-        for (int st = 0; st < 3; st++) {
-            gs_qfield *src = make_source((gs_field_shape)kind, 24, 5 + (uint64_t)kind);
-            synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0};
-            OK(gs_qfield_downsample(src, 4, &c.level[0]));
-            OK(gs_qfield_downsample(src, 2, &c.level[1]));
-            c.level[2] = src;
-            gs_field_synth_config cfg;
-            gs_field_synth_config_default(&cfg, src);
-            cfg.block[0] = cfg.block[1] = 4, cfg.block[2] = 8;
-            cfg.target[0] = 28, cfg.target[1] = 24, cfg.target[2] = 20;
-            cfg.mask_unsynthesized = settings[st][0];
-            cfg.seed_weight = settings[st][1];
-            cfg.seed_blocks = settings[st][2];
-            cfg.seed = 3 + (uint64_t)st;
-            cfg.match = check_hook;
-            cfg.match_ctx = &c;
-            gs_field_synth_t syn = NULL;
-            int finished = 0;
-            OK(gs_field_synth_create(src, &cfg, &syn));
-            OK(gs_field_synth_run(syn, -1, &finished));
-            assert_true(finished);
-            gs_field_synth_destroy(&syn);
-            assert_int_equal(c.mismatches, 0);
-            assert_true(c.queries > 200);
-            total += c.queries;
-            far += c.far;
-            gs_qfield_destroy(&c.level[0]);
-            gs_qfield_destroy(&c.level[1]);
-            gs_qfield_destroy(&src);
-        }
-    fprintf(stderr, "%lld synthesis queries, %lld far from every block\n", (long long)total,
-            (long long)far);
+    /* source side, block and target per iteration: 8^3 blocks (most
+     * queries), and last iterations of 16^3 and 32^3 blocks, whose leaves
+     * the search bounds level by level before it reads their samples */
+    static const struct {
+        int side, block[3], target[3];
+    } sizes[3] = {{24, {4, 4, 8}, {28, 24, 20}},
+                  {40, {4, 8, 16}, {44, 40, 36}},
+                  {48, {4, 8, 32}, {52, 48, 40}}};
+    int64_t total = 0, far = 0, large = 0;
+    for (int sz = 0; sz < 3; sz++)
+        for (int kind = 0; kind < 4; kind++)
+            for (int st = 0; st < 3; st++) {
+                if (sz > 0 && kind % 2) /* brute force of large blocks is slow: two shapes */
+                    continue;
+                gs_qfield *src = make_source((gs_field_shape)kind, sizes[sz].side, 5 + (uint64_t)kind);
+                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0};
+                OK(gs_qfield_downsample(src, 4, &c.level[0]));
+                OK(gs_qfield_downsample(src, 2, &c.level[1]));
+                c.level[2] = src;
+                gs_field_synth_config cfg;
+                gs_field_synth_config_default(&cfg, src);
+                for (int i = 0; i < 3; i++) {
+                    cfg.block[i] = sizes[sz].block[i];
+                    cfg.target[i] = sizes[sz].target[i];
+                }
+                cfg.mask_unsynthesized = settings[st][0];
+                cfg.seed_weight = settings[st][1];
+                cfg.seed_blocks = settings[st][2];
+                cfg.seed = 3 + (uint64_t)st;
+                cfg.match = check_hook;
+                cfg.match_ctx = &c;
+                gs_field_synth_t syn = NULL;
+                int finished = 0;
+                OK(gs_field_synth_create(src, &cfg, &syn));
+                OK(gs_field_synth_run(syn, -1, &finished));
+                assert_true(finished);
+                gs_field_synth_destroy(&syn);
+                assert_int_equal(c.mismatches, 0);
+                assert_true(c.queries > (sz == 0 ? 200 : 20));
+                total += c.queries;
+                far += c.far;
+                large += sz > 0 ? c.large : 0;
+                gs_qfield_destroy(&c.level[0]);
+                gs_qfield_destroy(&c.level[1]);
+                gs_qfield_destroy(&src);
+            }
+    fprintf(stderr, "%lld synthesis queries, %lld far from every block, %lld of 16^3 or 32^3\n",
+            (long long)total, (long long)far, (long long)large);
     assert_true(total >= 2500);
     assert_true(far > 0); /* queries far from any block, where the bounds are weakest */
+    assert_true(large >= 100);
 }
 
+/* Lower bounds never exceed the distance and grow with the level. */
 static void test_level_bounds(void **state)
 {
     (void)state;
