@@ -89,11 +89,13 @@ gs_err gs_mesh_require_closed(const gs_mesh *m, const char *what, const char *pu
  * Allocates m->normals when NULL. */
 gs_err gs_mesh_compute_normals(gs_mesh *m);
 
-/* Merges vertices closer than tol (tol = 0: identical positions), keeping
- * the first vertex of each cluster (and its scalar/label), drops triangles
- * that become degenerate and vertices no triangle uses; recomputes normals
- * when m had them. Greedy in vertex order, hence deterministic.
- * O(nverts) expected with a hash grid. On error m is unchanged. */
+/* Merges vertices within tol (tol = 0: identical positions): in vertex
+ * order, a vertex joins the lowest kept vertex within tol, or is kept (with
+ * its scalar/label). Drops triangles that become degenerate and vertices no
+ * triangle uses (a point set, ntris = 0, keeps every kept vertex);
+ * recomputes normals when m had them. Deterministic. O(nverts) expected
+ * with a hash grid of cells 2*tol wide (8 cells looked up per vertex). On
+ * error m is unchanged. */
 gs_err gs_mesh_weld(gs_mesh *m, float tol);
 
 /* Total surface area and signed enclosed volume (positive for outward

@@ -418,19 +418,25 @@ static uint64_t cell_hash(const int64_t c[3])
                  gs_hash_mix64((uint64_t)c[2] * 0x85EBCA77C2B2AE63ULL + 1));
 }
 
-static gs_err weld_cell_of(const float *p, float tol, int64_t c[3])
+/* Weld cell of p: cubes of side 2*tol (tol > 0), so every vertex within
+ * tol of p lies in one of the 2 cells nearest p along each axis (3 when p
+ * sits within rounding of a cell's middle): lo[k] .. hi[k]. tol = 0: the
+ * exact coordinate bits, one cell. */
+static gs_err weld_cell_of(const float *p, float tol, int64_t c[3], int64_t lo[3], int64_t hi[3])
 {
     for (int k = 0; k < 3; k++) {
         float v = p[k] + 0.0f; /* -0 == +0 */
         if (tol > 0) {
-            double q = floor((double)v / tol);
+            double x = (double)v / (2.0 * tol), q = floor(x), f = x - q;
             GS_CHECK(fabs(q) < 4.0e18, GS_ERR_ARG,
                      "weld tolerance %g is too small for coordinate %g", (double)tol, (double)v);
             c[k] = (int64_t)q;
+            lo[k] = c[k] - (f < 0.5 + 1e-6);
+            hi[k] = c[k] + (f > 0.5 - 1e-6);
         } else {
             uint32_t u;
             memcpy(&u, &v, sizeof u);
-            c[k] = u;
+            c[k] = lo[k] = hi[k] = u;
         }
     }
     return GS_OK;
@@ -459,27 +465,25 @@ gs_err gs_mesh_weld(gs_mesh *m, float tol)
     double tol2 = (double)tol * tol;
     for (size_t i = 0; i < nv; i++) {
         const float *p = m->pos + 3 * i;
-        int64_t c[3];
-        GS_TRY(err, weld_cell_of(p, tol, c), done);
+        int64_t c[3], lo[3], hi[3];
+        GS_TRY(err, weld_cell_of(p, tol, c, lo, hi), done);
+        /* the lowest kept vertex within tol (kept vertices precede i) */
         uint32_t found = UINT32_MAX;
-        int r = tol > 0 ? 1 : 0;
-        for (int dz = -r; dz <= r && found == UINT32_MAX; dz++)
-            for (int dy = -r; dy <= r && found == UINT32_MAX; dy++)
-                for (int dx = -r; dx <= r && found == UINT32_MAX; dx++) {
-                    int64_t q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+        int64_t q[3];
+        for (q[2] = lo[2]; q[2] <= hi[2]; q[2]++)
+            for (q[1] = lo[1]; q[1] <= hi[1]; q[1]++)
+                for (q[0] = lo[0]; q[0] <= hi[0]; q[0]++) {
                     for (size_t s = cell_hash(q) & g.mask; g.slot[s] != UINT32_MAX;
                          s = (s + 1) & g.mask) {
                         const int64_t *sc = g.cell + 3 * s;
-                        if (sc[0] != q[0] || sc[1] != q[1] || sc[2] != q[2])
+                        if (sc[0] != q[0] || sc[1] != q[1] || sc[2] != q[2] || g.slot[s] >= found)
                             continue;
                         const float *o = m->pos + 3 * (size_t)g.slot[s];
                         double d2 = 0;
                         for (int k = 0; k < 3; k++)
                             d2 += ((double)o[k] - p[k]) * ((double)o[k] - p[k]);
-                        if (d2 <= tol2) {
+                        if (d2 <= tol2)
                             found = g.slot[s];
-                            break;
-                        }
                     }
                 }
         if (found == UINT32_MAX) {

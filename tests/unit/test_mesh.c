@@ -15,6 +15,7 @@
 
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
+#include "geosynth/rng.h"
 
 
 static const char *shared_path(const char *rel, char *buf, size_t n)
@@ -154,6 +155,67 @@ static void test_weld_and_normals(void **state)
     gs_mesh_destroy(&m);
 }
 
+/* Tolerance weld against its definition, checked by brute force: in
+ * vertex order, a vertex joins the lowest kept vertex within tol, else it
+ * is kept. Clusters of points closer than tol, chains that straddle cell
+ * faces and cell middles, negative coordinates, a point set (kept vertices
+ * stay, in order). */
+static void test_weld_matches_brute_force(void **state)
+{
+    (void)state;
+    const float tols[3] = {0.35f, 1.0f, 0.01f};
+    for (int ti = 0; ti < 3; ti++) {
+        float tol = tols[ti];
+        enum { N = 3000 };
+        gs_mesh m;
+        assert_int_equal(gs_mesh_alloc(&m, N, 0, 0), GS_OK);
+        gs_rng r;
+        gs_rng_init(&r, 7 + (uint64_t)ti, 0);
+        for (int i = 0; i < N; i++) {
+            float *p = m.pos + 3 * i;
+            if (i % 3 == 0 || i < 3) {
+                for (int k = 0; k < 3; k++) /* on a lattice of cell faces and middles */
+                    p[k] = (float)((double)tol * ((double)gs_rng_below(&r, 40) / 2.0 - 10.0));
+            } else { /* near an earlier point: within, at, or just beyond tol */
+                const float *o = m.pos + 3 * (size_t)gs_rng_below(&r, (uint64_t)i);
+                double d[3], n = 0;
+                for (int k = 0; k < 3; k++) {
+                    d[k] = gs_rng_uniform(&r) - 0.5;
+                    n += d[k] * d[k];
+                }
+                double len = tol * (0.5 + gs_rng_uniform(&r) * 0.7) / (sqrt(n) + 1e-12);
+                for (int k = 0; k < 3; k++)
+                    p[k] = (float)(o[k] + d[k] * len);
+            }
+        }
+        float *orig = malloc(sizeof(float) * 3 * N);
+        memcpy(orig, m.pos, sizeof(float) * 3 * N);
+        /* brute force */
+        int *kept = malloc(sizeof(int) * N), nk = 0;
+        for (int i = 0; i < N; i++) {
+            int join = -1;
+            for (int j = 0; j < nk && join < 0; j++) {
+                const float *a = orig + 3 * i, *b = orig + 3 * kept[j];
+                double d2 = 0;
+                for (int k = 0; k < 3; k++)
+                    d2 += ((double)a[k] - b[k]) * ((double)a[k] - b[k]);
+                if (d2 <= (double)tol * tol)
+                    join = kept[j];
+            }
+            if (join < 0)
+                kept[nk++] = i;
+        }
+        assert_int_equal(gs_mesh_weld(&m, tol), GS_OK);
+        assert_int_equal((int)m.nverts, nk);
+        assert_true(nk < N * 9 / 10 && nk > N / 10); /* both outcomes are common */
+        for (int j = 0; j < nk; j++)
+            assert_memory_equal(m.pos + 3 * j, orig + 3 * kept[j], 3 * sizeof(float));
+        free(kept);
+        free(orig);
+        gs_mesh_destroy(&m);
+    }
+}
+
 static void test_misoriented_and_nonmanifold(void **state)
 {
     (void)state;
@@ -241,6 +303,7 @@ int main(void)
         cmocka_unit_test(test_real_meshes),
         cmocka_unit_test(test_read_errors),
         cmocka_unit_test(test_weld_and_normals),
+        cmocka_unit_test(test_weld_matches_brute_force),
         cmocka_unit_test(test_misoriented_and_nonmanifold),
         cmocka_unit_test(test_write_read_roundtrip),
     };
