@@ -25,12 +25,15 @@
  * block, whose sift-downs then miss the caches; evaluated at once, most
  * leaves cost their octants and one level, and the best so far stays close
  * to the final one because the first nodes expanded hold the blocks closest
- * in their octants. Recorded synthesis queries (bench_field inputs), per
- * query, queued leaves -> eager leaves on the same machine, same answers:
- * armadillo 128^3/16 paper setting 6.1 -> 4.5 ms (worst 146 -> 74 ms),
- * weighted 2.5 -> 2.2 ms; 256^3/32 weighted 141 -> 84 ms, paper setting
- * 29 -> 19 ms. Staged levels for 32^3 leaves: 2 and 3 (level 2 alone:
- * 93 ms, none: 185 ms on the weighted ones); for 16^3: 2. */
+ * in their octants. Recorded synthesis queries (bench_field inputs)
+ * replayed one after another, per query, queued leaves -> eager leaves on
+ * the same machine, same answers: armadillo 128^3/16 paper setting 6.1 ->
+ * 4.5 ms (worst 146 -> 74 ms), weighted 2.5 -> 2.2 ms; 256^3/32 weighted
+ * 141 -> 84 ms, paper setting 29 -> 19 ms; fibers 49 -> 24 ms. Timed
+ * inside the synthesis (bench_field), the 128^3/16 paper queries take
+ * about the same either way (6.0-6.9 -> 6.1 ms), the 256^3/32 ones gain
+ * as above. Staged levels for 32^3 leaves: 2 and 3 (level 2 alone: 93 ms,
+ * none: 185 ms on the weighted ones); for 16^3: 2. */
 static int leaf_stage_max(int L)
 {
     return L - 2;
