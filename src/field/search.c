@@ -349,43 +349,26 @@ static uint64_t box_bound(const struct gs_field_searcher *s, const gs_tree_box *
     return lb;
 }
 
-/* Scaled bound of the block at base from its 8 exact octants (the state
- * after step GS_FIELD_QSTEPS). */
-static uint64_t octants_bound(const struct gs_field_searcher *s, int64_t base)
-{
-    const struct gs_field_tree *t = s->tree;
-    int L = t->lay.L;
-    uint64_t lb = 0;
-    for (int o = 0; o < 8; o++) {
-        uint64_t w = cell_weight(s, 1, o);
-        if (!w)
-            continue;
-        int64_t x = base + t->lay.cell_off[1][o];
-        lb += w * cell_term(s->qsum[1][o], s->qdev[1][o], gs_pyr_at(t->pyr, L - 1, x),
-                            gs_pyr_dev_at(t->pyr, L - 1, x), 1);
-    }
-    return lb;
-}
-
 /* Scaled bound of the block at base from all cells of level k (1 <= k <
  * L), computed in one pass: the state after the refinements of every cell
  * of level k - 1 (step GS_FIELD_QSTEPS + level_first[k + 1]), the same
- * integer as those refinements one by one give. */
-static uint64_t level_bound(const struct gs_field_searcher *s, int64_t base, int k)
+ * integer as those refinements one by one give. k = 1: its exact octants
+ * (the state after step GS_FIELD_QSTEPS), computed for every child opened,
+ * which is why this is always inlined: the call with k = 1 unrolls. */
+static inline __attribute__((always_inline)) uint64_t level_bound(const struct gs_field_searcher *s, int64_t base, int k)
 {
     const struct gs_field_tree *t = s->tree;
-    int L = t->lay.L, m = L - k;
+    int m = t->lay.L - k;
     int64_t cells = (int64_t)1 << (3 * k);
     const int64_t *off = t->lay.cell_off[k];
-    const gs_pyr_cell *v = t->pyr->cell[m] + base;
-    const uint32_t *qs = s->qsum[k];
-    const double *qd = s->qdev[k];
-    const uint8_t *qf = s->qfull[k];
     uint64_t lb = 0;
     for (int64_t j = 0; j < cells; j++) {
-        uint64_t w = qf[j] ? s->wk : s->wu;
-        if (w)
-            lb += w * cell_term(qs[j], qd[j], v[off[j]].sum, v[off[j]].dev, k);
+        uint64_t w = cell_weight(s, k, j);
+        if (w) {
+            int64_t x = base + off[j];
+            lb += w * cell_term(s->qsum[k][j], s->qdev[k][j], gs_pyr_at(t->pyr, m, x),
+                                gs_pyr_dev_at(t->pyr, m, x), k);
+        }
     }
     return lb;
 }
@@ -401,7 +384,7 @@ static entry open_node(const struct gs_field_searcher *s, uint32_t id, uint64_t 
         return (entry){box_bound(s, &t->boxes[t->box_of[id]]), id, nd->end};
     if (step > GS_FIELD_QSTEPS)
         return (entry){lb, id, step};
-    return (entry){octants_bound(s, gs_tree_block_base(t, nd->rep)), id, GS_FIELD_QSTEPS + 1};
+    return (entry){level_bound(s, gs_tree_block_base(t, nd->rep), 1), id, GS_FIELD_QSTEPS + 1};
 }
 
 /* Starts loading what open_node(id) will read: a node's box, or its
