@@ -1,0 +1,38 @@
+/* Preview pictures of a run's result: one PNG with the example and the
+ * output side by side (or any number of panels), so a user sees at once
+ * whether the output resembles the example. Shared by every engine.
+ *
+ * Each panel is a triangle mesh rendered with the built-in renderer
+ * (include/geosynth/render.h) from the same camera direction, fitted to its
+ * own bounding box, optionally with per-vertex RGB colours. geosynth's
+ * geometry is z-up; the renderer is y-up, so panels are turned z-up -> y-up
+ * before drawing (the picture shows +z at the top). Panels are placed left
+ * to right in the order given (by convention: example first, then output),
+ * separated by a 4-pixel light gutter. A panel with no mesh (NULL or no
+ * triangles) is left as background.
+ *
+ * Cost: one render per panel (see render.h). Memory: the copies of the
+ * meshes' positions plus the pictures.
+ */
+#ifndef GEOSYNTH_PREVIEW_H
+#define GEOSYNTH_PREVIEW_H
+
+#include <stdint.h>
+
+#include "geosynth/error.h"
+#include "geosynth/mesh.h"
+
+typedef struct gs_preview_panel {
+    const gs_mesh *mesh;    /* z-up mesh, or NULL for an empty panel */
+    const uint8_t *colors;  /* RGB per vertex (3 * nverts bytes) or NULL (grey) */
+} gs_preview_panel;
+
+#define GS_PREVIEW_MAX_PANELS 8
+
+/* Renders n panels (1 .. GS_PREVIEW_MAX_PANELS) of side x side pixels each
+ * (16 .. 2048) into one PNG at path (written atomically). Errors: GS_ERR_ARG
+ * for bad counts or sizes, GS_ERR_LIB when the renderer is unavailable,
+ * GS_ERR_IO when the file cannot be written. */
+gs_err gs_preview_write(const char *path, const gs_preview_panel *panels, int n, int side);
+
+#endif

@@ -1,0 +1,184 @@
+/* Unit tests for the shared quality measures (src/measure/stats.c, src/io/preview.c):
+ * L1 of distributions, two-sample KS against hand-computed values,
+ * connected components against a brute-force flood fill, and the preview's
+ * panel layout. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "geosynth/error.h"
+#include "geosynth/image.h"
+#include "geosynth/measure.h"
+#include "geosynth/mem.h"
+#include "geosynth/preview.h"
+#include "geosynth/rng.h"
+
+static void test_l1(void **state)
+{
+    (void)state;
+    const double a[] = {1, 1, 0}, b[] = {2, 2, 0}, c[] = {0, 0, 5}, z[] = {0, 0, 0};
+    assert_true(fabs(gs_measure_l1(a, b, 3)) < 1e-12);
+    assert_true(fabs(gs_measure_l1(a, c, 3) - 2) < 1e-12);
+    assert_true(fabs(gs_measure_l1(z, z, 3)) < 1e-12);
+    assert_true(fabs(gs_measure_l1(a, z, 3) - 2) < 1e-12);
+    const double d[] = {3, 1, 0}; /* 0.75 0.25 vs 0.5 0.5 */
+    assert_true(fabs(gs_measure_l1(d, a, 3) - 0.5) < 1e-12);
+}
+
+static void test_ks(void **state)
+{
+    (void)state;
+    double d;
+    const double x[] = {1, 2, 3, 4}, y[] = {1, 2, 3, 4};
+    assert_int_equal(gs_measure_ks(x, 4, y, 4, &d), GS_OK);
+    assert_true(d < 1e-12);
+    const double lo[] = {0, 1}, hi[] = {5, 6, 7};
+    assert_int_equal(gs_measure_ks(lo, 2, hi, 3, &d), GS_OK);
+    assert_true(fabs(d - 1) < 1e-12);
+    /* x = {1,2,3,4}, w = {3,4,5,6}: F_x(2) = 0.5, F_w(2) = 0, the sup is 0.5. */
+    const double w[] = {3, 4, 5, 6};
+    assert_int_equal(gs_measure_ks(x, 4, w, 4, &d), GS_OK);
+    assert_true(fabs(d - 0.5) < 1e-12);
+    const double withnan[] = {1, NAN, 2, 3, 4};
+    assert_int_equal(gs_measure_ks(withnan, 5, y, 4, &d), GS_OK);
+    assert_true(d < 1e-12);
+    assert_int_equal(gs_measure_ks(x, 0, y, 0, &d), GS_OK);
+    assert_true(d == 0);
+    assert_int_equal(gs_measure_ks(x, 4, y, 0, &d), GS_OK);
+    assert_true(d == 1);
+}
+
+/* Recursive-free reference: repeated relaxation of labels to the minimum
+ * over face neighbours until nothing changes. */
+static void reference_components(const uint8_t *m, int nx, int ny, int nz, const int per[3],
+                                 uint32_t *lab)
+{
+    size_t n = (size_t)nx * ny * nz;
+    for (size_t i = 0; i < n; i++)
+        lab[i] = m[i] ? (uint32_t)i + 1 : 0;
+    int changed = 1;
+    const int dims[3] = {nx, ny, nz};
+    while (changed) {
+        changed = 0;
+        for (size_t i = 0; i < n; i++) {
+            if (!m[i])
+                continue;
+            int p[3] = {(int)(i % nx), (int)((i / nx) % ny), (int)(i / ((size_t)nx * ny))};
+            for (int k = 0; k < 3; k++)
+                for (int d = -1; d <= 1; d += 2) {
+                    int q[3] = {p[0], p[1], p[2]};
+                    q[k] += d;
+                    if (q[k] < 0 || q[k] >= dims[k]) {
+                        if (!per[k])
+                            continue;
+                        q[k] = (q[k] + dims[k]) % dims[k];
+                    }
+                    size_t j = q[0] + (size_t)nx * (q[1] + (size_t)ny * q[2]);
+                    if (m[j] && lab[j] < lab[i]) {
+                        lab[i] = lab[j];
+                        changed = 1;
+                    }
+                }
+        }
+    }
+}
+
+static void test_components(void **state)
+{
+    (void)state;
+    gs_rng rng;
+    gs_rng_init(&rng, 7, 1);
+    for (int trial = 0; trial < 40; trial++) {
+        int nx = 1 + (int)gs_rng_below(&rng, 9), ny = 1 + (int)gs_rng_below(&rng, 9),
+            nz = 1 + (int)gs_rng_below(&rng, 9);
+        int per[3] = {trial & 1, (trial >> 1) & 1, (trial >> 2) & 1};
+        size_t n = (size_t)nx * ny * nz;
+        uint8_t *m = malloc(n);
+        uint32_t *lab = malloc(n * 4), *ref = malloc(n * 4);
+        for (size_t i = 0; i < n; i++)
+            m[i] = gs_rng_uniform(&rng) < 0.45;
+        uint32_t nc;
+        uint64_t *sizes;
+        assert_int_equal(gs_measure_components3(m, nx, ny, nz, per, lab, &nc, &sizes), GS_OK);
+        reference_components(m, nx, ny, nz, per, ref);
+        /* Same partition: cells share a label iff they share a reference label. */
+        uint64_t total = 0;
+        for (uint32_t c = 1; c <= nc; c++)
+            total += sizes[c];
+        size_t set = 0;
+        for (size_t i = 0; i < n; i++) {
+            set += m[i] != 0;
+            assert_true((lab[i] == 0) == (m[i] == 0));
+            for (size_t j = i + 1; j < n && j < i + 40; j++)
+                if (m[i] && m[j])
+                    assert_true((lab[i] == lab[j]) == (ref[i] == ref[j]));
+        }
+        assert_int_equal(total, set);
+        gs_free(sizes);
+        free(m), free(lab), free(ref);
+    }
+    uint8_t m1[4] = {1, 0, 0, 1};
+    uint32_t l1[4], nc;
+    int per[3] = {1, 0, 0}, none[3] = {0, 0, 0};
+    assert_int_equal(gs_measure_components3(m1, 4, 1, 1, none, l1, &nc, NULL), GS_OK);
+    assert_int_equal(nc, 2);
+    assert_int_equal(gs_measure_components3(m1, 4, 1, 1, per, l1, &nc, NULL), GS_OK);
+    assert_int_equal(nc, 1);
+}
+
+static void test_preview(void **state)
+{
+    (void)state;
+    /* One triangle panel next to an empty one: the left panel has lit pixels,
+     * the right is all background, the gutter is grey. */
+    float pos[9] = {0, 0, 0, 1, 0, 0, 0, 0, 1};
+    uint32_t tris[3] = {0, 1, 2};
+    gs_mesh m = {.nverts = 3, .ntris = 1, .pos = pos, .tris = tris};
+    gs_preview_panel p[2] = {{&m, NULL}, {NULL, NULL}};
+    char dir[] = "/tmp/gs-test-preview-XXXXXX", path[64];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/p.png", dir);
+    assert_int_equal(gs_preview_write(path, p, 2, 64), GS_OK);
+    gs_image img;
+    assert_int_equal(gs_image_read(path, &img), GS_OK);
+    assert_int_equal(img.width, 2 * 64 + 4);
+    assert_int_equal(img.height, 64);
+    size_t lit_left = 0, lit_right = 0;
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < img.width; x++) {
+            const uint8_t *px = img.data8 + 3 * ((size_t)y * img.width + x);
+            int lit = px[0] > 90;
+            if (x < 64)
+                lit_left += lit;
+            else if (x >= 68)
+                lit_right += lit;
+            else
+                assert_int_equal(px[0], 150);
+        }
+    assert_true(lit_left > 50);
+    assert_int_equal(lit_right, 0);
+    gs_image_destroy(&img);
+    unlink(path);
+    rmdir(dir);
+    assert_int_equal(gs_preview_write(path, p, 0, 64), GS_ERR_ARG);
+    assert_int_equal(gs_preview_write(path, p, 2, 8), GS_ERR_ARG);
+    gs_error_clear();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_l1),
+        cmocka_unit_test(test_ks),
+        cmocka_unit_test(test_components),
+        cmocka_unit_test(test_preview),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
