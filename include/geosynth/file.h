@@ -50,8 +50,16 @@ gs_err gs_mkdir_p(const char *path);
 /* Checks that files can be created in dir (creates and removes a probe). */
 gs_err gs_dir_check_writable(const char *dir);
 
+/* Normalizes an absolute path in place, lexically: empty and "."
+ * components dropped, ".." removes the previous one (never above "/"), no
+ * trailing slash; "" or "/.." become "/" (a relative path is read as if it
+ * began with "/"). Symlinks are not followed. The buffer needs
+ * strlen(path) + 2 bytes. */
+void gs_path_normalize(char *path);
+
 /* Absolute, normalized version of path (relative to base_dir if relative
- * and base_dir != NULL, else to the current directory). gs_malloc'ed. */
+ * and base_dir != NULL, else to the current directory; "${data}/..." is
+ * under the data root, geosynth/data.h). gs_malloc'ed. */
 gs_err gs_path_absolute(const char *path, const char *base_dir, char **out);
 
 int gs_file_exists(const char *path);

@@ -14,6 +14,7 @@
 
 #include "geosynth/config.h"
 #include "geosynth/config_load.h"
+#include "geosynth/data.h"
 #include "geosynth/engine.h"
 #include "geosynth/error.h"
 #include "geosynth/field_examples.h"
@@ -270,27 +271,35 @@ static int cmd_version(void)
     return 0;
 }
 
-/* --check: every input file a config names (PATH keys other than
- * run.output) must be readable. Same answer on every rank (the config is
- * identical everywhere); rank 0 prints each problem. */
+/* Every input file a config names (PATH keys other than run.output) must be
+ * readable, checked before a run starts (and by --check), so a missing file
+ * is one clear message naming the config, the key and the file, plus the
+ * data root and the command that fetches it for a ${data} file. Rank 0
+ * looks (it is the rank that reads inputs) and prints; the answer is agreed
+ * on. Collective. */
 static gs_err check_inputs(const gs_engine *e, const void *cfg, const char *origin)
 {
     const gs_cfg_table *t = e->config;
     int missing = 0;
-    for (size_t i = 0; i < t->nkeys; i++) {
+    for (size_t i = 0; i < t->nkeys && gs_par_rank() == 0; i++) {
         const gs_cfg_key *k = &t->keys[i];
         if (k->type != GS_CFG_PATH || !strcmp(k->name, "run.output"))
             continue;
         const char *path = *(char *const *)((const char *)cfg + k->offset);
         if (!path || !*path || access(path, R_OK) == 0)
             continue;
-        if (gs_par_rank() == 0)
-            fprintf(stderr, "error: %s: %s = %s: %s\n", origin, k->name, path, strerror(errno));
+        char hint[3 * PATH_MAX];
+        fprintf(stderr, "error: %s: %s = %s: %s\n", origin, k->name, path, strerror(errno));
+        if (gs_data_missing_hint(path, hint, sizeof hint))
+            fprintf(stderr, "       %s\n", hint);
         missing++;
     }
-    GS_CHECK(missing == 0, GS_ERR_IO, "%d input file%s named in %s cannot be read", missing,
-             missing > 1 ? "s" : "", origin);
-    return GS_OK;
+    gs_err err = GS_OK;
+    if (missing)
+        err = gs_error_raise(GS_ERR_IO, __FILE__, __LINE__, __func__,
+                             "%d input file%s named in %s cannot be read", missing,
+                             missing > 1 ? "s" : "", origin);
+    return gs_par_agree(MPI_COMM_WORLD, err);
 }
 
 /* Runs an engine fresh (resume = 0) or from RUN_DIR (resume = 1).
@@ -326,8 +335,19 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
         gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
     }
+    char origin[PATH_MAX + 32];
+    snprintf(origin, sizeof origin, "%s", a->config_path ? a->config_path : "");
+    if (resume)
+        snprintf(origin, sizeof origin, "%s/checkpoint.h5 (its stored config)", a->positional);
+    err = check_inputs(e, cfg, origin);
+    if (err && !a->check) {
+        gs_config_free(e->config, cfg);
+        gs_free(cfg);
+        gs_free(resolved);
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
     if (a->check) { /* --check: the config is valid; show what a run would use */
-        err = check_inputs(e, cfg, a->config_path);
         if (!err && gs_par_rank() == 0)
             fputs(resolved, stdout);
         gs_config_free(e->config, cfg);

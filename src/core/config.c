@@ -6,6 +6,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -14,6 +15,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "geosynth/data.h"
+#include "geosynth/file.h"
 #include "geosynth/mem.h"
 #include "geosynth/parse.h"
 
@@ -594,11 +597,18 @@ static int text_round_trips(const char *s, char *why, size_t wl)
 }
 
 /* Absolute, lexically normalized path of value relative to base (absolute
- * directory). gs_malloc'ed, or NULL with why. */
+ * directory); "~/" is $HOME, "${data}/" the data root (geosynth/data.h).
+ * gs_malloc'ed, or NULL with why. */
 static char *resolve_path(const char *value, const char *base, char *why, size_t wl)
 {
     sbuf joined = {0};
-    if (value[0] == '/') {
+    const char *data_rel = gs_data_relative(value);
+    if (data_rel) {
+        char root[PATH_MAX];
+        if (!gs_data_root(root, sizeof root, NULL, why, wl))
+            return NULL;
+        sb_add(&joined, "%s/%s", root, data_rel);
+    } else if (value[0] == '/') {
         sb_add(&joined, "%s", value);
     } else if (value[0] == '~' && (value[1] == '/' || value[1] == '\0')) {
         const char *home = getenv("HOME");
@@ -610,46 +620,13 @@ static char *resolve_path(const char *value, const char *base, char *why, size_t
     } else {
         sb_add(&joined, "%s/%s", base, value);
     }
-    if (joined.oom) {
+    char *out = joined.oom ? NULL : gs_realloc(joined.s, joined.n + 2); /* gs_path_normalize */
+    if (!out) {
         gs_free(joined.s);
         snprintf(why, wl, "out of memory");
         return NULL;
     }
-    /* Normalize in place: drop "", "." components, ".." pops one. */
-    char *s = joined.s;
-    size_t n = joined.n;
-    char *out = gs_malloc(n + 2);
-    if (!out) {
-        gs_free(s);
-        snprintf(why, wl, "out of memory");
-        return NULL;
-    }
-    size_t o = 0;
-    size_t i = 0;
-    while (i < n) {
-        while (i < n && s[i] == '/')
-            i++;
-        size_t b = i;
-        while (i < n && s[i] != '/')
-            i++;
-        size_t len = i - b;
-        if (len == 0 || (len == 1 && s[b] == '.'))
-            continue;
-        if (len == 2 && s[b] == '.' && s[b + 1] == '.') {
-            while (o > 0 && out[o - 1] != '/')
-                o--;
-            if (o > 0)
-                o--; /* the slash */
-            continue;
-        }
-        out[o++] = '/';
-        memcpy(out + o, s + b, len);
-        o += len;
-    }
-    if (o == 0)
-        out[o++] = '/';
-    out[o] = '\0';
-    gs_free(s);
+    gs_path_normalize(out);
     return out;
 }
 

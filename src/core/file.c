@@ -1,6 +1,8 @@
 /* File helpers; see include/geosynth/file.h. */
 #include "geosynth/file.h"
 
+#include "geosynth/data.h"
+
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -11,6 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "geosynth/data.h"
 #include "geosynth/mem.h"
 
 static gs_err fsync_dir_of(const char *path)
@@ -211,10 +214,49 @@ gs_err gs_dir_check_writable(const char *dir)
     return GS_OK;
 }
 
+void gs_path_normalize(char *s)
+{
+    size_t n = strlen(s), o = 0, i = 0;
+    if (s[0] != '/') { /* relative: read as rooted, so writing never overtakes reading */
+        memmove(s + 1, s, n + 1);
+        s[0] = '/';
+        n++;
+    }
+    while (i < n) {
+        while (i < n && s[i] == '/')
+            i++;
+        size_t b = i;
+        while (i < n && s[i] != '/')
+            i++;
+        size_t len = i - b;
+        if (len == 0 || (len == 1 && s[b] == '.'))
+            continue;
+        if (len == 2 && s[b] == '.' && s[b + 1] == '.') {
+            while (o > 0 && s[o - 1] != '/')
+                o--;
+            if (o > 0)
+                o--; /* the slash */
+            continue;
+        }
+        s[o++] = '/'; /* o < b: a '/' preceded this component */
+        memmove(s + o, s + b, len);
+        o += len;
+    }
+    if (o == 0)
+        s[o++] = '/';
+    s[o] = '\0';
+}
+
 gs_err gs_path_absolute(const char *path, const char *base_dir, char **out)
 {
     char joined[PATH_MAX * 2];
-    if (path[0] == '/') {
+    const char *data_rel = gs_data_relative(path);
+    if (data_rel) {
+        char root[PATH_MAX], why[200];
+        GS_CHECK(gs_data_root(root, sizeof root, NULL, why, sizeof why), GS_ERR_IO, "%s: %s",
+                 path, why);
+        snprintf(joined, sizeof joined, "%s/%s", root, data_rel);
+    } else if (path[0] == '/') {
         snprintf(joined, sizeof joined, "%s", path);
     } else {
         char cwd[PATH_MAX];
@@ -229,36 +271,11 @@ gs_err gs_path_absolute(const char *path, const char *base_dir, char **out)
         }
         snprintf(joined, sizeof joined, "%s/%s", base, path);
     }
-    /* Normalize: drop "." and empty components, resolve ".." lexically. */
-    char *norm = gs_malloc(strlen(joined) + 2);
+    size_t n = strlen(joined);
+    char *norm = gs_malloc(n + 2);
     GS_CHECK(norm != NULL, GS_ERR_MEM, "out of memory");
-    size_t n = 0;
-    const char *p = joined;
-    while (*p) {
-        while (*p == '/')
-            p++;
-        if (!*p)
-            break;
-        const char *e = p;
-        while (*e && *e != '/')
-            e++;
-        size_t len = (size_t)(e - p);
-        if (len == 1 && p[0] == '.') {
-        } else if (len == 2 && p[0] == '.' && p[1] == '.') {
-            while (n > 0 && norm[n - 1] != '/')
-                n--;
-            if (n > 0)
-                n--;
-        } else {
-            norm[n++] = '/';
-            memcpy(norm + n, p, len);
-            n += len;
-        }
-        p = e;
-    }
-    if (n == 0)
-        norm[n++] = '/';
-    norm[n] = '\0';
+    memcpy(norm, joined, n + 1);
+    gs_path_normalize(norm);
     *out = norm;
     return GS_OK;
 }

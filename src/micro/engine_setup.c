@@ -3,11 +3,14 @@
  * CSV, image, random) and the instance list. Rank 0 reads every file and
  * broadcasts what it read; everything after that is computed identically on
  * every rank. See engine_impl.h. */
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "geosynth/data.h"
 #include "geosynth/digest.h"
 #include "geosynth/file.h"
 #include "geosynth/image.h"
@@ -34,7 +37,8 @@ static gs_err bcast_bytes(MPI_Comm comm, void *data, size_t n)
 }
 
 /* Rank 0: the mesh paths listed in list_path (one per line, '#' comments,
- * relative to the list's directory), as absolute paths joined by '\n'. */
+ * relative to the list's directory or "${data}/..."), as absolute paths joined
+ * by '\n'; every listed file must be readable. */
 static gs_err read_mesh_list(const char *list_path, char **joined)
 {
     char *text = NULL, *dir = NULL, *out = NULL;
@@ -65,6 +69,14 @@ static gs_err read_mesh_list(const char *list_path, char **joined)
         if (*p != '\0' && *p != '#') {
             char *abs = NULL;
             GS_TRY(err, gs_path_absolute(p, dir, &abs), done);
+            if (access(abs, R_OK) != 0) { /* name the list and line, not only the file */
+                char hint[3 * PATH_MAX];
+                int why = errno;
+                gs_data_missing_hint(abs, hint, sizeof hint);
+                gs_free(abs);
+                GS_TRY_CHECK(err, 0, GS_ERR_IO, done, "micro.mesh_list = %s, line %d: %s: %s%s%s",
+                             list_path, line_no, p, strerror(why), hint[0] ? "; " : "", hint);
+            }
             size_t n = strlen(abs);
             if (used + n + 2 > cap) {
                 size_t ncap = 2 * (used + n + 2) + 256;
