@@ -70,7 +70,7 @@ TEST_UTIL_OBJ := $(TEST_UTIL:%.c=$(BUILD)/%.o)
 FUZZ_SRC := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN := $(FUZZ_SRC:tests/fuzz/%.c=build-fuzz/%)
 
-.PHONY: all deps test unit mpi e2e fuzz valgrind bench demo install clean help tests-build plugins
+.PHONY: all deps data test unit mpi e2e fuzz valgrind bench demo install clean help tests-build plugins
 .DEFAULT_GOAL := all
 
 all: $(BIN)/geosynth
@@ -78,6 +78,7 @@ all: $(BIN)/geosynth
 help:
 	@echo "make            build bin/geosynth"
 	@echo "make deps       install the Debian packages geosynth needs (idempotent)"
+	@echo "make data       fetch the third-party example data that may not be redistributed (scripts/fetch-data.sh)"
 	@echo "make test       deps + build + every test (unit, MPI np=$(NP), end-to-end, fuzz corpus)"
 	@echo "make test T=x   run only tests whose name contains x"
 	@echo "make valgrind   unit tests under valgrind"
@@ -89,11 +90,20 @@ help:
 deps:
 	@scripts/install-deps.sh
 
+# Third-party examples that may not be redistributed, into the data root
+# (GS_DATA, default data/): downloaded at pinned commits, sha256-checked
+# (scripts/data-manifest.tsv). GS_DATA_MIRROR=DIR copies from a local folder.
+data:
+	@scripts/fetch-data.sh
+
 $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -c $< -o $@
 
 $(BUILD)/src/io/plugin.o: CFLAGS += -DGS_PLUGIN_BUILD_DIR='"$(abspath $(PLUGIN_DIR))"'
+# The data root's default (include/geosynth/data.h): this tree's data/.
+DATA_DEF := -DGS_DATA_BUILD_DIR='"$(abspath data)"'
+$(BUILD)/src/core/data.o: CFLAGS += $(DATA_DEF)
 
 # The one C++ file (all OpenVDB includes live here); rebuilt only when it changes.
 $(BUILD)/src/plugins/vdb.o: src/plugins/vdb.cpp
@@ -128,7 +138,7 @@ $(BUILD)/tests/unit/%: tests/unit/%.c $(LIB) $(TEST_UTIL_OBJ) $(SAN_OBJ)
 
 $(BUILD)/tests/mpi/%: tests/mpi/%.c $(LIB) $(TEST_UTIL_OBJ) $(SAN_OBJ)
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(SAN_OBJ) $(LIB) $(LDLIBS) -o $@
+	$(CC) $(CFLAGS) $(LDFLAGS) $< $(TEST_UTIL_OBJ) $(SAN_OBJ) $(LIB) -lcmocka $(LDLIBS) -o $@
 
 $(BUILD)/tests/bench/%: tests/bench/%.c $(LIB) | $(PLUGINS)
 	@mkdir -p $(dir $@)
@@ -145,6 +155,7 @@ build-fuzz/%.o: %.c
 	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -c $< -o $@
 # The fuzz programs never reach the plugins: they are not built for them.
 build-fuzz/src/io/plugin.o: FUZZ_CFLAGS += -DGS_PLUGIN_BUILD_DIR='"$(abspath build-fuzz/plugins)"'
+build-fuzz/src/core/data.o: FUZZ_CFLAGS += $(DATA_DEF)
 build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
 	@mkdir -p $(dir $@)
 	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer -rdynamic $< $(FUZZ_LIB_OBJ) $(LDLIBS) -o $@
@@ -172,10 +183,12 @@ demo: deps
 	@scripts/demo.sh
 
 install: $(BIN)/geosynth $(PLUGINS)
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/geosynth $(DESTDIR)$(PREFIX)/share/geosynth/configs
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/geosynth $(DESTDIR)$(PREFIX)/share/geosynth/configs \
+	           $(DESTDIR)$(PREFIX)/share/geosynth/data
 	install -m 755 $(BIN)/geosynth $(DESTDIR)$(PREFIX)/bin/geosynth
 	install -m 755 $(PLUGINS) $(DESTDIR)$(PREFIX)/lib/geosynth/
 	cp -r configs/. $(DESTDIR)$(PREFIX)/share/geosynth/configs/
+	cp -r data/. $(DESTDIR)$(PREFIX)/share/geosynth/data/
 
 clean:
 	rm -rf build build-san build-fuzz bin bench-results

@@ -14,6 +14,7 @@ packages=(
   libosmesa6-dev chromium xvfb    # headless thumbnails (OSMesa), page tests (Chromium), VTK under xvfb-run
   python3-numpy python3-h5py python3-matplotlib
   slurm-wlm munge
+  curl ca-certificates            # make data (scripts/fetch-data.sh)
 )
 
 missing=()
