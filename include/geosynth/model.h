@@ -99,6 +99,23 @@ gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name
  * the author's editor scripts, without an <Objects> section). */
 gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat);
 
+/* Reads DeBroglie's CSV lattice format (its samples/merrell/NAME.csv, the
+ * input of DeBroglie's CsvImporter): rows of comma-separated integer labels
+ * (blanks around them allowed), one row per y, one column per x; layers of
+ * rows, z = 0 first, separated by blank lines (several blank lines, or blank
+ * lines at the start or end, separate nothing more). Every row has the same
+ * number of labels and every layer the same number of rows. Labels are in
+ * [0, 65535], 0 = empty as in Merrell's lattices. DeBroglie's copies of
+ * Merrell's escheresque and parliament hold the same integers as his .txt
+ * files, so read this way they are his lattices with x and y swapped (a
+ * mirror image: DeBroglie's x is his y). Errors name the file and line
+ * ("parliament.csv:23: field 7: expected a label in [0, 65535], got 'a'").
+ * On error *out is left unchanged. */
+gs_err gs_model_read_debroglie_csv(const char *path, gs_model_lattice *out);
+/* Same as above from a memory buffer; name is used in messages. */
+gs_err gs_model_parse_debroglie_csv(const char *text, size_t len, const char *name,
+                                    gs_model_lattice *out);
+
 /* ---- rules learned from the example ------------------------------------- */
 
 enum { GS_MODEL_DIRS = 6 };

@@ -8,6 +8,9 @@
  *
  * Example formats (gs_model_load; format "auto" infers it from the name):
  *   txt   Paul Merrell's samples/NAME.txt (gs_model_read_merrell_txt);
+ *   csv   DeBroglie's CSV lattices, e.g. its copies of Merrell's escheresque
+ *         and parliament (gs_model_read_debroglie_csv: column x, row y,
+ *         blank-line-separated layers z);
  *   vox   MagicaVoxel .vox (palette index = label; several models or a scene
  *         graph are composited with gs_vox_flatten) and Slab6 .slab.vox
  *         (VoxModSynth: empty 255 -> 0, index k -> k + 1, ground -> 255);
@@ -42,13 +45,13 @@ typedef struct gs_model_palette {
 /* Colour of label (label 0 gets black; never drawn). */
 void gs_model_label_rgb(const gs_model_palette *pal, uint16_t label, uint8_t rgb[3]);
 
-/* format: "auto", "txt", "vox" or "h5"; dataset: HDF5 dataset path for h5
+/* format: "auto", "txt", "csv", "vox" or "h5"; dataset: HDF5 dataset path for h5
  * (NULL or "" = "/model/labels"). pal may be NULL. *out must be zeroed; free
  * with gs_model_lattice_destroy(). */
 gs_err gs_model_load(const char *path, const char *format, const char *dataset,
                      gs_model_lattice *out, gs_model_palette *pal);
 
-/* The format "auto" picks for path ("txt", "vox" or "h5"), or NULL. */
+/* The format "auto" picks for path ("txt", "csv", "vox" or "h5"), or NULL. */
 const char *gs_model_format_of(const char *path);
 
 /* Writes lat as MagicaVoxel .vox (tiles of <= 256 per axis). Labels above

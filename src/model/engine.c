@@ -265,8 +265,8 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
 
 static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_PATH(model_config, example, "model.example", "",
-                    "example lattice: Merrell .txt, MagicaVoxel/Slab6 .vox, or geosynth .h5 "
-                    "(or model.tileset / model.sample)"),
+                    "example lattice: Merrell .txt, DeBroglie .csv, MagicaVoxel/Slab6 .vox, or "
+                    "geosynth .h5 (or model.tileset / model.sample)"),
     GS_CFG_KEY_PATH(model_config, tileset, "model.tileset", "",
                     "WaveFunctionCollapse tile set XML (simple tiled model; tile PNGs in the "
                     "folder of the same name); 2D, model.size z = 1"),
@@ -287,7 +287,7 @@ static const gs_cfg_key model_keys[] = {
                    "rotations and mirrors)"),
     GS_CFG_KEY_BOOL(model_config, periodic_input, "model.periodic_input", "true",
                     "overlapping model: windows wrap around the sample's edges"),
-    GS_CFG_KEY_ENUM(model_config, format, "model.format", "auto|txt|vox|h5", "auto",
+    GS_CFG_KEY_ENUM(model_config, format, "model.format", "auto|txt|csv|vox|h5", "auto",
                     "example format; auto = from the file name extension"),
     GS_CFG_KEY_STRING(model_config, dataset, "model.dataset", "/model/labels",
                       "uint16 [nz x ny x nx] dataset read from an .h5 example or start model"),

@@ -1,4 +1,4 @@
-/* model engine I/O: example loading (txt, vox, h5), colours, .vox and PNG
+/* model engine I/O: example loading (txt, csv, vox, h5), colours, .vox and PNG
  * output, and the file-level checker. See include/geosynth/model_io.h. */
 #include <string.h>
 
@@ -28,6 +28,8 @@ const char *gs_model_format_of(const char *path)
 {
     if (ends_with(path, ".txt"))
         return "txt";
+    if (ends_with(path, ".csv"))
+        return "csv";
     if (ends_with(path, ".vox"))
         return "vox";
     if (ends_with(path, ".h5") || ends_with(path, ".hdf5") || ends_with(path, ".hdf"))
@@ -129,18 +131,21 @@ gs_err gs_model_load(const char *path, const char *format, const char *dataset,
 {
     const char *fmt = format && strcmp(format, "auto") ? format : gs_model_format_of(path);
     GS_CHECK(fmt != NULL, GS_ERR_ARG,
-             "%s: cannot tell the format from the name: expected .txt (Merrell), .vox "
-             "(MagicaVoxel or Slab6) or .h5 (geosynth HDF5), or set model.format",
+             "%s: cannot tell the format from the name: expected .txt (Merrell), .csv "
+             "(DeBroglie), .vox (MagicaVoxel or Slab6) or .h5 (geosynth HDF5), or set "
+             "model.format",
              path);
     if (pal)
         memset(pal, 0, sizeof *pal);
     if (!strcmp(fmt, "txt"))
         return gs_model_read_merrell_txt(path, out);
+    if (!strcmp(fmt, "csv"))
+        return gs_model_read_debroglie_csv(path, out);
     if (!strcmp(fmt, "vox"))
         return load_vox(path, out, pal);
     if (!strcmp(fmt, "h5"))
         return load_h5(path, dataset, out);
-    GS_RAISE(GS_ERR_ARG, "%s: unknown format '%s': expected auto, txt, vox or h5", path, fmt);
+    GS_RAISE(GS_ERR_ARG, "%s: unknown format '%s': expected auto, txt, csv, vox or h5", path, fmt);
 }
 
 gs_err gs_model_write_vox(const char *path, const gs_model_lattice *lat,
