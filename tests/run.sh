@@ -5,9 +5,19 @@
 # count in NP; every "digest: NAME HEX" line they print must be identical
 # across rank counts), e2e (tests/e2e/*.sh), fuzz (libFuzzer targets over
 # their seed corpus plus a short bounded run).
-# Usage: tests/run.sh [unit|mpi|e2e|fuzz ...]   env: BUILD BIN NP T VALGRIND
-# Ends with one line "N passed, N failed" and exits non-zero on any failure.
+# Usage: tests/run.sh [unit|mpi|e2e|fuzz ...]   env: BUILD BIN NP T VALGRIND GS_DATA
+# T: words separated by blanks or commas; a test runs when its name contains
+# one of them, or when a word "SUITE/NAME" names it exactly (e.g. "e2e/model").
+# Counts: one per cmocka case, MPI rank count, e2e "check ok:" line, fuzz
+# target; a case that needs fetched data which is absent is skipped with its
+# reason (cmocka skip(), e2e "check skipped: REASON" lines; tests/README.md),
+# never counted as passed. Ends with one line "N passed, N failed, N skipped"
+# and exits non-zero on any failure. The skipped tests and their reasons are
+# also in $BUILD/test-logs/skipped.tsv (SUITE/NAME, tab, reason).
 set -u
+# GS_DATA (the data root, see include/geosynth/data.h) is relative to the
+# caller's directory; tests run elsewhere, so make it absolute first.
+if [[ -n ${GS_DATA:-} && $GS_DATA != /* ]]; then export GS_DATA=$PWD/$GS_DATA; fi
 cd "$(dirname "$0")/.."
 BUILD=${BUILD:-build}
 BIN=${BIN:-bin}
@@ -26,7 +36,10 @@ export OMPI_MCA_btl=self,vader,tcp OMPI_MCA_btl_vader_single_copy_mechanism=none
 # program: 0.46 s default, 0.21 s with ob1). Clusters choose their own.
 export OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
 export GS_ROOT=$PWD GS_BIN=$PWD/$BIN/geosynth GS_BUILD=$PWD/$BUILD
-export GS_SHARED=${GS_SHARED:-$PWD/../shared}
+# The data root the tests look in: GS_DATA, else this tree's data/ (what
+# bin/geosynth built here uses by default). GS_DATA stays unset unless given,
+# so the built-in default is what the tests exercise.
+export GS_DATA_ROOT=${GS_DATA:-$PWD/data}
 # Sanitizer builds: leaks inside MPI/HDF5 start-up are theirs (tests/lsan.supp).
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp:print_suppressions=0}
 # (Open MPI 4.1 unloads its plugins at MPI_Finalize; sanitizer builds link
@@ -35,19 +48,51 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 passed=0
 failed=0
+skipped=0
 failures=()
-log_dir=$BUILD/test-logs
+skips=()
+log_dir=$PWD/$BUILD/test-logs
 mkdir -p "$log_dir"
+: >"$log_dir/skipped.tsv"
 
-pass() { passed=$((passed + $1)); }
+# count PATTERN FILE: lines of FILE matching the extended regex PATTERN, always
+# a number (0 when FILE is missing or unreadable). `grep -c` alone prints
+# nothing for a missing file, and "passed + " was then a bash syntax error that
+# abandoned the remaining suites (tests/README.md).
+count() { local n; n=$(grep -Ec -- "$1" "$2" 2>/dev/null); echo "${n:-0}"; }
+# last_number PATTERN FILE: the number at the end of the last match, or 0.
+last_number() { local n; n=$(grep -Eo -- "$1" "$2" 2>/dev/null | grep -Eo '[0-9]+$' | tail -1); echo "${n:-0}"; }
+is_count() { [[ $1 =~ ^[0-9]+$ ]]; }
+pass() { is_count "$1" && passed=$((passed + $1)); }
 fail() { failed=$((failed + 1)); failures+=("$1"); echo "FAIL: $1 (log: $2)"; }
-selected() { [[ -z "$T" || "$1" == *"$T"* ]]; }
+# skip NAME N LOG: N skipped cases of NAME; reasons from its "check skipped:" lines.
+skip() {
+  is_count "$2" && [[ $2 -gt 0 ]] || return 0
+  skipped=$((skipped + $2))
+  local reasons
+  reasons=$(grep -E '^check skipped: ' "$3" 2>/dev/null | sed 's/^check skipped: //' | sort -u)
+  [[ -n $reasons ]] || reasons="(no reason given)"
+  while IFS= read -r r; do
+    skips+=("$1: $r")
+    printf '%s\t%s\n' "$1" "$r" >>"$log_dir/skipped.tsv"
+  done <<<"$reasons"
+}
+# selected SUITE NAME: whether T asks for this test.
+selected() {
+  [[ -z "$T" ]] && return 0
+  local w
+  for w in ${T//,/ }; do
+    if [[ $w == */* ]]; then [[ "$1/$2" == "$w" ]] && return 0
+    elif [[ "$2" == *"$w"* ]]; then return 0; fi
+  done
+  return 1
+}
 
 run_unit() {
   for exe in "$BUILD"/tests/unit/test_*; do
     [[ -x "$exe" ]] || continue
     name=$(basename "$exe")
-    selected "$name" || continue
+    selected unit "$name" || continue
     log="$log_dir/$name.log"
     if [[ -n "$VALGRIND" ]]; then
       cmd=(valgrind --quiet --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite --num-callers=50
@@ -57,13 +102,17 @@ run_unit() {
     fi
     (cd tests && "${cmd[@]}") >"$log" 2>&1
     rc=$?
-    ok=$(grep -Eo '\[  PASSED  \] [0-9]+' "$log" | grep -Eo '[0-9]+$' | tail -1)
-    bad=$(grep -Eo '\[  FAILED  \] [0-9]+ test' "$log" | grep -Eo '[0-9]+' | tail -1)
-    pass "${ok:-0}"
+    ok=$(last_number '\[  PASSED  \] [0-9]+' "$log")
+    nskip=$(last_number '\[  SKIPPED \] [0-9]+' "$log")
+    bad=$(grep -Eo '\[  FAILED  \] [0-9]+ test' "$log" 2>/dev/null | grep -Eo '[0-9]+' | tail -1)
+    pass "$ok"
+    skip "unit/$name" "$nskip" "$log"
     if [[ $rc -ne 0 || -n "$bad" ]]; then
       fail "unit/$name (${bad:-?} failed, rc=$rc)" "$log"
+    elif [[ $ok -eq 0 && $nskip -eq 0 ]]; then
+      fail "unit/$name (no cmocka summary in its output)" "$log"
     else
-      echo "ok   unit/$name (${ok:-0} cases)"
+      echo "ok   unit/$name ($ok cases$([[ $nskip -gt 0 ]] && echo ", $nskip skipped"))"
     fi
   done
 }
@@ -72,7 +121,7 @@ run_mpi() {
   for exe in "$BUILD"/tests/mpi/*; do
     [[ -x "$exe" && ! -d "$exe" ]] || continue
     name=$(basename "$exe")
-    selected "$name" || continue
+    selected mpi "$name" || continue
     src=tests/mpi/$name.c
     nps=$(grep -Eo 'np: [0-9 ]+' "$src" 2>/dev/null | head -1 | cut -d: -f2)
     [[ -z "$nps" ]] && nps=$NP
@@ -99,19 +148,28 @@ run_e2e() {
   for script in tests/e2e/*.sh; do
     [[ -f "$script" ]] || continue
     name=$(basename "$script" .sh)
-    selected "$name" || continue
+    selected e2e "$name" || continue
     log="$log_dir/e2e-$name.log"
-    work=$(mktemp -d "${TMPDIR:-/tmp}/gs-e2e-$name.XXXX")
+    if ! work=$(mktemp -d "${TMPDIR:-/tmp}/gs-e2e-$name.XXXX"); then
+      fail "e2e/$name (cannot create a scratch directory)" "$log"; continue
+    fi
     (cd "$work" && timeout 900 bash "$GS_ROOT/$script") >"$log" 2>&1
     rc=$?
-    # An e2e script may count its own checks with lines "check ok: ..." / "check FAILED: ...".
-    nok=$(grep -c '^check ok' "$log")
-    nbad=$(grep -c '^check FAILED' "$log")
-    if [[ $rc -ne 0 || $nbad -ne 0 ]]; then
+    # An e2e script counts its own checks with lines "check ok: ...",
+    # "check FAILED: ..." and "check skipped: REASON" (tests/README.md).
+    nok=$(count '^check ok' "$log")
+    nbad=$(count '^check FAILED' "$log")
+    nskip=$(count '^check skipped: ' "$log")
+    skip "e2e/$name" "$nskip" "$log"
+    if [[ ! -r $log ]]; then
+      fail "e2e/$name (rc=$rc; its log $log could not be written or read)" "$log"
+    elif [[ $rc -ne 0 || $nbad -ne 0 ]]; then
       pass "$nok"; fail "e2e/$name (rc=$rc, $nbad checks failed)" "$log"
       grep '^check FAILED' "$log" | head -5
     else
-      pass $((nok > 0 ? nok : 1)); echo "ok   e2e/$name ($nok checks)"
+      # a script that reports no check at all counts once, unless all it did was skip
+      pass $((nok > 0 || nskip > 0 ? nok : 1))
+      echo "ok   e2e/$name ($nok checks$([[ $nskip -gt 0 ]] && echo ", $nskip skipped"))"
       rm -rf "$work"
     fi
   done
@@ -121,7 +179,7 @@ run_fuzz() {
   for exe in build-fuzz/fuzz_*; do
     [[ -x "$exe" && "$exe" != *.o && "$exe" != *.d ]] || continue
     name=$(basename "$exe")
-    selected "$name" || continue
+    selected fuzz "$name" || continue
     corpus=tests/fuzz/corpus/${name#fuzz_}
     log="$log_dir/$name.log"
     scratch=$(mktemp -d)
@@ -135,11 +193,17 @@ run_fuzz() {
   done
 }
 
-for s in "${suites[@]}"; do "run_$s"; done
+for s in "${suites[@]}"; do
+  if declare -F "run_$s" >/dev/null; then "run_$s"; else fail "unknown suite '$s' (unit, mpi, e2e, fuzz)" "-"; fi
+done
 
 echo
+if [[ ${#skips[@]} -gt 0 ]]; then
+  echo "skipped (the data they need is not under the data root $GS_DATA_ROOT; \`make data\` fetches it):"
+  printf '  %s\n' "${skips[@]}"
+fi
 if [[ $failed -gt 0 ]]; then
   echo "failed tests:"; printf '  %s\n' "${failures[@]}"
 fi
-echo "$passed passed, $failed failed"
+echo "$passed passed, $failed failed, $skipped skipped"
 [[ $failed -eq 0 ]]

@@ -7,7 +7,7 @@
  *                    [--brute-max-blocks N] [--synth 0|1] [--shape balls] [--mesh FILE]
  *                    [--shards 2,4|none] [--shard-queries N] [--synth-queries N]
  * The matcher cases use the signed distance field of a closed mesh (--mesh,
- * default the armadillo of ../shared/data, as the paper's table 1) sampled at
+ * default ${data}/meshes/armadillo.obj, fetched by `make data`, as the paper's table 1) sampled at
  * N along its longest axis and cropped to a multiple of 4 per axis (as the
  * engine crops for 3 iterations); --mesh none uses the procedural --shape
  * instead. The whole synthesis always runs on the procedural shape.
@@ -38,6 +38,7 @@
 
 #include "geosynth/field.h"
 #include "geosynth/field_examples.h"
+#include "geosynth/file.h"
 #include "geosynth/mesh.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
@@ -755,7 +756,8 @@ int main(int argc, char **argv)
     int shards[8], nshards = 0;
     const char *shard_list = "2,4";
     gs_field_shape shape = GS_FIELD_BALLS;
-    const char *mesh_path = "../shared/data/meshes/armadillo.obj";
+    const char *mesh_path = "${data}/meshes/armadillo.obj";
+    char *mesh_abs = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!v) {
@@ -817,6 +819,11 @@ int main(int argc, char **argv)
     }
     gs_mesh mesh, *meshp = NULL;
     if (mesh_path) {
+        if (gs_path_absolute(mesh_path, NULL, &mesh_abs) != GS_OK) {
+            gs_error_report("bench_field: ");
+            return 1;
+        }
+        mesh_path = mesh_abs;
         if (gs_mesh_read(mesh_path, &mesh) != GS_OK) {
             gs_error_report("bench_field: ");
             return 1;
@@ -849,5 +856,6 @@ int main(int argc, char **argv)
     printf(",\n  \"ok\": %s}\n", ok ? "true" : "false");
     if (meshp)
         gs_mesh_destroy(meshp);
+    gs_free(mesh_abs);
     return ok ? 0 : 1;
 }

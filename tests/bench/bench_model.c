@@ -10,14 +10,16 @@
  * --order config (the default) uses each case's shipped config's order.
  * --tile T starts from gs_model_initial_tiled() with a periodic TxT tile.
  *
- * DIR defaults to $GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
- * ($GS_SHARED defaults to ../shared).
+ * DIR defaults to ${data}/model-synthesis/merrell42-model-synthesis/samples, Paul
+ * Merrell's lattices under the data root (GS_DATA, else the tree's data/),
+ * fetched by `make data`.
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include "geosynth/data.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
@@ -159,10 +161,12 @@ done:
 
 int main(int argc, char **argv)
 {
-    const char *shared = getenv("GS_SHARED");
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
-             shared ? shared : "../shared");
+    char dir[4096], why[200];
+    if (!gs_data_root(dir, sizeof dir - 64, NULL, why, sizeof why)) {
+        fprintf(stderr, "bench_model: %s\n", why);
+        return 1;
+    }
+    strcat(dir, "/model-synthesis/merrell42-model-synthesis/samples");
     int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = -2, ac_sel = 3;
     gs_model_weights weights = GS_MODEL_WEIGHTS_UNIFORM;
     const char *only = NULL;

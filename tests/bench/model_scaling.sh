@@ -32,8 +32,9 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_
 PY=/usr/bin/python3
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-S=$PWD/../shared/data/model-synthesis/merrell42-model-synthesis/samples
-[[ -n "${GS_SHARED:-}" ]] && S=$GS_SHARED/data/model-synthesis/merrell42-model-synthesis/samples
+# Merrell's castle under the data root (GS_DATA, else data/; fetched by `make data`)
+S=${GS_DATA:-$PWD/data}/model-synthesis/merrell42-model-synthesis/samples
+[[ $S == /* ]] || S=$PWD/$S
 mkdir -p "$work/model"
 sed -e "s|^example = .*|example = $S/castle.txt|" -e 's/^size = .*/size = 100x100x10/' \
   -e 's/^region = .*/region = 20x20x0/' configs/model/castle.ini > "$work/model/castle-100x100-r20.ini"

@@ -14,7 +14,7 @@ export OMPI_MCA_btl=self,vader,tcp OMPI_MCA_btl_vader_single_copy_mechanism=none
 # OFI/PSM2/UCX transports, 0.2-0.3 s of every mpirun here (an empty 2-rank
 # program: 0.46 s default, 0.21 s with ob1). Clusters choose their own.
 export OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
-export GS_ROOT=$PWD GS_BIN=$PWD/${BIN:-bin}/geosynth GS_SHARED=${GS_SHARED:-$PWD/../shared}
+export GS_ROOT=$PWD GS_BIN=$PWD/${BIN:-bin}/geosynth
 status=0
 for exe in "$BUILD"/tests/bench/*; do
   [[ -x "$exe" && ! -d "$exe" ]] || continue

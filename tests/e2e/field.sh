@@ -4,7 +4,6 @@
 # Outputs, inputs and errors: tests/e2e/field_io.sh.
 source "$GS_ROOT/tests/e2e/lib.bash"
 Q=$GS_ROOT/configs/field/quick.ini
-M=$GS_SHARED/data/meshes
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 
 # --- determinism over rank counts -------------------------------------------

@@ -3,7 +3,7 @@
 # (configs/field/quick.ini). Determinism and restart: tests/e2e/field.sh.
 source "$GS_ROOT/tests/e2e/lib.bash"
 Q=$GS_ROOT/configs/field/quick.ini
-M=$GS_SHARED/data/meshes
+M=$DATA/meshes
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 
 run_gs 1 field -c "$Q" -o np1
@@ -41,14 +41,21 @@ expect_err "iterations = three" "wrong type names the key"
 run_gs 0 field -c "$Q" -o bad3 --set example.kind=file --set example.path=/nonexistent/x.obj
 expect_rc 3 "missing input file"
 expect_err "/nonexistent/x.obj" "missing input names the path"
-run_gs 2 field -c "$Q" -o bad4 --set example.kind=file --set example.path=$M/stanford-bunny.obj --set example.size=24
+# an open mesh: spot.obj with its first 40 triangles removed
+awk '/^f /{n++; if (n <= 40) next} {print}' "$M/spot.obj" > open-spot.obj
+run_gs 2 field -c "$Q" -o bad4 --set example.kind=file --set example.path=open-spot.obj --set example.size=24
 expect_rc 2 "open mesh asked for a signed field (np=2, collective)"
-expect_err "stanford-bunny.obj" "open mesh error names the file"
+expect_err "open-spot.obj" "open mesh error names the file"
 expect_err "example.sign = unsigned" "open mesh error says what to do"
+if need_data "the open Stanford bunny as a signed example" meshes/stanford-bunny.obj; then
+  run_gs 2 field -c "$Q" -o bad4b --set example.kind=file --set example.path=$M/stanford-bunny.obj --set example.size=24
+  expect_rc 2 "open Stanford bunny asked for a signed field (np=2, collective)"
+  expect_err "stanford-bunny.obj" "open bunny error names the file"
+fi
 run_gs 0 field -c "$Q" -o bad5 --set field.target=49
 expect_rc 2 "target not a multiple of 2^(iterations-1)"
 expect_err "field.target" "bad target names the key"
-run_gs 0 field -c "$Q" -o bad6 --set example.path=$M/armadillo.obj
+run_gs 0 field -c "$Q" -o bad6 --set example.path=$M/spot.obj
 expect_rc 2 "a path with a generator kind"
 expect_err "example.kind = file" "path without kind=file explains"
 expect_no_crash "bad inputs"
@@ -66,13 +73,18 @@ expect_err "grid|chainmail|balls|fibers" "unknown example kind lists the kinds"
 
 # --- height map and texture configs run as they are (small overrides for time) --
 for c in terrain texture; do
+  need_config "configs/field/$c.ini" "$GS_ROOT/configs/field/$c.ini" || continue
   run_gs 0 field -c "$GS_ROOT/configs/field/$c.ini" -o "$c" --set example.size=32 --set field.target=64x64x16
   expect_rc 0 "configs/field/$c.ini"
   /usr/bin/python3 -c "import json;m=json.load(open('$c/summary.json'))['metrics'];assert abs(m['volume_fraction_out']-m['volume_fraction_src'])<0.1" &&
     ok "$c: volume fraction of the height field kept" || bad "$c: volume fraction drifted"
 done
-run_gs 0 field -c "$Q" -o armadillo --set example.kind=file --set example.path=$M/armadillo.obj --set example.size=32 --set field.target=48 --set output.geometry=copy
-expect_rc 0 "closed mesh (armadillo.obj) as a signed example, copied triangles"
+run_gs 0 field -c "$Q" -o spot --set example.kind=file --set example.path=$M/spot.obj --set example.size=32 --set field.target=48 --set output.geometry=copy
+expect_rc 0 "closed mesh (spot.obj) as a signed example, copied triangles"
+if need_data "the armadillo as a signed example" meshes/armadillo.obj; then
+  run_gs 0 field -c "$Q" -o armadillo --set example.kind=file --set example.path=$M/armadillo.obj --set example.size=32 --set field.target=48 --set output.geometry=copy
+  expect_rc 0 "closed mesh (armadillo.obj) as a signed example, copied triangles"
+fi
 
 # --- plugins (include/geosynth/plugin.h) -------------------------------------------
 # The program does not link OpenVDB or OSMesa; they come from plugins when used.

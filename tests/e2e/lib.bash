@@ -1,12 +1,49 @@
-# Helpers for end-to-end tests (sourced). Each check prints "check ok: ..." or
-# "check FAILED: ..."; tests/run.sh counts them. Env: GS_BIN, GS_ROOT, GS_SHARED.
+# Helpers for end-to-end tests (sourced). Each check prints "check ok: ...",
+# "check FAILED: ..." or "check skipped: REASON"; tests/run.sh counts them.
+# Env: GS_BIN, GS_ROOT, GS_DATA_ROOT (the data root, tests/run.sh sets it:
+# GS_DATA or the tree's data/; configs name files there as ${data}/...).
 set -u
 GS_BIN=${GS_BIN:-$GS_ROOT/bin/geosynth}
+DATA=${GS_DATA_ROOT:-${GS_DATA:-$GS_ROOT/data}}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 e2e_failed=0
 
 ok() { echo "check ok: $*"; }
 bad() { echo "check FAILED: $*"; e2e_failed=1; }
+skipped() { echo "check skipped: $*"; }
+
+# need_data WHAT REL... : 0 when every REL (a path under the data root, as in
+# ${data}/REL) is there. Otherwise 1, after one line "check skipped: WHAT:
+# needs ${data}/REL, ... (fetched by `make data`)" naming the missing files that
+# `make data` fetches, and a failed check for each missing file that is not in
+# scripts/data-manifest.tsv (a file the repository itself should hold: never a
+# skip). Use as   if need_data "castle runs" model-synthesis/.../castle.txt; then ...; fi
+need_data() {
+  local what=$1 rel missing=() have=0; shift
+  for rel in "$@"; do
+    [[ -r $DATA/$rel ]] && continue
+    have=1
+    if "$GS_ROOT/scripts/fetch-data.sh" --has "$rel"; then
+      missing+=("\${data}/$rel")
+    else
+      bad "$what: $DATA/$rel is missing, and it is not a file \`make data\` fetches"
+    fi
+  done
+  if [[ ${#missing[@]} -gt 0 ]]; then
+    local list
+    printf -v list '%s, ' "${missing[@]}"
+    skipped "$what: needs ${list%, } (fetched by \`make data\`)"
+  fi
+  return $have
+}
+
+# need_config WHAT CONFIG: need_data for every ${data}/ path CONFIG names
+# (lines "key = ${data}/REL" of an INI file, or lines "${data}/REL" of a list).
+need_config() {
+  local what=$1 cfg=$2 rels
+  mapfile -t rels < <(sed -nE 's/^[^;#]*\$\{data\}\/([^;#]*[^;# ])[[:space:]]*([;#].*)?$/\1/p' "$cfg")
+  [[ ${#rels[@]} -eq 0 ]] || need_data "$what" "${rels[@]}"
+}
 
 # run_gs NP ARGS... : runs geosynth (under mpirun when NP > 0), capturing
 # stdout in $out, stderr in $err and the exit code in $rc.

@@ -11,7 +11,6 @@
 # Stop/resume and kill -9 are in micro_resume.sh.
 source "$GS_ROOT/tests/e2e/lib.bash"
 QUICK=$GS_ROOT/configs/micro/quick.ini
-MESHES=$GS_SHARED/data/meshes
 
 # ---- determinism over rank counts ----
 declare -A dg
@@ -125,7 +124,9 @@ EOF
 
 # ---- CSV table on two meshes (a mesh list) ----
 printf 'bin,pos,neg\n0, 0.14, 0.18\n1,0.085,0.14\n# comment\n2,0.04,0.1\n3,0.005,0.08\n4,0,0.07\n5,0,0.055\n6,0,0.04\n7,0,0.027\n8,0,0.018\n9,0,0.015\n' > t.csv
-printf '%s\n%s\n' "$MESHES/spot.obj" "$MESHES/bunny-closed.off" > list.txt
+# spot.obj from the data root (a ${data}/ line) and a built-in example mesh
+"$GS_BIN" -q example balls --out balls.obj --size 24 --seed 3 || bad "example balls for the mesh list"
+printf '%s\n%s\n' '${data}/meshes/spot.obj' balls.obj > list.txt
 cat > csv.ini <<EOF
 [micro]
 shape = file

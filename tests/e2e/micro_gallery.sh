@@ -15,7 +15,7 @@
 # PNGs are read with PIL (python3-pil, pulled in by python3-matplotlib).
 source "$GS_ROOT/tests/e2e/lib.bash"
 GAL=$GS_ROOT/configs/micro/gallery.ini
-MESHES=$GS_SHARED/data/meshes
+MESHES=$DATA/meshes
 N=6
 SMALL=(--set micro.explore.count=$N --set "micro.explore.scale_units=5, 8"
        --set micro.explore.thumbnail=160)

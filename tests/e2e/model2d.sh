@@ -3,9 +3,13 @@
 # digests, the assembled picture seamless (tile edges meet pixel for pixel,
 # which only holds when symmetries, rotations and neighbour expansion agree),
 # model-check against the tile set, an overlapping run, bad tile-set XML and
-# bad keys named. About 10 s here.
+# bad keys named. About 10 s here. The tile sets and samples are not
+# redistributable: fetched by `make data`, skipped without them.
 source "$GS_ROOT/tests/e2e/lib.bash"
-W=$GS_SHARED/data/wfc/mxgmn-WaveFunctionCollapse
+W=$DATA/wfc/mxgmn-WaveFunctionCollapse
+r=wfc/mxgmn-WaveFunctionCollapse
+need_data "2D tile set and overlapping model runs" $r/tilesets/Knots.xml \
+  $r/tilesets/Knots/{corner,cross,empty,line,t}.png $r/samples/Knot.png || finish
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 
 cat > knots.ini <<EOF

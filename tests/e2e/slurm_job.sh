@@ -43,8 +43,10 @@ signal_after_checkpoint() {
 }
 
 # 1. Per-engine script, requeue.
+# (the repository's CSV copy of escheresque: no fetched data needed)
 config=$GS_ROOT/configs/model/escheresque-10x.ini
-set_args=(--set run.checkpoint_every=20)
+set_args=(--set 'model.example=${data}/model-synthesis/debroglie-samples-merrell/escheresque.csv'
+          --set run.checkpoint_every=20)
 run_gs 2 model -c "$config" -o ref-model "${set_args[@]}"
 expect_rc 0 "reference model run (direct, np 2)"
 ref=$(digest_of ref-model)

@@ -5,6 +5,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -111,7 +113,9 @@ static void test_heightmap(void **state)
 {
     (void)state;
     gs_field *f = NULL;
-    OK(gs_field_from_heightmap("../../shared/data/heightmaps/raylib-heightmap.png", 32, 16, 8, &f));
+    char path[4096];
+    OK(gs_field_from_heightmap(gs_test_data("heightmaps/raylib-heightmap.png", path, sizeof path),
+                               32, 16, 8, &f));
     assert_int_equal(f->nx, 32);
     assert_int_equal(f->ny, 32);
     assert_int_equal(f->nz, 16);

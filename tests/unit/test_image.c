@@ -16,45 +16,32 @@
 #include "geosynth/mem.h"
 
 
-static const char *shared_path(const char *rel, char *buf, size_t n)
-{
-    const char *root = getenv("GS_SHARED");
-    snprintf(buf, n, "%s/%s", root ? root : "../../shared", rel);
-    return buf;
-}
-
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
     snprintf(buf, n, "%s/%s", gs_test_tmpdir, name);
     return buf;
 }
 
-static void test_real_images(void **state)
+typedef struct image_case {
+    const char *file;
+    int w, h, c;
+} image_case;
+
+static void check_real_images(const image_case *cases, size_t ncases)
 {
-    (void)state;
-    static const struct {
-        const char *file;
-        int w, h, c;
-    } cases[] = {
-        {"data/heightmaps/raylib-heightmap.png", 128, 128, 3},
-        {"data/heightmaps/srtm30plus-e020n40-crop.png", 1000, 200, 4},
-        {"data/textures/embark-4.png", 354, 352, 4},
-        {"data/textures/embark-5.png", 208, 168, 4},
-        {"data/textures/embark-1.jpg", 300, 300, 3},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char path[512];
+    for (size_t i = 0; i < ncases; i++) {
+        char path[4096];
         gs_image im;
-        assert_int_equal(gs_image_read(shared_path(cases[i].file, path, sizeof path), &im), GS_OK);
+        assert_int_equal(gs_image_read(gs_test_data(cases[i].file, path, sizeof path), &im), GS_OK);
         assert_int_equal(im.width, cases[i].w);
         assert_int_equal(im.height, cases[i].h);
         assert_int_equal(im.channels, cases[i].c);
-        assert_int_equal(im.bits, 8); /* every shared PNG is 8-bit */
+        assert_int_equal(im.bits, 8); /* every example PNG is 8-bit */
         assert_non_null(im.data8);
         assert_null(im.data16);
         float *g = NULL;
         assert_int_equal(gs_image_to_gray(&im, &g), GS_OK);
-        if (i == 0) { /* R = G = B height map: grey equals R exactly */
+        if (strstr(cases[i].file, "raylib")) { /* R = G = B height map: grey equals R exactly */
             for (int y = 0; y < im.height; y += 7)
                 for (int x = 0; x < im.width; x += 5)
                     assert_true(g[y * im.width + x] == im.data8[(y * im.width + x) * 3] / 255.0f);
@@ -63,6 +50,30 @@ static void test_real_images(void **state)
         gs_image_destroy(&im);
         assert_null(im.data8);
     }
+}
+
+/* The height maps in the repository's data/. */
+static void test_real_images(void **state)
+{
+    (void)state;
+    static const image_case cases[] = {
+        {"heightmaps/raylib-heightmap.png", 128, 128, 3},
+        {"heightmaps/srtm30plus-e020n40-crop.png", 1000, 200, 4},
+    };
+    check_real_images(cases, sizeof cases / sizeof cases[0]);
+}
+
+/* The Embark textures (PNG with alpha, JPEG) from `make data`. */
+static void test_real_images_fetched(void **state)
+{
+    (void)state;
+    static const image_case cases[] = {
+        {"textures/embark-4.png", 354, 352, 4},
+        {"textures/embark-5.png", 208, 168, 4},
+        {"textures/embark-1.jpg", 300, 300, 3},
+    };
+    GS_TEST_NEED_DATA(cases[0].file, cases[1].file, cases[2].file);
+    check_real_images(cases, sizeof cases / sizeof cases[0]);
 }
 
 static void test_roundtrip_8_and_16(void **state)
@@ -182,6 +193,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_real_images),
+        cmocka_unit_test(test_real_images_fetched),
         cmocka_unit_test(test_roundtrip_8_and_16),
         cmocka_unit_test(test_heightmap16),
         cmocka_unit_test(test_errors),

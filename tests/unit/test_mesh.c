@@ -18,13 +18,6 @@
 #include "geosynth/rng.h"
 
 
-static const char *shared_path(const char *rel, char *buf, size_t n)
-{
-    const char *root = getenv("GS_SHARED");
-    snprintf(buf, n, "%s/%s", root ? root : "../../shared", rel);
-    return buf;
-}
-
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
     snprintf(buf, n, "%s/%s", gs_test_tmpdir, name);
@@ -46,19 +39,12 @@ typedef struct expect {
 } expect;
 
 /* Counts checked by Euler: closed genus-0 meshes satisfy V - E + F = 2. */
-static void test_real_meshes(void **state)
+static void check_real_meshes(const expect *cases, size_t ncases)
 {
-    (void)state;
-    static const expect cases[] = {
-        {"data/meshes/spot.obj", 2930, 5856, 0, 1},
-        {"data/meshes/stanford-bunny.obj", 34834, 69451, 223, 0},
-        {"data/meshes/bunny-closed.off", 3485, 6966, 0, 1},
-        {"data/meshes/armadillo.obj", 43243, 86482, 0, 1},
-    };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char path[512];
+    for (size_t i = 0; i < ncases; i++) {
+        char path[4096];
         gs_mesh m;
-        assert_int_equal(gs_mesh_read(shared_path(cases[i].file, path, sizeof path), &m), GS_OK);
+        assert_int_equal(gs_mesh_read(gs_test_data(cases[i].file, path, sizeof path), &m), GS_OK);
         gs_mesh_topology t;
         assert_int_equal(gs_mesh_topology_check(&m, &t), GS_OK);
         printf("%s: %zu vertices, %zu triangles, %zu edges, %zu boundary, %zu non-manifold, "
@@ -83,6 +69,27 @@ static void test_real_meshes(void **state)
         gs_mesh_destroy(&m);
         assert_null(m.pos);
     }
+}
+
+/* spot.obj is in the repository's data/. */
+static void test_real_mesh_spot(void **state)
+{
+    (void)state;
+    static const expect spot = {"meshes/spot.obj", 2930, 5856, 0, 1};
+    check_real_meshes(&spot, 1);
+}
+
+/* The Stanford meshes come from `make data`. */
+static void test_real_meshes_fetched(void **state)
+{
+    (void)state;
+    static const expect cases[] = {
+        {"meshes/stanford-bunny.obj", 34834, 69451, 223, 0},
+        {"meshes/bunny-closed.off", 3485, 6966, 0, 1},
+        {"meshes/armadillo.obj", 43243, 86482, 0, 1},
+    };
+    GS_TEST_NEED_DATA(cases[0].file, cases[1].file, cases[2].file);
+    check_real_meshes(cases, sizeof cases / sizeof cases[0]);
 }
 
 static void test_read_errors(void **state)
@@ -248,9 +255,9 @@ static void test_misoriented_and_nonmanifold(void **state)
 static void test_write_read_roundtrip(void **state)
 {
     (void)state;
-    char src[512], path[256];
+    char src[4096], path[256];
     gs_mesh m, r;
-    assert_int_equal(gs_mesh_read(shared_path("data/meshes/spot.obj", src, sizeof src), &m),
+    assert_int_equal(gs_mesh_read(gs_test_data("meshes/spot.obj", src, sizeof src), &m),
                      GS_OK);
     assert_int_equal(gs_mesh_compute_normals(&m), GS_OK);
     assert_int_equal(gs_alloc_array((void **)&m.scalar, m.nverts, sizeof(float), "s"), GS_OK);
@@ -300,7 +307,8 @@ static void test_write_read_roundtrip(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_real_meshes),
+        cmocka_unit_test(test_real_mesh_spot),
+        cmocka_unit_test(test_real_meshes_fetched),
         cmocka_unit_test(test_read_errors),
         cmocka_unit_test(test_weld_and_normals),
         cmocka_unit_test(test_weld_matches_brute_force),

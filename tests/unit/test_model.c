@@ -1,11 +1,15 @@
 /* Unit tests for src/model: reader, transition learning, AC-3 == AC-4,
  * start model, plans, region API, synthesis of the author's samples (checked
- * by the independent checker), determinism. Runs from tests/. */
+ * by the independent checker), determinism. Runs from tests/. The author's
+ * .txt lattices come from `make data` (tests needing them skip without);
+ * DeBroglie's CSV copies of two of them are in the repository's data/. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,20 +22,16 @@
 #include "geosynth/rng.h"
 #include "model/model_impl.h"
 
-static const char *sample_dir(void)
-{
-    static char dir[4096];
-    const char *shared = getenv("GS_SHARED");
-    snprintf(dir, sizeof dir, "%s/data/model-synthesis/merrell42-model-synthesis/samples",
-             shared ? shared : "../../shared");
-    return dir;
-}
+/* Paul Merrell's samples/NAME (fetched by `make data`: the test skips without it). */
+#define read_sample gs_test_read_merrell_sample
 
-static void read_sample(const char *name, gs_model_lattice *ex)
+/* DeBroglie's copy of a Merrell lattice in the repository's data/
+ * (model-synthesis/debroglie-samples-merrell/NAME.csv). */
+static void read_csv_sample(const char *name, gs_model_lattice *ex)
 {
-    char path[4352];
-    snprintf(path, sizeof path, "%s/%s", sample_dir(), name);
-    gs_err e = gs_model_read_merrell_txt(path, ex);
+    char rel[256], path[4352];
+    snprintf(rel, sizeof rel, "model-synthesis/debroglie-samples-merrell/%s", name);
+    gs_err e = gs_model_read_debroglie_csv(gs_test_data(rel, path, sizeof path), ex);
     if (e != GS_OK)
         gs_error_report("test_model: ");
     assert_int_equal(e, GS_OK);
@@ -292,7 +292,9 @@ typedef struct sample_case {
     int nx, ny, nz, bx, by;
 } sample_case;
 
-/* The author's samples.xml sizes (gadgets: 40x40x6 as he runs it). */
+/* The author's samples.xml sizes (gadgets: 40x40x6 as he runs it). The .txt
+ * lattices come from `make data`; the .csv ones (DeBroglie's copies of
+ * escheresque and parliament, x and y swapped) are in the repository. */
 static const sample_case author_cases[] = {
     {"castle.txt", 40, 40, 10, 0, 0},      {"city.txt", 40, 40, 10, 0, 0},
     {"city lights.txt", 40, 40, 10, 0, 0}, {"canyon.txt", 40, 40, 10, 0, 0},
@@ -300,12 +302,19 @@ static const sample_case author_cases[] = {
     {"parliament.txt", 30, 30, 10, 10, 10}, {"gadgets.txt", 40, 40, 6, 20, 20},
     {"gadgets2.txt", 40, 40, 6, 0, 0},     {"simple.txt", 20, 20, 8, 0, 0},
 };
+static const sample_case csv_cases[] = {
+    {"escheresque.csv", 30, 30, 10, 10, 10},
+    {"parliament.csv", 30, 30, 10, 10, 10},
+};
 
 static uint64_t synth_case(const sample_case *c, uint64_t seed, gs_model_stats *st,
                            size_t *violations)
 {
     gs_model_lattice ex = {0}, out = {0};
-    read_sample(c->file, &ex);
+    if (strstr(c->file, ".csv"))
+        read_csv_sample(c->file, &ex);
+    else
+        read_sample(c->file, &ex);
     gs_model_rules_t r = NULL;
     assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
     assert_int_equal(gs_model_lattice_create(&out, c->nx, c->ny, c->nz), GS_OK);
@@ -324,15 +333,14 @@ static uint64_t synth_case(const sample_case *c, uint64_t seed, gs_model_stats *
     return h;
 }
 
-static void test_author_samples_consistent(void **state)
+static void check_samples_consistent(const sample_case *cases, size_t ncases)
 {
-    (void)state;
-    for (size_t i = 0; i < sizeof author_cases / sizeof author_cases[0]; i++) {
+    for (size_t i = 0; i < ncases; i++) {
         gs_model_stats st;
         size_t nv = 99;
-        (void)synth_case(&author_cases[i], 1 + i, &st, &nv);
+        (void)synth_case(&cases[i], 1 + i, &st, &nv);
         printf("# %-16s %dx%dx%d: %llu regions, %llu failed, %llu retries, %.3f s\n",
-               author_cases[i].file, author_cases[i].nx, author_cases[i].ny, author_cases[i].nz,
+               cases[i].file, cases[i].nx, cases[i].ny, cases[i].nz,
                (unsigned long long)st.regions, (unsigned long long)st.failed,
                (unsigned long long)(st.attempts - st.regions), st.seconds);
         assert_int_equal(nv, 0);
@@ -342,10 +350,22 @@ static void test_author_samples_consistent(void **state)
     }
 }
 
+static void test_author_samples_consistent(void **state)
+{
+    (void)state;
+    check_samples_consistent(author_cases, sizeof author_cases / sizeof author_cases[0]);
+}
+
+static void test_csv_samples_consistent(void **state)
+{
+    (void)state;
+    check_samples_consistent(csv_cases, sizeof csv_cases / sizeof csv_cases[0]);
+}
+
 static void test_determinism(void **state)
 {
     (void)state;
-    const sample_case c = {"parliament.txt", 30, 30, 10, 10, 10};
+    const sample_case c = {"parliament.csv", 30, 30, 10, 10, 10};
     gs_model_stats st;
     size_t nv;
     uint64_t a = synth_case(&c, 42, &st, &nv);
@@ -362,7 +382,7 @@ static void test_region_api_matches_driver(void **state)
 {
     (void)state;
     gs_model_lattice ex = {0}, a = {0}, b = {0};
-    read_sample("castle.txt", &ex);
+    read_csv_sample("parliament.csv", &ex);
     gs_model_rules_t r = NULL;
     assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
     assert_int_equal(gs_model_lattice_create(&a, 50, 44, 10), GS_OK);
@@ -421,7 +441,7 @@ static void test_write_read_roundtrip(void **state)
 {
     (void)state;
     gs_model_lattice ex = {0}, back = {0};
-    read_sample("parliament.txt", &ex);
+    read_csv_sample("parliament.csv", &ex);
     char path[] = "/tmp/gs-model-XXXXXX";
     int fd = mkstemp(path);
     assert_true(fd >= 0);
@@ -444,6 +464,7 @@ int main(void)
         cmocka_unit_test(test_initial_model_city),
         cmocka_unit_test(test_plan_colours),
         cmocka_unit_test(test_author_samples_consistent),
+        cmocka_unit_test(test_csv_samples_consistent),
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_region_api_matches_driver),
         cmocka_unit_test(test_write_read_roundtrip),

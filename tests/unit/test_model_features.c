@@ -6,6 +6,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,17 +16,8 @@
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
 
-static void read_sample(const char *name, gs_model_lattice *ex)
-{
-    char path[4352];
-    const char *shared = getenv("GS_SHARED");
-    snprintf(path, sizeof path, "%s/data/model-synthesis/merrell42-model-synthesis/samples/%s",
-             shared ? shared : "../../shared", name);
-    gs_err e = gs_model_read_merrell_txt(path, ex);
-    if (e != GS_OK)
-        gs_error_report("test_model_features: ");
-    assert_int_equal(e, GS_OK);
-}
+/* Paul Merrell's samples/NAME (fetched by `make data`: the test skips without it). */
+#define read_sample gs_test_read_merrell_sample
 
 static int distinct_labels(const gs_model_lattice *l)
 {

@@ -7,6 +7,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+
+#include "../util/testutil.h"
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,13 +20,14 @@
 #include "geosynth/model.h"
 #include "geosynth/model_tiles.h"
 
+/* mxgmn's WaveFunctionCollapse tile sets and samples (fetched by `make
+ * data`; the tests that read them skip without them). */
+#define WFC "wfc/mxgmn-WaveFunctionCollapse/"
 static const char *wfc(const char *rel)
 {
-    static char path[4096];
-    const char *shared = getenv("GS_SHARED");
-    snprintf(path, sizeof path, "%s/data/wfc/mxgmn-WaveFunctionCollapse/%s",
-             shared ? shared : "../../shared", rel);
-    return path;
+    static char path[4096], full[512];
+    snprintf(full, sizeof full, WFC "%s", rel);
+    return gs_test_data(full, path, sizeof path);
 }
 
 static int has_pair(const gs_model_tileset *ts, int dir, const char *a, const char *b)
@@ -46,6 +49,7 @@ static int has_pair(const gs_model_tileset *ts, int dir, const char *a, const ch
 static void test_knots_expansion(void **state)
 {
     (void)state;
+    GS_TEST_NEED_DATA(WFC "tilesets/Knots.xml");
     gs_model_tileset ts;
     memset(&ts, 0, sizeof ts);
     assert_int_equal(gs_model_tileset_load(wfc("tilesets/Knots.xml"), "Standard", 1, &ts), GS_OK);
@@ -93,6 +97,8 @@ static void test_knots_expansion(void **state)
 static void test_counts_of_every_tileset(void **state)
 {
     (void)state;
+    GS_TEST_NEED_DATA(WFC "tilesets/Knots.xml", WFC "tilesets/Rooms.xml", WFC "tilesets/Circuit.xml",
+                      WFC "tilesets/Summer.xml", WFC "tilesets/Castle.xml");
     static const struct {
         const char *file, *subset;
         int tiles;
@@ -160,6 +166,7 @@ static void test_xml_errors(void **state)
 static void test_overlapping_knot(void **state)
 {
     (void)state;
+    GS_TEST_NEED_DATA(WFC "samples/Knot.png");
     gs_model_patterns p;
     memset(&p, 0, sizeof p);
     assert_int_equal(gs_model_patterns_learn(wfc("samples/Knot.png"), 3, 8, 1, &p), GS_OK);

@@ -1,4 +1,4 @@
-/* Unit tests for src/io/vox.c: every shared .vox loads, round trips,
+/* Unit tests for src/io/vox.c: every example .vox loads, round trips,
  * tiling of large lattices, damaged files give located errors. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -17,13 +17,6 @@
 #include "geosynth/mem.h"
 #include "geosynth/vox.h"
 
-
-static const char *shared_path(const char *rel, char *buf, size_t n)
-{
-    const char *root = getenv("GS_SHARED");
-    snprintf(buf, n, "%s/%s", root ? root : "../../shared", rel);
-    return buf;
-}
 
 static const char *tmp_path(const char *name, char *buf, size_t n)
 {
@@ -110,34 +103,48 @@ static int walk(const char *dir, int *count)
     return bad ? -1 : 0;
 }
 
-static void test_every_shared_file_loads(void **state)
+/* Every .vox under ${data}/vox: the repository's 42 (VoxModSynth, DeBroglie's
+ * castle, MarkovJunior's tile sets), plus ephtracy's 7 once fetched. */
+static void test_every_example_file_loads(void **state)
 {
     (void)state;
-    char dir[512];
+    char dir[4096];
     int count = 0;
-    assert_int_equal(walk(shared_path("data/vox", dir, sizeof dir), &count), 0);
+    assert_int_equal(walk(gs_test_data("vox", dir, sizeof dir), &count), 0);
     printf("%d .vox files loaded and round-tripped\n", count);
-    assert_true(count >= 49);
+    assert_true(count >= 42);
 }
 
-static void test_known_contents(void **state)
+/* ephtracy's models (`make data`): the procedural ones and the teapot scan. */
+static void test_fetched_files(void **state)
 {
     (void)state;
-    char path[512];
+    GS_TEST_NEED_DATA("vox/ephtracy-voxel-model/vox/scan/teapot.vox",
+                      "vox/ephtracy-voxel-model/vox/procedure/maze.vox");
+    char dir[4096], path[4096];
+    int count = 0;
+    assert_int_equal(walk(gs_test_data("vox/ephtracy-voxel-model", dir, sizeof dir), &count), 0);
+    printf("%d ephtracy .vox files loaded and round-tripped\n", count);
+    assert_int_equal(count, 7);
     gs_vox v;
     /* teapot: one 126x80x61 model with an RGBA palette */
     assert_int_equal(
-        gs_vox_read(shared_path("data/vox/ephtracy-voxel-model/vox/scan/teapot.vox", path,
-                                sizeof path),
+        gs_vox_read(gs_test_data("vox/ephtracy-voxel-model/vox/scan/teapot.vox", path, sizeof path),
                     &v),
         GS_OK);
     assert_int_equal(v.nmodels, 1);
     assert_true(v.models[0].nx == 126 && v.models[0].ny == 80 && v.models[0].nz == 61);
     assert_int_equal(filled(&v.models[0]), 28411);
     gs_vox_destroy(&v);
+}
+
+static void test_known_contents(void **state)
+{
+    (void)state;
+    char path[4096];
+    gs_vox v;
     /* castle tile with scene graph, layers, materials: one placed 5^3 model */
-    assert_int_equal(gs_vox_read(shared_path("data/vox/DeBroglie-castle/solid.vox", path,
-                                             sizeof path),
+    assert_int_equal(gs_vox_read(gs_test_data("vox/DeBroglie-castle/solid.vox", path, sizeof path),
                                  &v),
                      GS_OK);
     assert_int_equal(v.nmodels, 1);
@@ -145,8 +152,8 @@ static void test_known_contents(void **state)
     assert_int_equal(filled(&v.models[0]), 125);
     gs_vox_destroy(&v);
     /* Slab6 exemplar: z flipped so ground (slab 254 -> label 255) is at z = 0 */
-    assert_int_equal(gs_vox_read(shared_path("data/vox/sylefeb-VoxModSynth/exemplars/blog2.slab.vox",
-                                             path, sizeof path),
+    assert_int_equal(gs_vox_read(gs_test_data("vox/sylefeb-VoxModSynth/exemplars/blog2.slab.vox",
+                                              path, sizeof path),
                                  &v),
                      GS_OK);
     const gs_vox_model *m = &v.models[0];
@@ -306,7 +313,8 @@ static void test_damaged(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_every_shared_file_loads),
+        cmocka_unit_test(test_every_example_file_loads),
+        cmocka_unit_test(test_fetched_files),
         cmocka_unit_test(test_known_contents),
         cmocka_unit_test(test_large_lattice_tiles),
         cmocka_unit_test(test_damaged),
