@@ -25,6 +25,7 @@
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/plugin.h"
+#include "geosynth/preview.h"
 #include "geosynth/run.h"
 #include "geosynth/vdb.h"
 #include "geosynth/version.h"
@@ -45,6 +46,8 @@ typedef struct cli_args {
     const char *example_out;  /* example --out FILE */
     const char *example_size; /* example --size N */
     const char *example_seed; /* example --seed S */
+    const char *files[GS_PREVIEW_MAX_PANELS]; /* preview MESH... */
+    int nfiles;
 } cli_args;
 
 static int log_level_from_cli = 0;
@@ -78,6 +81,9 @@ static void print_usage(FILE *out)
             "            continue an interrupted run from RUN_DIR/checkpoint.h5 (any rank count)\n"
             "  example   grid|chainmail|balls|fibers|spheres --out FILE.obj|.ply [--size N] [--seed S]\n"
             "            write a built-in field example as a closed mesh (default size 64, seed 1)\n"
+            "  preview   --out FILE.png [--size N] MESH...\n"
+            "            render meshes (.ply/.obj/.off/...) side by side into one PNG, N pixels\n"
+            "            per panel (default 512), e.g. the example and a run's output\n"
             "  model-check EXAMPLE OUTPUT\n"
             "            list adjacent label pairs of OUTPUT that never occur in EXAMPLE (.txt,\n"
             "            .vox, .h5) or that the WFC tile set EXAMPLE.xml[#SUBSET] does not allow;\n"
@@ -143,7 +149,7 @@ static size_t edit_distance(const char *a, const char *b)
 static const char *closest_command(const char *name)
 {
     static const char *builtins[] = {"resume", "inspect", "version", "help", "example",
-                                     "model-check"};
+                                     "model-check", "preview"};
     const char *best = NULL;
     size_t best_d = 3;
     int n;
@@ -208,6 +214,12 @@ static gs_err parse_args(int argc, char **argv, cli_args *a)
             a->positional = s;
         } else if (!a->positional2 && a->command && !strcmp(a->command, "model-check")) {
             a->positional2 = s;
+        } else if (a->command && !strcmp(a->command, "preview")) {
+            if (a->nfiles == 0)
+                a->files[a->nfiles++] = a->positional;
+            if (a->nfiles >= GS_PREVIEW_MAX_PANELS)
+                return usage_error("preview: at most %s meshes side by side", "8");
+            a->files[a->nfiles++] = s;
         } else {
             return usage_error("unexpected argument '%s' (see geosynth --help)", s);
         }
@@ -234,6 +246,43 @@ static gs_err cmd_example(const cli_args *a)
         gs_log(GS_LOG_INFO, "example %s: %zu vertices, %zu triangles -> %s", a->positional,
                m.nverts, m.ntris, a->example_out);
     gs_mesh_destroy(&m);
+    GS_CALL(err);
+    return GS_OK;
+}
+
+/* `geosynth preview --out FILE.png [--size N] MESH...` (rank 0 renders):
+ * the meshes side by side, each fitted to its panel, example first by
+ * convention (include/geosynth/preview.h). */
+static gs_err cmd_preview(const cli_args *a)
+{
+    const char *files[GS_PREVIEW_MAX_PANELS];
+    int n = a->nfiles;
+    memcpy(files, a->files, sizeof files);
+    if (n == 0 && a->positional)
+        files[n++] = a->positional;
+    if (n == 0 || !a->example_out)
+        return usage_error("preview needs --out FILE.png and one or more meshes: geosynth preview "
+                           "--out p.png example.obj output.ply%s", "");
+    int64_t side = 512;
+    char why[160];
+    GS_CHECK(!a->example_size || gs_parse_i64(a->example_size, 16, 2048, &side, why, sizeof why),
+             GS_ERR_USAGE, "preview --size %s: %s", a->example_size, why);
+    gs_mesh meshes[GS_PREVIEW_MAX_PANELS];
+    gs_preview_panel panels[GS_PREVIEW_MAX_PANELS];
+    int loaded = 0;
+    gs_err err = GS_OK;
+    for (; loaded < n && !err; loaded++) {
+        err = gs_mesh_read(files[loaded], &meshes[loaded]);
+        panels[loaded] = (gs_preview_panel){&meshes[loaded], NULL};
+    }
+    if (err)
+        loaded--; /* the failed read left nothing to free */
+    if (!err)
+        err = gs_preview_write(a->example_out, panels, n, (int)side);
+    if (!err)
+        gs_log(GS_LOG_INFO, "preview of %d mesh%s -> %s", n, n > 1 ? "es" : "", a->example_out);
+    for (int i = 0; i < loaded; i++)
+        gs_mesh_destroy(&meshes[i]);
     GS_CALL(err);
     return GS_OK;
 }
@@ -464,12 +513,16 @@ int main(int argc, char **argv)
         gs_par_finalize();
         return 0;
     }
-    if ((a.example_out || a.example_size || a.example_seed) && strcmp(a.command, "example")) {
+    if ((a.example_out || a.example_size || a.example_seed) && strcmp(a.command, "example") &&
+        (strcmp(a.command, "preview") || a.example_seed)) {
         err = usage_error("--out, --size and --seed belong to 'geosynth example' (not %s)",
                           a.command);
         err = gs_par_agree(MPI_COMM_WORLD, err);
     } else if (!strcmp(a.command, "example")) {
         err = rank == 0 ? cmd_example(&a) : GS_OK;
+        err = gs_par_agree(MPI_COMM_WORLD, err);
+    } else if (!strcmp(a.command, "preview")) {
+        err = rank == 0 ? cmd_preview(&a) : GS_OK;
         err = gs_par_agree(MPI_COMM_WORLD, err);
     } else if (!strcmp(a.command, "inspect")) {
         if (!a.positional) {

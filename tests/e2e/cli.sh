@@ -57,4 +57,29 @@ run_gs 0 resume run1 --set field.block=4
 expect_rc 1 "resume may not change non-run keys"
 expect_err "only run.* keys" "resume explains which keys may change"
 
+# --- preview: meshes side by side in one PNG (make demo's pictures) ---------------
+run_gs 0 example balls --out pballs.obj --size 24
+run_gs 0 example grid --out pgrid.obj --size 24
+run_gs 0 preview --out p.png --size 64 pballs.obj "$DATA/meshes/spot.obj" pgrid.obj
+expect_rc 0 "preview of three meshes"
+/usr/bin/python3 - p.png <<'PY' && ok "preview: 3 panels of 64 px (+ 2 gutters of 4), each with lit pixels" || bad "preview picture wrong"
+import sys
+from PIL import Image
+im = Image.open(sys.argv[1]).convert("L")
+assert im.size == (3 * 64 + 2 * 4, 64), im.size
+bg = im.getpixel((0, 0))
+for k in range(3):
+    px = [im.getpixel((k * 68 + x, y)) for x in range(64) for y in range(64)]
+    assert sum(abs(p - bg) > 20 for p in px) > 100, k
+PY
+run_gs 0 preview p.png pballs.obj
+expect_rc 1 "preview without --out"
+expect_err "preview needs --out" "preview explains its usage"
+run_gs 0 preview --out q.png nosuch.obj
+expect_rc 3 "preview of a missing mesh"
+expect_err "nosuch.obj" "names the missing mesh"
+[[ ! -e q.png ]] && ok "no picture written on error" || bad "q.png written"
+run_gs 0 preview --out r.png --seed 2 pballs.obj
+expect_rc 1 "--seed is not a preview option"
+
 finish
