@@ -7,6 +7,7 @@
 # real manifest: well-formed rows, and none of its files committed in data/
 # while every one is git-ignored there.
 source "$GS_ROOT/tests/e2e/lib.bash"
+unset GS_DATA GS_DATA_MIRROR GS_DATA_MANIFEST # only what each command below sets
 FETCH=$GS_ROOT/scripts/fetch-data.sh
 sha() { sha256sum "$1" | cut -d' ' -f1; }
 
