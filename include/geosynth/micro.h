@@ -1,5 +1,6 @@
 /* micro: stochastic microgeometry from contact distributions
- * (Schroeder et al., ../shared/papers/schroeder-stochastic-microgeometry.txt).
+ * (Schroeder, Breen, Cera, Regli, "Stochastic Microgeometry for Displacement
+ * Mapping", SMI 2005; docs/ARCHITECTURE.md).
  *
  * Pipeline (each step a pure function of its inputs; nothing here calls MPI):
  *   1. mesh      gs_micro_mesh_sphere/disk/bar, or any triangle mesh; refine with

@@ -1,5 +1,5 @@
 /* model: example-based model synthesis on label lattices (Merrell, i3D 2007,
- * ../shared/papers/merrell-model-synthesis.txt).
+ * "Example-Based Model Synthesis"; docs/ARCHITECTURE.md).
  *
  * Conventions
  * - A lattice holds one uint16 label per cell, index x + nx*(y + ny*z)

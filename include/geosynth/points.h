@@ -1,7 +1,7 @@
 /* points engine core: patch-based synthesis of geometry textures on
  * point-set surfaces (Duranleau and Poulin, "Patch-based Synthesis of
  * Geometry Textures with Point-set Surfaces",
- * ../shared/papers/duranleau-poulin-pointset-patch-synthesis.txt).
+ * docs/ARCHITECTURE.md).
  *
  * Pure C, no MPI and no file I/O: the CLI, checkpoints and the distributed
  * search runtime call into this module.

@@ -49,6 +49,16 @@ doc=$(/usr/bin/python3 "$GS_ROOT/scripts/config-comments.py" --check "$GS_ROOT"/
 printf '[field]\nblock = 8\ntarget = 16\n' >undocumented.ini
 /usr/bin/python3 "$GS_ROOT/scripts/config-comments.py" --check undocumented.ini >/dev/null 2>&1 \
   && bad "an undocumented key passes the comment check" || ok "the comment check flags an undocumented key"
+# the docs name no path outside the repository, and FORMATS.md every output file name
+if grep -nE '\.\./shared|/work/' "$GS_ROOT/README.md" "$GS_ROOT"/docs/*.md "$GS_ROOT"/tests/README.md "$GS_ROOT"/configs/README.md; then
+  bad "a doc names a path outside the repository"
+else
+  ok "README.md, docs/, tests/README.md, configs/README.md name no path outside the repository"
+fi
+missing=$(grep -rhoE 'gs_run_output\(run, "[a-z_]+", "[^"]+"' "$GS_ROOT/src" | sed -E 's/.*, "([^"]+)"$/\1/' | sort -u |
+  while IFS= read -r f; do grep -qF "$f" "$GS_ROOT/docs/FORMATS.md" || echo "$f"; done)
+[[ -z $missing ]] && ok "docs/FORMATS.md describes every output file the engines record" \
+  || bad "outputs missing from docs/FORMATS.md: $missing"
 run_gs 0 field -c "$GS_ROOT/configs/field/quick.ini" --check --set field.blok=8
 expect_rc 2 "--check with an unknown key"
 expect_err "did you mean 'field.block'" "--check names the key"
