@@ -43,9 +43,10 @@ int gs_data_root(char *buf, size_t cap, const char **how, char *why, size_t wl);
 
 /* If path (absolute, normalized) lies under the data root, writes into buf a
  * hint for a missing file there and returns 1:
- *   "it is ${data}/REL under the data root ROOT (HOW; set GS_DATA to use
- *    another); third-party data that is not in the repository is fetched
- *    with `make data` (only this file: scripts/fetch-data.sh REL)"
+ *   "this is ${data}/REL; the data root is ROOT (HOW). Third-party data the
+ *    repository may not include is fetched with `make data` in the geosynth
+ *    source tree ([GS_DATA=ROOT ]scripts/fetch-data.sh REL fetches only this
+ *    file)"   (GS_DATA=ROOT unless ROOT is the source tree's data/)
  * Returns 0 (buf = "") when path is elsewhere. */
 int gs_data_missing_hint(const char *path, char *buf, size_t cap);
 

@@ -96,10 +96,17 @@ int gs_data_missing_hint(const char *path, char *buf, size_t cap)
         return 0;
     const char *rel = path + n + 1;
     const char *q = strpbrk(rel, " \t'\"$\\*?;&|<>()") ? "'" : ""; /* shell-quoted */
+    /* The fetch script fills the source tree's data/ unless told another root. */
+    char build_root[PATH_MAX], env[PATH_MAX + 16] = "";
+    int is_default = GS_DATA_BUILD_DIR[0] && join(build_root, sizeof build_root,
+                                                  GS_DATA_BUILD_DIR, ".") &&
+                     !strcmp(build_root, root);
+    if (!is_default)
+        snprintf(env, sizeof env, "GS_DATA=%s ", root);
     snprintf(buf, cap,
              "this is " GS_DATA_VAR "/%s; the data root is %s (%s)%s. Third-party data "
-             "the repository may not include is fetched with `make data` (only this file: "
-             "scripts/fetch-data.sh %s%s%s)",
-             rel, root, how, is_dir(root) ? "" : ", which does not exist", q, rel, q);
+             "the repository may not include is fetched with `make data` in the geosynth "
+             "source tree (%sscripts/fetch-data.sh %s%s%s fetches only this file)",
+             rel, root, how, is_dir(root) ? "" : ", which does not exist", env, q, rel, q);
     return 1;
 }

@@ -67,7 +67,7 @@ for np in 0 2; do
   expect_err "fetched.ini: model.example = $PWD/empty/$FETCHED: No such file or directory" "names the config, key and file (np=$np)"
   expect_err "the data root is $PWD/empty (GS_DATA)" "names the data root and where it came from (np=$np)"
   expect_err 'fetched with `make data`' "names make data (np=$np)"
-  expect_err "scripts/fetch-data.sh $FETCHED" "names the script with the item (np=$np)"
+  expect_err "GS_DATA=$PWD/empty scripts/fetch-data.sh $FETCHED" "names the script with the item and the root (np=$np)"
   n=$(grep -c "No such file or directory" <<<"$err")
   [[ $n -eq 1 ]] && ok "reported once (np=$np)" || bad "reported $n times (np=$np): ${err:0:800}"
   grep -q "MPI_ABORT" <<<"$err" && bad "MPI_Abort at np=$np" || ok "no MPI_Abort (np=$np)"
@@ -93,5 +93,8 @@ mkdir -p partial/meshes && cp "$GS_ROOT/data/meshes/spot.obj" partial/meshes/
 GS_DATA=$PWD/partial run_gs 0 micro -c list.ini -o listrun
 expect_rc 3 "micro.mesh_list with a missing \${data} mesh: exit 3"
 expect_err "meshes.txt, line 3: \${data}/meshes/bunny-closed.off: No such file or directory" "names the list, the line and the entry"
-expect_err "scripts/fetch-data.sh meshes/bunny-closed.off" "names the fetch command"
+expect_err "GS_DATA=$PWD/partial scripts/fetch-data.sh meshes/bunny-closed.off" "names the fetch command"
+# with the default root (the tree's data/) the command needs no GS_DATA
+run_gs 0 model -c fetched.ini --set 'model.example=${data}/meshes/not-fetched.txt' --check
+expect_err "(scripts/fetch-data.sh meshes/not-fetched.txt fetches only this file)" "default root: the script without GS_DATA"
 finish
