@@ -40,4 +40,43 @@ gs_err gs_measure_ks(const double *x, size_t nx, const double *y, size_t ny, dou
 gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const int periodic[3],
                               uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
 
+/* ------------------------------------------ geodesics on triangle meshes -- */
+
+/* Fast-marching workspace over a triangle mesh (src/measure/geodesic.c):
+ * pos float[3 nverts], tris uint32[3 ntris] (kept by pointer: must outlive
+ * g), lengths multiplied by scale (> 0, e.g. distribution units per model
+ * unit). Memory ~ 70 bytes per vertex + 16 per triangle. Isotropic distances
+ * (planar wavefront updates, first order in the edge length), not a graph's
+ * polygonal metric. */
+typedef struct gs_measure_geo *gs_measure_geo_t;
+gs_err gs_measure_geo_create(const float *pos, size_t nverts, const uint32_t *tris, size_t ntris, double scale,
+                             gs_measure_geo_t *g);
+void gs_measure_geo_destroy(gs_measure_geo_t *g);
+/* Geodesic distance of every vertex from the nearest source (vertex src[i]
+ * starting at src_dist[i], or 0 when src_dist is NULL), up to radius
+ * (INFINITY: everything reachable). Vertices beyond radius or unreachable
+ * read +inf. Cost O(k log k) in the k vertices reached (earlier results are
+ * reset lazily). */
+gs_err gs_measure_geo_march(gs_measure_geo_t g, const uint32_t *src, const double *src_dist, size_t nsrc,
+                            double radius);
+const double *gs_measure_geo_vertex_dist(gs_measure_geo_t g);
+/* Distance at triangle t's centroid: the mean of its vertices' (exact for a
+ * planar front; for a triangle on an interface edge, its height / 3). */
+double gs_measure_geo_tri_dist(gs_measure_geo_t g, size_t t);
+
+/* Realized contact distribution of a two-region labelling of g's triangles
+ * (side[t] != 0: positive region, 0: negative). The interface is where the
+ * regions meet: every vertex whose incident triangles are not all on one
+ * side. tri_dist[t] receives the geodesic distance of t's centroid to the
+ * interface (scaled units), +inf everywhere when there is no interface;
+ * *nsrc (optional) the number of interface vertices. This looks only at the
+ * regions and the surface, never at the values a reconstruction assigned. */
+gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc);
+/* Histogram of those distances the way a contact distribution is binned:
+ * pos[k] / neg[k] count the triangles of each region at distance [k, k+1),
+ * k < nbins; distances >= nbins (and +inf) count in bin nbins - 1 and in
+ * *beyond (optional). */
+void gs_measure_contact_hist(const double *tri_dist, const uint8_t *side, size_t ntris, uint32_t nbins,
+                             int64_t *pos, int64_t *neg, uint64_t *beyond);
+
 #endif

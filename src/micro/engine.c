@@ -264,6 +264,19 @@ void micro_result_json(gs_json *j, const micro_result *r)
     gs_json_i64(j, "abs_bin_error", r->abs_error_sum);
     gs_json_i64(j, "max_bin_error", r->max_bin_error);
     gs_json_f64(j, "bin_error_share", r->error_share);
+    gs_json_f64(j, "realized_l1", r->realized_l1);
+    gs_json_u64(j, "realized_beyond", r->realized_beyond);
+    gs_json_f64(j, "realized_pos_share", r->realized_pos_share);
+    if (r->nbins <= MICRO_RESULT_BINS) {
+        gs_json_begin_array(j, "target_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(j, NULL, r->target[i]);
+        gs_json_end_array(j);
+        gs_json_begin_array(j, "realized_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(j, NULL, r->realized[i]);
+        gs_json_end_array(j);
+    }
 }
 
 static gs_err write_instances_json(const micro_job *job, const char *path)
@@ -301,7 +314,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
 {
     gs_run *run = job->run;
     uint64_t violations = 0, pairs = 0, unassigned = 0, tris = 0;
-    double share_max = 0, err_share_max = 0, excess_max = -INFINITY;
+    double share_max = 0, err_share_max = 0, excess_max = -INFINITY, rl1_max = 0, rl1_sum = 0;
     int64_t bin_err_max = 0, abs_err = 0;
     for (int64_t i = 0; i < job->ninst; i++) {
         const micro_instance *in = &job->inst[i];
@@ -313,6 +326,8 @@ static gs_err report_results(micro_job *job, gs_json *phase)
         abs_err += r->abs_error_sum;
         share_max = fmax(share_max, r->unassigned_share);
         err_share_max = fmax(err_share_max, r->error_share);
+        rl1_max = fmax(rl1_max, r->realized_l1);
+        rl1_sum += r->realized_l1 * (double)r->ntris;
         excess_max = fmax(excess_max, r->max_excess);
         bin_err_max = r->max_bin_error > bin_err_max ? r->max_bin_error : bin_err_max;
         char hex[17];
@@ -320,11 +335,11 @@ static gs_err report_results(micro_job *job, gs_json *phase)
         gs_log(job->ninst <= 32 || i < 8 ? GS_LOG_INFO : GS_LOG_DEBUG,
                "instance %lld: %llu triangles, K=%llu: violations %llu of %llu pairs checked, "
                "unassigned %.3f%%, bin error %lld (max %lld per bin, %.3f%% of triangles), "
-               "digest %s",
+               "realized contact distribution L1/n %.4f against the target, digest %s",
                (long long)i, (unsigned long long)r->ntris, (unsigned long long)r->nbins,
                (unsigned long long)r->violations, (unsigned long long)r->pairs_checked,
                100 * r->unassigned_share, (long long)r->abs_error_sum, (long long)r->max_bin_error,
-               100 * r->error_share, hex);
+               100 * r->error_share, r->realized_l1, hex);
         if (run->rank == 0) {
             char dir[64], rel[128];
             micro_instance_dir(i, dir, sizeof dir);
@@ -368,6 +383,33 @@ static gs_err report_results(micro_job *job, gs_json *phase)
     gs_run_metric_f64(run, "bin_error_share", tris ? (double)abs_err / (double)tris : 0);
     gs_run_metric_f64(run, "bin_error_share_max", err_share_max);
     gs_run_metric_i64(run, "max_bin_error", bin_err_max);
+    /* The realized contact distribution (measured from the regions and the
+     * surface, src/measure): L1 / n against the target, triangle-weighted
+     * mean and worst instance, and instance 0's histograms (signed axis). */
+    gs_run_metric_f64(run, "realized_l1", tris ? rl1_sum / (double)tris : 0);
+    gs_run_metric_f64(run, "realized_l1_max", rl1_max);
+    if (job->ninst > 0 && job->inst[0].res.nbins <= MICRO_RESULT_BINS) {
+        const micro_result *r = &job->inst[0].res;
+        gs_json *mj = &run->metrics;
+        gs_json_begin_object(mj, "contact");
+        gs_json_str(mj, "index", "signed axis: 0 = negative bin K-1 ... K-1 = negative bin 0, "
+                                 "K = positive bin 0 ... 2K-1 = positive bin K-1");
+        gs_json_u64(mj, "instance", 0);
+        gs_json_u64(mj, "bins_per_region", r->nbins);
+        gs_json_u64(mj, "triangles", r->ntris);
+        gs_json_f64(mj, "realized_l1", r->realized_l1);
+        gs_json_f64(mj, "unassigned_share", r->unassigned_share);
+        gs_json_u64(mj, "realized_beyond", r->realized_beyond);
+        gs_json_begin_array(mj, "target_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(mj, NULL, r->target[i]);
+        gs_json_end_array(mj);
+        gs_json_begin_array(mj, "realized_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(mj, NULL, r->realized[i]);
+        gs_json_end_array(mj);
+        gs_json_end_object(mj);
+    }
     char path[PATH_MAX];
     gs_run_path(run, "instances.json", path, sizeof path);
     GS_CALL(write_instances_json(job, path));

@@ -99,7 +99,14 @@ typedef struct micro_mesh_in {
     double max_edge_units, min_angle_deg;
 } micro_mesh_in;
 
-/* What the output pass reports per instance (fixed layout: travels as bytes). */
+/* Histograms of up to this many bins per region travel in micro_result
+ * (summary.json, gallery cards); larger ones are in micro.h5 only. */
+#define MICRO_RESULT_BINS 64
+
+/* What the output pass reports per instance (fixed layout: travels as bytes).
+ * The realized figures come from src/measure (gs_measure_interface_dist): the
+ * regions' true geodesic distance to their interface, histogrammed like the
+ * target, never the labels' own values. */
 typedef struct micro_result {
     uint64_t digest;
     uint64_t nverts, ntris, nbins;
@@ -107,7 +114,19 @@ typedef struct micro_result {
     int64_t abs_error_sum, max_bin_error;
     double max_excess, unassigned_share, error_share;
     double seconds;
+    double realized_l1;          /* sum |realized - target| / triangles */
+    uint64_t realized_beyond;    /* triangles at distance >= K (counted in bin K-1) */
+    double realized_pos_share;   /* triangles of the positive region / triangles */
+    int64_t target[2 * MICRO_RESULT_BINS];   /* signed axis, first 2K used (K <= MICRO_RESULT_BINS) */
+    int64_t realized[2 * MICRO_RESULT_BINS];
 } micro_result;
+
+/* engine_output.c: the realized contact distribution of a labelling (side of
+ * each triangle's label) on mesh mi, into realized[2K] (signed axis) and
+ * optionally tri_dist[n] (signed: > 0 in the positive region); returns the
+ * L1 / n against the target through *l1. */
+gs_err micro_realized(const struct micro_mesh_in *mi, const gs_micro_hist *h, const uint16_t *label,
+                      const double *value, int64_t *realized, double *tri_dist, uint64_t *beyond, double *l1);
 
 typedef struct micro_instance {
     int64_t id;

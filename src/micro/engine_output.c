@@ -20,6 +20,7 @@
  * The instance digest covers the triangle labels and values, the displaced
  * positions and the vertex labels. */
 #include <limits.h>
+#include <stdlib.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -28,6 +29,7 @@
 #include "geosynth/file.h"
 #include "geosynth/h5.h"
 #include "geosynth/log.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/render.h"
@@ -40,7 +42,7 @@ void micro_instance_dir(int64_t id, char *out, size_t len)
 
 static gs_err write_h5(const micro_job *job, const micro_instance *in, const char *path,
                        const double *vvalue, const uint8_t *vlabel, const gs_micro_report *rep,
-                       const micro_result *res)
+                       const micro_result *res, const int64_t *realized, const double *tdist)
 {
     const micro_mesh_in *mi = &job->meshes[in->mesh];
     gs_ckpt_meta meta = {"micro", in->seed, job->run->config_text};
@@ -62,6 +64,8 @@ static gs_err write_h5(const micro_job *job, const micro_instance *in, const cha
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_prob", &s_hf, in->hist.prob, NULL), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/achieved_count", &s_hi, rep->achieved, NULL), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/bin_error", &s_hi, rep->error, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/realized_count", &s_hi, realized, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_distance", &s_tf, tdist, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_pos", &s_d, in->dist.pos, NULL), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_neg", &s_d, in->dist.neg, NULL), fail);
     GS_TRY(err, gs_ckpt_set_i64(h, "/micro", "instance", in->id), fail);
@@ -75,11 +79,52 @@ static gs_err write_h5(const micro_job *job, const micro_instance *in, const cha
     GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "max_excess", rep->max_excess), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "unassigned_share", rep->unassigned_share), fail);
     GS_TRY(err, gs_ckpt_set_i64(h, "/micro", "abs_bin_error", rep->abs_error_sum), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "realized_l1", res->realized_l1), fail);
+    GS_TRY(err, gs_ckpt_set_u64(h, "/micro", "realized_beyond", res->realized_beyond), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/micro", "digest", hex), fail);
     GS_TRY(err, gs_ckpt_commit(&h), fail);
     return GS_OK;
 fail:
     gs_ckpt_discard(&h);
+    return err;
+}
+
+gs_err micro_realized(const micro_mesh_in *mi, const gs_micro_hist *h, const uint16_t *label,
+                      const double *value, int64_t *realized, double *tri_dist, uint64_t *beyond, double *l1)
+{
+    uint32_t n = mi->m.ntris, K = h->nbins;
+    uint8_t *side = NULL;
+    double *dist = NULL;
+    int64_t *pos = NULL, *neg = NULL;
+    gs_measure_geo_t g = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&side, n, 1, "triangle regions"), done);
+    GS_TRY(err, gs_alloc_array((void **)&dist, n, sizeof *dist, "interface distances"), done);
+    GS_TRY(err, gs_alloc_array((void **)&pos, K, sizeof *pos, "realized histogram"), done);
+    GS_TRY(err, gs_alloc_array((void **)&neg, K, sizeof *neg, "realized histogram"), done);
+    /* The region is the side of the label (a filled triangle: of its value). */
+    for (uint32_t t = 0; t < n; t++)
+        side[t] = label[t] < 2 * K ? label[t] >= K : value[t] > 0;
+    GS_TRY(err, gs_measure_geo_create(mi->m.pos, mi->m.nverts, mi->m.tris, n, mi->upm, &g), done);
+    GS_TRY(err, gs_measure_interface_dist(g, side, dist, NULL), done);
+    gs_measure_contact_hist(dist, side, n, K, pos, neg, beyond);
+    double sum = 0;
+    for (uint32_t k = 0; k < K; k++) {
+        realized[gs_micro_bin_index(K, 0, k)] = pos[k];
+        realized[gs_micro_bin_index(K, 1, k)] = neg[k];
+    }
+    for (uint32_t i = 0; i < 2 * K; i++)
+        sum += (double)llabs(realized[i] - h->count[i]);
+    *l1 = n ? sum / n : 0;
+    if (tri_dist)
+        for (uint32_t t = 0; t < n; t++)
+            tri_dist[t] = side[t] ? dist[t] : -dist[t];
+done:
+    gs_measure_geo_destroy(&g);
+    gs_free(side);
+    gs_free(dist);
+    gs_free(pos);
+    gs_free(neg);
     return err;
 }
 
@@ -147,7 +192,8 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
              (long long)id);
     double t0 = gs_time_now();
     uint32_t nv = mi->m.nverts, n = mi->m.ntris;
-    double *vvalue = NULL;
+    double *vvalue = NULL, *tdist = NULL;
+    int64_t *realized = NULL;
     float *pos = NULL;
     uint8_t *vlabel = NULL;
     gs_micro_report rep;
@@ -158,6 +204,9 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     GS_TRY(err, gs_alloc_array((void **)&vvalue, nv, sizeof *vvalue, "vertex values"), done);
     GS_TRY(err, gs_alloc_array((void **)&pos, (size_t)nv * 3, sizeof *pos, "displaced vertices"), done);
     GS_TRY(err, gs_alloc_array((void **)&vlabel, nv, 1, "vertex labels"), done);
+    GS_TRY(err, gs_alloc_array((void **)&tdist, n, sizeof *tdist, "interface distances"), done);
+    GS_TRY(err, gs_alloc_array((void **)&realized, 2 * (size_t)in->hist.nbins, sizeof *realized,
+                               "realized histogram"), done);
     /* The mesh has its normals (setup), so displace does not modify it. */
     GS_TRY(err, gs_micro_displace(&mi->m, in->st.value, &job->disp, vvalue, pos), done);
     for (uint32_t v = 0; v < nv; v++) {
@@ -194,6 +243,16 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     res.max_excess = rep.max_excess;
     res.unassigned_share = rep.unassigned_share;
     res.error_share = n ? (double)rep.abs_error_sum / (double)n : 0;
+    GS_TRY(err, micro_realized(mi, &in->hist, in->st.label, in->st.value, realized, tdist,
+                               &res.realized_beyond, &res.realized_l1), done);
+    int64_t npos = 0;
+    for (uint32_t k = 0; k < in->hist.nbins; k++)
+        npos += realized[in->hist.nbins + k];
+    res.realized_pos_share = n ? (double)npos / n : 0;
+    if (in->hist.nbins <= MICRO_RESULT_BINS) {
+        memcpy(res.target, in->hist.count, 2 * (size_t)in->hist.nbins * sizeof *res.target);
+        memcpy(res.realized, realized, 2 * (size_t)in->hist.nbins * sizeof *res.realized);
+    }
 
     char rel[64], dir[PATH_MAX], path[PATH_MAX + 32];
     micro_instance_dir(id, rel, sizeof rel);
@@ -204,12 +263,14 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     GS_TRY(err, gs_mkdir_p(dir), done);
     GS_TRY(err, write_meshes(job, in, dir, pos, vlabel), done);
     snprintf(path, sizeof path, "%s/micro.h5", dir);
-    GS_TRY(err, write_h5(job, in, path, vvalue, vlabel, &rep, &res), done);
+    GS_TRY(err, write_h5(job, in, path, vvalue, vlabel, &rep, &res, realized, tdist), done);
     res.seconds = gs_time_now() - t0;
     GS_TRY(err, gs_region_out_append(out, &res, sizeof res), done);
 done:
     gs_micro_report_free(&rep);
     gs_free(vvalue);
+    gs_free(tdist);
+    gs_free(realized);
     gs_free(pos);
     gs_free(vlabel);
     return err;
