@@ -170,16 +170,19 @@ def model_lattice(run):
 
 
 def micro_histograms(run):
-    """[(instance dir, target_count, achieved_count, bins of the negative region)] of a
-    micro run. The histogram runs over signed distance: the negative region's
-    bins (farthest first), then the positive region's."""
+    """[(instance dir, target_count, achieved_count, bins of the negative region,
+    realized_count or None)] of a micro run. The histogram runs over signed
+    distance: the negative region's bins (farthest first), then the positive
+    region's. achieved counts the labels the reconstruction assigned; realized
+    is measured from the regions and the surface (true geodesic distance of each
+    triangle to the interface)."""
     res = []
     for p in outputs(run, "labels"):
         if p.endswith(".h5"):
             d, _ = read_h5_group(p, "/micro")
             if "target_count" in d and "achieved_count" in d:
                 res.append((os.path.basename(os.path.dirname(p)), d["target_count"], d["achieved_count"],
-                            len(d.get("dist_neg", ()))))
+                            len(d.get("dist_neg", ())), d.get("realized_count")))
     return res
 
 

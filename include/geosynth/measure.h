@@ -66,10 +66,12 @@ double gs_measure_geo_tri_dist(gs_measure_geo_t g, size_t t);
 
 /* Realized contact distribution of a two-region labelling of g's triangles
  * (side[t] != 0: positive region, 0: negative). The interface is where the
- * regions meet: every vertex whose incident triangles are not all on one
- * side. tri_dist[t] receives the geodesic distance of t's centroid to the
+ * regions meet: the edges with a triangle of each region on their two sides.
+ * tri_dist[t] receives the geodesic distance of t's centroid to the
  * interface (scaled units), +inf everywhere when there is no interface;
- * *nsrc (optional) the number of interface vertices. This looks only at the
+ * *nsrc (optional) the number of vertices on the interface. Triangles with
+ * a vertex on it get the straight distance of their centroid to the nearest
+ * interface edge around them, the others the fast-marching value. This looks only at the
  * regions and the surface, never at the values a reconstruction assigned. */
 gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc);
 /* Histogram of those distances the way a contact distribution is binned:

@@ -278,7 +278,7 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
     size_t nt = g->nt, nv = g->nv;
     uint32_t *src = NULL, *ie_off = NULL, *ie = NULL;
     double *sd = NULL;
-    size_t ns = 0;
+    size_t ns = 0, nif = 0;
     gs_err err = GS_OK;
     /* Interface edges: an edge (a, b) of a triangle with a triangle of the
      * other side across it. Stored at both ends (CSR). */
@@ -326,7 +326,9 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
     GS_TRY(err, gs_alloc_array((void **)&src, nv ? nv : 1, sizeof *src, "interface sources"), done);
     GS_TRY(err, gs_alloc_array((void **)&sd, nv ? nv : 1, sizeof *sd, "interface sources"), done);
     for (size_t v = 0; v < nv; v++) {
-        double d = ie_off[v + 1] > ie_off[v] ? 0 : near_interface(g, ie_off, ie, (uint32_t)v, g->p + 3 * v);
+        int on = ie_off[v + 1] > ie_off[v];
+        nif += on;
+        double d = on ? 0 : near_interface(g, ie_off, ie, (uint32_t)v, g->p + 3 * v);
         if (isfinite(d)) {
             src[ns] = (uint32_t)v;
             sd[ns++] = d;
@@ -353,7 +355,7 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
         tri_dist[t] = isfinite(d) ? d : gs_measure_geo_tri_dist(g, t);
     }
     if (nsrc_out)
-        *nsrc_out = ns;
+        *nsrc_out = nif;
 done:
     gs_free(src);
     gs_free(sd);

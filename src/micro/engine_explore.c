@@ -409,6 +409,36 @@ static void html_param(FILE *f, const char *name, const char *fmt, ...)
     fputs("</td></tr>\n", f);
 }
 
+/* Target (grey outline) and realized (filled: negative blue, positive sand)
+ * contact histograms of a candidate as an inline SVG, signed axis left to
+ * right (most negative bin first), each bar's height relative to the
+ * largest count of either. */
+static void html_contact_svg(FILE *f, const micro_result *r)
+{
+    uint64_t nb = 2 * r->nbins;
+    if (r->nbins == 0 || r->nbins > MICRO_RESULT_BINS)
+        return;
+    int64_t top = 1;
+    for (uint64_t i = 0; i < nb; i++) {
+        top = r->target[i] > top ? r->target[i] : top;
+        top = r->realized[i] > top ? r->realized[i] : top;
+    }
+    const double W = 250, H = 60, bw = W / (double)nb;
+    fprintf(f, "<svg class=\"contact\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
+               "role=\"img\"><title>contact histogram, signed axis: realized (filled) against the "
+               "target (outline)</title>\n",
+            W, H + 2, W, H + 2);
+    for (uint64_t i = 0; i < nb; i++) {
+        double hr = H * (double)r->realized[i] / (double)top, ht = H * (double)r->target[i] / (double)top;
+        fprintf(f, "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"%s\"/>",
+                (double)i * bw + 0.5, H + 1 - hr, bw - 1, hr, i < r->nbins ? "#6896d6" : "#e8b270");
+        fprintf(f, "<rect x=\"%.2f\" y=\"%.2f\" width=\"%.2f\" height=\"%.2f\" fill=\"none\" "
+                   "stroke=\"#333\" stroke-width=\"1\"/>\n",
+                (double)i * bw + 0.5, H + 1 - ht, bw - 1, ht);
+    }
+    fputs("</svg>\n", f);
+}
+
 static gs_err write_index_html(const explore_job *ej, uint64_t digest, const char *path)
 {
     const micro_config *cfg = ej->cfg;
@@ -455,10 +485,14 @@ static gs_err write_index_html(const explore_job *ej, uint64_t digest, const cha
         html_param(f, "run.seed", "%llu", (unsigned long long)c->seed);
         html_param(f, "triangles", "%llu", (unsigned long long)r->res.ntris);
         html_param(f, "unassigned", "%.3f%%", 100 * r->res.unassigned_share);
+        html_param(f, "realized L1/n", "%.4f (true distance to the interface vs target)",
+                   r->res.realized_l1);
         html_param(f, "violations", "%llu", (unsigned long long)r->res.violations);
         html_param(f, "digest", "%s", dh);
         const char *mesh = strcmp(cfg->output_format, "obj") ? "mesh.ply" : "mesh.obj";
-        fprintf(f, "</table>\n<p class=\"files\">files: <a href=\"%s/%s\">%s</a> &middot; "
+        fputs("</table>\n", f);
+        html_contact_svg(f, &r->res);
+        fprintf(f, "<p class=\"files\">files: <a href=\"%s/%s\">%s</a> &middot; "
                    "<a href=\"%s/micro.h5\">micro.h5</a></p>\n"
                    "<details><summary>config (<a href=\"%s/%s.ini\">%s.ini</a>)</summary><pre>",
                 name, mesh, mesh, name, name, name, name);
@@ -563,9 +597,11 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
     uint64_t *digests = NULL;
     GS_TRY(err, gs_alloc_array((void **)&digests, (size_t)n, sizeof *digests, "digests"), done);
     uint64_t violations = 0, tris = 0;
-    double unassigned_max = 0, cpu = 0;
+    double unassigned_max = 0, cpu = 0, rl1_max = 0, rl1_sum = 0;
     for (int64_t i = 0; i < n; i++) {
         const explore_result *r = &ej.res[i];
+        rl1_max = fmax(rl1_max, r->res.realized_l1);
+        rl1_sum += r->res.realized_l1 * (double)r->res.ntris;
         digests[i] = r->res.digest;
         violations += r->res.violations;
         tris += r->res.ntris;
@@ -575,11 +611,11 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
         gs_digest_hex(r->res.digest, hex);
         gs_log(n <= 32 || i < 8 ? GS_LOG_INFO : GS_LOG_DEBUG,
                "candidate %lld: u %.4g, k %.4g / %.4g, %llu triangles, K=%llu, unassigned %.3f%%, "
-               "violations %llu, %.2f s, digest %s",
+               "realized L1/n %.4f, violations %llu, %.2f s, digest %s",
                (long long)i, r->c.scale_units, r->c.scale[0], r->c.scale[1],
                (unsigned long long)r->res.ntris, (unsigned long long)r->res.nbins,
-               100 * r->res.unassigned_share, (unsigned long long)r->res.violations, r->seconds,
-               hex);
+               100 * r->res.unassigned_share, r->res.realized_l1,
+               (unsigned long long)r->res.violations, r->seconds, hex);
     }
     uint64_t digest = gs_digest_bytes(digests, (size_t)n * sizeof *digests);
     gs_free(digests);
@@ -600,6 +636,8 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
         gs_run_metric_i64(run, "triangles", (int64_t)tris);
         gs_run_metric_i64(run, "violations", (int64_t)violations);
         gs_run_metric_f64(run, "unassigned_share_max", unassigned_max);
+        gs_run_metric_f64(run, "realized_l1", tris ? rl1_sum / (double)tris : 0);
+        gs_run_metric_f64(run, "realized_l1_max", rl1_max);
         gs_run_metric_f64(run, "gallery_seconds", wall);
         gs_run_metric_f64(run, "candidates_per_minute", per_min);
         gs_run_metric_f64(run, "candidate_cpu_seconds", cpu);

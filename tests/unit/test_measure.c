@@ -1,7 +1,8 @@
 /* Unit tests for the shared quality measures (src/measure/stats.c, src/io/preview.c):
  * L1 of distributions, two-sample KS against hand-computed values,
- * connected components against a brute-force flood fill, and the preview's
- * panel layout. */
+ * connected components against a brute-force flood fill, the preview's
+ * panel layout, and fast-marching geodesics / interface distances against
+ * closed forms (src/measure/geodesic.c). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -172,6 +173,143 @@ static void test_preview(void **state)
     gs_error_clear();
 }
 
+/* A flat (2n x n) grid of unit squares in [-n, n] x [0, n], each split into
+ * two triangles along alternating diagonals (not a graph with a preferred
+ * direction). */
+static void grid(int n, float **pos, uint32_t **tris, size_t *nv, size_t *nt)
+{
+    int cols = 2 * n, rows = n;
+    *nv = (size_t)(cols + 1) * (rows + 1);
+    *nt = (size_t)2 * cols * rows;
+    *pos = malloc(*nv * 3 * sizeof **pos);
+    *tris = malloc(*nt * 3 * sizeof **tris);
+    for (int y = 0; y <= rows; y++)
+        for (int x = 0; x <= cols; x++) {
+            float *p = *pos + 3 * ((size_t)y * (cols + 1) + x);
+            p[0] = (float)(x - n), p[1] = (float)y, p[2] = 0;
+        }
+    size_t t = 0;
+    for (int y = 0; y < rows; y++)
+        for (int x = 0; x < cols; x++) {
+            uint32_t a = (uint32_t)(y * (cols + 1) + x), b = a + 1, c = a + (uint32_t)cols + 1, d = c + 1;
+            uint32_t *q = *tris + 3 * t;
+            if ((x + y) % 2) {
+                q[0] = a, q[1] = b, q[2] = d, q[3] = a, q[4] = d, q[5] = c;
+            } else {
+                q[0] = a, q[1] = b, q[2] = c, q[3] = b, q[4] = d, q[5] = c;
+            }
+            t += 2;
+        }
+}
+
+static void centroid(const float *pos, const uint32_t *tri, double c[3])
+{
+    for (int k = 0; k < 3; k++)
+        c[k] = (pos[3 * tri[0] + k] + pos[3 * tri[1] + k] + pos[3 * tri[2] + k]) / 3.0;
+}
+
+/* Fast marching and the interface distance against closed forms: a point
+ * source (distance = Euclidean in the plane, any direction: no hexagons or
+ * diamonds as a graph metric would give), a straight interface (distance =
+ * |x|) and a disc (| r - R |), and the contact histogram of the disc. The
+ * tolerances are the method's: first order in the edge length (1 here). */
+static void test_geodesic(void **state)
+{
+    (void)state;
+    float *pos;
+    uint32_t *tris;
+    size_t nv, nt;
+    const int n = 24;
+    grid(n, &pos, &tris, &nv, &nt);
+    gs_measure_geo_t g = NULL;
+    const double scale = 0.5; /* lengths in half units: exercises the scale */
+    assert_int_equal(gs_measure_geo_create(pos, nv, tris, nt, scale, &g), GS_OK);
+    /* Point source at (0, 0): vertex distances vs the Euclidean ones, in
+     * every direction; the worst relative error off the grid's axes stays
+     * under 8% (a triangle graph's metric is ~15% long on its diagonals). */
+    uint32_t src = (uint32_t)n; /* x = 0, y = 0 */
+    assert_int_equal(gs_measure_geo_march(g, &src, NULL, 1, INFINITY), GS_OK);
+    const double *vd = gs_measure_geo_vertex_dist(g);
+    double worst = 0;
+    for (size_t v = 0; v < nv; v++) {
+        double r = scale * hypot(pos[3 * v], pos[3 * v + 1]);
+        if (r < 4 * scale)
+            continue;
+        worst = fmax(worst, fabs(vd[v] - r) / r);
+    }
+    assert_true(worst < 0.08); /* 6.9% here: planar updates err long next to a point source */
+    /* Bounded march: nothing beyond the radius. */
+    assert_int_equal(gs_measure_geo_march(g, &src, NULL, 1, 3.0), GS_OK);
+    for (size_t v = 0; v < nv; v++)
+        assert_true(isinf(vd[v]) || vd[v] <= 3.0);
+    assert_true(isinf(vd[nv - 1]));
+
+    /* Straight interface x = 0 (left half positive): exact |x| of the
+     * centroid (the interface is a line of grid edges). */
+    uint8_t *side = malloc(nt);
+    double *dist = malloc(nt * sizeof *dist);
+    for (size_t t = 0; t < nt; t++) {
+        double c[3];
+        centroid(pos, tris + 3 * t, c);
+        side[t] = c[0] < 0;
+    }
+    size_t ns = 0;
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns), GS_OK);
+    assert_int_equal(ns, (size_t)n + 1);
+    for (size_t t = 0; t < nt; t++) {
+        double c[3];
+        centroid(pos, tris + 3 * t, c);
+        assert_true(fabs(dist[t] - scale * fabs(c[0])) < 0.02 * scale * fabs(c[0]) + 1e-9);
+    }
+    /* A disc of radius R around (0, 0) (half of it: the grid is y >= 0):
+     * the interface follows the triangles, so it lies within one edge of
+     * the circle; the distances follow | r - R | to that and to first
+     * order. */
+    const double R = 12;
+    for (size_t t = 0; t < nt; t++) {
+        double c[3];
+        centroid(pos, tris + 3 * t, c);
+        side[t] = hypot(c[0], c[1]) < R;
+    }
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, NULL), GS_OK);
+    for (size_t t = 0; t < nt; t++) {
+        double c[3];
+        centroid(pos, tris + 3 * t, c);
+        double want = scale * fabs(hypot(c[0], c[1]) - R);
+        assert_true(fabs(dist[t] - want) < scale * (0.75 + 0.05 * want / scale));
+    }
+    /* Histogram: every triangle counted once, on its side; the positive
+     * half disc of radius R scale = 6 units has nothing at distance >= 6.5. */
+    const uint32_t K = 8;
+    int64_t hp[8], hn[8];
+    uint64_t beyond = 0;
+    gs_measure_contact_hist(dist, side, nt, K, hp, hn, &beyond);
+    int64_t sum = 0, npos = 0;
+    for (uint32_t k = 0; k < K; k++)
+        sum += hp[k] + hn[k], npos += hp[k];
+    assert_int_equal(sum, (int64_t)nt);
+    int64_t want_pos = 0;
+    for (size_t t = 0; t < nt; t++)
+        want_pos += side[t];
+    assert_int_equal(npos, want_pos);
+    assert_int_equal(hp[7], 0);
+    assert_true(hp[0] > hp[3] && hp[3] > hp[5]);  /* annuli shrink inwards */
+    assert_true(beyond > 0 && hn[7] >= (int64_t)beyond); /* the far corners */
+    /* One region only: no interface, every distance infinite. */
+    memset(side, 1, nt);
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns), GS_OK);
+    assert_int_equal(ns, 0);
+    assert_true(isinf(dist[0]) && isinf(dist[nt - 1]));
+    assert_int_equal(gs_measure_geo_create(pos, nv, tris, nt, 0, &(gs_measure_geo_t){NULL}), GS_ERR_ARG);
+    gs_error_clear();
+    gs_measure_geo_destroy(&g);
+    assert_null(g);
+    free(side);
+    free(dist);
+    free(pos);
+    free(tris);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -179,6 +317,7 @@ int main(void)
         cmocka_unit_test(test_ks),
         cmocka_unit_test(test_components),
         cmocka_unit_test(test_preview),
+        cmocka_unit_test(test_geodesic),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
