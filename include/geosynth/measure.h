@@ -80,5 +80,72 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
  * *beyond (optional). */
 void gs_measure_contact_hist(const double *tri_dist, const uint8_t *side, size_t ntris, uint32_t nbins,
                              int64_t *pos, int64_t *neg, uint64_t *beyond);
+/* ---- label lattices (uint16 labels, 0 = empty, x fastest, z up) -------------
+ *
+ * A lattice is labels[x + nx*(y + ny*z)] with dims {nx, ny, nz}; z = 0 is the
+ * ground layer. Window measures use windows of k x k x k cells, the extent
+ * clipped per axis to min(k, example extent, output extent) (a 2D lattice
+ * gets k x k x 1). Windows are compared by a 64-bit digest of their labels
+ * (XXH3, gs_digest_bytes; a collision would overstate a share by one window
+ * in about 2^-64 per pair). */
+
+/* Digest of every window of extent w[3] of a lattice, at lower corner
+ * (x, y, z) in x-fastest order: keys[(nx-w0+1)*(...)] (the caller sizes it
+ * with gs_measure_window_count). nonempty (may be NULL) gets 1 where the
+ * window holds a non-zero label. w[a] in [1, dims[a]], w0*w1*w2 <= 4096. */
+size_t gs_measure_window_count(const int dims[3], const int w[3]);
+gs_err gs_measure_window_keys(const uint16_t *labels, const int dims[3], const int w[3],
+                              uint64_t *keys, uint8_t *nonempty);
+
+typedef struct gs_measure_windows {
+    int extent[3];            /* window extent used per axis */
+    uint64_t output_windows;  /* all windows of the output */
+    uint64_t output_nonempty; /* windows holding some non-empty cell */
+    uint64_t found;           /* non-empty output windows that occur in the example */
+    double found_share;       /* found / output_nonempty (0 when there is none) */
+    double found_share_all;   /* windows found / all windows, empty ones included
+                                 (the old resemblance figure; all-empty windows inflate it) */
+    uint64_t example_distinct;/* distinct non-empty windows of the example */
+    uint64_t example_covered; /* of those, the ones that occur in the output */
+    double completeness;      /* example_covered / example_distinct */
+} gs_measure_windows;
+
+/* Window resemblance of an output to its example with k x k x k windows
+ * (k in 1..16). Cost O(cells * k^3) plus sorts of the keys; memory 9 bytes
+ * per window of each lattice. */
+gs_err gs_measure_lattice_windows(const uint16_t *example, const int edims[3],
+                                  const uint16_t *output, const int odims[3], int k,
+                                  gs_measure_windows *out);
+
+/* Label histogram (counts of labels 0 .. nlabels-1; labels >= nlabels are
+ * counted in the last bin) of a lattice. hist must have nlabels entries. */
+void gs_measure_label_hist(const uint16_t *labels, size_t ncells, double *hist, size_t nlabels);
+
+typedef struct gs_measure_profile {
+    int nz;                 /* output layers */
+    double *fill_output;    /* [nz] share of non-empty cells per output layer */
+    double *fill_example;   /* [nz] the example's per layer; layers above the example's
+                               top count as empty (Merrell's convention: padded with empty) */
+    double fill_mean_abs;   /* mean over layers of |fill_output - fill_example| */
+    double label_l1_mean;   /* mean over layers of the L1 distance of the layer's label mix
+                               to the example layer's (an empty-padded layer is all label 0) */
+    int top_output;         /* highest layer holding a non-empty cell, -1 when none */
+    int top_example;        /* the same for the example */
+} gs_measure_profile;
+
+/* Height profile of output vs example (layer z of one against layer z of
+ * the other: both stand on the ground at z = 0). Free with
+ * gs_measure_profile_free. */
+gs_err gs_measure_height_profile(const uint16_t *example, const int edims[3],
+                                 const uint16_t *output, const int odims[3],
+                                 gs_measure_profile *out);
+void gs_measure_profile_free(gs_measure_profile *p);
+
+/* Unsupported structure: the non-empty cells with no 6-connected path of
+ * non-empty cells down to a non-empty cell of the ground layer z = 0
+ * (floating pieces). *unsupported and *nonempty receive the counts (a
+ * lattice with nz == 1 has none). */
+gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_t *unsupported,
+                              uint64_t *nonempty);
 
 #endif

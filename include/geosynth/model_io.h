@@ -35,6 +35,7 @@
 #include <stdio.h>
 
 #include "geosynth/error.h"
+#include "geosynth/measure.h"
 #include "geosynth/model.h"
 
 typedef struct gs_model_palette {
@@ -100,13 +101,29 @@ gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q,
 
 /* ---- quality ------------------------------------------------------------ */
 
-/* Share of the output's w x w x w windows (window extent clipped to
+/* Share of ALL the output's w x w x w windows, all-empty ones included (an
+ * empty output scores high: gs_model_quality's w3.found_share counts only
+ * non-empty windows). Window extent clipped to
  * min(w, example extent, output extent) per axis, so a 2D lattice uses
  * w x w x 1) whose labels occur as a window somewhere in the example.
  * 1.0 = every local neighbourhood is copied from the example. Cost:
  * O(cells * w^3) plus a sort of the example's windows. */
 gs_err gs_model_resemblance(const gs_model_lattice *example, const gs_model_lattice *output,
                             int w, double *share);
+
+/* The quality figures every run of a lattice example writes to summary.json
+ * (docs/FORMATS.md), from the output and the example alone. */
+typedef struct gs_model_quality_figures {
+    gs_measure_windows w3, w2;   /* 3x3x3 and 2x2x2 window measures */
+    double label_l1;             /* L1 of the label mixes (empty included), 0..2 */
+    double empty_share, empty_share_example;
+    int labels_used, labels_example; /* distinct non-empty labels */
+    gs_measure_profile profile;  /* owned: gs_measure_profile_free */
+    double unsupported_share, unsupported_share_example; /* of the non-empty cells */
+} gs_model_quality_figures;
+
+gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice *output,
+                        gs_model_quality_figures *q);
 
 /* Loads both files (formats inferred), runs gs_model_check (or, when example
  * is a WFC tile set "TILES.xml" / "TILES.xml#SUBSET", gs_model_tileset_check

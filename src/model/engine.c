@@ -1004,6 +1004,8 @@ typedef struct model_quality {
     double run_out[3], run_ex[3];
     size_t quads, unit_faces;
     int labels_used, vox_renumbered;
+    int has_figures;              /* an example lattice to compare with */
+    gs_model_quality_figures fig; /* owned profile: gs_measure_profile_free */
 } model_quality;
 
 /* The mesh (model.mesh), on the last rank: with 2 or more ranks it is
@@ -1045,8 +1047,10 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
                v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
     q->rule_violations = gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
     if (!c->tileset[0] && !c->sample[0]) { /* no example lattice to compare with */
-        GS_CALL(gs_model_resemblance(&e->example, &e->lat, 3, &q->resemblance3));
-        GS_CALL(gs_model_resemblance(&e->example, &e->lat, 2, &q->resemblance2));
+        GS_CALL(gs_model_quality(&e->example, &e->lat, &q->fig));
+        q->has_figures = 1;
+        q->resemblance3 = q->fig.w3.found_share;
+        q->resemblance2 = q->fig.w2.found_share;
     }
     gs_model_run_lengths(&e->lat, q->run_out);
     gs_model_run_lengths(&e->example, q->run_ex);
@@ -1098,6 +1102,42 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         gs_run_output(run, "merrell_txt", "lattice.txt");
     }
     return GS_OK;
+}
+
+/* The quality figures of gs_model_quality into summary.json (docs/FORMATS.md). */
+static void write_figures(gs_run *run, const gs_model_quality_figures *f)
+{
+    const gs_measure_windows *w[2] = {&f->w3, &f->w2};
+    static const char *key[2][5] = {
+        {"resemblance_3x3x3", "resemblance_3x3x3_with_empty", "completeness_3x3x3",
+         "windows_3x3x3_nonempty", "windows_3x3x3_example_distinct"},
+        {"resemblance_2x2x2", "resemblance_2x2x2_with_empty", "completeness_2x2x2",
+         "windows_2x2x2_nonempty", "windows_2x2x2_example_distinct"}};
+    for (int k = 0; k < 2; k++) {
+        gs_run_metric_f64(run, key[k][0], w[k]->found_share);
+        gs_run_metric_f64(run, key[k][1], w[k]->found_share_all);
+        gs_run_metric_f64(run, key[k][2], w[k]->completeness);
+        gs_run_metric_i64(run, key[k][3], (int64_t)w[k]->output_nonempty);
+        gs_run_metric_i64(run, key[k][4], (int64_t)w[k]->example_distinct);
+    }
+    gs_run_metric_f64(run, "label_l1", f->label_l1);
+    gs_run_metric_i64(run, "labels_example", f->labels_example);
+    gs_run_metric_f64(run, "empty_share", f->empty_share);
+    gs_run_metric_f64(run, "empty_share_example", f->empty_share_example);
+    gs_run_metric_f64(run, "unsupported_share", f->unsupported_share);
+    gs_run_metric_f64(run, "unsupported_share_example", f->unsupported_share_example);
+    gs_run_metric_f64(run, "height_fill_mean_abs", f->profile.fill_mean_abs);
+    gs_run_metric_f64(run, "height_label_l1_mean", f->profile.label_l1_mean);
+    gs_run_metric_i64(run, "top_layer", f->profile.top_output);
+    gs_run_metric_i64(run, "top_layer_example", f->profile.top_example);
+    const double *arr[2] = {f->profile.fill_output, f->profile.fill_example};
+    static const char *akey[2] = {"height_fill", "height_fill_example"};
+    for (int k = 0; k < 2; k++) {
+        gs_json_begin_array(&run->metrics, akey[k]);
+        for (int z = 0; z < f->profile.nz; z++)
+            gs_json_f64(&run->metrics, NULL, round(arr[k][z] * 1e4) / 1e4);
+        gs_json_end_array(&run->metrics);
+    }
 }
 
 static void engine_free(model_engine *e)
@@ -1237,6 +1277,8 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
 {
     model_engine e;
     memset(&e, 0, sizeof e);
+    model_quality q;
+    memset(&q, 0, sizeof q);
     e.cfg = cfgp;
     gs_err err = GS_OK;
     char extra[512];
@@ -1306,8 +1348,6 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         e.lat = full;
     }
     gs_run_phase_begin(run, "output");
-    model_quality q;
-    memset(&q, 0, sizeof q);
     int64_t mesh_counts[2] = {0, 0};
     if (run->rank == 0)
         err = write_outputs(run, &e, &q);
@@ -1338,8 +1378,8 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                           (int64_t)(e.stats.attempts - e.stats.accepted));
         gs_run_metric_i64(run, "backtracks", (int64_t)e.stats.backtracks);
         gs_run_metric_i64(run, "min_coverage", (int64_t)e.stats.min_coverage);
-        gs_run_metric_f64(run, "resemblance_3x3x3", q.resemblance3);
-        gs_run_metric_f64(run, "resemblance_2x2x2", q.resemblance2);
+        if (q.has_figures)
+            write_figures(run, &q.fig);
         static const char *axis_key[3][3] = {
             {"run_length_x", "run_length_x_example", "run_length_x_ratio"},
             {"run_length_y", "run_length_y_example", "run_length_y_ratio"},
@@ -1385,13 +1425,14 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                (unsigned long long)(e.stats.attempts - e.stats.regions),
                e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
         gs_log(GS_LOG_INFO,
-               "adjacency violations (independent checker): %zu; resemblance 3x3x3 %.3f, "
-               "2x2x2 %.3f; run lengths x/y/z %.2f/%.2f/%.2f (example %.2f/%.2f/%.2f)",
+               "adjacency violations (independent checker): %zu; resemblance (non-empty "
+               "windows found in the example) 3x3x3 %.3f, 2x2x2 %.3f; run lengths x/y/z %.2f/%.2f/%.2f (example %.2f/%.2f/%.2f)",
                q.violations, q.resemblance3, q.resemblance2, q.run_out[0], q.run_out[1],
                q.run_out[2], q.run_ex[0], q.run_ex[1], q.run_ex[2]);
     }
     err = gs_run_finish(run, gs_model_lattice_digest(&e.lat));
 done:
+    gs_measure_profile_free(&q.fig.profile);
     engine_free(&e);
     return err;
 }

@@ -1,74 +1,59 @@
-/* Resemblance: share of output windows that occur in the example. See
- * include/geosynth/model_io.h. Windows are compared by a 64-bit digest of
- * their labels (XXH3; a collision would only overstate resemblance by one
- * window in about 2^-64 per pair). */
-#include <stdlib.h>
-
-#include "geosynth/digest.h"
+/* Resemblance: share of output windows that occur in the example, through
+ * the shared window measure (src/measure/lattice.c). See
+ * include/geosynth/model_io.h. */
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_io.h"
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-static uint64_t window_key(const gs_model_lattice *l, int x, int y, int z, const int w[3],
-                           uint16_t *buf)
-{
-    size_t k = 0;
-    for (int dz = 0; dz < w[2]; dz++)
-        for (int dy = 0; dy < w[1]; dy++)
-            for (int dx = 0; dx < w[0]; dx++)
-                buf[k++] = l->labels[gs_model_lattice_index(l, x + dx, y + dy, z + dz)];
-    return gs_digest_bytes(buf, k * sizeof *buf);
-}
 
 gs_err gs_model_resemblance(const gs_model_lattice *example, const gs_model_lattice *output,
                             int w, double *share)
 {
     GS_CHECK(w >= 1 && w <= 8, GS_ERR_ARG, "resemblance window %d: expected 1..8", w);
-    const int en[3] = {example->nx, example->ny, example->nz};
-    const int on[3] = {output->nx, output->ny, output->nz};
-    int ww[3];
-    for (int a = 0; a < 3; a++) {
-        ww[a] = w;
-        if (ww[a] > en[a])
-            ww[a] = en[a];
-        if (ww[a] > on[a])
-            ww[a] = on[a];
-    }
-    size_t ne = 1, no = 1;
-    for (int a = 0; a < 3; a++) {
-        ne *= (size_t)(en[a] - ww[a] + 1);
-        no *= (size_t)(on[a] - ww[a] + 1);
-    }
-    uint64_t *keys = NULL;
-    uint16_t buf[512];
-    GS_CALL(gs_alloc_array((void **)&keys, ne, sizeof *keys, "example windows"));
-    size_t k = 0;
-    for (int z = 0; z + ww[2] <= en[2]; z++)
-        for (int y = 0; y + ww[1] <= en[1]; y++)
-            for (int x = 0; x + ww[0] <= en[0]; x++)
-                keys[k++] = window_key(example, x, y, z, ww, buf);
-    qsort(keys, k, sizeof *keys, cmp_u64);
-    size_t hits = 0;
-    for (int z = 0; z + ww[2] <= on[2]; z++)
-        for (int y = 0; y + ww[1] <= on[1]; y++)
-            for (int x = 0; x + ww[0] <= on[0]; x++) {
-                uint64_t key = window_key(output, x, y, z, ww, buf);
-                size_t lo = 0, hi = k;
-                while (lo < hi) {
-                    size_t mid = lo + (hi - lo) / 2;
-                    if (keys[mid] < key)
-                        lo = mid + 1;
-                    else
-                        hi = mid;
-                }
-                hits += lo < k && keys[lo] == key;
-            }
-    gs_free(keys);
-    *share = no ? (double)hits / (double)no : 0.0;
+    const int ed[3] = {example->nx, example->ny, example->nz};
+    const int od[3] = {output->nx, output->ny, output->nz};
+    gs_measure_windows m;
+    GS_CALL(gs_measure_lattice_windows(example->labels, ed, output->labels, od, w, &m));
+    *share = m.found_share_all;
     return GS_OK;
+}
+
+gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice *output,
+                        gs_model_quality_figures *q)
+{
+    const int ed[3] = {example->nx, example->ny, example->nz};
+    const int od[3] = {output->nx, output->ny, output->nz};
+    GS_CALL(gs_measure_lattice_windows(example->labels, ed, output->labels, od, 3, &q->w3));
+    GS_CALL(gs_measure_lattice_windows(example->labels, ed, output->labels, od, 2, &q->w2));
+    const size_t ne = (size_t)ed[0] * ed[1] * ed[2], no = (size_t)od[0] * od[1] * od[2];
+    double *he = NULL, *ho = NULL;
+    gs_err err = gs_alloc_array((void **)&he, 65536, sizeof *he, "label histogram");
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)&ho, 65536, sizeof *ho, "label histogram");
+    if (err) {
+        gs_free(he);
+        return err;
+    }
+    gs_measure_label_hist(example->labels, ne, he, 65536);
+    gs_measure_label_hist(output->labels, no, ho, 65536);
+    q->label_l1 = gs_measure_l1(he, ho, 65536);
+    q->empty_share = no ? ho[0] / (double)no : 0;
+    q->empty_share_example = ne ? he[0] / (double)ne : 0;
+    q->labels_used = q->labels_example = 0;
+    for (int l = 1; l < 65536; l++) {
+        q->labels_used += ho[l] > 0;
+        q->labels_example += he[l] > 0;
+    }
+    gs_free(he);
+    gs_free(ho);
+    GS_CALL(gs_measure_height_profile(example->labels, ed, output->labels, od, &q->profile));
+    uint64_t u, n;
+    err = gs_measure_unsupported(output->labels, od, &u, &n);
+    if (err == GS_OK) {
+        q->unsupported_share = n ? (double)u / (double)n : 0;
+        err = gs_measure_unsupported(example->labels, ed, &u, &n);
+        q->unsupported_share_example = n ? (double)u / (double)n : 0;
+    }
+    if (err)
+        gs_measure_profile_free(&q->profile);
+    return err;
 }

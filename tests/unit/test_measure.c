@@ -308,6 +308,50 @@ static void test_geodesic(void **state)
     free(dist);
     free(pos);
     free(tris);
+
+/* Lattice measures on hand-made lattices: an all-empty output has no
+ * non-empty window (share 0, not the 1.0 the empty windows give), the
+ * example itself scores 1 and completeness 1, a floating cell is
+ * unsupported, the profile pads the example with empty above its top. */
+static void test_lattice_measures(void **state)
+{
+    (void)state;
+    enum { N = 4, Z = 3 };
+    uint16_t ex[N * N * Z], out[N * N * 5];
+    memset(ex, 0, sizeof ex);
+    for (int i = 0; i < N * N; i++)
+        ex[i] = 1; /* ground */
+    ex[N * N + 5] = 2; /* a post on the ground */
+    ex[2 * N * N + 5] = 3;
+    const int ed[3] = {N, N, Z}, od[3] = {N, N, 5};
+    gs_measure_windows w;
+    assert_int_equal(gs_measure_lattice_windows(ex, ed, ex, ed, 3, &w), GS_OK);
+    assert_true(fabs(w.found_share - 1) < 1e-12 && fabs(w.completeness - 1) < 1e-12);
+    assert_int_equal((int)w.output_nonempty, 4); /* every 3x3x3 window holds ground */
+    memset(out, 0, sizeof out);
+    assert_int_equal(gs_measure_lattice_windows(ex, ed, out, od, 2, &w), GS_OK);
+    assert_int_equal((int)w.output_nonempty, 0);
+    assert_true(w.found_share == 0 && w.completeness == 0);
+    assert_true(w.found_share_all > 0.5); /* the empty windows alone */
+    /* ground plus one floating cell at z = 3 */
+    for (int i = 0; i < N * N; i++)
+        out[i] = 1;
+    out[3 * N * N + 6] = 3;
+    uint64_t u, n;
+    assert_int_equal(gs_measure_unsupported(out, od, &u, &n), GS_OK);
+    assert_int_equal((int)u, 1);
+    assert_int_equal((int)n, N * N + 1);
+    assert_int_equal(gs_measure_unsupported(ex, ed, &u, &n), GS_OK);
+    assert_int_equal((int)u, 0);
+    gs_measure_profile p;
+    assert_int_equal(gs_measure_height_profile(ex, ed, out, od, &p), GS_OK);
+    assert_int_equal(p.nz, 5);
+    assert_true(fabs(p.fill_output[0] - 1) < 1e-12 && fabs(p.fill_example[1] - 1.0 / 16) < 1e-12);
+    assert_true(p.fill_example[3] == 0 && fabs(p.fill_output[3] - 1.0 / 16) < 1e-12);
+    assert_int_equal(p.top_output, 3);
+    assert_int_equal(p.top_example, 2);
+    assert_true(fabs(p.fill_mean_abs - (2.0 / 16 + 1.0 / 16) / 5) < 1e-12);
+    gs_measure_profile_free(&p);
 }
 
 int main(void)
@@ -318,6 +362,7 @@ int main(void)
         cmocka_unit_test(test_components),
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
+        cmocka_unit_test(test_lattice_measures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,263 @@
+/* Quality measures of label lattices (see include/geosynth/measure.h): window
+ * resemblance without the all-empty windows, completeness, height profile
+ * and unsupported structure. Computed from an output and its example alone. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/measure.h"
+#include "geosynth/mem.h"
+
+enum { MAX_WINDOW_CELLS = 4096 };
+
+size_t gs_measure_window_count(const int dims[3], const int w[3])
+{
+    size_t n = 1;
+    for (int a = 0; a < 3; a++)
+        n *= dims[a] >= w[a] ? (size_t)(dims[a] - w[a] + 1) : 0;
+    return n;
+}
+
+gs_err gs_measure_window_keys(const uint16_t *labels, const int dims[3], const int w[3],
+                              uint64_t *keys, uint8_t *nonempty)
+{
+    for (int a = 0; a < 3; a++)
+        GS_CHECK(w[a] >= 1 && w[a] <= dims[a], GS_ERR_ARG,
+                 "window extent %d along axis %d: expected 1..%d", w[a], a, dims[a]);
+    GS_CHECK((size_t)w[0] * w[1] * w[2] <= MAX_WINDOW_CELLS, GS_ERR_ARG,
+             "window of %dx%dx%d cells: at most %d", w[0], w[1], w[2], MAX_WINDOW_CELLS);
+    uint16_t buf[MAX_WINDOW_CELLS];
+    const size_t nx = (size_t)dims[0], nxy = nx * (size_t)dims[1];
+    size_t i = 0;
+    for (int z = 0; z + w[2] <= dims[2]; z++)
+        for (int y = 0; y + w[1] <= dims[1]; y++)
+            for (int x = 0; x + w[0] <= dims[0]; x++, i++) {
+                size_t k = 0;
+                uint16_t any = 0;
+                for (int dz = 0; dz < w[2]; dz++)
+                    for (int dy = 0; dy < w[1]; dy++) {
+                        const uint16_t *row = labels + (size_t)x + nx * (size_t)(y + dy) +
+                                              nxy * (size_t)(z + dz);
+                        for (int dx = 0; dx < w[0]; dx++) {
+                            buf[k++] = row[dx];
+                            any |= row[dx];
+                        }
+                    }
+                keys[i] = gs_digest_bytes(buf, k * sizeof *buf);
+                if (nonempty)
+                    nonempty[i] = any != 0;
+            }
+    return GS_OK;
+}
+
+static int cmp_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
+/* Sorts keys[0..n) and drops repeats; returns the new count. */
+static size_t sort_unique(uint64_t *keys, size_t n)
+{
+    qsort(keys, n, sizeof *keys, cmp_u64);
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (m == 0 || keys[i] != keys[m - 1])
+            keys[m++] = keys[i];
+    return m;
+}
+
+static int has_key(const uint64_t *keys, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (keys[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && keys[lo] == key;
+}
+
+gs_err gs_measure_lattice_windows(const uint16_t *example, const int edims[3],
+                                  const uint16_t *output, const int odims[3], int k,
+                                  gs_measure_windows *out)
+{
+    GS_CHECK(k >= 1 && k <= 16, GS_ERR_ARG, "window edge %d: expected 1..16", k);
+    memset(out, 0, sizeof *out);
+    int w[3];
+    for (int a = 0; a < 3; a++) {
+        GS_CHECK(edims[a] >= 1 && odims[a] >= 1, GS_ERR_ARG, "empty lattice along axis %d", a);
+        w[a] = k;
+        if (w[a] > edims[a])
+            w[a] = edims[a];
+        if (w[a] > odims[a])
+            w[a] = odims[a];
+        out->extent[a] = w[a];
+    }
+    const size_t ne = gs_measure_window_count(edims, w), no = gs_measure_window_count(odims, w);
+    uint64_t *ek = NULL, *ok = NULL, *eall = NULL;
+    uint8_t *enz = NULL, *onz = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&ek, ne, sizeof *ek, "example windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&eall, ne, sizeof *eall, "example windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&enz, ne, 1, "example windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&ok, no, sizeof *ok, "output windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&onz, no, 1, "output windows"), done);
+    GS_TRY(err, gs_measure_window_keys(example, edims, w, ek, enz), done);
+    GS_TRY(err, gs_measure_window_keys(output, odims, w, ok, onz), done);
+    /* every example window (for the figure with empty windows) and the
+     * non-empty ones */
+    memcpy(eall, ek, ne * sizeof *ek);
+    size_t nall = sort_unique(eall, ne);
+    size_t nne = 0;
+    for (size_t i = 0; i < ne; i++)
+        if (enz[i])
+            ek[nne++] = ek[i];
+    nne = sort_unique(ek, nne);
+    uint64_t found_all = 0;
+    size_t nout = 0;
+    for (size_t i = 0; i < no; i++) {
+        if (onz[i]) {
+            out->output_nonempty++;
+            out->found += (uint64_t)has_key(ek, nne, ok[i]);
+            ok[nout++] = ok[i];
+            found_all += (uint64_t)has_key(ek, nne, ok[i]);
+        } else {
+            found_all += (uint64_t)has_key(eall, nall, ok[i]);
+        }
+    }
+    out->output_windows = no;
+    out->found_share = out->output_nonempty ? (double)out->found / (double)out->output_nonempty : 0;
+    out->found_share_all = no ? (double)found_all / (double)no : 0;
+    /* completeness: distinct non-empty example windows met in the output */
+    nout = sort_unique(ok, nout);
+    out->example_distinct = nne;
+    for (size_t i = 0, j = 0; i < nne && j < nout;) {
+        if (ek[i] == ok[j]) {
+            out->example_covered++;
+            i++;
+            j++;
+        } else if (ek[i] < ok[j]) {
+            i++;
+        } else {
+            j++;
+        }
+    }
+    out->completeness = nne ? (double)out->example_covered / (double)nne : 0;
+done:
+    gs_free(ek);
+    gs_free(eall);
+    gs_free(enz);
+    gs_free(ok);
+    gs_free(onz);
+    return err;
+}
+
+void gs_measure_label_hist(const uint16_t *labels, size_t ncells, double *hist, size_t nlabels)
+{
+    memset(hist, 0, nlabels * sizeof *hist);
+    if (nlabels == 0)
+        return;
+    for (size_t i = 0; i < ncells; i++)
+        hist[labels[i] < nlabels ? labels[i] : nlabels - 1] += 1;
+}
+
+gs_err gs_measure_height_profile(const uint16_t *example, const int edims[3],
+                                 const uint16_t *output, const int odims[3],
+                                 gs_measure_profile *out)
+{
+    memset(out, 0, sizeof *out);
+    const int nz = odims[2];
+    const size_t elayer = (size_t)edims[0] * (size_t)edims[1];
+    const size_t olayer = (size_t)odims[0] * (size_t)odims[1];
+    double *ho = NULL, *he = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&out->fill_output, (size_t)nz, sizeof(double), "profile"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&out->fill_example, (size_t)nz, sizeof(double), "profile"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&ho, 65536, sizeof *ho, "layer histogram"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&he, 65536, sizeof *he, "layer histogram"), fail);
+    out->nz = nz;
+    out->top_output = out->top_example = -1;
+    for (int z = 0; z < edims[2]; z++)
+        for (size_t i = 0; i < elayer; i++)
+            if (example[elayer * (size_t)z + i]) {
+                out->top_example = z;
+                break;
+            }
+    double fsum = 0, lsum = 0;
+    for (int z = 0; z < nz; z++) {
+        const uint16_t *ol = output + olayer * (size_t)z;
+        gs_measure_label_hist(ol, olayer, ho, 65536);
+        if (z < edims[2]) {
+            gs_measure_label_hist(example + elayer * (size_t)z, elayer, he, 65536);
+        } else {
+            memset(he, 0, 65536 * sizeof *he);
+            he[0] = 1;
+        }
+        double eall = 0, efill = 0;
+        for (size_t l = 0; l < 65536; l++)
+            eall += he[l];
+        efill = eall - he[0];
+        out->fill_output[z] = olayer ? (double)(olayer - (size_t)ho[0]) / (double)olayer : 0;
+        out->fill_example[z] = eall > 0 ? efill / eall : 0;
+        if (ho[0] < (double)olayer)
+            out->top_output = z;
+        fsum += out->fill_output[z] > out->fill_example[z] ? out->fill_output[z] - out->fill_example[z]
+                                                           : out->fill_example[z] - out->fill_output[z];
+        lsum += gs_measure_l1(ho, he, 65536);
+    }
+    out->fill_mean_abs = nz ? fsum / nz : 0;
+    out->label_l1_mean = nz ? lsum / nz : 0;
+    gs_free(ho);
+    gs_free(he);
+    return GS_OK;
+fail:
+    gs_free(ho);
+    gs_free(he);
+    gs_measure_profile_free(out);
+    return err;
+}
+
+void gs_measure_profile_free(gs_measure_profile *p)
+{
+    gs_free(p->fill_output);
+    gs_free(p->fill_example);
+    p->fill_output = p->fill_example = NULL;
+}
+
+gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_t *unsupported,
+                              uint64_t *nonempty)
+{
+    const size_t n = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    const size_t layer = (size_t)dims[0] * (size_t)dims[1];
+    uint8_t *mask = NULL, *grounded = NULL;
+    uint32_t *comp = NULL, ncomp = 0;
+    gs_err err = GS_OK;
+    *unsupported = *nonempty = 0;
+    GS_TRY(err, gs_alloc_array((void **)&mask, n, 1, "support mask"), done);
+    GS_TRY(err, gs_alloc_array((void **)&comp, n, sizeof *comp, "support components"), done);
+    for (size_t i = 0; i < n; i++) {
+        mask[i] = labels[i] != 0;
+        *nonempty += mask[i];
+    }
+    static const int flat[3] = {0, 0, 0};
+    GS_TRY(err, gs_measure_components3(mask, dims[0], dims[1], dims[2], flat, comp, &ncomp, NULL),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&grounded, (size_t)ncomp + 1, 1, "grounded components"),
+           done);
+    memset(grounded, 0, (size_t)ncomp + 1);
+    for (size_t i = 0; i < layer; i++)
+        grounded[comp[i]] = 1;
+    if (dims[2] > 1)
+        for (size_t i = 0; i < n; i++)
+            *unsupported += mask[i] && !grounded[comp[i]];
+done:
+    gs_free(mask);
+    gs_free(comp);
+    gs_free(grounded);
+    return err;
+}
