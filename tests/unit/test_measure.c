@@ -308,6 +308,7 @@ static void test_geodesic(void **state)
     free(dist);
     free(pos);
     free(tris);
+}
 
 /* Lattice measures on hand-made lattices: an all-empty output has no
  * non-empty window (share 0, not the 1.0 the empty windows give), the
