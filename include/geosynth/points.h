@@ -340,6 +340,8 @@ typedef struct gs_points_params {
     int max_pairs;        /* clusters grow so |Q| stays near this (spline size) */
     double variation_radius;
     double tps_lambda;
+    int warp_select;      /* 1: each patch takes the spline (pairs as they are, or their
+                             normal parts) or no warp, whichever leaves it closest to N_k */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
     int relax_iterations;
     uint64_t seed;
@@ -363,6 +365,8 @@ typedef struct gs_points_patch_metrics {
     double chosen_dist;
     uint32_t candidates;   /* |Psi_k| */
     uint32_t pairs;        /* pairs used by the warp (without anchors) */
+    uint32_t warp;         /* the warp applied: 0 none, 1 the pairs' spline, 2 their
+                              normal parts' spline (see warp_select) */
     double pair_gap;       /* mean |s - q| before warping */
     double warp_residual;  /* mean |MLS distance| of warped overlap points to N_k */
 } gs_points_patch_metrics;
@@ -428,6 +432,37 @@ gs_points_times gs_points_synth_times(const gs_points_synth *s);
 /* Points per unit area (xy) of the example inside its box. */
 double gs_points_synth_input_density(const gs_points_synth *s);
 size_t gs_points_synth_input_patches(const gs_points_synth *s);
+
+/* Vertical lines x = x[i] and y = y[j] in the output plane (the patch
+ * seams, or lines through the middle of the patches). */
+typedef struct gs_points_lines {
+    double *x, *y;
+    int nx, ny;
+} gs_points_lines;
+void gs_points_lines_free(gs_points_lines *l);
+
+/* The lines of the finished output (gs_points_synth_finish coordinates)
+ * strictly inside (0, out_size): inside == 0 the seams, where a patch's
+ * points end and the next patch's blend strip begins (x = c * step - w_E,
+ * c >= 1); inside == 1 the middles of the patches' own (unblended) parts,
+ * x = c * step + patch / 2 - w_E; inside == 2 lines as far apart as the
+ * seams across the example's box (the example's own value of the measure). */
+gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lines *out);
+
+/* Seam measure: for each point within `band` of a line, the MLS frame
+ * (radius R) of its neighbours on the other side of the line; dist =
+ * |(p - a).n| and normal = (1 - n_p.n) / 2, averaged over the points with
+ * a frame of enough weight (the others are `unmatched`: a hole or an end
+ * of the surface at the line). seam_* over the seam lines, inside_* over
+ * the inside lines: a seamless output has seam_* close to inside_*. */
+typedef struct gs_points_seam_stats {
+    double seam_dist, seam_normal, seam_unmatched;
+    double inside_dist, inside_normal, inside_unmatched;
+    size_t seam_points, inside_points;
+} gs_points_seam_stats;
+gs_err gs_points_seam_measure(const gs_points *pts, double R, double band,
+                              const gs_points_lines *seams, const gs_points_lines *inside,
+                              gs_points_seam_stats *out);
 
 /* Everything needed to resume exactly: with the same texture and params,
  * resume(save(s)) continues bit-identically. */

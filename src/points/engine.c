@@ -86,7 +86,7 @@ typedef struct points_config {
     double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
     double tps_lambda;
-    int ray_blend;
+    int ray_blend, warp_select;
     /* [output] */
     int write_points;
     char *ply_format;
@@ -175,6 +175,10 @@ static const gs_cfg_key points_keys[] = {
                    "relaxation passes over the output at the end"),
     GS_CFG_KEY_REAL(PC, tps_lambda, "points.tps_lambda", 0, 1e6, 0, "0",
                     "thin-plate spline smoothing (0 = interpolate)"),
+    GS_CFG_KEY_BOOL(PC, warp_select, "points.warp_select", "true",
+                    "each patch takes the spline of the pairs, the spline of their normal parts, "
+                    "or no warp, whichever leaves it closest to the output in the overlap "
+                    "(false = always the pairs' spline, the paper's)"),
     GS_CFG_KEY_BOOL(PC, ray_blend, "points.ray_blend", "true",
                     "blend by ray intersection (paper fig. 3d); false = projection"),
     GS_CFG_KEY_BOOL(PC, write_points, "output.points", "true", "write RUN_DIR/points.ply"),
@@ -277,6 +281,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->variation_radius = c->variation_radius;
     p->tps_lambda = c->tps_lambda;
     p->ray_blend = c->ray_blend;
+    p->warp_select = c->warp_select;
     p->relax_iterations = (int)c->relax_iterations;
     p->seed = (uint64_t)c->run.seed;
     gs_points_params_complete(lx, ly, spacing, p);
@@ -915,7 +920,7 @@ static gs_err write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_di
     for (uint64_t k = 0; k < st.cursor; k++) {
         const gs_points_patch_metrics *m = &st.metrics[k];
         double f[4] = {m->best_dist, m->chosen_dist, m->pair_gap, m->warp_residual};
-        uint64_t u[3] = {m->chosen, m->candidates, m->pairs};
+        uint64_t u[3] = {m->chosen, m->candidates, m->pairs | (uint64_t)m->warp << 32};
         memcpy(mf + 4 * k, f, sizeof f);
         memcpy(mu + 3 * k, u, sizeof u);
     }
@@ -997,6 +1002,7 @@ static gs_err read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
             m->chosen = mu[3 * k];
             m->candidates = (uint32_t)mu[3 * k + 1];
             m->pairs = (uint32_t)mu[3 * k + 2];
+            m->warp = (uint32_t)(mu[3 * k + 2] >> 32);
         }
     }
 done:
@@ -1015,11 +1021,12 @@ static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m
     gs_atomic_file af;
     GS_CALL(gs_atomic_begin(path, &af));
     int ok = fprintf(af.f, "patch,chosen,candidates,best_dist,chosen_dist,pairs,pair_gap,"
-                           "warp_residual\n") > 0;
+                           "warp_residual,warp\n") > 0;
     for (size_t k = 0; k < n && ok; k++)
-        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g\n", k,
+        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g,%u\n", k,
                      (unsigned long long)m[k].chosen, m[k].candidates, m[k].best_dist,
-                     m[k].chosen_dist, m[k].pairs, m[k].pair_gap, m[k].warp_residual) > 0;
+                     m[k].chosen_dist, m[k].pairs, m[k].pair_gap, m[k].warp_residual,
+                     m[k].warp) > 0;
     if (!ok) {
         gs_atomic_abort(&af);
         GS_RAISE(GS_ERR_IO, "%s: write failed", path);
@@ -1099,6 +1106,8 @@ typedef struct run_state {
     map_state map; /* the map hook's state */
     fault_inject fault;
     int together;  /* the error being returned is collective (see agree) */
+    gs_points_seam_stats seam;    /* of the output (rank 0) */
+    gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
 } run_state;
 
 static void run_state_free(run_state *r)
@@ -1300,13 +1309,31 @@ static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
     return GS_OK;
 }
 
+/* The seam measure of the output (z-up points) and of the example. */
+static gs_err seam_measures(run_state *rs, const gs_points *zup)
+{
+    gs_points_lines seams = {0}, inside = {0}, ex = {0}, none = {0};
+    double R = rs->params.mls_radius, band = rs->tex.spacing;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 0, &seams), done);
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 1, &inside), done);
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 2, &ex), done);
+    GS_TRY(err, gs_points_seam_measure(zup, R, band, &seams, &inside, &rs->seam), done);
+    GS_TRY(err, gs_points_seam_measure(&rs->tex.pts, R, band, &ex, &none, &rs->seam_ex), done);
+done:
+    gs_points_lines_free(&seams);
+    gs_points_lines_free(&inside);
+    gs_points_lines_free(&ex);
+    return err;
+}
+
 static void record_metrics(gs_run *run, const points_config *c, run_state *rs, double dens_out)
 {
     gs_points_synth_t s = rs->synth;
     size_t nm;
     const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
     double sd = 0, sdmax = 0, cd = 0, res = 0, resmax = 0, gap = 0, cand = 0, pairs = 0;
-    size_t searched = 0, warped = 0;
+    size_t searched = 0, warped = 0, nwarp[3] = {0, 0, 0};
     for (size_t k = 0; k < nm; k++) {
         cand += m[k].candidates;
         if (k == 0)
@@ -1315,10 +1342,14 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
         sd += m[k].best_dist;
         sdmax = fmax(sdmax, m[k].best_dist);
         cd += m[k].chosen_dist;
-        if (m[k].pairs > 0) {
+        /* The residual over every blended patch, warped or not (a mean over
+         * the warped ones alone compared different patches with and without
+         * the warp). */
+        res += m[k].warp_residual;
+        resmax = fmax(resmax, m[k].warp_residual);
+        nwarp[m[k].warp < 3 ? m[k].warp : 0]++;
+        if (m[k].warp > 0) {
             warped++;
-            res += m[k].warp_residual;
-            resmax = fmax(resmax, m[k].warp_residual);
             gap += m[k].pair_gap;
             pairs += m[k].pairs;
         }
@@ -1332,6 +1363,9 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_i64(run, "patches", (int64_t)nm);
     gs_run_metric_i64(run, "patches_searched", (int64_t)searched);
     gs_run_metric_i64(run, "patches_warped", (int64_t)warped);
+    gs_run_metric_i64(run, "patches_warp_pairs", (int64_t)nwarp[1]);
+    gs_run_metric_i64(run, "patches_warp_normal", (int64_t)nwarp[2]);
+    gs_run_metric_i64(run, "patches_warp_none", (int64_t)nwarp[0]);
     gs_run_metric_f64(run, "out_size_x", rs->params.out_size[0]);
     gs_run_metric_f64(run, "out_size_y", rs->params.out_size[1]);
     gs_run_metric_i64(run, "output_points", (int64_t)rs->out.n);
@@ -1344,8 +1378,19 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "candidates_mean", nm ? cand / nm : 0);
     gs_run_metric_f64(run, "pairs_mean", warped ? pairs / warped : 0);
     gs_run_metric_f64(run, "pair_gap_mean", warped ? gap / warped : 0);
-    gs_run_metric_f64(run, "warp_residual_mean", warped ? res / warped : 0);
+    gs_run_metric_f64(run, "warp_residual_mean", searched ? res / searched : 0);
     gs_run_metric_f64(run, "warp_residual_max", resmax);
+    const gs_points_seam_stats *se = &rs->seam;
+    gs_run_metric_f64(run, "seam_dist", se->seam_dist);
+    gs_run_metric_f64(run, "seam_normal", se->seam_normal);
+    gs_run_metric_f64(run, "seam_unmatched", se->seam_unmatched);
+    gs_run_metric_f64(run, "inside_dist", se->inside_dist);
+    gs_run_metric_f64(run, "inside_normal", se->inside_normal);
+    gs_run_metric_f64(run, "inside_unmatched", se->inside_unmatched);
+    gs_run_metric_f64(run, "seam_dist_ratio", se->inside_dist > 0 ? se->seam_dist / se->inside_dist : 0);
+    gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
+    gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
+    gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);
     gs_run_metric_f64(run, "seconds_search", tm.search);
     gs_run_metric_f64(run, "seconds_warp", tm.warp);
     gs_run_metric_f64(run, "seconds_blend", tm.blend);
@@ -1410,19 +1455,22 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             if (local == GS_OK)
                 gs_run_output(run, "patch_metrics", "patches.csv");
         }
-        if (c->mesh && local == GS_OK) {
-            /* The mesh is built from the z-up points; write_mesh restores the axes. */
-            gs_points zup = {0};
+        /* The measures and the mesh work on the z-up points; write_mesh
+         * restores the axes. */
+        gs_points zup = {0};
+        if (local == GS_OK)
             local = gs_points_append(&zup, rs.out.v, rs.out.n);
-            if (local == GS_OK) {
-                gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
-                gs_run_path(run, "mesh.ply", path, sizeof path);
-                local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
-            }
-            gs_points_free(&zup);
+        if (local == GS_OK) {
+            gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
+            local = seam_measures(&rs, &zup);
+        }
+        if (c->mesh && local == GS_OK) {
+            gs_run_path(run, "mesh.ply", path, sizeof path);
+            local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
             if (local == GS_OK)
                 gs_run_output(run, "mesh", "mesh.ply");
         }
+        gs_points_free(&zup);
         if (local == GS_OK)
             record_metrics(run, c, &rs, dens_out);
     }

@@ -96,6 +96,7 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     p->max_pairs = 48;
     p->tps_lambda = 0;
     p->ray_blend = 1;
+    p->warp_select = 1;
     p->relax_iterations = 1;
     p->seed = 1;
     gs_points_params_complete(lx, ly, s, p);
@@ -252,6 +253,9 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
                                   step, s->nx, s->ny, lo, hi - lo, &s->scratch, vout));
     return GS_OK;
 }
+
+/* Points of a patch's strips on which the candidate warps are compared. */
+#define WARP_CHECK_POINTS 96
 
 /* Bucket side of the input and output grids, in MLS radii. */
 #define GRID_CELL_R 1.25
@@ -570,6 +574,40 @@ static gs_err ray_hit(struct gs_points_synth *s, const double x[3], const double
     return GS_OK;
 }
 
+/* How far the patch F, moved by tps (NULL: not moved), lies from the
+ * output N_k in the active overlap strips: the mean |MLS distance| to N_k
+ * of every k-th point of F in the strips (at most max_points of them) (a point with no surface
+ * of N_k within R counts R). The points are those the blend will pull onto
+ * N_k, so this is the gap the blend has to close. */
+static gs_err strip_gap(struct gs_points_synth *s, int mode, const double o[2],
+                        const gs_points_tps *tps, size_t max_points, double *gap)
+{
+    double R = s->p.mls_radius, sum = 0;
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    size_t n = 0, seen = 0, total = 0;
+    for (size_t i = 0; i < s->F.n; i++)
+        total += in_xy(s->F.v[i].p, blo, bhi) && blend_weight(s, mode, o, s->F.v[i].p) > 0;
+    size_t stride = total > max_points ? (total + max_points - 1) / max_points : 1;
+    for (size_t i = 0; i < s->F.n; i++) {
+        const double *x = s->F.v[i].p;
+        if (!in_xy(x, blo, bhi) || blend_weight(s, mode, o, x) <= 0)
+            continue;
+        if (seen++ % stride)
+            continue;
+        double y[3];
+        if (tps)
+            gs_points_tps_eval(tps, x, y, NULL);
+        else
+            memcpy(y, x, sizeof y);
+        gs_points_mls_result r;
+        GS_CALL(gs_points_mls_project(s->out, R, R, y, &s->scratch, &r));
+        sum += r.ok ? fmin(fabs(r.dist), R) : R;
+        n++;
+    }
+    *gap = n ? sum / (double)n : 0;
+    return GS_OK;
+}
+
 /* Pairs the overlap strips of F with the output and fits the warp. On
  * success *have says whether *tps holds a spline (caller frees it); it is
  * applied to F with the blend (blend_and_paste). */
@@ -594,7 +632,7 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
         return GS_OK;
     keyed *k = NULL;
     size_t *reps = NULL, nreps = 0, *smap = NULL;
-    double *qv = NULL, *src = NULL, *dst = NULL;
+    double *qv = NULL, *src = NULL, *dst = NULL, *dstn = NULL;
     long *pair = NULL;
     gs_points Q = {0};
     gs_err err = GS_OK;
@@ -651,14 +689,20 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
            done);
     GS_TRY(err, gs_alloc_array((void **)&dst, 3 * (npairs + 16), sizeof *dst, "spline controls"),
            done);
+    GS_TRY(err, gs_alloc_array((void **)&dstn, 3 * (npairs + 16), sizeof *dstn, "spline controls"),
+           done);
     size_t nc = 0;
     double gap = 0;
     for (size_t i = 0; i < nreps; i++) {
         if (pair[i] < 0)
             continue;
-        memcpy(src + 3 * nc, s->S.v[pair[i]].p, 3 * sizeof *src);
-        memcpy(dst + 3 * nc, Q.v[i].p, 3 * sizeof *dst);
-        gap += sqrt(v3_dist2(src + 3 * nc, dst + 3 * nc));
+        const double *ps = s->S.v[pair[i]].p, *pq = Q.v[i].p, *nq = Q.v[i].n;
+        memcpy(src + 3 * nc, ps, 3 * sizeof *src);
+        memcpy(dst + 3 * nc, pq, 3 * sizeof *dst);
+        double e[3] = {pq[0] - ps[0], pq[1] - ps[1], pq[2] - ps[2]}, d = v3_dot(e, nq);
+        for (int c = 0; c < 3; c++)
+            dstn[3 * nc + c] = ps[c] + d * nq[c];
+        gap += sqrt(v3_dist2(ps, pq));
         nc++;
     }
     met->pair_gap = gap / (double)npairs;
@@ -677,18 +721,59 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
                 double a[3] = {x, y, zs[h]};
                 memcpy(src + 3 * nc, a, sizeof a);
                 memcpy(dst + 3 * nc, a, sizeof a);
+                memcpy(dstn + 3 * nc, a, sizeof a);
                 nc++;
             }
         }
-    err = gs_points_tps_fit(src, dst, (int)nc, p->tps_lambda, tps_out);
-    if (err == GS_ERR_ARG) { /* degenerate pairing: keep the patch unwarped */
-        gs_error_clear();
-        err = GS_OK;
-        met->pairs = 0;
-        goto done;
+    /* Two splines: the pairs as they are (eq. 1-3), and each pair's
+     * displacement along q's normal only (point-to-plane, as in ICP: s and
+     * q are samples of two samplings of a surface, so on a smooth surface
+     * the tangential part of q - s is sampling noise of up to a spacing,
+     * which an interpolating spline turns into shears and kinks, while on
+     * a rough one it carries the shift of the features). The patch takes
+     * the one, or none, that leaves it closest to N_k in the strips. */
+    gs_points_tps cand[2];
+    memset(cand, 0, sizeof cand);
+    int fitted[2] = {0, 0};
+    for (int w = 0; w < 2; w++) {
+        err = gs_points_tps_fit(src, w ? dstn : dst, (int)nc, p->tps_lambda, &cand[w]);
+        if (err == GS_ERR_ARG) { /* degenerate pairing: not this one */
+            gs_error_clear();
+            err = GS_OK;
+            continue;
+        }
+        GS_TRY(err, err, done);
+        fitted[w] = 1;
     }
+    int pick = -1;
+    if (!p->warp_select) {
+        pick = fitted[0] ? 0 : -1;
+    } else if (fitted[0] || fitted[1]) {
+        double best;
+        GS_TRY(err, strip_gap(s, mode, o, NULL, WARP_CHECK_POINTS, &best), pick_done);
+        for (int w = 0; w < 2; w++) {
+            double g;
+            if (!fitted[w])
+                continue;
+            GS_TRY(err, strip_gap(s, mode, o, &cand[w], WARP_CHECK_POINTS, &g), pick_done);
+            if (g < best) {
+                best = g;
+                pick = w;
+            }
+        }
+    }
+pick_done:
+    for (int w = 0; w < 2; w++)
+        if (fitted[w] && (w != pick || err != GS_OK))
+            gs_points_tps_free(&cand[w]);
     GS_TRY(err, err, done);
-    *have = 1;
+    if (!fitted[0] && !fitted[1])
+        met->pairs = 0;
+    met->warp = (uint32_t)(pick + 1);
+    if (pick >= 0) {
+        *tps_out = cand[pick];
+        *have = 1;
+    }
 done:
     gs_free(k);
     gs_free(reps);
@@ -696,6 +781,7 @@ done:
     gs_free(qv);
     gs_free(src);
     gs_free(dst);
+    gs_free(dstn);
     gs_free(pair);
     gs_points_free(&Q);
     return err;
@@ -1148,4 +1234,45 @@ gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_point
 fail:
     gs_points_synth_destroy(&s);
     return err;
+}
+
+void gs_points_lines_free(gs_points_lines *l)
+{
+    GS_FREE(l->x);
+    GS_FREE(l->y);
+    l->nx = l->ny = 0;
+}
+
+gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lines *out)
+{
+    memset(out, 0, sizeof *out);
+    int n[2] = {s->cols, s->rows};
+    for (int a = 0; a < 2; a++) {
+        double *v = NULL;
+        size_t cap = (size_t)n[a] + (size_t)((s->box_hi[a] - s->box_lo[a]) / s->step) + 2;
+        gs_err err = gs_alloc_array((void **)&v, cap, sizeof *v, "seam lines");
+        if (err != GS_OK) {
+            gs_points_lines_free(out);
+            GS_CALL(err);
+        }
+        int m = 0;
+        if (inside == 2) { /* the example box, lines as far apart as the seams */
+            for (int c = 1; s->box_lo[a] + c * s->step < s->box_hi[a]; c++)
+                v[m++] = s->box_lo[a] + c * s->step;
+        } else {
+            for (int c = inside ? 0 : 1; c < n[a]; c++) {
+                double x = c * s->step + (inside ? 0.5 * s->ps : 0) - s->we;
+                if (x > 0 && x < s->p.out_size[a])
+                    v[m++] = x;
+            }
+        }
+        if (a) {
+            out->y = v;
+            out->ny = m;
+        } else {
+            out->x = v;
+            out->nx = m;
+        }
+    }
+    return GS_OK;
 }
