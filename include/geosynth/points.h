@@ -125,6 +125,11 @@ typedef struct gs_points_gen_params {
     double pad;       /* geometry beyond each side, >= 0 */
     double spacing;   /* sampling radius, > 0 */
     uint64_t seed;
+    /* Chain mail and weave: 0 (the paper's kind of example, not tileable):
+     * rings and threads jittered off their lattice, with varying sizes
+     * (gs_rng(seed)); 1: exactly on the lattice (tileable by the lattice
+     * period). Flowers are always scattered at random. */
+    int periodic;
     /* Optional (NULL: all in this process): the per-try work of the dart
      * throwing through a map hook, and agree(map_user, local), which returns
      * the status every process gets (a failure anywhere fails all). With
@@ -342,6 +347,8 @@ typedef struct gs_points_params {
     double tps_lambda;
     int warp_select;      /* 1: each patch takes the spline (pairs as they are, or their
                              normal parts) or no warp, whichever leaves it closest to N_k */
+    int blend;            /* 1: the overlap strips blend onto N_k (section 5.3); 0: pasted as
+                             warped (for measuring what the blend does) */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
     int relax_iterations;
     uint64_t seed;
@@ -364,6 +371,8 @@ typedef struct gs_points_patch_metrics {
     double best_dist;      /* min d over patches (0 for the seed patch) */
     double chosen_dist;
     uint32_t candidates;   /* |Psi_k| */
+    uint32_t continuations; /* how many of Psi_k continue the left or bottom neighbour's
+                               source verbatim (the patch next to its source in the example) */
     uint32_t pairs;        /* pairs used by the warp (without anchors) */
     uint32_t warp;         /* the warp applied: 0 none, 1 the pairs' spline, 2 their
                               normal parts' spline (see warp_select) */
@@ -432,6 +441,12 @@ gs_points_times gs_points_synth_times(const gs_points_synth *s);
 /* Points per unit area (xy) of the example inside its box. */
 double gs_points_synth_input_density(const gs_points_synth *s);
 size_t gs_points_synth_input_patches(const gs_points_synth *s);
+
+/* Whether input patch `chosen` for output patch k continues the source of
+ * its left or bottom neighbour verbatim (the example's next patch along x
+ * or y, as a paste of one larger piece would give). m: metrics [0, k). */
+int gs_points_synth_is_continuation(const gs_points_synth *s, const gs_points_patch_metrics *m,
+                                    uint64_t k, uint64_t chosen);
 
 /* Vertical lines x = x[i] and y = y[j] in the output plane (the patch
  * seams, or lines through the middle of the patches). */

@@ -70,6 +70,7 @@ typedef struct points_config {
     char *path;
     gs_cfg_real_list size;
     int64_t cells;
+    int periodic;
     double spacing;
     double height_scale;
     double pad;
@@ -86,7 +87,7 @@ typedef struct points_config {
     double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
     double tps_lambda;
-    int ray_blend, warp_select;
+    int blend, ray_blend, warp_select;
     /* [output] */
     int write_points;
     char *ply_format;
@@ -110,6 +111,9 @@ static const gs_cfg_key points_keys[] = {
                          "generated examples: box extent along x and y"),
     GS_CFG_KEY_INT(PC, cells, "input.cells", 1, 64, 0, "4",
                    "generated examples: lattice cells (rings, threads, flower spacing) across x"),
+    GS_CFG_KEY_BOOL(PC, periodic, "input.periodic", "false",
+                    "chainmail/weave: rings and threads exactly on the lattice (a tileable "
+                    "example); false = jittered off it with varying sizes, like the paper's"),
     GS_CFG_KEY_REAL(PC, spacing, "input.spacing", 0, 1e6, 0, "0.033",
                     "sampling spacing (Poisson-disk radius) of generated and mesh examples; "
                     "ply: 0 = estimate from the points"),
@@ -179,6 +183,9 @@ static const gs_cfg_key points_keys[] = {
                     "each patch takes the spline of the pairs, the spline of their normal parts, "
                     "or no warp, whichever leaves it closest to the output in the overlap "
                     "(false = always the pairs' spline, the paper's)"),
+    GS_CFG_KEY_BOOL(PC, blend, "points.blend", "true",
+                    "blend the overlap strips onto the output (paper section 5.3); false pastes "
+                    "the warped patch as it is (to measure what the blend does)"),
     GS_CFG_KEY_BOOL(PC, ray_blend, "points.ray_blend", "true",
                     "blend by ray intersection (paper fig. 3d); false = projection"),
     GS_CFG_KEY_BOOL(PC, write_points, "output.points", "true", "write RUN_DIR/points.ply"),
@@ -280,6 +287,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->max_pairs = (int)c->max_pairs;
     p->variation_radius = c->variation_radius;
     p->tps_lambda = c->tps_lambda;
+    p->blend = c->blend;
     p->ray_blend = c->ray_blend;
     p->warp_select = c->warp_select;
     p->relax_iterations = (int)c->relax_iterations;
@@ -367,7 +375,7 @@ static gs_err build_texture(const points_config *c, map_state *ms, gs_points_tex
     params_from_config(c, c->size.v[0], c->size.v[1], c->spacing, &p);
     double pad = c->pad > 0 ? c->pad : 1.2 * gs_points_params_padding(&p);
     gs_points_gen_params gp = {{c->size.v[0], c->size.v[1]}, pad, c->spacing,
-                               (uint64_t)c->input_seed, ms ? mpi_map : NULL, ms,
+                               (uint64_t)c->input_seed, c->periodic, ms ? mpi_map : NULL, ms,
                                ms ? map_agree : NULL};
     if (kind_is(c, "heightfield")) {
         int w = 0, h = 0;
@@ -920,7 +928,8 @@ static gs_err write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_di
     for (uint64_t k = 0; k < st.cursor; k++) {
         const gs_points_patch_metrics *m = &st.metrics[k];
         double f[4] = {m->best_dist, m->chosen_dist, m->pair_gap, m->warp_residual};
-        uint64_t u[3] = {m->chosen, m->candidates, m->pairs | (uint64_t)m->warp << 32};
+        uint64_t u[3] = {m->chosen, m->candidates | (uint64_t)m->continuations << 32,
+                         m->pairs | (uint64_t)m->warp << 32};
         memcpy(mf + 4 * k, f, sizeof f);
         memcpy(mu + 3 * k, u, sizeof u);
     }
@@ -1001,6 +1010,7 @@ static gs_err read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
             m->warp_residual = mf[4 * k + 3];
             m->chosen = mu[3 * k];
             m->candidates = (uint32_t)mu[3 * k + 1];
+            m->continuations = (uint32_t)(mu[3 * k + 1] >> 32);
             m->pairs = (uint32_t)mu[3 * k + 2];
             m->warp = (uint32_t)(mu[3 * k + 2] >> 32);
         }
@@ -1309,6 +1319,28 @@ static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
     return GS_OK;
 }
 
+static int u64_cmp(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Distinct input patches among the chosen ones (0 on no memory). */
+static size_t distinct_sources(const gs_points_patch_metrics *m, size_t n)
+{
+    uint64_t *v = gs_malloc(n ? n * sizeof *v : 1);
+    if (!v)
+        return 0;
+    for (size_t k = 0; k < n; k++)
+        v[k] = m[k].chosen;
+    qsort(v, n, sizeof *v, u64_cmp);
+    size_t d = 0;
+    for (size_t k = 0; k < n; k++)
+        d += k == 0 || v[k] != v[k - 1];
+    gs_free(v);
+    return d;
+}
+
 /* The seam measure of the output (z-up points) and of the example. */
 static gs_err seam_measures(run_state *rs, const gs_points *zup)
 {
@@ -1333,7 +1365,8 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     size_t nm;
     const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
     double sd = 0, sdmax = 0, cd = 0, res = 0, resmax = 0, gap = 0, cand = 0, pairs = 0;
-    size_t searched = 0, warped = 0, nwarp[3] = {0, 0, 0};
+    size_t searched = 0, warped = 0, nwarp[3] = {0, 0, 0}, verbatim = 0;
+    double expect_verbatim = 0;
     for (size_t k = 0; k < nm; k++) {
         cand += m[k].candidates;
         if (k == 0)
@@ -1348,6 +1381,9 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
         res += m[k].warp_residual;
         resmax = fmax(resmax, m[k].warp_residual);
         nwarp[m[k].warp < 3 ? m[k].warp : 0]++;
+        verbatim += gs_points_synth_is_continuation(s, m, k, m[k].chosen);
+        if (m[k].candidates > 0)
+            expect_verbatim += (double)m[k].continuations / m[k].candidates;
         if (m[k].warp > 0) {
             warped++;
             gap += m[k].pair_gap;
@@ -1376,6 +1412,12 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "search_distance_max", sdmax);
     gs_run_metric_f64(run, "chosen_distance_mean", searched ? cd / searched : 0);
     gs_run_metric_f64(run, "candidates_mean", nm ? cand / nm : 0);
+    /* Variety: distinct source patches, and the share of patches that
+     * continue a neighbour's source verbatim, against what a uniform pick
+     * in each Psi_k gives (the mean of continuations / candidates). */
+    gs_run_metric_i64(run, "source_patches", (int64_t)distinct_sources(m, nm));
+    gs_run_metric_f64(run, "verbatim_share", searched ? (double)verbatim / searched : 0);
+    gs_run_metric_f64(run, "verbatim_share_random", searched ? expect_verbatim / searched : 0);
     gs_run_metric_f64(run, "pairs_mean", warped ? pairs / warped : 0);
     gs_run_metric_f64(run, "pair_gap_mean", warped ? gap / warped : 0);
     gs_run_metric_f64(run, "warp_residual_mean", searched ? res / searched : 0);

@@ -95,6 +95,7 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     p->cluster_max = 12;
     p->max_pairs = 48;
     p->tps_lambda = 0;
+    p->blend = 1;
     p->ray_blend = 1;
     p->warp_select = 1;
     p->relax_iterations = 1;
@@ -830,6 +831,8 @@ static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2]
         if (ok) {
             it->resid = sqrt(v3_dist2(y, q.p));
             it->counted = 1;
+            if (!s->p.blend)
+                t = 0; /* measured, not blended */
             for (int k = 0; k < 3; k++) {
                 q.p[k] = (1 - t) * q.p[k] + t * y[k];
                 q.n[k] = (1 - t) * q.n[k] + t * n[k];
@@ -1023,9 +1026,12 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
             chosen = gs_points_search_pick(&all, &s->rng);
             met.best_dist = all.v[0].dist;
             met.candidates = (uint32_t)all.n;
-            for (size_t i = 0; i < all.n; i++)
+            for (size_t i = 0; i < all.n; i++) {
                 if (all.v[i].index == chosen)
                     met.chosen_dist = all.v[i].dist;
+                met.continuations +=
+                    (uint32_t)gs_points_synth_is_continuation(s, s->metrics, k, all.v[i].index);
+            }
         }
         gs_points_cands_free(&local);
         gs_points_cands_free(&all);
@@ -1275,4 +1281,24 @@ gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lin
         }
     }
     return GS_OK;
+}
+
+int gs_points_synth_is_continuation(const gs_points_synth *s, const gs_points_patch_metrics *m,
+                                    uint64_t k, uint64_t chosen)
+{
+    uint64_t c = k % (uint64_t)s->cols, d = (uint64_t)(s->p.patch_cells - s->p.overlap_cells);
+    uint64_t npx = (uint64_t)s->npx;
+    for (int side = 0; side < 2; side++) {
+        if (side == 0 ? c == 0 : k < (uint64_t)s->cols)
+            continue;
+        uint64_t src = m[side == 0 ? k - 1 : k - (uint64_t)s->cols].chosen;
+        uint64_t pi = src % npx, pj = src / npx;
+        if (side == 0)
+            pi += d;
+        else
+            pj += d;
+        if (pi < npx && pi + pj * npx == chosen)
+            return 1;
+    }
+    return 0;
 }

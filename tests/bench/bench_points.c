@@ -51,7 +51,7 @@ static gs_err run_case(const bench_case *bc, gs_json *j)
     p.w_l = bc->w_l;
     p.w_d = bc->w_d;
     gs_points_gen_params gp = {{L, L}, 1.2 * gs_points_params_padding(&p), bc->spacing, 2007,
-                               NULL, NULL, NULL};
+                               0, NULL, NULL, NULL};
     gs_points_texture tex;
     double t0 = gs_time_now();
     if (bc->kind == 0) {

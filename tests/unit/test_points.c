@@ -280,7 +280,7 @@ static void test_generators_and_padding_check(void **state)
     for (int j = 0; j < W; j++)
         for (int i = 0; i < W; i++)
             img[j * W + i] = (uint8_t)(127.5 + 127 * sin(i * 0.6) * cos(j * 0.45));
-    gs_points_gen_params gp = {{4, 4}, 1.0, 0.1, 42, NULL, NULL, NULL};
+    gs_points_gen_params gp = {{4, 4}, 1.0, 0.1, 42, 0, NULL, NULL, NULL};
     gs_points_texture t;
     assert_int_equal(gs_points_gen_heightfield(&gp, W, W, img, NULL, 0.5, &t), GS_OK);
     assert_true(t.pts.n > 1500);
@@ -318,7 +318,7 @@ static void test_generators_and_padding_check(void **state)
     gs_error_clear();
 
     /* The other kinds: non-empty, padded, with the expected outward normals. */
-    gs_points_gen_params gq = {{3, 3}, 0.8, 0.06, 9, NULL, NULL, NULL};
+    gs_points_gen_params gq = {{3, 3}, 0.8, 0.06, 9, 0, NULL, NULL, NULL};
     gs_err (*gens[3])(const gs_points_gen_params *, int, gs_points_texture *) = {
         gs_points_gen_chainmail, gs_points_gen_weave, gs_points_gen_flowers};
     for (int k = 0; k < 3; k++) {

@@ -110,7 +110,7 @@ static void test_spacing_estimate_generators(void **state)
 {
     (void)state;
     double s = 0.04;
-    gs_points_gen_params gp = {{2, 2}, 0.5, s, 7, NULL, NULL, NULL};
+    gs_points_gen_params gp = {{2, 2}, 0.5, s, 7, 0, NULL, NULL, NULL};
     gs_points_texture t;
     for (int kind = 0; kind < 3; kind++) {
         gs_err e = kind == 0 ? gs_points_gen_chainmail(&gp, 2, &t)

@@ -31,7 +31,7 @@ static int setup(void **state)
     gs_points_params_default(L, L, s, &params);
     params.out_size[0] = params.out_size[1] = 1.6 * L;
     gs_points_gen_params gp = {{L, L}, 1.2 * gs_points_params_padding(&params), s, 3,
-                               NULL, NULL, NULL};
+                               0, NULL, NULL, NULL};
     return gs_points_gen_heightfield(&gp, IMG, IMG, NULL, image, 0.5, &tex) == GS_OK ? 0 : -1;
 }
 

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# What each element of the paper does, on every paper config of
+# configs/points/ (heightfield, chainmail, weave, flowers): each config runs
+# with everything on, without the warp (points.max_pair_dist = 1e-6: no
+# pair is found), with the paper's warp always applied (warp_select =
+# false), without the blend (points.blend = false) and without candidate
+# randomness (points.eps = 0: always the best patch), each at SEEDS. Prints
+# one JSON object (stdout) with every run's quality figures (summary.json:
+# warp residual, seam measure, variety, height KS, fragments) and the mean
+# per variant, and a table on stderr.
+# env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four),
+# GS_DATA (heightfield needs textures/embark-1.jpg; skipped without it).
+set -u
+cd "$(dirname "$0")/../.."
+GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
+SEEDS=${SEEDS:-1 2}
+NP=${NP:-2}
+CONFIGS=${CONFIGS:-heightfield chainmail weave flowers}
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+export OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+declare -A VAR=(
+  [full]=""
+  [no_warp]="--set points.max_pair_dist=0.000001"
+  [paper_warp]="--set points.warp_select=false"
+  [no_blend]="--set points.blend=false"
+  [no_random]="--set points.eps=0"
+)
+list=$work/runs.tsv
+: >"$list"
+for cfg in $CONFIGS; do
+  f=configs/points/$cfg.ini
+  if ! "$GS_BIN" points -c "$f" --check >/dev/null 2>&1; then
+    echo "skip $cfg: its inputs are missing (make data, or GS_DATA)" >&2
+    continue
+  fi
+  for v in full no_warp paper_warp no_blend no_random; do
+    for seed in $SEEDS; do
+      d=$work/$cfg-$v-$seed
+      # shellcheck disable=SC2086
+      if nice -n 10 mpirun -np "$NP" "$GS_BIN" -q points -c "$f" -o "$d" --set run.seed="$seed" \
+           --set output.patch_metrics=false ${VAR[$v]} >"$d.log" 2>&1; then
+        printf '%s\t%s\t%s\t%s\n' "$cfg" "$v" "$seed" "$d" >>"$list"
+      else
+        echo "FAILED $cfg $v seed $seed: $(tail -3 "$d.log")" >&2
+        exit 1
+      fi
+    done
+  done
+done
+/usr/bin/python3 - "$list" <<'PY'
+import json, sys, collections
+keys = ["warp_residual_mean", "seam_dist", "inside_dist", "seam_normal", "inside_normal",
+        "seam_unmatched", "inside_unmatched", "source_patches", "verbatim_share",
+        "height_ks", "fragments_per_area", "example_fragments_per_area", "output_points"]
+runs, acc = [], collections.defaultdict(lambda: collections.defaultdict(list))
+for line in open(sys.argv[1]):
+    cfg, v, seed, d = line.rstrip("\n").split("\t")
+    m = json.load(open(d + "/summary.json"))["metrics"]
+    r = {"config": cfg, "variant": v, "seed": int(seed)}
+    r.update({k: m[k] for k in keys if k in m})
+    runs.append(r)
+    for k in keys:
+        if k in m:
+            acc[(cfg, v)][k].append(m[k])
+mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}}
+        for (c, v), a in acc.items()]
+json.dump({"benchmark": "points_elements", "runs": runs, "mean": mean}, sys.stdout, indent=1)
+print()
+cols = ["warp_residual_mean", "seam_dist", "seam_unmatched", "seam_normal", "inside_dist",
+        "source_patches", "verbatim_share", "height_ks", "fragments_per_area"]
+print("%-12s %-11s " % ("config", "variant") + " ".join("%10s" % c[:10] for c in cols),
+      file=sys.stderr)
+for r in mean:
+    print("%-12s %-11s " % (r["config"], r["variant"]) +
+          " ".join("%10.4g" % r.get(c, float("nan")) for c in cols), file=sys.stderr)
+PY
