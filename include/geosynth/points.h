@@ -371,6 +371,7 @@ typedef struct gs_points_patch_metrics {
     double best_dist;      /* min d over patches (0 for the seed patch) */
     double chosen_dist;
     uint32_t candidates;   /* |Psi_k| */
+    uint32_t rank;         /* the chosen one's place in Psi_k sorted by (distance, index) */
     uint32_t continuations; /* how many of Psi_k continue the left or bottom neighbour's
                                source verbatim (the patch next to its source in the example) */
     uint32_t pairs;        /* pairs used by the warp (without anchors) */

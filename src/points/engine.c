@@ -929,7 +929,7 @@ static gs_err write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_di
         const gs_points_patch_metrics *m = &st.metrics[k];
         double f[4] = {m->best_dist, m->chosen_dist, m->pair_gap, m->warp_residual};
         uint64_t u[3] = {m->chosen, m->candidates | (uint64_t)m->continuations << 32,
-                         m->pairs | (uint64_t)m->warp << 32};
+                         m->pairs | (uint64_t)(m->warp | (uint64_t)m->rank << 2) << 32};
         memcpy(mf + 4 * k, f, sizeof f);
         memcpy(mu + 3 * k, u, sizeof u);
     }
@@ -1012,7 +1012,8 @@ static gs_err read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
             m->candidates = (uint32_t)mu[3 * k + 1];
             m->continuations = (uint32_t)(mu[3 * k + 1] >> 32);
             m->pairs = (uint32_t)mu[3 * k + 2];
-            m->warp = (uint32_t)(mu[3 * k + 2] >> 32);
+            m->warp = (uint32_t)(mu[3 * k + 2] >> 32 & 3);
+            m->rank = (uint32_t)(mu[3 * k + 2] >> 34);
         }
     }
 done:
@@ -1031,12 +1032,12 @@ static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m
     gs_atomic_file af;
     GS_CALL(gs_atomic_begin(path, &af));
     int ok = fprintf(af.f, "patch,chosen,candidates,best_dist,chosen_dist,pairs,pair_gap,"
-                           "warp_residual,warp\n") > 0;
+                           "warp_residual,warp,rank,continuations\n") > 0;
     for (size_t k = 0; k < n && ok; k++)
-        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g,%u\n", k,
+        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g,%u,%u,%u\n", k,
                      (unsigned long long)m[k].chosen, m[k].candidates, m[k].best_dist,
                      m[k].chosen_dist, m[k].pairs, m[k].pair_gap, m[k].warp_residual,
-                     m[k].warp) > 0;
+                     m[k].warp, m[k].rank, m[k].continuations) > 0;
     if (!ok) {
         gs_atomic_abort(&af);
         GS_RAISE(GS_ERR_IO, "%s: write failed", path);

@@ -1027,8 +1027,10 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
             met.best_dist = all.v[0].dist;
             met.candidates = (uint32_t)all.n;
             for (size_t i = 0; i < all.n; i++) {
-                if (all.v[i].index == chosen)
+                if (all.v[i].index == chosen) {
                     met.chosen_dist = all.v[i].dist;
+                    met.rank = (uint32_t)i;
+                }
                 met.continuations +=
                     (uint32_t)gs_points_synth_is_continuation(s, s->metrics, k, all.v[i].index);
             }

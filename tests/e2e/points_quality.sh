@@ -1,0 +1,66 @@
+# End-to-end: the paper's elements do their job (configs/points/weave.ini and
+# flowers.ini on a smaller output; non-periodic examples, as the paper's).
+# Each check compares runs of the same example, so its threshold comes from
+# the example, not from a pinned run:
+# - warp: the gap the blend has to close in the overlap (warp_residual_mean)
+#   is below half of what it is without the warp (points.max_pair_dist =
+#   1e-6: no pair), and fewer points at the seams find no surface across
+#   them (seam_unmatched) than without the warp;
+# - blend: across the seams the surface continues about as well as across
+#   lines inside the patches (seam_dist < 1.3 x inside_dist), which it does
+#   not without the blend (points.blend = false);
+# - candidate randomness: over the patches with 2 or more candidates, the
+#   chosen patch's place in Psi_k (sorted by distance, scaled to [0, 1])
+#   averages 1/2 as a uniform pick gives, within 3 standard deviations.
+source "$GS_ROOT/tests/e2e/lib.bash"
+W=$GS_ROOT/configs/points/weave.ini
+small=(--set points.out_points=0 --set points.out_size=4.4,4.4)
+metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
+lt() { /usr/bin/python3 -c 'import sys; sys.exit(0 if float(sys.argv[1]) < float(sys.argv[2]) * float(sys.argv[3]) else 1)' "$@"; }
+
+run_gs 2 points -c "$W" -o warp "${small[@]}"
+expect_rc 0 "weave (small) with warp and blend"
+run_gs 2 points -c "$W" -o nowarp "${small[@]}" --set points.max_pair_dist=0.000001
+expect_rc 0 "weave (small) without warp"
+run_gs 2 points -c "$W" -o noblend "${small[@]}" --set points.blend=false
+expect_rc 0 "weave (small) without blend"
+
+r1=$(metric warp warp_residual_mean) r0=$(metric nowarp warp_residual_mean)
+lt "$r1" "$r0" 0.5 && ok "warp halves the overlap gap at least (residual $r1 with warp, $r0 without)" ||
+  bad "warp does not close the overlap gap: residual $r1 with warp, $r0 without (expected < half)"
+u1=$(metric warp seam_unmatched) u0=$(metric nowarp seam_unmatched)
+lt "$u1" "$u0" 1 && ok "warp: fewer seam points without a surface across the seam ($u1 with, $u0 without)" ||
+  bad "warp: seam points without a surface across the seam $u1 with warp, $u0 without"
+w=$(metric warp patches_warped)
+[[ $w -gt 0 ]] && ok "$w patches warped" || bad "no patch warped"
+
+declare -A res
+for d in warp noblend; do
+  sd=$(metric $d seam_dist) id=$(metric $d inside_dist)
+  if lt "$sd" "$id" 1.3; then res[$d]=pass; else res[$d]=fail; fi
+  eval "sd_$d=$sd id_$d=$id"
+done
+[[ ${res[warp]} == pass ]] && ok "blend: seams continue like the inside (seam $sd_warp, inside $id_warp)" ||
+  bad "seams do not continue: seam_dist $sd_warp vs inside $id_warp (expected < 1.3 x)"
+[[ ${res[noblend]} == fail ]] && ok "without the blend the seams show (seam $sd_noblend, inside $id_noblend)" ||
+  bad "the seam measure does not see a missing blend (seam $sd_noblend, inside $id_noblend)"
+
+run_gs 2 points -c "$GS_ROOT/configs/points/flowers.ini" -o pick "${small[@]}" --set points.eps=0.3
+expect_rc 0 "flowers (small, eps 0.3: larger candidate sets)"
+out=$(/usr/bin/python3 - pick/patches.csv <<'EOF'
+import csv, sys, math
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if int(r["candidates"]) >= 2]
+# place of the chosen patch in Psi_k, scaled to [0, 1]: uniform with mean
+# 1/2 and variance (n + 1) / (12 (n - 1)) for a uniform pick among n
+u = [int(r["rank"]) / (int(r["candidates"]) - 1) for r in rows]
+var = sum((int(r["candidates"]) + 1) / (12.0 * (int(r["candidates"]) - 1)) for r in rows)
+n = len(rows)
+mean, sd = sum(u) / max(n, 1), math.sqrt(var) / max(n, 1)
+print("%d patches with >= 2 candidates: mean place of the chosen one %.3f (uniform: 0.5 +- %.3f)"
+      % (n, mean, sd))
+sys.exit(0 if n >= 10 and abs(mean - 0.5) <= 3 * sd else 1)
+EOF
+)
+[[ $? -eq 0 ]] && ok "candidate pick is uniform in Psi_k ($out)" || bad "candidate pick is not uniform: $out"
+
+finish
