@@ -218,7 +218,37 @@ typedef struct gs_model_params {
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */
+    const struct gs_model_resem *resem; /* resemblance (paper Sec. 3.3): the label
+                           of a cell is the centre of an example neighbourhood
+                           drawn among those closest to the cell's decided
+                           neighbours (gs_model_resem_build); replaces
+                           `weights` (shape, when set, takes precedence).
+                           NULL = off; not owned */
 } gs_model_params;
+
+/* ---- resemblance (paper Sec. 3.3, Eqs. 2-6) -------------------------------- */
+
+/* Index of the example's (2w+1)^3 neighbourhoods (w = 1 or 2). When a cell v
+ * is labelled, every example location v' with E[v'] a candidate of v is
+ * compared with the cell's neighbourhood in the model: the decided cells
+ * (outside the region: the current labels; inside: cells with one candidate
+ * left; outside the output: nothing) that equal E at the same offset from v'
+ * are matches, d = |window| - matches - 1 (Eq. 3 with (v, E[v']) added).
+ * The locations with d <= d0, d0 = the smallest d + slack (the paper: the
+ * minimum), are the L(k) of Eq. 4 for k = E[v'] (Eq. 5: only candidates),
+ * and k is drawn with P(k) = L(k) / sum L (Eq. 6). Unlike Eq. 4 a location
+ * counts only for its own centre label (a location matching equally well
+ * with another centre would add the same count to every label). Neighbours
+ * past the example's faces match nothing. With no decided neighbour every
+ * location ties, so P(k) is the example's frequency of k.
+ * Cost per choice: O(Q * words of the candidate patterns); memory Q*L*4 +
+ * (distinct (offset, label) pairs) * P/8 bytes, P = distinct patterns. */
+typedef struct gs_model_resem *gs_model_resem_t;
+gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack,
+                            gs_model_resem_t *out);
+void gs_model_resem_destroy(gs_model_resem_t *r);
+/* Distinct neighbourhood patterns of the index (0 for NULL). */
+int gs_model_resem_patterns(const gs_model_resem_t r);
 
 /* Defaults: whole grid, overlap -1 (half the edge), attempts 20, min_changes 1, max_passes 4,
  * fix_z_faces 1, backtracks 1000 (x1, x2, x4, x8 over the quarters of the

@@ -86,6 +86,8 @@ typedef struct model_config {
     int64_t backtracks;
     char *order;
     char *weights;
+    int64_t resemblance;
+    int64_t resemblance_slack;
     char *ac;
     int fix_z_faces;
     char *start;
@@ -313,6 +315,12 @@ static const gs_cfg_key model_keys[] = {
                     "examples)"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
                     "label choice: uniform (author) or proportional to the example's counts"),
+    GS_CFG_KEY_INT(model_config, resemblance, "model.resemblance", 0, 2, 0, "0",
+                   "resemblance during synthesis (paper Sec. 3.3): window radius w (1 = 3x3x3, "
+                   "2 = 5x5x5 example neighbourhoods matched against the decided cells); 0 = "
+                   "off (labels drawn by model.weights)"),
+    GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
+                   "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",
                     "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
     GS_CFG_KEY_BOOL(model_config, fix_z_faces, "model.fix_z_faces", "true",
@@ -381,6 +389,7 @@ typedef struct model_engine {
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
     gs_model_patterns pats;  /* model.sample */
     gs_model_rules_t rules;
+    gs_model_resem_t resem;
     gs_model_solver_t solver;
     uint16_t *coverage;  /* accepted regions per cell (saturating) */
     uint16_t *buf;       /* one region's labels */
@@ -1146,6 +1155,7 @@ static void engine_free(model_engine *e)
     gs_model_lattice_destroy(&e->lat);
     gs_model_lattice_destroy(&e->start);
     gs_model_rules_destroy(&e->rules);
+    gs_model_resem_destroy(&e->resem);
     gs_model_tileset_destroy(&e->ts);
     gs_model_patterns_destroy(&e->pats);
     gs_model_solver_destroy(&e->solver);
@@ -1210,6 +1220,15 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     }
     if (e->params.mirror[0] || e->params.mirror[1])
         GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
+    if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
+        GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
+                                     &e->resem));
+        e->params.resem = e->resem;
+        gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
+               gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,
+               2 * (int)c->resemblance + 1, 2 * (int)c->resemblance + 1,
+               (long long)c->resemblance_slack);
+    }
     GS_CALL(gs_model_lattice_create(&e->lat, dims[0], dims[1], dims[2]));
     if (c->shape[0]) {
         gs_image img = {0};

@@ -29,6 +29,22 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
     return r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * (size_t)r->words;
 }
 
+/* Index of the example's neighbourhoods for resemblance (src/model/resemble.c). */
+struct gs_model_resem {
+    int w, Q;          /* window radius, neighbours per window ((2w+1)^3 - 1) */
+    int *off;          /* [Q][3] neighbour offsets */
+    int P, PW;         /* distinct patterns, 64-bit words over them */
+    uint32_t *mult;    /* [P] example locations with that pattern */
+    uint16_t *center;  /* [P] centre label, non-decreasing */
+    int L;             /* largest label + 1 */
+    int32_t *range;    /* [L + 1] patterns with centre l: [range[l], range[l+1]) */
+    int32_t *slot;     /* [Q][L] bitset of (offset, label), -1 = none */
+    uint64_t *bits;    /* [nslots][PW] */
+    size_t nslots;
+    int B;             /* bits of the match counters */
+    int slack;         /* d0 - minimum distance */
+};
+
 struct gs_model_solver {
     const struct gs_model_rules *rules;
     gs_model_ac ac;
@@ -59,6 +75,12 @@ struct gs_model_solver {
     uint32_t *order;   /* [n] visit order (scan, random) */
     uint64_t *weights; /* [L] choice weights */
     gs_model_weights weights_kind;
+    const struct gs_model_resem *resem; /* resemblance index (params), NULL = off */
+    const void *ov;         /* current overlay (solver.c) and lattice for outside reads */
+    const struct gs_model_lattice *lat;
+    int box_z0, box_rz, periodic[3];
+    uint64_t *rs_buf;       /* resemblance scratch: cand, mask, B counter slices */
+    size_t rs_cap;
     uint64_t revisions; /* statistics: cells processed by propagation */
     uint64_t backtracks_done; /* statistics: decisions undone */
     /* chronological backtracking (AC-3 only): a cell's candidates are saved

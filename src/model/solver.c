@@ -120,6 +120,7 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->trail_size);
     gs_free(s->trail_dom);
     gs_free(s->dec);
+    gs_free(s->rs_buf);
     gs_free(s);
     *ps = NULL;
 }
@@ -615,6 +616,12 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     s->box_rx = rx;
     s->box_ry = ry;
     s->lat_nx = lat->nx;
+    s->box_z0 = b->z0;
+    s->box_rz = rz;
+    s->lat = lat;
+    s->ov = ov;
+    for (int a = 0; a < 3; a++)
+        s->periodic[a] = periodic[a];
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
@@ -701,12 +708,149 @@ static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     return last;
 }
 
+/* Resemblance (paper Eqs. 4-6, see gs_model_resem_build in model.h): match
+ * counts of the candidate patterns in bit-sliced counters over the words of
+ * the candidates' centre runs, then the patterns with the most matches
+ * (minus the slack), then one of them by multiplicity; its centre is the
+ * label. Returns -1 when scratch space cannot grow. */
+static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
+{
+    const struct gs_model_resem *R = s->resem;
+    const size_t W = (size_t)s->W, PW = (size_t)R->PW;
+    const uint64_t *dc = s->dom + (size_t)c * W;
+    const size_t need = PW * (size_t)(R->B + 3);
+    if (need > s->rs_cap) {
+        uint64_t *nb = gs_realloc(s->rs_buf, need * 8);
+        if (!nb)
+            return -1;
+        s->rs_buf = nb;
+        s->rs_cap = need;
+    }
+    uint64_t *cand = s->rs_buf, *mask = cand + PW, *tmp = mask + PW, *cnt = tmp + PW;
+    /* candidate patterns: the centre runs of the candidate labels */
+    size_t wlo = PW, whi = 0;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (a >= R->L || R->range[a] == R->range[a + 1])
+                continue;
+            size_t lo = (size_t)R->range[a] >> 6, hi = ((size_t)R->range[a + 1] + 63) >> 6;
+            if (lo < wlo)
+                wlo = lo;
+            if (hi > whi)
+                whi = hi;
+        }
+    if (wlo >= whi)
+        return -1;
+    memset(cand + wlo, 0, (whi - wlo) * 8);
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (a >= R->L)
+                continue;
+            for (int32_t i = R->range[a]; i < R->range[a + 1]; i++)
+                cand[i >> 6] |= (uint64_t)1 << (i & 63);
+        }
+    for (int b = 0; b < R->B; b++)
+        memset(cnt + (size_t)b * PW + wlo, 0, (whi - wlo) * 8);
+    /* add the bitset of every decided neighbour */
+    const int rx = s->box_rx, ry = s->box_ry, rz = s->box_rz;
+    const int x = c % rx, y = (c / rx) % ry, z = c / (rx * ry);
+    const gs_model_lattice *lat = s->lat;
+    const int gn[3] = {lat->nx, lat->ny, lat->nz};
+    for (int q = 0; q < R->Q; q++) {
+        const int *o = R->off + 3 * q;
+        int px = x + o[0], py = y + o[1], pz = z + o[2];
+        int label;
+        if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz) {
+            int32_t u = (int32_t)(px + rx * (py + ry * pz));
+            if (s->size[u] != 1)
+                continue;
+            label = first_label(s->dom + (size_t)u * W);
+        } else {
+            int g[3] = {s->box_x0 + px, s->box_y0 + py, s->box_z0 + pz};
+            int out = 0;
+            for (int a = 0; a < 3; a++) {
+                if (s->periodic[a])
+                    g[a] = (g[a] % gn[a] + gn[a]) % gn[a];
+                out |= g[a] < 0 || g[a] >= gn[a];
+            }
+            if (out)
+                continue;
+            label = overlay_label(lat, s->ov, g[0], g[1], g[2]);
+        }
+        if (label >= R->L)
+            continue;
+        int32_t slot = R->slot[(size_t)q * (size_t)R->L + (size_t)label];
+        if (slot < 0)
+            continue;
+        const uint64_t *bs = R->bits + (size_t)slot * PW;
+        for (size_t w = wlo; w < whi; w++) {
+            uint64_t carry = bs[w] & cand[w];
+            for (int b = 0; carry && b < R->B; b++) {
+                uint64_t *cb = cnt + (size_t)b * PW + w;
+                uint64_t t = *cb & carry;
+                *cb ^= carry;
+                carry = t;
+            }
+        }
+    }
+    /* the highest count among the candidates: top bit down */
+    memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
+    int best = 0;
+    for (int b = R->B - 1; b >= 0; b--) {
+        const uint64_t *cb = cnt + (size_t)b * PW;
+        uint64_t any = 0;
+        for (size_t w = wlo; w < whi; w++)
+            any |= tmp[w] = mask[w] & cb[w];
+        if (any) {
+            memcpy(mask + wlo, tmp + wlo, (whi - wlo) * 8);
+            best |= 1 << b;
+        }
+    }
+    if (R->slack > 0) { /* counts >= best - slack: bit-sliced compare */
+        int t = best - R->slack;
+        if (t <= 0) {
+            memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
+        } else {
+            for (size_t w = wlo; w < whi; w++) {
+                uint64_t ge = 0, eq = cand[w];
+                for (int b = R->B - 1; b >= 0; b--) {
+                    uint64_t cb = cnt[(size_t)b * PW + w];
+                    if (t >> b & 1) {
+                        eq &= cb;
+                    } else {
+                        ge |= eq & cb;
+                        eq &= ~cb;
+                    }
+                }
+                mask[w] = ge | eq;
+            }
+        }
+    }
+    uint64_t total = 0;
+    for (size_t w = wlo; w < whi; w++)
+        for (uint64_t bits = mask[w]; bits; bits &= bits - 1)
+            total += R->mult[w * 64 + (size_t)ctz64(bits)];
+    uint64_t pick = gs_rng_below(rng, total);
+    for (size_t w = wlo; w < whi; w++)
+        for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
+            size_t i = w * 64 + (size_t)ctz64(bits);
+            if (pick < R->mult[i])
+                return R->center[i];
+            pick -= R->mult[i];
+        }
+    return -1;
+}
+
 static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const size_t W = (size_t)s->W;
     const uint64_t *dc = s->dom + (size_t)c * W;
     if (s->shape)
         return choose_label_shape(s, c, rng);
+    if (s->resem)
+        return choose_label_resem(s, c, rng);
     if (s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM) {
         uint64_t pick = gs_rng_below(rng, s->size[c]);
         for (size_t w = 0; w < W; w++) {
@@ -934,6 +1078,7 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     s->weights_kind = p->weights;
     s->pins = p->pins;
     s->shape = p->shape;
+    s->resem = p->resem;
     s->shape_weight = p->shape_weight;
     for (int a = 0; a < 3; a++) {
         s->mirror[a] = p->mirror[a];

@@ -1,0 +1,161 @@
+/* Resemblance during synthesis (Merrell 2007, section 3.3, Eqs. 2-6): the
+ * index of the example's neighbourhoods. See include/geosynth/model.h
+ * (gs_model_resem_build) and the chooser in src/model/solver.c.
+ *
+ * Every example location v' gives a pattern: its label E[v'] (the centre)
+ * and the labels of its (2w+1)^3 - 1 neighbours (OUTSIDE past the example's
+ * faces: it matches nothing). Equal patterns are merged with a multiplicity.
+ * Patterns are sorted by centre label, so the patterns whose centre is a
+ * candidate of a cell form a few runs of bit positions. For every (offset
+ * q, label a) that occurs, a bitset over the patterns marks those with label
+ * a at q: the match count of every pattern against a cell's decided
+ * neighbours is the sum of the neighbours' bitsets, accumulated in
+ * bit-sliced counters (src/model/solver.c, choose_label_resem).
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/mem.h"
+#include "model/model_impl.h"
+
+#define OUTSIDE 0xffffu
+
+/* qsort context: patterns are rows of `row` uint16 (centre first) */
+static size_t g_row;
+static int cmp_row(const void *pa, const void *pb)
+{
+    const uint16_t *a = pa, *b = pb;
+    for (size_t i = 0; i < g_row; i++)
+        if (a[i] != b[i])
+            return a[i] < b[i] ? -1 : 1;
+    return 0;
+}
+
+gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_model_resem_t *out)
+{
+    GS_CHECK(w >= 1 && w <= 2, GS_ERR_ARG, "model.resemblance window radius %d: expected 1 or 2", w);
+    GS_CHECK(slack >= 0 && slack <= 64, GS_ERR_ARG, "model.resemblance_slack = %d: expected 0..64",
+             slack);
+    const int side = 2 * w + 1;
+    const int Q = side * side * side - 1;
+    const size_t row = (size_t)Q + 1;
+    const size_t ne = (size_t)ex->nx * ex->ny * ex->nz;
+    struct gs_model_resem *r = gs_calloc(1, sizeof *r);
+    GS_CHECK(r != NULL, GS_ERR_MEM, "resemblance index: cannot allocate");
+    uint16_t *rows = NULL;
+    gs_err err = GS_OK;
+    r->w = w;
+    r->Q = Q;
+    r->slack = slack;
+    GS_TRY(err, gs_alloc_array((void **)&r->off, (size_t)Q * 3, sizeof *r->off, "offsets"), fail);
+    int q = 0;
+    for (int dz = -w; dz <= w; dz++)
+        for (int dy = -w; dy <= w; dy++)
+            for (int dx = -w; dx <= w; dx++) {
+                if (!dx && !dy && !dz)
+                    continue;
+                r->off[3 * q] = dx;
+                r->off[3 * q + 1] = dy;
+                r->off[3 * q + 2] = dz;
+                q++;
+            }
+    GS_TRY(err, gs_alloc_array((void **)&rows, ne, row * sizeof *rows, "example neighbourhoods"),
+           fail);
+    int L = 1;
+    size_t i = 0;
+    for (int z = 0; z < ex->nz; z++)
+        for (int y = 0; y < ex->ny; y++)
+            for (int x = 0; x < ex->nx; x++, i++) {
+                uint16_t *rw = rows + i * row;
+                rw[0] = ex->labels[gs_model_lattice_index(ex, x, y, z)];
+                if (rw[0] + 1 > L)
+                    L = rw[0] + 1;
+                for (q = 0; q < Q; q++) {
+                    int px = x + r->off[3 * q], py = y + r->off[3 * q + 1], pz = z + r->off[3 * q + 2];
+                    rw[1 + q] = px < 0 || py < 0 || pz < 0 || px >= ex->nx || py >= ex->ny ||
+                                        pz >= ex->nz
+                                    ? OUTSIDE
+                                    : ex->labels[gs_model_lattice_index(ex, px, py, pz)];
+                }
+            }
+    g_row = row;
+    qsort(rows, ne, row * sizeof *rows, cmp_row);
+    /* merge equal rows */
+    size_t P = 0;
+    GS_TRY(err, gs_alloc_array((void **)&r->mult, ne, sizeof *r->mult, "pattern counts"), fail);
+    for (i = 0; i < ne; i++) {
+        if (P && !memcmp(rows + (P - 1) * row, rows + i * row, row * sizeof *rows)) {
+            r->mult[P - 1]++;
+            continue;
+        }
+        if (P != i)
+            memcpy(rows + P * row, rows + i * row, row * sizeof *rows);
+        r->mult[P++] = 1;
+    }
+    r->P = (int)P;
+    r->PW = (int)((P + 63) / 64);
+    r->L = L;
+    GS_TRY(err, gs_alloc_array((void **)&r->center, P, sizeof *r->center, "pattern centres"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&r->range, (size_t)L + 1, sizeof *r->range, "centre runs"),
+           fail);
+    for (int l = 0; l <= L; l++)
+        r->range[l] = 0;
+    for (i = 0; i < P; i++) {
+        r->center[i] = rows[i * row];
+        r->range[r->center[i] + 1]++;
+    }
+    for (int l = 0; l < L; l++)
+        r->range[l + 1] += r->range[l];
+    /* bitsets of the (offset, label) pairs that occur */
+    GS_TRY(err, gs_alloc_array((void **)&r->slot, (size_t)Q * (size_t)L, sizeof *r->slot, "slots"),
+           fail);
+    for (size_t k = 0; k < (size_t)Q * (size_t)L; k++)
+        r->slot[k] = -1;
+    size_t nslots = 0;
+    for (i = 0; i < P; i++)
+        for (q = 0; q < Q; q++) {
+            uint16_t a = rows[i * row + 1 + (size_t)q];
+            if (a != OUTSIDE && r->slot[(size_t)q * L + a] < 0)
+                r->slot[(size_t)q * L + a] = (int32_t)nslots++;
+        }
+    GS_TRY(err, gs_alloc_array((void **)&r->bits, nslots ? nslots : 1, (size_t)r->PW * 8, "pattern bitsets"),
+           fail);
+    memset(r->bits, 0, (nslots ? nslots : 1) * (size_t)r->PW * 8);
+    for (i = 0; i < P; i++)
+        for (q = 0; q < Q; q++) {
+            uint16_t a = rows[i * row + 1 + (size_t)q];
+            if (a == OUTSIDE)
+                continue;
+            uint64_t *b = r->bits + (size_t)r->slot[(size_t)q * L + a] * (size_t)r->PW;
+            b[i >> 6] |= (uint64_t)1 << (i & 63);
+        }
+    r->nslots = nslots;
+    int B = 1;
+    while ((1 << B) <= Q)
+        B++;
+    r->B = B;
+    gs_free(rows);
+    *out = r;
+    return GS_OK;
+fail:
+    gs_free(rows);
+    gs_model_resem_destroy(&r);
+    return err;
+}
+
+void gs_model_resem_destroy(gs_model_resem_t *pr)
+{
+    if (!pr || !*pr)
+        return;
+    struct gs_model_resem *r = *pr;
+    gs_free(r->off);
+    gs_free(r->mult);
+    gs_free(r->center);
+    gs_free(r->range);
+    gs_free(r->slot);
+    gs_free(r->bits);
+    gs_free(r);
+    *pr = NULL;
+}
+
+int gs_model_resem_patterns(const gs_model_resem_t r) { return r ? r->P : 0; }
