@@ -241,10 +241,15 @@ typedef struct gs_model_params {
  * with another centre would add the same count to every label). Neighbours
  * past the example's faces match nothing. With no decided neighbour every
  * location ties, so P(k) is the example's frequency of k.
+ * layers != 0 (an extension, not in the paper): output and example stand on
+ * the same ground, so a cell at height z only considers the locations of
+ * example layer min(z, example nz - 1) (all locations when none of them has
+ * a candidate centre): structure stays at the heights where the example has
+ * it instead of hanging from the fixed empty top.
  * Cost per choice: O(Q * words of the candidate patterns); memory Q*L*4 +
  * (distinct (offset, label) pairs) * P/8 bytes, P = distinct patterns. */
 typedef struct gs_model_resem *gs_model_resem_t;
-gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack,
+gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack, int layers,
                             gs_model_resem_t *out);
 void gs_model_resem_destroy(gs_model_resem_t *r);
 /* Distinct neighbourhood patterns of the index (0 for NULL). */

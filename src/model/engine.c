@@ -88,6 +88,7 @@ typedef struct model_config {
     char *weights;
     int64_t resemblance;
     int64_t resemblance_slack;
+    int resemblance_layers;
     char *ac;
     int fix_z_faces;
     char *start;
@@ -321,6 +322,9 @@ static const gs_cfg_key model_keys[] = {
                    "off (labels drawn by model.weights)"),
     GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
                    "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
+    GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "false",
+                    "resemblance: a cell at height z draws only from the example's "
+                    "neighbourhoods at the same height (output and example share the ground)"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",
                     "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
     GS_CFG_KEY_BOOL(model_config, fix_z_faces, "model.fix_z_faces", "true",
@@ -1222,7 +1226,7 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
         GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
         GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
-                                     &e->resem));
+                                     c->resemblance_layers, &e->resem));
         e->params.resem = e->resem;
         gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
                gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,

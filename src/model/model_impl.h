@@ -43,6 +43,10 @@ struct gs_model_resem {
     size_t nslots;
     int B;             /* bits of the match counters */
     int slack;         /* d0 - minimum distance */
+    int nz, layers;    /* example layers; layers = 1: a cell at height z only draws
+                          patterns found at example layer min(z, nz - 1) */
+    uint32_t *zmult;   /* [nz][P] locations per layer (layers only) */
+    uint64_t *zbits;   /* [nz][PW] patterns present in each layer */
 };
 
 struct gs_model_solver {

@@ -31,18 +31,20 @@ static int cmp_row(const void *pa, const void *pb)
     return 0;
 }
 
-gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_model_resem_t *out)
+gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int layers,
+                            gs_model_resem_t *out)
 {
     GS_CHECK(w >= 1 && w <= 2, GS_ERR_ARG, "model.resemblance window radius %d: expected 1 or 2", w);
     GS_CHECK(slack >= 0 && slack <= 64, GS_ERR_ARG, "model.resemblance_slack = %d: expected 0..64",
              slack);
     const int side = 2 * w + 1;
     const int Q = side * side * side - 1;
-    const size_t row = (size_t)Q + 1;
+    const size_t key = (size_t)Q + 1, row = key + 1; /* centre, neighbours, then z */
     const size_t ne = (size_t)ex->nx * ex->ny * ex->nz;
     struct gs_model_resem *r = gs_calloc(1, sizeof *r);
     GS_CHECK(r != NULL, GS_ERR_MEM, "resemblance index: cannot allocate");
-    uint16_t *rows = NULL;
+    uint16_t *rows = NULL, *zs = NULL; /* zs: layer of every location, in merged order */
+    uint32_t *first = NULL;            /* first location of every pattern */
     gs_err err = GS_OK;
     r->w = w;
     r->Q = Q;
@@ -68,6 +70,7 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_mod
             for (int x = 0; x < ex->nx; x++, i++) {
                 uint16_t *rw = rows + i * row;
                 rw[0] = ex->labels[gs_model_lattice_index(ex, x, y, z)];
+                rw[key] = (uint16_t)z;
                 if (rw[0] + 1 > L)
                     L = rw[0] + 1;
                 for (q = 0; q < Q; q++) {
@@ -83,15 +86,20 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_mod
     /* merge equal rows */
     size_t P = 0;
     GS_TRY(err, gs_alloc_array((void **)&r->mult, ne, sizeof *r->mult, "pattern counts"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&zs, ne, sizeof *zs, "pattern layers"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&first, ne + 1, sizeof *first, "pattern layers"), fail);
     for (i = 0; i < ne; i++) {
-        if (P && !memcmp(rows + (P - 1) * row, rows + i * row, row * sizeof *rows)) {
+        zs[i] = rows[i * row + key];
+        if (P && !memcmp(rows + (P - 1) * row, rows + i * row, key * sizeof *rows)) {
             r->mult[P - 1]++;
             continue;
         }
+        first[P] = (uint32_t)i;
         if (P != i)
             memcpy(rows + P * row, rows + i * row, row * sizeof *rows);
         r->mult[P++] = 1;
     }
+    first[P] = (uint32_t)ne;
     r->P = (int)P;
     r->PW = (int)((P + 63) / 64);
     r->L = L;
@@ -130,6 +138,27 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_mod
             b[i >> 6] |= (uint64_t)1 << (i & 63);
         }
     r->nslots = nslots;
+    r->nz = ex->nz;
+    r->layers = layers;
+    if (layers) {
+        GS_TRY(err, gs_alloc_array((void **)&r->zmult, (size_t)ex->nz * P, sizeof *r->zmult,
+                                   "pattern layer counts"),
+               fail);
+        GS_TRY(err, gs_alloc_array((void **)&r->zbits, (size_t)ex->nz * (size_t)r->PW, 8,
+                                   "pattern layer bitsets"),
+               fail);
+        memset(r->zmult, 0, (size_t)ex->nz * P * sizeof *r->zmult);
+        memset(r->zbits, 0, (size_t)ex->nz * (size_t)r->PW * 8);
+        for (i = 0; i < P; i++)
+            for (uint32_t k = first[i]; k < first[i + 1]; k++) {
+                r->zmult[(size_t)zs[k] * P + i]++;
+                r->zbits[(size_t)zs[k] * (size_t)r->PW + (i >> 6)] |= (uint64_t)1 << (i & 63);
+            }
+    }
+    gs_free(zs);
+    gs_free(first);
+    zs = NULL;
+    first = NULL;
     int B = 1;
     while ((1 << B) <= Q)
         B++;
@@ -139,6 +168,8 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, gs_mod
     return GS_OK;
 fail:
     gs_free(rows);
+    gs_free(zs);
+    gs_free(first);
     gs_model_resem_destroy(&r);
     return err;
 }
@@ -154,6 +185,8 @@ void gs_model_resem_destroy(gs_model_resem_t *pr)
     gs_free(r->range);
     gs_free(r->slot);
     gs_free(r->bits);
+    gs_free(r->zmult);
+    gs_free(r->zbits);
     gs_free(r);
     *pr = NULL;
 }

@@ -751,6 +751,22 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             for (int32_t i = R->range[a]; i < R->range[a + 1]; i++)
                 cand[i >> 6] |= (uint64_t)1 << (i & 63);
         }
+    /* layers: only the patterns of the cell's example layer, when any is a candidate */
+    const uint32_t *mult = R->mult;
+    if (R->layers) {
+        int zl = s->box_z0 + c / (s->box_rx * s->box_ry);
+        if (zl >= R->nz)
+            zl = R->nz - 1;
+        const uint64_t *zb = R->zbits + (size_t)zl * PW;
+        uint64_t any = 0;
+        for (size_t w = wlo; w < whi; w++)
+            any |= cand[w] & zb[w];
+        if (any) {
+            for (size_t w = wlo; w < whi; w++)
+                cand[w] &= zb[w];
+            mult = R->zmult + (size_t)zl * (size_t)R->P;
+        }
+    }
     for (int b = 0; b < R->B; b++)
         memset(cnt + (size_t)b * PW + wlo, 0, (whi - wlo) * 8);
     /* add the bitset of every decided neighbour */
@@ -831,14 +847,14 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     uint64_t total = 0;
     for (size_t w = wlo; w < whi; w++)
         for (uint64_t bits = mask[w]; bits; bits &= bits - 1)
-            total += R->mult[w * 64 + (size_t)ctz64(bits)];
+            total += mult[w * 64 + (size_t)ctz64(bits)];
     uint64_t pick = gs_rng_below(rng, total);
     for (size_t w = wlo; w < whi; w++)
         for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
             size_t i = w * 64 + (size_t)ctz64(bits);
-            if (pick < R->mult[i])
+            if (pick < mult[i])
                 return R->center[i];
-            pick -= R->mult[i];
+            pick -= mult[i];
         }
     return -1;
 }
