@@ -316,13 +316,13 @@ static const gs_cfg_key model_keys[] = {
                     "examples)"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
                     "label choice: uniform (author) or proportional to the example's counts"),
-    GS_CFG_KEY_INT(model_config, resemblance, "model.resemblance", 0, 2, 0, "0",
+    GS_CFG_KEY_INT(model_config, resemblance, "model.resemblance", 0, 2, 0, "2",
                    "resemblance during synthesis (paper Sec. 3.3): window radius w (1 = 3x3x3, "
                    "2 = 5x5x5 example neighbourhoods matched against the decided cells); 0 = "
                    "off (labels drawn by model.weights)"),
     GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
                    "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
-    GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "false",
+    GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "true",
                     "resemblance: a cell at height z draws only from the example's "
                     "neighbourhoods at the same height (output and example share the ground)"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",

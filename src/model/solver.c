@@ -718,7 +718,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     const struct gs_model_resem *R = s->resem;
     const size_t W = (size_t)s->W, PW = (size_t)R->PW;
     const uint64_t *dc = s->dom + (size_t)c * W;
-    const size_t need = PW * (size_t)(R->B + 3);
+    const size_t need = PW * (size_t)(R->B + 4);
     if (need > s->rs_cap) {
         uint64_t *nb = gs_realloc(s->rs_buf, need * 8);
         if (!nb)
@@ -727,6 +727,8 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         s->rs_cap = need;
     }
     uint64_t *cand = s->rs_buf, *mask = cand + PW, *tmp = mask + PW, *cnt = tmp + PW;
+    uint32_t *act = (uint32_t *)(cnt + (size_t)R->B * PW); /* words with a candidate */
+    size_t nact = 0;
     /* candidate patterns: the centre runs of the candidate labels */
     size_t wlo = PW, whi = 0;
     for (size_t w = 0; w < W; w++)
@@ -767,8 +769,12 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             mult = R->zmult + (size_t)zl * (size_t)R->P;
         }
     }
-    for (int b = 0; b < R->B; b++)
-        memset(cnt + (size_t)b * PW + wlo, 0, (whi - wlo) * 8);
+    for (size_t w = wlo; w < whi; w++)
+        if (cand[w]) {
+            act[nact++] = (uint32_t)w;
+            for (int b = 0; b < R->B; b++)
+                cnt[(size_t)b * PW + w] = 0;
+        }
     /* add the bitset of every decided neighbour */
     const int rx = s->box_rx, ry = s->box_ry, rz = s->box_rz;
     const int x = c % rx, y = (c / rx) % ry, z = c / (rx * ry);
@@ -801,7 +807,8 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         if (slot < 0)
             continue;
         const uint64_t *bs = R->bits + (size_t)slot * PW;
-        for (size_t w = wlo; w < whi; w++) {
+        for (size_t j = 0; j < nact; j++) {
+            const size_t w = act[j];
             uint64_t carry = bs[w] & cand[w];
             for (int b = 0; carry && b < R->B; b++) {
                 uint64_t *cb = cnt + (size_t)b * PW + w;
@@ -817,10 +824,11 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     for (int b = R->B - 1; b >= 0; b--) {
         const uint64_t *cb = cnt + (size_t)b * PW;
         uint64_t any = 0;
-        for (size_t w = wlo; w < whi; w++)
-            any |= tmp[w] = mask[w] & cb[w];
+        for (size_t j = 0; j < nact; j++)
+            any |= tmp[act[j]] = mask[act[j]] & cb[act[j]];
         if (any) {
-            memcpy(mask + wlo, tmp + wlo, (whi - wlo) * 8);
+            for (size_t j = 0; j < nact; j++)
+                mask[act[j]] = tmp[act[j]];
             best |= 1 << b;
         }
     }
@@ -829,7 +837,8 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         if (t <= 0) {
             memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
         } else {
-            for (size_t w = wlo; w < whi; w++) {
+            for (size_t j = 0; j < nact; j++) {
+                const size_t w = act[j];
                 uint64_t ge = 0, eq = cand[w];
                 for (int b = R->B - 1; b >= 0; b--) {
                     uint64_t cb = cnt[(size_t)b * PW + w];
