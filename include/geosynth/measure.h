@@ -40,6 +40,16 @@ gs_err gs_measure_ks(const double *x, size_t nx, const double *y, size_t ny, dou
 gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const int periodic[3],
                               uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
 
+/* Connected components of a point cloud: points i and j are linked when
+ * |p_i - p_j| <= radius; point i is xyz[i * stride .. + 3) (stride >= 3
+ * doubles, e.g. 6 for x y z nx ny nz). label[i] (n entries) receives the
+ * component of point i, numbered 1 .. *ncomp in order of each component's
+ * lowest point index; *sizes (gs_malloc'ed, *ncomp + 1 entries, [0] unused)
+ * the point count of each, NULL to skip. Cost O(n log n) plus the pairs
+ * within radius; memory ~ 40 bytes per point (src/measure/pointset.c). */
+gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, double radius,
+                                   uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
+
 /* ------------------------------------------ geodesics on triangle meshes -- */
 
 /* Fast-marching workspace over a triangle mesh (src/measure/geodesic.c):

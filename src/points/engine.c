@@ -52,6 +52,7 @@
 #include "geosynth/image.h"
 #include "geosynth/json.h"
 #include "geosynth/log.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
@@ -1107,6 +1108,18 @@ done:
 
 /* ------------------------------------------------------------------- run */
 
+/* Whole objects, from the output and the example alone. */
+typedef struct objects_stats {
+    double height_ks;                /* KS distance of output vs example heights */
+    double example_height_ks_halves; /* the example's two halves (x) against each other */
+    double height_max, example_height_max;
+    uint64_t above_example_max;      /* output points above the example's highest */
+    uint32_t fragments, example_fragments;     /* components (link 2 spacings) */
+    uint32_t small_fragments, example_small_fragments; /* of < SMALL_FRAGMENT points */
+    uint64_t small_fragment_points;
+    double example_area;
+} objects_stats;
+
 typedef struct run_state {
     gs_points_texture tex;
     gs_points_params params;
@@ -1118,6 +1131,7 @@ typedef struct run_state {
     fault_inject fault;
     int together;  /* the error being returned is collective (see agree) */
     gs_points_seam_stats seam;    /* of the output (rank 0) */
+    objects_stats obj;            /* whole objects: heights and fragments (rank 0) */
     gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
 } run_state;
 
@@ -1342,6 +1356,105 @@ static size_t distinct_sources(const gs_points_patch_metrics *m, size_t n)
     return d;
 }
 
+/* A component of fewer points than this is a speck (a few samples). */
+#define SMALL_FRAGMENT 30
+
+/* Components of pts (link radius r); with a box (lo/hi != NULL) only those
+ * with a point inside it in xy count. */
+static gs_err count_fragments(const gs_points *pts, double r, const double *lo, const double *hi,
+                              uint32_t *all, uint32_t *small, uint64_t *small_points)
+{
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sizes = NULL;
+    uint8_t *in = NULL;
+    gs_err err = GS_OK;
+    *all = *small = 0;
+    if (small_points)
+        *small_points = 0;
+    GS_TRY(err, gs_alloc_array((void **)&label, pts->n ? pts->n : 1, sizeof *label, "fragments"),
+           done);
+    GS_TRY(err, gs_measure_point_components((const double *)pts->v, 6, pts->n, r, label, &nc,
+                                            &sizes), done);
+    GS_TRY(err, gs_alloc_array((void **)&in, (size_t)nc + 1, 1, "fragments"), done);
+    memset(in, lo ? 0 : 1, (size_t)nc + 1);
+    for (size_t i = 0; lo && i < pts->n; i++) {
+        const double *p = pts->v[i].p;
+        if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
+            in[label[i]] = 1;
+    }
+    for (uint32_t c = 1; c <= nc; c++) {
+        if (!in[c])
+            continue;
+        (*all)++;
+        if (sizes[c] < SMALL_FRAGMENT) {
+            (*small)++;
+            if (small_points)
+                *small_points += sizes[c];
+        }
+    }
+done:
+    gs_free(label);
+    gs_free(sizes);
+    gs_free(in);
+    return err;
+}
+
+/* Heights (KS against the example's inside its box) and fragments. */
+static gs_err object_measures(run_state *rs, const gs_points *zup)
+{
+    objects_stats *o = &rs->obj;
+    memset(o, 0, sizeof *o);
+    const gs_points_texture *t = &rs->tex;
+    double *hx = NULL, *hy = NULL;
+    size_t ny = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&hx, zup->n ? zup->n : 1, sizeof *hx, "heights"), done);
+    GS_TRY(err, gs_alloc_array((void **)&hy, t->pts.n ? t->pts.n : 1, sizeof *hy, "heights"), done);
+    o->example_height_max = -INFINITY;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
+            p[1] < t->box_hi[1]) {
+            hy[ny++] = p[2];
+            o->example_height_max = fmax(o->example_height_max, p[2]);
+        }
+    }
+    o->height_max = -INFINITY;
+    for (size_t i = 0; i < zup->n; i++) {
+        hx[i] = zup->v[i].p[2];
+        o->height_max = fmax(o->height_max, hx[i]);
+        o->above_example_max += hx[i] > o->example_height_max;
+    }
+    GS_TRY(err, gs_measure_ks(hx, zup->n, hy, ny, &o->height_ks), done);
+    {
+        /* How far two pieces of the example itself differ: the scale a
+         * height KS of the output is to be read against. */
+        size_t na = 0, nb = 0;
+        double mid = 0.5 * (t->box_lo[0] + t->box_hi[0]);
+        for (size_t i = 0; i < t->pts.n; i++) {
+            const double *p = t->pts.v[i].p;
+            if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
+                p[1] < t->box_hi[1]) {
+                if (p[0] < mid)
+                    hx[na++] = p[2];
+                else
+                    hy[nb++] = p[2];
+            }
+        }
+        GS_TRY(err, gs_measure_ks(hx, na, hy, nb, &o->example_height_ks_halves), done);
+    }
+    double r = 2 * t->spacing;
+    GS_TRY(err, count_fragments(zup, r, NULL, NULL, &o->fragments, &o->small_fragments,
+                                &o->small_fragment_points), done);
+    GS_TRY(err, count_fragments(&t->pts, r, t->box_lo, t->box_hi, &o->example_fragments,
+                                &o->example_small_fragments, NULL), done);
+    o->example_area = (t->box_hi[0] - t->box_lo[0]) * (t->box_hi[1] - t->box_lo[1]);
+done:
+    gs_free(hx);
+    gs_free(hy);
+    return err;
+}
+
 /* The seam measure of the output (z-up points) and of the example. */
 static gs_err seam_measures(run_state *rs, const gs_points *zup)
 {
@@ -1434,6 +1547,22 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
     gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
     gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);
+    const objects_stats *ob = &rs->obj;
+    double area = rs->params.out_size[0] * rs->params.out_size[1];
+    gs_run_metric_f64(run, "height_ks", ob->height_ks);
+    gs_run_metric_f64(run, "example_height_ks_halves", ob->example_height_ks_halves);
+    gs_run_metric_f64(run, "height_max", ob->height_max);
+    gs_run_metric_f64(run, "example_height_max", ob->example_height_max);
+    gs_run_metric_i64(run, "points_above_example_max", (int64_t)ob->above_example_max);
+    gs_run_metric_i64(run, "fragments", ob->fragments);
+    gs_run_metric_f64(run, "fragments_per_area", ob->fragments / area);
+    gs_run_metric_f64(run, "example_fragments_per_area",
+                      ob->example_area > 0 ? ob->example_fragments / ob->example_area : 0);
+    gs_run_metric_i64(run, "small_fragments", ob->small_fragments);
+    gs_run_metric_i64(run, "small_fragment_points", (int64_t)ob->small_fragment_points);
+    gs_run_metric_f64(run, "small_fragments_per_area", ob->small_fragments / area);
+    gs_run_metric_f64(run, "example_small_fragments_per_area",
+                      ob->example_area > 0 ? ob->example_small_fragments / ob->example_area : 0);
     gs_run_metric_f64(run, "seconds_search", tm.search);
     gs_run_metric_f64(run, "seconds_warp", tm.warp);
     gs_run_metric_f64(run, "seconds_blend", tm.blend);
@@ -1506,6 +1635,8 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
         if (local == GS_OK) {
             gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
             local = seam_measures(&rs, &zup);
+            if (local == GS_OK)
+                local = object_measures(&rs, &zup);
         }
         if (c->mesh && local == GS_OK) {
             gs_run_path(run, "mesh.ply", path, sizeof path);

@@ -255,6 +255,9 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
     return GS_OK;
 }
 
+/* Identity pairs on the far part of a patch's surface (see warp_patch). */
+#define SURFACE_ANCHORS 16
+
 /* Points of a patch's strips on which the candidate warps are compared. */
 #define WARP_CHECK_POINTS 96
 
@@ -686,12 +689,10 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
     met->pairs = (uint32_t)npairs;
     if (npairs < 3)
         goto done;
-    GS_TRY(err, gs_alloc_array((void **)&src, 3 * (npairs + 16), sizeof *src, "spline controls"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&dst, 3 * (npairs + 16), sizeof *dst, "spline controls"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&dstn, 3 * (npairs + 16), sizeof *dstn, "spline controls"),
-           done);
+    size_t ncap = npairs + 16 + 2 * SURFACE_ANCHORS;
+    GS_TRY(err, gs_alloc_array((void **)&src, 3 * ncap, sizeof *src, "spline controls"), done);
+    GS_TRY(err, gs_alloc_array((void **)&dst, 3 * ncap, sizeof *dst, "spline controls"), done);
+    GS_TRY(err, gs_alloc_array((void **)&dstn, 3 * ncap, sizeof *dstn, "spline controls"), done);
     size_t nc = 0;
     double gap = 0;
     for (size_t i = 0; i < nreps; i++) {
@@ -726,6 +727,46 @@ static gs_err warp_patch(struct gs_points_synth *s, int mode, const double o[2],
                 nc++;
             }
         }
+    /* Anchors on the patch's own surface in its far part (as far from the
+     * active strips as the corner anchors): the thin-plate spline acts
+     * globally, and anchors off the surface (above and below the texture)
+     * hold the surface itself loosely, so the far part of F followed the
+     * strips' displacement, and the next patch matched against that moved
+     * copy: heights drifted from patch to patch (heightfield: KS of heights
+     * 0.04 -> 0.22 with the warp, 151 points above the example's top). */
+    {
+        gs_points far = {0};
+        keyed *fk = NULL;
+        size_t *freps = NULL, nfr = 0;
+        for (size_t i = 0; i < s->F.n && err == GS_OK; i++) {
+            const double *x = s->F.v[i].p;
+            double dl = (mode & GS_POINTS_OVERLAP_LEFT) ? x[0] - (o[0] + s->ow) : INFINITY;
+            double db = (mode & GS_POINTS_OVERLAP_BOTTOM) ? x[1] - (o[1] + s->ow) : INFINITY;
+            if (fmin(dl, db) >= 0.5 * s->ps && in_xy(x, blo, bhi))
+                err = gs_points_append(&far, &s->F.v[i], 1);
+        }
+        if (err == GS_OK && far.n > 0)
+            err = gs_alloc_array((void **)&fk, far.n, sizeof *fk, "anchors");
+        if (err == GS_OK && far.n > 0)
+            err = gs_alloc_array((void **)&freps, far.n, sizeof *freps, "anchors");
+        if (err == GS_OK && far.n > 0) {
+            for (size_t i = 0; i < far.n; i++)
+                fk[i].idx = i;
+            size_t nm = (far.n + SURFACE_ANCHORS - 1) / SURFACE_ANCHORS;
+            cluster(far.v, fk, far.n, (int)(nm < 1 ? 1 : nm), 0, freps, &nfr);
+            for (size_t i = 0; i < nfr && nc < ncap; i++) {
+                const double *a = far.v[freps[i]].p;
+                memcpy(src + 3 * nc, a, 3 * sizeof *a);
+                memcpy(dst + 3 * nc, a, 3 * sizeof *a);
+                memcpy(dstn + 3 * nc, a, 3 * sizeof *a);
+                nc++;
+            }
+        }
+        gs_free(fk);
+        gs_free(freps);
+        gs_points_free(&far);
+        GS_TRY(err, err, done);
+    }
     /* Two splines: the pairs as they are (eq. 1-3), and each pair's
      * displacement along q's normal only (point-to-plane, as in ICP: s and
      * q are samples of two samplings of a surface, so on a smooth surface

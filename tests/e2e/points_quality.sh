@@ -11,7 +11,10 @@
 #   not without the blend (points.blend = false);
 # - candidate randomness: over the patches with 2 or more candidates, the
 #   chosen patch's place in Psi_k (sorted by distance, scaled to [0, 1])
-#   averages 1/2 as a uniform pick gives, within 3 standard deviations.
+#   averages 1/2 as a uniform pick gives, within 3 standard deviations;
+# - whole objects (weave): the heights' KS distance to the example below 1.5
+#   x the distance between the example's two halves, and specks (components
+#   of < 30 points) at most 0.1 per unit area more than in the example.
 source "$GS_ROOT/tests/e2e/lib.bash"
 W=$GS_ROOT/configs/points/weave.ini
 small=(--set points.out_points=0 --set points.out_size=4.4,4.4)
@@ -34,6 +37,13 @@ lt "$u1" "$u0" 1 && ok "warp: fewer seam points without a surface across the sea
 w=$(metric warp patches_warped)
 [[ $w -gt 0 ]] && ok "$w patches warped" || bad "no patch warped"
 
+ks=$(metric warp height_ks) ksh=$(metric warp example_height_ks_halves)
+lt "$ks" "$ksh" 1.5 && ok "heights match the example (KS $ks; the example's halves differ by $ksh)" ||
+  bad "heights differ from the example: KS $ks, the example's own halves $ksh (expected < 1.5 x)"
+sf=$(metric warp small_fragments_per_area) sfe=$(metric warp example_small_fragments_per_area)
+lt "$sf" "$(/usr/bin/python3 -c "print($sfe + 0.1)")" 1 &&
+  ok "no more specks than the example ($sf per unit area, example $sfe)" ||
+  bad "specks: $sf per unit area, the example $sfe"
 declare -A res
 for d in warp noblend; do
   sd=$(metric $d seam_dist) id=$(metric $d inside_dist)
