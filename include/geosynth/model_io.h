@@ -99,6 +99,14 @@ void gs_model_quads_free(gs_model_quads *q);
 gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q,
                            const gs_model_palette *pal);
 
+/* Writes the preview picture of a run: the example (left) and the output
+ * (right) as coloured voxel cubes, colours as in lattice.vox (pal), each
+ * fitted to a side x side panel, rendered with the built-in renderer
+ * (include/geosynth/preview.h). GS_ERR_LIB when no renderer is available. */
+gs_err gs_model_write_preview(const char *path, const gs_model_lattice *example,
+                              const gs_model_lattice *output, const gs_model_palette *pal,
+                              int side);
+
 /* ---- quality ------------------------------------------------------------ */
 
 /* Share of ALL the output's w x w x w windows, all-empty ones included (an

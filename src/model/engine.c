@@ -75,6 +75,8 @@ typedef struct model_config {
     int64_t symmetry;
     int periodic_input;
     int tile_image;
+    int preview;
+    int64_t preview_size;
     char *format;
     char *dataset;
     gs_cfg_int3 size;
@@ -365,6 +367,11 @@ static const gs_cfg_key model_keys[] = {
                     "mesh of coloured voxel cubes with merged faces"),
     GS_CFG_KEY_BOOL(model_config, vox, "model.vox", "true",
                     "also write lattice.vox (MagicaVoxel)"),
+    GS_CFG_KEY_BOOL(model_config, preview, "model.preview", "true",
+                    "3D lattices: write preview.png, the example and the output side by side as "
+                    "coloured cubes (colours as in lattice.vox)"),
+    GS_CFG_KEY_INT(model_config, preview_size, "model.preview_size", 16, 2048, 0, "512",
+                   "preview.png: pixels per panel side"),
     GS_CFG_KEY_BOOL(model_config, txt, "model.txt", "false",
                     "also write lattice.txt in Merrell's format (his editor scripts read it)"),
     GS_CFG_KEY_REAL(model_config, voxel_size, "model.voxel_size", 0, 1e9, GS_CFG_OPEN_LO, "1",
@@ -1098,6 +1105,18 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         gs_run_path(run, "lattice.png", path, sizeof path);
         GS_CALL(gs_model_write_png(path, &e->lat, &e->pal));
         gs_run_output(run, "image", "lattice.png");
+    }
+    if (c->preview && e->lat.nz > 1 && !c->tileset[0] && !c->sample[0]) {
+        gs_run_path(run, "preview.png", path, sizeof path);
+        gs_err perr = gs_model_write_preview(path, &e->example, &e->lat, &e->pal, (int)c->preview_size);
+        if (perr == GS_ERR_LIB) { /* no renderer here: the run is still good */
+            gs_log(GS_LOG_WARN, "preview.png not written: %s (model.preview = false skips it)",
+                   gs_error_message());
+            gs_error_clear();
+        } else {
+            GS_CALL(perr);
+            gs_run_output(run, "preview", "preview.png");
+        }
     }
     if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);

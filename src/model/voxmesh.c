@@ -5,7 +5,9 @@
 
 #include "geosynth/file.h"
 #include "geosynth/mem.h"
+#include "geosynth/mesh.h"
 #include "geosynth/model_io.h"
+#include "geosynth/preview.h"
 
 static gs_err push_quad(gs_model_quads *out, size_t *cap, const gs_model_quad *q)
 {
@@ -228,4 +230,57 @@ gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q, const gs_m
     if (!strcmp(ext, "obj"))
         return write_obj(path, q, pal);
     GS_RAISE(GS_ERR_ARG, "%s: mesh output must end in .ply or .obj", path);
+}
+
+/* ---- preview picture ------------------------------------------------------ */
+
+/* The coloured cubes of lat as a triangle mesh with one RGB per vertex (four
+ * vertices per quad, so faces are shaded flat). */
+static gs_err lattice_mesh(const gs_model_lattice *lat, const gs_model_palette *pal, gs_mesh *m,
+                           uint8_t **rgb)
+{
+    gs_model_quads q;
+    GS_CALL(gs_model_mesh_quads(lat, 1.0, &q));
+    gs_err err = gs_mesh_alloc(m, 4 * q.n, 2 * q.n, 0);
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)rgb, q.n ? 4 * q.n : 1, 3, "preview colours");
+    if (err) {
+        gs_mesh_destroy(m);
+        gs_model_quads_free(&q);
+        return err;
+    }
+    for (size_t i = 0; i < q.n; i++) {
+        uint8_t c[3];
+        gs_model_label_rgb(pal, q.q[i].label, c);
+        for (int k = 0; k < 4; k++) {
+            memcpy(m->pos + 3 * (4 * i + (size_t)k), q.q[i].p[k], 3 * sizeof(float));
+            memcpy(*rgb + 3 * (4 * i + (size_t)k), c, 3);
+        }
+        static const int tri[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++)
+            m->tris[6 * i + (size_t)k] = (uint32_t)(4 * i + (size_t)tri[k]);
+    }
+    gs_model_quads_free(&q);
+    return GS_OK;
+}
+
+gs_err gs_model_write_preview(const char *path, const gs_model_lattice *example,
+                              const gs_model_lattice *output, const gs_model_palette *pal,
+                              int side)
+{
+    gs_mesh m[2];
+    uint8_t *rgb[2] = {NULL, NULL};
+    memset(m, 0, sizeof m);
+    gs_err err = lattice_mesh(example, pal, &m[0], &rgb[0]);
+    if (err == GS_OK)
+        err = lattice_mesh(output, pal, &m[1], &rgb[1]);
+    if (err == GS_OK) {
+        gs_preview_panel panels[2] = {{&m[0], rgb[0]}, {&m[1], rgb[1]}};
+        err = gs_preview_write(path, panels, 2, side);
+    }
+    for (int i = 0; i < 2; i++) {
+        gs_mesh_destroy(&m[i]);
+        gs_free(rgb[i]);
+    }
+    return err;
 }

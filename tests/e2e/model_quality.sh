@@ -32,6 +32,8 @@ EOF
   run_gs 0 model -c $name.ini -o $name
   expect_rc 0 "$name 30x30x10 in 10x10 regions, default settings"
   [[ $rc -eq 0 ]] || continue
+  /usr/bin/python3 -c 'import sys, matplotlib.image as im; a = im.imread(sys.argv[1]); assert a.shape[:2] == (512, 1028), a.shape; l, r = a[:, :512, :3], a[:, 516:, :3]; assert l.std() > 0.05 and r.std() > 0.05' "$name/preview.png" \
+    && ok "$name: preview.png, example | output, 2 x 512 px, both panels drawn" || bad "$name: preview.png missing or blank"
   res=$(/usr/bin/python3 - "$M/$name.csv" "$name" <<'EOF'
 import json, sys
 import h5py, numpy as np
