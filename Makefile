@@ -23,10 +23,15 @@ OSMESA_LIBS   := $(shell pkg-config --libs osmesa 2>/dev/null || echo -lOSMesa)
 MPI_CFLAGS  := $(shell mpicc --showme:compile 2>/dev/null)
 
 WARN     := -Wall -Wextra -Wstrict-prototypes -Wshadow -Wno-unused-parameter
+# WERROR=1 (CI) turns every warning into an error.
+ifeq ($(WERROR),1)
+WARN     += -Werror
+CXXWERROR := -Werror
+endif
 CFLAGS   ?= -O2 -g
 CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L $(WARN) -Iinclude -Isrc $(HDF5_CFLAGS) $(OSMESA_CFLAGS) -MMD -MP
 CXXFLAGS ?= -O2 -g
-CXXFLAGS += -std=c++17 -Wall -Wextra -Wno-unused-parameter -Iinclude -Isrc $(MPI_CFLAGS) -MMD -MP
+CXXFLAGS += -std=c++17 -Wall -Wextra -Wno-unused-parameter $(CXXWERROR) -Iinclude -Isrc $(MPI_CFLAGS) -MMD -MP
 LDLIBS   := $(HDF5_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz -lm
 # OpenVDB and OSMesa live in plugins loaded on first use (include/geosynth/plugin.h):
 # linked into the program they cost every rank ~65 ms of start-up. The programs

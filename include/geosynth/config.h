@@ -227,6 +227,7 @@ typedef struct gs_run_config {
     double checkpoint_seconds; /* run.checkpoint_seconds, 0 = off, default 300 */
     int64_t checkpoint_every;  /* run.checkpoint_every, units of work, 0 = off (default) */
     char *log_level;           /* run.log_level: error|warn|info|debug, default info */
+    char *expect_digest;       /* run.expect_digest: 16 hex digits or "" (default, no check) */
 } gs_run_config;
 
 /* ---- key constructors (compile-time checked member types) ---- */
@@ -268,7 +269,10 @@ typedef int64_t gs_cfg_int3[3];
     GS_CFG_KEY_INT(st, member.checkpoint_every, "run.checkpoint_every", 0, GS_CFG_INT_MAX, 0, \
                    "0", "also checkpoint every this many units of work (0 = off)"),          \
     GS_CFG_KEY_ENUM(st, member.log_level, "run.log_level", "error|warn|info|debug", "info",  \
-                    "messages printed: error < warn < info < debug")
+                    "messages printed: error < warn < info < debug"),                       \
+    GS_CFG_KEY_STRING(st, member.expect_digest, "run.expect_digest", "",                     \
+                      "16 hex digits: the run fails (exit 2) unless its output digest is this " \
+                      "one; a match prints 'digest: HEX (verified)' (empty = no check)")
 
 #define GS_CFG_TABLE(engine, st, keys, validate) \
     {(engine), (keys), sizeof(keys) / sizeof((keys)[0]), sizeof(st), (validate)}

@@ -13,7 +13,7 @@
  * NDEBUG.
  *
  * The error record is per thread (a process normally has one thread that
- * raises). gs_error_report() prints it; gs_fatal() (src/par/abort.c) is the one
+ * raises). gs_error_report() prints it; gs_fatal() (src/par/runtime.c) is the one
  * place that reports and aborts all MPI ranks. No code under src/ calls
  * assert(), exit() or abort() directly.
  *

@@ -48,6 +48,8 @@ typedef struct gs_run {
     int64_t ckpt_count;     /* checkpoints written by this process */
     gs_json metrics;        /* quality metrics for summary.json (rank 0) */
     gs_json outputs;        /* output files written (rank 0) */
+    uint64_t expect_digest; /* run.expect_digest, checked by gs_run_finish */
+    int have_expect_digest; /* 1 when run.expect_digest was given */
     int failed_together;    /* set by an engine returning an error that every rank returned
                              * from the same collective (gs_par_agree): the CLI then ends
                              * the run collectively (rank 0 reports once), not by MPI_Abort */
@@ -76,8 +78,14 @@ void gs_run_output(gs_run *run, const char *kind, const char *path);
 /* Path inside the run directory: writes "RUN_DIR/name" into out. */
 void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len);
 
+/* Local: sets the digest gs_run_finish must see (run.expect_digest: "" = no
+ * check, else exactly 16 hex digits; anything else is GS_ERR_ARG naming the key). */
+gs_err gs_run_expect_digest(gs_run *run, const char *hex);
+
 /* Collective: writes summary.json with the digest and prints the RESULTS
- * section on rank 0. */
+ * section on rank 0. With run.expect_digest set, summary.json also records
+ * "expect_digest" and "digest_verified"; a different digest is GS_ERR_ARG on
+ * every rank (after summary.json is written), a match is logged "(verified)". */
 gs_err gs_run_finish(gs_run *run, uint64_t digest);
 
 /* Checkpoint cadence, set by the CLI from run.checkpoint_seconds and

@@ -418,6 +418,9 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
                resume ? " (resumed)" : "", run.size, run.size > 1 ? "s" : "",
                (unsigned long long)rc->seed, run.dir);
         gs_run_set_checkpointing(&run, rc->checkpoint_seconds, rc->checkpoint_every);
+        err = gs_run_expect_digest(&run, rc->expect_digest);
+    }
+    if (!err) {
         *collective = 0; /* engine failures may be local to one rank */
         err = e->run(&run, cfg, resume);
         if (err)

@@ -147,8 +147,35 @@ void gs_run_output(gs_run *run, const char *kind, const char *path)
     gs_json_end_object(&run->outputs);
 }
 
+gs_err gs_run_expect_digest(gs_run *run, const char *hex)
+{
+    run->have_expect_digest = 0;
+    if (!hex || !hex[0])
+        return GS_OK;
+    uint64_t v = 0;
+    size_t n = strlen(hex);
+    int ok = n == 16;
+    for (size_t i = 0; ok && i < n; i++) {
+        char c = hex[i];
+        int d = c >= '0' && c <= '9' ? c - '0'
+                : c >= 'a' && c <= 'f' ? c - 'a' + 10
+                : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                       : -1;
+        ok = d >= 0;
+        v = v << 4 | (uint64_t)(d < 0 ? 0 : d);
+    }
+    GS_CHECK(ok, GS_ERR_ARG,
+             "run.expect_digest = '%.40s': expected 16 hex digits (the \"digest\" of a "
+             "summary.json), or nothing for no check",
+             hex);
+    run->expect_digest = v;
+    run->have_expect_digest = 1;
+    return GS_OK;
+}
+
 gs_err gs_run_finish(gs_run *run, uint64_t digest)
 {
+    int verified = !run->have_expect_digest || digest == run->expect_digest;
     unsigned long long peak = gs_mem_peak(), peak_max, rss = gs_mem_rss_peak(), rss_max;
     GS_MPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
     GS_MPI(MPI_Allreduce(&rss, &rss_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
@@ -184,6 +211,12 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
         gs_json_raw(&j, "outputs", run->outputs.buf ? run->outputs.buf : "[]");
         gs_json_str(&j, "config", run->config_text);
         gs_json_str(&j, "digest", hex);
+        if (run->have_expect_digest) {
+            char ehex[17];
+            gs_digest_hex(run->expect_digest, ehex);
+            gs_json_str(&j, "expect_digest", ehex);
+            gs_json_bool(&j, "digest_verified", verified);
+        }
         gs_json_end_object(&j);
         char path[PATH_MAX];
         gs_run_path(run, "summary.json", path, sizeof path);
@@ -202,10 +235,21 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
             gs_log(GS_LOG_INFO, "wall time: %.2f s on %d rank%s, peak memory %.1f MiB",
                    gs_time_now() - run->start, run->size, run->size > 1 ? "s" : "",
                    (double)peak_max / 1048576.0);
-            gs_log(GS_LOG_INFO, "digest: %s", hex);
+            gs_log(GS_LOG_INFO, "digest: %s%s", hex,
+                   run->have_expect_digest && verified ? " (verified)" : "");
         }
     }
     GS_CALL(gs_par_agree(run->comm, err));
+    if (!verified) {
+        char ehex[17], hex[17];
+        gs_digest_hex(run->expect_digest, ehex);
+        gs_digest_hex(digest, hex);
+        run->failed_together = 1; /* every rank holds the same digest */
+        return gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                              "output digest %s is not run.expect_digest = %s (summary.json "
+                              "written; the output differs from the one pinned)",
+                              hex, ehex);
+    }
     return GS_OK;
 }
 
