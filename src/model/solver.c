@@ -750,8 +750,15 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             int a = (int)(w * 64) + ctz64(bits);
             if (a >= R->L)
                 continue;
-            for (int32_t i = R->range[a]; i < R->range[a + 1]; i++)
-                cand[i >> 6] |= (uint64_t)1 << (i & 63);
+            /* bits [lo, hi) word by word */
+            size_t lo = (size_t)R->range[a], hi = (size_t)R->range[a + 1];
+            while (lo < hi) {
+                size_t w0 = lo >> 6, end = (w0 + 1) << 6 < hi ? (w0 + 1) << 6 : hi;
+                uint64_t bits_hi = end - (w0 << 6) == 64 ? ~(uint64_t)0
+                                                          : (((uint64_t)1 << (end - (w0 << 6))) - 1);
+                cand[w0] |= bits_hi & ~(((uint64_t)1 << (lo & 63)) - 1);
+                lo = end;
+            }
         }
     /* layers: only the patterns of the cell's example layer, when any is a candidate */
     const uint32_t *mult = R->mult;
