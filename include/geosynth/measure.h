@@ -70,6 +70,9 @@ void gs_measure_geo_destroy(gs_measure_geo_t *g);
 gs_err gs_measure_geo_march(gs_measure_geo_t g, const uint32_t *src, const double *src_dist, size_t nsrc,
                             double radius);
 const double *gs_measure_geo_vertex_dist(gs_measure_geo_t g);
+/* Per reached vertex: the index i (into src) of the source its value came
+ * from (the front's origin). */
+const uint32_t *gs_measure_geo_origin(gs_measure_geo_t g);
 /* Distance at triangle t's centroid: the mean of its vertices' (exact for a
  * planar front; for a triangle on an interface edge, its height / 3). */
 double gs_measure_geo_tri_dist(gs_measure_geo_t g, size_t t);
@@ -81,9 +84,13 @@ double gs_measure_geo_tri_dist(gs_measure_geo_t g, size_t t);
  * interface (scaled units), +inf everywhere when there is no interface;
  * *nsrc (optional) the number of vertices on the interface. Triangles with
  * a vertex on it get the straight distance of their centroid to the nearest
- * interface edge around them, the others the fast-marching value. This looks only at the
+ * interface edge around them, the others the fast-marching value. foot[t]
+ * (optional) receives the interface vertex t is nearest to (UINT32_MAX
+ * without an interface): the triangles of one foot are that stretch of the
+ * interface's "fibre", what moves when the interface moves there. This looks only at the
  * regions and the surface, never at the values a reconstruction assigned. */
-gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc);
+gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc,
+                                 uint32_t *foot);
 /* Histogram of those distances the way a contact distribution is binned:
  * pos[k] / neg[k] count the triangles of each region at distance [k, k+1),
  * k < nbins; distances >= nbins (and +inf) count in bin nbins - 1 and in

@@ -297,6 +297,35 @@ gs_err gs_micro_reconstruct(const gs_micro_dual *d, const gs_micro_hist *h,
                             const gs_micro_recon_opts *opts, uint64_t seed, double *value,
                             uint16_t *label);
 
+/* ----------------------------------------------------------- correction -- */
+
+/* Correction pass (correct.c): moves the interface between the regions
+ * until their realized contact distribution (true geodesic distance of each
+ * triangle to the interface, gs_measure_interface_dist) is within target_l1
+ * (L1 / n over the signed axis) of h, or max_rounds rounds (one fast march
+ * each) are done, or no move improves. side[n] (1 positive, 0 negative) is
+ * updated in place to the best labelling seen; dist_out[n] receives its
+ * signed distances (> 0 positive region, distribution units). */
+typedef struct gs_micro_correct_opts {
+    uint32_t max_rounds;
+    double target_l1;
+} gs_micro_correct_opts;
+typedef struct gs_micro_correct_stats {
+    uint32_t rounds;
+    uint64_t flips;
+    double l1_before, l1_after;
+} gs_micro_correct_stats;
+void gs_micro_correct_defaults(gs_micro_correct_opts *o);
+gs_err gs_micro_correct(const gs_micro_mesh *m, double units_per_model, const gs_micro_hist *h,
+                        const gs_micro_correct_opts *o, uint8_t *side, double *dist_out,
+                        gs_micro_correct_stats *stats);
+/* Largest function <= value[] that is 1-Lipschitz in the dual graph's
+ * metric (min over j of value_j + d(i, j), one Dijkstra from every triangle
+ * at once), so measured distances also obey the paper's constraint
+ * |x_i - x_j| <= d(i, j) that gs_micro_verify checks (a centroid chord can
+ * be a hair shorter than the surface path). O(n log n). */
+gs_err gs_micro_lipschitz(const gs_micro_dual *d, double *value);
+
 /* -------------------------------------------------------- displacement -- */
 
 typedef enum gs_micro_func {

@@ -25,6 +25,7 @@ struct gs_measure_geo {
     uint32_t *vt;
     double *dist;        /* nv; +inf unless reached by the current march */
     uint8_t *state;      /* 0 far, 1 trial, 2 accepted */
+    uint32_t *origin;    /* nv: index of the source a vertex's value came from */
     uint32_t *touched;
     size_t ntouched;
     double *hk;          /* heap keys */
@@ -107,6 +108,7 @@ gs_err gs_measure_geo_create(const float *pos, size_t nverts, const uint32_t *tr
     GS_TRY(err, gs_alloc_array((void **)&g->dist, nv1, sizeof *g->dist, "geodesic distances"), fail);
     GS_TRY(err, gs_alloc_array((void **)&g->state, nv1, 1, "geodesic states"), fail);
     GS_TRY(err, gs_alloc_array((void **)&g->touched, nv1, sizeof *g->touched, "geodesic states"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&g->origin, nv1, sizeof *g->origin, "geodesic origins"), fail);
     for (size_t i = 0; i < 3 * nverts; i++)
         g->p[i] = (double)pos[i] * scale;
     for (size_t v = 0; v < nverts; v++)
@@ -139,6 +141,7 @@ void gs_measure_geo_destroy(gs_measure_geo_t *gp)
     gs_free(g->dist);
     gs_free(g->state);
     gs_free(g->touched);
+    gs_free(g->origin);
     gs_free(g->hk);
     gs_free(g->hv);
     gs_free(g);
@@ -199,6 +202,7 @@ gs_err gs_measure_geo_march(gs_measure_geo_t g, const uint32_t *src, const doubl
             g->touched[g->ntouched++] = v;
         g->state[v] = 1;
         g->dist[v] = d;
+        g->origin[v] = (uint32_t)i;
         GS_CALL(heap_push(g, d, v));
     }
     double du;
@@ -222,6 +226,7 @@ gs_err gs_measure_geo_march(gs_measure_geo_t g, const uint32_t *src, const doubl
                     g->touched[g->ntouched++] = w;
                 g->state[w] = 1;
                 g->dist[w] = nd;
+                g->origin[w] = g->state[o] == 2 && o != u && g->dist[o] < du ? g->origin[o] : g->origin[u];
                 GS_CALL(heap_push(g, nd, w));
             }
         }
@@ -232,6 +237,11 @@ gs_err gs_measure_geo_march(gs_measure_geo_t g, const uint32_t *src, const doubl
 const double *gs_measure_geo_vertex_dist(gs_measure_geo_t g)
 {
     return g->dist;
+}
+
+const uint32_t *gs_measure_geo_origin(gs_measure_geo_t g)
+{
+    return g->origin;
 }
 
 double gs_measure_geo_tri_dist(gs_measure_geo_t g, size_t t)
@@ -257,7 +267,7 @@ static double seg_dist(const double *p, const double *a, const double *b)
  * point p (+inf when there is none). ie_off/ie: vertex -> interface edges
  * (the other end). */
 static double near_interface(const struct gs_measure_geo *g, const uint32_t *ie_off, const uint32_t *ie,
-                             uint32_t v, const double *p)
+                             uint32_t v, const double *p, uint32_t *foot)
 {
     double best = INFINITY;
     for (uint32_t k = g->vt_off[v]; k < g->vt_off[v + 1]; k++) {
@@ -265,18 +275,23 @@ static double near_interface(const struct gs_measure_geo *g, const uint32_t *ie_
         for (int i = 0; i < 3; i++) {
             uint32_t a = t[i];
             for (uint32_t j = ie_off[a]; j < ie_off[a + 1]; j++) {
-                double d = seg_dist(p, g->p + 3 * (size_t)a, g->p + 3 * (size_t)ie[j]);
-                best = d < best ? d : best;
+                const double *pa = g->p + 3 * (size_t)a, *pb = g->p + 3 * (size_t)ie[j];
+                double d = seg_dist(p, pa, pb);
+                if (d < best) {
+                    best = d;
+                    *foot = dist3(p, pa) <= dist3(p, pb) ? a : ie[j];
+                }
             }
         }
     }
     return best;
 }
 
-gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc_out)
+gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double *tri_dist, size_t *nsrc_out,
+                                 uint32_t *foot)
 {
     size_t nt = g->nt, nv = g->nv;
-    uint32_t *src = NULL, *ie_off = NULL, *ie = NULL;
+    uint32_t *src = NULL, *ie_off = NULL, *ie = NULL, *src_foot = NULL;
     double *sd = NULL;
     size_t ns = 0, nif = 0;
     gs_err err = GS_OK;
@@ -325,12 +340,15 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
      * circles around its vertices). */
     GS_TRY(err, gs_alloc_array((void **)&src, nv ? nv : 1, sizeof *src, "interface sources"), done);
     GS_TRY(err, gs_alloc_array((void **)&sd, nv ? nv : 1, sizeof *sd, "interface sources"), done);
+    GS_TRY(err, gs_alloc_array((void **)&src_foot, nv ? nv : 1, sizeof *src_foot, "interface sources"), done);
     for (size_t v = 0; v < nv; v++) {
         int on = ie_off[v + 1] > ie_off[v];
         nif += on;
-        double d = on ? 0 : near_interface(g, ie_off, ie, (uint32_t)v, g->p + 3 * v);
+        uint32_t f = (uint32_t)v;
+        double d = on ? 0 : near_interface(g, ie_off, ie, (uint32_t)v, g->p + 3 * v, &f);
         if (isfinite(d)) {
             src[ns] = (uint32_t)v;
+            src_foot[ns] = f;
             sd[ns++] = d;
         }
     }
@@ -344,21 +362,36 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
         for (int k = 0; k < 3; k++)
             c[k] = (g->p[3 * (size_t)tv[0] + k] + g->p[3 * (size_t)tv[1] + k] + g->p[3 * (size_t)tv[2] + k]) / 3;
         double d = INFINITY;
+        uint32_t f = UINT32_MAX;
         for (int i = 0; i < 3; i++)
             if (ie_off[tv[i] + 1] > ie_off[tv[i]]) {
                 for (int j = 0; j < 3; j++) {
-                    double e = near_interface(g, ie_off, ie, tv[j], c);
-                    d = e < d ? e : d;
+                    uint32_t fj = UINT32_MAX;
+                    double e = near_interface(g, ie_off, ie, tv[j], c, &fj);
+                    if (e < d)
+                        d = e, f = fj;
                 }
                 break;
             }
-        tri_dist[t] = isfinite(d) ? d : gs_measure_geo_tri_dist(g, t);
+        if (!isfinite(d)) {
+            d = gs_measure_geo_tri_dist(g, t);
+            if (isfinite(d)) {
+                uint32_t m = tv[0];
+                for (int i = 1; i < 3; i++)
+                    m = g->dist[tv[i]] < g->dist[m] ? tv[i] : m;
+                f = src_foot[g->origin[m]];
+            }
+        }
+        tri_dist[t] = d;
+        if (foot)
+            foot[t] = f;
     }
     if (nsrc_out)
         *nsrc_out = nif;
 done:
     gs_free(src);
     gs_free(sd);
+    gs_free(src_foot);
     gs_free(ie_off);
     gs_free(ie);
     return err;

@@ -97,6 +97,14 @@ static const gs_cfg_key micro_keys[] = {
     GS_CFG_KEY_BOOL(micro_config, capacity, "micro.capacity", "yes",
                     "accept a random placement only if the bins it forces still fit (no = the "
                     "paper as printed, more unassigned triangles)"),
+    GS_CFG_KEY_BOOL(micro_config, correct, "micro.correct", "yes",
+                    "correction pass: move the interface until the regions' true distances to it "
+                    "(the realized contact distribution) match the target (no = the "
+                    "reconstruction's regions as they are)"),
+    GS_CFG_KEY_INT(micro_config, correct_rounds, "micro.correct_rounds", 0, 100000, 0, "300",
+                   "correction pass: at most this many rounds (one fast march each)"),
+    GS_CFG_KEY_REAL(micro_config, correct_target, "micro.correct_target", 0, 2, 0, "0.02",
+                    "correction pass: stop once the realized L1/n is at most this"),
     GS_CFG_KEY_INT(micro_config, max_rejects_per_bin, "micro.max_rejects_per_bin", 0,
                    GS_CFG_INT_MAX, 0, "0", "stop a bin after this many rejected placements (0 = "
                    "no limit)"),
@@ -267,6 +275,10 @@ void micro_result_json(gs_json *j, const micro_result *r)
     gs_json_f64(j, "realized_l1", r->realized_l1);
     gs_json_u64(j, "realized_beyond", r->realized_beyond);
     gs_json_f64(j, "realized_pos_share", r->realized_pos_share);
+    gs_json_f64(j, "recon_realized_l1", r->recon_realized_l1);
+    gs_json_f64(j, "recon_unassigned_share", r->recon_unassigned_share);
+    gs_json_u64(j, "correct_rounds", r->correct_rounds);
+    gs_json_u64(j, "correct_flips", r->correct_flips);
     if (r->nbins <= MICRO_RESULT_BINS) {
         gs_json_begin_array(j, "target_count");
         for (uint64_t i = 0; i < 2 * r->nbins; i++)

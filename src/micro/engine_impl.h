@@ -70,6 +70,9 @@ typedef struct micro_config {
     double pos_scale, neg_scale;
     char *pos_func, *neg_func;
     int capacity;
+    int correct;
+    int64_t correct_rounds;
+    double correct_target;
     int64_t max_rejects_per_bin;
     int64_t instances;
     int64_t steps_per_round;
@@ -117,6 +120,9 @@ typedef struct micro_result {
     double realized_l1;          /* sum |realized - target| / triangles */
     uint64_t realized_beyond;    /* triangles at distance >= K (counted in bin K-1) */
     double realized_pos_share;   /* triangles of the positive region / triangles */
+    double recon_realized_l1;    /* the same of the reconstruction, before the correction pass */
+    double recon_unassigned_share; /* triangles the reconstruction left to the fill */
+    uint64_t correct_rounds, correct_flips;
     int64_t target[2 * MICRO_RESULT_BINS];   /* signed axis, first 2K used (K <= MICRO_RESULT_BINS) */
     int64_t realized[2 * MICRO_RESULT_BINS];
 } micro_result;
@@ -149,6 +155,7 @@ typedef struct micro_job {
     micro_instance *inst;
     int64_t ninst;
     gs_micro_recon_opts opts;
+    gs_micro_correct_opts copts;  /* micro.correct (cfg->correct: on) */
     gs_micro_displace_params disp;
     uint32_t steps_per_round;    /* 0 = each slice runs to the end */
     int flat_output;             /* outputs straight into the run dir (gallery candidates) */

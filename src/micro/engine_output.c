@@ -41,7 +41,7 @@ void micro_instance_dir(int64_t id, char *out, size_t len)
 }
 
 static gs_err write_h5(const micro_job *job, const micro_instance *in, const char *path,
-                       const double *vvalue, const uint8_t *vlabel, const gs_micro_report *rep,
+                       const uint16_t *label, const double *value, const double *vvalue, const uint8_t *vlabel, const gs_micro_report *rep,
                        const micro_result *res, const int64_t *realized, const double *tdist)
 {
     const micro_mesh_in *mi = &job->meshes[in->mesh];
@@ -56,8 +56,8 @@ static gs_err write_h5(const micro_job *job, const micro_instance *in, const cha
     char hex[17];
     gs_digest_hex(res->digest, hex);
     gs_err err = GS_OK;
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_label", &s_u16, in->st.label, &z), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_value", &s_tf, in->st.value, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_label", &s_u16, label, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_value", &s_tf, value, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_value", &s_vf, vvalue, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_label", &s_vl, vlabel, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_count", &s_hi, in->hist.count, NULL), fail);
@@ -89,6 +89,12 @@ fail:
     return err;
 }
 
+/* The region of a triangle: the side of its label (a filled one: of its value). */
+static inline uint8_t micro_side(uint16_t label, double value, uint32_t K)
+{
+    return label < 2 * K ? label >= K : value > 0;
+}
+
 gs_err micro_realized(const micro_mesh_in *mi, const gs_micro_hist *h, const uint16_t *label,
                       const double *value, int64_t *realized, double *tri_dist, uint64_t *beyond, double *l1)
 {
@@ -102,11 +108,10 @@ gs_err micro_realized(const micro_mesh_in *mi, const gs_micro_hist *h, const uin
     GS_TRY(err, gs_alloc_array((void **)&dist, n, sizeof *dist, "interface distances"), done);
     GS_TRY(err, gs_alloc_array((void **)&pos, K, sizeof *pos, "realized histogram"), done);
     GS_TRY(err, gs_alloc_array((void **)&neg, K, sizeof *neg, "realized histogram"), done);
-    /* The region is the side of the label (a filled triangle: of its value). */
     for (uint32_t t = 0; t < n; t++)
-        side[t] = label[t] < 2 * K ? label[t] >= K : value[t] > 0;
+        side[t] = micro_side(label[t], value[t], K);
     GS_TRY(err, gs_measure_geo_create(mi->m.pos, mi->m.nverts, mi->m.tris, n, mi->upm, &g), done);
-    GS_TRY(err, gs_measure_interface_dist(g, side, dist, NULL), done);
+    GS_TRY(err, gs_measure_interface_dist(g, side, dist, NULL, NULL), done);
     gs_measure_contact_hist(dist, side, n, K, pos, neg, beyond);
     double sum = 0;
     for (uint32_t k = 0; k < K; k++) {
@@ -192,7 +197,9 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
              (long long)id);
     double t0 = gs_time_now();
     uint32_t nv = mi->m.nverts, n = mi->m.ntris;
-    double *vvalue = NULL, *tdist = NULL;
+    double *vvalue = NULL, *tdist = NULL, *cvalue = NULL;
+    uint8_t *side = NULL;
+    uint16_t *clabel = NULL;
     int64_t *realized = NULL;
     float *pos = NULL;
     uint8_t *vlabel = NULL;
@@ -207,8 +214,42 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     GS_TRY(err, gs_alloc_array((void **)&tdist, n, sizeof *tdist, "interface distances"), done);
     GS_TRY(err, gs_alloc_array((void **)&realized, 2 * (size_t)in->hist.nbins, sizeof *realized,
                                "realized histogram"), done);
+    /* The correction pass (correct.c): the regions move until their true
+     * distances match the target; labels and values are then those
+     * distances (so the displacement follows them). */
+    const uint16_t *label = in->st.label;
+    const double *value = in->st.value;
+    uint32_t K = in->hist.nbins;
+    res.recon_unassigned_share = 0;
+    for (uint32_t t = 0; t < n; t++)
+        res.recon_unassigned_share += in->st.label[t] >= 2 * K;
+    res.recon_unassigned_share = n ? res.recon_unassigned_share / n : 0;
+    if (job->cfg->correct) {
+        GS_TRY(err, gs_alloc_array((void **)&side, n, 1, "triangle regions"), done);
+        GS_TRY(err, gs_alloc_array((void **)&cvalue, n, sizeof *cvalue, "corrected values"), done);
+        GS_TRY(err, gs_alloc_array((void **)&clabel, n, sizeof *clabel, "corrected labels"), done);
+        for (uint32_t t = 0; t < n; t++)
+            side[t] = micro_side(in->st.label[t], in->st.value[t], K);
+        gs_micro_correct_stats cst;
+        GS_TRY(err, gs_micro_correct(&mi->m, mi->upm, &in->hist, &job->copts, side, cvalue, &cst), done);
+        GS_TRY(err, gs_micro_lipschitz(&mi->dual, cvalue), done);
+        for (uint32_t t = 0; t < n; t++) {
+            double x = cvalue[t];
+            if (side[t] ? x < 0 : x > 0)
+                x = 0; /* the region stays the measured one */
+            cvalue[t] = x == 0 ? 0.0 : x;
+            double a = fabs(x);
+            uint32_t k = !(a < (double)K) ? K - 1 : (uint32_t)a;
+            clabel[t] = (uint16_t)gs_micro_bin_index(K, side[t] ? 0 : 1, k);
+        }
+        res.recon_realized_l1 = cst.l1_before;
+        res.correct_rounds = cst.rounds;
+        res.correct_flips = cst.flips;
+        label = clabel;
+        value = cvalue;
+    }
     /* The mesh has its normals (setup), so displace does not modify it. */
-    GS_TRY(err, gs_micro_displace(&mi->m, in->st.value, &job->disp, vvalue, pos), done);
+    GS_TRY(err, gs_micro_displace(&mi->m, value, &job->disp, vvalue, pos), done);
     for (uint32_t v = 0; v < nv; v++) {
         double l = 128.0 + floor(vvalue[v]);
         vlabel[v] = (uint8_t)(l < 0 ? 0 : l > 255 ? 255 : l);
@@ -219,13 +260,13 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     uint32_t samples = job->cfg->verify_samples == 0 || job->cfg->verify_samples >= n
                            ? n
                            : (uint32_t)job->cfg->verify_samples;
-    GS_TRY(err, gs_micro_verify(&mi->m, mi->upm, &in->hist, in->st.value, in->st.label, samples, &vr,
+    GS_TRY(err, gs_micro_verify(&mi->m, mi->upm, &in->hist, value, label, samples, &vr,
                                 &rep),
            done);
     gs_digest dg;
     GS_TRY_CHECK(err, gs_digest_init(&dg), GS_ERR_MEM, done, "digest state");
-    gs_digest_update(&dg, in->st.label, (size_t)n * sizeof *in->st.label);
-    gs_digest_update(&dg, in->st.value, (size_t)n * sizeof *in->st.value);
+    gs_digest_update(&dg, label, (size_t)n * sizeof *label);
+    gs_digest_update(&dg, value, (size_t)n * sizeof *value);
     gs_digest_update(&dg, pos, (size_t)nv * 3 * sizeof *pos);
     gs_digest_update(&dg, vlabel, nv);
     res.digest = gs_digest_final(&dg);
@@ -243,12 +284,14 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     res.max_excess = rep.max_excess;
     res.unassigned_share = rep.unassigned_share;
     res.error_share = n ? (double)rep.abs_error_sum / (double)n : 0;
-    GS_TRY(err, micro_realized(mi, &in->hist, in->st.label, in->st.value, realized, tdist,
+    GS_TRY(err, micro_realized(mi, &in->hist, label, value, realized, tdist,
                                &res.realized_beyond, &res.realized_l1), done);
     int64_t npos = 0;
     for (uint32_t k = 0; k < in->hist.nbins; k++)
         npos += realized[in->hist.nbins + k];
     res.realized_pos_share = n ? (double)npos / n : 0;
+    if (!job->cfg->correct)
+        res.recon_realized_l1 = res.realized_l1;
     if (in->hist.nbins <= MICRO_RESULT_BINS) {
         memcpy(res.target, in->hist.count, 2 * (size_t)in->hist.nbins * sizeof *res.target);
         memcpy(res.realized, realized, 2 * (size_t)in->hist.nbins * sizeof *res.realized);
@@ -263,7 +306,7 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     GS_TRY(err, gs_mkdir_p(dir), done);
     GS_TRY(err, write_meshes(job, in, dir, pos, vlabel), done);
     snprintf(path, sizeof path, "%s/micro.h5", dir);
-    GS_TRY(err, write_h5(job, in, path, vvalue, vlabel, &rep, &res, realized, tdist), done);
+    GS_TRY(err, write_h5(job, in, path, label, value, vvalue, vlabel, &rep, &res, realized, tdist), done);
     res.seconds = gs_time_now() - t0;
     GS_TRY(err, gs_region_out_append(out, &res, sizeof res), done);
 done:
@@ -271,6 +314,9 @@ done:
     gs_free(vvalue);
     gs_free(tdist);
     gs_free(realized);
+    gs_free(cvalue);
+    gs_free(clabel);
+    gs_free(side);
     gs_free(pos);
     gs_free(vlabel);
     return err;

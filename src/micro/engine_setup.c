@@ -410,6 +410,9 @@ gs_err micro_setup(micro_job *job)
     gs_micro_recon_defaults(&job->opts);
     job->opts.capacity = cfg->capacity;
     job->opts.max_rejects_per_bin = (uint64_t)cfg->max_rejects_per_bin;
+    gs_micro_correct_defaults(&job->copts);
+    job->copts.max_rounds = (uint32_t)cfg->correct_rounds;
+    job->copts.target_l1 = cfg->correct_target;
     job->disp = (gs_micro_displace_params){
         {micro_direction_of(cfg->pos_direction), micro_direction_of(cfg->neg_direction)},
         {cfg->pos_scale, cfg->neg_scale},

@@ -254,7 +254,7 @@ static void test_geodesic(void **state)
         side[t] = c[0] < 0;
     }
     size_t ns = 0;
-    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns), GS_OK);
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns, NULL), GS_OK);
     assert_int_equal(ns, (size_t)n + 1);
     for (size_t t = 0; t < nt; t++) {
         double c[3];
@@ -271,7 +271,7 @@ static void test_geodesic(void **state)
         centroid(pos, tris + 3 * t, c);
         side[t] = hypot(c[0], c[1]) < R;
     }
-    assert_int_equal(gs_measure_interface_dist(g, side, dist, NULL), GS_OK);
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, NULL, NULL), GS_OK);
     for (size_t t = 0; t < nt; t++) {
         double c[3];
         centroid(pos, tris + 3 * t, c);
@@ -297,7 +297,7 @@ static void test_geodesic(void **state)
     assert_true(beyond > 0 && hn[7] >= (int64_t)beyond); /* the far corners */
     /* One region only: no interface, every distance infinite. */
     memset(side, 1, nt);
-    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns), GS_OK);
+    assert_int_equal(gs_measure_interface_dist(g, side, dist, &ns, NULL), GS_OK);
     assert_int_equal(ns, 0);
     assert_true(isinf(dist[0]) && isinf(dist[nt - 1]));
     assert_int_equal(gs_measure_geo_create(pos, nv, tris, nt, 0, &(gs_measure_geo_t){NULL}), GS_ERR_ARG);
