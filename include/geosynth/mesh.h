@@ -64,6 +64,9 @@ gs_err gs_mesh_read(const char *path, gs_mesh *out);
  * (.obj or .ply, case-insensitive). */
 gs_err gs_mesh_write_obj(const char *path, const gs_mesh *m);
 gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_name);
+/* The same with per-vertex colours rgb[3 nverts] (uchar red green blue,
+ * after the property; NULL: none), which mesh viewers show directly. */
+gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb);
 gs_err gs_mesh_write(const char *path, const gs_mesh *m, const char *prop_name);
 
 /* Axis-aligned bounding box (lo = hi = 0 for an empty mesh). */

@@ -197,6 +197,11 @@ static int ply_name_ok(const char *s)
 
 gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_name)
 {
+    return gs_mesh_write_ply_rgb(path, m, prop_name, NULL);
+}
+
+gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb)
+{
     GS_CALL(gs_mesh_validate(m, path));
     int prop = 0; /* 0 none, 1 float scalar, 2 uchar label */
     if (prop_name && m->scalar)
@@ -215,6 +220,8 @@ gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_na
         fprintf(f, "property float nx\nproperty float ny\nproperty float nz\n");
     if (prop)
         fprintf(f, "property %s %s\n", prop == 1 ? "float" : "uchar", prop_name);
+    if (rgb)
+        fprintf(f, "property uchar red\nproperty uchar green\nproperty uchar blue\n");
     fprintf(f, "element face %zu\nproperty list uchar int vertex_indices\nend_header\n",
             m->ntris);
     uint8_t rec[32];
@@ -231,6 +238,9 @@ gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_na
         } else if (prop == 2) {
             rec[n++] = m->label[i];
         }
+        if (rgb)
+            for (int c = 0; c < 3; c++)
+                rec[n++] = rgb[3 * i + c];
         fwrite(rec, 1, n, f);
     }
     for (size_t t = 0; t < m->ntris; t++) {

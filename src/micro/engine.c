@@ -114,6 +114,9 @@ static const gs_cfg_key micro_keys[] = {
                    "reconstruction steps (bins) per instance between checkpoint opportunities"),
     GS_CFG_KEY_INT(micro_config, verify_samples, "micro.verify_samples", 0, 4294967295.0, 0, "200",
                    "triangles whose 2K neighbourhood the verifier checks (0 = all)"),
+    GS_CFG_KEY_INT(micro_config, preview, "micro.preview", 0, 4096, 0, "384",
+                   "edge in pixels of RUN_DIR/instance-XXXX/preview.png, the displaced mesh in its "
+                   "region colours (0 = none)"),
     GS_CFG_KEY_ENUM(micro_config, output_format, "micro.output_format", "ply|obj|both", "ply",
                     "displaced mesh format (PLY carries the vertex label)"),
     GS_CFG_KEY_BOOL(micro_config, explore, "micro.explore.enable", "no",

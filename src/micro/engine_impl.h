@@ -78,6 +78,7 @@ typedef struct micro_config {
     int64_t steps_per_round;
     int64_t verify_samples;
     char *output_format;
+    int64_t preview;
     /* [micro.explore]: the gallery (engine_explore.c) */
     int explore;
     int64_t explore_count;

@@ -133,33 +133,36 @@ done:
     return err;
 }
 
-/* Thumbnail of the displaced mesh, coloured by region: positive (label >=
- * 128) sand, negative blue, both darker further from the boundary so the
- * bins show. */
-static gs_err write_thumbnail(const gs_mesh *om, int size, const char *path)
+/* Region colours of the vertices (mesh.ply, thumb.png, preview.png):
+ * positive region (vertex value > 0) sand, negative blue, both darker
+ * further from the interface (linear in |value| / K, to 55% at K), so the
+ * distance bins show. */
+static void vertex_colors(const double *vvalue, size_t nv, uint32_t K, uint8_t *rgb)
 {
-    uint8_t *rgb = NULL;
-    GS_CALL(gs_alloc_array((void **)&rgb, om->nverts, 3, "thumbnail colours"));
     static const uint8_t warm[3] = {232, 178, 112}, cool[3] = {104, 150, 214};
-    for (size_t v = 0; v < om->nverts; v++) {
-        int l = om->label[v], pos = l >= 128, mag = pos ? l - 128 : 127 - l;
-        double shade = 1.0 - 0.35 * (mag > 12 ? 1.0 : mag / 12.0);
+    for (size_t v = 0; v < nv; v++) {
+        double x = vvalue[v], a = fabs(x) / (K ? K : 1);
+        double shade = 1.0 - 0.45 * (a > 1 ? 1.0 : a);
         for (int c = 0; c < 3; c++)
-            rgb[3 * v + c] = (uint8_t)((pos ? warm : cool)[c] * shade);
+            rgb[3 * v + c] = (uint8_t)((x > 0 ? warm : cool)[c] * shade + 0.5);
     }
+}
+
+/* The displaced mesh rendered off-screen in its region colours. */
+static gs_err write_render(const gs_mesh *om, const uint8_t *rgb, int size, const char *path)
+{
     gs_render_opts o;
     gs_render_defaults(&o, size, size);
     o.colors = rgb;
-    gs_err err = gs_render_mesh_png(om, &o, path);
-    gs_free(rgb);
-    GS_CALL(err);
+    GS_CALL(gs_render_mesh_png(om, &o, path));
     return GS_OK;
 }
 
 /* The displaced mesh as a gs_mesh with outward normals and vertex labels. */
 static gs_err write_meshes(const micro_job *job, const micro_instance *in, const char *dir,
-                           const float *pos, const uint8_t *vlabel)
+                           const float *pos, const uint8_t *vlabel, const double *vvalue)
 {
+    uint8_t *rgb = NULL;
     const micro_mesh_in *mi = &job->meshes[in->mesh];
     gs_mesh om;
     GS_CALL(gs_micro_mesh_to_mesh(&mi->m, &om));
@@ -168,11 +171,13 @@ static gs_err write_meshes(const micro_job *job, const micro_instance *in, const
     GS_TRY(err, gs_mesh_compute_normals(&om), done);
     GS_TRY(err, gs_alloc_array((void **)&om.label, om.nverts, 1, "vertex labels"), done);
     memcpy(om.label, vlabel, om.nverts);
+    GS_TRY(err, gs_alloc_array((void **)&rgb, om.nverts, 3, "vertex colours"), done);
+    vertex_colors(vvalue, om.nverts, in->hist.nbins, rgb);
     const char *fmt = job->cfg->output_format;
     char path[PATH_MAX + 32];
     if (strcmp(fmt, "obj") != 0) {
         snprintf(path, sizeof path, "%s/mesh.ply", dir);
-        GS_TRY(err, gs_mesh_write(path, &om, "label"), done);
+        GS_TRY(err, gs_mesh_write_ply_rgb(path, &om, "label", rgb), done);
     }
     if (strcmp(fmt, "ply") != 0) {
         snprintf(path, sizeof path, "%s/mesh.obj", dir);
@@ -180,9 +185,13 @@ static gs_err write_meshes(const micro_job *job, const micro_instance *in, const
     }
     if (job->thumbnail > 0) {
         snprintf(path, sizeof path, "%s/thumb.png", dir);
-        GS_TRY(err, write_thumbnail(&om, job->thumbnail, path), done);
+        GS_TRY(err, write_render(&om, rgb, job->thumbnail, path), done);
+    } else if (job->cfg->preview > 0) {
+        snprintf(path, sizeof path, "%s/preview.png", dir);
+        GS_TRY(err, write_render(&om, rgb, (int)job->cfg->preview, path), done);
     }
 done:
+    gs_free(rgb);
     gs_mesh_destroy(&om);
     return err;
 }
@@ -304,7 +313,7 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     else
         gs_run_path(job->run, rel, dir, sizeof dir);
     GS_TRY(err, gs_mkdir_p(dir), done);
-    GS_TRY(err, write_meshes(job, in, dir, pos, vlabel), done);
+    GS_TRY(err, write_meshes(job, in, dir, pos, vlabel, vvalue), done);
     snprintf(path, sizeof path, "%s/micro.h5", dir);
     GS_TRY(err, write_h5(job, in, path, label, value, vvalue, vlabel, &rep, &res, realized, tdist), done);
     res.seconds = gs_time_now() - t0;

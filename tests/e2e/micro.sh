@@ -5,7 +5,8 @@
 # - quality: the verifier finds 0 violations, the achieved histogram differs
 #   from the target only by the unassigned triangles, and a distribution
 #   measured from a Boolean-model image (a realizable one) is reconstructed
-#   with < 0.5% unassigned; a CSV table and several meshes work;
+#   with < 0.5% unassigned and realized L1/n <= 0.05; quick.ini realized L1/n <= 0.05
+#   and > 0.05 with micro.correct = no (the measure is not the labels); a CSV table and several meshes work;
 # - bad inputs: missing mesh, negative probability, table sum, CSV errors,
 #   unknown key, wrong type, missing image: exit 2/3 naming the file/key.
 # Stop/resume and kill -9 are in micro_resume.sh.
@@ -45,11 +46,17 @@ check(m["unassigned_share_max"] < 0.03, "unassigned share %g >= 3%%" % m["unassi
 check(m["min_angle_deg"] > 30, "min angle %g" % m["min_angle_deg"])
 check(m["max_edge_units"] <= 0.9, "max edge %g > bound 0.9" % m["max_edge_units"])
 for i in inst:
-    # every triangle labelled from a bin is counted where the target wants
-    # it; the filled ones (unassigned) leave their bin short: |error| sums to
-    # at most twice their number.
-    check(i["abs_bin_error"] <= 2 * i["unassigned"], "instance %d: bin error %d > 2 x unassigned %d"
-          % (i["instance"], i["abs_bin_error"], i["unassigned"]))
+    # The realized contact distribution (true geodesic distance of every
+    # triangle to the interface between its region and the other, measured
+    # by src/measure, not the labels' values) matches the target: L1/n <=
+    # 0.05 (issue 20), and every triangle has a value (< 1% unassigned).
+    check(i["realized_l1"] <= 0.05, "instance %d: realized L1/n %.4f > 0.05 (reconstruction alone %.4f)"
+          % (i["instance"], i["realized_l1"], i["recon_realized_l1"]))
+    check(i["unassigned_share"] < 0.01, "instance %d: unassigned %.4f" % (i["instance"], i["unassigned_share"]))
+    t, r = i["target_count"], i["realized_count"]
+    check(sum(t) == sum(r) == i["triangles"], "instance %d: histograms do not count every triangle" % i["instance"])
+    check(abs(sum(abs(a - b) for a, b in zip(t, r)) / i["triangles"] - i["realized_l1"]) < 1e-9,
+          "instance %d: realized_l1 is not the histograms' L1/n" % i["instance"])
     ply = os.path.join(run, i["dir"], "mesh.ply")
     data = open(ply, "rb").read()
     end = data.index(b"end_header\n") + len(b"end_header\n")
@@ -62,12 +69,19 @@ for i in inst:
         if w[:1] == ["property"] and w[1] != "list" and nf == 0: props.append((w[1], w[2]))
     check(head[0] == "ply" and "format binary_little_endian 1.0" in head, "%s: not a binary PLY" % ply)
     check(("uchar", "label") in props, "%s: no uchar label property: %s" % (ply, props))
+    check([p for p in props if p[1] in ("red", "green", "blue")] == [("uchar", "red"), ("uchar", "green"), ("uchar", "blue")],
+          "%s: no per-vertex colours: %s" % (ply, props))
     check(nv == i["vertices"] and nf == i["triangles"], "%s: %d vertices %d faces, expected %d %d"
           % (ply, nv, nf, i["vertices"], i["triangles"]))
     vsize = sum(1 if t == "uchar" else 4 for t, _ in props)
     check(len(data) == end + nv * vsize + nf * 13, "%s: size %d does not match its header" % (ply, len(data)))
-    labels = [data[end + k * vsize + vsize - 1] for k in range(nv)]
+    off = {n: sum(1 if t == "uchar" else 4 for t, _ in props[:j]) for j, (_, n) in enumerate(props)}
+    labels = [data[end + k * vsize + off["label"]] for k in range(nv)]
     check(min(labels) < 128 <= max(labels), "%s: labels do not cover both regions" % ply)
+    # colours: positive region (label >= 128) warm (red > blue), negative cool
+    warm = sum(1 for k in range(nv) if (data[end + k * vsize + off["red"]] > data[end + k * vsize + off["blue"]]) == (labels[k] >= 128))
+    check(warm >= 0.95 * nv, "%s: colours disagree with the regions at %d of %d vertices" % (ply, nv - warm, nv))
+    check(os.path.exists(os.path.join(run, i["dir"], "preview.png")), "preview.png missing")
     check(os.path.exists(os.path.join(run, i["dir"], "micro.h5")), "micro.h5 missing")
 kinds = [o["kind"] for o in summ["outputs"]]
 check(kinds.count("mesh") == 3 and kinds.count("labels") == 3, "outputs registered: %s" % kinds)
@@ -77,12 +91,29 @@ EOF
 
 run_gs 0 inspect q1/instance-0001/micro.h5
 expect_rc 0 "inspect instance micro.h5"
-for ds in triangle_label vertex_label target_count achieved_count bin_error; do
+for ds in triangle_label vertex_label target_count achieved_count bin_error realized_count triangle_distance; do
   expect_out "$ds" "micro.h5 holds /micro/$ds"
 done
 run_gs 0 inspect q1/checkpoint.h5
 expect_rc 0 "inspect checkpoint.h5"
 expect_out "instance-000002" "checkpoint has a group per instance"
+
+# ---- the realized distribution is measured, not taken from the labels ----
+# Without the correction pass the reconstruction's regions miss the target
+# (issue 20: L1/n 0.11-0.22 on quick.ini): the measure must say so, and the
+# correction must be what brings it under 0.05.
+run_gs 1 micro -c "$QUICK" --set micro.correct=no -o qraw
+expect_rc 0 "quick.ini without the correction pass"
+/usr/bin/python3 - qraw q1 <<'EOF' && ok "measure not fooled by the labels: without correction L1/n > 0.05, with it <= 0.05" || bad "realized measure / correction (see above)"
+import json, sys
+raw = json.load(open(sys.argv[1] + "/instances.json"))
+cor = json.load(open(sys.argv[2] + "/instances.json"))
+for a, b in zip(raw, cor):
+    print("  instance %d: realized L1/n %.4f without correction (labels' own bin error %.4f), %.4f with"
+          % (a["instance"], a["realized_l1"], a["bin_error_share"], b["realized_l1"]))
+sys.exit(0 if all(a["realized_l1"] > 0.05 and a["realized_l1"] == b["recon_realized_l1"] for a, b in zip(raw, cor))
+         and all(b["realized_l1"] <= 0.05 for b in cor) else 1)
+EOF
 
 # ---- a realizable distribution: measured from a Boolean-model image ----
 /usr/bin/python3 - <<'EOF'
@@ -113,13 +144,13 @@ instances = 2
 EOF
 run_gs 2 micro -c image.ini -o img
 expect_rc 0 "image-acquired distribution at np=2"
-/usr/bin/python3 - img <<'EOF' && ok "Boolean-model image: 0 violations, < 0.5% unassigned, bins within the unassigned" || bad "Boolean-model image quality"
+/usr/bin/python3 - img <<'EOF' && ok "Boolean-model image: 0 violations, < 0.5% unassigned, realized L1/n <= 0.05" || bad "Boolean-model image quality"
 import json, sys
 m = json.load(open(sys.argv[1] + "/summary.json"))["metrics"]
 print("  image run: unassigned %.4f%%, bin error share %.4f%%, violations %d, pairs %d"
       % (100 * m["unassigned_share_max"], 100 * m["bin_error_share_max"], m["violations"], m["pairs_checked"]))
-sys.exit(0 if m["violations"] == 0 and m["unassigned_share_max"] < 0.005 and
-         m["bin_error_share_max"] <= 2 * m["unassigned_share_max"] + 1e-12 else 1)
+print("  image run: realized L1/n %.4f (worst instance %.4f)" % (m["realized_l1"], m["realized_l1_max"]))
+sys.exit(0 if m["violations"] == 0 and m["unassigned_share_max"] < 0.005 and m["realized_l1_max"] <= 0.05 else 1)
 EOF
 
 # ---- CSV table on two meshes (a mesh list) ----
