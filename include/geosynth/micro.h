@@ -309,6 +309,10 @@ gs_err gs_micro_reconstruct(const gs_micro_dual *d, const gs_micro_hist *h,
 typedef struct gs_micro_correct_opts {
     uint32_t max_rounds;
     double target_l1;
+    /* Optional [n] values (the reconstruction's): when side[] holds one
+     * region only, the target's positive share of triangles with the
+     * largest values starts as the positive region. */
+    const double *init_value;
 } gs_micro_correct_opts;
 typedef struct gs_micro_correct_stats {
     uint32_t rounds;

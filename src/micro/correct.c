@@ -37,6 +37,7 @@ void gs_micro_correct_defaults(gs_micro_correct_opts *o)
 {
     o->max_rounds = 300;
     o->target_l1 = 0.02;
+    o->init_value = NULL;
 }
 
 typedef struct move {
@@ -53,6 +54,23 @@ static int cmp_move(const void *x, const void *y)
     if (a->f != b->f)
         return a->f < b->f ? -1 : 1;
     return a->dir - b->dir;
+}
+
+static const double *sort_key;
+static int cmp_key(const void *x, const void *y)
+{
+    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
+    if (sort_key[a] != sort_key[b])
+        return sort_key[a] < sort_key[b] ? -1 : 1;
+    return a < b ? -1 : a > b;
+}
+
+/* Sorts ord[] by key[ord[i]] ascending, ties by index (not thread-safe). */
+static void micro_sort_by_value(uint32_t *ord, uint32_t n, const double *key)
+{
+    sort_key = key;
+    qsort(ord, n, sizeof *ord, cmp_key);
+    sort_key = NULL;
 }
 
 static inline uint32_t bin_of(uint32_t K, int pos, double d)
@@ -148,6 +166,27 @@ gs_err gs_micro_correct(const gs_micro_mesh *m, double units_per_model, const gs
                                  m->pos + 3 * (size_t)m->tris[3 * (size_t)t + (i + 1) % 3]);
     double hstep = n ? 0.5 * units_per_model * elen / (3.0 * n) : 0.5;
 
+    /* One region only (the paper as printed fills most of a planet from the
+     * positive cones): no interface to move. Start from the target's area
+     * share instead: the triangles of largest value (the reconstruction's
+     * values, when given, else none) make the positive region. */
+    int one = 1;
+    for (uint32_t t = 1; t < n && one; t++)
+        one = !side[t] == !side[0];
+    if (one && n > 1) {
+        int64_t npos = 0;
+        for (uint32_t k = 0; k < K; k++)
+            npos += h->count[gs_micro_bin_index(K, 0, k)];
+        for (uint32_t t = 0; t < n; t++)
+            dist[t] = o->init_value ? o->init_value[t] : 0;
+        /* rank by value, ties by index: positive = the npos largest */
+        uint32_t *ord = (uint32_t *)foot;
+        for (uint32_t t = 0; t < n; t++)
+            ord[t] = t;
+        micro_sort_by_value(ord, n, dist);
+        for (uint32_t i = 0; i < n; i++)
+            side[ord[i]] = (uint8_t)(i >= n - (uint32_t)npos);
+    }
     double best_l1 = INFINITY;
     for (uint32_t round = 0;; round++) {
         GS_TRY(err, gs_measure_interface_dist(g, side, dist, NULL, foot), done);
@@ -233,8 +272,10 @@ gs_err gs_micro_correct(const gs_micro_mesh *m, double units_per_model, const gs
     }
     memcpy(side, best, n);
     GS_TRY(err, gs_measure_interface_dist(g, side, dist, NULL, NULL), done);
-    for (uint32_t t = 0; t < n; t++)
-        dist_out[t] = side[t] ? dist[t] : -dist[t];
+    for (uint32_t t = 0; t < n; t++) {
+        double d = isfinite(dist[t]) ? dist[t] : (double)K; /* no interface at all */
+        dist_out[t] = side[t] ? d : -d;
+    }
     st.l1_after = best_l1;
     if (stats)
         *stats = st;

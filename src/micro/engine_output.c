@@ -240,7 +240,9 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
         for (uint32_t t = 0; t < n; t++)
             side[t] = micro_side(in->st.label[t], in->st.value[t], K);
         gs_micro_correct_stats cst;
-        GS_TRY(err, gs_micro_correct(&mi->m, mi->upm, &in->hist, &job->copts, side, cvalue, &cst), done);
+        gs_micro_correct_opts co = job->copts;
+        co.init_value = in->st.value;
+        GS_TRY(err, gs_micro_correct(&mi->m, mi->upm, &in->hist, &co, side, cvalue, &cst), done);
         GS_TRY(err, gs_micro_lipschitz(&mi->dual, cvalue), done);
         for (uint32_t t = 0; t < n; t++) {
             double x = cvalue[t];
