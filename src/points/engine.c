@@ -58,6 +58,7 @@
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
 #include "geosynth/pointply.h"
+#include "geosynth/preview.h"
 #include "geosynth/points.h"
 #include "geosynth/partition.h"
 #include "geosynth/run.h"
@@ -95,6 +96,7 @@ typedef struct points_config {
     int patch_csv;
     int mesh;
     double mesh_voxel;
+    int preview;
     double mesh_max_samples;
     gs_run_config run;
 } points_config;
@@ -196,6 +198,9 @@ static const gs_cfg_key points_keys[] = {
                     "write RUN_DIR/patches.csv (per-patch search distance, warp residual, ...)"),
     GS_CFG_KEY_BOOL(PC, mesh, "output.mesh", "false",
                     "also write RUN_DIR/mesh.ply (points -> implicit grid -> OpenVDB mesh)"),
+    GS_CFG_KEY_BOOL(PC, preview, "output.preview", "true",
+                    "write RUN_DIR/preview.png: the example and the output (up to twice the "
+                    "example's extent) meshed and rendered side by side"),
     GS_CFG_KEY_REAL(PC, mesh_voxel, "output.mesh_voxel", 0.1, 100, 0, "1",
                     "mesh grid voxel in units of the input spacing"),
     GS_CFG_KEY_REAL(PC, mesh_max_samples, "output.mesh_max_samples", 1e3, 4e9, 0, "2e8",
@@ -1048,16 +1053,28 @@ static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m
 }
 
 /* Mesh of the output (z-up points) written with the original axes. */
-static gs_err write_mesh(const points_config *c, const gs_points *pts, double spacing, double R,
-                         const char *path, size_t *ntris)
+/* A z-up triangle mesh of pts: the implicit function of the points
+ * (gs_points_implicit_grid) on a grid of `voxel`, contoured by OpenVDB, then
+ * trimmed to the points' own extent: the grid reaches 2 R past the points,
+ * where the function keeps the sign of the column above it (inside below a
+ * height field), so contouring closed the solid with vertical walls along
+ * the borders and a floor at the grid's bottom; triangles whose centroid
+ * is outside the points' xy range or more than R below the lowest point are
+ * dropped (the surface ends open at the borders, as the points do). */
+static gs_err mesh_points(const gs_points *pts, double voxel, double R, double spacing,
+                          double max_samples, gs_mesh *m)
 {
+    memset(m, 0, sizeof *m);
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < pts->n; i++)
         for (int a = 0; a < 3; a++) {
             lo[a] = fmin(lo[a], pts->v[i].p[a]);
             hi[a] = fmax(hi[a], pts->v[i].p[a]);
         }
-    double voxel = c->mesh_voxel * spacing;
+    GS_CHECK(pts->n > 0, GS_ERR_ARG, "mesh: no points");
+    double plo[3], phi[3];
+    memcpy(plo, lo, sizeof plo);
+    memcpy(phi, hi, sizeof phi);
     size_t dim[3];
     double samples = 1;
     for (int a = 0; a < 3; a++) {
@@ -1066,11 +1083,11 @@ static gs_err write_mesh(const points_config *c, const gs_points *pts, double sp
         dim[a] = (size_t)ceil((hi[a] - lo[a]) / voxel) + 1;
         samples *= (double)dim[a];
     }
-    GS_CHECK(samples <= c->mesh_max_samples, GS_ERR_ARG,
+    GS_CHECK(samples <= max_samples, GS_ERR_ARG,
              "output.mesh: the grid would have %zu x %zu x %zu = %.3g samples (%.1f GiB), above "
              "output.mesh_max_samples = %.3g: raise output.mesh_voxel or the limit, or set "
              "output.mesh = false", dim[0], dim[1], dim[2], samples, samples * 20 / 1073741824.0,
-             c->mesh_max_samples);
+             max_samples);
     gs_log(GS_LOG_INFO, "mesh: implicit grid %zu x %zu x %zu, voxel %g (%.1f MiB)", dim[0], dim[1],
            dim[2], voxel, samples * 20 / 1048576.0);
     gs_vdb_dense d;
@@ -1078,11 +1095,51 @@ static gs_err write_mesh(const points_config *c, const gs_points *pts, double sp
     memcpy(d.origin, lo, sizeof d.origin);
     d.voxel = voxel;
     d.background = (float)R;
-    gs_mesh m;
-    memset(&m, 0, sizeof m);
     gs_err err = GS_OK;
+    gs_points_grid_t g = NULL;
+    gs_points nb = {0};
     GS_TRY(err, gs_points_implicit_grid(pts, R, lo, voxel, dim[0], dim[1], dim[2], d.v), done);
-    GS_TRY(err, gs_vdb_dense_to_mesh(&d, 0.0, 0.0, &m), done);
+    GS_TRY(err, gs_vdb_dense_to_mesh(&d, 0.0, 0.0, m), done);
+    /* Also dropped: triangles farther than max(2 voxels, 2 spacings) from
+     * every point. Below an open piece of surface (a flower or a ring cut
+     * at a seam) the column rule makes the solid continue down, and the
+     * contour hung curtains under it, away from any point. */
+    double near = fmax(2 * voxel, 2 * spacing);
+    GS_TRY(err, gs_points_grid_create(plo, phi, near, &g), done);
+    for (size_t i = 0; i < pts->n; i++)
+        GS_TRY(err, gs_points_grid_add(g, &pts->v[i]), done);
+    size_t kept = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const uint32_t *v = m->tris + 3 * t;
+        double c[3] = {0, 0, 0};
+        for (int k = 0; k < 3; k++)
+            for (int a = 0; a < 3; a++)
+                c[a] += m->pos[3 * (size_t)v[k] + a] / 3.0;
+        if (c[0] < plo[0] || c[0] > phi[0] || c[1] < plo[1] || c[1] > phi[1] ||
+            c[2] < plo[2] - R)
+            continue;
+        nb.n = 0;
+        GS_TRY(err, gs_points_grid_query(g, c, near, &nb), done);
+        if (nb.n == 0)
+            continue;
+        memmove(m->tris + 3 * kept++, v, 3 * sizeof *v);
+    }
+    m->ntris = kept;
+done:
+    gs_points_grid_destroy(&g);
+    gs_points_free(&nb);
+    gs_vdb_dense_destroy(&d);
+    if (err != GS_OK)
+        gs_mesh_destroy(m);
+    return err;
+}
+
+static gs_err write_mesh(const points_config *c, const gs_points *pts, double spacing, double R,
+                         const char *path, size_t *ntris)
+{
+    gs_mesh m;
+    GS_CALL(mesh_points(pts, c->mesh_voxel * spacing, R, spacing, c->mesh_max_samples, &m));
+    gs_err err = GS_OK;
     /* Back to the example's axes: the inverse cyclic permutation (a rotation,
      * so triangle orientation is kept). */
     int up = up_axis(c);
@@ -1102,7 +1159,51 @@ static gs_err write_mesh(const points_config *c, const gs_points *pts, double sp
     *ntris = m.ntris;
 done:
     gs_mesh_destroy(&m);
-    gs_vdb_dense_destroy(&d);
+    return err;
+}
+
+/* RUN_DIR/preview.png: the example (inside its box) and the output
+ * cropped to twice the example's extent, meshed (mesh_points) at 1.5
+ * spacings at least and rendered side by side. *written = 0 without a
+ * renderer (a warning, the run goes on). */
+static gs_err write_preview(const points_config *c, const gs_points_texture *tex,
+                            const gs_points *zup, double R, const char *path, int *written)
+{
+    *written = 0;
+    gs_points ex = {0}, out = {0};
+    gs_mesh me, mo;
+    memset(&me, 0, sizeof me);
+    memset(&mo, 0, sizeof mo);
+    double bx = tex->box_hi[0] - tex->box_lo[0], by = tex->box_hi[1] - tex->box_lo[1];
+    gs_err err = GS_OK;
+    for (size_t i = 0; i < tex->pts.n; i++) {
+        const double *p = tex->pts.v[i].p;
+        if (p[0] >= tex->box_lo[0] && p[0] < tex->box_hi[0] && p[1] >= tex->box_lo[1] &&
+            p[1] < tex->box_hi[1])
+            GS_TRY(err, gs_points_append(&ex, &tex->pts.v[i], 1), done);
+    }
+    for (size_t i = 0; i < zup->n; i++) {
+        const double *p = zup->v[i].p;
+        if (p[0] < 2 * bx && p[1] < 2 * by)
+            GS_TRY(err, gs_points_append(&out, &zup->v[i], 1), done);
+    }
+    double voxel = fmax(c->mesh_voxel, 1.5) * tex->spacing;
+    GS_TRY(err, mesh_points(&ex, voxel, R, tex->spacing, c->mesh_max_samples, &me), done);
+    GS_TRY(err, mesh_points(&out, voxel, R, tex->spacing, c->mesh_max_samples, &mo), done);
+    gs_preview_panel panels[2] = {{&me, NULL}, {&mo, NULL}};
+    err = gs_preview_write(path, panels, 2, 512);
+    if (err == GS_ERR_LIB) {
+        gs_log(GS_LOG_WARN, "preview.png not written: %s", gs_error_message());
+        gs_error_clear();
+        err = GS_OK;
+    } else if (err == GS_OK) {
+        *written = 1;
+    }
+done:
+    gs_points_free(&ex);
+    gs_points_free(&out);
+    gs_mesh_destroy(&me);
+    gs_mesh_destroy(&mo);
     return err;
 }
 
@@ -1643,6 +1744,13 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
             if (local == GS_OK)
                 gs_run_output(run, "mesh", "mesh.ply");
+        }
+        if (c->preview && local == GS_OK) {
+            int written = 0;
+            gs_run_path(run, "preview.png", path, sizeof path);
+            local = write_preview(c, &rs.tex, &zup, rs.params.mls_radius, path, &written);
+            if (local == GS_OK && written)
+                gs_run_output(run, "preview", "preview.png");
         }
         gs_points_free(&zup);
         if (local == GS_OK)

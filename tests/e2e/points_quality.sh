@@ -12,6 +12,9 @@
 # - candidate randomness: over the patches with 2 or more candidates, the
 #   chosen patch's place in Psi_k (sorted by distance, scaled to [0, 1])
 #   averages 1/2 as a uniform pick gives, within 3 standard deviations;
+# - mesh (output.mesh): no triangle below the lowest point (less 3 spacings)
+#   or outside the points' xy range (the border walls and floor are gone);
+#   preview.png is written;
 # - whole objects (weave): the heights' KS distance to the example below 1.5
 #   x the distance between the example's two halves, and specks (components
 #   of < 30 points) at most 0.1 per unit area more than in the example.
@@ -21,7 +24,7 @@ small=(--set points.out_points=0 --set points.out_size=4.4,4.4)
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 lt() { /usr/bin/python3 -c 'import sys; sys.exit(0 if float(sys.argv[1]) < float(sys.argv[2]) * float(sys.argv[3]) else 1)' "$@"; }
 
-run_gs 2 points -c "$W" -o warp "${small[@]}"
+run_gs 2 points -c "$W" -o warp "${small[@]}" --set output.mesh=true
 expect_rc 0 "weave (small) with warp and blend"
 run_gs 2 points -c "$W" -o nowarp "${small[@]}" --set points.max_pair_dist=0.000001
 expect_rc 0 "weave (small) without warp"
@@ -44,6 +47,32 @@ sf=$(metric warp small_fragments_per_area) sfe=$(metric warp example_small_fragm
 lt "$sf" "$(/usr/bin/python3 -c "print($sfe + 0.1)")" 1 &&
   ok "no more specks than the example ($sf per unit area, example $sfe)" ||
   bad "specks: $sf per unit area, the example $sfe"
+out=$(/usr/bin/python3 - warp <<'EOF'
+import sys, numpy as np
+d = sys.argv[1]
+def body(f):
+    raw = open(f, "rb").read(); e = raw.index(b"end_header\n") + 11
+    h = raw[:e].decode().split("\n")
+    n = {l.split()[1]: int(l.split()[2]) for l in h if l.startswith("element")}
+    return raw[e:], n
+b, n = body(d + "/points.ply")
+P = np.frombuffer(b[:48 * n["vertex"]], "<f8").reshape(-1, 6)
+b, n = body(d + "/mesh.ply")
+V = np.frombuffer(b[:12 * n["vertex"]], "<f4").reshape(-1, 3)
+F = np.frombuffer(b[12 * n["vertex"]:12 * n["vertex"] + 13 * n["face"]], np.uint8).reshape(-1, 13)
+T = F[:, 1:].copy().view("<i4").reshape(-1, 3)
+C = V[T].mean(1)
+lo, hi = P[:, :3].min(0), P[:, :3].max(0)
+s = 0.03
+print("mesh %d triangles, centroid z %.3f..%.3f x %.3f..%.3f, points z %.3f..%.3f x %.3f..%.3f"
+      % (len(T), C[:, 2].min(), C[:, 2].max(), C[:, 0].min(), C[:, 0].max(), lo[2], hi[2], lo[0], hi[0]))
+ok = len(T) > 1000 and C[:, 2].min() >= lo[2] - 3 * s and (C[:, :2] >= lo[:2] - 1e-6).all() \
+     and (C[:, :2] <= hi[:2] + 1e-6).all()
+sys.exit(0 if ok else 1)
+EOF
+)
+[[ $? -eq 0 ]] && ok "mesh ends at the points' extent, no walls or floor ($out)" || bad "mesh beyond the points: $out"
+[[ -s warp/preview.png ]] && ok "preview.png written" || bad "no preview.png"
 declare -A res
 for d in warp noblend; do
   sd=$(metric $d seam_dist) id=$(metric $d inside_dist)
