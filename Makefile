@@ -32,7 +32,7 @@ CFLAGS   ?= -O2 -g
 CFLAGS   += -std=c11 -D_POSIX_C_SOURCE=200809L $(WARN) -Iinclude -Isrc $(HDF5_CFLAGS) $(OSMESA_CFLAGS) -MMD -MP
 CXXFLAGS ?= -O2 -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Wno-unused-parameter $(CXXWERROR) -Iinclude -Isrc $(MPI_CFLAGS) -MMD -MP
-LDLIBS   := $(HDF5_LIBS) -lassimp -linih -lxxhash -llapacke -llapack -lblas -lpng -lz -lm
+LDLIBS   := $(HDF5_LIBS) -linih -lxxhash -llapacke -llapack -lblas -lpng -lz -lm
 # OpenVDB and OSMesa live in plugins loaded on first use (include/geosynth/plugin.h):
 # linked into the program they cost every rank ~65 ms of start-up. The programs
 # export their symbols (-rdynamic) so the plugins can call gs_* back.

@@ -7,7 +7,7 @@ packages=(
   build-essential pkg-config make
   openmpi-bin libopenmpi-dev libhdf5-openmpi-dev hdf5-tools
   libopenvdb-dev libboost-dev libtbb-dev
-  libstb-dev librandom123-dev libinih-dev libassimp-dev libxxhash-dev
+  libstb-dev librandom123-dev libinih-dev libxxhash-dev
   liblapacke-dev liblapack-dev libblas-dev libpng-dev zlib1g-dev
   libcmocka-dev valgrind clang libclang-rt-14-dev
   libfftw3-dev

@@ -185,7 +185,7 @@ run_fuzz() {
     scratch=$(mktemp -d)
     cp -r "$corpus"/. "$scratch"/ 2>/dev/null
     # Corpus replay, then a short bounded fuzzing run (new inputs go to scratch).
-    ASAN_OPTIONS=detect_leaks=1 timeout 120 "$exe" -max_total_time=15 -timeout=10 \
+    ASAN_OPTIONS=detect_leaks=1 timeout $(( ${FUZZ_SECONDS:-15} + 105 )) "$exe" -max_total_time="${FUZZ_SECONDS:-15}" -timeout=10 \
       -rss_limit_mb=2048 "$scratch" >"$log" 2>&1
     rc=$?
     rm -rf "$scratch"

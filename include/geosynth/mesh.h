@@ -1,4 +1,4 @@
-/* Triangle meshes: read (OBJ, PLY, STL, OFF via assimp), write (OBJ, binary
+/* Triangle meshes: read (OBJ, PLY, STL, OFF), write (OBJ, binary
  * PLY), bounding box, closedness check, normals, welding.
  *
  * gs_mesh is a plain struct the caller may fill directly (or with
@@ -7,15 +7,23 @@
  * Vertex i is pos[3i..3i+2]; triangle t is tris[3t..3t+2] (counter-clockwise
  * seen from outside = outward normal by the right-hand rule).
  *
- * Reading: assimp with triangulation, identical-vertex joining and
- * pre-transformed node hierarchies; only triangle faces are kept (points and
- * lines are dropped). Because assimp splits a vertex when its normals or UVs
- * differ, the result is welded by exact position afterwards, so topology
- * checks see the real connectivity. File normals are discarded; normals is
- * NULL after reading (call gs_mesh_compute_normals when needed).
- * Errors name the file and what is wrong: missing/unreadable file (GS_ERR_IO),
- * not a mesh / no triangles / NaN or infinite coordinates / more than
- * GS_MESH_MAX_ELEMS vertices or triangles (GS_ERR_FORMAT).
+ * Reading (src/io/meshread.c): bounded readers of our own, picked by the
+ * extension (.ply ascii/binary either endian with vertex x y z and face
+ * vertex_indices; .off and its C/N/ST variants; .stl binary or text; .obj v
+ * and f lines, negative indices, /uv/normal suffixes). Every header count is
+ * checked against the bytes left before allocating; memory grows with what
+ * the file holds; time is linear in the file size. Polygons are triangulated
+ * (quads split at a concave corner, as assimp did; larger ones fanned);
+ * points and lines are dropped. Vertices come in the order the triangles
+ * first use them (unused ones dropped) and are welded by exact position, so
+ * topology checks see the real connectivity (the same result as the assimp
+ * importer used before). File normals are discarded; normals is NULL after
+ * reading (call gs_mesh_compute_normals when needed).
+ * Errors name the file and the line or byte and what is wrong: missing or
+ * unreadable file (GS_ERR_IO), unknown extension, not a mesh, a count past
+ * the end of the file, an index out of range, no triangles, NaN or infinite
+ * coordinates, more than GS_MESH_MAX_ELEMS vertices or triangles
+ * (GS_ERR_FORMAT).
  *
  * Writing is atomic (path.tmp + rename). OBJ: v, vn (when normals), f (1-based,
  * v//vn with normals). PLY: binary little endian, x y z float, optional
@@ -57,6 +65,9 @@ gs_err gs_mesh_validate(const gs_mesh *m, const char *what);
 
 /* Reads a triangle mesh (see above). On error *out is zeroed. */
 gs_err gs_mesh_read(const char *path, gs_mesh *out);
+/* The same over a file image data[len] in memory; name gives the format (its
+ * extension) and is used in messages. */
+gs_err gs_mesh_parse(const char *data, size_t len, const char *name, gs_mesh *out);
 
 /* Writes OBJ / PLY (atomically). prop_name names the PLY per-vertex property
  * written from m->scalar (float) or else m->label (uchar); NULL or an absent

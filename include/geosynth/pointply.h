@@ -1,9 +1,9 @@
 /* Oriented point sets in PLY files: vertices with x y z and normals nx ny nz,
- * no faces needed (gs_mesh_read goes through assimp, which rejects PLY files
- * without faces).
+ * no faces needed (gs_mesh_read needs faces; both readers share the bounded
+ * PLY layer src/io/ply.c).
  *
- * Reading: "format ascii 1.0" and "format binary_little_endian 1.0" (big
- * endian is refused with a clear message). The "vertex" element must have
+ * Reading: "format ascii 1.0", "binary_little_endian 1.0" and
+ * "binary_big_endian 1.0". The "vertex" element must have
  * properties x, y, z; nx, ny, nz (or normal_x, normal_y, normal_z) are read
  * when present. Property types char/uchar/short/ushort/int/uint/float/double
  * (and the int8..float64 spellings); other vertex properties, list

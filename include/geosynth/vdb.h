@@ -66,7 +66,17 @@ gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n);
  * NULL. A missing name gives GS_ERR_ARG listing the grids in the file. */
 gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out);
 
-/* Convenience: dense <-> .vdb in one call (tolerance 0 on write). */
+/* Checks the structure of a .vdb file image (header, metadata, grid
+ * descriptors and offsets, each grid's metadata and transform name) without
+ * OpenVDB: every length and offset must lie inside the file. GS_ERR_FORMAT
+ * naming the byte otherwise. */
+gs_err gs_vdb_check(const void *data, size_t len, const char *name);
+
+/* Convenience: dense <-> .vdb in one call (tolerance 0 on write).
+ * gs_vdb_read_dense is the reader for input files: gs_vdb_check first, then
+ * OpenVDB in a forked child limited to GS_VDB_READ_MAX_MB of memory (default
+ * 80% of what is available) and GS_VDB_READ_SECONDS (default 600), so a
+ * damaged file gives an error naming it, never an abort, crash or hang. */
 gs_err gs_vdb_write_dense(const char *path, const char *name, const gs_vdb_dense *d);
 gs_err gs_vdb_read_dense(const char *path, const char *name, gs_vdb_dense *out);
 

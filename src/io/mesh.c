@@ -2,9 +2,6 @@
 #include "geosynth/digest.h"
 #include "geosynth/mesh.h"
 
-#include <assimp/cimport.h>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -68,78 +65,7 @@ gs_err gs_mesh_validate(const gs_mesh *m, const char *what)
     return GS_OK;
 }
 
-/* ---------------------------------------------------------------- reading */
-
-static gs_err mesh_from_scene(const char *path, const struct aiScene *sc, gs_mesh *out)
-{
-    size_t nv = 0, nt = 0;
-    for (unsigned i = 0; i < sc->mNumMeshes; i++) {
-        const struct aiMesh *am = sc->mMeshes[i];
-        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE))
-            continue;
-        nv += am->mNumVertices;
-        for (unsigned f = 0; f < am->mNumFaces; f++)
-            nt += am->mFaces[f].mNumIndices == 3;
-    }
-    GS_CHECK(nt > 0, GS_ERR_FORMAT,
-             "%s: no triangles (the file holds %u mesh part(s) with only points, lines or "
-             "nothing): expected a triangle mesh",
-             path, sc->mNumMeshes);
-    GS_CHECK(nv <= GS_MESH_MAX_ELEMS && nt <= GS_MESH_MAX_ELEMS, GS_ERR_FORMAT,
-             "%s: %zu vertices and %zu triangles: at most %zu of each are supported", path, nv,
-             nt, GS_MESH_MAX_ELEMS);
-    GS_CALL(gs_mesh_alloc(out, nv, nt, 0));
-    size_t v0 = 0, t = 0;
-    for (unsigned i = 0; i < sc->mNumMeshes; i++) {
-        const struct aiMesh *am = sc->mMeshes[i];
-        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE))
-            continue;
-        for (unsigned k = 0; k < am->mNumVertices; k++) {
-            out->pos[3 * (v0 + k) + 0] = am->mVertices[k].x;
-            out->pos[3 * (v0 + k) + 1] = am->mVertices[k].y;
-            out->pos[3 * (v0 + k) + 2] = am->mVertices[k].z;
-        }
-        for (unsigned f = 0; f < am->mNumFaces; f++) {
-            const struct aiFace *fc = &am->mFaces[f];
-            if (fc->mNumIndices != 3)
-                continue;
-            for (int c = 0; c < 3; c++)
-                out->tris[3 * t + c] = (uint32_t)(v0 + fc->mIndices[c]);
-            t++;
-        }
-        v0 += am->mNumVertices;
-    }
-    return GS_OK;
-}
-
-gs_err gs_mesh_read(const char *path, gs_mesh *out)
-{
-    memset(out, 0, sizeof *out);
-    GS_CHECK(path && path[0], GS_ERR_ARG, "mesh path is empty");
-    FILE *f = fopen(path, "rb");
-    GS_CHECK(f, GS_ERR_IO, "%s: cannot open mesh file: %s", path, strerror(errno));
-    fclose(f);
-    const struct aiScene *sc =
-        aiImportFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                               aiProcess_SortByPType | aiProcess_PreTransformVertices |
-                               aiProcess_ValidateDataStructure);
-    GS_CHECK(sc, GS_ERR_FORMAT, "%s: not a readable mesh (assimp: %s)", path,
-             aiGetErrorString());
-    gs_err err = GS_OK;
-    GS_TRY(err, mesh_from_scene(path, sc, out), fail);
-    GS_TRY(err, gs_mesh_validate(out, path), fail);
-    /* assimp splits vertices by normal/uv: weld by position for true connectivity */
-    GS_TRY(err, gs_mesh_weld(out, 0.0f), fail);
-    GS_TRY_CHECK(err, out->ntris > 0, GS_ERR_FORMAT, fail,
-                 "%s: every triangle is degenerate (repeated vertex): expected a triangle mesh",
-                 path);
-    aiReleaseImport(sc);
-    return GS_OK;
-fail:
-    aiReleaseImport(sc);
-    gs_mesh_destroy(out);
-    return err;
-}
+/* Reading: src/io/meshread.c. */
 
 /* ---------------------------------------------------------------- writing */
 

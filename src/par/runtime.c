@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
@@ -14,7 +15,32 @@ static int par_rank = 0;
 static int par_size = 1;
 static volatile sig_atomic_t par_signal = 0;
 
-static void on_signal(int sig) { par_signal = sig; }
+/* The first TERM/INT/USR1 asks for a checkpoint at the next safe point (the
+ * run loop polls gs_par_interrupted). A second TERM or INT means the user
+ * will not wait: the process ends at once, with a message written with
+ * write(2) (async-signal-safe) and exit code 128 + signal, as a shell reports
+ * it. The run directory stays resumable: every output is written atomically
+ * and the last checkpoint is kept until the outputs and summary.json are. */
+static void on_signal(int sig)
+{
+    if ((sig == SIGTERM || sig == SIGINT) && par_signal != 0) {
+        /* rank 0 speaks for all (mpirun forwards the signal to every rank) */
+        static const char term[] = "geosynth: second SIGTERM: stopping at once without a "
+                                   "checkpoint (resume from the last one with "
+                                   "'geosynth resume RUN_DIR')\n";
+        static const char intr[] = "geosynth: second SIGINT: stopping at once without a "
+                                   "checkpoint (resume from the last one with "
+                                   "'geosynth resume RUN_DIR')\n";
+        const char *m = sig == SIGTERM ? term : intr;
+        size_t n = sig == SIGTERM ? sizeof term - 1 : sizeof intr - 1;
+        if (par_rank == 0) {
+            ssize_t w = write(2, m, n);
+            (void)w;
+        }
+        _exit(128 + sig);
+    }
+    par_signal = sig;
+}
 
 gs_err gs_mpi_error(int rc, const char *call, const char *file, int line, const char *func)
 {

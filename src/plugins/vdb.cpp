@@ -138,7 +138,10 @@ openvdb::FloatGrid::Ptr grid_from_dense(const gs_vdb_dense *d, float tolerance)
     return grid;
 }
 
-gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_dense *out)
+// serial: no TBB (the reader runs in a forked child, src/io/vdb.c, where a
+// pool the parent started has no threads).
+gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_dense *out,
+                       bool serial = false)
 {
     const openvdb::math::Transform &xf = grid.transform();
     openvdb::Vec3d vs = xf.voxelSize();
@@ -160,6 +163,9 @@ gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_
     auto mx = grid.getMetadata<openvdb::Vec3IMetadata>("gs_dense_max");
     if (mn && mx) {
         box = openvdb::CoordBBox(openvdb::Coord(mn->value()), openvdb::Coord(mx->value()));
+    } else if (serial) {
+        for (auto it = grid.cbeginValueOn(); it; ++it)
+            box.expand(it.getBoundingBox());
     } else {
         box = grid.evalActiveVoxelBoundingBox();
     }
@@ -174,7 +180,7 @@ gs_err dense_from_grid(const openvdb::FloatGrid &grid, const char *what, gs_vdb_
     out->voxel = vs[0];
     out->background = grid.background();
     DenseXYZ dense(box, out->v);
-    openvdb::tools::copyToDense(grid, dense);
+    openvdb::tools::copyToDense(grid, dense, serial);
     return GS_OK;
 }
 
@@ -307,7 +313,7 @@ extern "C" gs_err gs_vdbp_read_dense(const char *path, const char *name, gs_vdb_
     GS_CALL(gs_vdbp_read(path, name, &g));
     gs_err err = GS_OK;
     try {
-        err = dense_from_grid(*g->grid, path, out);
+        err = dense_from_grid(*g->grid, path, out, true);
     } catch (...) {
         err = raise_current(__func__, path);
     }

@@ -304,6 +304,76 @@ static void test_write_read_roundtrip(void **state)
     gs_mesh_destroy(&m);
 }
 
+
+/* The bounded readers (src/io/meshread.c): a cube in every format reads to
+ * 8 vertices and 12 triangles; counts beyond the file, indices out of range
+ * and unknown extensions are refused with the file and line or byte named. */
+static void expect_mesh_error(const char *text, const char *name, const char *needle)
+{
+    gs_mesh m;
+    gs_err e = gs_mesh_parse(text, strlen(text), name, &m);
+    if (e != GS_ERR_FORMAT || !strstr(gs_error_message(), needle) ||
+        !strstr(gs_error_message(), name))
+        fail_msg("%s: expected an error with '%s', got %d: %s", name, needle, e,
+                 gs_error_message());
+    gs_error_clear();
+}
+
+static void test_bounded_readers(void **state)
+{
+    (void)state;
+    static const char *v8 = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n";
+    static const char *q6 = "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+    char buf[2048];
+    gs_mesh m;
+    snprintf(buf, sizeof buf, "OFF\n8 6 0\n%s%s", v8, q6);
+    assert_int_equal(gs_mesh_parse(buf, strlen(buf), "cube.off", &m), GS_OK);
+    assert_true(m.nverts == 8 && m.ntris == 12);
+    gs_mesh_topology t;
+    assert_int_equal(gs_mesh_topology_check(&m, &t), GS_OK);
+    assert_true(t.closed);
+    gs_mesh_destroy(&m);
+    snprintf(buf, sizeof buf,
+             "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+             "property float z\nelement face 6\nproperty list uchar int vertex_indices\n"
+             "end_header\n%s%s", v8, q6);
+    assert_int_equal(gs_mesh_parse(buf, strlen(buf), "cube.ply", &m), GS_OK);
+    assert_true(m.nverts == 8 && m.ntris == 12);
+    gs_mesh_destroy(&m);
+    /* big-endian binary PLY: one triangle */
+    static const unsigned char be[] = "ply\nformat binary_big_endian 1.0\nelement vertex 3\n"
+                                      "property float x\nproperty float y\nproperty float z\n"
+                                      "element face 1\nproperty list uchar int vertex_indices\n"
+                                      "end_header\n";
+    unsigned char bb[400];
+    size_t n = sizeof be - 1;
+    memcpy(bb, be, n);
+    const unsigned char one[4] = {0x3f, 0x80, 0, 0}, zero[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 9; i++) /* (0,0,0) (1,0,0) (0,1,0) */
+        memcpy(bb + n + 4 * i, (i == 3 || i == 7) ? one : zero, 4);
+    n += 36;
+    bb[n++] = 3;
+    for (int k = 0; k < 3; k++) {
+        bb[n++] = 0, bb[n++] = 0, bb[n++] = 0, bb[n++] = (unsigned char)k;
+    }
+    assert_int_equal(gs_mesh_parse((const char *)bb, n, "be.ply", &m), GS_OK);
+    assert_true(m.nverts == 3 && m.ntris == 1 && m.pos[3] == 1.0f && m.pos[7] == 1.0f);
+    gs_mesh_destroy(&m);
+    expect_mesh_error("ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\n"
+                      "property float x\nproperty float y\nproperty float z\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n",
+                      "huge.ply", "need more data than the 0 bytes left");
+    expect_mesh_error("OFF\n2000000000 1 0\n0 0 0\n", "huge.off", "vertex count");
+    snprintf(buf, sizeof buf, "OFF\n8 1 0\n%s3 0 1 9\n", v8);
+    expect_mesh_error(buf, "index.off", "line 11: a face's vertex index");
+    expect_mesh_error("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "index.obj",
+                      "line 4: face uses vertex 4 but the file has 3 vertices");
+    expect_mesh_error("v 0 0 0\nf -2 1 1\n", "back.obj", "refers back past");
+    expect_mesh_error("solid x\n facet normal 0 0 0\n  outer loop\n   vertex 0 0 0\n",
+                      "cut.stl", "file ends inside a facet");
+    expect_mesh_error("v 0 0 0\n", "x.xyz", "unknown mesh extension '.xyz'");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -314,6 +384,7 @@ int main(void)
         cmocka_unit_test(test_weld_matches_brute_force),
         cmocka_unit_test(test_misoriented_and_nonmanifold),
         cmocka_unit_test(test_write_read_roundtrip),
+        cmocka_unit_test(test_bounded_readers),
     };
     return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }

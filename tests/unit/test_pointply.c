@@ -97,10 +97,11 @@ static void test_foreign_binary(void **state)
     assert_true(p.v[6 * 2 + 0] == 2.0 && p.v[6 * 2 + 1] == 0.5 && p.v[6 * 2 + 2] == -2.0);
     assert_true(p.v[6 * 2 + 5] == 1.0 && p.v[6 * 2 + 3] == 0.0);
     gs_pointply_destroy(&p);
-    /* Truncated inside vertex 2: the byte offset and vertex are named. */
+    /* Truncated inside vertex 2: caught before reading the vertices, with the
+     * byte offset and the element named. */
     assert_int_equal(gs_pointply_parse((const char *)buf, n - 5, "hand.ply", 1, &p), GS_ERR_FORMAT);
     assert_non_null(strstr(gs_error_message(), "hand.ply: byte"));
-    assert_non_null(strstr(gs_error_message(), "inside vertex 2 of 3"));
+    assert_non_null(strstr(gs_error_message(), "3 items of element vertex"));
     gs_error_clear();
 }
 
@@ -144,12 +145,16 @@ static void test_ascii_and_errors(void **state)
     expect_error("ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty double y\n"
                  "property double z\nproperty double nx\nproperty double ny\nproperty double nz\n"
                  "end_header\n0 0 0 0 0 1\n1 2\n",
+                 "2 items of element vertex of at least 12 bytes each need more data");
+    expect_error("ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty double y\n"
+                 "property double z\nproperty double nx\nproperty double ny\nproperty double nz\n"
+                 "end_header\n0 0 0 0 0 1\n100000 2000 300\n",
                  "file ends inside vertex 1 of 2");
     expect_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
                  "property double z\nend_header\n0 0 0\n",
                  "line 3: element vertex has no normals");
     expect_error("ply\nformat binary_big_endian 1.0\nelement vertex 1\nend_header\n",
-                 "line 2: binary_big_endian PLY is not supported");
+                 "line 3: element vertex has no property x");
     expect_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n",
                  "line 4: unknown property type 'float128'");
     expect_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float z\n"
