@@ -28,6 +28,15 @@ typedef struct gs_atomic_file {
 } gs_atomic_file;
 
 gs_err gs_atomic_begin(const char *path, gs_atomic_file *af);
+
+/* Opens path for writing as a new file, never through a symlink: whatever
+ * is at path (a stale file, a planted symlink) is unlinked first, then
+ * created with O_EXCL | O_NOFOLLOW. NULL with errno set on failure. Every
+ * output and temporary file goes through it (or gs_fopen_append). */
+FILE *gs_fopen_new(const char *path);
+/* Opens path for appending (created when missing); refuses a symlink
+ * (O_NOFOLLOW: ELOOP). */
+FILE *gs_fopen_append(const char *path);
 gs_err gs_atomic_commit(gs_atomic_file *af);
 void gs_atomic_abort(gs_atomic_file *af);
 

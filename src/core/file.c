@@ -48,6 +48,30 @@ gs_err gs_file_commit(const char *tmp, const char *path)
     return fsync_dir_of(path);
 }
 
+FILE *gs_fopen_new(const char *path)
+{
+    if (unlink(path) != 0 && errno != ENOENT)
+        return NULL;
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return NULL;
+    FILE *f = fdopen(fd, "wb");
+    if (!f)
+        close(fd);
+    return f;
+}
+
+FILE *gs_fopen_append(const char *path)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_APPEND | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return NULL;
+    FILE *f = fdopen(fd, "ab");
+    if (!f)
+        close(fd);
+    return f;
+}
+
 gs_err gs_atomic_begin(const char *path, gs_atomic_file *af)
 {
     GS_CHECK(path && path[0], GS_ERR_ARG, "output path is empty");
@@ -55,7 +79,7 @@ gs_err gs_atomic_begin(const char *path, gs_atomic_file *af)
     char *tmp = gs_malloc(n);
     GS_CHECK(tmp, GS_ERR_MEM, "%s: cannot allocate path", path);
     snprintf(tmp, n, "%s.tmp", path);
-    FILE *f = fopen(tmp, "wb");
+    FILE *f = gs_fopen_new(tmp);
     if (!f) {
         int e = errno;
         gs_free(tmp);

@@ -92,7 +92,7 @@ static gs_err prepare_tmp(const char *tmp)
     if (unlink(tmp) != 0 && errno != ENOENT)
         GS_RAISE(GS_ERR_IO, "%s: cannot remove the stale temporary file: %s", tmp,
                  strerror(errno));
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644); /* no planted symlink */
     GS_CHECK(fd >= 0, GS_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
     close(fd);
     return GS_OK;

@@ -117,7 +117,7 @@ gs_err gs_xdmf_write(const char *h5_path, const gs_xdmf_grid *grid, const gs_xdm
     const char *slash = strrchr(h5_path, '/');
     const char *h5_name = slash ? slash + 1 : h5_path; /* relative: the pair moves together */
 
-    FILE *f = fopen(tmp, "w");
+    FILE *f = gs_fopen_new(tmp);
     GS_CHECK(f, GS_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
     write_xml(f, h5_name, grid, attrs, nattrs);
     int bad = fflush(f) != 0 || ferror(f) || fsync(fileno(f)) != 0;

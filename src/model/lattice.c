@@ -4,6 +4,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "geosynth/file.h"
+
 #include "geosynth/digest.h"
 #include "geosynth/mem.h"
 #include "geosynth/parse.h"
@@ -187,7 +189,7 @@ done:
 
 gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat)
 {
-    FILE *f = fopen(path, "wb");
+    FILE *f = gs_fopen_new(path); /* never through a planted symlink */
     GS_CHECK(f != NULL, GS_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
     fprintf(f, "Model synthesized by geosynth.\n\nx, y, and z extents\n%d %d %d\n", lat->nx,
             lat->ny, lat->nz);

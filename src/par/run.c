@@ -1,6 +1,7 @@
 /* Run directory, phases, metrics.jsonl and summary.json; see run.h. */
 #include "geosynth/run.h"
 
+#include <errno.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -77,8 +78,8 @@ void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len)
 
 static gs_err append_line(const char *path, const char *line)
 {
-    FILE *f = fopen(path, "a");
-    GS_CHECK(f != NULL, GS_ERR_IO, "cannot append to %s", path);
+    FILE *f = gs_fopen_append(path);
+    GS_CHECK(f != NULL, GS_ERR_IO, "cannot append to %s: %s", path, strerror(errno));
     int ok = fputs(line, f) >= 0 && fputc('\n', f) != EOF;
     ok = (fclose(f) == 0) && ok;
     GS_CHECK(ok, GS_ERR_IO, "cannot append to %s", path);

@@ -60,6 +60,20 @@ $PY "$GS_ROOT/tests/e2e/mutate.py" 26 $(( N / 2 )) vmut vdbsrc/field.vdb
 head -c 3000 vdbsrc/field.vdb > vmut/first3000.vdb
 check_hostile "damaged .vdb examples" vmut/*
 
+# --- outputs never follow symlinks planted in the run directory ---------------
+mkdir -p planted
+echo precious > precious.txt
+for f in summary.json.tmp field.h5.tmp field.xmf.tmp contour.ply.tmp metrics.jsonl; do
+  ln -sf "$PWD/precious.txt" "planted/$f"
+done
+run_gs 0 field -c "$Q" -o planted
+expect_rc 3 "a symlink as metrics.jsonl is refused"
+expect_err "metrics.jsonl: Too many levels of symbolic links" "the refusal names the file"
+rm planted/metrics.jsonl
+run_gs 0 field -c "$Q" -o planted
+expect_rc 0 "symlinks planted as temporary files are replaced, not followed"
+[[ "$(cat precious.txt)" == precious ]] && ok "the symlinks' target is untouched" || bad "an output was written through a planted symlink"
+
 # --- a second SIGTERM ends the run at once -------------------------------------
 "$GS_BIN" field -c "$Q" -o sigterm --set field.target=160x128x128 --set output.geometry=none >term.out 2>term.err &
 pid=$!
