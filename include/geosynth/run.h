@@ -33,6 +33,7 @@ typedef struct gs_run {
     MPI_Comm comm;
     int rank, size;
     char *dir;              /* absolute run directory */
+    int lock_fd;            /* rank 0: DIR/.lock, flock'ed for the run's life (-1: none) */
     char engine[32];
     char *config_text;      /* resolved config (owned copy) */
     uint64_t seed;

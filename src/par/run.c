@@ -2,11 +2,14 @@
 #include "geosynth/run.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/file.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "geosynth/digest.h"
 #include "geosynth/file.h"
@@ -25,11 +28,45 @@ static char *dup_str(const char *s)
     return d;
 }
 
+/* One run per directory: rank 0 holds an exclusive flock on DIR/.lock
+ * until gs_run_close or its exit (the kernel drops it when the process
+ * dies, so a killed run never leaves a stale lock). A second run into the
+ * same directory stops before touching anything. */
+static gs_err lock_dir(gs_run *run)
+{
+    char path[PATH_MAX];
+    GS_CHECK(snprintf(path, sizeof path, "%s/.lock", run->dir) < (int)sizeof path, GS_ERR_ARG,
+             "run directory path is too long (%zu characters)", strlen(run->dir));
+    int fd = open(path, O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+    GS_CHECK(fd >= 0, GS_ERR_IO, "cannot open the lock file %s: %s", path, strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        int e = errno;
+        char pid[32] = "";
+        ssize_t n = read(fd, pid, sizeof pid - 1);
+        pid[n > 0 ? n : 0] = '\0';
+        pid[strcspn(pid, "\n")] = '\0';
+        close(fd);
+        GS_CHECK(e != EWOULDBLOCK, GS_ERR_ARG,
+                 "run directory %s is in use by another geosynth run (process %s holds %s): "
+                 "wait for it to end, or give another run directory (-o DIR)",
+                 run->dir, pid[0] ? pid : "?", path);
+        GS_RAISE(GS_ERR_IO, "cannot lock %s: %s", path, strerror(e));
+    }
+    char pid[32];
+    int n = snprintf(pid, sizeof pid, "%ld\n", (long)getpid());
+    if (ftruncate(fd, 0) != 0 || write(fd, pid, (size_t)n) != n) {
+        /* the pid is only for the message: the lock itself holds */
+    }
+    run->lock_fd = fd;
+    return GS_OK;
+}
+
 static gs_err open_dir_rank0(gs_run *run, const char *dir)
 {
     GS_CALL(gs_path_absolute(dir, NULL, &run->dir));
     GS_CALL(gs_mkdir_p(run->dir));
     GS_CALL(gs_dir_check_writable(run->dir));
+    GS_CALL(lock_dir(run));
     return GS_OK;
 }
 
@@ -37,6 +74,7 @@ gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *d
                    const char *config_text, uint64_t seed, int resumed)
 {
     memset(run, 0, sizeof *run);
+    run->lock_fd = -1;
     run->comm = comm;
     GS_MPI(MPI_Comm_rank(comm, &run->rank));
     GS_MPI(MPI_Comm_size(comm, &run->size));
@@ -360,6 +398,8 @@ gs_err gs_run_interrupted(const gs_run *run)
 
 void gs_run_close(gs_run *run)
 {
+    if (run->lock_fd >= 0)
+        close(run->lock_fd); /* drops the flock; the file stays (unlinking it would race) */
     gs_free(run->dir);
     gs_free(run->config_text);
     gs_json_free(&run->metrics);

@@ -74,6 +74,18 @@ run_gs 0 field -c "$Q" -o planted
 expect_rc 0 "symlinks planted as temporary files are replaced, not followed"
 [[ "$(cat precious.txt)" == precious ]] && ok "the symlinks' target is untouched" || bad "an output was written through a planted symlink"
 
+# --- one run per directory -------------------------------------------------------
+"$GS_BIN" field -c "$Q" -o locked --set field.target=160x128x128 --set output.geometry=none >lock.out 2>lock.err &
+pid=$!
+sleep 1.5
+run_gs 0 field -c "$Q" -o locked
+expect_rc 2 "a second run into a directory in use is refused"
+expect_err "is in use by another geosynth run (process $pid" "the refusal names the directory and the process"
+kill -TERM $pid; wait $pid; rc=$?
+[[ $rc -eq 9 ]] && ok "the first run stopped with a checkpoint (exit 9)" || bad "first run: exit $rc"
+run_gs 0 resume locked
+expect_rc 0 "the lock is gone with its process: resume runs"
+
 # --- a second SIGTERM ends the run at once -------------------------------------
 "$GS_BIN" field -c "$Q" -o sigterm --set field.target=160x128x128 --set output.geometry=none >term.out 2>term.err &
 pid=$!
