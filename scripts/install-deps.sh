@@ -12,7 +12,7 @@ packages=(
   libcmocka-dev valgrind clang libclang-rt-14-dev
   libfftw3-dev
   libosmesa6-dev chromium xvfb    # headless thumbnails (OSMesa), page tests (Chromium), VTK under xvfb-run
-  python3-numpy python3-h5py python3-matplotlib
+  python3-numpy python3-h5py python3-matplotlib python3-openvdb
   slurm-wlm munge
   curl ca-certificates            # make data (scripts/fetch-data.sh)
 )

@@ -99,6 +99,7 @@
 #include <stdint.h>
 
 #include "geosynth/error.h"
+#include "geosynth/measure.h"
 #include "geosynth/rng.h"
 
 /* ---------------------------------------------------------------- fields */
@@ -329,6 +330,10 @@ typedef struct gs_field_synth_config {
                                         (random seeds, coarse result) in masked matching, see
                                         gs_field_query; 0 = ignored (copies the source almost
                                         verbatim), 256 = the paper's whole block */
+    int coarse_weight;               /* 0..256 (1/256): weight of the unsynthesized samples of
+                                        iterations >= 1 (the upsampled coarse result) in masked
+                                        matching; 256 = as much as the synthesized ones (the
+                                        paper: the coarse result weighs in every match) */
     int seed_blocks;                 /* 1: iteration 0 seeds the target with random source
                                         blocks (tiles of block[0]) instead of random samples */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
@@ -464,5 +469,30 @@ gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src,
                                      gs_err (*match)(void *ctx, const gs_field_query *q,
                                                      gs_field_match *m),
                                      void *ctx, gs_field_quality *qm);
+
+/* Measures of the geometry of an output against its source, from the two
+ * quantized fields alone (src/field/report.c): copying (gs_measure_copy3 with
+ * windows of GS_FIELD_COPY_WINDOW^3, regions larger than one block of B^3
+ * counted as large, completeness over source cells of B^3), the inside
+ * components (face-connected inside samples, gs_measure_components3) and the
+ * steps between 6-neighbours (a distance field changes by at most one sample
+ * between neighbours; steps above 1.5 samples are violations). */
+#define GS_FIELD_COPY_WINDOW 4
+typedef struct gs_field_geometry_report {
+    gs_measure_copy copy;
+    int64_t components_out, components_src;
+    double components_per_msample_out, components_per_msample_src; /* per 10^6 samples */
+    double component_median_out, component_median_src;             /* samples */
+    double component_size_ks;        /* KS distance of the two size distributions */
+    double fragment_share_out, fragment_share_src; /* share of components smaller than a
+                                                      quarter of the source's median */
+    double step_violations_out, step_violations_src; /* share of 6-neighbour pairs whose
+                                                        values differ by > 1.5 samples */
+    double seconds;
+} gs_field_geometry_report;
+gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,
+                                 gs_field_geometry_report *r);
+/* The step share of a float field in units of spacing (any field). */
+double gs_field_step_violations(const float *v, const int64_t n[3], double spacing, double limit);
 
 #endif

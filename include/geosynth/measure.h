@@ -165,4 +165,33 @@ void gs_measure_profile_free(gs_measure_profile *p);
 gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_t *unsupported,
                               uint64_t *nonempty);
 
+/* Copying in a synthesized 3D grid of bytes (x fastest), measured from the
+ * output and its example alone. Every window of k^3 samples of out whose
+ * content occurs exactly once in src (windows that occur more than once, e.g.
+ * constant empty space, say nothing about where a sample came from) is
+ * "copied" from that source position; it has the offset source position -
+ * output position. A copied region is a set of window positions connected
+ * through face neighbours with the same offset (a piece moved verbatim).
+ * Sizes count window positions (the k-1 samples at a region's upper faces
+ * are not counted). large: a region of more than `large` positions counts
+ * as large (e.g. one synthesis block, B^3: bigger regions were copied by
+ * more than one step). cell: completeness is measured over the source cells
+ * of cell^3 window positions (a grid from the origin) holding a unique
+ * window: the share of them whose windows occur in out at least once.
+ * k in 2..8. Memory: 4 bytes per output position (union-find) + 12 bytes
+ * per source position (hash table); cost O(k^2) per position. */
+typedef struct gs_measure_copy {
+    int window;                     /* k */
+    int64_t positions;              /* output window positions */
+    double matched_share;           /* share of them with a unique exact source match */
+    int64_t regions;                /* copied regions (of >= 1 position) */
+    int64_t largest_region;         /* positions of the largest region */
+    double largest_region_of_source; /* largest_region / source window positions */
+    double large_share;             /* share of output positions in regions > large */
+    double completeness;            /* share of informative source cells represented */
+    double source_unique_share;     /* share of source windows that are unique */
+} gs_measure_copy;
+gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                        const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m);
+
 #endif

@@ -106,6 +106,19 @@ gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
 gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
                             gs_mesh *out);
 
+/* Redistancing into a proper level set: the exact distance to the zero
+ * iso-surface of d (OpenVDB levelSetRebuild: surface mesh, then mesh to
+ * distance) within half_width voxels (>= 1), grid class level set named
+ * `name`, background = half_width * voxel, voxel size d->voxel. d carries
+ * `pad` samples of padding on every side (e.g. its edge values repeated),
+ * so the surface is not closed at the box faces; they are cut off again.
+ * path != NULL: writes the grid (clipped to the unpadded box, index space
+ * starting at sample 0 of the padded box) as a .vdb file; out != NULL: the
+ * redistanced values over the unpadded box (background = +-background
+ * beyond the band). */
+gs_err gs_vdb_level_set(const gs_vdb_dense *d, int pad, double half_width, const char *name,
+                        const char *path, gs_vdb_dense *out);
+
 #ifdef __cplusplus
 }
 #endif

@@ -102,6 +102,7 @@ typedef struct field_config {
     int64_t target[3];
     int mask_unsynthesized;
     double seed_weight;
+    double coarse_weight;
     int seed_blocks;
     int upper_bound;
     int64_t region_blocks;
@@ -180,6 +181,10 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_REAL(field_config, seed_weight, "field.seed_weight", 0, 1, 0, "0",
                     "masked matching: weight of unsynthesized samples (seeds, coarse result) "
                     "against synthesized ones; 0 = ignored (copies the source), 1 = paper"),
+    GS_CFG_KEY_REAL(field_config, coarse_weight, "field.coarse_weight", 0, 1, 0, "1",
+                    "masked matching after the first iteration: weight of the upsampled coarse "
+                    "result against synthesized samples; 1 = equal (paper), 0 = ignored "
+                    "(multi-resolution then does nothing)"),
     GS_CFG_KEY_BOOL(field_config, seed_blocks, "field.seed_blocks", "no",
                     "iteration 0 starts from random source blocks instead of random samples"),
     GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
@@ -644,7 +649,8 @@ done:
 
 /* -------------------------------------------------------------- output */
 
-static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f)
+static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f,
+                             const gs_qfield *src)
 {
     char path[PATH_MAX];
     gs_run_path(run, "field.h5", path, sizeof path);
@@ -661,6 +667,12 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_z", 0), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "lo", res->lo), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "hi", res->hi), fail);
+    /* the quantized (cropped) example, so that any measure of the output
+     * against its example can be taken from this file alone */
+    int64_t sn[3] = {src->nx, src->ny, src->nz};
+    GS_TRY(err, write_u8_field(h, run, "/source/levels", sn, GS_H5_U8, src->q), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "lo", src->lo), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "hi", src->hi), fail);
     GS_CALL(gs_ckpt_commit(&h));
     err = GS_OK;
     if (run->rank == 0) {
@@ -679,22 +691,49 @@ fail:
     return err;
 }
 
-/* Rank 0: field.vdb, meshes. Fills the metrics object text. */
+/* Rank 0: the synthesized field redistanced into a proper level set (the
+ * exact distance to its zero surface within field.range samples, OpenVDB
+ * levelSetRebuild on a copy padded with its edge values so the surface stays
+ * open at the box faces), written as field.vdb (grid `surface`, class level
+ * set, background = band width, voxel size = sample spacing) when
+ * output.vdb = yes; f->v receives the redistanced values. */
+static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
+{
+    int pad = (int)ceil(c->range) + 1;
+    gs_vdb_dense d, out;
+    size_t n[3] = {(size_t)f->nx + 2 * (size_t)pad, (size_t)f->ny + 2 * (size_t)pad,
+                   (size_t)f->nz + 2 * (size_t)pad};
+    GS_CALL(gs_vdb_dense_alloc(&d, n[0], n[1], n[2]));
+    d.voxel = f->spacing;
+    for (int a = 0; a < 3; a++)
+        d.origin[a] = -pad * f->spacing;
+    d.background = (float)(c->range * f->spacing);
+    for (size_t z = 0; z < n[2]; z++)
+        for (size_t y = 0; y < n[1]; y++)
+            for (size_t x = 0; x < n[0]; x++) {
+                int64_t sx = (int64_t)x - pad, sy = (int64_t)y - pad, sz = (int64_t)z - pad;
+                sx = sx < 0 ? 0 : sx >= f->nx ? f->nx - 1 : sx;
+                sy = sy < 0 ? 0 : sy >= f->ny ? f->ny - 1 : sy;
+                sz = sz < 0 ? 0 : sz >= f->nz ? f->nz - 1 : sz;
+                d.v[x + n[0] * (y + n[1] * z)] = f->v[sx + f->nx * (sy + f->ny * sz)];
+            }
+    char path[PATH_MAX];
+    gs_run_path(run, "field.vdb", path, sizeof path);
+    gs_err err = gs_vdb_level_set(&d, pad, c->range, "surface", c->vdb ? path : NULL, &out);
+    gs_vdb_dense_destroy(&d);
+    GS_CALL(err);
+    memcpy(f->v, out.v, (size_t)(f->nx * f->ny * f->nz) * sizeof *f->v);
+    gs_vdb_dense_destroy(&out);
+    if (c->vdb)
+        gs_run_output(run, "field_vdb", "field.vdb");
+    return GS_OK;
+}
+
+/* Rank 0: meshes. Fills the metrics object text. */
 static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const field_source *src,
                                    const gs_field *f, const int32_t *prov, gs_json *pm)
 {
     char path[PATH_MAX], name[64];
-    if (c->vdb) {
-        gs_vdb_dense d;
-        memset(&d, 0, sizeof d);
-        d.nx = (size_t)f->nx, d.ny = (size_t)f->ny, d.nz = (size_t)f->nz;
-        d.voxel = f->spacing;
-        d.background = (float)(c->range * f->spacing);
-        d.v = f->v; /* borrowed */
-        gs_run_path(run, "field.vdb", path, sizeof path);
-        GS_CALL(gs_vdb_write_dense(path, "distance", &d));
-        gs_run_output(run, "field_vdb", "field.vdb");
-    }
     int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
     int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
     if (contour) {
@@ -734,6 +773,44 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
     return GS_OK;
 }
 
+/* Copying, whole objects and distance steps (gs_field_geometry_measure) as
+ * run metrics and in the output phase record. */
+static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_json *pm)
+{
+    const gs_measure_copy *cp = &g->copy;
+    gs_run_metric_f64(run, "copy_matched_share", cp->matched_share);
+    gs_run_metric_f64(run, "copy_large_share", cp->large_share);
+    gs_run_metric_f64(run, "copy_largest_region_of_source", cp->largest_region_of_source);
+    gs_run_metric_i64(run, "copy_largest_region", cp->largest_region);
+    gs_run_metric_i64(run, "copy_regions", cp->regions);
+    gs_run_metric_f64(run, "copy_completeness", cp->completeness);
+    gs_run_metric_i64(run, "components_out", g->components_out);
+    gs_run_metric_i64(run, "components_src", g->components_src);
+    gs_run_metric_f64(run, "components_per_msample_out", g->components_per_msample_out);
+    gs_run_metric_f64(run, "components_per_msample_src", g->components_per_msample_src);
+    gs_run_metric_f64(run, "component_median_out", g->component_median_out);
+    gs_run_metric_f64(run, "component_median_src", g->component_median_src);
+    gs_run_metric_f64(run, "component_size_ks", g->component_size_ks);
+    gs_run_metric_f64(run, "fragment_share_out", g->fragment_share_out);
+    gs_run_metric_f64(run, "fragment_share_src", g->fragment_share_src);
+    gs_run_metric_f64(run, "step_violations_out", g->step_violations_out);
+    gs_run_metric_f64(run, "step_violations_src", g->step_violations_src);
+    gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
+    gs_log(GS_LOG_INFO,
+           "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
+           "one offset larger than a block, largest region %.3f of the source, completeness %.3f",
+           cp->matched_share, cp->window, cp->large_share, cp->largest_region_of_source,
+           cp->completeness);
+    gs_log(GS_LOG_INFO,
+           "objects: %lld inside components (%.1f per 10^6 samples; source %lld, %.1f), median "
+           "size %.0f (source %.0f), size KS %.3f, fragments %.3f (source %.3f); steps > 1.5 "
+           "samples %.4f (source %.4f) (%.2f s)",
+           (long long)g->components_out, g->components_per_msample_out,
+           (long long)g->components_src, g->components_per_msample_src, g->component_median_out,
+           g->component_median_src, g->component_size_ks, g->fragment_share_out,
+           g->fragment_share_src, g->step_violations_out, g->step_violations_src, g->seconds);
+}
+
 /* ----------------------------------------------------------------- run */
 
 static gs_err field_run(gs_run *run, void *cfg_, int resume)
@@ -766,6 +843,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     sc.seed_weight = (int)lround(c->seed_weight * 256);
     if (c->seed_weight > 0 && sc.seed_weight < 1)
         sc.seed_weight = 1;
+    sc.coarse_weight = (int)lround(c->coarse_weight * 256);
+    if (c->coarse_weight > 0 && sc.coarse_weight < 1)
+        sc.coarse_weight = 1;
     sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
     sc.region_blocks = (int)c->region_blocks;
@@ -793,8 +873,10 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
                sc.iterations, sc.block[0], sc.block[sc.iterations - 1],
                c->mask_unsynthesized ? "masked" : "whole-block (paper)");
         if (c->mask_unsynthesized)
-            gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256, iteration 0 seeded with "
-                                "random %s", sc.seed_weight, sc.seed_blocks ? "blocks" : "samples");
+            gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256 (seeds, iteration 0) and "
+                                "%d/256 (upsampled coarse result), iteration 0 seeded with "
+                                "random %s", sc.seed_weight, sc.coarse_weight,
+                   sc.seed_blocks ? "blocks" : "samples");
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
                             "mask, provenance)%s", est / 1048576.0,
                ctx.sharded ? "; tree and pyramid sharded over the ranks" : "");
@@ -912,7 +994,21 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     res->spacing = q->spacing;
     GS_TRY(err, gs_qfield_dequantize(res, &resf), done);
     uint64_t digest = gs_digest_bytes(res->q, (size_t)(res->nx * res->ny * res->nz));
-    GS_TRY(err, write_field_h5(run, res, resf), done);
+    double step_synth = 0, step_redist = 0, t_redist = gs_time_now();
+    if (run->rank == 0) {
+        int64_t rn[3] = {resf->nx, resf->ny, resf->nz};
+        step_synth = gs_field_step_violations(resf->v, rn, resf->spacing, 1.5);
+        err = redistance_rank0(run, c, resf);
+        step_redist = gs_field_step_violations(resf->v, rn, resf->spacing, 1.5);
+    }
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    for (int64_t off = 0, nf = resf->nx * resf->ny * resf->nz; off < nf; off += 1 << 28) {
+        int len = (int)(nf - off < (1 << 28) ? nf - off : (1 << 28));
+        GS_TRY_CHECK(err, MPI_Bcast(resf->v + off, len, MPI_FLOAT, 0, run->comm) == MPI_SUCCESS,
+                     GS_ERR_MPI, done, "broadcast of the redistanced field failed");
+    }
+    t_redist = gs_time_now() - t_redist;
+    GS_TRY(err, write_field_h5(run, res, resf, q), done);
     /* quality: coherence needs the nearest source block of every output
      * block; every rank runs the measure with the distributed matcher of
      * the synthesis (match_block): sharded, each rank searches its slab of
@@ -938,6 +1034,11 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         double tg = gs_time_now();
         lerr = write_geometry_rank0(run, c, &src, resf, ctx.prov, &pm);
         gs_json_f64(&pm, "geometry_seconds", gs_time_now() - tg);
+        gs_json_f64(&pm, "redistance_seconds", t_redist);
+        gs_run_metric_f64(run, "step_violations_synthesized", step_synth);
+        gs_run_metric_f64(run, "step_violations_redistanced", step_redist);
+        gs_log(GS_LOG_INFO, "redistanced into a level set (%.2f s): steps > 1.5 samples between "
+                            "neighbours %.4f -> %.4f", t_redist, step_synth, step_redist);
         /* quality of the output against the source */
         for (int i = 0; i < sc.iterations; i++) {
             char k[64];
@@ -953,6 +1054,11 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         }
         int last = sc.iterations - 1;
         gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
+        gs_field_geometry_report gr;
+        if (!lerr)
+            lerr = gs_field_geometry_measure(res, q, (int)c->block, &gr);
+        if (!lerr)
+            report_geometry(run, &gr, &pm);
         /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
         gs_json_f64(&pm, "quality_seconds", quality_s);
         if (!lerr) {

@@ -77,6 +77,7 @@ void gs_field_synth_config_default(gs_field_synth_config *c, const gs_qfield *sr
         c->block[i] = 16;
     c->target[0] = 2 * src->nx, c->target[1] = 2 * src->ny, c->target[2] = 2 * src->nz;
     c->seed = 1;
+    c->coarse_weight = 256;
 }
 
 static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
@@ -287,7 +288,7 @@ gs_err gs_field_synth_create(const gs_qfield *src, const gs_field_synth_config *
             s->st.target[i] = ls->q[gs_rng_below(&r, ns)];
     } else {
         /* tiles of B0^3 copied from random source blocks (clipped at the far faces) */
-        int B = c->block[0];
+        int B = getenv("GS_TILE") ? atoi(getenv("GS_TILE")) : c->block[0];
         uint64_t M = (uint64_t)gs_field_block_count(ls, B);
         for (int64_t tz = 0; tz < tn[2]; tz += B)
             for (int64_t ty = 0; ty < tn[1]; ty += B)
@@ -358,6 +359,32 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     GS_FREE(*sp);
 }
 
+/* Trilinear upsampling by 2 of a field of n samples (cell-centred: fine
+ * sample 2i sits a quarter cell below coarse sample i, 2i+1 a quarter
+ * above), so the coarse result seeds the next iteration as a smooth field,
+ * not as 2^3 staircases: weights 3/4 and 1/4 per axis (edges clamped), exact
+ * integer sums over 64 rounded to nearest. */
+static void upsample2(const uint8_t *c, const int64_t n[3], uint8_t *f)
+{
+    int64_t fn[3] = {2 * n[0], 2 * n[1], 2 * n[2]};
+    for (int64_t z = 0; z < fn[2]; z++) {
+        int64_t z0 = z / 2, z1 = z & 1 ? (z0 + 1 < n[2] ? z0 + 1 : z0) : (z0 > 0 ? z0 - 1 : 0);
+        for (int64_t y = 0; y < fn[1]; y++) {
+            int64_t y0 = y / 2, y1 = y & 1 ? (y0 + 1 < n[1] ? y0 + 1 : y0) : (y0 > 0 ? y0 - 1 : 0);
+            const uint8_t *r00 = c + n[0] * (y0 + n[1] * z0), *r01 = c + n[0] * (y1 + n[1] * z0);
+            const uint8_t *r10 = c + n[0] * (y0 + n[1] * z1), *r11 = c + n[0] * (y1 + n[1] * z1);
+            uint8_t *out = f + fn[0] * (y + fn[1] * z);
+            for (int64_t x = 0; x < fn[0]; x++) {
+                int64_t x0 = x / 2, x1 = x & 1 ? (x0 + 1 < n[0] ? x0 + 1 : x0) : (x0 > 0 ? x0 - 1 : 0);
+                unsigned a = 3u * r00[x0] + r00[x1], b = 3u * r01[x0] + r01[x1];
+                unsigned d = 3u * r10[x0] + r10[x1], e = 3u * r11[x0] + r11[x1];
+                unsigned v = 3u * (3u * a + b) + (3u * d + e);
+                out[x] = (uint8_t)((v + 32) / 64);
+            }
+        }
+    }
+}
+
 /* Next iteration: upsample the result by 2 as the new seed. */
 static gs_err advance_iteration(struct gs_field_synth *s)
 {
@@ -377,10 +404,7 @@ static gs_err advance_iteration(struct gs_field_synth *s)
         gs_free(prev);
         GS_CALL(err);
     }
-    for (int64_t z = 0; z < tn[2]; z++)
-        for (int64_t y = 0; y < tn[1]; y++)
-            for (int64_t x = 0; x < tn[0]; x++)
-                s->st.target[x + tn[0] * (y + tn[1] * z)] = prev[x / 2 + old[0] * (y / 2 + old[1] * (z / 2))];
+    upsample2(prev, old, s->st.target);
     gs_free(prev);
     s->st.iteration = next;
     s->st.cursor = 0;
@@ -412,9 +436,12 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
             for (int i = 0; i < B; i++)
                 any_known += v->mask[o + i];
         }
-    /* with masking, the first block (nothing known yet) is matched on its seeds */
-    int masked = s->cfg.mask_unsynthesized && any_known > 0;
-    gs_field_query q = {B, s->qval, masked ? s->qknown : NULL, s->cfg.seed_weight};
+    /* with masking, the first block (nothing known yet) is matched on its
+     * seeds; after iteration 0 the unsynthesized samples hold the upsampled
+     * coarse result, weighted by coarse_weight (256: the whole block) */
+    int w = it > 0 ? s->cfg.coarse_weight : s->cfg.seed_weight;
+    int masked = s->cfg.mask_unsynthesized && any_known > 0 && w < 256;
+    gs_field_query q = {B, s->qval, masked ? s->qknown : NULL, w};
     gs_field_search_opts opts = {0};
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     gs_field_match m;

@@ -492,3 +492,11 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
     GS_CALL(f(d, isovalue, adaptivity, out));
     return GS_OK;
 }
+
+gs_err gs_vdb_level_set(const gs_vdb_dense *d, int pad, double half_width, const char *name,
+                        const char *path, gs_vdb_dense *out)
+{
+    VDB_FN(f, level_set);
+    GS_CALL(f(d, pad, half_width, name, path, out));
+    return GS_OK;
+}

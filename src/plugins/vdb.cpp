@@ -21,6 +21,7 @@
 
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
+#include <openvdb/tools/LevelSetRebuild.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
@@ -472,4 +473,49 @@ extern "C" gs_err gs_vdbp_dense_to_mesh(const gs_vdb_dense *d, double isovalue, 
         }
     }
     return GS_OK;
+}
+
+extern "C" gs_err gs_vdbp_level_set(const gs_vdb_dense *d, int pad, double half_width,
+                                   const char *name, const char *path, gs_vdb_dense *out)
+{
+    if (out)
+        std::memset(out, 0, sizeof *out);
+    GS_CALL(check_dense(d, name ? name : "level set"));
+    GS_CHECK(pad >= 0 && 2 * (size_t)pad < d->nx && 2 * (size_t)pad < d->ny &&
+                 2 * (size_t)pad < d->nz && std::isfinite(half_width) && half_width >= 1,
+             GS_ERR_ARG, "level set: padding %d of a %zux%zux%zu field, half width %g: expected "
+             "a padding below half of every size and a half width >= 1 voxel", pad, d->nx, d->ny,
+             d->nz, half_width);
+    GS_VDB_GUARD(name ? name : "level set", {
+        auto grid = grid_from_dense(d, -1.0f); // every sample active
+        // exact distance to the iso-surface, in a band of half_width voxels
+        auto ls = openvdb::tools::levelSetRebuild(*grid, 0.0f, (float)half_width);
+        ls->setName(name ? name : "surface");
+        ls->setGridClass(openvdb::GRID_LEVEL_SET);
+        // the box without its padding (sample index space of d)
+        openvdb::CoordBBox box(openvdb::Coord(pad, pad, pad),
+                               openvdb::Coord((int)d->nx - 1 - pad, (int)d->ny - 1 - pad,
+                                              (int)d->nz - 1 - pad));
+        if (out) {
+            GS_CALL(gs_vdb_dense_alloc(out, d->nx - 2 * (size_t)pad, d->ny - 2 * (size_t)pad,
+                                       d->nz - 2 * (size_t)pad));
+            out->voxel = d->voxel;
+            for (int k = 0; k < 3; k++)
+                out->origin[k] = d->origin[k] + pad * d->voxel;
+            out->background = ls->background();
+            DenseXYZ dense(box, out->v);
+            openvdb::tools::copyToDense(*ls, dense);
+        }
+        if (path) {
+            ls->clip(box); // index (pad, pad, pad) is world d->origin + pad * voxel
+            ls->insertMeta("gs_dense_min", openvdb::Vec3IMetadata(openvdb::Vec3i(pad, pad, pad)));
+            ls->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
+                                               (int)d->nx - 1 - pad, (int)d->ny - 1 - pad,
+                                               (int)d->nz - 1 - pad)));
+            gs_vdb_grid w{ls, ls->getName()};
+            gs_vdb_grid *wp = &w;
+            GS_CALL(gs_vdbp_write(path, &wp, 1));
+        }
+        return GS_OK;
+    });
 }
