@@ -16,6 +16,19 @@ done
 run_gs 0 inspect np1/field.h5
 expect_rc 0 "inspect field.h5"
 expect_out "/field/distance" "field.h5 holds the distance"
+
+# field.vdb is a proper level set, read back with OpenVDB's own Python reader
+if /usr/bin/python3 -c "import pyopenvdb" 2>/dev/null; then
+  /usr/bin/python3 -c '
+import sys, pyopenvdb as vdb
+g = vdb.read(sys.argv[1], "surface")
+assert g.gridClass == vdb.GridClass.LEVEL_SET, g.gridClass
+assert abs(g.background - 3.0) < 1e-6, g.background
+assert tuple(g.transform.voxelSize()) == (1.0, 1.0, 1.0), g.transform.voxelSize()
+assert g.activeVoxelCount() > 0' np1/field.vdb && ok "field.vdb: level set surface, background = band, voxel = spacing" || bad "field.vdb is not a proper level set"
+else
+  echo "check skipped: field.vdb read by OpenVDB: needs python3-openvdb (scripts/install-deps.sh)"
+fi
 grep -q 'field.h5:/field/distance' np1/field.xmf && ok "xdmf points at the dataset" || bad "xdmf lacks the dataset"
 # the outputs are valid inputs: the h5 field and the vdb give the same source
 run_gs 0 field -c "$Q" -o from-h5 --set example.kind=file --set example.path=np1/field.h5 --set output.geometry=none --set field.target=48
