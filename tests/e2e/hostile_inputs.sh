@@ -74,6 +74,12 @@ run_gs 0 field -c "$Q" -o planted
 expect_rc 0 "symlinks planted as temporary files are replaced, not followed"
 [[ "$(cat precious.txt)" == precious ]] && ok "the symlinks' target is untouched" || bad "an output was written through a planted symlink"
 
+# --- a run directory path too long for Open MPI's HDF5 I/O: refused up front --------
+long=$PWD; while [[ ${#long} -lt 4058 ]]; do long=$long/$(printf 'd%.0s' {1..200}); done
+run_gs 0 field -c "$Q" -o "${long:0:4058}"
+expect_rc 2 "a 4058-character run directory is refused before the synthesis"
+expect_err "at most 192 are supported" "the refusal says the limit"
+
 # --- one run per directory -------------------------------------------------------
 "$GS_BIN" field -c "$Q" -o locked --set field.target=160x128x128 --set output.geometry=none >lock.out 2>lock.err &
 pid=$!
