@@ -39,7 +39,14 @@
  * "run/checkpoint.h5" and fsyncs the directory (rank 0 does the file system
  * steps). Until the rename, the previous checkpoint.h5 is untouched, so a
  * crash or SIGKILL at any moment leaves either the old or the new complete
- * file (tests/e2e/ckpt_sigkill.sh).
+ * file (tests/e2e/ckpt_sigkill.sh). With gs_ckpt_keep_previous() the replaced
+ * file stays at that path (run/checkpoint.prev.h5), the fallback when the
+ * newest one turns out damaged.
+ *
+ * CHECKSUMS. Every non-empty dataset is chunked with HDF5's Fletcher32
+ * filter (verified by libhdf5 on each read), metadata is checksummed by the
+ * 1.10 format, and /geosynth@config_digest (XXH3 of the config text) is
+ * checked by every open. gs_ckpt_verify() checks a whole file.
  *
  * COLLECTIVITY. A handle opened with a communicator uses parallel HDF5
  * (MPI-IO). Functions marked "Collective" must be called by every rank of
@@ -132,6 +139,11 @@ typedef struct gs_ckpt *gs_ckpt_t;
 gs_err gs_ckpt_create(MPI_Comm comm, const char *path, const gs_ckpt_meta *meta,
                       gs_ckpt_t *out);
 
+/* Local (call on every rank alike): gs_ckpt_commit of this handle keeps the
+ * file it replaces at prev_path (a hard link renamed into place, so the
+ * final path never goes missing). */
+gs_err gs_ckpt_keep_previous(gs_ckpt_t h, const char *prev_path);
+
 /* Collective. Flushes and closes the .tmp file, fsyncs it, renames it over
  * the final path and fsyncs the directory. Always frees the handle and sets
  * *h = NULL, also on error (then the .tmp is removed and the previous file
@@ -170,6 +182,14 @@ gs_err gs_ckpt_close(gs_ckpt_t *h);
  * gs_free). On error the outputs are unchanged. */
 gs_err gs_ckpt_peek(const char *path, char *engine, size_t engine_len,
                     char **config_text);
+
+/* Serial. Opens path like gs_ckpt_open (engine may be NULL) and reads every
+ * attribute and every byte of every dataset, so that each checksum the file
+ * holds is checked: the metadata checksums of the 1.10 format, the
+ * Fletcher32 checksum of every data chunk and /geosynth@config_digest.
+ * GS_ERR_FORMAT "PATH is damaged: OBJECT: ..." on the first failure. Costs
+ * one read of the file. */
+gs_err gs_ckpt_verify(const char *path, const char *engine);
 
 /* Identity of an open file (valid until close; never NULL). For a handle
  * being written these return what gs_ckpt_create wrote. */

@@ -125,6 +125,14 @@ gs_err gs_run_checkpoint_commit(gs_run *run, gs_ckpt_t *h, int64_t units_done);
  * to this run's engine. */
 gs_err gs_run_checkpoint_open(gs_run *run, gs_ckpt_t *out);
 
+/* Rank 0 of `geosynth resume DIR`, before anything reads DIR/checkpoint.h5:
+ * takes DIR's lock (kept for the gs_run_open of DIR) and checks the whole
+ * checkpoint (gs_ckpt_verify). A damaged one is renamed checkpoint.h5.damaged
+ * and the previous checkpoint (checkpoint.prev.h5, kept by every commit)
+ * takes its place, with a warning; with no good one left, GS_ERR_FORMAT
+ * naming both problems. */
+gs_err gs_run_resume_prepare(const char *dir);
+
 /* Raises GS_ERR_INTERRUPTED with a message telling how to resume. */
 gs_err gs_run_interrupted(const gs_run *run);
 

@@ -453,7 +453,9 @@ static gs_err cmd_resume(const cli_args *a, int *collective)
     if (gs_par_rank() == 0) {
         char path[PATH_MAX];
         snprintf(path, sizeof path, "%s/checkpoint.h5", a->positional);
-        err = gs_ckpt_peek(path, engine, sizeof engine, &config_text);
+        err = gs_run_resume_prepare(a->positional);
+        if (!err)
+            err = gs_ckpt_peek(path, engine, sizeof engine, &config_text);
     }
     err = gs_par_agree(MPI_COMM_WORLD, err);
     if (!err)

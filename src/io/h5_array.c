@@ -128,7 +128,13 @@ static gs_err make_dcpl(const struct gs_ckpt *h, const char *dset, const gs_h5_s
     GS_CHECK(deflate >= 0 && deflate <= 9, GS_ERR_ARG,
              "%s: dataset %s: deflate level %d out of range [0, 9]", file_name(h), dset, deflate);
     int empty = row_elems == 0 || s->dims[0] == 0;
-    if ((deflate > 0 || rows > 0) && !empty) {
+    /* Every non-empty dataset is chunked and carries HDF5's Fletcher32
+     * checksum per chunk (added last, so it covers the stored bytes), checked
+     * by libhdf5 on every read: a flipped byte in the data of a checkpoint is
+     * an error, never a silently different state (#25). Metadata (object
+     * headers with the attributes, chunk indexes) is checksummed by the 1.10
+     * format itself. */
+    if (!empty) {
         size_t row_bytes = (size_t)row_elems * gs_h5_type_size(s->type);
         if (rows == 0)
             rows = row_bytes >= ((size_t)1 << 20) ? 1 : ((size_t)1 << 20) / row_bytes;
@@ -148,6 +154,7 @@ static gs_err make_dcpl(const struct gs_ckpt *h, const char *dset, const gs_h5_s
         H5Pset_chunk(dcpl, s->rank, chunk);
         if (deflate > 0)
             H5Pset_deflate(dcpl, (unsigned)deflate);
+        H5Pset_fletcher32(dcpl);
     }
     *out = dcpl;
     return GS_OK;

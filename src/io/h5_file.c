@@ -10,6 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 #include "geosynth/version.h"
@@ -39,6 +40,7 @@ static void free_handle(struct gs_ckpt *h)
         return;
     gs_free(h->path);
     gs_free(h->tmp_path);
+    gs_free(h->prev_path);
     gs_free(h->program_version);
     gs_free(h->config);
     gs_free(h);
@@ -158,6 +160,11 @@ static gs_err write_identity(struct gs_ckpt *h)
                                      h->tmp_path), done);
     GS_TRY(err, gs_h5_write_str_attr(g, "created", h->created, h->tmp_path), done);
     GS_TRY(err, write_config(h, g), done);
+    /* The config is a scalar (unchunked) dataset, so no Fletcher32: its
+     * digest, in the checksummed object header, proves it on read. */
+    char hex[17];
+    gs_digest_hex(gs_digest_bytes(h->config, strlen(h->config)), hex);
+    GS_TRY(err, gs_h5_write_str_attr(g, "config_digest", hex, h->tmp_path), done);
 done:
     H5Gclose(g);
     return err;
@@ -240,6 +247,16 @@ fail:
     return err;
 }
 
+gs_err gs_ckpt_keep_previous(gs_ckpt_t h, const char *prev_path)
+{
+    GS_CHECK(h && h->writing && prev_path, GS_ERR_ARG,
+             "gs_ckpt_keep_previous: a file being written and a path are required");
+    gs_free(h->prev_path);
+    h->prev_path = dup_str(prev_path);
+    GS_CHECK(h->prev_path, GS_ERR_MEM, "%s: out of memory", h->path);
+    return GS_OK;
+}
+
 static gs_err dir_of(const char *path, char *dir, size_t len)
 {
     const char *slash = strrchr(path, '/');
@@ -256,6 +273,25 @@ static gs_err dir_of(const char *path, char *dir, size_t len)
     return GS_OK;
 }
 
+/* Rank 0: the file about to be replaced becomes prev_path (a hard link
+ * renamed into place, so path itself never goes missing). */
+static gs_err keep_previous(const struct gs_ckpt *h)
+{
+    char tmp[4096];
+    GS_CHECK(snprintf(tmp, sizeof tmp, "%s.tmp", h->prev_path) < (int)sizeof tmp, GS_ERR_ARG,
+             "%s: path too long", h->prev_path);
+    if (unlink(tmp) != 0 && errno != ENOENT)
+        GS_RAISE(GS_ERR_IO, "%s: cannot remove: %s", tmp, strerror(errno));
+    if (link(h->path, tmp) != 0) {
+        GS_CHECK(errno == ENOENT, GS_ERR_IO, "%s: cannot keep the previous file as %s: %s",
+                 h->path, tmp, strerror(errno));
+        return GS_OK; /* the first one: nothing to keep */
+    }
+    GS_CHECK(rename(tmp, h->prev_path) == 0, GS_ERR_IO, "%s: cannot rename %s over it: %s",
+             h->prev_path, tmp, strerror(errno));
+    return GS_OK;
+}
+
 /* Rank 0, after every rank closed the file: make the new file durable, put
  * it in place, make the rename durable. */
 static gs_err durable_rename(const struct gs_ckpt *h)
@@ -269,6 +305,8 @@ static gs_err durable_rename(const struct gs_ckpt *h)
         GS_RAISE(GS_ERR_IO, "%s: fsync failed: %s", h->tmp_path, strerror(e));
     }
     close(fd);
+    if (h->prev_path)
+        GS_CALL(keep_previous(h));
     GS_CHECK(rename(h->tmp_path, h->path) == 0, GS_ERR_IO, "%s: cannot rename %s over it: %s",
              h->path, h->tmp_path, strerror(errno));
     char dir[4096];
@@ -401,6 +439,20 @@ gs_err gs_h5_load_identity(struct gs_ckpt *h, const char *engine)
     GS_FREE(s);
     if (gs_h5_read_str_dataset(g, "config", GS_H5_CONFIG_MAX, &h->config, why, sizeof why))
         GS_TRY_CHECK(err, 0, GS_ERR_FORMAT, done, "%s: dataset /geosynth/config: %s", path, why);
+    /* Files since #25 carry it (older ones have no checksums to check; an
+     * attribute cannot vanish by damage: the object header is checksummed). */
+    if (H5Aexists(g, "config_digest") > 0) {
+        if (gs_h5_read_str_attr(g, "config_digest", 16, &s, why, sizeof why) != 0)
+            GS_TRY_CHECK(err, 0, GS_ERR_FORMAT, done, "%s: attribute /geosynth@config_digest: %s",
+                         path, why);
+        char hex[17];
+        gs_digest_hex(gs_digest_bytes(h->config, strlen(h->config)), hex);
+        GS_TRY_CHECK(err, strcmp(s, hex) == 0, GS_ERR_FORMAT, done,
+                     "%s is damaged: the stored config (/geosynth/config) has digest %s, but "
+                     "%s was written with it",
+                     path, hex, s);
+        GS_FREE(s);
+    }
 done:
     gs_free(s);
     H5Gclose(g);

@@ -13,6 +13,7 @@ struct gs_ckpt {
     int writing;       /* 1 while a .tmp is being written */
     char *path;        /* final path (or image name) */
     char *tmp_path;    /* path + ".tmp" when writing */
+    char *prev_path;   /* where commit keeps the replaced file (NULL: nowhere) */
     char engine[GS_H5_ENGINE_MAX];
     char *program_version;
     char *config;

@@ -34,11 +34,14 @@ static char *dup_str(const char *s)
  * until gs_run_close or its exit (the kernel drops it when the process
  * dies, so a killed run never leaves a stale lock). A second run into the
  * same directory stops before touching anything. */
-static gs_err lock_dir(gs_run *run)
+static int held_lock_fd = -1;       /* taken by gs_run_resume_prepare for ... */
+static char held_lock_dir[PATH_MAX]; /* ... the gs_run_open of this directory */
+
+static gs_err lock_fd_of(const char *dir, int *out)
 {
     char path[PATH_MAX];
-    GS_CHECK(snprintf(path, sizeof path, "%s/.lock", run->dir) < (int)sizeof path, GS_ERR_ARG,
-             "run directory path is too long (%zu characters)", strlen(run->dir));
+    GS_CHECK(snprintf(path, sizeof path, "%s/.lock", dir) < (int)sizeof path, GS_ERR_ARG,
+             "run directory path is too long (%zu characters)", strlen(dir));
     int fd = open(path, O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
     GS_CHECK(fd >= 0, GS_ERR_IO, "cannot open the lock file %s: %s", path, strerror(errno));
     if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
@@ -51,7 +54,7 @@ static gs_err lock_dir(gs_run *run)
         GS_CHECK(e != EWOULDBLOCK, GS_ERR_ARG,
                  "run directory %s is in use by another geosynth run (process %s holds %s): "
                  "wait for it to end, or give another run directory (-o DIR)",
-                 run->dir, pid[0] ? pid : "?", path);
+                 dir, pid[0] ? pid : "?", path);
         GS_RAISE(GS_ERR_IO, "cannot lock %s: %s", path, strerror(e));
     }
     char pid[32];
@@ -59,7 +62,18 @@ static gs_err lock_dir(gs_run *run)
     if (ftruncate(fd, 0) != 0 || write(fd, pid, (size_t)n) != n) {
         /* the pid is only for the message: the lock itself holds */
     }
-    run->lock_fd = fd;
+    *out = fd;
+    return GS_OK;
+}
+
+static gs_err lock_dir(gs_run *run)
+{
+    if (held_lock_fd >= 0 && !strcmp(held_lock_dir, run->dir)) {
+        run->lock_fd = held_lock_fd; /* taken over from gs_run_resume_prepare */
+        held_lock_fd = -1;
+        return GS_OK;
+    }
+    GS_CALL(lock_fd_of(run->dir, &run->lock_fd));
     return GS_OK;
 }
 
@@ -374,8 +388,15 @@ gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out)
 {
     char path[PATH_MAX];
     gs_run_path(run, "checkpoint.h5", path, sizeof path);
+    char prev[PATH_MAX];
+    gs_run_path(run, "checkpoint.prev.h5", prev, sizeof prev);
     gs_ckpt_meta meta = {run->engine, run->seed, run->config_text};
     GS_CALL(gs_ckpt_create(run->comm, path, &meta, out));
+    gs_err err = gs_ckpt_keep_previous(*out, prev);
+    if (err) {
+        gs_ckpt_discard(out);
+        GS_CALL(err);
+    }
     return GS_OK;
 }
 
@@ -415,4 +436,48 @@ void gs_run_close(gs_run *run)
     gs_json_free(&run->metrics);
     gs_json_free(&run->outputs);
     memset(run, 0, sizeof *run);
+}
+
+gs_err gs_run_resume_prepare(const char *dir)
+{
+    char *abs = NULL;
+    GS_CALL(gs_path_absolute(dir, NULL, &abs));
+    gs_err err = GS_OK;
+    char path[PATH_MAX], prev[PATH_MAX], damaged[PATH_MAX];
+    snprintf(path, sizeof path, "%s/checkpoint.h5", abs);
+    snprintf(prev, sizeof prev, "%s/checkpoint.prev.h5", abs);
+    snprintf(damaged, sizeof damaged, "%s/checkpoint.h5.damaged", abs);
+    if (access(path, F_OK) != 0 && access(prev, F_OK) != 0)
+        goto done; /* nothing to check: the caller reports the missing checkpoint */
+    if (held_lock_fd < 0) {
+        GS_TRY(err, lock_fd_of(abs, &held_lock_fd), done);
+        snprintf(held_lock_dir, sizeof held_lock_dir, "%s", abs);
+    }
+    err = gs_ckpt_verify(path, NULL);
+    if (err == GS_OK || access(prev, F_OK) != 0)
+        goto done;
+    char why[1024];
+    snprintf(why, sizeof why, "%s", gs_error_message());
+    gs_error_clear();
+    if (gs_ckpt_verify(prev, NULL) != GS_OK) {
+        char why_prev[1024];
+        snprintf(why_prev, sizeof why_prev, "%s", gs_error_message());
+        gs_error_clear();
+        GS_TRY_CHECK(err, 0, GS_ERR_FORMAT, done,
+                     "no usable checkpoint in %s: %s; and the previous one: %s", abs, why,
+                     why_prev);
+    }
+    gs_log(GS_LOG_WARN,
+           "%s; resuming from the previous checkpoint %s instead (the damaged file is kept as "
+           "%s)",
+           why, prev, damaged);
+    if (access(path, F_OK) == 0)
+        GS_TRY_CHECK(err, rename(path, damaged) == 0, GS_ERR_IO, done, "cannot rename %s to %s: %s",
+                     path, damaged, strerror(errno));
+    GS_TRY_CHECK(err, rename(prev, path) == 0, GS_ERR_IO, done, "cannot rename %s to %s: %s",
+                 prev, path, strerror(errno));
+    err = GS_OK;
+done:
+    gs_free(abs);
+    return err;
 }
