@@ -56,10 +56,27 @@ typedef struct gs_model_tileset {
     int ntiles;           /* oriented tiles; label of tile i = i + 1 */
     char (*names)[72];    /* "corner 1" */
     double *weight;       /* [ntiles] */
-    gs_model_pair *pairs; /* allowed (dir 0 / 2) pairs, sorted, unique */
+    gs_model_pair *pairs; /* allowed (dir 0 / 2, and 4 in 3D) pairs, sorted, unique */
     size_t npairs;
     int tile_w, tile_h;   /* pixels (0 when images were not loaded) */
     uint8_t *pixels;      /* [ntiles][tile_h][tile_w][4] RGBA, NULL without images */
+    /* Voxel (3D) tile sets, see "3D tile sets" below; dim = 2 otherwise and
+     * the fields below stay zero. */
+    int dim;              /* 2: mxgmn PNG tiles (z = 1 only), 3: voxel tiles */
+    int vx, vy, vz;       /* voxels per tile */
+    uint8_t *voxels;      /* [ntiles][vz][vy][vx] colour index (0 empty) of vox_palette */
+    uint8_t vox_palette[256][4];
+    int group;            /* symmetry group order: 1, 2, 4, 8 (about z) or 48 (cube) */
+    int nbase;            /* declared tiles; oriented tile i is orientation orient[i]
+                             (an element of the group) of declared tile base[i] */
+    int *base, *orient;   /* [ntiles] */
+    int ground;           /* label on the whole z = 0 layer and nowhere else; 0 = none */
+    int border;           /* label on the cells of the border sides; 0 = none */
+    unsigned border_sides; /* bits 0-5: the sides (xmin xmax ymin ymax zmin zmax)
+                              a border cell lies on one of; bits 6-11: sides
+                              it lies on none of */
+    int nfixed;
+    int (*fixed)[4];      /* [nfixed] x y z label */
 } gs_model_tileset;
 
 /* Parses the tile set at path restricted to subset (NULL or "" = every
@@ -67,6 +84,13 @@ typedef struct gs_model_tileset {
  * tile PNGs. *out must be zeroed; on error it stays zeroed. */
 gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
                              gs_model_tileset *out);
+/* Same, for any tile set: path ending in .json is a DeBroglie voxSet config,
+ * an XML whose root is <tileset> a MarkovJunior set (3D), <set> mxgmn's (2D).
+ * folder: MarkovJunior's tile folder relative to the XML's directory (its
+ * "tiles" attribute, e.g. "Knots3D/3"); NULL or "" = the XML's name. Voxel
+ * tiles are loaded whatever images says (their faces decide adjacency). */
+gs_err gs_model_tileset_load_any(const char *path, const char *subset, const char *folder,
+                                 int images, gs_model_tileset *out);
 void gs_model_tileset_destroy(gs_model_tileset *ts);
 /* Rules of the tile set; counts = weight scaled to integers (weight *
  * 10^6, at least 1). */
@@ -83,6 +107,65 @@ gs_err gs_model_tileset_write_png(const char *path, const gs_model_tileset *ts,
  * Same output contract as gs_model_check(). */
 gs_err gs_model_tileset_check(const gs_model_tileset *ts, const gs_model_lattice *lat,
                               gs_model_violation *out, size_t cap, size_t *count);
+
+/* ---- 3D tile sets ---------------------------------------------------------
+ *
+ * Voxel tiles (each a MagicaVoxel .vox of vx x vy x vz voxels, all the same
+ * size; colours merged into one palette by RGBA) under a symmetry group G of
+ * signed axis permutations: G = the 48 rotations and mirrors of the cube
+ * (MarkovJunior fullSymmetry="True", cubic tiles), or the 8 (DeBroglie
+ * "symmetry": 8; MarkovJunior without fullSymmetry) / 4 / 2 / 1 rotations and
+ * mirrors about z. A voxel at centred position c of a tile goes to M c under
+ * the group element M. The orientations of a tile are its distinct voxel
+ * contents under G (the first element of G giving each is orient[]), so a
+ * tile's stabilizer comes from its voxels; every allowed pair (a, b, +axis)
+ * brings (M a, M b, M axis) for every M in G (b, a when M axis is negative).
+ *
+ * MarkovJunior (resources/tilesets/NAME.xml):
+ *   <tileset fullSymmetry="True"> <tiles><tile name="Line" weight="2"/>...
+ *   <neighbors><neighbor left="Line" right="z Turn"/> <neighbor top="A"
+ *   bottom="B"/>...</neighbors></tileset>; tiles in NAME/TILE.vox. "xz Turn"
+ *   = the tile Turn rotated by z then x: x, y, z turn by 90 degrees about that
+ *   axis (x: +y to +z, y: +x to +z, z: +x to +y). left/right: right at +x of
+ *   left; top/bottom: top at +z of bottom (sets without fullSymmetry).
+ * DeBroglie (samples/castle/castle.json, "srcType": "voxSet"): tiles[] (src,
+ *   value = name, tileSymmetry: checked against the voxels, multiplyFrequency
+ *   = weight), "symmetry" (even: reflections + symmetry/2 rotations, odd:
+ *   rotations only), "autoAdjacency" (b at +axis of a when a's last voxel
+ *   layer along the axis equals b's first, voxel for voxel), "adjacencies"
+ *   (left/right, up/down: down at +y, above/below: below at -z; every
+ *   listed tile with every other), "ground" (that tile on the z = 0 layer
+ *   and banned above: every pair putting it at +z of a tile is dropped),
+ *   "constraints": border (tile on the sides, "excludeSides" cells not on
+ *   them) and fixedTile (tile at point {x, y, z}). Comments and trailing
+ *   commas are accepted as DeBroglie's reader does. Other keys are ignored;
+ *   other constraint types and rotated tile names ("tile!90") are refused.
+ */
+
+/* Assembles the voxels of lat's tiles into one lattice of
+ * (nx*vx) x (ny*vy) x (nz*vz) voxels (label = colour index, 0 empty) and its
+ * palette. Cells whose label is no tile stay empty. */
+gs_err gs_model_tileset_assemble(const gs_model_tileset *ts, const gs_model_lattice *lat,
+                                 gs_model_lattice *out, uint8_t palette[256][4]);
+/* Writes the assembled voxels as MagicaVoxel .vox (vox_path) and, when
+ * preview_path is not NULL, the picture of the tiles (left, declared tiles in
+ * a row) and the assembled output (right) with the built-in renderer, side
+ * pixels per panel. GS_ERR_LIB when no renderer is available (the .vox is
+ * written then). */
+gs_err gs_model_tileset_write_voxels(const gs_model_tileset *ts, const gs_model_lattice *lat,
+                                     const char *vox_path, const char *preview_path, int side);
+/* Writes the tile set's constraints for an nx x ny x nz output (dims) into
+ * pins (one entry per cell, GS_MODEL_FREE = free): the border tile on the
+ * cells of the border sides and the fixed tiles at their points, on the
+ * active layers (all of them, or 1..nz-2 when fixed_z_faces and nz >= 3:
+ * the start model holds those); with fixed_z_faces = 0 also the ground tile
+ * on the z = 0 layer. A fixed point outside the output is GS_ERR_ARG naming
+ * file. */
+gs_err gs_model_tileset_pins(const gs_model_tileset *ts, const char *file, const int dims[3],
+                             int fixed_z_faces, uint16_t *pins);
+/* The declared tiles side by side along x (one tile apart), each in its
+ * first orientation: the picture of the "example" of a voxel tile set. */
+gs_err gs_model_tileset_catalogue(const gs_model_tileset *ts, gs_model_lattice *out);
 
 /* ---- overlapping model ----------------------------------------------------- */
 

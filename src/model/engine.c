@@ -68,6 +68,7 @@
 typedef struct model_config {
     char *example;
     char *tileset;
+    char *tile_folder;
     char *subset;
     char *start_tile;
     char *sample;
@@ -198,10 +199,12 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                       "%s: set exactly one of model.example (label lattice), model.tileset "
                       "(WFC tile set XML) and model.sample (overlapping model PNG)",
                       inputs ? "several inputs given" : "no input given");
-    if ((c->tileset[0] || c->sample[0]) && c->size[2] != 1)
+    if (c->sample[0] && c->size[2] != 1)
         gs_cfg_report(ctx, "model.size",
-                      "z = %lld: model.tileset and model.sample are 2D inputs, expected z = 1",
+                      "z = %lld: model.sample is a 2D input, expected z = 1",
                       (long long)c->size[2]);
+    if (c->tile_folder[0] && !c->tileset[0])
+        gs_cfg_report(ctx, "model.tile_folder", "only applies to model.tileset");
     if (c->start_tile[0] && !c->tileset[0])
         gs_cfg_report(ctx, "model.start_tile", "only applies to model.tileset");
     if (c->subset[0] && !c->tileset[0])
@@ -273,8 +276,12 @@ static const gs_cfg_key model_keys[] = {
                     "example lattice: Merrell .txt, DeBroglie .csv, MagicaVoxel/Slab6 .vox, or "
                     "geosynth .h5 (or model.tileset / model.sample)"),
     GS_CFG_KEY_PATH(model_config, tileset, "model.tileset", "",
-                    "WaveFunctionCollapse tile set XML (simple tiled model; tile PNGs in the "
-                    "folder of the same name); 2D, model.size z = 1"),
+                    "tile set: WaveFunctionCollapse XML (2D, tile PNGs in the folder of the same "
+                    "name, model.size z = 1), MarkovJunior XML (3D .vox tiles) or DeBroglie "
+                    "voxSet .json (3D, with its constraints)"),
+    GS_CFG_KEY_STRING(model_config, tile_folder, "model.tile_folder", "",
+                      "MarkovJunior tile set: folder of the .vox tiles relative to the XML's "
+                      "directory (e.g. Knots3D/3); \"\" = the XML's name"),
     GS_CFG_KEY_STRING(model_config, subset, "model.subset", "",
                       "tile set subset name (<subsets> of the XML); \"\" = every tile"),
     GS_CFG_KEY_STRING(model_config, start_tile, "model.start_tile", "",
@@ -505,8 +512,13 @@ static gs_err pseudo_example(model_engine *e)
              "%s: no %s may sit next to itself along both x and y, so there is no trivial "
              "consistent start model; give one with model.start",
              what, e->cfg->tileset[0] ? "tile" : "pattern");
-    GS_CALL(gs_model_lattice_create(&e->example, 1, 1, 1));
-    e->example.labels[0] = (uint16_t)(best > 0 ? best : 1);
+    /* a voxel tile set's ground lies under the start tile (gs_model_initial
+     * then prefers that column) */
+    int ground = e->ts.ground && e->cfg->size[2] > 1;
+    GS_CALL(gs_model_lattice_create(&e->example, 1, 1, 1 + ground));
+    e->example.labels[0] = (uint16_t)(ground ? e->ts.ground : best > 0 ? best : 1);
+    if (ground)
+        e->example.labels[1] = (uint16_t)(best > 0 ? best : 1);
     return GS_OK;
 }
 
@@ -516,10 +528,15 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
     gs_err err = GS_OK;
     if (c->tileset[0] || c->sample[0]) {
         /* Every rank parses the (small) input; only rank 0 needs tile images. */
-        err = c->tileset[0] ? gs_model_tileset_load(c->tileset, c->subset, run->rank == 0, &e->ts)
+        err = c->tileset[0] ? gs_model_tileset_load_any(c->tileset, c->subset, c->tile_folder,
+                                                        run->rank == 0, &e->ts)
                             : gs_model_patterns_learn(c->sample, (int)c->overlap_n,
                                                       (int)c->symmetry, c->periodic_input,
                                                       &e->pats);
+        if (!err && c->tileset[0] && e->ts.dim == 2 && c->size[2] != 1)
+            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                 "model.size z = %lld: %s is a 2D tile set, expected z = 1",
+                                 (long long)c->size[2], c->tileset);
         GS_CALL(gs_par_agree(run->comm, err));
         GS_CALL(c->tileset[0] ? gs_model_tileset_rules(&e->ts, &e->rules)
                               : gs_model_patterns_rules(&e->pats, &e->rules));
@@ -1038,6 +1055,22 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
     if (!strcmp(c->mesh, "none"))
         return GS_OK;
     gs_model_quads quads;
+    if (e->ts.dim == 3) { /* the tiles' voxels, not one cube per tile */
+        gs_model_lattice vox = {0};
+        gs_model_palette vpal = {{{0}}, 1};
+        GS_CALL(gs_model_tileset_assemble(&e->ts, &e->lat, &vox, vpal.rgba));
+        gs_err merr = gs_model_mesh_quads(&vox, c->voxel_size / e->ts.vx, &quads);
+        gs_model_lattice_destroy(&vox);
+        GS_CALL(merr);
+        counts[0] = (int64_t)quads.n;
+        counts[1] = (int64_t)quads.unit_faces;
+        char name[16], path[PATH_MAX];
+        snprintf(name, sizeof name, "mesh.%s", c->mesh);
+        gs_run_path(run, name, path, sizeof path);
+        gs_err err = gs_model_write_mesh(path, &quads, &vpal);
+        gs_model_quads_free(&quads);
+        return err;
+    }
     GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
     counts[0] = (int64_t)quads.n;
     counts[1] = (int64_t)quads.unit_faces;
@@ -1118,7 +1151,23 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
             gs_run_output(run, "preview", "preview.png");
         }
     }
-    if (c->tileset[0] && c->tile_image) {
+    if (e->ts.dim == 3 && c->tile_image) {
+        char ppath[PATH_MAX];
+        gs_run_path(run, "tiles.vox", path, sizeof path);
+        gs_run_path(run, "preview.png", ppath, sizeof ppath);
+        gs_err perr = gs_model_tileset_write_voxels(&e->ts, &e->lat, path, c->preview ? ppath : NULL,
+                                                    (int)c->preview_size);
+        if (perr == GS_ERR_LIB) { /* no renderer here: the run is still good */
+            gs_log(GS_LOG_WARN, "preview.png not written: %s (model.preview = false skips it)",
+                   gs_error_message());
+            gs_error_clear();
+        } else {
+            GS_CALL(perr);
+            if (c->preview)
+                gs_run_output(run, "preview", "preview.png");
+        }
+        gs_run_output(run, "tiles_vox", "tiles.vox");
+    } else if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);
         GS_CALL(gs_model_tileset_write_png(path, &e->ts, &e->lat));
         gs_run_output(run, "tiles_image", "tiles.png");
@@ -1211,7 +1260,14 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     size_t W = ((size_t)L + 63) / 64;
     double mem = (double)cells * 4 + (double)rcells * (double)(W * 8 + 40 + 2) +
                  6.0 * L * (double)W * 8 + (e->params.ac == GS_MODEL_AC4 ? 12.0 * L * rcells : 0);
-    if (c->tileset[0])
+    if (c->tileset[0] && e->ts.dim == 3)
+        gs_log(GS_LOG_INFO,
+               "tile set %s: %d tiles in %d orientations under %d symmetries, %zu allowed pairs, "
+               "tiles %dx%dx%d voxels%s%s",
+               c->tileset, e->ts.nbase, e->ts.ntiles, e->ts.group, e->ts.npairs, e->ts.vx,
+               e->ts.vy, e->ts.vz, e->ts.ground ? ", ground" : "",
+               e->ts.border || e->ts.nfixed ? ", border/fixed-tile constraints" : "");
+    else if (c->tileset[0])
         gs_log(GS_LOG_INFO, "tile set %s%s%s: %d oriented tiles, %zu allowed pairs, tiles %dx%d px",
                c->tileset, c->subset[0] ? " subset " : "", c->subset, e->ts.ntiles, e->ts.npairs,
                e->ts.tile_w, e->ts.tile_h);
@@ -1300,6 +1356,15 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
             GS_CHECK(e->pins[i] == GS_MODEL_FREE || gs_model_rules_count(e->rules, e->pins[i]) > 0,
                      GS_ERR_ARG, "model.pins/model.border: label %u does not occur in the example %s",
                      e->pins[i], c->example);
+        e->params.pins = e->pins;
+    }
+    if (e->ts.border || e->ts.nfixed || (e->ts.ground && !e->params.fix_z_faces)) {
+        if (!e->pins) {
+            GS_CALL(gs_alloc_array((void **)&e->pins, cells, sizeof *e->pins, "pins"));
+            for (size_t i = 0; i < cells; i++)
+                e->pins[i] = GS_MODEL_FREE;
+        }
+        GS_CALL(gs_model_tileset_pins(&e->ts, c->tileset, dims, e->params.fix_z_faces, e->pins));
         e->params.pins = e->pins;
     }
     GS_CALL(gs_alloc_array((void **)&e->coverage, cells, sizeof *e->coverage, "coverage"));

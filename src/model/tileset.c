@@ -2,10 +2,7 @@
  * pairs, weights, tile images; the tile-set checker and the assembled PNG.
  * See include/geosynth/model_tiles.h.
  *
- * The XML reader is deliberately small: elements with attributes, comments,
- * <?...?> and <!...> declarations, the five predefined entities and numeric
- * character references; text content is ignored. That covers mxgmn's and
- * MarkovJunior's tile sets. Errors name file and line. */
+ * The XML reader is in tileset_xml.c; the 3D (voxel) sets in tileset3d.c. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,261 +11,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/model_tiles.h"
 #include "geosynth/parse.h"
-
-#define XML_MAX_BYTES (64u << 20)
-#define XML_MAX_ATTRS 16
-
-/* ---- minimal XML ------------------------------------------------------------ */
-
-typedef struct xml_elem {
-    char *name;
-    int nattr;
-    char *key[XML_MAX_ATTRS];
-    char *val[XML_MAX_ATTRS];
-    int parent; /* index, -1 for the root */
-    int line;
-} xml_elem;
-
-typedef struct xml_doc {
-    char *buf; /* the file, names and values are cut out of it in place */
-    xml_elem *e;
-    int n, cap;
-    const char *file;
-} xml_doc;
-
-static void xml_free(xml_doc *d)
-{
-    gs_free(d->buf);
-    gs_free(d->e);
-    memset(d, 0, sizeof *d);
-}
-
-static int is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
-static int is_name(char c)
-{
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-           c == '-' || c == '.' || c == ':' || (unsigned char)c >= 0x80;
-}
-
-/* Decodes entities of s in place (the result is never longer). */
-static gs_err xml_unescape(const xml_doc *d, int line, char *s)
-{
-    char *w = s;
-    for (char *p = s; *p;) {
-        if (*p != '&') {
-            *w++ = *p++;
-            continue;
-        }
-        char *semi = strchr(p, ';');
-        GS_CHECK(semi && semi - p <= 10, GS_ERR_FORMAT, "%s:%d: '&' without a ';' entity end",
-                 d->file, line);
-        *semi = '\0';
-        const char *ent = p + 1;
-        if (!strcmp(ent, "amp"))
-            *w++ = '&';
-        else if (!strcmp(ent, "lt"))
-            *w++ = '<';
-        else if (!strcmp(ent, "gt"))
-            *w++ = '>';
-        else if (!strcmp(ent, "quot"))
-            *w++ = '"';
-        else if (!strcmp(ent, "apos"))
-            *w++ = '\'';
-        else if (ent[0] == '#') {
-            int64_t v;
-            char why[96];
-            int ok = 0;
-            if (ent[1] != 'x' && ent[1] != 'X')
-                ok = gs_parse_i64(ent + 1, 1, 127, &v, why, sizeof why);
-            if (ent[1] == 'x' || ent[1] == 'X') {
-                v = 0;
-                ok = ent[2] != '\0';
-                for (const char *h = ent + 2; *h && ok; h++) {
-                    int dv = *h >= '0' && *h <= '9'   ? *h - '0'
-                             : *h >= 'a' && *h <= 'f' ? *h - 'a' + 10
-                             : *h >= 'A' && *h <= 'F' ? *h - 'A' + 10
-                                                      : -1;
-                    ok = dv >= 0 && (v = v * 16 + dv) < 128;
-                }
-                ok = ok && v > 0;
-            }
-            GS_CHECK(ok, GS_ERR_FORMAT, "%s:%d: character reference &%s; unsupported (ASCII only)",
-                     d->file, line, ent);
-            *w++ = (char)v;
-        } else {
-            GS_RAISE(GS_ERR_FORMAT, "%s:%d: unknown entity &%s;", d->file, line, ent);
-        }
-        p = semi + 1;
-    }
-    *w = '\0';
-    return GS_OK;
-}
-
-static gs_err xml_parse(const char *path, xml_doc *d)
-{
-    memset(d, 0, sizeof *d);
-    d->file = path;
-    size_t len = 0;
-    GS_CALL(gs_file_read_all(path, XML_MAX_BYTES, &d->buf, &len));
-    gs_err err = GS_OK;
-    char *p = d->buf, *end = d->buf + len;
-    int line = 1, cur = -1, depth = 0;
-    d->cap = 64;
-    GS_TRY(err, gs_alloc_array((void **)&d->e, (size_t)d->cap, sizeof *d->e, "xml elements"), fail);
-#define ADV()                                                                                      \
-    do {                                                                                           \
-        if (*p == '\n')                                                                            \
-            line++;                                                                                \
-        p++;                                                                                       \
-    } while (0)
-    while (p < end) {
-        if (*p != '<') {
-            GS_TRY_CHECK(err, *p != '\0', GS_ERR_FORMAT, fail, "%s:%d: NUL byte in the file", path,
-                         line);
-            ADV();
-            continue;
-        }
-        int tag_line = line;
-        if (end - p >= 4 && !strncmp(p, "<!--", 4)) {
-            char *q = strstr(p + 4, "-->");
-            GS_TRY_CHECK(err, q, GS_ERR_FORMAT, fail, "%s:%d: comment '<!--' is never closed",
-                         path, tag_line);
-            while (p < q + 3)
-                ADV();
-            continue;
-        }
-        if (p[1] == '?' || p[1] == '!') {
-            char *q = strchr(p, '>');
-            GS_TRY_CHECK(err, q, GS_ERR_FORMAT, fail, "%s:%d: '<%c' is never closed by '>'", path,
-                         tag_line, p[1]);
-            while (p <= q)
-                ADV();
-            continue;
-        }
-        if (p[1] == '/') {
-            p += 2;
-            char *name = p;
-            while (p < end && is_name(*p))
-                p++;
-            char *name_end = p;
-            while (p < end && is_space(*p))
-                ADV();
-            GS_TRY_CHECK(err, p < end && *p == '>', GS_ERR_FORMAT, fail,
-                         "%s:%d: closing tag: expected '>'", path, tag_line);
-            *name_end = '\0';
-            GS_TRY_CHECK(err, cur >= 0 && !strcmp(d->e[cur].name, name), GS_ERR_FORMAT, fail,
-                         "%s:%d: closing tag </%s> does not match the open <%s> (line %d)", path,
-                         tag_line, name, cur >= 0 ? d->e[cur].name : "(none)",
-                         cur >= 0 ? d->e[cur].line : 0);
-            cur = d->e[cur].parent;
-            depth--;
-            p++;
-            continue;
-        }
-        /* start tag */
-        p++;
-        char *name = p;
-        while (p < end && is_name(*p))
-            p++;
-        GS_TRY_CHECK(err, p > name, GS_ERR_FORMAT, fail, "%s:%d: '<' not followed by a tag name",
-                     path, tag_line);
-        GS_TRY_CHECK(err, cur >= 0 || d->n == 0, GS_ERR_FORMAT, fail,
-                     "%s:%d: second top-level element <%.*s>: expected one root", path, tag_line,
-                     (int)(p - name), name);
-        if (d->n == d->cap) {
-            d->cap *= 2;
-            void *ne = gs_realloc(d->e, (size_t)d->cap * sizeof *d->e);
-            GS_TRY_CHECK(err, ne, GS_ERR_MEM, fail, "%s: out of memory for elements", path);
-            d->e = ne;
-        }
-        xml_elem *el = &d->e[d->n];
-        memset(el, 0, sizeof *el);
-        el->name = name;
-        el->parent = cur;
-        el->line = tag_line;
-        char *name_end = p;
-        int closed = 0;
-        for (;;) {
-            while (p < end && is_space(*p))
-                ADV();
-            GS_TRY_CHECK(err, p < end, GS_ERR_FORMAT, fail, "%s:%d: tag <%.*s> is never closed",
-                         path, tag_line, (int)(name_end - name), name);
-            if (*p == '>') {
-                p++;
-                break;
-            }
-            if (*p == '/') {
-                GS_TRY_CHECK(err, p + 1 < end && p[1] == '>', GS_ERR_FORMAT, fail,
-                             "%s:%d: expected '/>'", path, line);
-                p += 2;
-                closed = 1;
-                break;
-            }
-            char *key = p;
-            while (p < end && is_name(*p))
-                p++;
-            GS_TRY_CHECK(err, p > key, GS_ERR_FORMAT, fail,
-                         "%s:%d: in <%.*s>: expected an attribute name, got '%c'", path, line,
-                         (int)(name_end - name), name, *p);
-            char *key_end = p;
-            while (p < end && is_space(*p))
-                ADV();
-            GS_TRY_CHECK(err, p < end && *p == '=', GS_ERR_FORMAT, fail,
-                         "%s:%d: attribute %.*s: expected '=' and a quoted value", path, line,
-                         (int)(key_end - key), key);
-            p++;
-            while (p < end && is_space(*p))
-                ADV();
-            GS_TRY_CHECK(err, p < end && (*p == '"' || *p == '\''), GS_ERR_FORMAT, fail,
-                         "%s:%d: attribute %.*s: expected a quoted value", path, line,
-                         (int)(key_end - key), key);
-            char quote = *p++;
-            char *val = p;
-            int vline = line;
-            while (p < end && *p != quote) {
-                GS_TRY_CHECK(err, *p != '<', GS_ERR_FORMAT, fail,
-                             "%s:%d: attribute %.*s: '<' inside the value (missing quote?)", path,
-                             vline, (int)(key_end - key), key);
-                ADV();
-            }
-            GS_TRY_CHECK(err, p < end, GS_ERR_FORMAT, fail,
-                         "%s:%d: attribute %.*s: value is never closed", path, vline,
-                         (int)(key_end - key), key);
-            *p++ = '\0';
-            GS_TRY_CHECK(err, el->nattr < XML_MAX_ATTRS, GS_ERR_FORMAT, fail,
-                         "%s:%d: more than %d attributes", path, vline, XML_MAX_ATTRS);
-            *key_end = '\0';
-            GS_TRY(err, xml_unescape(d, vline, val), fail);
-            el->key[el->nattr] = key;
-            el->val[el->nattr] = val;
-            el->nattr++;
-        }
-        *name_end = '\0';
-        d->n++;
-        if (!closed) {
-            cur = d->n - 1;
-            depth++;
-        }
-    }
-#undef ADV
-    GS_TRY_CHECK(err, d->n > 0, GS_ERR_FORMAT, fail, "%s: no XML element found", path);
-    GS_TRY_CHECK(err, cur < 0, GS_ERR_FORMAT, fail,
-                 "%s:%d: end of file inside <%s> opened at line %d", path, line, d->e[cur].name,
-                 d->e[cur].line);
-    (void)depth;
-    return GS_OK;
-fail:
-    xml_free(d);
-    return err;
-}
-
-static const char *xml_attr(const xml_elem *e, const char *key)
-{
-    for (int i = 0; i < e->nattr; i++)
-        if (!strcmp(e->key[i], key))
-            return e->val[i];
-    return NULL;
-}
+#include "tileset_impl.h"
 
 /* ---- tile set ------------------------------------------------------------------ */
 
@@ -324,7 +67,7 @@ static int in_subset(const xml_doc *d, int subset_elem, const char *tile)
         return 1;
     for (int i = subset_elem + 1; i < d->n; i++)
         if (d->e[i].parent == subset_elem && !strcmp(d->e[i].name, "tile")) {
-            const char *nm = xml_attr(&d->e[i], "name");
+            const char *nm = gs_tsxml_attr(&d->e[i], "name");
             if (nm && !strcmp(nm, tile))
                 return 1;
         }
@@ -336,7 +79,7 @@ static int in_subset(const xml_doc *d, int subset_elem, const char *tile)
 static gs_err parse_ref(const xml_doc *d, const xml_elem *el, const char *attr, const tile_def *defs,
                         int ndefs, int subset_elem, int *tile, int *orient, int *skip)
 {
-    const char *v = xml_attr(el, attr);
+    const char *v = gs_tsxml_attr(el, attr);
     GS_CHECK(v, GS_ERR_FORMAT, "%s:%d: <neighbor> without %s=\"TILE [ORIENTATION]\"", d->file,
              el->line, attr);
     char name[72];
@@ -364,7 +107,7 @@ static gs_err parse_ref(const xml_doc *d, const xml_elem *el, const char *attr, 
         for (int i = 0; i < d->n; i++)
             if (!strcmp(d->e[i].name, "tile") && d->e[d->e[i].parent].name &&
                 !strcmp(d->e[d->e[i].parent].name, "tiles")) {
-                const char *nm = xml_attr(&d->e[i], "name");
+                const char *nm = gs_tsxml_attr(&d->e[i], "name");
                 if (nm && !strcmp(nm, name)) {
                     *skip = 1;
                     return GS_OK;
@@ -411,11 +154,49 @@ static gs_err load_rgba(const char *path, gs_image *img, int *w, int *h, uint8_t
     return GS_OK;
 }
 
+size_t gs_tileset_pairs_unique(gs_model_pair *pairs, size_t n)
+{
+    qsort(pairs, n, sizeof *pairs, cmp_pair);
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (m == 0 || cmp_pair(&pairs[i], &pairs[m - 1]))
+            pairs[m++] = pairs[i];
+    return m;
+}
+
 gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
                              gs_model_tileset *out)
 {
+    return gs_model_tileset_load_any(path, subset, NULL, images, out);
+}
+
+gs_err gs_model_tileset_load_any(const char *path, const char *subset, const char *folder,
+                                 int images, gs_model_tileset *out)
+{
+    size_t plen = strlen(path);
+    if (plen > 5 && !strcmp(path + plen - 5, ".json")) {
+        GS_CHECK(!subset || !subset[0], GS_ERR_ARG,
+                 "%s: a DeBroglie tile set has no subsets (model.subset = %s)", path, subset);
+        return gs_tileset3d_load_debroglie(path, out);
+    }
     xml_doc d;
-    GS_CALL(xml_parse(path, &d));
+    GS_CALL(gs_tsxml_parse(path, &d));
+    if (!strcmp(d.e[0].name, "tileset")) {
+        gs_err e3 = GS_OK;
+        if (subset && subset[0])
+            e3 = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                "%s: a MarkovJunior tile set has no subsets (model.subset = %s)",
+                                path, subset);
+        if (!e3)
+            e3 = gs_tileset3d_load_mj(path, &d, folder, out);
+        gs_tsxml_free(&d);
+        return e3;
+    }
+    if (folder && folder[0]) {
+        gs_tsxml_free(&d);
+        GS_RAISE(GS_ERR_ARG, "%s: a tile folder applies to MarkovJunior tile sets only, this is a "
+                             "<%s>", path, "set");
+    }
     gs_err err = GS_OK;
     tile_def *defs = NULL;
     gs_model_tileset ts;
@@ -425,11 +206,13 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
     gs_image img;
     memset(&img, 0, sizeof img);
 
+    ts.dim = 2;
     GS_TRY_CHECK(err, !strcmp(d.e[0].name, "set"), GS_ERR_FORMAT, fail,
-                 "%s:%d: root element <%s>: expected <set> (a WaveFunctionCollapse tile set)", path,
+                 "%s:%d: root element <%s>: expected <set> (a WaveFunctionCollapse tile set) or "
+                 "<tileset> (MarkovJunior)", path,
                  d.e[0].line, d.e[0].name);
     int unique = 0;
-    const char *u = xml_attr(&d.e[0], "unique");
+    const char *u = gs_tsxml_attr(&d.e[0], "unique");
     if (u) {
         char why[96];
         GS_TRY_CHECK(err, gs_parse_bool(u, &unique, why, sizeof why), GS_ERR_FORMAT, fail,
@@ -440,18 +223,18 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
         for (int i = 0; i < d.n && subset_elem < 0; i++)
             if (!strcmp(d.e[i].name, "subset") && d.e[i].parent >= 0 &&
                 !strcmp(d.e[d.e[i].parent].name, "subsets")) {
-                const char *nm = xml_attr(&d.e[i], "name");
+                const char *nm = gs_tsxml_attr(&d.e[i], "name");
                 if (nm && !strcmp(nm, subset))
                     subset_elem = i;
             }
         if (subset_elem < 0) {
             char names[512] = "";
             for (int i = 0; i < d.n; i++)
-                if (!strcmp(d.e[i].name, "subset") && xml_attr(&d.e[i], "name") &&
-                    strlen(names) + strlen(xml_attr(&d.e[i], "name")) + 4 < sizeof names) {
+                if (!strcmp(d.e[i].name, "subset") && gs_tsxml_attr(&d.e[i], "name") &&
+                    strlen(names) + strlen(gs_tsxml_attr(&d.e[i], "name")) + 4 < sizeof names) {
                     if (names[0])
                         strcat(names, ", ");
-                    strcat(names, xml_attr(&d.e[i], "name"));
+                    strcat(names, gs_tsxml_attr(&d.e[i], "name"));
                 }
             GS_TRY_CHECK(err, 0, GS_ERR_ARG, fail, "%s: no subset named '%s' (subsets: %s)", path,
                          subset, names[0] ? names : "none");
@@ -468,7 +251,7 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
         const xml_elem *el = &d.e[i];
         if (strcmp(el->name, "tile") || el->parent < 0 || strcmp(d.e[el->parent].name, "tiles"))
             continue;
-        const char *nm = xml_attr(el, "name");
+        const char *nm = gs_tsxml_attr(el, "name");
         GS_TRY_CHECK(err, nm && nm[0] && strlen(nm) < 60 && !strchr(nm, ' '), GS_ERR_FORMAT, fail,
                      "%s:%d: <tile> needs name=\"...\" (no spaces, under 60 characters)", path,
                      el->line);
@@ -478,7 +261,7 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
                          defs[t].line);
         if (!in_subset(&d, subset_elem, nm))
             continue;
-        const char *sy = xml_attr(el, "symmetry");
+        const char *sy = gs_tsxml_attr(el, "symmetry");
         char s = 'X';
         if (sy) {
             GS_TRY_CHECK(err, strlen(sy) == 1 && strchr("XILT\\F", sy[0]), GS_ERR_FORMAT, fail,
@@ -487,7 +270,7 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
             s = sy[0];
         }
         double w = 1.0;
-        const char *ws = xml_attr(el, "weight");
+        const char *ws = gs_tsxml_attr(el, "weight");
         if (ws) {
             char why[96];
             GS_TRY_CHECK(err, gs_parse_f64(ws, 1e-9, 1e9, &w, why, sizeof why), GS_ERR_FORMAT,
@@ -555,11 +338,7 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
             ts.pairs[np++] = (gs_model_pair){2, (uint16_t)(vp[k][0] + 1), (uint16_t)(vp[k][1] + 1)};
         }
     }
-    qsort(ts.pairs, np, sizeof *ts.pairs, cmp_pair);
-    size_t m = 0;
-    for (size_t i = 0; i < np; i++)
-        if (m == 0 || cmp_pair(&ts.pairs[i], &ts.pairs[m - 1]))
-            ts.pairs[m++] = ts.pairs[i];
+    size_t m = gs_tileset_pairs_unique(ts.pairs, np);
     ts.npairs = m;
     GS_TRY_CHECK(err, m > 0, GS_ERR_FORMAT, fail, "%s: no <neighbor> pair between kept tiles",
                  path);
@@ -623,7 +402,7 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
     gs_free(defs);
     gs_free(symc);
     gs_free(action);
-    xml_free(&d);
+    gs_tsxml_free(&d);
     *out = ts;
     return GS_OK;
 fail:
@@ -632,7 +411,7 @@ fail:
     gs_free(symc);
     gs_free(action);
     gs_model_tileset_destroy(&ts);
-    xml_free(&d);
+    gs_tsxml_free(&d);
     return err;
 }
 
@@ -644,6 +423,10 @@ void gs_model_tileset_destroy(gs_model_tileset *ts)
     gs_free(ts->weight);
     gs_free(ts->pairs);
     gs_free(ts->pixels);
+    gs_free(ts->voxels);
+    gs_free(ts->base);
+    gs_free(ts->orient);
+    gs_free(ts->fixed);
     memset(ts, 0, sizeof *ts);
 }
 
