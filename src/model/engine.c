@@ -69,6 +69,7 @@ typedef struct model_config {
     char *example;
     char *tileset;
     char *tile_folder;
+    char *border_tile;
     char *subset;
     char *start_tile;
     char *sample;
@@ -205,6 +206,8 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                       (long long)c->size[2]);
     if (c->tile_folder[0] && !c->tileset[0])
         gs_cfg_report(ctx, "model.tile_folder", "only applies to model.tileset");
+    if (c->border_tile[0] && !c->tileset[0])
+        gs_cfg_report(ctx, "model.border_tile", "only applies to model.tileset");
     if (c->start_tile[0] && !c->tileset[0])
         gs_cfg_report(ctx, "model.start_tile", "only applies to model.tileset");
     if (c->subset[0] && !c->tileset[0])
@@ -282,6 +285,10 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, tile_folder, "model.tile_folder", "",
                       "MarkovJunior tile set: folder of the .vox tiles relative to the XML's "
                       "directory (e.g. Knots3D/3); \"\" = the XML's name"),
+    GS_CFG_KEY_STRING(model_config, border_tile, "model.border_tile", "",
+                      "voxel tile set: tile (\"name\" or \"name k\") on every cell of the "
+                      "output's six faces (MarkovJunior's models put Empty there); \"\" = "
+                      "the tile set's own border constraint, if any"),
     GS_CFG_KEY_STRING(model_config, subset, "model.subset", "",
                       "tile set subset name (<subsets> of the XML); \"\" = every tile"),
     GS_CFG_KEY_STRING(model_config, start_tile, "model.start_tile", "",
@@ -1357,6 +1364,19 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
                      GS_ERR_ARG, "model.pins/model.border: label %u does not occur in the example %s",
                      e->pins[i], c->example);
         e->params.pins = e->pins;
+    }
+    if (c->border_tile[0]) {
+        char want[80];
+        snprintf(want, sizeof want, "%s%s", c->border_tile, strchr(c->border_tile, ' ') ? "" : " 0");
+        int l = 0;
+        for (int t = 0; t < e->ts.ntiles && !l; t++)
+            if (!strcmp(e->ts.names[t], want))
+                l = t + 1;
+        GS_CHECK(l > 0 && e->ts.dim == 3, GS_ERR_ARG, "model.border_tile = %s: %s", c->border_tile,
+                 e->ts.dim != 3 ? "only voxel (3D) tile sets take a border tile"
+                                : "no such tile in the tile set");
+        e->ts.border = l;
+        e->ts.border_sides = 63u;
     }
     if (e->ts.border || e->ts.nfixed || (e->ts.ground && !e->params.fix_z_faces)) {
         if (!e->pins) {
