@@ -1,4 +1,5 @@
-/* model: 2D inputs in the style of WaveFunctionCollapse (mxgmn): the simple
+/* model: tile-set and sample inputs in the style of WaveFunctionCollapse
+ * (3D voxel tile sets: see "3D tile sets" below). 2D (mxgmn): the simple
  * tiled model (a tile set XML with explicit tiles, symmetries and neighbour
  * lists) and the overlapping model (N x N patterns learned from a sample
  * image). Both become an ordinary gs_model_rules over labels, so the core

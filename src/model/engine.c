@@ -23,7 +23,10 @@
  * that may sit next to itself, and the output adds tiles.png (assembled
  * from the tile images) or image.png (pattern pixels); the violations metric
  * then comes from the tile-set / pattern checker. Periodic output and the
- * overlapping model's ground are not supported.
+ * overlapping model's ground are not supported. Voxel (3D) tile sets
+ * (MarkovJunior XML, DeBroglie JSON) run at any z: their ground, border and
+ * fixed tiles (and model.border_tile) become pins, and the outputs add
+ * tiles.vox; mesh.ply and preview.png show the assembled voxels.
  *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
  * finished; checkpoints are taken between colours, since regions of
