@@ -155,6 +155,6 @@ expect_err "no subset named 'Nope'" "unknown subset named with the list"
 run_gs 0 model -c knots.ini -o badrun --set model.example="$W/x.txt"
 expect_rc 2 "tileset and example together"
 expect_err "model.example" "conflicting inputs: key named"
-run_gs 0 model -c knots.ini -o badrun --set model.size=8x8x2
-expect_err "model.size" "3D size with a tile set: key named"
+run_gs 0 model -c knots.ini -o badrun --set model.tileset="$W/tilesets/Knots.xml" --set model.size=8x8x2
+expect_err "model.size z = 2: $W/tilesets/Knots.xml is a 2D tile set" "3D size with a 2D tile set: key and file named"
 finish
