@@ -26,6 +26,10 @@ struct gs_measure_geo {
     double *dist;        /* nv; +inf unless reached by the current march */
     uint8_t *state;      /* 0 far, 1 trial, 2 accepted */
     uint32_t *origin;    /* nv: index of the source a vertex's value came from */
+    uint32_t *eadj;      /* 3 nt: the triangle across edge (tv[i], tv[i+1]), EADJ_NONE, EADJ_MULTI */
+    uint8_t *near;       /* nv: workspace of gs_measure_interface_dist */
+    uint32_t *stamp;     /* nv: vertices seen by the current near_interface */
+    uint32_t tick;
     uint32_t *touched;
     size_t ntouched;
     double *hk;          /* heap keys */
@@ -87,6 +91,26 @@ static int heap_pop(struct gs_measure_geo *g, double *k, uint32_t *v)
     return 1;
 }
 
+#define EADJ_NONE UINT32_MAX        /* border edge */
+#define EADJ_MULTI (UINT32_MAX - 1) /* non-manifold edge: look at every triangle on it */
+
+/* Triangles other than t on the edge (a, b), found from a's incidence: the
+ * one there is, EADJ_NONE or EADJ_MULTI. */
+static uint32_t edge_neighbour(const struct gs_measure_geo *g, size_t t, uint32_t a, uint32_t b)
+{
+    uint32_t found = EADJ_NONE;
+    for (uint32_t k = g->vt_off[a]; k < g->vt_off[a + 1]; k++) {
+        uint32_t u = g->vt[k];
+        const uint32_t *uv = g->tris + 3 * (size_t)u;
+        if (u != t && (uv[0] == b || uv[1] == b || uv[2] == b)) {
+            if (found != EADJ_NONE)
+                return EADJ_MULTI;
+            found = u;
+        }
+    }
+    return found;
+}
+
 gs_err gs_measure_geo_create(const float *pos, size_t nverts, const uint32_t *tris, size_t ntris, double scale,
                              gs_measure_geo_t *out)
 {
@@ -109,6 +133,9 @@ gs_err gs_measure_geo_create(const float *pos, size_t nverts, const uint32_t *tr
     GS_TRY(err, gs_alloc_array((void **)&g->state, nv1, 1, "geodesic states"), fail);
     GS_TRY(err, gs_alloc_array((void **)&g->touched, nv1, sizeof *g->touched, "geodesic states"), fail);
     GS_TRY(err, gs_alloc_array((void **)&g->origin, nv1, sizeof *g->origin, "geodesic origins"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&g->eadj, 3 * ntris + 1, sizeof *g->eadj, "edge neighbours"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&g->near, nv1, 1, "interface neighbourhood"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&g->stamp, nv1, sizeof *g->stamp, "interface neighbourhood"), fail);
     for (size_t i = 0; i < 3 * nverts; i++)
         g->p[i] = (double)pos[i] * scale;
     for (size_t v = 0; v < nverts; v++)
@@ -123,6 +150,9 @@ gs_err gs_measure_geo_create(const float *pos, size_t nverts, const uint32_t *tr
     for (size_t v = nverts; v > 0; v--)
         g->vt_off[v] = g->vt_off[v - 1];
     g->vt_off[0] = 0;
+    for (size_t t = 0; t < ntris; t++)
+        for (int i = 0; i < 3; i++)
+            g->eadj[3 * t + i] = edge_neighbour(g, t, tris[3 * t + i], tris[3 * t + (i + 1) % 3]);
     *out = g;
     return GS_OK;
 fail:
@@ -142,6 +172,9 @@ void gs_measure_geo_destroy(gs_measure_geo_t *gp)
     gs_free(g->state);
     gs_free(g->touched);
     gs_free(g->origin);
+    gs_free(g->eadj);
+    gs_free(g->near);
+    gs_free(g->stamp);
     gs_free(g->hk);
     gs_free(g->hv);
     gs_free(g);
@@ -263,27 +296,38 @@ static double seg_dist(const double *p, const double *a, const double *b)
     return sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
 }
 
-/* Nearest interface edge incident to v or to one of v's neighbours, from
- * point p (+inf when there is none). ie_off/ie: vertex -> interface edges
- * (the other end). */
-static double near_interface(const struct gs_measure_geo *g, const uint32_t *ie_off, const uint32_t *ie,
-                             uint32_t v, const double *p, uint32_t *foot)
+/* Nearest interface edge incident to a vertex of a triangle around one of
+ * the nv vertices v[], from point p (+inf when there is none). ie_off/ie:
+ * vertex -> interface edges (the other end). Each vertex's edges are looked
+ * at once (g->stamp), in the order of first visit, so ties go to the first
+ * edge met as if every visit were made. */
+static double near_interface(struct gs_measure_geo *g, const uint32_t *ie_off, const uint32_t *ie,
+                             const uint32_t *v, int nv, const double *p, uint32_t *foot)
 {
     double best = INFINITY;
-    for (uint32_t k = g->vt_off[v]; k < g->vt_off[v + 1]; k++) {
-        const uint32_t *t = g->tris + 3 * (size_t)g->vt[k];
-        for (int i = 0; i < 3; i++) {
-            uint32_t a = t[i];
-            for (uint32_t j = ie_off[a]; j < ie_off[a + 1]; j++) {
-                const double *pa = g->p + 3 * (size_t)a, *pb = g->p + 3 * (size_t)ie[j];
-                double d = seg_dist(p, pa, pb);
-                if (d < best) {
-                    best = d;
-                    *foot = dist3(p, pa) <= dist3(p, pb) ? a : ie[j];
+    uint32_t tick = ++g->tick;
+    if (tick == 0) { /* wrapped: forget every stamp */
+        memset(g->stamp, 0, g->nv * sizeof *g->stamp);
+        tick = g->tick = 1;
+    }
+    for (int c = 0; c < nv; c++)
+        for (uint32_t k = g->vt_off[v[c]]; k < g->vt_off[v[c] + 1]; k++) {
+            const uint32_t *t = g->tris + 3 * (size_t)g->vt[k];
+            for (int i = 0; i < 3; i++) {
+                uint32_t a = t[i];
+                if (g->stamp[a] == tick)
+                    continue;
+                g->stamp[a] = tick;
+                for (uint32_t j = ie_off[a]; j < ie_off[a + 1]; j++) {
+                    const double *pa = g->p + 3 * (size_t)a, *pb = g->p + 3 * (size_t)ie[j];
+                    double d = seg_dist(p, pa, pb);
+                    if (d < best) {
+                        best = d;
+                        *foot = dist3(p, pa) <= dist3(p, pb) ? a : ie[j];
+                    }
                 }
             }
         }
-    }
     return best;
 }
 
@@ -302,12 +346,12 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
         for (size_t t = 0; t < nt; t++) {
             const uint32_t *tv = g->tris + 3 * t;
             for (int i = 0; i < 3; i++) {
-                uint32_t a = tv[i], b = tv[(i + 1) % 3];
-                int other = 0;
-                for (uint32_t k = g->vt_off[a]; k < g->vt_off[a + 1] && !other; k++) {
-                    uint32_t u = g->vt[k];
-                    const uint32_t *uv = g->tris + 3 * (size_t)u;
-                    if (u != t && (uv[0] == b || uv[1] == b || uv[2] == b) && !side[u] != !side[t])
+                uint32_t a = tv[i], b = tv[(i + 1) % 3], u = g->eadj[3 * t + i];
+                int other = u != EADJ_NONE && u != EADJ_MULTI && !side[u] != !side[t];
+                for (uint32_t k = g->vt_off[a]; u == EADJ_MULTI && k < g->vt_off[a + 1] && !other; k++) {
+                    uint32_t w = g->vt[k];
+                    const uint32_t *wv = g->tris + 3 * (size_t)w;
+                    if (w != t && (wv[0] == b || wv[1] == b || wv[2] == b) && !side[w] != !side[t])
                         other = 1;
                 }
                 /* Each such edge is seen from both of its triangles: keep
@@ -341,11 +385,21 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
     GS_TRY(err, gs_alloc_array((void **)&src, nv ? nv : 1, sizeof *src, "interface sources"), done);
     GS_TRY(err, gs_alloc_array((void **)&sd, nv ? nv : 1, sizeof *sd, "interface sources"), done);
     GS_TRY(err, gs_alloc_array((void **)&src_foot, nv ? nv : 1, sizeof *src_foot, "interface sources"), done);
+    /* near[v]: v shares a triangle with an interface vertex (elsewhere
+     * near_interface finds nothing, so it is not asked). */
+    memset(g->near, 0, nv);
+    for (size_t t = 0; t < nt; t++) {
+        const uint32_t *tv = g->tris + 3 * t;
+        if (ie_off[tv[0] + 1] > ie_off[tv[0]] || ie_off[tv[1] + 1] > ie_off[tv[1]] ||
+            ie_off[tv[2] + 1] > ie_off[tv[2]])
+            g->near[tv[0]] = g->near[tv[1]] = g->near[tv[2]] = 1;
+    }
     for (size_t v = 0; v < nv; v++) {
         int on = ie_off[v + 1] > ie_off[v];
         nif += on;
         uint32_t f = (uint32_t)v;
-        double d = on ? 0 : near_interface(g, ie_off, ie, (uint32_t)v, g->p + 3 * v, &f);
+        uint32_t vv = (uint32_t)v;
+        double d = on ? 0 : g->near[v] ? near_interface(g, ie_off, ie, &vv, 1, g->p + 3 * v, &f) : INFINITY;
         if (isfinite(d)) {
             src[ns] = (uint32_t)v;
             src_foot[ns] = f;
@@ -365,12 +419,7 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
         uint32_t f = UINT32_MAX;
         for (int i = 0; i < 3; i++)
             if (ie_off[tv[i] + 1] > ie_off[tv[i]]) {
-                for (int j = 0; j < 3; j++) {
-                    uint32_t fj = UINT32_MAX;
-                    double e = near_interface(g, ie_off, ie, tv[j], c, &fj);
-                    if (e < d)
-                        d = e, f = fj;
-                }
+                d = near_interface(g, ie_off, ie, tv, 3, c, &f);
                 break;
             }
         if (!isfinite(d)) {
