@@ -128,11 +128,28 @@ typedef struct gs_model_rules *gs_model_rules_t;
  * gs_model_rules_destroy(). On error *out is left unchanged. */
 gs_err gs_model_rules_learn(const gs_model_lattice *example, gs_model_rules_t *out);
 void gs_model_rules_destroy(gs_model_rules_t *rules);
-/* Symmetric model (paper Sec. on symmetry): along every axis with axes[a]
- * set, keeps a pair (a, b) only when (b, a) is allowed as well, so any
- * consistent model stays consistent when mirrored along that axis (needed
- * for gs_model_params.mirror). Modifies rules in place. */
-gs_err gs_model_rules_symmetrize(gs_model_rules_t rules, const int axes[3]);
+/* Label symmetry (paper Sec. 4.1, T' = S.T): S[l] is the label that label l
+ * becomes when the model is mirrored along axis ax (S[S[l]] = l), -1 = no
+ * image. Learned from the transition function: b is a candidate image of a
+ * when b's neighbour sets along every direction d equal a's along d mirrored
+ * (neighbour counts first, then refined until every neighbour of a has a
+ * candidate image among b's neighbours); an exact involution (every pair
+ * (a, d, b) has its image (S a, d', S b)) is searched with labels mapping to
+ * themselves first; when none is found within a budget, *exact = 0 and each
+ * label takes its first consistent candidate or none. S has nlabels entries. */
+gs_err gs_model_rules_learn_mirror(const gs_model_rules_t rules, int ax, int *S, int *exact);
+/* S from label pairs "A B, C D" (config key named in errors): listed labels
+ * swap, other present labels map to themselves, absent ones to -1. */
+gs_err gs_model_rules_mirror_pairs(const gs_model_rules_t rules, const char *key,
+                                   const char *text, int *S);
+/* Symmetric model: along every axis with axes[a] set, keeps a pair (a, d, b)
+ * only when its mirror image (S a, d mirrored, S b) is allowed too (maps[a]
+ * = S along that axis; maps or maps[a] NULL = identity), until nothing
+ * changes, so any consistent model stays consistent when mirrored and its
+ * labels mapped by S (needed for gs_model_params.mirror). *dropped (may be
+ * NULL) = pairs removed. Modifies rules in place. */
+gs_err gs_model_rules_symmetrize(gs_model_rules_t rules, const int axes[3], const int *const maps[3],
+                                 size_t *dropped);
 /* Number of label values (largest label + 1). */
 int gs_model_rules_nlabels(const gs_model_rules_t rules);
 /* 1 when label b may sit at v+e_dir next to label a at v. */
@@ -213,8 +230,14 @@ typedef struct gs_model_params {
                            mirror-symmetric along that axis: the cell beyond the
                            upper face is the face cell's mirror image (itself
                            when the full extent is even, mirror_odd[a] = 0; its
-                           lower neighbour when odd). Output = half + mirror. */
+                           lower neighbour when odd), its label mapped by
+                           mirror_map. Output = half + S(mirror). */
     int mirror_odd[3];
+    const int *mirror_map[3]; /* label symmetry S along each mirrored axis
+                           (gs_model_rules_learn_mirror; NULL = identity): the
+                           mirror half holds S(label); a face cell's label l
+                           needs (l, S l) allowed across the face (even extent)
+                           or S l = l (odd: the shared centre). Not owned */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */

@@ -105,6 +105,8 @@ typedef struct model_config {
     char *pins;
     char *border;
     char *mirror;
+    char *mirror_x_pairs;
+    char *mirror_y_pairs;
     char *shape;
     double shape_weight;
     char *periodic;
@@ -367,7 +369,14 @@ static const gs_cfg_key model_keys[] = {
                       "\"\" = none"),
     GS_CFG_KEY_ENUM(model_config, mirror, "model.mirror", "none|x|y|xy", "none",
                     "mirror-symmetric output: synthesizes the lower half with the transition "
-                    "function restricted to mirror-symmetric pairs, then mirrors it"),
+                    "function restricted to pairs whose mirror image (labels mapped by the "
+                    "label symmetry S, paper Sec. 4.1) is allowed, then mirrors it, S applied"),
+    GS_CFG_KEY_STRING(model_config, mirror_x_pairs, "model.mirror_x_pairs", "",
+                      "label symmetry S of the x mirror as label pairs \"A B, C D\" (other "
+                      "labels map to themselves); \"\" = learned from the example's adjacency"),
+    GS_CFG_KEY_STRING(model_config, mirror_y_pairs, "model.mirror_y_pairs", "",
+                      "label symmetry S of the y mirror as label pairs \"A B, C D\" (other "
+                      "labels map to themselves); \"\" = learned from the example's adjacency"),
     GS_CFG_KEY_PATH(model_config, shape, "model.shape", "",
                     "soft constraint: grey PNG/JPEG target shape seen from above (white = "
                     "fill the column, black = leave it empty), stretched over x and y (row 0 = "
@@ -412,6 +421,7 @@ typedef struct model_engine {
     uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
     float *shape;            /* soft target shape (NULL = none), lat nx*ny */
     int full[3];             /* output extents (mirror: lat holds the lower half) */
+    int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
@@ -1244,10 +1254,76 @@ static void engine_free(model_engine *e)
     gs_free(e->coverage);
     gs_free(e->pins);
     gs_free(e->shape);
+    gs_free(e->mirror_map[0]);
+    gs_free(e->mirror_map[1]);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
     gs_free(e->region_attempts);
+}
+
+/* Label symmetry S of each mirrored axis (given pairs or learned), the rules
+ * restricted to S-symmetric pairs (paper Sec. 4.1: T' = S.T). */
+static gs_err mirror_setup(model_engine *e)
+{
+    const model_config *c = e->cfg;
+    const int L = gs_model_rules_nlabels(e->rules);
+    const int *maps[3] = {NULL, NULL, NULL};
+    for (int a = 0; a < 2; a++) {
+        if (!e->params.mirror[a])
+            continue;
+        GS_CALL(gs_alloc_array((void **)&e->mirror_map[a], (size_t)L, sizeof(int), "label symmetry"));
+        int *S = e->mirror_map[a];
+        const char *pairs = a ? c->mirror_y_pairs : c->mirror_x_pairs;
+        int exact = 1;
+        if (pairs[0])
+            GS_CALL(gs_model_rules_mirror_pairs(e->rules, a ? "model.mirror_y_pairs"
+                                                            : "model.mirror_x_pairs",
+                                                pairs, S));
+        else
+            GS_CALL(gs_model_rules_learn_mirror(e->rules, a, S, &exact));
+        int moved = 0, lost = 0, present = 0;
+        char list[512] = "";
+        size_t len = 0;
+        for (int l = 0; l < L; l++) {
+            if (!gs_model_rules_count(e->rules, l))
+                continue;
+            present++;
+            lost += S[l] < 0;
+            if (S[l] > l) {
+                moved += 2;
+                if (len + 16 < sizeof list)
+                    len += (size_t)snprintf(list + len, sizeof list - len, "%s%d<->%d",
+                                            len ? " " : "", l, S[l]);
+            }
+        }
+        gs_log(GS_LOG_INFO,
+               "mirror %c: label symmetry S %s%s: %d of %d labels change (%s), %d fixed, %d "
+               "without an image",
+               "xy"[a], pairs[0] ? "from the config" : "learned from the example",
+               exact ? "" : " (no exact involution: greedy)", moved, present, len ? list : "none",
+               present - moved - lost, lost);
+        maps[a] = S;
+        e->params.mirror_map[a] = S;
+    }
+    if (e->mirror_map[0] && e->mirror_map[1]) {
+        /* both mirrors: the corner quarter holds Sx(Sy l), which needs Sx Sy = Sy Sx */
+        int *Sx = e->mirror_map[0], *Sy = e->mirror_map[1], bad = 0;
+        for (int l = 0; l < L; l++)
+            if (Sx[l] >= 0 && Sy[l] >= 0 && (Sy[Sx[l]] < 0 || Sx[Sy[l]] < 0 ||
+                                              Sx[Sy[l]] != Sy[Sx[l]])) {
+                Sx[l] = Sy[l] = -1;
+                bad++;
+            }
+        if (bad)
+            gs_log(GS_LOG_WARN, "mirror xy: %d labels whose x and y images do not commute left out",
+                   bad);
+    }
+    size_t dropped = 0;
+    GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror, maps, &dropped));
+    gs_log(GS_LOG_INFO, "mirror: %zu transition pairs without an allowed mirror image removed",
+           dropped);
+    return GS_OK;
 }
 
 static gs_err setup(gs_run *run, model_engine *e, int resume)
@@ -1308,7 +1384,7 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
         }
     }
     if (e->params.mirror[0] || e->params.mirror[1])
-        GS_CALL(gs_model_rules_symmetrize(e->rules, e->params.mirror));
+        GS_CALL(mirror_setup(e));
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
         GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
                                      c->resemblance_layers, &e->resem));
@@ -1471,8 +1547,13 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                 for (int x = 0; x < full.nx; x++) {
                     int hx = x < e.lat.nx ? x : full.nx - 1 - x;
                     int hy = y < e.lat.ny ? y : full.ny - 1 - y;
-                    full.labels[gs_model_lattice_index(&full, x, y, z)] =
-                        e.lat.labels[gs_model_lattice_index(&e.lat, hx, hy, z)];
+                    int l = e.lat.labels[gs_model_lattice_index(&e.lat, hx, hy, z)];
+                    /* the mirrored half holds S(l) (Sec. 4.1) */
+                    if (hy != y && e.mirror_map[1] && e.mirror_map[1][l] >= 0)
+                        l = e.mirror_map[1][l];
+                    if (hx != x && e.mirror_map[0] && e.mirror_map[0][l] >= 0)
+                        l = e.mirror_map[0][l];
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] = (uint16_t)l;
                 }
         gs_model_lattice_destroy(&e.lat);
         e.lat = full;

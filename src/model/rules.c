@@ -62,42 +62,6 @@ fail:
     return err;
 }
 
-gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3])
-{
-    const size_t W = (size_t)r->words;
-    const int L = r->nlabels;
-    uint64_t *old = NULL;
-    GS_CALL(gs_alloc_array((void **)&old, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"));
-    memcpy(old, r->allow, (size_t)L * GS_MODEL_DIRS * W * 8);
-    for (int ax = 0; ax < 3; ax++) {
-        if (!axes[ax])
-            continue;
-        const int d = 2 * ax;
-        for (int a = 0; a < L; a++)
-            for (int b = 0; b < L; b++) {
-                /* keep (a, b) along +axis only when (b, a) is allowed too */
-                const uint64_t *pa = old + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W;
-                const uint64_t *pb = old + ((size_t)b * GS_MODEL_DIRS + (size_t)d) * W;
-                int keep = get_bit(pa, b) && get_bit(pb, a);
-                uint64_t *plus = r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W;
-                uint64_t *minus = r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d + 1) * W;
-                if (!keep && get_bit(plus, b))
-                    plus[b >> 6] &= ~((uint64_t)1 << (b & 63));
-                /* minus[a] has b iff plus[b] has a: same symmetric pair */
-                if (!keep && get_bit(minus, b))
-                    minus[b >> 6] &= ~((uint64_t)1 << (b & 63));
-            }
-    }
-    gs_free(old);
-    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
-    for (int a = 0; a < L; a++)
-        if (r->count[a])
-            for (int d = 0; d < GS_MODEL_DIRS; d++)
-                for (size_t w = 0; w < W; w++)
-                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
-    return GS_OK;
-}
-
 void gs_model_rules_destroy(gs_model_rules_t *rules)
 {
     if (!rules || !*rules)

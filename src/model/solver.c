@@ -595,19 +595,30 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     const int wrap[3] = {periodic[0] && rx == lat->nx, periodic[1] && ry == lat->ny,
                          periodic[2] && rz == lat->nz};
     GS_CALL(gs_model_solver_load_box_wrap(s, rx, ry, rz, wrap));
-    /* mirror faces: the +d neighbour of a cell on the lattice's upper face is
-     * its mirror image, itself (even full extent) or the cell below (odd) */
+    /* mirror faces: the +a neighbour of a cell on the lattice's upper face
+     * is its own mirror image S(l) (even full extent: (l, S l) must be
+     * allowed along +a) or, odd, the face is the shared centre (S l = l; its
+     * neighbour S(cell below) is then implied by the S-symmetric rules) */
     const int bhi[3] = {b->x1 == lat->nx, b->y1 == lat->ny, b->z1 == lat->nz};
     const int ext[3] = {rx, ry, rz}, stride[3] = {1, rx, rx * ry};
     for (int a = 0; a < 3; a++) {
         if (!s->mirror[a] || !bhi[a] || wrap[a])
             continue;
+        const int *S = s->mirror_map[a];
         for (int32_t c = 0; c < (int32_t)s->n; c++) {
-            int coord = (c / stride[a]) % ext[a];
-            if (coord != ext[a] - 1)
+            if ((c / stride[a]) % ext[a] != ext[a] - 1)
                 continue;
-            int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
-            nb[2 * a] = s->mirror_odd[a] ? (ext[a] > 1 ? c - stride[a] : -1) : c;
+            uint64_t *dc = s->dom + (size_t)c * (size_t)s->W;
+            for (int l = 0; l < s->L; l++) {
+                if (!((dc[l >> 6] >> (l & 63)) & 1))
+                    continue;
+                int sl = S ? S[l] : l;
+                int keep = s->mirror_odd[a]
+                               ? sl == l
+                               : sl >= 0 && ((gs_model_allow(s->rules, l, 2 * a)[sl >> 6] >> (sl & 63)) & 1);
+                if (!keep)
+                    dc[l >> 6] &= ~((uint64_t)1 << (l & 63));
+            }
         }
     }
     const uint16_t *pins = s->pins;
@@ -647,12 +658,9 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                         continue;
                     int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
                         qz = b->z0 + z + step[d][2];
-                    if (s->mirror[0] && qx == lat->nx)
-                        qx = s->mirror_odd[0] ? lat->nx - 2 : lat->nx - 1;
-                    if (s->mirror[1] && qy == lat->ny)
-                        qy = s->mirror_odd[1] ? lat->ny - 2 : lat->ny - 1;
-                    if (s->mirror[2] && qz == lat->nz)
-                        qz = s->mirror_odd[2] ? lat->nz - 2 : lat->nz - 1;
+                    if ((s->mirror[0] && qx == lat->nx) || (s->mirror[1] && qy == lat->ny) ||
+                        (s->mirror[2] && qz == lat->nz))
+                        continue; /* beyond a mirror face: the face mask above */
                     if (periodic[0])
                         qx = (qx + lat->nx) % lat->nx;
                     if (periodic[1])
@@ -1115,6 +1123,7 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     for (int a = 0; a < 3; a++) {
         s->mirror[a] = p->mirror[a];
         s->mirror_odd[a] = p->mirror_odd[a];
+        s->mirror_map[a] = p->mirror_map[a];
     }
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];

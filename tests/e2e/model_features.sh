@@ -36,21 +36,72 @@ for cfg in castle-constraints; do
     || bad "$cfg: resume digest $(digest_of ${cfg}stop) != $(digest_of ${cfg}1)"
 done
 
-# the mirror output equals its mirror along x and y, and is not one column repeated
-/usr/bin/python3 - castle-mirror2/lattice.txt <<'PY' && ok "castle-mirror: output equals its mirror along x and y" || bad "castle-mirror: not symmetric"
+# the mirror output is S-symmetric (paper Sec. 4.1, T' = S.T): mirrored along x
+# and along y, each label becomes S(label) for one involution S per axis that
+# maps every pair of the example's transitions onto a pair of the example and
+# moves labels (a token identity S gives an output of ground, grass, bushes
+# and empty only); castle pieces (labels with an x or y pair whose reverse the
+# example lacks: walls, towers) fill at least half the example's share
+/usr/bin/python3 - "$DATA/$CASTLE" castle-mirror2/lattice.txt <<'PY' && ok "castle-mirror: S-symmetric along x and y, S moves labels, castle pieces present" || bad "castle-mirror: not an S-symmetric castle"
+# castle-mirror: the output is S-mirror-symmetric along x and y with a label map S that is a
+# symmetry of the example's transitions, moves labels, and castle pieces are present
 import sys
-t = open(sys.argv[1]).read().split("\n")
-X, Y, Z = map(int, t[3].split())
-v = list(map(int, " ".join(t[4:]).split()))[:X*Y*Z]
-lab = {}
-i = 0
-for z in range(Z):
-    for x in range(X):
-        for y in range(Y):
-            lab[x, y, z] = v[i]; i += 1
-sym = all(lab[x, y, z] == lab[X-1-x, y, z] == lab[x, Y-1-y, z] for (x, y, z) in lab)
-varied = any(lab[x, y, z] != lab[0, 0, z] for (x, y, z) in lab)
-sys.exit(0 if sym and varied else 1)
+import numpy as np
+def read(p):
+    t = open(p).read().split("\n")
+    X, Y, Z = map(int, t[3].split())
+    v = [int(w) for w in " ".join(t[4:X * Y * Z]).split() if w.lstrip("-").isdigit()][:X * Y * Z]
+    return np.array(v).reshape(Z, X, Y).transpose(1, 2, 0)
+E, O = read(sys.argv[1]), read(sys.argv[2])
+fail = []
+T = [set() for _ in range(3)]
+for ax in range(3):
+    n = E.shape[ax]
+    a, b = np.take(E, range(n - 1), axis=ax), np.take(E, range(1, n), axis=ax)
+    T[ax] = set(zip(a.ravel().tolist(), b.ravel().tolist()))
+# oriented labels (from the example alone): some x or y pair whose reverse never occurs;
+# ground, grass, bushes and empty have the same neighbours on both sides
+oriented = {p for ax in (0, 1) for (p, q) in T[ax] if (q, p) not in T[ax]} | \
+           {q for ax in (0, 1) for (p, q) in T[ax] if (q, p) not in T[ax]}
+empty = np.bincount(E[:, :, -1].ravel()).argmax()
+def share(A):
+    ne = A[A != empty]
+    return np.isin(ne, list(oriented)).mean()
+for ax in (0, 1):
+    F = np.flip(O, axis=ax)
+    S = {}
+    for l, m in zip(O.ravel().tolist(), F.ravel().tolist()):
+        if S.setdefault(l, m) != m:
+            fail.append("axis %d: label %d mirrors to both %d and %d (not S-symmetric)" % (ax, l, S[l], m)); break
+    if any(S.get(m, l) != l for l, m in S.items()):
+        fail.append("axis %d: S is not an involution" % ax)
+    bad = [(d, p, q) for d in range(3) for (p, q) in T[d] if p in S and q in S and
+           ((S[q], S[p]) if d == ax else (S[p], S[q])) not in T[d]]
+    if bad:
+        fail.append("axis %d: S maps example pairs to pairs the example lacks, e.g. %s" % (ax, bad[0]))
+    moved = sorted(l for l in S if S[l] != l)
+    print("axis %s: S moves %d labels %s" % ("xy"[ax], len(moved), moved))
+    if not moved:
+        fail.append("axis %d: S is the identity on the output's labels" % ax)
+se, so = share(E), share(O)
+print("oriented (castle) labels %s; share of non-empty cells: example %.3f, output %.3f" % (sorted(oriented), se, so))
+if so < 0.5 * se:
+    fail.append("castle pieces: oriented share %.3f < half the example's %.3f" % (so, se))
+for f in fail:
+    print(f)
+sys.exit(1 if fail else 0)
+PY
+# resemblance comparable to the unconstrained castle (same seed): the mirror
+# face and S-restricted rules cost at most 15% of the 3x3x3 window share and
+# 0.1 of label L1
+run_gs 2 model -c "$C/castle.ini" -o castle2
+expect_rc 0 "castle (unconstrained, for comparison)"
+/usr/bin/python3 - castle-mirror2 castle2 <<'PY' && ok "castle-mirror: resemblance comparable to castle.ini" || bad "castle-mirror: resemblance far below castle.ini"
+import json, sys
+m, c = (json.load(open(d + "/summary.json"))["metrics"] for d in sys.argv[1:3])
+print("3x3x3 windows share: mirror %.3f, castle %.3f; label L1: mirror %.3f, castle %.3f" % (
+    m["resemblance_3x3x3"], c["resemblance_3x3x3"], m["label_l1"], c["label_l1"]))
+sys.exit(0 if m["resemblance_3x3x3"] >= 0.85 * c["resemblance_3x3x3"] and m["label_l1"] <= c["label_l1"] + 0.1 else 1)
 PY
 
 # soft shape constraint: the castle fills the disc much more than the outside
