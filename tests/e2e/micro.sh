@@ -5,7 +5,8 @@
 # - quality: the verifier finds 0 violations, the achieved histogram differs
 #   from the target only by the unassigned triangles, and a distribution
 #   measured from a Boolean-model image (a realizable one) is reconstructed
-#   with < 0.5% unassigned and realized L1/n <= 0.05; quick.ini realized L1/n <= 0.05
+#   with < 0.5% unassigned and realized L1/n <= 0.05; quick.ini realized L1/n <= 0.05,
+#   each region's share within 1% and its mean distance within 1/4 bin of the target's,
 #   and > 0.05 with micro.correct = no (the measure is not the labels); a CSV table and several meshes work;
 # - bad inputs: missing mesh, negative probability, table sum, CSV errors,
 #   unknown key, wrong type, missing image: exit 2/3 naming the file/key.
@@ -57,6 +58,17 @@ for i in inst:
     check(sum(t) == sum(r) == i["triangles"], "instance %d: histograms do not count every triangle" % i["instance"])
     check(abs(sum(abs(a - b) for a, b in zip(t, r)) / i["triangles"] - i["realized_l1"]) < 1e-9,
           "instance %d: realized_l1 is not the histograms' L1/n" % i["instance"])
+    # Drift the L1 can hide: each region's area share within 1% of the
+    # target's and its mean distance to the interface within a quarter of a
+    # bin (bins are 1 distribution unit wide) of the target's (bin centres).
+    K = len(t) // 2
+    for side, tb, rb in (("positive", t[K:], r[K:]), ("negative", t[:K][::-1], r[:K][::-1])):
+        mt = sum((k + 0.5) * c for k, c in enumerate(tb)) / max(sum(tb), 1)
+        mr = sum((k + 0.5) * c for k, c in enumerate(rb)) / max(sum(rb), 1)
+        check(abs(mr - mt) <= 0.25, "instance %d: %s region's mean distance %.3f, target %.3f"
+              % (i["instance"], side, mr, mt))
+        check(abs(sum(rb) - sum(tb)) <= 0.01 * i["triangles"], "instance %d: %s region %d triangles, target %d"
+              % (i["instance"], side, sum(rb), sum(tb)))
     ply = os.path.join(run, i["dir"], "mesh.ply")
     data = open(ply, "rb").read()
     end = data.index(b"end_header\n") + len(b"end_header\n")
