@@ -71,6 +71,9 @@ gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell
                              gs_points_grid_t *out);
 void gs_points_grid_destroy(gs_points_grid_t *g);
 gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt);
+/* Removes the points equal (position and normal, bit for bit) to pts[0..n)
+ * from g, keeping the order of the rest; returns how many were found. */
+size_t gs_points_grid_remove_points(gs_points_grid_t g, const gs_opoint *pts, size_t n);
 /* Removes every point with lo[0] <= x < hi[0] and lo[1] <= y < hi[1]
  * (all heights: regions are extruded along z). Returns how many. */
 size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const double hi[2]);
@@ -350,6 +353,10 @@ typedef struct gs_points_params {
     int blend;            /* 1: the overlap strips blend onto N_k (section 5.3); 0: pasted as
                              warped (for measuring what the blend does) */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
+    int objects;          /* 1: the example's disconnected objects (components no wider than
+                             a patch core, away from its edges) are pasted whole or not at
+                             all, each by the patch holding its centre (no cut flowers or
+                             rings at the seams); 0: every point by its position (the paper) */
     int relax_iterations;
     uint64_t seed;
 } gs_points_params;

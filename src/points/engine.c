@@ -89,7 +89,7 @@ typedef struct points_config {
     double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
     double tps_lambda;
-    int blend, ray_blend, warp_select;
+    int blend, ray_blend, warp_select, objects;
     /* [output] */
     int write_points;
     char *ply_format;
@@ -191,6 +191,11 @@ static const gs_cfg_key points_keys[] = {
                     "the warped patch as it is (to measure what the blend does)"),
     GS_CFG_KEY_BOOL(PC, ray_blend, "points.ray_blend", "true",
                     "blend by ray intersection (paper fig. 3d); false = projection"),
+    GS_CFG_KEY_BOOL(PC, objects, "points.objects", "true",
+                    "paste the example's disconnected objects (flowers, rings: pieces no wider "
+                    "than half a patch, whole in the example) whole or not at all, each by the "
+                    "patch holding its centre; false = every point by its position (the paper: "
+                    "objects cut at the seams)"),
     GS_CFG_KEY_BOOL(PC, write_points, "output.points", "true", "write RUN_DIR/points.ply"),
     GS_CFG_KEY_ENUM(PC, ply_format, "output.ply_format", "binary|ascii", "binary",
                     "points.ply encoding (both exact: doubles / 17 digits)"),
@@ -295,6 +300,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->tps_lambda = c->tps_lambda;
     p->blend = c->blend;
     p->ray_blend = c->ray_blend;
+    p->objects = c->objects;
     p->warp_select = c->warp_select;
     p->relax_iterations = (int)c->relax_iterations;
     p->seed = (uint64_t)c->run.seed;

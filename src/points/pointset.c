@@ -115,6 +115,23 @@ gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt)
     return GS_OK;
 }
 
+size_t gs_points_grid_remove_points(gs_points_grid_t g, const gs_opoint *pts, size_t n)
+{
+    size_t removed = 0;
+    for (size_t i = 0; i < n; i++) {
+        gs_points *c = &g->cells[cell_index(g, pts[i].p)];
+        for (size_t r = 0; r < c->n; r++)
+            if (memcmp(&c->v[r], &pts[i], sizeof pts[i]) == 0) {
+                memmove(&c->v[r], &c->v[r + 1], (c->n - r - 1) * sizeof c->v[0]);
+                c->n--;
+                removed++;
+                break;
+            }
+    }
+    g->count -= removed;
+    return removed;
+}
+
 size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const double hi[2])
 {
     int i0 = grid_coord(g, 0, lo[0]), i1 = grid_coord(g, 0, hi[0]);

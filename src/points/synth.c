@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "geosynth/log.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "points/points_impl.h"
 
@@ -47,7 +48,20 @@ struct gs_points_synth {
     struct blend_item *blend;
     size_t *blend_idx; /* 2 * blend_cap: blend order, then each point's slot */
     size_t blend_cap;
+    /* whole objects (p.objects): the example's components */
+    uint32_t ncomp;
+    uint8_t *comp_kind;        /* [ncomp + 1]: COMP_SURFACE, COMP_OBJECT or COMP_PARTIAL */
+    double *comp_c;            /* [2 (ncomp + 1)]: xy centre (mean of the points) */
+    size_t *comp_start, *comp_idx; /* points of component c: comp_idx[comp_start[c - 1] ..] */
+    uint32_t *in_comp;         /* component of each input point */
+    double obj_ext;            /* widest object's xy extent (0: no objects) */
+    uint64_t obj_min;          /* smallest object's point count */
+    uint32_t *Fobj, *Fbobj;    /* object of each point of F / Fb (0: none) */
+    size_t Fbobj_cap;
+    gs_points keep_in, drop_out; /* scratch of the paste */
 };
+
+enum { COMP_SURFACE = 0, COMP_OBJECT = 1, COMP_PARTIAL = 2 };
 
 void gs_points_params_complete(double lx, double ly, double s, gs_points_params *p)
 {
@@ -97,6 +111,7 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     p->tps_lambda = 0;
     p->blend = 1;
     p->ray_blend = 1;
+    p->objects = 1;
     p->warp_select = 1;
     p->relax_iterations = 1;
     p->seed = 1;
@@ -177,6 +192,15 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_free(s->Fv);
     gs_free(s->blend);
     gs_free(s->blend_idx);
+    gs_free(s->comp_kind);
+    gs_free(s->comp_c);
+    gs_free(s->comp_start);
+    gs_free(s->comp_idx);
+    gs_free(s->in_comp);
+    gs_free(s->Fobj);
+    gs_free(s->Fbobj);
+    gs_points_free(&s->keep_in);
+    gs_points_free(&s->drop_out);
     gs_free(s);
     *sp = NULL;
 }
@@ -263,6 +287,86 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
 
 /* Bucket side of the input and output grids, in MLS radii. */
 #define GRID_CELL_R 1.25
+
+/* Points closer than this are one piece (as the fragment measure links). */
+static double link_radius(const struct gs_points_synth *s) { return 2 * s->spacing; }
+
+/* The example's components (link_radius): an object is one no wider in xy
+ * than a patch and clear of the edges of the example's points (so it
+ * is whole there); a partial one is as narrow but touches an edge (cut by
+ * the example's border: never pasted); the rest is surface (a height field,
+ * threads or linked rings), pasted point by point as the paper does. */
+static gs_err objects_setup(struct gs_points_synth *s)
+{
+    size_t n = s->in.n;
+    uint64_t *sizes = NULL;
+    double *box = NULL;
+    gs_err err = GS_OK;
+    s->ncomp = 0;
+    if (!s->p.objects || n == 0)
+        return GS_OK;
+    double r = link_radius(s), lim = s->ps;
+    GS_CALL(gs_alloc_array((void **)&s->in_comp, n, sizeof *s->in_comp, "input components"));
+    GS_CALL(gs_measure_point_components((const double *)s->in.v, 6, n, r, s->in_comp, &s->ncomp,
+                                        &sizes));
+    size_t nc = (size_t)s->ncomp + 1;
+    GS_TRY(err, gs_alloc_array((void **)&s->comp_kind, nc, 1, "input components"), done);
+    GS_TRY(err, gs_alloc_array((void **)&s->comp_c, nc, 2 * sizeof *s->comp_c, "input components"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&s->comp_start, nc, sizeof *s->comp_start,
+                               "input components"), done);
+    GS_TRY(err, gs_alloc_array((void **)&s->comp_idx, n, sizeof *s->comp_idx, "input components"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&box, nc, 4 * sizeof *box, "input components"), done);
+    double elo[2] = {INFINITY, INFINITY}, ehi[2] = {-INFINITY, -INFINITY};
+    for (size_t c = 0; c < nc; c++) {
+        box[4 * c] = box[4 * c + 1] = INFINITY;
+        box[4 * c + 2] = box[4 * c + 3] = -INFINITY;
+        s->comp_c[2 * c] = s->comp_c[2 * c + 1] = 0;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const double *q = s->in.v[i].p;
+        uint32_t c = s->in_comp[i];
+        for (int a = 0; a < 2; a++) {
+            box[4 * c + a] = fmin(box[4 * c + a], q[a]);
+            box[4 * c + 2 + a] = fmax(box[4 * c + 2 + a], q[a]);
+            elo[a] = fmin(elo[a], q[a]);
+            ehi[a] = fmax(ehi[a], q[a]);
+            s->comp_c[2 * c + a] += q[a];
+        }
+    }
+    /* comp_start[c - 1] = first slot of c, filled by counting. */
+    size_t at = 0;
+    for (uint32_t c = 1; c < nc; c++) {
+        s->comp_start[c - 1] = at;
+        at += sizes[c];
+    }
+    s->comp_start[nc - 1] = at;
+    for (size_t i = 0; i < n; i++)
+        s->comp_idx[s->comp_start[s->in_comp[i] - 1]++] = i;
+    for (uint32_t c = nc - 1; c >= 1; c--) /* back to the first slots */
+        s->comp_start[c] = s->comp_start[c - 1];
+    s->comp_start[0] = 0;
+    s->obj_ext = 0;
+    s->obj_min = 0;
+    s->comp_kind[0] = COMP_SURFACE;
+    for (uint32_t c = 1; c < nc; c++) {
+        const double *b = box + 4 * c;
+        double ext = fmax(b[2] - b[0], b[3] - b[1]);
+        s->comp_c[2 * c] /= (double)sizes[c];
+        s->comp_c[2 * c + 1] /= (double)sizes[c];
+        int edge = b[0] < elo[0] + r || b[1] < elo[1] + r || b[2] > ehi[0] - r || b[3] > ehi[1] - r;
+        s->comp_kind[c] = ext > lim ? COMP_SURFACE : edge ? COMP_PARTIAL : COMP_OBJECT;
+        if (s->comp_kind[c] == COMP_OBJECT) {
+            s->obj_ext = fmax(s->obj_ext, ext);
+            s->obj_min = s->obj_min && s->obj_min < sizes[c] ? s->obj_min : sizes[c];
+        }
+    }
+done:
+    gs_free(sizes);
+    gs_free(box);
+    return err;
+}
 
 static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *tex,
                           const gs_points_params *p, const gs_points_synth_share *share)
@@ -355,7 +459,7 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     GS_CALL(gs_points_grid_create(olo, ohi, GRID_CELL_R * R, &s->out));
     GS_CALL(gs_alloc_array((void **)&s->metrics, s->total, sizeof *s->metrics, "patch metrics"));
     gs_rng_init(&s->rng, p->seed, gs_rng_stream_id(RNG_DOMAIN_SYNTH, 0, 0, 0));
-    return GS_OK;
+    return objects_setup(s);
 }
 
 gs_err gs_points_synth_create(const gs_points_texture *tex, const gs_points_params *p,
@@ -500,40 +604,6 @@ static int in_xy(const double p[3], const double lo[2], const double hi[2])
     return p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1];
 }
 
-/* Input points with xy in [lo, hi) translated by t; variations into s->Fv. */
-static gs_err gather_patch(struct gs_points_synth *s, const double lo[2], const double hi[2],
-                           const double t[2])
-{
-    const gs_points_columns *c = &s->cols_in;
-    s->F.n = 0;
-    int r[4];
-    if (!gs_points_columns_range(c, lo, hi, r))
-        return GS_OK;
-    size_t nv = 0;
-    for (int y = r[2]; y <= r[3]; y++)
-        for (int x = r[0]; x <= r[1]; x++) {
-            size_t ci = (size_t)y * c->nx + x;
-            for (size_t k = c->start[ci]; k < c->start[ci + 1]; k++) {
-                const gs_opoint *q = &s->in.v[c->idx[k]];
-                if (!in_xy(q->p, lo, hi))
-                    continue;
-                gs_opoint o = *q;
-                o.p[0] += t[0];
-                o.p[1] += t[1];
-                GS_CALL(gs_points_append(&s->F, &o, 1));
-                if (nv == s->Fv_cap) {
-                    size_t cap = s->Fv_cap ? 2 * s->Fv_cap : 4096;
-                    double *v = gs_realloc(s->Fv, cap * sizeof *v);
-                    GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (patch variation)");
-                    s->Fv = v;
-                    s->Fv_cap = cap;
-                }
-                s->Fv[nv++] = s->in_var[c->idx[k]];
-            }
-        }
-    return GS_OK;
-}
-
 /* Blend weight (fig. 3c): 1 on the outer edge of an active overlap strip,
  * 0 at its inner edge and beyond. */
 static double blend_weight(const struct gs_points_synth *s, int mode, const double o[2],
@@ -545,6 +615,68 @@ static double blend_weight(const struct gs_points_synth *s, int mode, const doub
     if (mode & GS_POINTS_OVERLAP_BOTTOM)
         t = fmax(t, 1.0 - (p[1] - o[1]) / s->ow);
     return t < 0 ? 0 : t > 1 ? 1 : t;
+}
+
+/* Input point i translated by t onto F (its variation into s->Fv, its
+ * object, 0 for none, into s->Fobj). */
+static gs_err gather_point(struct gs_points_synth *s, size_t i, const double t[2], uint32_t obj)
+{
+    gs_opoint o = s->in.v[i];
+    o.p[0] += t[0];
+    o.p[1] += t[1];
+    size_t nv = s->F.n;
+    GS_CALL(gs_points_append(&s->F, &o, 1));
+    if (nv == s->Fv_cap) {
+        size_t cap = s->Fv_cap ? 2 * s->Fv_cap : 4096;
+        double *v = gs_realloc(s->Fv, cap * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (patch variation)");
+        s->Fv = v;
+        s->Fv_cap = cap;
+        uint32_t *ob = gs_realloc(s->Fobj, cap * sizeof *ob);
+        GS_CHECK(ob != NULL, GS_ERR_MEM, "points: out of memory (patch objects)");
+        s->Fobj = ob;
+    }
+    s->Fv[nv] = s->in_var[i];
+    s->Fobj[nv] = obj;
+    return GS_OK;
+}
+
+/* F_k: input points with xy in [lo, hi) translated by t. With objects, an
+ * object of the example comes whole (wherever its points are) if its centre
+ * lands in this patch's box B_k = [o, o + ps + w_E) on this patch's side of
+ * the overlap strips' middle (blend weight < 1/2), and not at all
+ * otherwise; partial objects never come. */
+static gs_err gather_patch(struct gs_points_synth *s, const double lo[2], const double hi[2],
+                           const double t[2], int mode, const double o[2])
+{
+    const gs_points_columns *c = &s->cols_in;
+    s->F.n = 0;
+    int r[4];
+    if (gs_points_columns_range(c, lo, hi, r))
+        for (int y = r[2]; y <= r[3]; y++)
+            for (int x = r[0]; x <= r[1]; x++) {
+                size_t ci = (size_t)y * c->nx + x;
+                for (size_t k = c->start[ci]; k < c->start[ci + 1]; k++) {
+                    size_t i = c->idx[k];
+                    if (!in_xy(s->in.v[i].p, lo, hi) ||
+                        (s->ncomp && s->comp_kind[s->in_comp[i]] != COMP_SURFACE))
+                        continue;
+                    GS_CALL(gather_point(s, i, t, 0));
+                }
+            }
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    uint32_t nobj = 0;
+    for (uint32_t k = 1; k <= s->ncomp; k++) {
+        if (s->comp_kind[k] != COMP_OBJECT)
+            continue;
+        double ct[3] = {s->comp_c[2 * k] + t[0], s->comp_c[2 * k + 1] + t[1], 0};
+        if (!in_xy(ct, blo, bhi) || (mode && blend_weight(s, mode, o, ct) >= 0.5))
+            continue;
+        nobj++;
+        for (size_t j = s->comp_start[k - 1]; j < s->comp_start[k]; j++)
+            GS_CALL(gather_point(s, s->comp_idx[j], t, nobj));
+    }
+    return GS_OK;
 }
 
 /* Limited ray intersection (Adamson-Alexa 2003 style): Newton steps on the
@@ -835,6 +967,7 @@ typedef struct blend_item {
     gs_opoint q;
     double resid;
     int32_t keep, counted;
+    uint32_t obj; /* the object of F it belongs to (0: none) */
 } blend_item;
 
 typedef struct blend_ctx {
@@ -910,11 +1043,111 @@ static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
         }
     }
     double t1 = gs_time_now();
-    for (size_t i = lo; i < hi; i++)
-        GS_CALL(blend_point(s, c->mode, c->o, &out[i - lo]));
+    for (size_t i = lo; i < hi; i++) {
+        blend_item *it = &out[i - lo];
+        it->obj = s->ncomp ? s->Fobj[c->order[i]] : 0;
+        if (it->obj) /* a whole object: warped, kept whole, not blended */
+            it->keep = 1;
+        else
+            GS_CALL(blend_point(s, c->mode, c->o, it));
+    }
     c->warp_seconds += t1 - t0;
     c->blend_seconds += gs_time_now() - t1;
     return GS_OK;
+}
+
+/* Pastes Fb into the output over B_k. Without objects: the output's points
+ * in B_k give way to Fb. With objects, the output's own pieces near B_k are
+ * found (link_radius); one no wider than the widest object of the example
+ * and of at least half the points of its smallest is an object of the
+ * output (a smaller piece, a speck, is surface): it goes whole if its centre is on this
+ * patch's side (see gather_patch), and stays whole (also inside B_k)
+ * otherwise. Fb's objects then go in whole unless they touch what stays
+ * (two flowers grown into one), its other points as before. */
+static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2])
+{
+    double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    if (!s->ncomp || s->obj_ext == 0) {
+        gs_points_grid_remove_xy(s->out, blo, bhi);
+        for (size_t i = 0; i < s->Fb.n; i++)
+            GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
+        return GS_OK;
+    }
+    double r = link_radius(s), ext = s->obj_ext + 2 * r;
+    double elo[2] = {blo[0] - ext, blo[1] - ext}, ehi[2] = {bhi[0] + ext, bhi[1] + ext};
+    gs_points *Q = &s->Qall;
+    Q->n = 0;
+    GS_CALL(gs_points_grid_query_xy(s->out, elo, ehi, Q));
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sizes = NULL;
+    double *box = NULL;
+    gs_err err = GS_OK;
+    s->keep_in.n = s->drop_out.n = 0;
+    GS_TRY(err, gs_alloc_array((void **)&label, Q->n ? Q->n : 1, sizeof *label, "paste"), done);
+    GS_TRY(err, gs_measure_point_components((const double *)Q->v, 6, Q->n, r, label, &nc, &sizes),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&box, (size_t)nc + 1, 6 * sizeof *box, "paste"), done);
+    for (uint32_t c = 0; c <= nc; c++) {
+        double *b = box + 6 * c;
+        b[0] = b[1] = INFINITY;
+        b[2] = b[3] = -INFINITY;
+        b[4] = b[5] = 0;
+    }
+    for (size_t i = 0; i < Q->n; i++) {
+        double *b = box + 6 * label[i];
+        const double *q = Q->v[i].p;
+        for (int a = 0; a < 2; a++) {
+            b[a] = fmin(b[a], q[a]);
+            b[2 + a] = fmax(b[2 + a], q[a]);
+            b[4 + a] += q[a];
+        }
+    }
+    /* b[4] becomes the verdict: 0 surface (point by point), 1 object that
+     * stays, 2 object that goes. */
+    for (uint32_t c = 1; c <= nc; c++) {
+        double *b = box + 6 * c;
+        double ct[3] = {b[4] / (double)sizes[c], b[5] / (double)sizes[c], 0};
+        int inner = b[0] > elo[0] + r && b[1] > elo[1] + r && b[2] < ehi[0] - r &&
+                    b[3] < ehi[1] - r;
+        int object = inner && fmax(b[2] - b[0], b[3] - b[1]) <= s->obj_ext + r &&
+                     2 * sizes[c] >= s->obj_min;
+        b[4] = !object ? 0
+               : in_xy(ct, blo, bhi) && (!mode || blend_weight(s, mode, o, ct) < 0.5) ? 2
+                                                                                          : 1;
+    }
+    for (size_t i = 0; i < Q->n; i++) {
+        double v = box[6 * label[i] + 4];
+        int in = in_xy(Q->v[i].p, blo, bhi);
+        if (v == 1 && in)
+            GS_TRY(err, gs_points_append(&s->keep_in, &Q->v[i], 1), done);
+        else if (v == 2 && !in)
+            GS_TRY(err, gs_points_append(&s->drop_out, &Q->v[i], 1), done);
+    }
+    gs_points_grid_remove_xy(s->out, blo, bhi);
+    gs_points_grid_remove_points(s->out, s->drop_out.v, s->drop_out.n);
+    for (size_t i = 0; i < s->keep_in.n; i++)
+        GS_TRY(err, gs_points_grid_add(s->out, &s->keep_in.v[i]), done);
+    /* Fb's objects come in runs (gather_patch appends each whole). */
+    for (size_t i = 0; i < s->Fb.n;) {
+        uint32_t ob = s->Fbobj[i];
+        size_t e = i + 1;
+        while (ob && e < s->Fb.n && s->Fbobj[e] == ob)
+            e++;
+        int clash = 0;
+        for (size_t j = i; ob && j < e && !clash; j++) {
+            s->scratch.n = 0;
+            GS_TRY(err, gs_points_grid_query(s->out, s->Fb.v[j].p, r, &s->scratch), done);
+            clash = s->scratch.n > 0;
+        }
+        for (size_t j = i; j < e && !clash; j++)
+            GS_TRY(err, gs_points_grid_add(s->out, &s->Fb.v[j]), done);
+        i = e;
+    }
+done:
+    gs_free(label);
+    gs_free(sizes);
+    gs_free(box);
+    return err;
 }
 
 /* Warps F through tps (NULL: none), blends it with the output and pastes
@@ -937,10 +1170,20 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
         s->blend_idx = ix;
         s->blend_cap = n;
     }
+    if (n > s->Fbobj_cap) {
+        uint32_t *v = gs_realloc(s->Fbobj, n * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (blend of %zu points)", n);
+        s->Fbobj = v;
+        s->Fbobj_cap = n;
+    }
     if (!tps && !mode) { /* the seed patch: B_k as it is */
-        for (size_t i = 0; i < n; i++)
-            if (in_xy(s->F.v[i].p, blo, bhi))
+        for (size_t i = 0; i < n; i++) {
+            uint32_t ob = s->ncomp ? s->Fobj[i] : 0;
+            if (ob || in_xy(s->F.v[i].p, blo, bhi)) {
+                s->Fbobj[s->Fb.n] = ob;
                 GS_CALL(gs_points_append(&s->Fb, &s->F.v[i], 1));
+            }
+        }
         goto paste;
     }
     /* Only points in an active strip cost much (the surface is queried),
@@ -951,7 +1194,8 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
     size_t *order = s->blend_idx, *slot = s->blend_idx + n, ncost = 0;
     for (size_t i = 0; i < n; i++) {
         const double *q = s->F.v[i].p;
-        slot[i] = mode && in_xy(q, blo, bhi) && blend_weight(s, mode, o, q) > 0;
+        slot[i] = mode && in_xy(q, blo, bhi) && blend_weight(s, mode, o, q) > 0 &&
+                  !(s->ncomp && s->Fobj[i]);
         ncost += slot[i];
     }
     {
@@ -981,15 +1225,14 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
             resid += it->resid;
             nres++;
         }
-        if (it->keep)
+        if (it->keep) {
+            s->Fbobj[s->Fb.n] = it->obj;
             GS_CALL(gs_points_append(&s->Fb, &it->q, 1));
+        }
     }
     met->warp_residual = nres ? resid / (double)nres : 0;
 paste:
-    gs_points_grid_remove_xy(s->out, blo, bhi);
-    for (size_t i = 0; i < s->Fb.n; i++)
-        GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
-    return GS_OK;
+    return paste_patch(s, mode, o);
 }
 
 /* Query field nodes first + [lo, hi) of the layout (gs_points_range_fn). */
@@ -1088,7 +1331,7 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
     double glo[2] = {pin[0] - s->m, pin[1] - s->m};
     double ghi[2] = {pin[0] + s->ps + s->we + s->m, pin[1] + s->ps + s->we + s->m};
     double tr[2] = {o[0] - pin[0], o[1] - pin[1]};
-    GS_CALL(gather_patch(s, glo, ghi, tr));
+    GS_CALL(gather_patch(s, glo, ghi, tr, mode, o));
     double t2 = gs_time_now();
     gs_points_tps tps = {0};
     int have_tps = 0;

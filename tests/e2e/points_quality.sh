@@ -17,7 +17,11 @@
 #   preview.png is written;
 # - whole objects (weave): the heights' KS distance to the example below 1.5
 #   x the distance between the example's two halves, and specks (components
-#   of < 30 points) at most 0.1 per unit area more than in the example.
+#   of < 30 points) at most 0.1 per unit area more than in the example;
+# - whole objects (flowers, points.objects): pieces per unit area at most
+#   1.1 x the example's, specks at most 0.1 per unit area above it, height
+#   KS below the example's halves; the same run with points.objects = false
+#   must fail that (cut flowers at the seams).
 source "$GS_ROOT/tests/e2e/lib.bash"
 W=$GS_ROOT/configs/points/weave.ini
 small=(--set points.out_points=0 --set points.out_size=4.4,4.4)
@@ -83,6 +87,31 @@ done
   bad "seams do not continue: seam_dist $sd_warp vs inside $id_warp (expected < 1.3 x)"
 [[ ${res[noblend]} == fail ]] && ok "without the blend the seams show (seam $sd_noblend, inside $id_noblend)" ||
   bad "the seam measure does not see a missing blend (seam $sd_noblend, inside $id_noblend)"
+
+# Whole objects (flowers): with points.objects every flower is pasted whole
+# or not at all, so the output has no more pieces per unit area than the
+# example (whose count includes the flowers its border cuts), no specks
+# beyond the example's, and heights as close to the example's as the
+# example's own halves are; without it (the paper: points go by position)
+# flowers are cut at the seams and the piece counts fail.
+F=$GS_ROOT/configs/points/flowers.ini
+fsmall=(--set points.out_points=0 --set points.out_size=6.4,6.4)
+run_gs 2 points -c "$F" -o fl "${fsmall[@]}"
+expect_rc 0 "flowers (small), whole objects"
+run_gs 2 points -c "$F" -o flcut "${fsmall[@]}" --set points.objects=false
+expect_rc 0 "flowers (small), points by position"
+whole() { # RUN: 0 if pieces, specks and heights are the example's
+  local f fe sf sfe ks ksh
+  f=$(metric "$1" fragments_per_area) fe=$(metric "$1" example_fragments_per_area)
+  sf=$(metric "$1" small_fragments_per_area) sfe=$(metric "$1" example_small_fragments_per_area)
+  ks=$(metric "$1" height_ks) ksh=$(metric "$1" example_height_ks_halves)
+  echo "pieces $f per unit area (example $fe), specks $sf (example $sfe), height KS $ks (example halves $ksh)"
+  lt "$f" "$fe" 1.1 && lt "$sf" "$(/usr/bin/python3 -c "print($sfe + 0.1)")" 1 && lt "$ks" "$ksh" 1
+}
+o=$(whole fl) && ok "flowers whole: $o" || bad "flowers not whole: $o"
+o=$(whole flcut) && bad "the piece measures do not see cut flowers (objects off): $o" ||
+  ok "without whole objects the flowers are cut: $o"
+[[ -s fl/preview.png ]] && ok "flowers preview.png written" || bad "no flowers preview.png"
 
 run_gs 2 points -c "$GS_ROOT/configs/points/flowers.ini" -o pick "${small[@]}" --set points.eps=0.3
 expect_rc 0 "flowers (small, eps 0.3: larger candidate sets)"
