@@ -131,10 +131,11 @@ def phase_seconds(run, stat="max"):
     return [(p["name"], float(p.get(stat, 0.0))) for p in run.get("phases", [])]
 
 
-def outputs(run, kind=None):
-    """Absolute paths of the outputs listed in summary.json, optionally of one kind."""
+def outputs(run, kind=None, role=None):
+    """Absolute paths of the outputs listed in summary.json, optionally of one
+    kind (the format: h5, mesh, ...) and role (what it holds: field, lattice, ...)."""
     return [os.path.join(run["_path"], o["path"]) for o in run.get("outputs", [])
-            if kind is None or o.get("kind") == kind]
+            if (kind is None or o.get("kind") == kind) and (role is None or o.get("role") == role)]
 
 
 # --- HDF5 ----------------------------------------------------------------
@@ -157,14 +158,14 @@ def read_h5_group(path, group):
 
 def field_volume(run):
     """The synthesized distance field {nz, ny, nx} of a field run, or None."""
-    for p in outputs(run, "field_h5"):
+    for p in outputs(run, "h5", "field"):
         return read_h5(p, "/field/distance")
     return None
 
 
 def model_lattice(run):
     """The label lattice {nz, ny, nx} of a model run, or None."""
-    for p in [p for p in outputs(run, "lattice") if p.endswith(".h5")]:
+    for p in outputs(run, "h5", "lattice"):
         return read_h5(p, "/model/labels")
     return None
 
@@ -177,7 +178,7 @@ def micro_histograms(run):
     is measured from the regions and the surface (true geodesic distance of each
     triangle to the interface)."""
     res = []
-    for p in outputs(run, "labels"):
+    for p in outputs(run, "h5", "labels"):
         if p.endswith(".h5"):
             d, _ = read_h5_group(p, "/micro")
             if "target_count" in d and "achieved_count" in d:
@@ -286,8 +287,7 @@ def read_mesh(path):
 
 def mesh_outputs(run):
     """Mesh files of a run (PLY/OBJ outputs in summary.json)."""
-    return [p for p in outputs(run) if p.lower().endswith((".ply", ".obj"))
-            and "point" not in os.path.basename(p)]
+    return [p for p in outputs(run, "mesh") if p.lower().endswith((".ply", ".obj"))]
 
 
 # --- benchmarks ----------------------------------------------------------

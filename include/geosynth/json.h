@@ -40,6 +40,10 @@ void gs_json_str(gs_json *j, const char *key, const char *value);
 void gs_json_f64(gs_json *j, const char *key, double value);
 void gs_json_i64(gs_json *j, const char *key, int64_t value);
 void gs_json_u64(gs_json *j, const char *key, uint64_t value);
+/* A 64-bit seed both ways: "key": the number (read exactly by every JSON
+ * reader only below 2^53) and "key_string": its decimal text (exact in jq,
+ * JavaScript and everywhere else). docs/FORMATS.md, "Seeds in JSON". */
+void gs_json_seed(gs_json *j, const char *key, uint64_t value);
 void gs_json_bool(gs_json *j, const char *key, int value);
 /* Inserts already-formatted JSON text as a value. */
 void gs_json_raw(gs_json *j, const char *key, const char *json_text);

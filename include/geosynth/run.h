@@ -48,7 +48,8 @@ typedef struct gs_run {
     int64_t ckpt_last_units;
     int64_t ckpt_count;     /* checkpoints written by this process */
     gs_json metrics;        /* quality metrics for summary.json (rank 0) */
-    gs_json outputs;        /* output files written (rank 0) */
+    struct gs_run_out *outs; /* output files written (rank 0), see gs_run_output */
+    int nouts, cap_outs;
     uint64_t expect_digest; /* run.expect_digest, checked by gs_run_finish */
     int have_expect_digest; /* 1 when run.expect_digest was given */
     int failed_together;    /* set by an engine returning an error that every rank returned
@@ -73,8 +74,20 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json);
 void gs_run_metric_f64(gs_run *run, const char *key, double value);
 void gs_run_metric_i64(gs_run *run, const char *key, int64_t value);
 void gs_run_metric_str(gs_run *run, const char *key, const char *value);
-/* Records an output file (path relative to the run dir or absolute). */
-void gs_run_output(gs_run *run, const char *kind, const char *path);
+/* Records an output file for summary.json "outputs" (docs/FORMATS.md):
+ * kind one word of the vocabulary every engine shares (GS_RUN_OUTPUT_KINDS:
+ * the file's format), role what it holds ("field", "contour", "lattice",
+ * ...), path relative to the run dir, grid the sample or cell counts
+ * {nx, ny, nz} of a grid output (NULL: none). gs_run_finish adds the
+ * dimensions it reads from the written file's header: vertices and faces of
+ * a mesh, points of a point cloud, width and height of an image. An unknown
+ * kind is an internal error reported by gs_run_finish. */
+#define GS_RUN_OUTPUT_KINDS "h5 xdmf vdb vox mesh points image preview csv json html text"
+void gs_run_output(gs_run *run, const char *kind, const char *role, const char *path,
+                   const int64_t grid[3]);
+/* Rank 0: the "outputs" array of summary.json into j (member key). */
+gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key);
+void gs_run_outputs_free(gs_run *run);
 
 /* Path inside the run directory: writes "RUN_DIR/name" into out. */
 void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len);

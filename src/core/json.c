@@ -137,6 +137,15 @@ void gs_json_u64(gs_json *j, const char *key, uint64_t value)
     puts_(j, b);
 }
 
+void gs_json_seed(gs_json *j, const char *key, uint64_t value)
+{
+    char k[64], b[32];
+    snprintf(k, sizeof k, "%s_string", key);
+    snprintf(b, sizeof b, "%" PRIu64, value);
+    gs_json_u64(j, key, value);
+    gs_json_str(j, k, b);
+}
+
 void gs_json_bool(gs_json *j, const char *key, int value)
 {
     member(j, key);

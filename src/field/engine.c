@@ -681,8 +681,8 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
         gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32},
                               {"levels", "/field/levels", GS_H5_U8}};
         err = gs_xdmf_write(path, &g, at, 2);
-        gs_run_output(run, "field_h5", "field.h5");
-        gs_run_output(run, "field_xdmf", "field.xmf");
+        gs_run_output(run, "h5", "field", "field.h5", n);
+        gs_run_output(run, "xdmf", "field", "field.xmf", n);
     }
     GS_CALL(gs_par_agree(run->comm, err));
     return GS_OK;
@@ -725,7 +725,7 @@ static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
     memcpy(f->v, out.v, (size_t)(f->nx * f->ny * f->nz) * sizeof *f->v);
     gs_vdb_dense_destroy(&out);
     if (c->vdb)
-        gs_run_output(run, "field_vdb", "field.vdb");
+        gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
     return GS_OK;
 }
 
@@ -747,7 +747,7 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_json_f64(pm, "contour_area", gs_mesh_area(&m));
         gs_mesh_destroy(&m);
         GS_CALL(err);
-        gs_run_output(run, "mesh_contour", name);
+        gs_run_output(run, "mesh", "contour", name, NULL);
     }
     if (copy) {
         const gs_qfield *q = src->q;
@@ -768,7 +768,7 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_json_i64(pm, "copied_seam_vertices", seams);
         gs_mesh_destroy(&m);
         GS_CALL(err);
-        gs_run_output(run, "mesh_copied", name);
+        gs_run_output(run, "mesh", "copied", name, NULL);
     }
     return GS_OK;
 }

@@ -309,7 +309,7 @@ static gs_err write_instances_json(const micro_job *job, const char *path)
         gs_json_i64(&j, "instance", i);
         gs_json_str(&j, "dir", dir);
         gs_json_str(&j, "mesh", job->meshes[in->mesh].source);
-        gs_json_u64(&j, "seed", in->seed);
+        gs_json_seed(&j, "seed", in->seed);
         micro_result_json(&j, r);
         gs_json_u64(&j, "forced", in->cnt.forced);
         gs_json_u64(&j, "random_accepted", in->cnt.random_accepted);
@@ -361,14 +361,14 @@ static gs_err report_results(micro_job *job, gs_json *phase)
             const char *fmt = job->cfg->output_format;
             if (strcmp(fmt, "obj") != 0) {
                 snprintf(rel, sizeof rel, "%s/mesh.ply", dir);
-                gs_run_output(run, "mesh", rel);
+                gs_run_output(run, "mesh", "instance", rel, NULL);
             }
             if (strcmp(fmt, "ply") != 0) {
                 snprintf(rel, sizeof rel, "%s/mesh.obj", dir);
-                gs_run_output(run, "mesh", rel);
+                gs_run_output(run, "mesh", "instance", rel, NULL);
             }
             snprintf(rel, sizeof rel, "%s/micro.h5", dir);
-            gs_run_output(run, "labels", rel);
+            gs_run_output(run, "h5", "labels", rel, NULL);
         }
     }
     if (violations)
@@ -428,7 +428,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
     char path[PATH_MAX];
     gs_run_path(run, "instances.json", path, sizeof path);
     GS_CALL(write_instances_json(job, path));
-    gs_run_output(run, "instances", "instances.json");
+    gs_run_output(run, "json", "instances", "instances.json", NULL);
     return GS_OK;
 }
 

@@ -540,7 +540,7 @@ static gs_err write_candidates_json(const explore_job *ej, const char *path)
         gs_json_begin_object(&j, NULL);
         gs_json_i64(&j, "candidate", i);
         gs_json_str(&j, "dir", name);
-        gs_json_u64(&j, "seed", r->c.seed);
+        gs_json_seed(&j, "seed", r->c.seed);
         gs_json_f64(&j, "scale_units", r->c.scale_units);
         static const char *side[2] = {"pos", "neg"};
         for (int k = 0; k < 2; k++) {
@@ -641,8 +641,8 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
         gs_run_metric_f64(run, "gallery_seconds", wall);
         gs_run_metric_f64(run, "candidates_per_minute", per_min);
         gs_run_metric_f64(run, "candidate_cpu_seconds", cpu);
-        gs_run_output(run, "gallery", "gallery/index.html");
-        gs_run_output(run, "candidates", "gallery/candidates.json");
+        gs_run_output(run, "html", "gallery", "gallery/index.html", NULL);
+        gs_run_output(run, "json", "candidates", "gallery/candidates.json", NULL);
     }
     GS_TRY(err, gs_par_agree(run->comm, err), done);
     gs_json pj;

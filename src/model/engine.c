@@ -1137,14 +1137,15 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         gs_free(seen);
     }
 
+    int64_t dims[3] = {e->lat.nx, e->lat.ny, e->lat.nz};
     gs_run_path(run, "lattice.h5", path, sizeof path);
     GS_CALL(write_lattice_h5(run, e, path));
-    gs_run_output(run, "lattice", "lattice.h5");
-    gs_run_output(run, "xdmf", "lattice.xmf");
+    gs_run_output(run, "h5", "lattice", "lattice.h5", dims);
+    gs_run_output(run, "xdmf", "lattice", "lattice.xmf", dims);
     if (c->vox) {
         gs_run_path(run, "lattice.vox", path, sizeof path);
         GS_CALL(gs_model_write_vox(path, &e->lat, &e->pal, &q->vox_renumbered));
-        gs_run_output(run, "vox", "lattice.vox");
+        gs_run_output(run, "vox", "lattice", "lattice.vox", dims);
         if (q->vox_renumbered)
             gs_log(GS_LOG_WARN, "lattice.vox: labels above 255 renumbered 1..%d in order",
                    q->labels_used);
@@ -1152,12 +1153,12 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     if (strcmp(c->mesh, "none")) {
         char name[16];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
-        gs_run_output(run, "mesh", name); /* written by write_mesh */
+        gs_run_output(run, "mesh", "lattice", name, NULL); /* written by write_mesh */
     }
     if (e->lat.nz == 1) {
         gs_run_path(run, "lattice.png", path, sizeof path);
         GS_CALL(gs_model_write_png(path, &e->lat, &e->pal));
-        gs_run_output(run, "image", "lattice.png");
+        gs_run_output(run, "image", "lattice", "lattice.png", NULL);
     }
     if (c->preview && e->lat.nz > 1 && !c->tileset[0] && !c->sample[0]) {
         gs_run_path(run, "preview.png", path, sizeof path);
@@ -1168,7 +1169,7 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
             gs_error_clear();
         } else {
             GS_CALL(perr);
-            gs_run_output(run, "preview", "preview.png");
+            gs_run_output(run, "preview", "preview", "preview.png", NULL);
         }
     }
     if (e->ts.dim == 3 && c->tile_image) {
@@ -1190,17 +1191,17 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     } else if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);
         GS_CALL(gs_model_tileset_write_png(path, &e->ts, &e->lat));
-        gs_run_output(run, "tiles_image", "tiles.png");
+        gs_run_output(run, "image", "tiles", "tiles.png", NULL);
     }
     if (c->sample[0] && c->tile_image) {
         gs_run_path(run, "image.png", path, sizeof path);
         GS_CALL(gs_model_patterns_write_png(path, &e->pats, &e->lat));
-        gs_run_output(run, "pattern_image", "image.png");
+        gs_run_output(run, "image", "patterns", "image.png", NULL);
     }
     if (c->txt) {
         gs_run_path(run, "lattice.txt", path, sizeof path);
         GS_CALL(gs_model_write_merrell_txt(path, &e->lat));
-        gs_run_output(run, "merrell_txt", "lattice.txt");
+        gs_run_output(run, "text", "lattice", "lattice.txt", dims);
     }
     return GS_OK;
 }

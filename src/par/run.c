@@ -108,9 +108,7 @@ gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *d
     run->open_phase = -1;
     run->start = gs_time_now();
     gs_json_init(&run->metrics);
-    gs_json_init(&run->outputs);
     gs_json_begin_object(&run->metrics, NULL);
-    gs_json_begin_array(&run->outputs, NULL);
     run->config_text = dup_str(config_text ? config_text : "");
     gs_err err = run->config_text ? GS_OK : GS_ERR_MEM;
     if (!err && run->rank == 0)
@@ -202,14 +200,6 @@ void gs_run_metric_str(gs_run *run, const char *key, const char *value)
     gs_json_str(&run->metrics, key, value);
 }
 
-void gs_run_output(gs_run *run, const char *kind, const char *path)
-{
-    gs_json_begin_object(&run->outputs, NULL);
-    gs_json_str(&run->outputs, "kind", kind);
-    gs_json_str(&run->outputs, "path", path);
-    gs_json_end_object(&run->outputs);
-}
-
 gs_err gs_run_expect_digest(gs_run *run, const char *hex)
 {
     run->have_expect_digest = 0;
@@ -252,7 +242,7 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
         gs_json_str(&j, "engine", run->engine);
         gs_json_str(&j, "program_version", GS_VERSION_STRING);
         gs_json_i64(&j, "ranks", run->size);
-        gs_json_u64(&j, "seed", run->seed);
+        gs_json_seed(&j, "seed", run->seed);
         gs_json_bool(&j, "resumed", run->resumed);
         gs_json_f64(&j, "wall_seconds", gs_time_now() - run->start);
         gs_json_begin_array(&j, "phases");
@@ -270,8 +260,7 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
         gs_json_u64(&j, "rss_peak_bytes", rss_max);
         gs_json_end_object(&run->metrics);
         gs_json_raw(&j, "metrics", run->metrics.buf ? run->metrics.buf : "{}");
-        gs_json_end_array(&run->outputs);
-        gs_json_raw(&j, "outputs", run->outputs.buf ? run->outputs.buf : "[]");
+        err = gs_run_outputs_json(run, &j, "outputs");
         gs_json_str(&j, "config", run->config_text);
         gs_json_str(&j, "digest", hex);
         if (run->have_expect_digest) {
@@ -283,7 +272,9 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
         gs_json_end_object(&j);
         char path[PATH_MAX];
         gs_run_path(run, "summary.json", path, sizeof path);
-        if (j.failed) {
+        if (err) {
+            /* raised by gs_run_outputs_json */
+        } else if (j.failed) {
             err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "summary too large");
         } else {
             size_t n = j.len;
@@ -434,7 +425,7 @@ void gs_run_close(gs_run *run)
     gs_free(run->dir);
     gs_free(run->config_text);
     gs_json_free(&run->metrics);
-    gs_json_free(&run->outputs);
+    gs_run_outputs_free(run);
     memset(run, 0, sizeof *run);
 }
 

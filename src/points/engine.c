@@ -1670,11 +1670,11 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "small_fragments_per_area", ob->small_fragments / area);
     gs_run_metric_f64(run, "example_small_fragments_per_area",
                       ob->example_area > 0 ? ob->example_small_fragments / ob->example_area : 0);
-    gs_run_metric_f64(run, "seconds_search", tm.search);
-    gs_run_metric_f64(run, "seconds_warp", tm.warp);
-    gs_run_metric_f64(run, "seconds_blend", tm.blend);
-    gs_run_metric_f64(run, "seconds_other", tm.other);
-    gs_run_metric_f64(run, "seconds_relax", tm.relax);
+    gs_run_metric_f64(run, "search_seconds", tm.search);
+    gs_run_metric_f64(run, "warp_seconds", tm.warp);
+    gs_run_metric_f64(run, "blend_seconds", tm.blend);
+    gs_run_metric_f64(run, "other_seconds", tm.other);
+    gs_run_metric_f64(run, "relax_seconds", tm.relax);
 }
 
 static gs_err points_run(gs_run *run, void *vcfg, int resume)
@@ -1724,7 +1724,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             gs_run_path(run, "points.ply", path, sizeof path);
             local = gs_pointply_write(path, (const double *)rs.out.v, rs.out.n, 1, fmt);
             if (local == GS_OK)
-                gs_run_output(run, "points", "points.ply");
+                gs_run_output(run, "points", "points", "points.ply", NULL);
         }
         if (c->patch_csv && local == GS_OK) {
             size_t nm;
@@ -1732,7 +1732,7 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             gs_run_path(run, "patches.csv", path, sizeof path);
             local = write_patch_csv(path, m, nm);
             if (local == GS_OK)
-                gs_run_output(run, "patch_metrics", "patches.csv");
+                gs_run_output(run, "csv", "patch_metrics", "patches.csv", NULL);
         }
         /* The measures and the mesh work on the z-up points; write_mesh
          * restores the axes. */
@@ -1749,14 +1749,14 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             gs_run_path(run, "mesh.ply", path, sizeof path);
             local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
             if (local == GS_OK)
-                gs_run_output(run, "mesh", "mesh.ply");
+                gs_run_output(run, "mesh", "surface", "mesh.ply", NULL);
         }
         if (c->preview && local == GS_OK) {
             int written = 0;
             gs_run_path(run, "preview.png", path, sizeof path);
             local = write_preview(c, &rs.tex, &zup, rs.params.mls_radius, path, &written);
             if (local == GS_OK && written)
-                gs_run_output(run, "preview", "preview.png");
+                gs_run_output(run, "preview", "preview", "preview.png", NULL);
         }
         gs_points_free(&zup);
         if (local == GS_OK)

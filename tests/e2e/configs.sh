@@ -55,7 +55,7 @@ if grep -nE '\.\./shared|/work/' "$GS_ROOT/README.md" "$GS_ROOT"/docs/*.md "$GS_
 else
   ok "README.md, docs/, tests/README.md, configs/README.md name no path outside the repository"
 fi
-missing=$(grep -rhoE 'gs_run_output\(run, "[a-z_]+", "[^"]+"' "$GS_ROOT/src" | sed -E 's/.*, "([^"]+)"$/\1/' | sort -u |
+missing=$(grep -rhoE 'gs_run_output\(run, "[a-z_]+", "[a-z_]+", "[^"]+"' "$GS_ROOT/src" | sed -E 's/.*, "([^"]+)"$/\1/' | sort -u |
   while IFS= read -r f; do grep -qF "$f" "$GS_ROOT/docs/FORMATS.md" || echo "$f"; done)
 [[ -z $missing ]] && ok "docs/FORMATS.md describes every output file the engines record" \
   || bad "outputs missing from docs/FORMATS.md: $missing"

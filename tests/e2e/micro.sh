@@ -95,8 +95,8 @@ for i in inst:
     check(warm >= 0.95 * nv, "%s: colours disagree with the regions at %d of %d vertices" % (ply, nv - warm, nv))
     check(os.path.exists(os.path.join(run, i["dir"], "preview.png")), "preview.png missing")
     check(os.path.exists(os.path.join(run, i["dir"], "micro.h5")), "micro.h5 missing")
-kinds = [o["kind"] for o in summ["outputs"]]
-check(kinds.count("mesh") == 3 and kinds.count("labels") == 3, "outputs registered: %s" % kinds)
+kinds = [(o["kind"], o["role"]) for o in summ["outputs"]]
+check(kinds.count(("mesh", "instance")) == 3 and kinds.count(("h5", "labels")) == 3, "outputs registered: %s" % kinds)
 for b in bad: print("  " + b)
 sys.exit(1 if bad else 0)
 EOF

@@ -57,7 +57,7 @@ res=$(metric run1 warp_residual_mean) gap=$(metric run1 pair_gap_mean)
 /usr/bin/python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) < float(sys.argv[2]) else 1)" "$res" "$gap" &&
   ok "warp pulls patches onto the neighbourhood (residual $res < pair gap $gap)" ||
   bad "warp residual $res not below the pair gap $gap"
-grep -q '"seconds_search"' run1/summary.json && grep -q '"seconds_blend"' run1/summary.json &&
+grep -q '"search_seconds"' run1/summary.json && grep -q '"blend_seconds"' run1/summary.json &&
   ok "summary.json has search/warp/blend times" || bad "summary.json lacks phase times"
 
 # --- stop after N patches, resume at another rank count ---------------------

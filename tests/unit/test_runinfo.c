@@ -105,7 +105,13 @@ static void test_run_summary(void **state)
     assert_int_equal(gs_run_phase_end(&run, NULL), GS_OK);
     gs_run_metric_f64(&run, "coherence", 0.25);
     gs_run_metric_i64(&run, "violations", 0);
-    gs_run_output(&run, "mesh", "out.obj");
+    char obj[700];
+    snprintf(obj, sizeof obj, "%s/out.obj", rundir);
+    FILE *of = fopen(obj, "w");
+    assert_non_null(of);
+    fputs("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", of);
+    fclose(of);
+    gs_run_output(&run, "mesh", "surface", "out.obj", NULL);
     assert_int_equal(gs_run_finish(&run, 0x1234abcdULL), GS_OK);
     char path[700];
     char *text = NULL;
@@ -115,7 +121,9 @@ static void test_run_summary(void **state)
     assert_non_null(strstr(text, "\"engine\":\"toy\""));
     assert_non_null(strstr(text, "\"coherence\":0.25"));
     assert_non_null(strstr(text, "\"config\":\"[run]\\nseed = 5\\n\""));
-    assert_non_null(strstr(text, "{\"kind\":\"mesh\",\"path\":\"out.obj\"}"));
+    assert_non_null(strstr(text, "{\"kind\":\"mesh\",\"role\":\"surface\",\"path\":\"out.obj\","
+                                 "\"vertices\":3,\"faces\":1}"));
+    assert_non_null(strstr(text, "\"seed\":5,\"seed_string\":\"5\""));
     gs_free(text);
     snprintf(path, sizeof path, "%s/metrics.jsonl", rundir);
     assert_int_equal(gs_file_read_all(path, 1 << 20, &text, NULL), GS_OK);

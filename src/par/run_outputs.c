@@ -1,0 +1,171 @@
+/* summary.json "outputs": one vocabulary of kinds across engines and the
+ * dimensions of every output, read back from the written file's header so
+ * they describe the file users open (docs/FORMATS.md, "Outputs"). */
+#include "geosynth/run.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+
+struct gs_run_out {
+    char kind[16];
+    char role[32];
+    char *path;
+    int have_grid;
+    int64_t grid[3];
+};
+
+void gs_run_output(gs_run *run, const char *kind, const char *role, const char *path,
+                   const int64_t grid[3])
+{
+    if (run->nouts == run->cap_outs) {
+        int cap = run->cap_outs ? 2 * run->cap_outs : 16;
+        struct gs_run_out *o = gs_realloc(run->outs, (size_t)cap * sizeof *o);
+        if (!o) {
+            gs_log(GS_LOG_WARN, "out of memory: %s is missing from summary.json outputs", path);
+            return;
+        }
+        run->outs = o;
+        run->cap_outs = cap;
+    }
+    struct gs_run_out *o = &run->outs[run->nouts];
+    memset(o, 0, sizeof *o);
+    snprintf(o->kind, sizeof o->kind, "%s", kind);
+    snprintf(o->role, sizeof o->role, "%s", role);
+    size_t n = strlen(path) + 1;
+    o->path = gs_malloc(n);
+    if (!o->path) {
+        gs_log(GS_LOG_WARN, "out of memory: %s is missing from summary.json outputs", path);
+        return;
+    }
+    memcpy(o->path, path, n);
+    if (grid) {
+        o->have_grid = 1;
+        memcpy(o->grid, grid, sizeof o->grid);
+    }
+    run->nouts++;
+}
+
+void gs_run_outputs_free(gs_run *run)
+{
+    for (int i = 0; i < run->nouts; i++)
+        gs_free(run->outs[i].path);
+    gs_free(run->outs);
+    run->outs = NULL;
+    run->nouts = run->cap_outs = 0;
+}
+
+static int known_kind(const char *kind)
+{
+    char list[] = GS_RUN_OUTPUT_KINDS;
+    for (char *save = NULL, *w = strtok_r(list, " ", &save); w; w = strtok_r(NULL, " ", &save))
+        if (!strcmp(w, kind))
+            return 1;
+    return 0;
+}
+
+static uint32_t be32(const unsigned char *b)
+{
+    return (uint32_t)b[0] << 24 | (uint32_t)b[1] << 16 | (uint32_t)b[2] << 8 | b[3];
+}
+
+/* PNG: width and height from IHDR. */
+static int png_size(FILE *f, int64_t wh[2])
+{
+    unsigned char b[24];
+    if (fread(b, 1, sizeof b, f) != sizeof b || memcmp(b, "\x89PNG\r\n\x1a\n", 8) ||
+        memcmp(b + 12, "IHDR", 4))
+        return 0;
+    wh[0] = be32(b + 16);
+    wh[1] = be32(b + 20);
+    return 1;
+}
+
+/* PLY: the counts of element vertex and element face from the header. */
+static int ply_counts(FILE *f, int64_t *verts, int64_t *faces)
+{
+    char line[256];
+    if (!fgets(line, sizeof line, f) || strncmp(line, "ply", 3))
+        return 0;
+    *verts = *faces = 0;
+    while (fgets(line, sizeof line, f) && strncmp(line, "end_header", 10)) {
+        long long n;
+        if (sscanf(line, "element vertex %lld", &n) == 1)
+            *verts = n;
+        else if (sscanf(line, "element face %lld", &n) == 1)
+            *faces = n;
+    }
+    return 1;
+}
+
+/* OBJ: counts of v and f lines. */
+static int obj_counts(FILE *f, int64_t *verts, int64_t *faces)
+{
+    char line[512];
+    int bol = 1;
+    *verts = *faces = 0;
+    while (fgets(line, sizeof line, f)) {
+        if (bol && line[0] == 'v' && line[1] == ' ')
+            (*verts)++;
+        else if (bol && line[0] == 'f' && line[1] == ' ')
+            (*faces)++;
+        bol = strchr(line, '\n') != NULL;
+    }
+    return 1;
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && !strcmp(s + n - m, suffix);
+}
+
+gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key)
+{
+    gs_json_begin_array(j, key);
+    for (int i = 0; i < run->nouts; i++) {
+        const struct gs_run_out *o = &run->outs[i];
+        GS_CHECK(known_kind(o->kind), GS_ERR_INTERNAL,
+                 "output %s: kind '%s' is not one of: " GS_RUN_OUTPUT_KINDS, o->path, o->kind);
+        gs_json_begin_object(j, NULL);
+        gs_json_str(j, "kind", o->kind);
+        gs_json_str(j, "role", o->role);
+        gs_json_str(j, "path", o->path);
+        if (o->have_grid) {
+            gs_json_begin_array(j, "dimensions");
+            for (int a = 0; a < 3; a++)
+                gs_json_i64(j, NULL, o->grid[a]);
+            gs_json_end_array(j);
+        }
+        char full[PATH_MAX];
+        if (o->path[0] == '/')
+            snprintf(full, sizeof full, "%s", o->path);
+        else
+            gs_run_path(run, o->path, full, sizeof full);
+        FILE *f = fopen(full, "rb");
+        GS_CHECK(f != NULL, GS_ERR_IO, "output %s listed in summary.json was not written", full);
+        int64_t a = 0, b = 0;
+        int mesh = !strcmp(o->kind, "mesh"), points = !strcmp(o->kind, "points");
+        int64_t wh[2];
+        if ((!strcmp(o->kind, "image") || !strcmp(o->kind, "preview")) && png_size(f, wh)) {
+            gs_json_begin_array(j, "pixels");
+            gs_json_i64(j, NULL, wh[0]);
+            gs_json_i64(j, NULL, wh[1]);
+            gs_json_end_array(j);
+        } else if ((mesh || points) &&
+                   (ends_with(o->path, ".ply") ? ply_counts(f, &a, &b)
+                    : ends_with(o->path, ".obj") ? obj_counts(f, &a, &b)
+                                                 : 0)) {
+            gs_json_i64(j, points ? "points" : "vertices", a);
+            if (mesh)
+                gs_json_i64(j, "faces", b);
+        }
+        fclose(f);
+        gs_json_end_object(j);
+    }
+    gs_json_end_array(j);
+    return GS_OK;
+}
