@@ -1185,9 +1185,9 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         } else {
             GS_CALL(perr);
             if (c->preview)
-                gs_run_output(run, "preview", "preview.png");
+                gs_run_output(run, "preview", "preview", "preview.png", NULL);
         }
-        gs_run_output(run, "tiles_vox", "tiles.vox");
+        gs_run_output(run, "vox", "tiles", "tiles.vox", NULL); /* dimensions from the file */
     } else if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);
         GS_CALL(gs_model_tileset_write_png(path, &e->ts, &e->lat));

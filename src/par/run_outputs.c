@@ -84,6 +84,32 @@ static int png_size(FILE *f, int64_t wh[2])
     return 1;
 }
 
+static uint32_t le32(const unsigned char *b)
+{
+    return (uint32_t)b[3] << 24 | (uint32_t)b[2] << 16 | (uint32_t)b[1] << 8 | b[0];
+}
+
+/* MagicaVoxel .vox: the first SIZE chunk (x, y, z). */
+static int vox_size(FILE *f, int64_t xyz[3])
+{
+    unsigned char b[24];
+    if (fread(b, 1, 8, f) != 8 || memcmp(b, "VOX ", 4))
+        return 0;
+    while (fread(b, 1, 12, f) == 12) {
+        uint32_t content = le32(b + 4);
+        if (!memcmp(b, "MAIN", 4))
+            continue; /* its children follow */
+        if (!memcmp(b, "SIZE", 4) && content >= 12 && fread(b + 12, 1, 12, f) == 12) {
+            for (int a = 0; a < 3; a++)
+                xyz[a] = le32(b + 12 + 4 * a);
+            return 1;
+        }
+        if (fseek(f, (long)content + (long)le32(b + 8), SEEK_CUR))
+            return 0;
+    }
+    return 0;
+}
+
 /* PLY: the counts of element vertex and element face from the header. */
 static int ply_counts(FILE *f, int64_t *verts, int64_t *faces)
 {
@@ -134,12 +160,6 @@ gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key)
         gs_json_str(j, "kind", o->kind);
         gs_json_str(j, "role", o->role);
         gs_json_str(j, "path", o->path);
-        if (o->have_grid) {
-            gs_json_begin_array(j, "dimensions");
-            for (int a = 0; a < 3; a++)
-                gs_json_i64(j, NULL, o->grid[a]);
-            gs_json_end_array(j);
-        }
         char full[PATH_MAX];
         if (o->path[0] == '/')
             snprintf(full, sizeof full, "%s", o->path);
@@ -147,6 +167,18 @@ gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key)
             gs_run_path(run, o->path, full, sizeof full);
         FILE *f = fopen(full, "rb");
         GS_CHECK(f != NULL, GS_ERR_IO, "output %s listed in summary.json was not written", full);
+        int64_t grid[3];
+        int have_grid = o->have_grid;
+        memcpy(grid, o->grid, sizeof grid);
+        if (!have_grid && !strcmp(o->kind, "vox"))
+            have_grid = vox_size(f, grid);
+        if (have_grid) {
+            gs_json_begin_array(j, "dimensions");
+            for (int a = 0; a < 3; a++)
+                gs_json_i64(j, NULL, grid[a]);
+            gs_json_end_array(j);
+        }
+        rewind(f);
         int64_t a = 0, b = 0;
         int mesh = !strcmp(o->kind, "mesh"), points = !strcmp(o->kind, "points");
         int64_t wh[2];

@@ -11,10 +11,12 @@ SCHEMA=$GS_ROOT/docs/summary.schema.json
 VALIDATE="/usr/bin/python3 $GS_ROOT/tests/util/json_schema.py $SCHEMA"
 BIG=9007199254740993   # 2^53 + 1: a double reads it as ...992 (run.seed is an int64)
 
+# run directory = engine, except tiles (a model run with a 3D tile set: tiles.vox)
 declare -A cfg=([field]=field/quick.ini [points]=points/quick.ini [micro]=micro/quick.ini
-                [model]=model/demo.ini)
-for e in field points micro model; do
-  run_gs 1 "$e" -c "$GS_ROOT/configs/${cfg[$e]}" -o "$e" --set run.seed=$BIG
+                [model]=model/demo.ini [tiles]=model/tiles-knots3d.ini)
+for e in field points micro model tiles; do
+  run_gs 1 "$([[ $e == tiles ]] && echo model || echo "$e")" -c "$GS_ROOT/configs/${cfg[$e]}" -o "$e" \
+    --set run.seed=$BIG
   expect_rc 0 "$e ${cfg[$e]} with run.seed = $BIG"
   if $VALIDATE "$e/summary.json" >schema.log 2>&1; then
     ok "$e: summary.json matches docs/summary.schema.json"
@@ -43,7 +45,7 @@ for e in field points micro model; do
 done
 
 # the dimensions in summary.json are those of the files (h5py, PNG, PLY, .vox)
-if /usr/bin/python3 - field points micro model >dims.log 2>&1 <<'PY'
+if /usr/bin/python3 - field points micro model tiles >dims.log 2>&1 <<'PY'
 import json, struct, sys, h5py
 bad = []
 def png(p):
