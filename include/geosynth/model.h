@@ -238,6 +238,12 @@ typedef struct gs_model_params {
                            mirror half holds S(label); a face cell's label l
                            needs (l, S l) allowed across the face (even extent)
                            or S l = l (odd: the shared centre). Not owned */
+    const uint64_t *ground; /* overlapping model `ground` (WFC samples.xml): label
+                           bitset (nlabels bits, 64 per word) the cells of the
+                           lattice's last y row (the picture's bottom) are
+                           limited to; NULL = none. Not owned */
+    const uint64_t *ground_only; /* labels banned from every other row (patterns
+                           found only on the sample's bottom row); NULL = none */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */

@@ -177,6 +177,8 @@ typedef struct gs_model_patterns {
     int ncolors;
     uint8_t *pat;       /* [npatterns][N*N] colour indices, row-major (row 0 top) */
     uint64_t *count;    /* [npatterns] occurrences (weights) */
+    uint64_t *bottom;   /* [npatterns] of those, windows on the sample's bottom row
+                           (origin y = H - N, as is or mirrored in x): ground */
     gs_model_pair *pairs;
     size_t npairs;
 } gs_model_patterns;

@@ -79,6 +79,7 @@ typedef struct model_config {
     int64_t overlap_n;
     int64_t symmetry;
     int periodic_input;
+    int ground;
     int tile_image;
     int preview;
     int64_t preview_size;
@@ -217,6 +218,11 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
         gs_cfg_report(ctx, "model.start_tile", "only applies to model.tileset");
     if (c->subset[0] && !c->tileset[0])
         gs_cfg_report(ctx, "model.subset", "only applies to model.tileset");
+    if (c->ground && !c->sample[0])
+        gs_cfg_report(ctx, "model.ground", "true: expected model.sample (overlapping model)");
+    if (c->ground && strchr(c->mirror, 'y'))
+        gs_cfg_report(ctx, "model.ground", "true: not with model.mirror = %s (the bottom row is "
+                      "mirrored to the top)", c->mirror);
     if (c->sample[0] && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start", "not supported with model.sample");
     if (c->tileset[0] || c->sample[0]) {
@@ -309,6 +315,10 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, symmetry, "model.symmetry", 1, 8, 0, "8",
                    "overlapping model: pattern variants (1 as is, 2 + mirror, ... 8 all "
                    "rotations and mirrors)"),
+    GS_CFG_KEY_BOOL(model_config, ground, "model.ground", "false",
+                    "overlapping model (WFC samples.xml `ground`): the output's bottom row "
+                    "takes the patterns of the sample's bottom row, and patterns found only "
+                    "there appear nowhere else"),
     GS_CFG_KEY_BOOL(model_config, periodic_input, "model.periodic_input", "true",
                     "overlapping model: windows wrap around the sample's edges"),
     GS_CFG_KEY_ENUM(model_config, format, "model.format", "auto|txt|csv|vox|h5", "auto",
@@ -422,6 +432,7 @@ typedef struct model_engine {
     float *shape;            /* soft target shape (NULL = none), lat nx*ny */
     int full[3];             /* output extents (mirror: lat holds the lower half) */
     int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */
+    uint64_t *ground;        /* model.ground: [2][W] ground labels, labels only there */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
@@ -599,10 +610,57 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
     return GS_OK;
 }
 
+/* model.ground start: one label per row, each next to itself along x, the
+ * last row a ground pattern, no ground-only pattern above it, valid +y
+ * transitions; the most frequent feasible label per row, top down. */
+static gs_err ground_start(model_engine *e)
+{
+    gs_model_lattice *lat = &e->lat;
+    const int L = gs_model_rules_nlabels(e->rules), ny = lat->ny;
+    uint8_t *reach = NULL;
+    GS_CALL(gs_alloc_array((void **)&reach, (size_t)ny * (size_t)L, 1, "ground start"));
+    memset(reach, 0, (size_t)ny * (size_t)L);
+    const uint64_t *g = e->params.ground, *only = e->params.ground_only;
+#define GBIT(set, l) (((set)[(l) >> 6] >> ((l) & 63)) & 1)
+    for (int y = ny - 1; y >= 0; y--)
+        for (int l = 1; l < L; l++) {
+            if (!gs_model_rules_count(e->rules, l) || !gs_model_rules_allows(e->rules, 0, l, l) ||
+                (y == ny - 1 ? !GBIT(g, l) : GBIT(only, l)))
+                continue;
+            int ok = y == ny - 1;
+            for (int m = 1; m < L && !ok; m++)
+                ok = reach[(size_t)(y + 1) * L + m] && gs_model_rules_allows(e->rules, 2, l, m);
+            reach[(size_t)y * L + l] = (uint8_t)ok;
+        }
+#undef GBIT
+    int prev = -1;
+    gs_err err = GS_OK;
+    for (int y = 0; y < ny && !err; y++) {
+        int best = -1;
+        for (int l = 1; l < L; l++)
+            if (reach[(size_t)y * L + l] && (prev < 0 || gs_model_rules_allows(e->rules, 2, prev, l)) &&
+                (best < 0 || gs_model_rules_count(e->rules, l) > gs_model_rules_count(e->rules, best)))
+                best = l;
+        if (best < 0)
+            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                 "model.ground: no start model: no rows of one pattern each lead "
+                                 "down to a ground pattern of %s that repeats along x",
+                                 e->cfg->sample);
+        for (int x = 0; x < lat->nx && !err; x++)
+            for (int z = 0; z < lat->nz; z++)
+                lat->labels[gs_model_lattice_index(lat, x, y, z)] = (uint16_t)best;
+        prev = best;
+    }
+    gs_free(reach);
+    return err;
+}
+
 /* Start model on every rank (deterministic, so no broadcast). */
 static gs_err build_start(model_engine *e)
 {
     const model_config *c = e->cfg;
+    if (c->ground && !c->start[0])
+        return ground_start(e);
     if (c->start[0]) {
         memcpy(e->lat.labels, e->start.labels, lattice_cells(&e->lat) * sizeof(uint16_t));
         size_t nv = gs_model_rules_violations(e->rules, &e->lat);
@@ -1257,6 +1315,7 @@ static void engine_free(model_engine *e)
     gs_free(e->shape);
     gs_free(e->mirror_map[0]);
     gs_free(e->mirror_map[1]);
+    gs_free(e->ground);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -1327,6 +1386,34 @@ static gs_err mirror_setup(model_engine *e)
     return GS_OK;
 }
 
+/* model.ground: label sets of the bottom row and of the patterns banned above
+ * it (pattern i = label i + 1). */
+static gs_err ground_setup(model_engine *e)
+{
+    const int L = gs_model_rules_nlabels(e->rules), W = (L + 63) / 64;
+    GS_CALL(gs_alloc_array((void **)&e->ground, 2 * (size_t)W, 8, "ground patterns"));
+    memset(e->ground, 0, 2 * (size_t)W * 8);
+    int ng = 0, only = 0;
+    for (int i = 0; i < e->pats.npatterns && i + 1 < L; i++) {
+        if (!e->pats.bottom[i])
+            continue;
+        int l = i + 1;
+        e->ground[l >> 6] |= (uint64_t)1 << (l & 63);
+        ng++;
+        if (e->pats.bottom[i] == e->pats.count[i]) {
+            e->ground[W + (l >> 6)] |= (uint64_t)1 << (l & 63);
+            only++;
+        }
+    }
+    GS_CHECK(ng > 0, GS_ERR_ARG, "model.ground: %s has no pattern on its bottom row",
+             e->cfg->sample);
+    gs_log(GS_LOG_INFO, "ground: %d patterns of the sample's bottom row for the output's bottom "
+           "row, %d of them found only there (banned above)", ng, only);
+    e->params.ground = e->ground;
+    e->params.ground_only = e->ground + W;
+    return GS_OK;
+}
+
 static gs_err setup(gs_run *run, model_engine *e, int resume)
 {
     const model_config *c = e->cfg;
@@ -1386,6 +1473,8 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     }
     if (e->params.mirror[0] || e->params.mirror[1])
         GS_CALL(mirror_setup(e));
+    if (c->ground)
+        GS_CALL(ground_setup(e));
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
         GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
                                      c->resemblance_layers, &e->resem));

@@ -17,6 +17,7 @@ void gs_model_patterns_destroy(gs_model_patterns *p)
     gs_free(p->colors);
     gs_free(p->pat);
     gs_free(p->count);
+    gs_free(p->bottom);
     gs_free(p->pairs);
     memset(p, 0, sizeof *p);
 }
@@ -86,6 +87,7 @@ gs_err gs_model_patterns_learn(const char *png, int n, int symmetry, int periodi
         tsize <<= 1;
     GS_TRY(err, gs_alloc_array((void **)&P.pat, maxp, (size_t)NN, "patterns"), fail);
     GS_TRY(err, gs_alloc_array((void **)&P.count, maxp, sizeof *P.count, "pattern counts"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&P.bottom, maxp, sizeof *P.bottom, "pattern counts"), fail);
     GS_TRY(err, gs_alloc_array((void **)&table, tsize, sizeof *table, "pattern table"), fail);
     memset(table, 0, tsize * sizeof *table);
     GS_TRY(err, gs_alloc_array((void **)&ps, 8, (size_t)NN, "pattern variants"), fail);
@@ -105,6 +107,9 @@ gs_err gs_model_patterns_learn(const char *png, int n, int symmetry, int periodi
                     for (int px = 0; px < n; px++)
                         dst[px + n * py] = k % 2 ? src[n - 1 - px + n * py] : src[n - 1 - py + n * px];
             }
+            /* a window whose bottom row is the sample's bottom row (as is or
+             * mirrored in x: down stays down) is a ground pattern */
+            const int at_bottom = y == H - n;
             for (int k = 0; k < symmetry; k++) {
                 const uint8_t *q = ps + (size_t)k * (size_t)NN;
                 uint64_t h = gs_digest_bytes(q, (size_t)NN);
@@ -116,12 +121,14 @@ gs_err gs_model_patterns_learn(const char *png, int n, int symmetry, int periodi
                                      n, n);
                         memcpy(P.pat + (size_t)P.npatterns * (size_t)NN, q, (size_t)NN);
                         P.count[P.npatterns] = 1;
+                        P.bottom[P.npatterns] = at_bottom && k < 2;
                         table[slot] = (uint64_t)++P.npatterns;
                         break;
                     }
                     size_t idx = (size_t)table[slot] - 1;
                     if (!memcmp(P.pat + idx * (size_t)NN, q, (size_t)NN)) {
                         P.count[idx]++;
+                        P.bottom[idx] += at_bottom && k < 2;
                         break;
                     }
                     slot = (slot + 1) & (tsize - 1);

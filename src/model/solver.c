@@ -621,6 +621,19 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
             }
         }
     }
+    if (s->ground || s->ground_only)
+        for (int32_t c = 0; c < (int32_t)s->n; c++) {
+            /* ground: the last row holds ground patterns, the others none of
+             * the patterns found only there */
+            uint64_t *dc = s->dom + (size_t)c * (size_t)s->W;
+            int bottom = b->y0 + (c / rx) % ry == lat->ny - 1;
+            for (int w = 0; w < s->W; w++) {
+                if (bottom && s->ground)
+                    dc[w] &= s->ground[w];
+                else if (!bottom && s->ground_only)
+                    dc[w] &= ~s->ground_only[w];
+            }
+        }
     const uint16_t *pins = s->pins;
     s->box_x0 = b->x0;
     s->box_y0 = b->y0;
@@ -1125,6 +1138,8 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
         s->mirror_odd[a] = p->mirror_odd[a];
         s->mirror_map[a] = p->mirror_map[a];
     }
+    s->ground = p->ground;
+    s->ground_only = p->ground_only;
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);
