@@ -2,15 +2,16 @@
 """Turns a campaign folder (or any folder of geosynth run directories) into a report.
 
     /usr/bin/python3 analysis/report.py CAMPAIGN_DIR [--bench bench-results/bench_field.json]
-                                        [--out DIR] [--max-faces N]
+                                        [--out DIR]
     -> CAMPAIGN_DIR/report/index.html (+ PNG figures next to it)
 
 Figures: strong scaling (wall seconds and speed-up vs ranks, per config),
 per-phase seconds (stacked bars, max over ranks, per run), the matcher
 comparison of a field benchmark JSON (--bench: tree vs brute force vs FFT
 seconds per query, per query kind), micro target-vs-achieved histograms,
-field slices, lattice slices and mesh renders (matplotlib, faces decimated to
---max-faces), one of each per config (from its smallest rank count). Then a
+field slices, lattice slices and mesh renders (every face: geosynth's built-in
+renderer via `geosynth preview`, $GEOSYNTH or bin/geosynth; matplotlib when it
+cannot run), one of each per config (from its smallest rank count). Then a
 table of runs: config, ranks, seed, wall, slowest phase, peak memory, digest
 and whether the digest agrees with every other run of the same config (the
 determinism contract across rank counts). Reads only summary.json,
@@ -20,6 +21,7 @@ Exit 0, or 1 when a digest disagrees or there are no runs.
 import argparse
 import html
 import os
+import subprocess
 import sys
 
 import matplotlib
@@ -191,8 +193,10 @@ def fig_lattice(run, out):
     return save(fig, out, f"lattice_{safe(run['_dir'])}.png")
 
 
-def fig_mesh(run, out, max_faces):
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+def fig_mesh(run, out):
+    """The run's first mesh, every face drawn: rendered by geosynth's built-in
+    renderer (`geosynth preview`, $GEOSYNTH or bin/geosynth), else by
+    matplotlib. Returns (figure file, faces in the file, faces drawn) or None."""
     meshes = gsio.mesh_outputs(run)
     if not meshes:
         return None
@@ -201,8 +205,17 @@ def fig_mesh(run, out, max_faces):
     if v is None or f is None or len(f) == 0:
         return None
     nfaces = len(f)
-    if nfaces > max_faces:  # decimate: a fixed random subset of faces (a preview, not a remesh)
-        f = f[np.random.default_rng(1).choice(nfaces, max_faces, replace=False)]
+    name = f"mesh_{safe(run['_dir'])}.png"
+    exe = os.environ.get("GEOSYNTH") or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bin", "geosynth")
+    try:
+        r = subprocess.run([exe, "-q", "preview", "--out", os.path.join(out, name), "--size", "512", path],
+                           capture_output=True, text=True, timeout=600)
+        if r.returncode == 0 and os.path.getsize(os.path.join(out, name)) > 0:
+            return name, nfaces, nfaces
+        gsio.warn(f"{path}: geosynth preview failed ({r.stderr.strip()[:200]}); drawing with matplotlib")
+    except OSError as e:
+        gsio.warn(f"{path}: no geosynth to render with ({e}); drawing with matplotlib")
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     tri = v[f[:, :3]]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-12
@@ -210,8 +223,7 @@ def fig_mesh(run, out, max_faces):
     shade = 0.25 + 0.75 * np.abs(n @ light)
     fig = plt.figure(figsize=(6, 5.5))
     ax = fig.add_subplot(projection="3d")
-    polys = v[f]
-    pc = Poly3DCollection(polys, facecolors=plt.cm.bone(0.35 + 0.6 * shade), edgecolors="none")
+    pc = Poly3DCollection(v[f], facecolors=plt.cm.bone(0.35 + 0.6 * shade), edgecolors="none")
     ax.add_collection3d(pc)
     lo, hi = v.min(axis=0), v.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2
@@ -220,9 +232,8 @@ def fig_mesh(run, out, max_faces):
     ax.set_zlim(c[2] - r, c[2] + r)
     ax.view_init(elev=30, azim=-60)
     ax.set_axis_off()
-    ax.set_title(f"{run['_config_name']}: {os.path.basename(path)}\n{nfaces} faces"
-                 + (f", {len(f)} drawn" if len(f) < nfaces else ""), fontsize=9)
-    return save(fig, out, f"mesh_{safe(run['_dir'])}.png")
+    ax.set_title(f"{run['_config_name']}: {os.path.basename(path)}\n{nfaces} faces", fontsize=9)
+    return save(fig, out, name), nfaces, nfaces
 
 
 PAGE = """<!DOCTYPE html>
@@ -310,7 +321,6 @@ def main():
     ap.add_argument("campaign")
     ap.add_argument("--bench", help="field benchmark JSON (tests/bench: bench-results/bench_field.json)")
     ap.add_argument("--out", help="report directory (default CAMPAIGN/report)")
-    ap.add_argument("--max-faces", type=int, default=20000, help="faces drawn per mesh render")
     args = ap.parse_args()
     runs = gsio.load_runs(args.campaign)
     if not runs:
@@ -342,7 +352,9 @@ def main():
                 add(fig_field(r, out), f"{label}: orthogonal slices of the synthesized distance field.")
             if engine == "model":
                 add(fig_lattice(r, out), f"{label}: slices of the label lattice.")
-            add(fig_mesh(r, out, args.max_faces), f"{label}: output mesh ({r['_dir']}).")
+            m = fig_mesh(r, out)
+            if m:
+                add(m[0], f"{label}: output mesh ({r['_dir']}), {m[2]} of {m[1]} faces drawn.")
         except (OSError, ValueError, KeyError) as e:
             gsio.warn(f"{r['_dir']}: {e}")
     nbad = sum(1 for v in agree.values() if v is False)
