@@ -48,6 +48,14 @@
  * 1.10 format, and /geosynth@config_digest (XXH3 of the config text) is
  * checked by every open. gs_ckpt_verify() checks a whole file.
  *
+ * FULL DISKS. Before libhdf5 writes a dataset, rank 0 reserves room for the
+ * whole file so far with posix_fallocate (src/io/h5_file.c gs_h5_reserve):
+ * a full disk is GS_ERR_IO "no room to write ..." on every rank instead of a
+ * write failing inside parallel libhdf5 on one rank (which left the others
+ * waiting in its collectives). gs_ckpt_discard empties the .tmp before
+ * closing it, so what libhdf5 still writes at close finds room. The
+ * reserved slack is cut at commit (to the superblock's end of file).
+ *
  * COLLECTIVITY. A handle opened with a communicator uses parallel HDF5
  * (MPI-IO). Functions marked "Collective" must be called by every rank of
  * that communicator in the same order with the same arguments (except the

@@ -186,6 +186,10 @@ static gs_err write_rows(struct gs_ckpt *h, const char *dset, const gs_h5_shape 
     GS_CALL(agree(h, local));
     if (tiled)
         GS_CALL(check_tiling(h, dset, s->dims[0], start, count));
+    uint64_t bytes = 1;
+    for (int i = 0; i < s->rank; i++)
+        bytes *= s->dims[i];
+    GS_CALL(gs_h5_reserve(h, bytes * gs_h5_type_size(s->type), dset));
 
     hid_t dcpl = -1, fspace = -1, mspace = -1, d = -1, dxpl = -1;
     hid_t lcpl = H5Pcreate(H5P_LINK_CREATE);

@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -38,6 +39,8 @@ static void free_handle(struct gs_ckpt *h)
 {
     if (!h)
         return;
+    if (h->reserve_fd >= 0)
+        close(h->reserve_fd);
     gs_free(h->path);
     gs_free(h->tmp_path);
     gs_free(h->prev_path);
@@ -51,6 +54,7 @@ static gs_err new_handle(MPI_Comm comm, const char *path, struct gs_ckpt **out)
     struct gs_ckpt *h = gs_calloc(1, sizeof *h);
     GS_CHECK(h, GS_ERR_MEM, "%s: out of memory for the file handle", path);
     h->file = -1;
+    h->reserve_fd = -1;
     h->comm = comm;
     h->rank = 0;
     h->size = 1;
@@ -234,6 +238,7 @@ gs_err gs_ckpt_create(MPI_Comm comm, const char *path, const gs_ckpt_meta *meta,
     }
     GS_TRY(err, agree(h, local), fail_created);
     h->writing = 1;
+    GS_TRY(err, gs_h5_reserve(h, strlen(h->config), "/geosynth"), fail_created);
     local = write_identity(h);
     GS_TRY(err, agree(h, local), fail_created);
     *out = h;
@@ -245,6 +250,33 @@ fail_created:
 fail:
     free_handle(h);
     return err;
+}
+
+#define GS_H5_RESERVE_MARGIN ((uint64_t)256 << 10) /* metadata written later, at close */
+
+gs_err gs_h5_reserve(struct gs_ckpt *h, uint64_t bytes, const char *what)
+{
+    gs_err local = GS_OK;
+    if (h->rank == 0 && h->writing && !h->reserve_off) {
+        /* All the file will hold so far, from byte 0 (what is allocated
+         * already costs nothing): data + 1/64 for chunk checksums + 4 KiB of
+         * metadata per object + a margin for what libhdf5 writes at close. */
+        h->reserve_total += bytes + bytes / 64 + 4096;
+        if (h->reserve_fd < 0)
+            h->reserve_fd = open(h->tmp_path, O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
+        int rc = h->reserve_fd < 0 ? EOPNOTSUPP
+                                   : posix_fallocate(h->reserve_fd, 0,
+                                                     (off_t)(h->reserve_total + GS_H5_RESERVE_MARGIN));
+        if (rc == EOPNOTSUPP || rc == EINVAL || rc == ENOSYS)
+            h->reserve_off = 1;
+        else if (rc != 0)
+            local = gs_error_raise(GS_ERR_IO, __FILE__, __LINE__, __func__,
+                                   "%s: no room to write %s (%llu bytes; the file needs about %llu): %s",
+                                   h->tmp_path, what, (unsigned long long)bytes,
+                                   (unsigned long long)h->reserve_total, strerror(rc));
+    }
+    GS_CALL(agree(h, local));
+    return GS_OK;
 }
 
 gs_err gs_ckpt_keep_previous(gs_ckpt_t h, const char *prev_path)
@@ -294,9 +326,30 @@ static gs_err keep_previous(const struct gs_ckpt *h)
 
 /* Rank 0, after every rank closed the file: make the new file durable, put
  * it in place, make the rename durable. */
+/* Cuts what gs_h5_reserve reserved past the file's end: to the end address
+ * its superblock (version 2/3 at byte 0, as gs_ckpt_create writes) declares. */
+static void trim_reserved(int fd)
+{
+    unsigned char sb[48];
+    struct stat st;
+    if (pread(fd, sb, sizeof sb, 0) != (ssize_t)sizeof sb || memcmp(sb, "\211HDF\r\n\032\n", 8) ||
+        (sb[8] != 2 && sb[8] != 3) || sb[9] != 8 || fstat(fd, &st) != 0)
+        return;
+    uint64_t base = 0, eof = 0;
+    for (int i = 7; i >= 0; i--) {
+        base = base << 8 | sb[12 + i];
+        eof = eof << 8 | sb[12 + 16 + i];
+    }
+    if (eof <= UINT64_MAX - base && base + eof < (uint64_t)st.st_size && ftruncate(fd, (off_t)(base + eof)) != 0) {
+        /* the slack stays: harmless */
+    }
+}
+
 static gs_err durable_rename(const struct gs_ckpt *h)
 {
-    int fd = open(h->tmp_path, O_RDONLY);
+    int fd = open(h->tmp_path, h->reserve_fd >= 0 ? O_RDWR : O_RDONLY);
+    if (fd >= 0 && h->reserve_fd >= 0)
+        trim_reserved(fd);
     GS_CHECK(fd >= 0, GS_ERR_IO, "%s: cannot reopen for fsync: %s", h->tmp_path,
              strerror(errno));
     if (fsync(fd) != 0) {
@@ -370,8 +423,23 @@ void gs_ckpt_discard(gs_ckpt_t *hp)
         return;
     struct gs_ckpt *h = *hp;
     *hp = NULL;
-    if (h->file >= 0)
+    if (h->file >= 0) {
+        /* The file is thrown away: empty it first, so that what libhdf5
+         * still writes while closing finds room even on a full disk (one
+         * rank failing a write inside H5Fclose leaves the others waiting). */
+        if (h->writing && h->rank == 0 && h->tmp_path) {
+            int fd = open(h->tmp_path, O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
+            if (fd >= 0) {
+                if (ftruncate(fd, 0) != 0) {
+                    /* nothing more to free */
+                }
+                close(fd);
+            }
+        }
+        if (h->writing && is_parallel(h))
+            MPI_Barrier(h->comm);
         H5Fclose(h->file);
+    }
     H5Eclear2(H5E_DEFAULT);
     if (h->tmp_path) {
         if (is_parallel(h))

@@ -14,6 +14,9 @@ struct gs_ckpt {
     char *path;        /* final path (or image name) */
     char *tmp_path;    /* path + ".tmp" when writing */
     char *prev_path;   /* where commit keeps the replaced file (NULL: nowhere) */
+    int reserve_fd;    /* rank 0 of a file being written: tmp_path for fallocate (-1: none) */
+    int reserve_off;   /* 1 when the file system has no fallocate */
+    uint64_t reserve_total; /* bytes reserved so far (gs_h5_reserve) */
     char engine[GS_H5_ENGINE_MAX];
     char *program_version;
     char *config;
@@ -21,6 +24,14 @@ struct gs_ckpt {
     int format_version;
     uint64_t seed;
 };
+
+/* Collective on a file being written: rank 0 reserves bytes (plus a margin
+ * for metadata) at the file's end of allocation with posix_fallocate, so a
+ * full disk is reported here, before libhdf5 writes anything. Parallel
+ * libhdf5 cannot fail a write on one rank: the other ranks wait in its
+ * internal collectives forever (#25: disk full during a checkpoint hung
+ * np 2 and 3). File systems without fallocate are left unreserved. */
+gs_err gs_h5_reserve(struct gs_ckpt *h, uint64_t bytes, const char *what);
 
 /* Silences HDF5's automatic error printing (idempotent, cheap). */
 void gs_h5_quiet(void);
