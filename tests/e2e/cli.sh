@@ -55,7 +55,9 @@ expect_no_crash "resume a damaged checkpoint"
 
 run_gs 0 resume run1 --set field.block=4
 expect_rc 1 "resume may not change non-run keys"
-expect_err "only run.* keys" "resume explains which keys may change"
+expect_err "only run.checkpoint_seconds, run.checkpoint_every" "resume explains which keys may change"
+run_gs 0 resume run1 --set run.seed=5
+expect_rc 1 "resume may not change run.seed (it was accepted, ignored by the output, yet recorded in summary.json)"
 
 # --- preview: meshes side by side in one PNG (make demo's pictures) ---------------
 run_gs 0 example balls --out pballs.obj --size 24
