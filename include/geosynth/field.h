@@ -381,6 +381,12 @@ typedef struct gs_field_synth_state {
     double stat_min[GS_FIELD_MAX_ITER];
     double stat_max[GS_FIELD_MAX_ITER];
     uint64_t stat_pops[GS_FIELD_MAX_ITER];
+    uint64_t stat_pushes[GS_FIELD_MAX_ITER];
+    /* after iteration 0: copied samples whose sign (inside/outside) differs
+     * from the upsampled coarse result they replace, and the copied samples
+     * (how closely the coarse iterations guide the finer ones) */
+    uint64_t stat_coarse_flips[GS_FIELD_MAX_ITER];
+    uint64_t stat_coarse_n[GS_FIELD_MAX_ITER];
 } gs_field_synth_state;
 
 typedef struct gs_field_synth *gs_field_synth_t;

@@ -587,6 +587,9 @@ static gs_err write_checkpoint(gs_run *run, match_ctx *ctx, uint64_t src_digest)
     GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_min", &sf, st->stat_min, NULL), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_max", &sf, st->stat_max, NULL), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_pops", &su, st->stat_pops, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_pushes", &su, st->stat_pushes, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_coarse_flips", &su, st->stat_coarse_flips, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/field/stat_coarse_n", &su, st->stat_coarse_n, NULL), fail);
     GS_TRY(err, write_u8_field(h, run, "/field/target", st->tn, GS_H5_U8, st->target), fail);
     GS_TRY(err, write_u8_field(h, run, "/field/mask", st->tn, GS_H5_U8, st->mask), fail);
     GS_TRY(err, write_u8_field(h, run, "/field/provenance", ctx->target, GS_H5_I32, ctx->prov), fail);
@@ -630,6 +633,9 @@ static gs_err read_checkpoint(gs_run *run, const gs_qfield *src, const gs_field_
     GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_min", &sf, st.stat_min), done);
     GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_max", &sf, st.stat_max), done);
     GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_pops", &su, st.stat_pops), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_pushes", &su, st.stat_pushes), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_coarse_flips", &su, st.stat_coarse_flips), done);
+    GS_TRY(err, gs_ckpt_read_whole(h, "/field/stat_coarse_n", &su, st.stat_coarse_n), done);
     size_t n = (size_t)(st.tn[0] * st.tn[1] * st.tn[2]);
     GS_TRY(err, gs_alloc_array((void **)&st.target, n, 1, "checkpoint target"), done);
     GS_TRY(err, gs_alloc_array((void **)&st.mask, n, 1, "checkpoint mask"), done);
@@ -1051,9 +1057,38 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             gs_run_metric_f64(run, k, st->stat_max[i]);
             snprintf(k, sizeof k, "match_blocks_it%d", i);
             gs_run_metric_i64(run, k, st->stat_count[i]);
+            /* search work: queue pops, and pushes (best-first, the upper
+             * bound of eq. 3 cannot save pops, only the entries it keeps out
+             * of the queue) */
+            snprintf(k, sizeof k, "match_pops_it%d", i);
+            gs_run_metric_i64(run, k, (int64_t)st->stat_pops[i]);
+            snprintf(k, sizeof k, "match_pushes_it%d", i);
+            gs_run_metric_i64(run, k, (int64_t)st->stat_pushes[i]);
         }
         int last = sc.iterations - 1;
         gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
+        /* coarse guidance: share of the copied samples whose sign differs
+         * from the upsampled coarse result they replace, over the share
+         * expected between two unrelated samples of the source, 2 v (1 - v)
+         * (v: its volume fraction): ~0 follows the coarse result, ~1 ignores it */
+        {
+            int64_t nq = q->nx * q->ny * q->nz, in = 0;
+            for (int64_t i = 0; i < nq; i++)
+                in += gs_qfield_value(q, q->q[i]) < 0;
+            double v = (double)in / (double)nq, unrelated = 2 * v * (1 - v), worst = 0;
+            for (int i = 1; i < sc.iterations; i++) {
+                char k[64];
+                double dep = st->stat_coarse_n[i] && unrelated > 0
+                                 ? (double)st->stat_coarse_flips[i] / (double)st->stat_coarse_n[i] /
+                                       unrelated
+                                 : 0;
+                snprintf(k, sizeof k, "coarse_departure_it%d", i);
+                gs_run_metric_f64(run, k, dep);
+                if (dep > worst)
+                    worst = dep;
+            }
+            gs_run_metric_f64(run, "coarse_departure", worst);
+        }
         gs_field_geometry_report gr;
         if (!lerr)
             lerr = gs_field_geometry_measure(res, q, (int)c->block, &gr);

@@ -59,6 +59,7 @@ typedef struct block_result {
     int64_t index;                /* matched source block */
     double nd;                    /* normalized match distance */
     uint64_t pops;
+    uint64_t pushes;              /* queue pushes (the upper bound lowers them) */
 } block_result;
 
 /* A box of samples the blocks read and write: the whole target, or a
@@ -455,6 +456,7 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     r->index = m.index;
     r->nd = m.known ? (double)m.dist / (double)wk / (double)m.known : 0;
     r->pops = m.pops;
+    r->pushes = m.pushes;
     return GS_OK;
 }
 
@@ -468,6 +470,7 @@ static void copy_block(struct gs_field_synth *s, const synth_view *v, const int6
     gs_field_block_position(s->level_src, B, index, bp);
     const gs_qfield *ls = s->level_src;
     int32_t *prov = record && it == s->cfg.iterations - 1 ? s->cfg.prov : NULL;
+    uint64_t csq = 0, cn = 0;
     int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
     for (int k = 0; k < B; k++)
         for (int j = 0; j < B; j++) {
@@ -476,12 +479,19 @@ static void copy_block(struct gs_field_synth *s, const synth_view *v, const int6
             const uint8_t *from = ls->q + so;
             for (int i = 0; i < B; i++)
                 if (!v->mask[o + i]) {
+                    csq += (gs_qfield_value(ls, from[i]) < 0) !=
+                           (gs_qfield_value(ls, v->target[o + i]) < 0);
+                    cn++;
                     v->target[o + i] = from[i];
                     v->mask[o + i] = 1;
                     if (prov)
                         prov[o + i] = (int32_t)(so + i);
                 }
         }
+    if (record && it > 0) {
+        s->st.stat_coarse_flips[it] += csq;
+        s->st.stat_coarse_n[it] += cn;
+    }
 }
 
 /* Statistics of one block, and the cursor past it. */
@@ -495,6 +505,7 @@ static void account(struct gs_field_synth *s, const block_result *r)
     if (r->nd > s->st.stat_max[it])
         s->st.stat_max[it] = r->nd;
     s->st.stat_pops[it] += r->pops;
+    s->st.stat_pushes[it] += r->pushes;
     s->st.cursor++;
 }
 
