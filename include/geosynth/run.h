@@ -22,6 +22,12 @@
 
 #define GS_RUN_MAX_PHASES 64
 
+/* RUN_DIR/start.ini, written atomically by a fresh gs_run_open: a first line
+ * "; geosynth ENGINE", then the resolved config. `geosynth resume RUN_DIR`
+ * with no checkpoint (killed before the first one) starts the run again from
+ * it, which gives the same output. */
+#define GS_RUN_START_FILE "start.ini"
+
 typedef struct gs_run_phase {
     char name[48];
     double start;

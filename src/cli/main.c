@@ -18,6 +18,7 @@
 #include "geosynth/engine.h"
 #include "geosynth/error.h"
 #include "geosynth/field_examples.h"
+#include "geosynth/file.h"
 #include "geosynth/h5.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
@@ -354,9 +355,9 @@ static gs_err check_inputs(const gs_engine *e, const void *cfg, const char *orig
 /* Runs an engine fresh (resume = 0) or from RUN_DIR (resume = 1).
  * Collective. Config problems are collective failures. */
 static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resume_config,
-                         int *collective)
+                         int restart, int *collective)
 {
-    int resume = resume_config != NULL;
+    int resume = resume_config != NULL && !restart;
     *collective = 1;
     char *resolved = NULL;
     void *cfg = gs_calloc(1, e->config_size);
@@ -371,9 +372,11 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
         overrides[nov++] = out_override;
     }
     gs_err err;
-    if (resume) {
+    if (resume_config) {
         err = gs_config_text_collective(MPI_COMM_WORLD, e->config, resume_config,
-                                        "(config stored in the checkpoint)", overrides,
+                                        restart ? "(config stored in " GS_RUN_START_FILE ")"
+                                                : "(config stored in the checkpoint)",
+                                        overrides,
                                         (size_t)nov, cfg, &resolved);
     } else {
         err = gs_config_load_collective(MPI_COMM_WORLD, e->config, a->config_path, overrides,
@@ -386,8 +389,9 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
     }
     char origin[PATH_MAX + 32];
     snprintf(origin, sizeof origin, "%s", a->config_path ? a->config_path : "");
-    if (resume)
-        snprintf(origin, sizeof origin, "%s/checkpoint.h5 (its stored config)", a->positional);
+    if (resume_config)
+        snprintf(origin, sizeof origin, "%s/%s (its stored config)", a->positional,
+                 restart ? GS_RUN_START_FILE : "checkpoint.h5");
     err = check_inputs(e, cfg, origin);
     if (err && !a->check) {
         gs_config_free(e->config, cfg);
@@ -410,7 +414,7 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
     if (!log_level_from_cli)
         gs_log_set_level(log_level_from_name(rc->log_level));
     gs_run run;
-    err = gs_run_open(&run, MPI_COMM_WORLD, e->name, resume ? a->positional : rc->output,
+    err = gs_run_open(&run, MPI_COMM_WORLD, e->name, resume_config ? a->positional : rc->output,
                       resolved, (uint64_t)rc->seed, resume);
     if (!err) {
         gs_log_section("INPUT SUMMARY");
@@ -459,14 +463,36 @@ static gs_err cmd_resume(const cli_args *a, int *collective)
     char engine[64] = "";
     char *config_text = NULL;
     gs_err err = GS_OK;
+    int restart = 0;
     if (gs_par_rank() == 0) {
-        char path[PATH_MAX];
+        char path[PATH_MAX], start[PATH_MAX];
         snprintf(path, sizeof path, "%s/checkpoint.h5", a->positional);
+        snprintf(start, sizeof start, "%s/%s", a->positional, GS_RUN_START_FILE);
         err = gs_run_resume_prepare(a->positional);
-        if (!err)
+        if (!err && access(path, F_OK) != 0 && access(start, F_OK) == 0) {
+            /* Killed before its first checkpoint: start again from start.ini. */
+            size_t len = 0;
+            err = gs_file_read_all(start, (size_t)256 << 20, &config_text, &len);
+            char *nl = err ? NULL : strchr(config_text, '\n');
+            if (!err && (strncmp(config_text, "; geosynth ", 11) || !nl ||
+                         (size_t)(nl - config_text) - 11 >= sizeof engine))
+                err = gs_error_raise(GS_ERR_FORMAT, __FILE__, __LINE__, __func__,
+                                     "%s: first line is not '; geosynth ENGINE'", start);
+            if (!err) {
+                memcpy(engine, config_text + 11, (size_t)(nl - config_text) - 11);
+                restart = 1;
+                gs_log(GS_LOG_WARN,
+                       "%s has no checkpoint (the run stopped before its first one): starting it "
+                       "again from %s",
+                       a->positional, start);
+            }
+        } else if (!err) {
             err = gs_ckpt_peek(path, engine, sizeof engine, &config_text);
+        }
     }
     err = gs_par_agree(MPI_COMM_WORLD, err);
+    if (!err && MPI_Bcast(&restart, 1, MPI_INT, 0, MPI_COMM_WORLD) != MPI_SUCCESS)
+        err = gs_error_raise(GS_ERR_MPI, __FILE__, __LINE__, __func__, "broadcast failed");
     if (!err)
         err = gs_par_bcast_string(MPI_COMM_WORLD, &config_text, 0) ? gs_error_code() : GS_OK;
     if (!err && MPI_Bcast(engine, (int)sizeof engine, MPI_CHAR, 0, MPI_COMM_WORLD) != MPI_SUCCESS)
@@ -480,7 +506,7 @@ static gs_err cmd_resume(const cli_args *a, int *collective)
     /* -o is not allowed, so run.output comes from the stored config; the run
      * directory itself is a->positional (it may have been moved). */
     if (!err)
-        err = run_engine(e, a, config_text, collective);
+        err = run_engine(e, a, config_text, restart, collective);
     gs_free(config_text);
     return err;
 }
@@ -569,7 +595,7 @@ int main(int argc, char **argv)
         } else if (a.positional) {
             err = usage_error("unexpected argument '%s'", a.positional);
         } else {
-            err = run_engine(engine, &a, NULL, &collective);
+            err = run_engine(engine, &a, NULL, 0, &collective);
         }
     } else {
         const char *near = closest_command(a.command);

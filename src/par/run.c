@@ -91,6 +91,17 @@ static gs_err open_dir_rank0(gs_run *run, const char *dir)
     GS_CALL(gs_mkdir_p(run->dir));
     GS_CALL(gs_dir_check_writable(run->dir));
     GS_CALL(lock_dir(run));
+    if (!run->resumed) { /* what `resume` needs to start again before the first checkpoint */
+        char path[PATH_MAX];
+        gs_run_path(run, GS_RUN_START_FILE, path, sizeof path);
+        size_t n = strlen(run->config_text) + 64;
+        char *text = gs_malloc(n);
+        GS_CHECK(text, GS_ERR_MEM, "out of memory for %s", path);
+        int len = snprintf(text, n, "; geosynth %s\n%s", run->engine, run->config_text);
+        gs_err err = gs_file_write_atomic(path, text, (size_t)len);
+        gs_free(text);
+        GS_CALL(err);
+    }
     return GS_OK;
 }
 
@@ -111,7 +122,7 @@ gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *d
     gs_json_begin_object(&run->metrics, NULL);
     run->config_text = dup_str(config_text ? config_text : "");
     gs_err err = run->config_text ? GS_OK : GS_ERR_MEM;
-    if (!err && run->rank == 0)
+    if (!err && run->rank == 0) /* needs run->config_text */
         err = open_dir_rank0(run, dir);
     GS_CALL(gs_par_agree(comm, err));
     if (run->rank != 0)
