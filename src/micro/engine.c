@@ -16,6 +16,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "geosynth/digest.h"
 #include "geosynth/engine.h"
@@ -369,6 +370,13 @@ static gs_err report_results(micro_job *job, gs_json *phase)
             }
             snprintf(rel, sizeof rel, "%s/micro.h5", dir);
             gs_run_output(run, "h5", "labels", rel, NULL);
+            if (job->thumbnail <= 0 && job->cfg->preview > 0) { /* written by the output pass */
+                char full[PATH_MAX];
+                snprintf(rel, sizeof rel, "%s/preview.png", dir);
+                gs_run_path(run, rel, full, sizeof full);
+                if (access(full, F_OK) == 0)
+                    gs_run_output(run, "preview", "instance", rel, NULL);
+            }
         }
     }
     if (violations)

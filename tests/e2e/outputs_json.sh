@@ -79,6 +79,11 @@ for d in sys.argv[1:]:
         if got != o["dimensions"]: bad.append("%s: summary says %s, the file %s" % (p, o["dimensions"], got))
 for k in ("h5", "xdmf", "vdb", "vox", "mesh", "points", "preview", "json", "csv"):
     if k not in seen: bad.append("no engine listed an output of kind " + k)
+for d in sys.argv[1:]:  # every preview.png a run wrote is listed (micro: one per instance)
+    import glob, os
+    listed = {o["path"] for o in json.load(open(d + "/summary.json"))["outputs"]}
+    for p in glob.glob(d + "/**/preview.png", recursive=True):
+        if os.path.relpath(p, d) not in listed: bad.append(p + " is not listed in summary.json")
 print("\n".join(bad) or "dims ok")
 sys.exit(1 if bad else 0)
 PY
