@@ -35,4 +35,10 @@ typedef struct gs_preview_panel {
  * GS_ERR_IO when the file cannot be written. */
 gs_err gs_preview_write(const char *path, const gs_preview_panel *panels, int n, int side);
 
+/* gs_preview_write for a run's optional picture: without a renderer
+ * (GS_ERR_LIB) it logs one warning and returns GS_OK with *written = 0;
+ * *written = 1 when the file was written; other errors are returned. */
+gs_err gs_preview_write_optional(const char *path, const gs_preview_panel *panels, int n,
+                                 int side, int *written);
+
 #endif

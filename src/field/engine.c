@@ -79,6 +79,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
+#include "geosynth/preview.h"
 #include "geosynth/psearch.h"
 #include "geosynth/regions.h"
 #include "geosynth/vdb.h"
@@ -113,6 +114,7 @@ typedef struct field_config {
     int64_t relax;
     double weld;
     int vdb;
+    int preview;
     gs_run_config run;
 } field_config;
 
@@ -210,6 +212,9 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_REAL(field_config, weld, "output.weld", 0, 2, 0, "0.35",
                     "copied geometry: weld tolerance across seams, in samples"),
     GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
+    GS_CFG_KEY_BOOL(field_config, preview, "output.preview", "yes",
+                    "write RUN_DIR/preview.png: the source's contour and the output's contour "
+                    "side by side (needs output.geometry contour or both)"),
     GS_CFG_RUN_KEYS(field_config, run, "field"),
 };
 
@@ -751,6 +756,15 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_json_i64(pm, "contour_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "contour_triangles", (int64_t)m.ntris);
         gs_json_f64(pm, "contour_area", gs_mesh_area(&m));
+        if (err == GS_OK && c->preview) {
+            /* The example next to the output, each fitted to its own box. */
+            gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&m, NULL}};
+            gs_run_path(run, "preview.png", path, sizeof path);
+            int written;
+            err = gs_preview_write_optional(path, panels, 2, 512, &written);
+            if (written)
+                gs_run_output(run, "preview", "preview", "preview.png", NULL);
+        }
         gs_mesh_destroy(&m);
         GS_CALL(err);
         gs_run_output(run, "mesh", "contour", name, NULL);

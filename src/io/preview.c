@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "geosynth/image.h"
+#include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/preview.h"
 #include "geosynth/render.h"
@@ -67,5 +68,19 @@ done:
     gs_image_destroy(&all);
     if (err)
         gs_error_add_context("while writing the preview %s", path);
+    return err;
+}
+
+gs_err gs_preview_write_optional(const char *path, const gs_preview_panel *panels, int n,
+                                 int side, int *written)
+{
+    *written = 0;
+    gs_err err = gs_preview_write(path, panels, n, side);
+    if (err == GS_ERR_LIB) {
+        gs_log(GS_LOG_WARN, "preview.png not written: %s", gs_error_message());
+        gs_error_clear();
+        return GS_OK;
+    }
+    *written = err == GS_OK;
     return err;
 }

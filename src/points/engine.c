@@ -1197,14 +1197,7 @@ static gs_err write_preview(const points_config *c, const gs_points_texture *tex
     GS_TRY(err, mesh_points(&ex, voxel, R, tex->spacing, c->mesh_max_samples, &me), done);
     GS_TRY(err, mesh_points(&out, voxel, R, tex->spacing, c->mesh_max_samples, &mo), done);
     gs_preview_panel panels[2] = {{&me, NULL}, {&mo, NULL}};
-    err = gs_preview_write(path, panels, 2, 512);
-    if (err == GS_ERR_LIB) {
-        gs_log(GS_LOG_WARN, "preview.png not written: %s", gs_error_message());
-        gs_error_clear();
-        err = GS_OK;
-    } else if (err == GS_OK) {
-        *written = 1;
-    }
+    err = gs_preview_write_optional(path, panels, 2, 512, written);
 done:
     gs_points_free(&ex);
     gs_points_free(&out);

@@ -17,6 +17,24 @@ done
   ok "digest identical at np=1,2,3 (${dig[1]})" || bad "digests differ: np1=${dig[1]} np2=${dig[2]} np3=${dig[3]}"
 ref=${dig[1]}
 
+# --- preview.png: source and output contours side by side, listed in summary ---
+out=$(/usr/bin/python3 - np1 <<'EOF2'
+import json, sys, matplotlib.image as mi
+d = sys.argv[1]
+outs = [o for o in json.load(open(d + "/summary.json"))["outputs"] if o["kind"] == "preview"]
+im = mi.imread(d + "/preview.png")[..., :3]
+h, w = im.shape[:2]
+bg = im[0, 0]
+def share(a):  # pixels not of the background colour
+    return float((abs(a - bg).sum(-1) > 0.05).mean())
+l, r = share(im[:, : w // 2 - 4]), share(im[:, w // 2 + 4 :])
+print("%dx%d, listed %d, drawn share left %.2f right %.2f" % (w, h, len(outs), l, r))
+sys.exit(0 if len(outs) == 1 and outs[0]["path"] == "preview.png" and w == 2 * h + 4
+         and l > 0.05 and r > 0.05 else 1)
+EOF2
+)
+[[ $? -eq 0 ]] && ok "preview.png: source | output, both drawn, listed ($out)" || bad "preview.png: $out"
+
 # --- target regions: parallel at np>1, and the paper's raster-order result ---
 # quick.ini (default field.region_blocks = 4): per iteration 3x2x2 regions in 5
 # wavefront colors of 1, 3, 4, 3, 1 regions; at np=2 the 3 colors with >= 2
