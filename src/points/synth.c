@@ -631,10 +631,10 @@ static gs_err gather_point(struct gs_points_synth *s, size_t i, const double t[2
         double *v = gs_realloc(s->Fv, cap * sizeof *v);
         GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (patch variation)");
         s->Fv = v;
-        s->Fv_cap = cap;
         uint32_t *ob = gs_realloc(s->Fobj, cap * sizeof *ob);
         GS_CHECK(ob != NULL, GS_ERR_MEM, "points: out of memory (patch objects)");
         s->Fobj = ob;
+        s->Fv_cap = cap; /* both arrays hold cap now */
     }
     s->Fv[nv] = s->in_var[i];
     s->Fobj[nv] = obj;
