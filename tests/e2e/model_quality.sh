@@ -35,70 +35,19 @@ EOF
   /usr/bin/python3 -c 'import sys, matplotlib.image as im; a = im.imread(sys.argv[1]); assert a.shape[:2] == (512, 1028), a.shape; l, r = a[:, :512, :3], a[:, 516:, :3]; assert l.std() > 0.05 and r.std() > 0.05' "$name/preview.png" \
     && ok "$name: preview.png, example | output, 2 x 512 px, both panels drawn" || bad "$name: preview.png missing or blank"
   res=$(/usr/bin/python3 - "$M/$name.csv" "$name" <<'EOF'
-import json, sys
-import h5py, numpy as np
+import json, os, sys
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
 
-def read_csv(path):
-    layers, cur = [], []
-    for line in open(path):
-        line = line.strip()
-        if not line:
-            if cur:
-                layers.append(cur)
-                cur = []
-            continue
-        cur.append([int(t) for t in line.split(",") if t.strip()])
-    if cur:
-        layers.append(cur)
-    return np.array(layers, dtype=np.uint16)  # [z][y][x]
-
-def windows(a, k=3):
-    """bytes of every non-empty k^3 window"""
-    Z, Y, X = a.shape
-    out = []
-    for z in range(Z - k + 1):
-        for y in range(Y - k + 1):
-            for x in range(X - k + 1):
-                w = a[z:z + k, y:y + k, x:x + k]
-                if w.any():
-                    out.append(w.tobytes())
-    return out
-
-def share(ex, out):
-    es = set(windows(ex))
-    ow = windows(out)
-    return sum(w in es for w in ow) / max(1, len(ow))
-
-def completeness(ex, out):
-    """share of ex's distinct non-empty windows that occur in out"""
-    es, os_ = set(windows(ex)), set(windows(out))
-    return len(es & os_) / max(1, len(es))
-
-def l1(a, b):
-    n = max(int(a.max()), int(b.max())) + 1
-    ha = np.bincount(a.ravel(), minlength=n) / a.size
-    hb = np.bincount(b.ravel(), minlength=n) / b.size
-    return float(np.abs(ha - hb).sum())
-
-def fill(a, nz):
-    f = [(a[z] != 0).mean() if z < a.shape[0] else 0.0 for z in range(nz)]
-    return np.array(f)
-
-ex = read_csv(sys.argv[1])
-out = h5py.File(sys.argv[2] + "/lattice.h5", "r")["/model/labels"][()]
+ex = lm.read_lattice(sys.argv[1])
+out = lm.read_lattice(sys.argv[2] + "/lattice.h5")
 m = json.load(open(sys.argv[2] + "/summary.json"))["metrics"]
-Z, Y, X = ex.shape
-halves = [(ex[:, :, :X // 2], ex[:, :, X // 2:]), (ex[:, :Y // 2, :], ex[:, Y // 2:, :])]
-half_share = max(max(share(a, b), share(b, a)) for a, b in halves)
-half_l1 = max(l1(a, b) for a, b in halves)
-half_cmp = min(min(completeness(a, b), completeness(b, a)) for a, b in halves)
-cmp3 = completeness(ex, out)
-r3 = share(ex, out)
-L1 = l1(ex, out)
-used, ex_used = len(np.unique(out[out != 0])), len(np.unique(ex[ex != 0]))
-empty, ex_empty = (out == 0).mean(), (ex == 0).mean()
-fo, fe = fill(out, out.shape[0]), fill(ex, out.shape[0])
-prof = float(np.abs(fo - fe).mean())
+f, h = lm.figures(ex, out, ks=(3,)), lm.half_figures(ex, ks=(3,))
+half_share, half_l1, half_cmp = h["share_3"], h["label_l1"], h["completeness_3"]
+r3, cmp3, L1 = f["share_3"], f["completeness_3"], f["label_l1"]
+used, ex_used = f["labels_used"], f["labels_example"]
+empty, ex_empty = f["empty_share"], f["empty_share_example"]
+prof, fe_mean = f["height_fill_mean_abs"], f["height_fill_example_mean"]
 fails = []
 def need(cond, what):
     print(("ok   " if cond else "FAIL ") + what)
@@ -110,7 +59,7 @@ need(cmp3 >= half_cmp, "completeness %.3f >= example half vs half (the lower) %.
 need(used >= 0.8 * ex_used, "labels used %d >= 0.8 x example's %d" % (used, ex_used))
 need(L1 <= 2 * half_l1, "label L1 %.3f <= %.3f = 2 x example half vs half %.3f" % (L1, 2 * half_l1, half_l1))
 need(abs(empty - ex_empty) <= 0.2 * ex_empty, "empty share %.3f within 20%% of example's %.3f" % (empty, ex_empty))
-need(prof <= 0.5 * fe.mean(), "height profile mean |diff| %.3f <= half the example's mean fill %.3f" % (prof, 0.5 * fe.mean()))
+need(prof <= 0.5 * fe_mean, "height profile mean |diff| %.3f <= half the example's mean fill %.3f" % (prof, 0.5 * fe_mean))
 need(m["unsupported_share_example"] > 0 or m["unsupported_share"] == 0,
      "unsupported share %.4f where the example has %.4f" % (m["unsupported_share"], m["unsupported_share_example"]))
 need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")

@@ -1,0 +1,194 @@
+"""Quality of a label lattice against its example, from the files alone.
+
+The same figures as the engine's summary.json (src/measure/lattice.c,
+docs/FORMATS.md), recomputed here from the output lattice and the example, so
+tests and analyses do not take the engine's word for them, plus the
+reference each figure is judged against: what one half of the example
+reaches against the other half (an unseen piece of the example), along x and
+along y.
+
+    /usr/bin/python3 analysis/lattice_measures.py EXAMPLE OUTPUT [--k 2,3]
+
+prints one JSON object: {"output": {...}, "halves": {...}, "shuffled": {...}}
+(shuffled: the example's cells in a random order, the structureless reference). EXAMPLE: Merrell
+.txt, DeBroglie .csv or a lattice.h5; OUTPUT: lattice.h5 (or .txt/.csv).
+Arrays are numpy uint16 [z][y][x]; label 0 is empty.
+"""
+import json
+import sys
+
+import numpy as np
+
+
+def read_csv(path):
+    """DeBroglie .csv: rows of x, one row per y, layers (z = 0 first) split by blank lines."""
+    layers, cur = [], []
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                if cur:
+                    layers.append(cur)
+                    cur = []
+                continue
+            cur.append([int(t) for t in line.split(",") if t.strip()])
+    if cur:
+        layers.append(cur)
+    return np.array(layers, dtype=np.uint16)
+
+
+def read_txt(path):
+    """Merrell .txt: 3 free lines, 'X Y Z', then X*Y*Z labels, z outermost, then x, y innermost."""
+    with open(path) as f:
+        lines = f.read().split("\n")
+    nx, ny, nz = (int(t) for t in lines[3].split()[:3])
+    vals = []
+    for line in lines[4:]:
+        if line.strip().startswith("<"):
+            break
+        vals.extend(int(t) for t in line.split())
+        if len(vals) >= nx * ny * nz:
+            break
+    a = np.array(vals[:nx * ny * nz], dtype=np.uint16).reshape(nz, nx, ny)
+    return np.ascontiguousarray(a.transpose(0, 2, 1))
+
+
+def read_h5(path):
+    import h5py
+    with h5py.File(path, "r") as f:
+        return f["/model/labels"][()].astype(np.uint16)
+
+
+def read_lattice(path):
+    if path.endswith(".csv"):
+        return read_csv(path)
+    if path.endswith(".txt"):
+        return read_txt(path)
+    return read_h5(path)
+
+
+def windows(a, k, nonempty=True):
+    """Every k^3 window of a as one bytes key each (the non-empty ones only by default)."""
+    if min(a.shape) < k:
+        return []
+    v = np.lib.stride_tricks.sliding_window_view(a, (k, k, k)).reshape(-1, k * k * k)
+    if nonempty:
+        v = v[v.any(axis=1)]
+    v = np.ascontiguousarray(v)
+    return [bytes(r) for r in v.view(np.uint8).reshape(len(v), -1)]
+
+
+def share(ex, out, k=3, nonempty=True):
+    """Share of out's (non-empty) k^3 windows found in ex."""
+    es = set(windows(ex, k, nonempty))
+    ow = windows(out, k, nonempty)
+    return sum(w in es for w in ow) / max(1, len(ow))
+
+
+def completeness(ex, out, k=3):
+    """Share of ex's distinct non-empty k^3 windows that occur in out."""
+    es, os_ = set(windows(ex, k)), set(windows(out, k))
+    return len(es & os_) / max(1, len(es))
+
+
+def label_l1(a, b):
+    """L1 distance of the label frequencies, empty included: 0 same mix, 2 disjoint."""
+    n = max(int(a.max()), int(b.max())) + 1
+    ha = np.bincount(a.ravel(), minlength=n) / a.size
+    hb = np.bincount(b.ravel(), minlength=n) / b.size
+    return float(np.abs(ha - hb).sum())
+
+
+def fill(a, nz):
+    """Share of non-empty cells in each of nz layers (layers past a's top count as empty)."""
+    return np.array([(a[z] != 0).mean() if z < a.shape[0] else 0.0 for z in range(nz)])
+
+
+def run_lengths(a):
+    """Mean length of the runs of one non-empty label along x, y, z (as gs_model_run_lengths)."""
+    out = {}
+    for name, axis in (("x", 2), ("y", 1), ("z", 0)):
+        b = np.moveaxis(a, axis, -1).reshape(-1, a.shape[axis]).astype(np.int32)
+        cells = int((b != 0).sum())
+        prev = np.concatenate([np.full((b.shape[0], 1), -1), b[:, :-1]], axis=1)
+        runs = int(((b != 0) & (b != prev)).sum())
+        out[name] = cells / runs if runs else 0.0
+    return out
+
+
+def shuffled(ex, seed=0):
+    """The example's cells in a random order: the same label mix, no structure."""
+    flat = ex.ravel().copy()
+    np.random.default_rng(seed).shuffle(flat)
+    return flat.reshape(ex.shape)
+
+
+def figures(ex, out, ks=(2, 3)):
+    """The output's figures against the example."""
+    f = {}
+    for k in ks:
+        f["share_%d" % k] = share(ex, out, k)
+        f["share_%d_with_empty" % k] = share(ex, out, k, nonempty=False)
+        f["completeness_%d" % k] = completeness(ex, out, k)
+    f["label_l1"] = label_l1(ex, out)
+    f["labels_used"] = int(len(np.unique(out[out != 0])))
+    f["labels_example"] = int(len(np.unique(ex[ex != 0])))
+    f["empty_share"] = float((out == 0).mean())
+    f["empty_share_example"] = float((ex == 0).mean())
+    fo, fe = fill(out, out.shape[0]), fill(ex, out.shape[0])
+    f["height_fill_mean_abs"] = float(np.abs(fo - fe).mean())
+    f["height_fill_example_mean"] = float(fe.mean())
+    ro, re_ = run_lengths(out), run_lengths(ex)
+    for a in "xyz":
+        f["run_length_%s_ratio" % a] = ro[a] / re_[a] if re_[a] else 0.0
+    return f
+
+
+def halves(ex):
+    """The example cut in two along x and along y: [(a, b), (a, b)]."""
+    Z, Y, X = ex.shape
+    return [(ex[:, :, :X // 2], ex[:, :, X // 2:]), (ex[:, :Y // 2, :], ex[:, Y // 2:, :])]
+
+
+def half_figures(ex, ks=(2, 3)):
+    """What an unseen piece of the example reaches against the rest, both ways, both cuts:
+    share_K = the better window share, completeness_K = the lower completeness, label_l1 =
+    the larger L1, run_length_A_ratio = [lowest, highest] ratio of a half's runs to the whole's."""
+    f = {}
+    hs = halves(ex)
+    for k in ks:
+        f["share_%d" % k] = max(max(share(a, b, k), share(b, a, k)) for a, b in hs)
+        f["completeness_%d" % k] = min(min(completeness(a, b, k), completeness(b, a, k))
+                                       for a, b in hs)
+    f["label_l1"] = max(label_l1(a, b) for a, b in hs)
+    whole = run_lengths(ex)
+    for a in "xyz":
+        r = [run_lengths(h)[a] / whole[a] for pair in hs for h in pair if whole[a]]
+        f["run_length_%s_ratio" % a] = [min(r), max(r)] if r else [0.0, 0.0]
+    return f
+
+
+def shuffled_figures(ex):
+    """The structureless reference: run_length_A_ratio of the shuffled example's runs to the
+    example's (about 0.3 along x and y on Merrell's lattices, about 1 along z)."""
+    whole, sh = run_lengths(ex), run_lengths(shuffled(ex))
+    return {"run_length_%s_ratio" % a: sh[a] / whole[a] if whole[a] else 0.0 for a in "xyz"}
+
+
+def main(argv):
+    ks = (2, 3)
+    args = list(argv)
+    if "--k" in args:
+        i = args.index("--k")
+        ks = tuple(int(t) for t in args[i + 1].split(","))
+        del args[i:i + 2]
+    if len(args) != 2:
+        sys.exit("usage: lattice_measures.py EXAMPLE OUTPUT [--k 2,3]")
+    ex, out = read_lattice(args[0]), read_lattice(args[1])
+    json.dump({"output": figures(ex, out, ks), "halves": half_figures(ex, ks),
+               "shuffled": shuffled_figures(ex)}, sys.stdout, indent=1)
+    print()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
