@@ -185,7 +185,10 @@ run_fuzz() {
     scratch=$(mktemp -d)
     cp -r "$corpus"/. "$scratch"/ 2>/dev/null
     # Corpus replay, then a short bounded fuzzing run (new inputs go to scratch).
+    # A fixed seed (FUZZ_SEED, default 1) walks the same inputs on every run, so a
+    # commit's result does not depend on luck; FUZZ_SEED=0 draws a fresh one (campaigns).
     ASAN_OPTIONS=detect_leaks=1 timeout $(( ${FUZZ_SECONDS:-15} + 105 )) "$exe" -max_total_time="${FUZZ_SECONDS:-15}" -timeout=10 \
+      -seed="${FUZZ_SEED:-1}" -artifact_prefix="$log_dir/$name-" \
       -rss_limit_mb=2048 "$scratch" >"$log" 2>&1
     rc=$?
     rm -rf "$scratch"

@@ -627,6 +627,15 @@ static char *resolve_path(const char *value, const char *base, char *why, size_t
         return NULL;
     }
     gs_path_normalize(out);
+    /* The resolved path is what every rank, the resolved config and a resume
+     * read back: "x /." normalizes to ".../x ", whose blank no config keeps. */
+    char rt[96];
+    if (!text_round_trips(out, rt, sizeof rt)) {
+        snprintf(why, wl, "resolves to '%.*s%s', which a config cannot hold (%s)", 60, out,
+                 strlen(out) > 60 ? "..." : "", rt);
+        gs_free(out);
+        return NULL;
+    }
     return out;
 }
 

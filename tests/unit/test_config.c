@@ -600,6 +600,27 @@ static void test_round_trip(void **state)
     assert_int_equal(gs_config_resolved_text(&table, &b, &t4), GS_ERR_ARG);
     assert_non_null(strstr(gs_error_message(), "field.name"));
     b.name = saved;
+    /* A path that normalizes into a value no file can hold ("x /." is the
+     * directory "x "): refused at parse time, naming the key and the reason. */
+    gs_cfg_problems q = GS_CFG_PROBLEMS_INIT;
+    test_cfg e;
+    memset(&e, 0, sizeof e);
+    const char *blank = "[field]\nsource = x /.\n";
+    assert_int_equal(gs_config_parse_text(&table, blank, strlen(blank), "blank.ini", "/b", NULL, 0,
+                                          &e, &q),
+                     GS_ERR_ARG);
+    assert_int_equal(q.n, 1);
+    char *msg = NULL;
+    size_t msglen = 0;
+    FILE *mf = open_memstream(&msg, &msglen);
+    gs_cfg_problems_print(&q, mf);
+    fclose(mf);
+    fprintf(stderr, "%s", msg);
+    assert_non_null(strstr(msg, "blank.ini:2: [field] source"));
+    assert_non_null(strstr(msg, "/b/x '"));
+    assert_non_null(strstr(msg, "blanks"));
+    free(msg);
+    gs_cfg_problems_free(&q);
     gs_free(t1);
     gs_free(t2);
     gs_free(t3);
