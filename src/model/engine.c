@@ -1132,31 +1132,34 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
     counts[0] = counts[1] = 0;
     if (!strcmp(c->mesh, "none"))
         return GS_OK;
-    gs_model_quads quads;
+    gs_model_lattice vox = {0};
+    gs_model_palette vpal = {{{0}}, 1};
+    const gs_model_lattice *lat = &e->lat;
+    const gs_model_palette *pal = &e->pal;
+    double voxel = c->voxel_size;
     if (e->ts.dim == 3) { /* the tiles' voxels, not one cube per tile */
-        gs_model_lattice vox = {0};
-        gs_model_palette vpal = {{{0}}, 1};
         GS_CALL(gs_model_tileset_assemble(&e->ts, &e->lat, &vox, vpal.rgba));
-        gs_err merr = gs_model_mesh_quads(&vox, c->voxel_size / e->ts.vx, &quads);
-        gs_model_lattice_destroy(&vox);
-        GS_CALL(merr);
+        lat = &vox;
+        pal = &vpal;
+        voxel = c->voxel_size / e->ts.vx;
+    }
+    gs_model_quads quads = {NULL, 0, 0};
+    gs_model_polymesh m;
+    memset(&m, 0, sizeof m);
+    gs_err err = gs_model_mesh_quads(lat, voxel, &quads);
+    if (err == GS_OK)
+        err = gs_model_mesh_weld(lat, &quads, voxel, &m);
+    if (err == GS_OK) {
         counts[0] = (int64_t)quads.n;
         counts[1] = (int64_t)quads.unit_faces;
         char name[16], path[PATH_MAX];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
         gs_run_path(run, name, path, sizeof path);
-        gs_err err = gs_model_write_mesh(path, &quads, &vpal);
-        gs_model_quads_free(&quads);
-        return err;
+        err = gs_model_write_mesh(path, &m, pal);
     }
-    GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
-    counts[0] = (int64_t)quads.n;
-    counts[1] = (int64_t)quads.unit_faces;
-    char name[16], path[PATH_MAX];
-    snprintf(name, sizeof name, "mesh.%s", c->mesh);
-    gs_run_path(run, name, path, sizeof path);
-    gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
+    gs_model_polymesh_free(&m);
     gs_model_quads_free(&quads);
+    gs_model_lattice_destroy(&vox);
     return err;
 }
 
