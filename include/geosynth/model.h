@@ -15,10 +15,7 @@
  * - Outside the output is unconstrained (free boundary), as in the author's
  *   implementation. With fix_z_faces (default for nz >= 3, the author's 3D
  *   convention) the bottom and top layers keep the labels of the initial
- *   model (ground below, empty above) and are never relabelled; without it
- *   they are synthesized, optionally limited to label sets (zface: the
- *   engine's model.fix_z_faces = auto for examples whose ground layer holds
- *   several labels).
+ *   model (ground below, empty above) and are never relabelled.
  *
  * Algorithm (paper Table 2, "modifying in blocks"): start from a trivial
  * consistent model; pick a region B, forget its labels, recompute the
@@ -223,12 +220,24 @@ typedef struct gs_model_params {
                            fastest), GS_MODEL_FREE or the label the cell must
                            take; a region containing a pinned cell only keeps
                            that label there (NULL = none; not owned) */
-    const float *shape; /* soft constraint (paper Sec. 6, constraint-weighted label
-                           choice): nx*ny target values in [0, 1] (x fastest), 1 =
-                           the column should be filled, 0 = empty; label 0 gets
-                           weight exp(-g*(2m-1)), other labels exp(g*(2m-1)),
-                           g = shape_weight. NULL = none; not owned */
+    const float *shape; /* soft constraint (paper Sec. 4.2): nx*ny target values in
+                           [0, 1] (x fastest), 1 = structure belongs in the column,
+                           0 = none. Two parts: the constraint-weighted label choice
+                           (Eq. 6 modified): a structure label (see structure) gets
+                           weight exp(g*(2m-1)), any other exp(-g*(2m-1)), g =
+                           shape_weight, times its resemblance multiplicity when
+                           resem is set; and the Metropolis step: a resampled
+                           region is accepted with probability min(1, f(M')/f(M)),
+                           f(M) = exp(shape_mh * sum over cells of s(c)*(2m-1)),
+                           s(c) = 1 for a structure label. NULL = none; not owned */
     double shape_weight;
+    double shape_mh;    /* beta of f(M) per cell; 0 = every consistent region
+                           accepted (no Metropolis step) */
+    int shape_slack;    /* with resem: where the target is below 0.5 the choice
+                           also considers neighbourhoods up to this much farther
+                           than the closest (d0 + shape_slack), weighted as above */
+    const uint8_t *structure; /* [nlabels] 1 = structure label
+                           (gs_model_structure_labels); required with shape */
     int mirror[3];      /* 1 = the lattice is the lower half of an output that is
                            mirror-symmetric along that axis: the cell beyond the
                            upper face is the face cell's mirror image (itself
@@ -247,10 +256,6 @@ typedef struct gs_model_params {
                            limited to; NULL = none. Not owned */
     const uint64_t *ground_only; /* labels banned from every other row (patterns
                            found only on the sample's bottom row); NULL = none */
-    const uint64_t *zface[2]; /* without fix_z_faces: label bitsets the cells of the
-                           bottom (z = 0) and top (z = nz - 1) layers are limited to
-                           (the labels of the example's own bottom and top layers);
-                           NULL = none. Not owned */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */
@@ -384,6 +389,8 @@ typedef struct gs_model_region_result {
     int attempts;         /* tries used (over the box and its sub-boxes) */
     uint64_t choices;     /* labels picked at random (over all attempts) */
     uint64_t backtracks;  /* decisions undone (over all attempts) */
+    int mh_rejected;      /* ok = partial = 0: the new labels were consistent but the
+                             Metropolis step (params.shape_mh) kept the old ones */
 } gs_model_region_result;
 
 /* Synthesizes one region: reads lat (box and its one-cell shell), writes
@@ -408,6 +415,7 @@ typedef struct gs_model_stats {
     uint64_t attempts;   /* tries over all regions (retries = attempts - regions) */
     uint64_t choices;    /* random label choices */
     uint64_t backtracks; /* decisions undone */
+    uint64_t mh_rejected; /* consistent regions the Metropolis step did not accept */
     int passes;          /* sweeps done */
     uint64_t min_coverage; /* fewest accepted regions over any active cell */
     double seconds;

@@ -98,7 +98,7 @@ typedef struct model_config {
     int64_t resemblance_slack;
     int resemblance_layers;
     char *ac;
-    char *fix_z_faces;
+    int fix_z_faces;
     char *start;
     char *start_column;
     int64_t start_block;
@@ -110,6 +110,8 @@ typedef struct model_config {
     char *mirror_y_pairs;
     char *shape;
     double shape_weight;
+    double shape_mh;
+    int64_t shape_slack;
     char *periodic;
     char *mesh;
     int vox;
@@ -243,9 +245,11 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
             gs_cfg_report(ctx, "model.pins", "%s", why);
     }
     if (strcmp(c->mirror, "none") && (c->pins[0] || c->border[0] || c->start_block > 0 ||
-                                      strcmp(c->periodic, "none") || c->start[0]))
+                                      strcmp(c->periodic, "none") || c->start[0] ||
+                                      c->shape[0]))
         gs_cfg_report(ctx, "model.mirror",
-                      "= %s cannot be combined with pins, border, start_block, start or periodic",
+                      "= %s cannot be combined with pins, border, start_block, start, periodic "
+                      "or shape",
                       c->mirror);
     for (int a = 0; a < 3; a++) {
         int64_t edge = c->region[a];
@@ -254,7 +258,7 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "must be smaller than the region edge %lld along %c (model.region)",
                           (long long)edge, "xyz"[a]);
     }
-    if (strchr(c->periodic, 'z') && !strcmp(c->fix_z_faces, "true"))
+    if (strchr(c->periodic, 'z') && c->fix_z_faces)
         gs_cfg_report(ctx, "model.periodic",
                       "= %s wraps z: needs model.fix_z_faces = false", c->periodic);
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
@@ -358,12 +362,9 @@ static const gs_cfg_key model_keys[] = {
                     "neighbourhoods at the same height (output and example share the ground)"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",
                     "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
-    GS_CFG_KEY_ENUM(model_config, fix_z_faces, "model.fix_z_faces", "auto|true|false", "auto",
-                    "true: keep the bottom (ground) and top (empty) layers of the start model "
-                    "(nz >= 3); false: synthesize them too; auto: true when the example's bottom "
-                    "layer holds one label (Merrell's lattices), else (e.g. terrain with stone and "
-                    "dirt at z = 0) synthesize them, limited to the labels of the example's own "
-                    "bottom and top layers; tile sets, samples: true; periodic z: false"),
+    GS_CFG_KEY_BOOL(model_config, fix_z_faces, "model.fix_z_faces", "true",
+                    "keep the bottom (ground) and top (empty) layers of the start model "
+                    "(nz >= 3)"),
     GS_CFG_KEY_PATH(model_config, start, "model.start", "",
                     "start model lattice of the output size (consistent; any example format); "
                     "\"\" = inferred"),
@@ -391,11 +392,21 @@ static const gs_cfg_key model_keys[] = {
                       "label symmetry S of the y mirror as label pairs \"A B, C D\" (other "
                       "labels map to themselves); \"\" = learned from the example's adjacency"),
     GS_CFG_KEY_PATH(model_config, shape, "model.shape", "",
-                    "soft constraint: grey PNG/JPEG target shape seen from above (white = "
-                    "fill the column, black = leave it empty), stretched over x and y (row 0 = "
-                    "largest y); \"\" = none"),
+                    "soft constraint (paper Sec. 4.2): grey PNG/JPEG target shape seen from "
+                    "above (white = structure belongs in the column, black = none), stretched "
+                    "over x and y (row 0 = largest y); \"\" = none"),
     GS_CFG_KEY_REAL(model_config, shape_weight, "model.shape_weight", 0, 50, 0, "4",
-                    "strength g of model.shape: label weights exp(+-g*(2m-1))"),
+                    "strength g of model.shape's constraint-weighted choice: structure labels "
+                    "weigh exp(g*(2m-1)), the others exp(-g*(2m-1)), m = the target at the "
+                    "column"),
+    GS_CFG_KEY_REAL(model_config, shape_mh, "model.shape_mh", 0, 50, 0, "0.2",
+                    "model.shape's Metropolis step (paper Sec. 4.2): a resampled region is "
+                    "kept with probability min(1, exp(b*dE)), dE = change of the sum over "
+                    "cells of (2m-1) per structure cell; b = this (0 = keep every region)"),
+    GS_CFG_KEY_INT(model_config, shape_slack, "model.shape_slack", 0, 64, 0, "0",
+                   "model.shape with resemblance: outside the target (m < 0.5) the choice also "
+                   "weighs example neighbourhoods this much farther than the closest, so "
+                   "proposals can end structure there"),
     GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -433,11 +444,11 @@ typedef struct model_engine {
     gs_model_params params;
     uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
     float *shape;            /* soft target shape (NULL = none), lat nx*ny */
+    uint8_t *structure;      /* model.shape: [nlabels] structure labels of the example */
+    int nstructure_labels;
     int full[3];             /* output extents (mirror: lat holds the lower half) */
     int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */
     uint64_t *ground;        /* model.ground: [2][W] ground labels, labels only there */
-    uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
-                                the example's bottom and top layers */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
@@ -474,7 +485,7 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->attempts = (int)c->attempts;
     p->min_changes = (int)c->passes;
     p->max_passes = (int)c->max_passes;
-    p->fix_z_faces = strcmp(c->fix_z_faces, "false") != 0 && !strchr(c->periodic, 'z');
+    p->fix_z_faces = c->fix_z_faces;
     p->backtracks = (int)c->backtracks;
     p->order = !strcmp(c->order, "scan")          ? GS_MODEL_ORDER_SCAN
                : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
@@ -745,9 +756,12 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
                                 e->buf, &res));
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
-    region_hdr h = {res.ok ? 1 : (res.partial ? 2 : 0), res.attempts, res.choices, res.backtracks};
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
+     * 3 consistent but not accepted by the Metropolis step (kept) */
+    region_hdr h = {res.ok ? 1 : res.partial ? 2 : res.mh_rejected ? 3 : 0, res.attempts,
+                    res.choices, res.backtracks};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));
-    if (h.ok)
+    if (h.ok == 1 || h.ok == 2)
         GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
     return GS_OK;
 }
@@ -761,7 +775,8 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     region_hdr h;
     GS_CHECK(len >= sizeof h, GS_ERR_INTERNAL, "region %lld: %zu result bytes", (long long)id, len);
     memcpy(&h, buf, sizeof h);
-    GS_CHECK(len == sizeof h + (h.ok ? cells * sizeof(uint16_t) : 0), GS_ERR_INTERNAL,
+    GS_CHECK(len == sizeof h + (h.ok == 1 || h.ok == 2 ? cells * sizeof(uint16_t) : 0),
+             GS_ERR_INTERNAL,
              "region %lld: %zu result bytes for ok=%d", (long long)id, len, (int)h.ok);
     e->stats.regions++;
     e->stats.attempts += (uint64_t)h.attempts;
@@ -770,6 +785,10 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     e->region_cells += cells;
     e->region_status[id] = h.ok == 1;
     e->region_attempts[id] = h.attempts;
+    if (h.ok == 3) {
+        e->stats.mh_rejected++;
+        return GS_OK;
+    }
     if (h.ok != 1) {
         e->stats.failed++;
         if (h.ok == 2)
@@ -841,6 +860,8 @@ static gs_err write_checkpoint(gs_run *run, model_engine *e)
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_choices", e->stats.choices), fail);
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_backtracks", e->stats.backtracks), fail);
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_region_cells", e->region_cells), fail);
+    if (e->params.shape)
+        GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_mh_rejected", e->stats.mh_rejected), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, g, "synthesis_seconds", e->synth_seconds), fail);
     GS_CALL(gs_run_checkpoint_commit(run, &h, e->units));
     return GS_OK;
@@ -877,6 +898,8 @@ static gs_err read_checkpoint(gs_run *run, model_engine *e)
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_choices", &e->stats.choices), done);
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_backtracks", &e->stats.backtracks), done);
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_region_cells", &e->region_cells), done);
+    if (e->params.shape)
+        GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_mh_rejected", &e->stats.mh_rejected), done);
     GS_TRY(err, gs_ckpt_get_f64(h, g, "synthesis_seconds", &e->synth_seconds), done);
     gs_h5_shape ls = lattice_shape(&e->lat);
     GS_TRY(err, gs_ckpt_read_whole(h, "/model/lattice", &ls, e->lat.labels), done);
@@ -1137,34 +1160,31 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
     counts[0] = counts[1] = 0;
     if (!strcmp(c->mesh, "none"))
         return GS_OK;
-    gs_model_lattice vox = {0};
-    gs_model_palette vpal = {{{0}}, 1};
-    const gs_model_lattice *lat = &e->lat;
-    const gs_model_palette *pal = &e->pal;
-    double voxel = c->voxel_size;
+    gs_model_quads quads;
     if (e->ts.dim == 3) { /* the tiles' voxels, not one cube per tile */
+        gs_model_lattice vox = {0};
+        gs_model_palette vpal = {{{0}}, 1};
         GS_CALL(gs_model_tileset_assemble(&e->ts, &e->lat, &vox, vpal.rgba));
-        lat = &vox;
-        pal = &vpal;
-        voxel = c->voxel_size / e->ts.vx;
-    }
-    gs_model_quads quads = {NULL, 0, 0};
-    gs_model_polymesh m;
-    memset(&m, 0, sizeof m);
-    gs_err err = gs_model_mesh_quads(lat, voxel, &quads);
-    if (err == GS_OK)
-        err = gs_model_mesh_weld(lat, &quads, voxel, &m);
-    if (err == GS_OK) {
+        gs_err merr = gs_model_mesh_quads(&vox, c->voxel_size / e->ts.vx, &quads);
+        gs_model_lattice_destroy(&vox);
+        GS_CALL(merr);
         counts[0] = (int64_t)quads.n;
         counts[1] = (int64_t)quads.unit_faces;
         char name[16], path[PATH_MAX];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
         gs_run_path(run, name, path, sizeof path);
-        err = gs_model_write_mesh(path, &m, pal);
+        gs_err err = gs_model_write_mesh(path, &quads, &vpal);
+        gs_model_quads_free(&quads);
+        return err;
     }
-    gs_model_polymesh_free(&m);
+    GS_CALL(gs_model_mesh_quads(&e->lat, c->voxel_size, &quads));
+    counts[0] = (int64_t)quads.n;
+    counts[1] = (int64_t)quads.unit_faces;
+    char name[16], path[PATH_MAX];
+    snprintf(name, sizeof name, "mesh.%s", c->mesh);
+    gs_run_path(run, name, path, sizeof path);
+    gs_err err = gs_model_write_mesh(path, &quads, &e->pal);
     gs_model_quads_free(&quads);
-    gs_model_lattice_destroy(&vox);
     return err;
 }
 
@@ -1321,10 +1341,10 @@ static void engine_free(model_engine *e)
     gs_free(e->coverage);
     gs_free(e->pins);
     gs_free(e->shape);
+    gs_free(e->structure);
     gs_free(e->mirror_map[0]);
     gs_free(e->mirror_map[1]);
     gs_free(e->ground);
-    gs_free(e->zface);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -1423,76 +1443,6 @@ static gs_err ground_setup(model_engine *e)
     return GS_OK;
 }
 
-/* model.fix_z_faces = auto (from the config and the example alone, so a
- * resumed run decides the same): an example lattice whose bottom layer holds
- * more than one label (a terrain of stone and dirt, a village's grass and
- * roads) gets its z faces synthesized, each limited to the labels of the
- * example's own face layer: fixing the bottom to the start model's one label
- * holds everything built on it to the start column (terrain3: flat, 2 of 4
- * labels; the village: no roads). A top layer of several labels alone (the
- * mountain reaches its example's ceiling) keeps the faces fixed: synthesizing
- * it there raised completeness 0.69 -> 0.93 but lowered the 3x3x3 share
- * 0.49 -> 0.45 and let peaks climb to z = 9 (example 6). */
-static gs_err decide_z_faces(model_engine *e)
-{
-    const model_config *c = e->cfg;
-    const gs_model_lattice *ex = &e->example;
-    if (strcmp(c->fix_z_faces, "auto") || c->tileset[0] || c->sample[0] || strchr(c->periodic, 'z') ||
-        c->size[2] < 3 || ex->nz < 2)
-        return GS_OK;
-    const int L = gs_model_rules_nlabels(e->rules);
-    const size_t W = ((size_t)L + 63) / 64, layer = (size_t)ex->nx * (size_t)ex->ny;
-    GS_CALL(gs_alloc_array((void **)&e->zface, 2 * W, 8, "z face labels"));
-    memset(e->zface, 0, 2 * W * 8);
-    int distinct[2] = {0, 0};
-    for (int f = 0; f < 2; f++) {
-        const uint16_t *lab = ex->labels + (size_t)(f ? ex->nz - 1 : 0) * layer;
-        uint64_t *m = e->zface + (size_t)f * W;
-        for (size_t i = 0; i < layer; i++) {
-            uint64_t bit = (uint64_t)1 << (lab[i] & 63);
-            if (!(m[lab[i] >> 6] & bit))
-                distinct[f]++;
-            m[lab[i] >> 6] |= bit;
-        }
-    }
-    if (distinct[0] == 1) {
-        gs_free(e->zface);
-        e->zface = NULL;
-        return GS_OK;
-    }
-    e->params.fix_z_faces = 0;
-    e->params.zface[0] = e->zface;
-    e->params.zface[1] = e->zface + W;
-    gs_log(GS_LOG_INFO,
-           "z faces synthesized (model.fix_z_faces = auto): the example's bottom layer holds %d "
-           "labels, its top layer %d; each output face takes only those",
-           distinct[0], distinct[1]);
-    return GS_OK;
-}
-
-/* The start model must already keep to the face labels decide_z_faces allows. */
-static gs_err check_z_faces(const model_engine *e)
-{
-    if (!e->zface)
-        return GS_OK;
-    const gs_model_lattice *l = &e->lat;
-    const size_t W = ((size_t)gs_model_rules_nlabels(e->rules) + 63) / 64;
-    const size_t layer = (size_t)l->nx * (size_t)l->ny;
-    for (int f = 0; f < 2; f++) {
-        const int z = f ? l->nz - 1 : 0;
-        const uint64_t *m = e->zface + (size_t)f * W;
-        for (size_t i = 0; i < layer; i++) {
-            uint16_t a = l->labels[(size_t)z * layer + i];
-            GS_CHECK((m[a >> 6] >> (a & 63)) & 1, GS_ERR_ARG,
-                     "model.fix_z_faces = auto: the start model's %s layer (z = %d) holds label %u, "
-                     "which the example's %s layer lacks; give model.start_column or set "
-                     "model.fix_z_faces = true or false",
-                     f ? "top" : "bottom", z, a, f ? "top" : "bottom");
-        }
-    }
-    return GS_OK;
-}
-
 static gs_err setup(gs_run *run, model_engine *e, int resume)
 {
     const model_config *c = e->cfg;
@@ -1500,7 +1450,6 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     GS_CALL(load_inputs(run, e));
     if (!e->rules)
         GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
-    GS_CALL(decide_z_faces(e));
     int L = gs_model_rules_nlabels(e->rules), present = 0;
     for (int l = 0; l < L; l++)
         present += gs_model_rules_count(e->rules, l) > 0;
@@ -1588,6 +1537,20 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
         gs_free(grey);
         e->params.shape = e->shape;
         e->params.shape_weight = c->shape_weight;
+        e->params.shape_mh = c->shape_mh;
+        e->params.shape_slack = (int)c->shape_slack;
+        const int nl = gs_model_rules_nlabels(e->rules);
+        GS_CALL(gs_alloc_array((void **)&e->structure, (size_t)nl, 1, "structure labels"));
+        GS_CALL(gs_model_structure_labels(&e->example, nl, e->structure, &e->nstructure_labels));
+        GS_CHECK(e->nstructure_labels > 0, GS_ERR_ARG,
+                 "model.shape: the example %s has no structure label (a label other than "
+                 "empty, its top layer's commonest, and ground, the labels below the first "
+                 "layer holding empty, stacked on or under another such label)",
+                 c->example);
+        e->params.structure = e->structure;
+        gs_log(GS_LOG_INFO, "shape: %d structure labels of %d (stacked, neither empty nor "
+               "ground); choice weight %g, Metropolis b %g", e->nstructure_labels, nl,
+               c->shape_weight, c->shape_mh);
     }
     if (c->pins[0] || c->border[0]) {
         GS_CALL(gs_alloc_array((void **)&e->pins, cells, sizeof *e->pins, "pins"));
@@ -1645,7 +1608,6 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
                e->color, (long long)e->units);
     } else {
         GS_CALL(build_start(e));
-        GS_CALL(check_z_faces(e));
     }
     return GS_OK;
 }
@@ -1755,12 +1717,28 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         gs_run_metric_i64(run, "regions", (int64_t)e.stats.regions);
         gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);
         gs_run_metric_i64(run, "failed_regions", (int64_t)e.stats.failed);
-        gs_run_metric_i64(run, "z_faces_fixed", e.params.fix_z_faces && e.lat.nz >= 3);
         gs_run_metric_i64(run, "retries", (int64_t)(e.stats.attempts - e.stats.regions));
         gs_run_metric_i64(run, "rejected_attempts",
                           (int64_t)(e.stats.attempts - e.stats.accepted));
         gs_run_metric_i64(run, "backtracks", (int64_t)e.stats.backtracks);
         gs_run_metric_i64(run, "min_coverage", (int64_t)e.stats.min_coverage);
+        if (e.params.shape) { /* soft constraint: structure inside vs outside the target */
+            const int nl = gs_model_rules_nlabels(e.rules);
+            double sin = 0, sout = 0, sex = 0;
+            gs_model_structure_shares(&e.lat, e.structure, nl, e.shape, &sin, &sout);
+            const size_t ne = lattice_cells(&e.example); /* the example's own share */
+            for (size_t i = 0; i < ne; i++)
+                sex += e.example.labels[i] < nl && e.structure[e.example.labels[i]];
+            sex = ne ? sex / (double)ne : 0;
+            gs_run_metric_i64(run, "structure_labels", e.nstructure_labels);
+            gs_run_metric_f64(run, "structure_share_inside", sin);
+            gs_run_metric_f64(run, "structure_share_outside", sout);
+            gs_run_metric_f64(run, "structure_share_example", sex);
+            gs_run_metric_i64(run, "mh_rejected_regions", (int64_t)e.stats.mh_rejected);
+            gs_log(GS_LOG_INFO, "shape: structure share inside the target %.3f, outside %.3f "
+                   "(example %.3f); %llu regions not accepted by the Metropolis step", sin, sout,
+                   sex, (unsigned long long)e.stats.mh_rejected);
+        }
         if (q.has_figures)
             write_figures(run, &q.fig);
         static const char *axis_key[3][3] = {

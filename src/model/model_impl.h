@@ -71,11 +71,12 @@ struct gs_model_solver {
     const uint16_t *pins;  /* params of the current region run */
     const float *shape;
     double shape_weight;
+    const uint8_t *structure; /* params.structure */
+    int shape_slack;
     int box_x0, box_y0, box_rx, box_ry, lat_nx; /* current box (shape lookup) */
     int mirror[3], mirror_odd[3];
     const int *mirror_map[3]; /* label symmetry per mirrored axis (NULL = identity) */
     const uint64_t *ground, *ground_only; /* overlapping model ground rows (params) */
-    const uint64_t *zface[2]; /* bottom / top layer label masks (params) */
     int order_log;         /* ENTROPY_LOG buckets */
     uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */
     uint32_t *tie;     /* [n] random tie-break keys */

@@ -57,3 +57,72 @@ gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice 
         gs_measure_profile_free(&q->profile);
     return err;
 }
+
+gs_err gs_model_structure_labels(const gs_model_lattice *example, int nlabels, uint8_t *out,
+                                 int *count)
+{
+    const int nx = example->nx, ny = example->ny, nz = example->nz;
+    const size_t layer = (size_t)nx * (size_t)ny;
+    for (int l = 0; l < nlabels; l++)
+        out[l] = 0;
+    *count = 0;
+    if (!layer || nz < 1 || nlabels < 1)
+        return GS_OK;
+    /* empty: the commonest label of the top layer (ties: the smallest) */
+    uint32_t *hist = NULL;
+    GS_CALL(gs_alloc_array((void **)&hist, 65536, sizeof *hist, "top layer histogram"));
+    const uint16_t *top = example->labels + layer * (size_t)(nz - 1);
+    for (size_t i = 0; i < layer; i++)
+        hist[top[i]]++;
+    int empty = 0;
+    for (int l = 1; l < 65536; l++)
+        if (hist[l] > hist[empty])
+            empty = l;
+    gs_free(hist);
+    /* ground: the labels of the layers below the first one holding empty;
+     * out[] doubles as the mark 2 = ground or empty until the last loop */
+    int zg = 0;
+    for (; zg < nz; zg++) {
+        const uint16_t *lz = example->labels + layer * (size_t)zg;
+        int has = 0;
+        for (size_t i = 0; i < layer && !has; i++)
+            has = lz[i] == empty;
+        if (has)
+            break;
+    }
+    if (empty < nlabels)
+        out[empty] = 2;
+    for (size_t i = 0; i < layer * (size_t)zg; i++)
+        if (example->labels[i] < nlabels)
+            out[example->labels[i]] = 2;
+    /* structure: stacked on or under a label that is neither */
+    for (int z = 0; z + 1 < nz; z++)
+        for (size_t i = 0; i < layer; i++) {
+            int a = example->labels[layer * (size_t)z + i],
+                b = example->labels[layer * (size_t)(z + 1) + i];
+            if (a < nlabels && b < nlabels && out[a] != 2 && out[b] != 2)
+                out[a] = out[b] = 1;
+        }
+    for (int l = 0; l < nlabels; l++) {
+        out[l] = out[l] == 1;
+        *count += out[l];
+    }
+    return GS_OK;
+}
+
+void gs_model_structure_shares(const gs_model_lattice *lat, const uint8_t *structure,
+                               int nlabels, const float *shape, double *inside,
+                               double *outside)
+{
+    uint64_t n[2] = {0, 0}, s[2] = {0, 0};
+    for (int z = 0; z < lat->nz; z++)
+        for (int y = 0; y < lat->ny; y++)
+            for (int x = 0; x < lat->nx; x++) {
+                int in = shape[(size_t)x + (size_t)lat->nx * (size_t)y] >= 0.5f;
+                int l = lat->labels[gs_model_lattice_index(lat, x, y, z)];
+                n[in]++;
+                s[in] += l < nlabels && structure[l];
+            }
+    *inside = n[1] ? (double)s[1] / (double)n[1] : 0;
+    *outside = n[0] ? (double)s[0] / (double)n[0] : 0;
+}

@@ -17,6 +17,7 @@
 #include "model/model_impl.h"
 
 #define GS_MODEL_RNG_DOMAIN 0x4d4f444cu /* "MODL" */
+#define GS_MODEL_MH_DOMAIN 0x4d4f4d48u  /* "MOMH": the Metropolis step */
 
 /* Without the popcnt instruction (x86-64 baseline) GCC calls libgcc's
  * __popcountdi2: 2% of a run; the same count inline. */
@@ -634,16 +635,6 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                     dc[w] &= ~s->ground_only[w];
             }
         }
-    for (int f = 0; f < 2; f++) {
-        /* synthesized z faces: the example's own bottom / top labels only */
-        const int zf = f ? lat->nz - 1 : 0;
-        if (!s->zface[f] || zf < b->z0 || zf >= b->z1)
-            continue;
-        const int32_t layer = rx * ry, c0 = (int32_t)(zf - b->z0) * layer;
-        for (int32_t c = c0; c < c0 + layer; c++)
-            for (int w = 0; w < s->W; w++)
-                s->dom[(size_t)c * (size_t)s->W + (size_t)w] &= s->zface[f][w];
-    }
     const uint16_t *pins = s->pins;
     s->box_x0 = b->x0;
     s->box_y0 = b->y0;
@@ -709,20 +700,28 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     return GS_OK;
 }
 
-/* Soft shape constraint: weights scaled by the target value of c's column. */
+/* Target value m of c's column and the constraint-weighted factor of a
+ * structure label, exp(g*(2m-1)) (any other label: its inverse). */
+static double shape_factor(const struct gs_model_solver *s, int32_t c)
+{
+    int x = s->box_x0 + c % s->box_rx, y = s->box_y0 + (c / s->box_rx) % s->box_ry;
+    double m = s->shape[(size_t)x + (size_t)s->lat_nx * (size_t)y];
+    return exp(s->shape_weight * (2 * m - 1));
+}
+
+/* Soft shape constraint without resemblance: weights scaled by the target
+ * value of c's column (structure labels up, the others down). */
 static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const size_t W = (size_t)s->W;
     const uint64_t *dc = s->dom + (size_t)c * W;
-    int x = s->box_x0 + c % s->box_rx, y = s->box_y0 + (c / s->box_rx) % s->box_ry;
-    double m = s->shape[(size_t)x + (size_t)s->lat_nx * (size_t)y];
-    double f_full = exp(s->shape_weight * (2 * m - 1)), f_empty = 1.0 / f_full;
+    double f_full = shape_factor(s, c), f_empty = 1.0 / f_full;
     double total = 0;
     for (size_t w = 0; w < W; w++)
         for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
             int a = (int)(w * 64) + ctz64(bits);
             double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
-            total += base * (a == 0 ? f_empty : f_full);
+            total += base * (s->structure[a] ? f_full : f_empty);
         }
     double pick = gs_rng_uniform(rng) * total;
     int last = -1;
@@ -730,7 +729,7 @@ static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
             int a = (int)(w * 64) + ctz64(bits);
             double base = s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM ? 1.0 : (double)s->weights[a];
-            double wa = base * (a == 0 ? f_empty : f_full);
+            double wa = base * (s->structure[a] ? f_full : f_empty);
             if (pick < wa)
                 return a;
             pick -= wa;
@@ -870,8 +869,12 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             best |= 1 << b;
         }
     }
-    if (R->slack > 0) { /* counts >= best - slack: bit-sliced compare */
-        int t = best - R->slack;
+    /* outside the target shape the constraint-weighted choice also sees the
+     * next closest neighbourhoods (shape_slack more), so it can leave out
+     * structure the closest ones would continue */
+    const int slack = R->slack + (s->shape && shape_factor(s, c) < 1.0 ? s->shape_slack : 0);
+    if (slack > 0) { /* counts >= best - slack: bit-sliced compare */
+        int t = best - slack;
         if (t <= 0) {
             memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
         } else {
@@ -890,6 +893,27 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
                 mask[w] = ge | eq;
             }
         }
+    }
+    if (s->shape) { /* Eq. 6 times the constraint weight of each centre label */
+        const double f_full = shape_factor(s, c), f_empty = 1.0 / f_full;
+        double dtotal = 0;
+        int last = -1;
+        for (size_t w = wlo; w < whi; w++)
+            for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
+                size_t i = w * 64 + (size_t)ctz64(bits);
+                dtotal += mult[i] * (s->structure[R->center[i]] ? f_full : f_empty);
+            }
+        double dpick = gs_rng_uniform(rng) * dtotal;
+        for (size_t w = wlo; w < whi; w++)
+            for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
+                size_t i = w * 64 + (size_t)ctz64(bits);
+                double wi = mult[i] * (s->structure[R->center[i]] ? f_full : f_empty);
+                if (dpick < wi)
+                    return R->center[i];
+                dpick -= wi;
+                last = R->center[i];
+            }
+        return last;
     }
     uint64_t total = 0;
     for (size_t w = wlo; w < whi; w++)
@@ -910,10 +934,10 @@ static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const size_t W = (size_t)s->W;
     const uint64_t *dc = s->dom + (size_t)c * W;
+    if (s->resem)
+        return choose_label_resem(s, c, rng); /* with the shape weights when set */
     if (s->shape)
         return choose_label_shape(s, c, rng);
-    if (s->resem)
-        return choose_label_resem(s, c, rng);
     if (s->weights_kind == GS_MODEL_WEIGHTS_UNIFORM) {
         uint64_t pick = gs_rng_below(rng, s->size[c]);
         for (size_t w = 0; w < W; w++) {
@@ -1143,6 +1167,9 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     s->shape = p->shape;
     s->resem = p->resem;
     s->shape_weight = p->shape_weight;
+    s->structure = p->structure;
+    s->shape_slack = p->shape_slack;
+    GS_CHECK(!p->shape || p->structure, GS_ERR_ARG, "params.shape needs params.structure");
     for (int a = 0; a < 3; a++) {
         s->mirror[a] = p->mirror[a];
         s->mirror_odd[a] = p->mirror_odd[a];
@@ -1150,8 +1177,6 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     }
     s->ground = p->ground;
     s->ground_only = p->ground_only;
-    s->zface[0] = p->zface[0];
-    s->zface[1] = p->zface[1];
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);
@@ -1175,6 +1200,30 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
         res->split = 1;
     } else {
         res->kept_cells = c;
+    }
+    if ((res->ok || res->partial) && p->shape && p->shape_mh > 0 && pass > 0) {
+        /* Metropolis step (paper Sec. 4.2): accept with min(1, f(M')/f(M)),
+         * from the second pass on: the first replaces the start model, which
+         * is no sample of the example (one column repeated: a region that kept
+         * it would keep a carpet of the corner column's bushes) */
+        double dE = 0;
+        size_t k = 0;
+        for (int z = b->z0; z < b->z1; z++)
+            for (int y = b->y0; y < b->y1; y++)
+                for (int x = b->x0; x < b->x1; x++, k++) {
+                    int o = lat->labels[gs_model_lattice_index(lat, x, y, z)], n = out[k];
+                    int so = o < s->L && p->structure[o], sn = n < s->L && p->structure[n];
+                    if (so != sn)
+                        dE += (sn - so) * (2.0 * p->shape[(size_t)x + (size_t)lat->nx * (size_t)y] - 1);
+                }
+        if (dE < 0) {
+            gs_rng rng;
+            gs_rng_init(&rng, p->seed, gs_rng_stream_id(GS_MODEL_MH_DOMAIN, region_id, pass, 0));
+            if (gs_rng_uniform(&rng) >= exp(p->shape_mh * dE)) {
+                res->ok = res->partial = 0;
+                res->mh_rejected = 1;
+            }
+        }
     }
     res->backtracks = s->backtracks_done - bt0;
     return GS_OK;

@@ -350,6 +350,10 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
             st.choices += res.choices;
             st.backtracks += res.backtracks;
             st.split += (uint64_t)res.split;
+            if (res.mh_rejected) {
+                st.mh_rejected++;
+                continue;
+            }
             if (!res.ok) {
                 st.failed++;
                 st.kept_cells += res.kept_cells;
@@ -415,6 +419,7 @@ gs_err gs_model_initial_tiled(const gs_model_rules_t rules, const gs_model_latti
     gs_model_params q = *p;
     q.periodic[0] = q.periodic[1] = 1;
     q.periodic[2] = 0;
+    q.shape = NULL; /* the tile repeats over the output: no target shape */
     int zlo, zhi;
     active_z(&q, t.nz, &zlo, &zhi);
     gs_model_box box = {0, 0, zlo, tx, ty, zhi};
