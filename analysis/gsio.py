@@ -194,21 +194,22 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
               "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
 
 
-def read_ply(path):
-    """(vertices float32 (n, 3), faces int (m, k)) of a PLY file (ascii or binary);
-    faces must all have the same corner count."""
+def _ply_header(path):
+    """(format, [(element, count, [property words])], comments, body bytes) of a PLY file."""
     with open(path, "rb") as f:
         if f.readline().strip() != b"ply":
             raise ValueError(f"{path}: not a PLY file")
-        fmt, elements = None, []
+        fmt, elements, comments = None, [], []
         while True:
             line = f.readline()
             if not line:
                 raise ValueError(f"{path}: no end_header")
             w = line.decode("ascii", "replace").split()
-            if not w or w[0] in ("comment", "obj_info"):
+            if not w or w[0] == "obj_info":
                 continue
-            if w[0] == "format":
+            if w[0] == "comment":
+                comments.append(" ".join(w[1:]))
+            elif w[0] == "format":
                 fmt = w[1]
             elif w[0] == "element":
                 elements.append((w[1], int(w[2]), []))
@@ -216,7 +217,14 @@ def read_ply(path):
                 elements[-1][2].append(w[1:])
             elif w[0] == "end_header":
                 break
-        body = f.read()
+        return fmt, elements, comments, f.read()
+
+
+def read_ply(path):
+    """(vertices float32 (n, 3), faces int (m, k)) of a PLY file (ascii or binary);
+    faces of different corner counts (model meshes' polygons) come fanned into
+    triangles."""
+    fmt, elements, _, body = _ply_header(path)
     if fmt == "ascii":
         return _ply_ascii(body, elements)
     end = "<" if fmt == "binary_little_endian" else ">"
@@ -236,7 +244,7 @@ def read_ply(path):
             dt = np.dtype(fields)
             arr = np.frombuffer(body, dt, count, off)
             if count and not np.all(arr["n"] == k):
-                raise ValueError(f"{path}: faces with different corner counts are not supported")
+                return _fan(read_ply_polygons(path))
             off += dt.itemsize * count
             if name == "face":
                 faces = np.asarray(arr[[p for p in dt.names if p != "n"][0]], dtype=np.int64)
@@ -264,9 +272,84 @@ def _ply_ascii(body, elements):
     return verts, faces
 
 
-def read_obj(path):
-    """(vertices, triangles) of a Wavefront OBJ (polygons fanned into triangles)."""
-    v, tri = [], []
+def _fan(p):
+    v = p["vertex"]
+    verts = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float32)
+    counts, corners = p["counts"], p["corners"]
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    f = np.repeat(np.arange(len(counts)), np.maximum(counts - 2, 0))
+    j = np.arange(len(f)) - np.repeat(np.cumsum(np.maximum(counts - 2, 0)) - np.maximum(counts - 2, 0),
+                                      np.maximum(counts - 2, 0))
+    s = start[f]
+    return verts, np.stack([corners[s], corners[s + j + 1], corners[s + j + 2]], axis=1)
+
+
+def read_ply_polygons(path):
+    """Every element of a PLY file as written, nothing welded or triangulated:
+    {"vertex": {prop: array}, "face": {prop: array}, "counts": corners per face,
+    "corners": the faces' vertex indices one after the other, "comments": [...]}.
+    Faces may have any corner count (ascii or binary, either endian)."""
+    import struct
+    fmt, elements, comments, body = _ply_header(path)
+    out = {"comments": comments, "counts": np.zeros(0, np.int64), "corners": np.zeros(0, np.int64)}
+    if fmt == "ascii":
+        toks = body.split()
+        pos = 0
+        for name, count, props in elements:
+            cols = {p[-1]: [] for p in props}
+            counts, corners = [], []
+            for _ in range(count):
+                for p in props:
+                    if p[0] == "list":
+                        k = int(toks[pos]); pos += 1
+                        vals = [int(t) for t in toks[pos:pos + k]]; pos += k
+                        if name == "face" and p[-1] in ("vertex_indices", "vertex_index"):
+                            counts.append(k); corners += vals
+                    else:
+                        cols[p[-1]].append(float(toks[pos])); pos += 1
+            out[name] = {k: np.array(v, _PLY_TYPES[[p for p in props if p[-1] == k][0][0]])
+                         for k, v in cols.items() if v or not any(p[0] == "list" and p[-1] == k for p in props)}
+            if name == "face":
+                out["counts"], out["corners"] = np.array(counts, np.int64), np.array(corners, np.int64)
+        return out
+    end = "<" if fmt == "binary_little_endian" else ">"
+    off = 0
+    for name, count, props in elements:
+        if not any(p[0] == "list" for p in props):
+            dt = np.dtype([(p[1], end + _PLY_TYPES[p[0]]) for p in props])
+            arr = np.frombuffer(body, dt, count, off)
+            off += dt.itemsize * count
+            out[name] = {p[1]: np.array(arr[p[1]]) for p in props}
+            continue
+        cols = {p[-1]: [] for p in props if p[0] != "list"}
+        counts, corners = [], []
+        codes = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
+        for _ in range(count):
+            for p in props:
+                if p[0] == "list":
+                    ct, it = codes[_PLY_TYPES[p[1]]], codes[_PLY_TYPES[p[2]]]
+                    (k,) = struct.unpack_from(end + ct, body, off)
+                    off += struct.calcsize(ct)
+                    vals = struct.unpack_from(end + it * k, body, off)
+                    off += struct.calcsize(it) * k
+                    if name == "face":
+                        counts.append(k)
+                        corners += vals
+                else:
+                    c = codes[_PLY_TYPES[p[0]]]
+                    cols[p[1]].append(struct.unpack_from(end + c, body, off)[0])
+                    off += struct.calcsize(c)
+        out[name] = {k: np.array(v, _PLY_TYPES[[p for p in props if p[-1] == k][0][0]])
+                     for k, v in cols.items()}
+        if name == "face":
+            out["counts"], out["corners"] = np.array(counts, np.int64), np.array(corners, np.int64)
+    return out
+
+
+def read_obj_polygons(path):
+    """(vertices float64 (n, 3), corners per face, the faces' vertex indices one
+    after the other) of a Wavefront OBJ, faces as stored (0-based indices)."""
+    v, counts, corners = [], [], []
     with open(path) as f:
         for line in f:
             w = line.split()
@@ -277,12 +360,31 @@ def read_obj(path):
             elif w[0] == "f":
                 idx = [int(x.split("/")[0]) for x in w[1:]]
                 idx = [i - 1 if i > 0 else len(v) + i for i in idx]
-                tri += [[idx[0], idx[j], idx[j + 1]] for j in range(1, len(idx) - 1)]
-    return np.array(v, dtype=np.float32), np.array(tri, dtype=np.int64)
+                counts.append(len(idx))
+                corners += idx
+    return np.array(v, np.float64).reshape(-1, 3), np.array(counts, np.int64), np.array(corners, np.int64)
+
+
+def read_obj(path):
+    """(vertices, triangles) of a Wavefront OBJ (polygons fanned into triangles)."""
+    v, counts, corners = read_obj_polygons(path)
+    tri, at = [], 0
+    for k in counts:
+        idx = corners[at:at + k]
+        at += k
+        tri += [[idx[0], idx[j], idx[j + 1]] for j in range(1, k - 1)]
+    return v.astype(np.float32), np.array(tri, dtype=np.int64).reshape(-1, 3)
 
 
 def read_mesh(path):
     return read_obj(path) if path.lower().endswith(".obj") else read_ply(path)
+
+
+def mesh_face_count(path):
+    """Faces as the file stores them (polygons count once, however many corners)."""
+    if path.lower().endswith(".ply"):
+        return next((n for name, n, _ in _ply_header(path)[1] if name == "face"), 0)
+    return len(read_obj_polygons(path)[1])
 
 
 def mesh_outputs(run):

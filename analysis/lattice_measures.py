@@ -175,6 +175,22 @@ def shuffled_figures(ex):
     return {"run_length_%s_ratio" % a: sh[a] / whole[a] if whole[a] else 0.0 for a in "xyz"}
 
 
+class Checks:
+    """need(cond, what) prints "ok   what" or "FAIL what"; result() prints the closing line
+    "RESULT pass" or "RESULT fail: ..." (the tests' convention)."""
+
+    def __init__(self):
+        self.fails = []
+
+    def need(self, cond, what):
+        print(("ok   " if cond else "FAIL ") + what)
+        if not cond:
+            self.fails.append(what)
+
+    def result(self):
+        print("RESULT", "pass" if not self.fails else "fail: " + "; ".join(self.fails))
+
+
 def main(argv):
     ks = (2, 3)
     args = list(argv)

@@ -204,7 +204,7 @@ def fig_mesh(run, out):
     v, f = gsio.read_mesh(path)
     if v is None or f is None or len(f) == 0:
         return None
-    nfaces = len(f)
+    nfaces = gsio.mesh_face_count(path)  # polygons of a model mesh count once (f has them fanned)
     name = f"mesh_{safe(run['_dir'])}.png"
     exe = os.environ.get("GEOSYNTH") or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bin", "geosynth")
     try:

@@ -10,6 +10,11 @@
  * [0, 2] (0 = the same mix, 2 = disjoint). A KS distance is the largest
  * difference of two empirical cumulative distributions, in [0, 1].
  * Nothing here uses MPI or allocates on success paths beyond what is stated.
+ *
+ * Mesh validity of an output file (open, non-manifold and misoriented edges,
+ * pinched vertices, duplicate and coincident faces, enclosed volume, counted
+ * on the indices as the file stores them) is analysis/mesh_validity.py, the
+ * one implementation the tests use for every engine's meshes.
  */
 #ifndef GEOSYNTH_MEASURE_H
 #define GEOSYNTH_MEASURE_H

@@ -15,7 +15,10 @@
  * - Outside the output is unconstrained (free boundary), as in the author's
  *   implementation. With fix_z_faces (default for nz >= 3, the author's 3D
  *   convention) the bottom and top layers keep the labels of the initial
- *   model (ground below, empty above) and are never relabelled.
+ *   model (ground below, empty above) and are never relabelled; without it
+ *   they are synthesized, optionally limited to label sets (zface: the
+ *   engine's model.fix_z_faces = auto for examples whose ground layer holds
+ *   several labels).
  *
  * Algorithm (paper Table 2, "modifying in blocks"): start from a trivial
  * consistent model; pick a region B, forget its labels, recompute the
@@ -256,6 +259,10 @@ typedef struct gs_model_params {
                            limited to; NULL = none. Not owned */
     const uint64_t *ground_only; /* labels banned from every other row (patterns
                            found only on the sample's bottom row); NULL = none */
+    const uint64_t *zface[2]; /* without fix_z_faces: label bitsets the cells of the
+                           bottom (z = 0) and top (z = nz - 1) layers are limited to
+                           (the labels of the example's own bottom and top layers);
+                           NULL = none. Not owned */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */

@@ -68,10 +68,16 @@ gs_err gs_model_write_png(const char *path, const gs_model_lattice *lat,
 
 /* ---- voxel-cube mesh with merged faces --------------------------------- */
 
+/* Largest side of a merged rectangle, in cells: its polygon then has at most
+ * 8 * GS_MODEL_QUAD_MAX corners (lattice points and edge midpoints on its
+ * sides), which a PLY "list uchar" can hold. */
+#define GS_MODEL_QUAD_MAX 31
+
 /* One axis-aligned rectangle of the surface, corners counter-clockwise seen
  * from outside (outward normal by the right-hand rule). */
 typedef struct gs_model_quad {
     float p[4][3];
+    int32_t lo[3], hi[3]; /* its lattice-point box (lo[a] = hi[a] on its axis a) */
     uint16_t label;
     uint8_t dir; /* outward normal: 0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z */
 } gs_model_quad;
@@ -82,21 +88,47 @@ typedef struct gs_model_quads {
     size_t unit_faces; /* cube faces before merging */
 } gs_model_quads;
 
-/* The visible faces of the coloured cubes: a face of a filled cell is kept
- * when the cell across it is empty, outside, or has another label; per
- * slice, coplanar faces of one label and direction are merged greedily into
- * rectangles (grow along the first in-plane axis, then the second). Cell
- * (x, y, z) occupies [x, x+1] x [y, y+1] x [z, z+1] times voxel. Free with
- * gs_model_quads_free(). O(cells) time, O(largest slice) scratch. */
+/* The surface of the filled cells: a face of a filled cell is kept when the
+ * cell across it is empty or outside (faces between two labels are inside
+ * the solid and left out); per slice, coplanar faces of one label and
+ * direction are merged greedily into rectangles of at most
+ * GS_MODEL_QUAD_MAX cells a side (grow along the first in-plane axis, then
+ * the second). Cell (x, y, z) occupies [x, x+1] x [y, y+1] x [z, z+1] times
+ * voxel. Free with gs_model_quads_free(). O(cells) time, O(largest slice)
+ * scratch. */
 gs_err gs_model_mesh_quads(const gs_model_lattice *lat, double voxel, gs_model_quads *out);
 void gs_model_quads_free(gs_model_quads *q);
 
-/* Writes quads as binary PLY (vertex x y z float + red green blue uchar,
- * quad faces "list uchar int vertex_indices" + face ushort label) or as OBJ
- * with an MTL file next to it (one material "label_N" per label, Kd from the
- * palette; faces grouped by label). Picks by extension (.ply / .obj).
- * Atomic writes. */
-gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q,
+/* The rectangles of q (made from lat) as one welded polygon mesh: shared
+ * vertices, every edge used by exactly two faces in opposite directions, no
+ * T-junctions (a rectangle's polygon lists, in order, every vertex of its
+ * neighbours that lies on its edges), and a 2-manifold: where filled cells
+ * touch only along an edge or at a corner, the surface is kept apart (each
+ * cube keeps its own faces there: solid cells are joined through faces
+ * only), so such a lattice point has one vertex per sheet of surface through
+ * it, and an edge where two cubes touch gets one extra vertex in its middle
+ * per cube (the two sheets then never share an edge, even when they share
+ * both ends). Polygon f is corner[start[f] .. start[f+1]) (at most
+ * 8 * GS_MODEL_QUAD_MAX corners), counter-clockwise seen from outside,
+ * label[f] its cell's label. Vertices in the order the rectangles first
+ * use them (deterministic). Free with gs_model_polymesh_free(). */
+typedef struct gs_model_polymesh {
+    float *pos;      /* 3 * nv */
+    size_t nv, nf;
+    uint32_t *start; /* nf + 1 */
+    uint32_t *corner;
+    uint16_t *label; /* nf */
+} gs_model_polymesh;
+gs_err gs_model_mesh_weld(const gs_model_lattice *lat, const gs_model_quads *q, double voxel,
+                          gs_model_polymesh *out);
+void gs_model_polymesh_free(gs_model_polymesh *m);
+
+/* Writes the welded mesh as binary PLY (vertex float x y z; faces
+ * "list uchar int vertex_indices" + uchar red green blue + ushort label:
+ * face colours from the palette, as in lattice.vox) or as OBJ with an MTL
+ * file next to it (one material "label_N" per label, Kd from the palette;
+ * faces grouped by label). Picks by extension (.ply / .obj). Atomic writes. */
+gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m,
                            const gs_model_palette *pal);
 
 /* Writes the preview picture of a run: the example (left) and the output

@@ -77,6 +77,7 @@ struct gs_model_solver {
     int mirror[3], mirror_odd[3];
     const int *mirror_map[3]; /* label symmetry per mirrored axis (NULL = identity) */
     const uint64_t *ground, *ground_only; /* overlapping model ground rows (params) */
+    const uint64_t *zface[2]; /* bottom / top layer label masks (params) */
     int order_log;         /* ENTROPY_LOG buckets */
     uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */
     uint32_t *tie;     /* [n] random tie-break keys */

@@ -635,6 +635,16 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                     dc[w] &= ~s->ground_only[w];
             }
         }
+    for (int f = 0; f < 2; f++) {
+        /* synthesized z faces: the example's own bottom / top labels only */
+        const int zf = f ? lat->nz - 1 : 0;
+        if (!s->zface[f] || zf < b->z0 || zf >= b->z1)
+            continue;
+        const int32_t layer = rx * ry, c0 = (int32_t)(zf - b->z0) * layer;
+        for (int32_t c = c0; c < c0 + layer; c++)
+            for (int w = 0; w < s->W; w++)
+                s->dom[(size_t)c * (size_t)s->W + (size_t)w] &= s->zface[f][w];
+    }
     const uint16_t *pins = s->pins;
     s->box_x0 = b->x0;
     s->box_y0 = b->y0;
@@ -1177,6 +1187,8 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     }
     s->ground = p->ground;
     s->ground_only = p->ground_only;
+    s->zface[0] = p->zface[0];
+    s->zface[1] = p->zface[1];
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     memset(res, 0, sizeof *res);

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/file.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
@@ -58,8 +59,8 @@ gs_err gs_model_mesh_quads(const gs_model_lattice *lat, double voxel, gs_model_q
                         memcpy(d, c, sizeof d);
                         d[a] += side ? -1 : 1;
                         uint16_t l = cell(lat, c), m = cell(lat, d);
-                        mask[(size_t)j * (size_t)nu + (size_t)i] = (l != 0 && l != m) ? l : 0;
-                        res.unit_faces += (l != 0 && l != m);
+                        mask[(size_t)j * (size_t)nu + (size_t)i] = (l != 0 && m == 0) ? l : 0;
+                        res.unit_faces += (l != 0 && m == 0);
                     }
                 /* greedy rectangles: grow along u, then along v */
                 for (int j = 0; j < nv; j++)
@@ -70,10 +71,10 @@ gs_err gs_model_mesh_quads(const gs_model_lattice *lat, double voxel, gs_model_q
                             continue;
                         }
                         int w = 1;
-                        while (i + w < nu && mask[(size_t)j * (size_t)nu + (size_t)(i + w)] == l)
+                        while (i + w < nu && w < GS_MODEL_QUAD_MAX && mask[(size_t)j * (size_t)nu + (size_t)(i + w)] == l)
                             w++;
                         int h = 1;
-                        for (; j + h < nv; h++) {
+                        for (; j + h < nv && h < GS_MODEL_QUAD_MAX; h++) {
                             int row_ok = 1;
                             for (int t = 0; t < w && row_ok; t++)
                                 row_ok = mask[(size_t)(j + h) * (size_t)nu + (size_t)(i + t)] == l;
@@ -90,6 +91,11 @@ gs_err gs_model_mesh_quads(const gs_model_lattice *lat, double voxel, gs_model_q
                         const float u0 = (float)(i * voxel), u1 = (float)((i + w) * voxel);
                         const float v0 = (float)(j * voxel), v1 = (float)((j + h) * voxel);
                         const float uv[4][2] = {{u0, v0}, {u1, v0}, {u1, v1}, {u0, v1}};
+                        q.lo[a] = q.hi[a] = k + (side ? 0 : 1);
+                        q.lo[u] = i;
+                        q.hi[u] = i + w;
+                        q.lo[v] = j;
+                        q.hi[v] = j + h;
                         for (int corner = 0; corner < 4; corner++) {
                             /* +a: counter-clockwise in (u, v); -a: reversed */
                             int cc = side ? 3 - corner : corner;
@@ -119,36 +125,282 @@ void gs_model_quads_free(gs_model_quads *q)
     q->n = q->unit_faces = 0;
 }
 
+/* ---- welding ------------------------------------------------------------ */
+
+/* The 12 unit squares around a lattice point P: square (a, bu, bv) is
+ * perpendicular to axis a and lies between the two of the 8 cells around P
+ * whose bits on axes (a+1)%3, (a+2)%3 are bu, bv (cell bit k set: the cell
+ * on the + side of P along axis k). */
+static int slot_between(int c1, int c2)
+{
+    const int d = c1 ^ c2, a = d == 1 ? 0 : d == 2 ? 1 : 2;
+    return 4 * a + ((c1 >> ((a + 1) % 3)) & 1) + 2 * ((c1 >> ((a + 2) % 3)) & 1);
+}
+
+static int uf_find(int *p, int i)
+{
+    while (p[i] != i)
+        i = p[i] = p[p[i]];
+    return i;
+}
+
+/* The sheet of surface through lattice point P that surface square `slot`
+ * belongs to, as the smallest slot of that sheet. Around each of the 6 unit
+ * edges at P the filled cells form arcs; the two squares bounding an arc are
+ * one sheet there (so two cubes touching along the edge keep apart). */
+static int sheet_of(const gs_model_lattice *lat, const int P[3], int slot)
+{
+    int solid[8], parent[12];
+    for (int b = 0; b < 8; b++) {
+        const int c[3] = {P[0] - 1 + (b & 1), P[1] - 1 + ((b >> 1) & 1), P[2] - 1 + ((b >> 2) & 1)};
+        solid[b] = cell(lat, c) != 0;
+    }
+    for (int i = 0; i < 12; i++)
+        parent[i] = i;
+    for (int e = 0; e < 3; e++)
+        for (int s = 0; s < 2; s++) {
+            const int u = (e + 1) % 3, v = (e + 2) % 3;
+            const int cyc[4] = {s << e, s << e | 1 << u, s << e | 1 << u | 1 << v, s << e | 1 << v};
+            for (int i = 0; i < 4; i++) {
+                if (!solid[cyc[i]] || solid[cyc[(i + 3) % 4]])
+                    continue; /* not the start of an arc */
+                int j = i;
+                while (solid[cyc[(j + 1) % 4]])
+                    j = (j + 1) % 4;
+                int r1 = uf_find(parent, slot_between(cyc[(i + 3) % 4], cyc[i]));
+                int r2 = uf_find(parent, slot_between(cyc[j], cyc[(j + 1) % 4]));
+                if (r1 < r2)
+                    parent[r2] = r1;
+                else
+                    parent[r1] = r2;
+            }
+        }
+    return uf_find(parent, slot);
+}
+
+/* The square of rectangle q at its boundary lattice point P. */
+static int quad_slot(const gs_model_quad *q, const int P[3])
+{
+    const int a = q->dir / 2, u = (a + 1) % 3, v = (a + 2) % 3;
+    const int cu = P[u] - 1 >= q->lo[u] ? P[u] - 1 : P[u];
+    const int cv = P[v] - 1 >= q->lo[v] ? P[v] - 1 : P[v];
+    return 4 * a + (cu - (P[u] - 1)) + 2 * (cv - (P[v] - 1));
+}
+
+/* Corner c of q as a lattice point, in the order of q->p. */
+static void quad_corner(const gs_model_quad *q, int c, int P[3])
+{
+    const int a = q->dir / 2, side = q->dir % 2, u = (a + 1) % 3, v = (a + 2) % 3;
+    static const int uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    const int cc = side ? 3 - c : c;
+    P[a] = q->lo[a];
+    P[u] = uv[cc][0] ? q->hi[u] : q->lo[u];
+    P[v] = uv[cc][1] ? q->hi[v] : q->lo[v];
+}
+
+typedef struct vmap {
+    uint64_t *key; /* key + 1; 0 = free */
+    uint32_t *id;
+    size_t mask;
+} vmap;
+
+static size_t vmap_slot(const vmap *m, uint64_t key)
+{
+    size_t s = (size_t)gs_hash_mix64(key) & m->mask;
+    while (m->key[s] && m->key[s] != key + 1)
+        s = (s + 1) & m->mask;
+    return s;
+}
+
+/* Vertex keys on the doubled lattice (edge midpoints have one odd
+ * coordinate), times 16 for the sheet. */
+static uint64_t vkey2(const gs_model_lattice *lat, const int P2[3], int sheet)
+{
+    return (((uint64_t)P2[2] * (uint64_t)(2 * lat->ny + 1) + (uint64_t)P2[1]) *
+                (uint64_t)(2 * lat->nx + 1) + (uint64_t)P2[0]) * 16u + (uint64_t)sheet;
+}
+
+static uint64_t vkey(const gs_model_lattice *lat, const int P[3], int sheet)
+{
+    const int P2[3] = {2 * P[0], 2 * P[1], 2 * P[2]};
+    return vkey2(lat, P2, sheet);
+}
+
+/* The unit edge from lattice point X one step along axis ax (step +-1):
+ * when exactly two cells around it are filled and they face each other
+ * across it (two cubes touching along the edge only), the surface passes
+ * it twice, once per cube. Returns 1 and, for rectangle q's face there, the
+ * cube's place around the edge (0..3) in *sheet. */
+static int diagonal_edge(const gs_model_lattice *lat, const gs_model_quad *q, const int X[3], int ax,
+                         int step, int *sheet)
+{
+    const int s = ax == 0 ? 1 : 0, t = ax == 2 ? 1 : 2; /* the other two axes, ascending */
+    int solid[4], n = 0;
+    for (int b = 0; b < 4; b++) {
+        int c[3];
+        c[ax] = step > 0 ? X[ax] : X[ax] - 1;
+        c[s] = X[s] - 1 + (b & 1);
+        c[t] = X[t] - 1 + (b >> 1);
+        solid[b] = cell(lat, c) != 0;
+        n += solid[b];
+    }
+    if (n != 2 || solid[0] != solid[3])
+        return 0;
+    /* q's cell at this edge: behind its face along its axis, and its unit
+     * square next to the edge along the third axis */
+    const int a = q->dir / 2, w = 3 - a - ax;
+    int c[3];
+    c[a] = q->dir % 2 ? q->lo[a] : q->lo[a] - 1;
+    c[w] = X[w] - 1 >= q->lo[w] ? X[w] - 1 : X[w];
+    *sheet = (c[s] - (X[s] - 1)) + 2 * (c[t] - (X[t] - 1));
+    return 1;
+}
+
+gs_err gs_model_mesh_weld(const gs_model_lattice *lat, const gs_model_quads *q, double voxel,
+                          gs_model_polymesh *out)
+{
+    memset(out, 0, sizeof *out);
+    GS_CHECK(q->n <= ((size_t)1 << 28), GS_ERR_ARG, "mesh: %zu rectangles: too many to weld", q->n);
+    gs_err err = GS_OK;
+    vmap m = {NULL, NULL, 0};
+    gs_model_polymesh r;
+    memset(&r, 0, sizeof r);
+    size_t cap = 16, ccap = 0, nc = 0, pos_cap = 0;
+    while (cap < 16 * q->n)
+        cap *= 2;
+    m.mask = cap - 1;
+    GS_TRY(err, gs_alloc_array((void **)&m.key, cap, sizeof *m.key, "mesh weld table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&m.id, cap, sizeof *m.id, "mesh weld table"), done);
+    memset(m.key, 0, cap * sizeof *m.key);
+    /* at most 4 corners and 4 edge midpoints per rectangle */
+    pos_cap = 8 * q->n;
+    GS_TRY(err, gs_alloc_array((void **)&r.pos, q->n ? 3 * pos_cap : 1, sizeof *r.pos, "mesh vertices"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&r.start, q->n + 1, sizeof *r.start, "mesh faces"), done);
+    GS_TRY(err, gs_alloc_array((void **)&r.label, q->n ? q->n : 1, sizeof *r.label, "mesh faces"),
+           done);
+    /* every rectangle's corners are vertices */
+    for (size_t i = 0; i < q->n; i++)
+        for (int c = 0; c < 4; c++) {
+            int P[3];
+            quad_corner(&q->q[i], c, P);
+            const uint64_t k = vkey(lat, P, sheet_of(lat, P, quad_slot(&q->q[i], P)));
+            const size_t s = vmap_slot(&m, k);
+            if (m.key[s])
+                continue;
+            m.key[s] = k + 1;
+            m.id[s] = (uint32_t)r.nv;
+            for (int t = 0; t < 3; t++)
+                r.pos[3 * r.nv + (size_t)t] = (float)(P[t] * voxel);
+            r.nv++;
+        }
+    /* each polygon: its corners and, in order, the vertices on its edges */
+    ccap = 4 * q->n + 16;
+    GS_TRY(err, gs_alloc_array((void **)&r.corner, ccap, sizeof *r.corner, "mesh corners"), done);
+    for (size_t i = 0; i < q->n; i++) {
+        const gs_model_quad *qq = &q->q[i];
+        r.start[i] = (uint32_t)nc;
+        r.label[i] = qq->label;
+        for (int c = 0; c < 4; c++) {
+            int P[3], Q[3];
+            quad_corner(qq, c, P);
+            quad_corner(qq, (c + 1) % 4, Q);
+            int ax = 0;
+            while (P[ax] == Q[ax])
+                ax++;
+            const int step = Q[ax] > P[ax] ? 1 : -1;
+            for (; P[ax] != Q[ax]; P[ax] += step) {
+                for (int mid = 0; mid < 2; mid++) {
+                    uint64_t k;
+                    int sheet;
+                    if (!mid) {
+                        k = vkey(lat, P, sheet_of(lat, P, quad_slot(qq, P)));
+                    } else if (diagonal_edge(lat, qq, P, ax, step, &sheet)) {
+                        /* two cubes touching along this edge: a vertex in the
+                         * middle for each, so the two sheets have distinct edges */
+                        int P2[3] = {2 * P[0], 2 * P[1], 2 * P[2]};
+                        P2[ax] += step;
+                        k = vkey2(lat, P2, sheet);
+                        const size_t s = vmap_slot(&m, k);
+                        if (!m.key[s]) {
+                            GS_TRY_CHECK(err, r.nv < pos_cap, GS_ERR_INTERNAL, done,
+                                         "mesh: more vertices than %zu", pos_cap);
+                            m.key[s] = k + 1;
+                            m.id[s] = (uint32_t)r.nv;
+                            for (int t = 0; t < 3; t++)
+                                r.pos[3 * r.nv + (size_t)t] = (float)(P2[t] * 0.5 * voxel);
+                            r.nv++;
+                        }
+                    } else {
+                        continue;
+                    }
+                    const size_t s = vmap_slot(&m, k);
+                    if (!m.key[s])
+                        continue; /* no vertex of this sheet here */
+                    if (nc == ccap) {
+                        size_t ncap = 2 * ccap;
+                        void *p = gs_realloc(r.corner, ncap * sizeof *r.corner);
+                        GS_TRY_CHECK(err, p != NULL, GS_ERR_MEM, done,
+                                     "mesh: cannot grow the corner list to %zu", ncap);
+                        r.corner = p;
+                        ccap = ncap;
+                    }
+                    r.corner[nc++] = m.id[s];
+                }
+            }
+        }
+        GS_TRY_CHECK(err, nc - r.start[i] <= 8 * GS_MODEL_QUAD_MAX && nc <= UINT32_MAX, GS_ERR_INTERNAL,
+                     done, "mesh: polygon %zu has %zu corners", i, nc - (size_t)r.start[i]);
+    }
+    r.start[q->n] = (uint32_t)nc;
+    r.nf = q->n;
+    *out = r;
+    memset(&r, 0, sizeof r);
+done:
+    gs_free(m.key);
+    gs_free(m.id);
+    gs_model_polymesh_free(&r);
+    return err;
+}
+
+void gs_model_polymesh_free(gs_model_polymesh *m)
+{
+    if (!m)
+        return;
+    GS_FREE(m->pos);
+    GS_FREE(m->start);
+    GS_FREE(m->corner);
+    GS_FREE(m->label);
+    m->nv = m->nf = 0;
+}
+
 static int put_bytes(FILE *f, const void *p, size_t n) { return fwrite(p, 1, n, f) == n; }
 
-static gs_err write_ply(const char *path, const gs_model_quads *q, const gs_model_palette *pal)
+static gs_err write_ply(const char *path, const gs_model_polymesh *m, const gs_model_palette *pal)
 {
-    GS_CHECK(q->n <= ((size_t)1 << 29), GS_ERR_ARG, "%s: %zu quads: too many for a PLY mesh",
-             path, q->n);
+    GS_CHECK(m->nv <= ((size_t)1 << 31) && m->nf <= ((size_t)1 << 31), GS_ERR_ARG,
+             "%s: %zu vertices, %zu faces: too many for a PLY mesh", path, m->nv, m->nf);
     gs_atomic_file af;
     GS_CALL(gs_atomic_begin(path, &af));
     int ok = fprintf(af.f,
-                     "ply\nformat binary_little_endian 1.0\ncomment geosynth model: coloured "
-                     "voxel cubes, merged faces\nelement vertex %zu\nproperty float x\n"
-                     "property float y\nproperty float z\nproperty uchar red\n"
-                     "property uchar green\nproperty uchar blue\nelement face %zu\n"
-                     "property list uchar int vertex_indices\nproperty ushort label\n"
-                     "end_header\n",
-                     4 * q->n, q->n) > 0;
+                     "ply\nformat binary_little_endian 1.0\n"
+                     "comment geosynth model: surface of the filled voxel cells, welded closed "
+                     "2-manifold; faces are merged rectangles (polygons with their neighbours' "
+                     "vertices on their edges), colour and label of their cell\n"
+                     "comment up_axis z; units: model.voxel_size per cell\n"
+                     "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element face %zu\nproperty list uchar int vertex_indices\n"
+                     "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+                     "property ushort label\nend_header\n",
+                     m->nv, m->nf) > 0;
     /* little-endian host assumed by the PLY writer of src/io too (x86/ARM) */
-    for (size_t i = 0; ok && i < q->n; i++) {
+    ok = ok && put_bytes(af.f, m->pos, 3 * m->nv * sizeof *m->pos);
+    for (size_t i = 0; ok && i < m->nf; i++) {
+        const uint8_t k = (uint8_t)(m->start[i + 1] - m->start[i]);
         uint8_t rgb[3];
-        gs_model_label_rgb(pal, q->q[i].label, rgb);
-        for (int c = 0; ok && c < 4; c++)
-            ok = put_bytes(af.f, q->q[i].p[c], 12) && put_bytes(af.f, rgb, 3);
-    }
-    for (size_t i = 0; ok && i < q->n; i++) {
-        uint8_t four = 4;
-        int32_t idx[4];
-        for (int c = 0; c < 4; c++)
-            idx[c] = (int32_t)(4 * i + (size_t)c);
-        ok = put_bytes(af.f, &four, 1) && put_bytes(af.f, idx, sizeof idx) &&
-             put_bytes(af.f, &q->q[i].label, 2);
+        gs_model_label_rgb(pal, m->label[i], rgb);
+        ok = put_bytes(af.f, &k, 1) && put_bytes(af.f, m->corner + m->start[i], 4 * (size_t)k) &&
+             put_bytes(af.f, rgb, 3) && put_bytes(af.f, &m->label[i], 2);
     }
     if (!ok) {
         gs_atomic_abort(&af);
@@ -158,7 +410,7 @@ static gs_err write_ply(const char *path, const gs_model_quads *q, const gs_mode
     return GS_OK;
 }
 
-static gs_err write_obj(const char *path, const gs_model_quads *q, const gs_model_palette *pal)
+static gs_err write_obj(const char *path, const gs_model_polymesh *m, const gs_model_palette *pal)
 {
     /* MTL next to the OBJ: same name with .mtl */
     size_t len = strlen(path);
@@ -175,8 +427,8 @@ static gs_err write_obj(const char *path, const gs_model_quads *q, const gs_mode
     GS_TRY_CHECK(err, seen != NULL, GS_ERR_MEM, done, "%s: out of memory", path);
     GS_TRY(err, gs_atomic_begin(mtl, &am), done);
     int ok = fprintf(am.f, "# geosynth model: one material per label\n") > 0;
-    for (size_t i = 0; i < q->n; i++) {
-        uint16_t l = q->q[i].label;
+    for (size_t i = 0; i < m->nf; i++) {
+        uint16_t l = m->label[i];
         if (seen[l])
             continue;
         seen[l] = 1;
@@ -191,24 +443,29 @@ static gs_err write_obj(const char *path, const gs_model_quads *q, const gs_mode
     }
     GS_TRY(err, gs_atomic_commit(&am), done);
     GS_TRY(err, gs_atomic_begin(path, &af), done);
-    ok = fprintf(af.f, "# geosynth model: coloured voxel cubes, merged faces (%zu quads)\nmtllib %s\n",
-                 q->n, mtl_base) > 0;
-    for (size_t i = 0; ok && i < q->n; i++)
-        for (int c = 0; ok && c < 4; c++)
-            ok = fprintf(af.f, "v %.9g %.9g %.9g\n", q->q[i].p[c][0], q->q[i].p[c][1],
-                         q->q[i].p[c][2]) > 0;
+    ok = fprintf(af.f,
+                 "# geosynth model: surface of the filled voxel cells, welded closed 2-manifold "
+                 "(%zu vertices, %zu polygons); z up, units: model.voxel_size per cell\nmtllib %s\n",
+                 m->nv, m->nf, mtl_base) > 0;
+    for (size_t i = 0; ok && i < m->nv; i++)
+        ok = fprintf(af.f, "v %.9g %.9g %.9g\n", m->pos[3 * i], m->pos[3 * i + 1],
+                     m->pos[3 * i + 2]) > 0;
     /* faces grouped by label, in label order */
     memset(seen, 0, 65536);
-    for (size_t i = 0; i < q->n; i++)
-        seen[q->q[i].label] = 1;
+    for (size_t i = 0; i < m->nf; i++)
+        seen[m->label[i]] = 1;
     for (int l = 1; ok && l < 65536; l++) {
         if (!seen[l])
             continue;
         ok = fprintf(af.f, "usemtl label_%d\n", l) > 0;
-        for (size_t i = 0; ok && i < q->n; i++)
-            if (q->q[i].label == l)
-                ok = fprintf(af.f, "f %zu %zu %zu %zu\n", 4 * i + 1, 4 * i + 2, 4 * i + 3,
-                             4 * i + 4) > 0;
+        for (size_t i = 0; ok && i < m->nf; i++) {
+            if (m->label[i] != l)
+                continue;
+            ok = fputc('f', af.f) != EOF;
+            for (uint32_t c = m->start[i]; ok && c < m->start[i + 1]; c++)
+                ok = fprintf(af.f, " %u", m->corner[c] + 1u) > 0;
+            ok = ok && fputc('\n', af.f) != EOF;
+        }
     }
     if (!ok) {
         gs_atomic_abort(&af);
@@ -221,14 +478,14 @@ done:
     return err;
 }
 
-gs_err gs_model_write_mesh(const char *path, const gs_model_quads *q, const gs_model_palette *pal)
+gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m, const gs_model_palette *pal)
 {
     char ext[16];
     gs_path_ext(path, ext, sizeof ext);
     if (!strcmp(ext, "ply"))
-        return write_ply(path, q, pal);
+        return write_ply(path, m, pal);
     if (!strcmp(ext, "obj"))
-        return write_obj(path, q, pal);
+        return write_obj(path, m, pal);
     GS_RAISE(GS_ERR_ARG, "%s: mesh output must end in .ply or .obj", path);
 }
 

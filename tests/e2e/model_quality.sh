@@ -20,6 +20,10 @@
 # fails labels and completeness (parliament also empty share and profile); resemblance removed fails the
 # window share, L1, empty share and profile. About 5 s.
 source "$GS_ROOT/tests/e2e/lib.bash"
+verdict() { # verdict NAME WHAT OUTPUT: OUTPUT's lines indented, one check from its RESULT line
+  echo "$3" | sed "s/^/  $1: /"
+  if grep -q "^RESULT pass" <<<"$3"; then ok "$1 $2"; else bad "$1: $(grep '^RESULT' <<<"$3")"; fi
+}
 M=$DATA/model-synthesis/debroglie-samples-merrell
 
 for name in escheresque parliament; do
@@ -48,11 +52,8 @@ r3, cmp3, L1 = f["share_3"], f["completeness_3"], f["label_l1"]
 used, ex_used = f["labels_used"], f["labels_example"]
 empty, ex_empty = f["empty_share"], f["empty_share_example"]
 prof, fe_mean = f["height_fill_mean_abs"], f["height_fill_example_mean"]
-fails = []
-def need(cond, what):
-    print(("ok   " if cond else "FAIL ") + what)
-    if not cond:
-        fails.append(what)
+chk = lm.Checks()
+need = chk.need
 need(r3 >= half_share, "non-empty 3x3x3 share %.3f >= example half vs half %.3f" % (r3, half_share))
 need(abs(r3 - m["resemblance_3x3x3"]) < 1e-9, "summary.json resemblance_3x3x3 %.3f = independent %.3f" % (m["resemblance_3x3x3"], r3))
 need(cmp3 >= half_cmp, "completeness %.3f >= example half vs half (the lower) %.3f" % (cmp3, half_cmp))
@@ -63,10 +64,50 @@ need(prof <= 0.5 * fe_mean, "height profile mean |diff| %.3f <= half the example
 need(m["unsupported_share_example"] > 0 or m["unsupported_share"] == 0,
      "unsupported share %.4f where the example has %.4f" % (m["unsupported_share"], m["unsupported_share_example"]))
 need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
-print("RESULT", "pass" if not fails else "fail: " + "; ".join(fails))
+chk.result()
 EOF
 )
-  echo "$res" | sed "s/^/  $name: /"
-  if grep -q "^RESULT pass" <<<"$res"; then ok "$name output resembles its example (figures from the example)"
-  else bad "$name: $(grep '^RESULT' <<<"$res")"; fi
+  verdict "$name" "output resembles its example (figures from the example)" "$res"
 done
+
+# A terrain nobody tuned for (scripts/gen-lattice.py terrain 3: stone, dirt, grass, water; its
+# bottom layer holds stone and dirt): model.fix_z_faces = auto synthesizes the bottom and top
+# layers (limited to the labels of the example's own bottom and top layers) instead of fixing
+# them to the start column, which held the whole output flat (2 of 4 labels, top layer 1 of
+# the example's 5, completeness 0.003). Checks from the example: labels used >= 0.8 x its,
+# completeness >= its half vs half (the lower), non-empty 3x3x3 share >= 0.8 x its half vs half,
+# top layer within 1 of its; the face layers hold only the example's face labels, also with
+# model.resemblance = 0 (then only the face masks keep dirt and grass out of the top layer).
+# Broken on purpose: fix_z_faces = true (the old behaviour) fails labels, completeness and top
+# layer; the face masks removed fail the resemblance = 0 face check.
+/usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" terrain 3 terrain3.txt
+printf '[model]\nexample = terrain3.txt\nsize = 40x40x8\nregion = 20x20x0\n' > terrain.ini
+run_gs 0 model -c terrain.ini -o terrain
+expect_rc 0 "terrain 40x40x8 in 20x20 regions, default settings"
+expect_err "z faces synthesized" "terrain: the log says the z faces are synthesized"
+run_gs 0 model -c terrain.ini -o terrain0 --set model.resemblance=0
+expect_rc 0 "terrain, model.resemblance = 0"
+res=$(/usr/bin/python3 - terrain3.txt terrain terrain0 <<'EOF'
+import json, os, sys
+import numpy as np
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
+ex = lm.read_lattice(sys.argv[1])
+out, out0 = (lm.read_lattice(d + "/lattice.h5") for d in sys.argv[2:4])
+f, h = lm.figures(ex, out, ks=(3,)), lm.half_figures(ex, ks=(3,))
+top = lambda a: max([z for z in range(a.shape[0]) if a[z].any()] or [-1])
+chk = lm.Checks()
+need = chk.need
+need(f["labels_used"] >= 0.8 * f["labels_example"], "labels used %d >= 0.8 x example's %d" % (f["labels_used"], f["labels_example"]))
+need(f["completeness_3"] >= h["completeness_3"], "completeness %.3f >= example half vs half %.3f" % (f["completeness_3"], h["completeness_3"]))
+need(f["share_3"] >= 0.8 * h["share_3"], "non-empty 3x3x3 share %.3f >= 0.8 x example half vs half %.3f" % (f["share_3"], h["share_3"]))
+need(abs(top(out) - top(ex)) <= 1, "top layer %d within 1 of example's %d" % (top(out), top(ex)))
+for name, o in (("default", out), ("resemblance 0", out0)):
+    for face, zo, ze in (("bottom", 0, 0), ("top", -1, -1)):
+        extra = set(np.unique(o[zo]).tolist()) - set(np.unique(ex[ze]).tolist())
+        need(not extra, "%s: %s layer holds only the example's %s labels (extra: %s)" % (name, face, face, sorted(extra)))
+chk.result()
+EOF
+)
+verdict terrain "output has the example's relief (figures from the example)" "$res"
+finish

@@ -73,6 +73,57 @@ static int quad_normal_ok(const gs_model_quad *q)
     return c[axis] * sign > 0;
 }
 
+/* Every directed edge of pm used once and its reverse once (closed,
+ * oriented, no T-junction), and every vertex's polygons one cycle around
+ * it (no pinched vertex). */
+static void check_polymesh_manifold(const gs_model_polymesh *pm)
+{
+    const size_t nc = pm->start[pm->nf];
+    uint64_t *he = malloc(nc * sizeof *he);
+    assert_non_null(he);
+    for (size_t f = 0; f < pm->nf; f++)
+        for (uint32_t c = pm->start[f]; c < pm->start[f + 1]; c++) {
+            uint32_t a = pm->corner[c], b = pm->corner[c + 1 < pm->start[f + 1] ? c + 1 : pm->start[f]];
+            assert_true(a != b);
+            he[c] = (uint64_t)a << 32 | b;
+        }
+    for (size_t i = 0; i < nc; i++) {
+        size_t same = 0, rev = 0;
+        for (size_t j = 0; j < nc; j++) {
+            same += he[j] == he[i];
+            rev += he[j] == (he[i] >> 32 | he[i] << 32);
+        }
+        assert_int_equal(same, 1);
+        assert_int_equal(rev, 1);
+    }
+    /* fans: at vertex v, follow incoming edge -> next outgoing around v; the
+     * cycle must visit every corner at v */
+    for (uint32_t v = 0; v < pm->nv; v++) {
+        size_t at = 0, first = SIZE_MAX;
+        for (size_t c = 0; c < nc; c++)
+            if ((uint32_t)(he[c] >> 32) == v) {
+                at++;
+                if (first == SIZE_MAX)
+                    first = c;
+            }
+        assert_true(at >= 2); /* 2: the middle of an edge where two cubes touch */
+        size_t c = first, steps = 0;
+        do { /* he[c] = v -> w; the corner after the reverse w -> v leaves v */
+            uint64_t r = he[c] >> 32 | he[c] << 32;
+            size_t k = 0;
+            while (he[k] != r)
+                k++;
+            size_t f = 0;
+            while (pm->start[f + 1] <= k)
+                f++;
+            c = k + 1 < pm->start[f + 1] ? k + 1 : pm->start[f];
+            steps++;
+        } while (c != first && steps <= at);
+        assert_int_equal(steps, at);
+    }
+    free(he);
+}
+
 static void test_mesh_box_and_pair(void **state)
 {
     (void)state;
@@ -95,13 +146,14 @@ static void test_mesh_box_and_pair(void **state)
     assert_true(fabs(area - 52 * 0.25) < 1e-9);
     gs_model_quads_free(&q);
 
-    /* two touching cubes of different labels: the shared face appears twice */
+    /* two touching cubes of different labels: the face between them is inside
+     * the solid and left out (it used to appear twice, once per label) */
     memset(l.labels, 0, 5 * 4 * 6 * sizeof *l.labels);
     l.labels[gs_model_lattice_index(&l, 2, 2, 2)] = 1;
     l.labels[gs_model_lattice_index(&l, 3, 2, 2)] = 2;
     assert_int_equal(gs_model_mesh_quads(&l, 1.0, &q), GS_OK);
-    assert_int_equal(q.n, 12);
-    assert_int_equal(q.unit_faces, 12);
+    assert_int_equal(q.n, 10);
+    assert_int_equal(q.unit_faces, 10);
     gs_model_quads_free(&q);
     /* same label: one 2x1x1 box */
     l.labels[gs_model_lattice_index(&l, 3, 2, 2)] = 1;
@@ -109,13 +161,46 @@ static void test_mesh_box_and_pair(void **state)
     assert_int_equal(q.n, 6);
     assert_int_equal(q.unit_faces, 10);
     gs_model_quads_free(&q);
+    /* cubes touching along an edge, then at a corner only: two closed cubes,
+     * the touching lattice points have one vertex per cube (8 + 8), and the
+     * touching edge a vertex in its middle per cube */
+    for (int k = 0; k < 2; k++) {
+        memset(l.labels, 0, 5 * 4 * 6 * sizeof *l.labels);
+        l.labels[gs_model_lattice_index(&l, 2, 2, 2)] = 1;
+        l.labels[gs_model_lattice_index(&l, 3, 1, k ? 1 : 2)] = 2;
+        gs_model_polymesh pm;
+        assert_int_equal(gs_model_mesh_quads(&l, 1.0, &q), GS_OK);
+        assert_int_equal(gs_model_mesh_weld(&l, &q, 1.0, &pm), GS_OK);
+        assert_int_equal(pm.nf, 12);
+        assert_int_equal(pm.nv, k ? 16 : 18);
+        check_polymesh_manifold(&pm);
+        gs_model_polymesh_free(&pm);
+        gs_model_quads_free(&q);
+    }
+    /* an L of two labels: the wall of the taller part gets the vertex of the
+     * lower part's top on its edge (no T-junction) */
+    memset(l.labels, 0, 5 * 4 * 6 * sizeof *l.labels);
+    l.labels[gs_model_lattice_index(&l, 1, 1, 1)] = 1;
+    l.labels[gs_model_lattice_index(&l, 1, 1, 2)] = 1;
+    l.labels[gs_model_lattice_index(&l, 2, 1, 1)] = 2;
+    {
+        gs_model_polymesh pm;
+        assert_int_equal(gs_model_mesh_quads(&l, 1.0, &q), GS_OK);
+        assert_int_equal(gs_model_mesh_weld(&l, &q, 1.0, &pm), GS_OK);
+        check_polymesh_manifold(&pm);
+        assert_true(pm.start[pm.nf] > 4 * pm.nf);
+        gs_model_polymesh_free(&pm);
+        gs_model_quads_free(&q);
+    }
     gs_model_lattice_destroy(&l);
 }
 
 /* Random lattices: areas add up to the unit faces, normals point out, and
  * the written meshes re-read with the enclosed volume = filled cells (only
- * true when every face is oriented outward, since faces between two labels
- * come in opposite pairs). */
+ * true when every face is oriented outward). The welded mesh is a closed
+ * 2-manifold by its own indices: every edge used twice in opposite
+ * directions, each vertex one fan (see also analysis/mesh_validity.py,
+ * which e2e/model runs on the written file). */
 static void test_mesh_random_volume_and_reread(void **state)
 {
     (void)state;
@@ -135,15 +220,19 @@ static void test_mesh_random_volume_and_reread(void **state)
     assert_true(q.n < q.unit_faces); /* some merging happened */
     gs_model_palette pal;
     memset(&pal, 0, sizeof pal);
+    gs_model_polymesh pm;
+    assert_int_equal(gs_model_mesh_weld(&l, &q, 1.0, &pm), GS_OK);
+    assert_int_equal(pm.nf, q.n);
+    check_polymesh_manifold(&pm);
     const char *names[2] = {"m.ply", "m.obj"};
     for (int k = 0; k < 2; k++) {
-        assert_int_equal(gs_model_write_mesh(tmp(names[k]), &q, &pal), GS_OK);
+        assert_int_equal(gs_model_write_mesh(tmp(names[k]), &pm, &pal), GS_OK);
         gs_mesh m;
         gs_err e = gs_mesh_read(tmp(names[k]), &m);
         if (e)
             gs_error_report("test_model_io: ");
         assert_int_equal(e, GS_OK);
-        assert_int_equal(m.ntris, 2 * q.n);
+        assert_int_equal(m.ntris, pm.start[pm.nf] - 2 * pm.nf); /* fanned polygons */
         float lo[3], hi[3];
         gs_mesh_bbox(&m, lo, hi);
         assert_true(lo[0] >= 0 && hi[0] <= 13 && hi[2] <= 7);
@@ -151,8 +240,9 @@ static void test_mesh_random_volume_and_reread(void **state)
         gs_mesh_destroy(&m);
     }
     assert_true(access(tmp("m.mtl"), R_OK) == 0);
-    assert_int_equal(gs_model_write_mesh(tmp("m.stl"), &q, &pal), GS_ERR_ARG);
+    assert_int_equal(gs_model_write_mesh(tmp("m.stl"), &pm, &pal), GS_ERR_ARG);
     gs_error_clear();
+    gs_model_polymesh_free(&pm);
     gs_model_quads_free(&q);
     gs_model_lattice_destroy(&l);
 }
