@@ -55,10 +55,16 @@ struct gs_points_synth {
     size_t *comp_start, *comp_idx; /* points of component c: comp_idx[comp_start[c - 1] ..] */
     uint32_t *in_comp;         /* component of each input point */
     double obj_ext;            /* widest object's xy extent (0: no objects) */
+    double obj_gap;            /* example's closest approach of an object to another piece */
     uint64_t obj_min;          /* smallest object's point count */
     uint32_t *Fobj, *Fbobj;    /* object of each point of F / Fb (0: none) */
     size_t Fbobj_cap;
     gs_points keep_in, drop_out; /* scratch of the paste */
+    double *obj_move;            /* 3 per object of F: its rigid warp (object_moves) */
+    size_t obj_move_cap;
+    gs_points gone;              /* the output's objects that went (paste), by object */
+    uint32_t *gone_obj;
+    size_t gone_cap;
 };
 
 enum { COMP_SURFACE = 0, COMP_OBJECT = 1, COMP_PARTIAL = 2 };
@@ -201,6 +207,9 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_free(s->Fbobj);
     gs_points_free(&s->keep_in);
     gs_points_free(&s->drop_out);
+    gs_points_free(&s->gone);
+    gs_free(s->gone_obj);
+    gs_free(s->obj_move);
     gs_free(s);
     *sp = NULL;
 }
@@ -291,6 +300,46 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
 /* Points closer than this are one piece (as the fragment measure links). */
 static double link_radius(const struct gs_points_synth *s) { return 2 * s->spacing; }
 
+/* Lowers s->obj_gap to the smallest distance between a point of an object
+ * of the example and a point of another piece. The grid's points carry
+ * their index in n[0]. */
+static gs_err objects_gap(struct gs_points_synth *s)
+{
+    size_t n = s->in.n;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], s->in.v[i].p[a]);
+            hi[a] = fmax(hi[a], s->in.v[i].p[a]);
+        }
+    for (int a = 0; a < 3; a++) { /* a flat example has no z extent */
+        lo[a] -= s->obj_gap;
+        hi[a] += s->obj_gap;
+    }
+    gs_points_grid_t g = NULL;
+    GS_CALL(gs_points_grid_create(lo, hi, s->obj_gap, &g));
+    gs_err err = GS_OK;
+    for (size_t i = 0; i < n; i++) {
+        gs_opoint q = {{s->in.v[i].p[0], s->in.v[i].p[1], s->in.v[i].p[2]}, {(double)i, 0, 0}};
+        GS_TRY(err, gs_points_grid_add(g, &q), done);
+    }
+    for (size_t i = 0; i < n; i++) {
+        uint32_t c = s->in_comp[i];
+        if (s->comp_kind[c] != COMP_OBJECT)
+            continue;
+        s->scratch.n = 0;
+        GS_TRY(err, gs_points_grid_query(g, s->in.v[i].p, s->obj_gap, &s->scratch), done);
+        for (size_t j = 0; j < s->scratch.n; j++) {
+            double d = sqrt(v3_dist2(s->scratch.v[j].p, s->in.v[i].p));
+            if (d < s->obj_gap && s->in_comp[(size_t)s->scratch.v[j].n[0]] != c)
+                s->obj_gap = d;
+        }
+    }
+done:
+    gs_points_grid_destroy(&g);
+    return err;
+}
+
 /* The example's components (link_radius): an object is one no wider in xy
  * than a patch and clear of the edges of the example's points (so it
  * is whole there); a partial one is as narrow but touches an edge (cut by
@@ -362,6 +411,13 @@ static gs_err objects_setup(struct gs_points_synth *s)
             s->obj_min = s->obj_min && s->obj_min < sizes[c] ? s->obj_min : sizes[c];
         }
     }
+    /* How close the example lets an object come to another piece: a pasted
+     * object keeps at least this far from what is there (capped at the
+     * relaxation's reach, past which pieces do not act on each other). */
+    s->obj_gap = 1.25 * s->p.mls_radius;
+    if (s->obj_ext > 0)
+        GS_TRY(err, objects_gap(s), done);
+    s->obj_gap = fmax(s->obj_gap, r);
 done:
     gs_free(sizes);
     gs_free(box);
@@ -976,8 +1032,47 @@ typedef struct blend_ctx {
     const double *o;
     const gs_points_tps *tps; /* NULL: no warp */
     const size_t *order;      /* item -> index in F */
+    const double *obj_move;   /* [3 (objects + 1)]: each whole object's displacement */
     double warp_seconds, blend_seconds; /* this process's share */
 } blend_ctx;
+
+/* s->obj_move: the warp moves each whole object of F (its points are one run
+ * per object, numbered 1..) by the warp's displacement of its centre, so it
+ * keeps the example's shape: a point-by-point warp stretches a flower and
+ * pulls petal tips off it. */
+static gs_err object_moves(struct gs_points_synth *s, const gs_points_tps *tps)
+{
+    uint32_t nobj = 0;
+    for (size_t i = 0; i < s->F.n; i++)
+        nobj = s->Fobj[i] > nobj ? s->Fobj[i] : nobj;
+    size_t need = 3 * ((size_t)nobj + 1);
+    if (need > s->obj_move_cap) {
+        double *v = gs_realloc(s->obj_move, need * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "points: out of memory (object moves)");
+        s->obj_move = v;
+        s->obj_move_cap = need;
+    }
+    memset(s->obj_move, 0, need * sizeof *s->obj_move);
+    for (size_t i = 0; i < s->F.n;) {
+        uint32_t ob = s->Fobj[i];
+        size_t e = i + 1;
+        while (e < s->F.n && s->Fobj[e] == ob)
+            e++;
+        if (ob) {
+            double c[3] = {0, 0, 0}, w[3], J[9];
+            for (size_t j = i; j < e; j++)
+                for (int k = 0; k < 3; k++)
+                    c[k] += s->F.v[j].p[k];
+            for (int k = 0; k < 3; k++)
+                c[k] /= (double)(e - i);
+            gs_points_tps_eval(tps, c, w, J);
+            for (int k = 0; k < 3; k++)
+                s->obj_move[3 * ob + k] = w[k] - c[k];
+        }
+        i = e;
+    }
+    return GS_OK;
+}
 
 /* One point of F through the warp (if any) and the blend (fig. 3c). */
 static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2],
@@ -1034,7 +1129,12 @@ static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
         blend_item *it = &out[i - lo];
         memset(it, 0, sizeof *it);
         const gs_opoint *f = &s->F.v[c->order[i]];
-        if (c->tps) {
+        uint32_t ob = s->ncomp ? s->Fobj[c->order[i]] : 0;
+        if (c->tps && ob) { /* a whole object moves as one, keeping its shape */
+            it->q = *f;
+            for (int k = 0; k < 3; k++)
+                it->q.p[k] += c->obj_move[3 * ob + k];
+        } else if (c->tps) {
             double J[9];
             gs_points_tps_eval(c->tps, f->p, it->q.p, J);
             gs_points_tps_normal(J, f->n, it->q.n);
@@ -1056,14 +1156,64 @@ static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
     return GS_OK;
 }
 
+/* s->gone's objects (gone_obj: the object of each point): each is put back
+ * whole, in object order, when no output point lies within r of any of its
+ * points. */
+typedef struct gone_key {
+    uint32_t obj;
+    size_t i;
+} gone_key;
+
+static int gone_cmp(const void *pa, const void *pb)
+{
+    const gone_key *a = pa, *b = pb;
+    if (a->obj != b->obj)
+        return a->obj < b->obj ? -1 : 1;
+    return (a->i > b->i) - (a->i < b->i);
+}
+
+static gs_err restore_gone(struct gs_points_synth *s, double r)
+{
+    size_t n = s->gone.n;
+    if (n == 0)
+        return GS_OK;
+    gone_key *k = NULL;
+    gs_err err = gs_alloc_array((void **)&k, n, sizeof *k, "paste");
+    if (err != GS_OK)
+        return err;
+    for (size_t i = 0; i < n; i++)
+        k[i] = (gone_key){s->gone_obj[i], i};
+    qsort(k, n, sizeof *k, gone_cmp);
+    for (size_t a = 0; a < n;) {
+        size_t e = a + 1;
+        while (e < n && k[e].obj == k[a].obj)
+            e++;
+        int clash = 0;
+        for (size_t j = a; j < e && !clash; j++) {
+            s->scratch.n = 0;
+            GS_TRY(err, gs_points_grid_query(s->out, s->gone.v[k[j].i].p, r, &s->scratch), done);
+            clash = s->scratch.n > 0;
+        }
+        for (size_t j = a; j < e && !clash; j++)
+            GS_TRY(err, gs_points_grid_add(s->out, &s->gone.v[k[j].i]), done);
+        a = e;
+    }
+done:
+    gs_free(k);
+    return err;
+}
+
 /* Pastes Fb into the output over B_k. Without objects: the output's points
  * in B_k give way to Fb. With objects, the output's own pieces near B_k are
  * found (link_radius); one no wider than the widest object of the example
  * and of at least half the points of its smallest is an object of the
  * output (a smaller piece, a speck, is surface): it goes whole if its centre is on this
  * patch's side (see gather_patch), and stays whole (also inside B_k)
- * otherwise. Fb's objects then go in whole unless they touch what stays
- * (two flowers grown into one), its other points as before. */
+ * otherwise. Fb's objects then go in whole unless they come closer to what
+ * is there than the example lets its objects come (obj_gap; two flowers
+ * grown into one), its other points as before; last, each of the output's
+ * objects that went comes back whole where it still keeps that distance
+ * (so no gap opens where the new patch's object did not fit). */
 static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2])
 {
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
@@ -1115,6 +1265,7 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
                : in_xy(ct, blo, bhi) && (!mode || blend_weight(s, mode, o, ct) < 0.5) ? 2
                                                                                           : 1;
     }
+    s->gone.n = 0;
     for (size_t i = 0; i < Q->n; i++) {
         double v = box[6 * label[i] + 4];
         int in = in_xy(Q->v[i].p, blo, bhi);
@@ -1122,6 +1273,17 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
             GS_TRY(err, gs_points_append(&s->keep_in, &Q->v[i], 1), done);
         else if (v == 2 && !in)
             GS_TRY(err, gs_points_append(&s->drop_out, &Q->v[i], 1), done);
+        if (v == 2) {
+            if (s->gone.n + 1 > s->gone_cap) {
+                size_t cap = 2 * s->gone.n + 64;
+                uint32_t *g = gs_realloc(s->gone_obj, cap * sizeof *g);
+                GS_TRY(err, g ? GS_OK : GS_ERR_MEM, done);
+                s->gone_obj = g;
+                s->gone_cap = cap;
+            }
+            s->gone_obj[s->gone.n] = label[i];
+            GS_TRY(err, gs_points_append(&s->gone, &Q->v[i], 1), done);
+        }
     }
     gs_points_grid_remove_xy(s->out, blo, bhi);
     gs_points_grid_remove_points(s->out, s->drop_out.v, s->drop_out.n);
@@ -1136,13 +1298,19 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
         int clash = 0;
         for (size_t j = i; ob && j < e && !clash; j++) {
             s->scratch.n = 0;
-            GS_TRY(err, gs_points_grid_query(s->out, s->Fb.v[j].p, r, &s->scratch), done);
+            GS_TRY(err, gs_points_grid_query(s->out, s->Fb.v[j].p, s->obj_gap, &s->scratch),
+                   done);
             clash = s->scratch.n > 0;
         }
         for (size_t j = i; j < e && !clash; j++)
             GS_TRY(err, gs_points_grid_add(s->out, &s->Fb.v[j]), done);
         i = e;
     }
+    /* Where a new object was left out (it touched one that stays), the old
+     * object it would have replaced may fit: each object that went comes
+     * back whole if nothing now lies within the link of it, so two flowers
+     * never grow into one and no gap opens where neither side's object fits. */
+    GS_TRY(err, restore_gone(s, s->obj_gap), done);
 done:
     gs_free(label);
     gs_free(sizes);
@@ -1213,7 +1381,9 @@ static gs_err blend_and_paste(struct gs_points_synth *s, int mode, const double 
         for (size_t j = 0; j < n; j++)
             slot[order[j]] = j;
     }
-    blend_ctx bc = {s, mode, o, tps, order, 0, 0};
+    if (tps && s->ncomp)
+        GS_CALL(object_moves(s, tps));
+    blend_ctx bc = {s, mode, o, tps, order, s->obj_move, 0, 0};
     GS_CALL(par_map(s, n, sizeof(blend_item), warp_blend_points, &bc, s->blend));
     *warp_seconds = bc.warp_seconds;
     /* Assembled in point order: the same sums and order for any split. */
