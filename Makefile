@@ -75,7 +75,7 @@ TEST_UTIL_OBJ := $(TEST_UTIL:%.c=$(BUILD)/%.o)
 FUZZ_SRC := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_BIN := $(FUZZ_SRC:tests/fuzz/%.c=build-fuzz/%)
 
-.PHONY: all deps data test unit mpi e2e fuzz valgrind bench demo install clean help tests-build plugins
+.PHONY: all deps data test unit mpi e2e fuzz fuzz-build valgrind bench demo install clean help tests-build plugins
 .DEFAULT_GOAL := all
 
 all: $(BIN)/geosynth
@@ -87,6 +87,7 @@ help:
 	@echo "make test       deps + build + every test (unit, MPI np=$(NP), end-to-end, fuzz corpus)"
 	@echo "make test T=x   run only tests whose name contains x"
 	@echo "make valgrind   unit tests under valgrind"
+	@echo "make fuzz       every libFuzzer target for FUZZ_SECONDS (default 60) each, from its seed corpus"
 	@echo "make SANITIZE=address,undefined test   the same under ASan/UBSan (build-san/)"
 	@echo "make bench      benchmarks, JSON results in bench-results/"
 	@echo "make install PREFIX=/opt/geosynth"
@@ -165,7 +166,15 @@ build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
 	@mkdir -p $(dir $@)
 	OMPI_CC=clang mpicc $(FUZZ_CFLAGS) -fsanitize=fuzzer -rdynamic $< $(FUZZ_LIB_OBJ) $(LDLIBS) -o $@
 
-fuzz: $(FUZZ_BIN)
+# `make fuzz` builds every target and fuzzes each for FUZZ_SECONDS (default 60;
+# `make fuzz FUZZ_SECONDS=600 T=fuzz_image` for one), starting from its seed
+# corpus; crashing inputs are kept as build/test-logs/fuzz_NAME-crash-* (copy
+# them into tests/fuzz/corpus/NAME/ as regression inputs once fixed).
+# `make test` runs the same with 15 s each.
+FUZZ_SECONDS ?= 60
+fuzz-build: $(FUZZ_BIN)
+fuzz: fuzz-build
+	@BUILD=$(BUILD) BIN=$(BIN) T="$(T)" FUZZ_SECONDS=$(FUZZ_SECONDS) tests/run.sh fuzz
 
 # Keep the fuzz build's objects (they are intermediates of the fuzz programs).
 .SECONDARY: $(FUZZ_LIB_OBJ)
@@ -173,7 +182,7 @@ fuzz: $(FUZZ_BIN)
 # `make test` is the whole set-up on a fresh Debian 12 machine: it installs what
 # is missing, builds, and runs every suite, ending with "N passed, N failed".
 test: deps
-	@$(MAKE) --no-print-directory tests-build fuzz
+	@$(MAKE) --no-print-directory tests-build fuzz-build
 	@BUILD=$(BUILD) BIN=$(BIN) NP="$(NP)" T="$(T)" tests/run.sh
 
 valgrind: tests-build

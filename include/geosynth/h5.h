@@ -257,6 +257,13 @@ gs_err gs_ckpt_write_whole(gs_ckpt_t h, const char *path, const gs_h5_shape *sha
  * (named in the message). On error *out is unchanged. */
 gs_err gs_ckpt_shape(gs_ckpt_t h, const char *path, gs_h5_shape *out);
 
+/* Local. GS_ERR_FORMAT when dataset path (of shape s, from gs_ckpt_shape)
+ * has less storage in the file than its data needs, allowing deflate's
+ * largest ratio (1032:1): a dataset declared but never written (an 11 KB
+ * file declaring float32 [1024 x 1024 x 1024] made a field run allocate
+ * 14 GB) is refused before its memory is allocated. For example inputs. */
+gs_err gs_ckpt_check_stored(gs_ckpt_t h, const char *path, const gs_h5_shape *s);
+
 /* Collective. Validates that dataset path has exactly the shape and type in
  * expect (GS_ERR_FORMAT otherwise, message shows both), then reads rows
  * [start, start+count) of dims[0] into data. Any decomposition works

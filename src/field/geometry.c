@@ -86,6 +86,7 @@ gs_err gs_field_from_h5(const char *path, const char *dataset, gs_field **out)
     GS_TRY_CHECK(err, sh.dims[0] <= 4096 && sh.dims[1] <= 4096 && sh.dims[2] <= 4096, GS_ERR_ARG,
                  done, "%s: dataset %s is %s: expected at most 4096 samples per axis", path,
                  dataset, buf);
+    GS_TRY(err, gs_ckpt_check_stored(h, dataset, &sh), done);
     GS_TRY(err, gs_field_create((int64_t)sh.dims[2], (int64_t)sh.dims[1], (int64_t)sh.dims[0], &f),
            done);
     GS_TRY(err, gs_ckpt_read_whole(h, dataset, &sh, f->v), done);

@@ -320,6 +320,24 @@ gs_err gs_ckpt_shape(gs_ckpt_t h, const char *path, gs_h5_shape *out)
     return GS_OK;
 }
 
+gs_err gs_ckpt_check_stored(gs_ckpt_t h, const char *path, const gs_h5_shape *s)
+{
+    hid_t d;
+    GS_CALL(open_dataset(h, path, &d));
+    hsize_t stored = H5Dget_storage_size(d);
+    H5Dclose(d);
+    double bytes = (double)gs_h5_type_size(s->type);
+    for (int i = 0; i < s->rank; i++)
+        bytes *= (double)s->dims[i];
+    char buf[160];
+    gs_h5_shape_format(s, buf, sizeof buf);
+    GS_CHECK(bytes <= 1032.0 * (double)stored + 4096.0, GS_ERR_FORMAT,
+             "%s: dataset %s is %s (%.0f bytes), but the file stores only %llu bytes of it: "
+             "its data was never written or the file is damaged",
+             file_name(h), path, buf, bytes, (unsigned long long)stored);
+    return GS_OK;
+}
+
 static gs_err check_expected(const struct gs_ckpt *h, const char *dset, const gs_h5_shape *got,
                              const gs_h5_shape *want)
 {

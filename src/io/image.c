@@ -73,27 +73,129 @@ gs_err gs_image_alloc(gs_image *img, int width, int height, int channels, int bi
     return GS_OK;
 }
 
+/* stb_image trusts what it reads (found by tests/fuzz/fuzz_image.c, #25):
+ * - a JPEG Huffman table (DHT) whose 16 code counts add up to more than 256
+ *   makes stbi__build_huffman write past its 257-entry table (Debian 12's
+ *   stb of 2022-09; newer stb refuses it as "bad DHT header"). jpeg_check
+ *   walks the markers (skipping entropy-coded data, where 0xFF is always
+ *   followed by 0x00 or a restart marker) and refuses such a table first,
+ *   table by table as stb reads them.
+ * - the header's sides are believed: a 45-byte PNG claiming 16384 x 16384
+ *   RGBA gets 1 GiB allocated before decoding finds no data (stb itself
+ *   refuses only claims above 2^30 bytes, "too large"). A file cannot
+ *   encode more pixels than its compression allows: deflate expands at most
+ *   1032:1 and a PNG pixel takes at least one bit of inflated data, so
+ *   pixels <= 8 * 1032 * bytes; a baseline or progressive JPEG spends at
+ *   least one bit per 8x8 block on its DC coefficients, so pixels <= 512 *
+ *   bytes. Larger claims are refused before any allocation.
+ * - a PNG chunk's length is believed: an IDAT claiming 2 GB in an 83-byte
+ *   file gets its buffer allocated (and zeroed by the allocator) before the
+ *   read fails, 0.5 s of CPU each. png_check walks the chunks first and
+ *   refuses a length that runs past the end of the file. */
+#define IMAGE_MAX_FILE_BYTES ((size_t)4 << 30)
+
+static gs_err jpeg_check(const unsigned char *d, size_t len, const char *path)
+{
+    size_t p = 2; /* after SOI */
+    while (p < len) {
+        if (d[p] != 0xFF) { /* entropy-coded data (or junk stb refuses itself) */
+            p++;
+            continue;
+        }
+        while (p < len && d[p] == 0xFF) /* fill bytes */
+            p++;
+        if (p >= len)
+            break;
+        unsigned m = d[p++];
+        if (m == 0x00 || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) /* stuffed, TEM, RSTn, SOI */
+            continue;
+        if (m == 0xD9 || p + 2 > len) /* EOI, or a length cut off (stb says so) */
+            break;
+        size_t seg = (size_t)d[p] << 8 | d[p + 1];
+        if (m == 0xC4) {
+            size_t q = p + 2, end = p + seg;
+            while (q < end && q < len) {
+                unsigned n = 0;
+                for (size_t i = 0; i < 16 && q + 1 + i < len; i++)
+                    n += d[q + 1 + i];
+                GS_CHECK(n <= 256, GS_ERR_FORMAT,
+                         "%s: damaged JPEG: the Huffman table at byte %zu declares %u codes "
+                         "(at most 256)",
+                         path, q, n);
+                q += 17 + n;
+            }
+        }
+        if (seg < 2)
+            break;
+        p += seg;
+    }
+    return GS_OK;
+}
+
+static gs_err png_check(const unsigned char *d, size_t len, const char *path)
+{
+    size_t p = 8; /* after the signature */
+    while (p + 8 <= len) {
+        size_t n = (size_t)d[p] << 24 | (size_t)d[p + 1] << 16 | (size_t)d[p + 2] << 8 | d[p + 3];
+        char type[5];
+        for (int i = 0; i < 4; i++) {
+            unsigned char c = d[p + 4 + i];
+            type[i] = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') ? (char)c : '?';
+        }
+        type[4] = '\0';
+        GS_CHECK(n <= len - p - 8, GS_ERR_FORMAT,
+                 "%s: damaged or truncated PNG: chunk '%s' at byte %zu declares %zu bytes but "
+                 "only %zu remain",
+                 path, type, p, n, len - p - 8);
+        if (!memcmp(d + p + 4, "IEND", 4))
+            break;
+        p += 12 + n; /* length, type, data, CRC */
+    }
+    return GS_OK;
+}
+
 gs_err gs_image_read(const char *path, gs_image *out)
 {
     memset(out, 0, sizeof *out);
     GS_CHECK(path && path[0], GS_ERR_ARG, "image path is empty");
-    FILE *f = fopen(path, "rb");
-    GS_CHECK(f, GS_ERR_IO, "%s: cannot open image file: %s", path, strerror(errno));
-    int w = 0, h = 0, c = 0;
-    gs_err err = GS_OK;
-    if (!stbi_info_from_file(f, &w, &h, &c)) {
+    char *file = NULL;
+    size_t len = 0;
+    {
+        FILE *f = fopen(path, "rb");
+        GS_CHECK(f, GS_ERR_IO, "%s: cannot open image file: %s", path, strerror(errno));
         fclose(f);
-        GS_RAISE(GS_ERR_FORMAT, "%s: not a readable PNG or JPEG image (%s)", path,
-                 stbi_failure_reason());
     }
+    GS_CALL(gs_file_read_all(path, IMAGE_MAX_FILE_BYTES, &file, &len));
+    const unsigned char *d = (const unsigned char *)file;
+    gs_err err = GS_OK;
+    static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    int is_png = len >= 8 && !memcmp(d, png_sig, 8);
+    int is_jpeg = len >= 3 && d[0] == 0xFF && d[1] == 0xD8 && d[2] == 0xFF;
+    GS_TRY_CHECK(err, len <= (size_t)INT32_MAX, GS_ERR_FORMAT, done,
+                 "%s: %zu bytes: image files of at most 2 GiB are read", path, len);
+    GS_TRY_CHECK(err, is_png || is_jpeg, GS_ERR_FORMAT, done,
+                 "%s: not a PNG or JPEG image (%s)", path,
+                 len == 0 ? "the file is empty" : "no PNG or JPEG signature at byte 0");
+    if (is_jpeg)
+        GS_TRY(err, jpeg_check(d, len, path), done);
+    else
+        GS_TRY(err, png_check(d, len, path), done);
+    int w = 0, h = 0, c = 0;
+    GS_TRY_CHECK(err, stbi_info_from_memory(d, (int)len, &w, &h, &c), GS_ERR_FORMAT, done,
+                 "%s: not a readable PNG or JPEG image (%s)", path, stbi_failure_reason());
     GS_TRY(err, check_shape(path, w, h, c, 8), done);
-    int is16 = stbi_is_16_bit_from_file(f);
+    double per_byte = is_png ? 8.0 * 1032.0 : 512.0;
+    GS_TRY_CHECK(err, (double)w * (double)h <= per_byte * (double)len + 4096.0, GS_ERR_FORMAT, done,
+                 "%s: the header says %dx%d pixels, more than a %s file of %zu bytes can hold "
+                 "(at most %.0f per byte): the file is damaged or truncated",
+                 path, w, h, is_png ? "PNG" : "JPEG", len, per_byte);
+    int is16 = stbi_is_16_bit_from_memory(d, (int)len);
     void *pix;
     int w2, h2, c2;
     if (is16)
-        pix = stbi_load_from_file_16(f, &w2, &h2, &c2, 0);
+        pix = stbi_load_16_from_memory(d, (int)len, &w2, &h2, &c2, 0);
     else
-        pix = stbi_load_from_file(f, &w2, &h2, &c2, 0);
+        pix = stbi_load_from_memory(d, (int)len, &w2, &h2, &c2, 0);
     GS_TRY_CHECK(err, pix, GS_ERR_FORMAT, done, "%s: damaged image (%s)", path,
                  stbi_failure_reason());
     if (w2 != w || h2 != h || c2 != c) {
@@ -109,7 +211,7 @@ gs_err gs_image_read(const char *path, gs_image *out)
     else
         out->data8 = pix;
 done:
-    fclose(f);
+    gs_free(file);
     return err;
 }
 

@@ -116,6 +116,7 @@ static gs_err load_h5(const char *path, const char *dataset, gs_model_lattice *o
                           (sh.rank == 2 || sh.dims[2] <= (1u << 20)),
                  GS_ERR_FORMAT, done, "%s: dataset %s is %s: extents above 2^20", path, dataset,
                  got);
+    GS_TRY(err, gs_ckpt_check_stored(h, dataset, &sh), done);
     GS_TRY(err, gs_model_lattice_create(&lat, nx, ny, nz), done);
     GS_TRY(err, gs_ckpt_read_whole(h, dataset, &sh, lat.labels), done);
     *out = lat;

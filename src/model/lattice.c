@@ -120,6 +120,15 @@ gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name
     for (int i = 0; i < 3; i++)
         GS_CALL(read_int(&c, 1, 4096, ext_name[i], &ext[i]));
     size_t n = (size_t)(ext[0] * ext[1] * ext[2]);
+    /* Each label takes a digit and a separator: refuse extents the rest of
+     * the file cannot hold before allocating them (4096^3 from a 30-byte file
+     * reserved 2^31 cells; fuzz_lattice). */
+    size_t room = ((size_t)(c.end - c.p) + 1) / 2;
+    GS_CHECK(n <= room, GS_ERR_FORMAT,
+             "%s:%d: extents %lld x %lld x %lld need %zu labels, but the rest of the file "
+             "(%zu bytes) holds at most %zu: truncated file or wrong extents",
+             c.name, c.line, (long long)ext[0], (long long)ext[1], (long long)ext[2], n,
+             (size_t)(c.end - c.p), room);
     gs_model_lattice lat = {0};
     GS_CALL(gs_model_lattice_create(&lat, (int)ext[0], (int)ext[1], (int)ext[2]));
     gs_err err = GS_OK;

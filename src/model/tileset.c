@@ -156,6 +156,8 @@ static gs_err load_rgba(const char *path, gs_image *img, int *w, int *h, uint8_t
 
 size_t gs_tileset_pairs_unique(gs_model_pair *pairs, size_t n)
 {
+    if (n == 0) /* pairs may be NULL then (a set without neighbours; fuzz_tileset) */
+        return 0;
     qsort(pairs, n, sizeof *pairs, cmp_pair);
     size_t m = 0;
     for (size_t i = 0; i < n; i++)

@@ -12,6 +12,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <zlib.h>
+
 #include "geosynth/image.h"
 #include "geosynth/mem.h"
 
@@ -189,6 +191,67 @@ static void test_errors(void **state)
     gs_image_destroy(&ok);
 }
 
+static void write_bytes(const char *path, const unsigned char *d, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(d, 1, n, f), n);
+    fclose(f);
+}
+
+/* Inputs stb_image trusts (#25 item 5, found by tests/fuzz/fuzz_image.c). */
+static void test_hostile_headers(void **state)
+{
+    (void)state;
+    char path[256];
+    gs_image im;
+    /* A JPEG Huffman table declaring 300 codes: stb wrote past its 257-entry
+     * size table (UBSan: index 257 out of bounds in stbi__build_huffman). */
+    unsigned char jpg[64] = {0xFF, 0xD8, 0xFF, 0xC4, 0x00, 0x13, 0x00, 0xFF, 0x2D};
+    size_t n = 2 + 2 + 0x13;
+    jpg[n++] = 0xFF;
+    jpg[n++] = 0xD9;
+    tmp_path("dht.jpg", path, sizeof path);
+    write_bytes(path, jpg, n);
+    assert_int_equal(gs_image_read(path, &im), GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "dht.jpg"));
+    assert_non_null(strstr(gs_error_message(), "Huffman table at byte 6 declares 300 codes"));
+    assert_null(im.data8);
+    /* A 45-byte PNG whose header claims 16384 x 16384 RGBA: 1 GiB was
+     * allocated before the missing data was noticed. */
+    unsigned char png[64] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13,
+                             'I', 'H', 'D', 'R', 0, 0, 0x40, 0, 0, 0, 0x40, 0, 8, 6, 0, 0, 0};
+    uLong crc = crc32(0L, png + 12, 17);
+    for (int i = 0; i < 4; i++)
+        png[29 + i] = (unsigned char)(crc >> (24 - 8 * i));
+    n = 33;
+    static const unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+    memcpy(png + n, iend, sizeof iend);
+    n += sizeof iend;
+    tmp_path("huge.png", path, sizeof path);
+    write_bytes(path, png, n);
+    assert_int_equal(gs_image_read(path, &im), GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "huge.png"));
+    assert_non_null(strstr(gs_error_message(), "16384x16384 pixels, more than a PNG file of 45 bytes"));
+    assert_null(im.data8);
+    /* An IDAT chunk claiming 0x7fff0000 bytes in a 57-byte file: its buffer
+     * was allocated before the read failed. */
+    static const unsigned char idat[12] = {0x7f, 0xff, 0, 0, 'I', 'D', 'A', 'T', 0, 0, 0, 0};
+    png[16] = png[20] = 0; /* 64 x 64 now */
+    png[18] = png[22] = 0;
+    png[19] = png[23] = 64;
+    crc = crc32(0L, png + 12, 17);
+    for (int i = 0; i < 4; i++)
+        png[29 + i] = (unsigned char)(crc >> (24 - 8 * i));
+    memcpy(png + 33, idat, sizeof idat);
+    memcpy(png + 45, iend, sizeof iend);
+    tmp_path("idat.png", path, sizeof path);
+    write_bytes(path, png, 57);
+    assert_int_equal(gs_image_read(path, &im), GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "idat.png: damaged or truncated PNG: chunk 'IDAT' at byte 33 declares 2147418112 bytes but only 16 remain"));
+    gs_error_clear();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -197,6 +260,7 @@ int main(void)
         cmocka_unit_test(test_roundtrip_8_and_16),
         cmocka_unit_test(test_heightmap16),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_hostile_headers),
     };
     return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }

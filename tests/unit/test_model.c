@@ -75,6 +75,14 @@ static void test_reader_order_and_errors(void **state)
     assert_int_equal(gs_model_parse_merrell_txt(big, sizeof big - 1, "big.txt", &keep),
                      GS_ERR_FORMAT);
     assert_non_null(strstr(gs_error_message(), "big.txt:5"));
+    /* extents the file cannot hold are refused before 2^31 cells are reserved */
+    const char huge[] = "a\nb\nc\n1024 1024 1000\n1 2 3\n";
+    assert_int_equal(gs_model_parse_merrell_txt(huge, sizeof huge - 1, "huge.txt", &keep),
+                     GS_ERR_FORMAT);
+    assert_non_null(strstr(gs_error_message(), "huge.txt:4: extents 1024 x 1024 x 1000 need "
+                                               "1048576000 labels, but the rest of the file (7 "
+                                               "bytes) holds at most 4"));
+    assert_null(keep.labels);
     assert_int_equal(gs_model_read_merrell_txt("no/such/file.txt", &keep), GS_ERR_IO);
     gs_error_clear();
 }
