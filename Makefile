@@ -170,11 +170,12 @@ build-fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJ)
 # `make fuzz FUZZ_SECONDS=600 T=fuzz_image` for one), starting from its seed
 # corpus; crashing inputs are kept as build/test-logs/fuzz_NAME-crash-* (copy
 # them into tests/fuzz/corpus/NAME/ as regression inputs once fixed).
-# `make test` runs the same with 15 s each.
+# A campaign draws a fresh seed (FUZZ_SEED=0) unless FUZZ_SEED is given; `make test`
+# runs the same with 15 s each from seed 1.
 FUZZ_SECONDS ?= 60
 fuzz-build: $(FUZZ_BIN)
 fuzz: fuzz-build
-	@BUILD=$(BUILD) BIN=$(BIN) T="$(T)" FUZZ_SECONDS=$(FUZZ_SECONDS) tests/run.sh fuzz
+	@BUILD=$(BUILD) BIN=$(BIN) T="$(T)" FUZZ_SECONDS=$(FUZZ_SECONDS) FUZZ_SEED=$${FUZZ_SEED:-0} tests/run.sh fuzz
 
 # Keep the fuzz build's objects (they are intermediates of the fuzz programs).
 .SECONDARY: $(FUZZ_LIB_OBJ)
