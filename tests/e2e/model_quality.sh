@@ -110,4 +110,14 @@ chk.result()
 EOF
 )
 verdict terrain "output has the example's relief (figures from the example)" "$res"
+# the synthesized faces are decided from the config and the example alone: the same digest at
+# np 2 and after a stop at np 2 resumed at np 1
+run_gs 2 model -c terrain.ini -o terrain2
+GS_STOP_AFTER_UNITS=2 run_gs 2 model -c terrain.ini -o terrain_stop
+expect_rc 9 "terrain: stop after 2 regions at np 2"
+run_gs 0 resume terrain_stop
+expect_rc 0 "terrain: resume at np 1"
+d1=$(digest_of terrain)
+[[ $(digest_of terrain2) == "$d1" && $(digest_of terrain_stop) == "$d1" ]] \
+  && ok "terrain: digest $d1 at np 1, np 2 and stop + resume" || bad "terrain: digests differ across np or resume"
 finish
