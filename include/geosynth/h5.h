@@ -298,8 +298,9 @@ typedef struct gs_xdmf_grid {
 
 typedef struct gs_xdmf_attr {
     const char *name;      /* attribute name in ParaView */
-    const char *dataset;   /* HDF5 path inside the .h5, dims == grid.dims */
+    const char *dataset;   /* HDF5 path inside the .h5, dims == grid.dims (+ [components]) */
     gs_h5_type type;
+    int components;        /* 0 or 1: a scalar; 3: a vector (e.g. an RGB colour per cell) */
 } gs_xdmf_attr;
 
 gs_err gs_xdmf_write(const char *h5_path, const gs_xdmf_grid *grid,

@@ -57,6 +57,9 @@ typedef struct gs_progress {
     int last_decile;
     int is_tty;
     int active; /* only rank 0 prints */
+    int started;         /* first update seen */
+    uint64_t first_done; /* its count and time: the ETA's rate is measured from there */
+    double first_time;
 } gs_progress;
 
 void gs_progress_begin(gs_progress *p, const char *label, uint64_t total);

@@ -3,6 +3,7 @@
 #include "geosynth/log.h"
 
 #include <stdarg.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -114,8 +115,28 @@ void gs_progress_begin(gs_progress *p, const char *label, uint64_t total)
     p->is_tty = isatty(fileno(stderr));
 }
 
+/* " ETA 12.3s" from the rate since the first update (a resumed run starts
+ * its count there), "" before any progress. */
+static void format_eta(const gs_progress *p, double now, char *out, size_t len)
+{
+    out[0] = '\0';
+    if (p->done <= p->first_done || p->done >= p->total || now <= p->first_time)
+        return;
+    double rate = (double)(p->done - p->first_done) / (now - p->first_time);
+    double eta = (double)(p->total - p->done) / rate;
+    if (eta < 3600)
+        snprintf(out, len, ", ETA %.1fs", eta);
+    else
+        snprintf(out, len, ", ETA %.0fh%02.0fm", floor(eta / 3600), floor(fmod(eta, 3600) / 60));
+}
+
 void gs_progress_update(gs_progress *p, uint64_t done)
 {
+    if (!p->started) { /* the first count: a resumed run's rate starts here */
+        p->started = 1;
+        p->first_done = done;
+        p->first_time = gs_time_now();
+    }
     p->done = done;
     if (!p->active || p->total == 0)
         return;
@@ -123,6 +144,8 @@ void gs_progress_update(gs_progress *p, uint64_t done)
     double frac = (double)done / (double)p->total;
     if (frac > 1.0)
         frac = 1.0;
+    char eta[48];
+    format_eta(p, now, eta, sizeof eta);
     if (p->is_tty) {
         if (now - p->last_print < 0.1 && done < p->total)
             return;
@@ -131,17 +154,17 @@ void gs_progress_update(gs_progress *p, uint64_t done)
         for (int i = 0; i < width; i++)
             bar[i] = i < fill ? '#' : '.';
         bar[width] = '\0';
-        fprintf(stderr, "\r%-20s [%s] %5.1f%% %8.1fs", p->label, bar, 100.0 * frac,
-                now - p->start_time);
+        fprintf(stderr, "\r%-20s [%s] %5.1f%% %8.1fs%-18s", p->label, bar, 100.0 * frac,
+                now - p->start_time, eta);
         fflush(stderr);
         p->last_print = now;
         return;
     }
     int decile = (int)(frac * 10.0);
     if (decile != p->last_decile || now - p->last_print > 10.0) {
-        fprintf(stderr, "%s: %llu/%llu (%.0f%%) after %.1fs\n", p->label,
+        fprintf(stderr, "%s: %llu/%llu (%.0f%%) after %.1fs%s\n", p->label,
                 (unsigned long long)done, (unsigned long long)p->total, 100.0 * frac,
-                now - p->start_time);
+                now - p->start_time, eta);
         fflush(stderr);
         p->last_decile = decile;
         p->last_print = now;

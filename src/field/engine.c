@@ -567,7 +567,8 @@ static gs_err write_u8_field(gs_ckpt_t h, gs_run *run, const char *path, const i
     uint64_t start, count;
     gs_h5_split_rows((uint64_t)n[2], run->size, run->rank, &start, &count);
     size_t row = (size_t)(n[0] * n[1]) * gs_h5_type_size(type);
-    GS_CALL(gs_ckpt_write_slab(h, path, &sh, start, count, (const char *)data + start * row, NULL));
+    gs_h5_write_opts opts = {4, 0}; /* chunked + deflate, like every output array (#23) */
+    GS_CALL(gs_ckpt_write_slab(h, path, &sh, start, count, (const char *)data + start * row, &opts));
     return GS_OK;
 }
 
@@ -678,19 +679,34 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_z", 0), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "lo", res->lo), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "hi", res->hi), fail);
+    static const char order[] = "data[z][y][x]; x fastest, z up; sample (x, y, z) at spacing * (x, y, z)";
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/distance", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/distance", "units",
+                                "signed distance in the example's units (spacing per sample), "
+                                "negative inside"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/levels", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/levels", "units",
+                                "quantized distance: level q is lo + q * (hi - lo) / 255"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field", "up_axis", "z"), fail);
     /* the quantized (cropped) example, so that any measure of the output
      * against its example can be taken from this file alone */
     int64_t sn[3] = {src->nx, src->ny, src->nz};
     GS_TRY(err, write_u8_field(h, run, "/source/levels", sn, GS_H5_U8, src->q), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "lo", src->lo), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "hi", src->hi), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/source/levels", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/source/levels", "units",
+                                "quantized distance of the cropped example: lo + q * (hi - lo) / 255"),
+           fail);
     GS_CALL(gs_ckpt_commit(&h));
     err = GS_OK;
     if (run->rank == 0) {
         gs_xdmf_grid g = {"field", GS_XDMF_NODE, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]},
                           {0, 0, 0}, {f->spacing, f->spacing, f->spacing}};
-        gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32},
-                              {"levels", "/field/levels", GS_H5_U8}};
+        gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32, 1},
+                              {"levels", "/field/levels", GS_H5_U8, 1}};
         err = gs_xdmf_write(path, &g, at, 2);
         gs_run_output(run, "h5", "field", "field.h5", n);
         gs_run_output(run, "xdmf", "field", "field.xmf", n);

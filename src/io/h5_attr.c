@@ -35,11 +35,13 @@ gs_err gs_h5_write_str_attr(hid_t obj, const char *name, const char *value, cons
     GS_CHECK(len <= GS_H5_ATTR_STR_MAX, GS_ERR_ARG,
              "%s: string attribute %s has %zu bytes: at most %zu fit in an HDF5 attribute", path,
              name, len, GS_H5_ATTR_STR_MAX);
+    /* variable-length UTF-8: h5py and netCDF read it back as text (str), not bytes */
     hid_t type = H5Tcopy(H5T_C_S1);
     GS_CHECK(type >= 0, GS_ERR_LIB, "%s: H5Tcopy failed", path);
-    H5Tset_size(type, len ? len : 1);
-    H5Tset_strpad(type, H5T_STR_NULLPAD);
-    gs_err err = gs_h5_write_attr_raw(obj, name, type, type, len ? value : "", path);
+    H5Tset_size(type, H5T_VARIABLE);
+    H5Tset_cset(type, H5T_CSET_UTF8);
+    const char *v = value;
+    gs_err err = gs_h5_write_attr_raw(obj, name, type, type, &v, path);
     H5Tclose(type);
     if (err)
         gs_error_push_frame(__FILE__, __LINE__, __func__);

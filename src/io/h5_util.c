@@ -469,7 +469,8 @@ int gs_h5_read_str_attr(hid_t obj, const char *name, size_t max_len, char **out,
     if (H5Tis_variable_str(ftype) > 0) {
         char *vs = NULL;
         mtype = H5Tcopy(H5T_C_S1);
-        if (mtype < 0 || H5Tset_size(mtype, H5T_VARIABLE) < 0 || H5Aread(attr, mtype, &vs) < 0) {
+        if (mtype < 0 || H5Tset_size(mtype, H5T_VARIABLE) < 0 ||
+            H5Tset_cset(mtype, H5Tget_cset(ftype)) < 0 || H5Aread(attr, mtype, &vs) < 0) {
             char d[200];
             gs_h5_detail(d, sizeof d);
             snprintf(why, why_len, "unreadable string (HDF5: %s)", d);

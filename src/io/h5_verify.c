@@ -23,7 +23,9 @@ static void fail(verify_ctx *c, const char *obj, const char *what)
     c->err = GS_ERR_FORMAT;
 }
 
-/* Fixed-size types only: geosynth writes no variable-length data. */
+/* Fixed-size types only: geosynth writes no variable-length datasets (its
+ * string attributes are variable-length UTF-8; attributes are metadata,
+ * checked by the 1.10 format's checksums). */
 static int fixed_type(hid_t type)
 {
     H5T_class_t k = H5Tget_class(type);

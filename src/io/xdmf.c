@@ -55,7 +55,8 @@ static gs_err check_grid(const char *h5_path, const gs_xdmf_grid *g, const gs_xd
     }
     for (int a = 0; a < nattrs; a++)
         GS_CHECK(attrs[a].name && attrs[a].dataset && attrs[a].dataset[0] == '/' &&
-                     gs_h5_type_size(attrs[a].type) > 0,
+                     gs_h5_type_size(attrs[a].type) > 0 && attrs[a].components >= 0 &&
+                     attrs[a].components <= 9,
                  GS_ERR_ARG,
                  "%s: XDMF attribute %d needs a name, an absolute dataset path and a valid type",
                  h5_path, a);
@@ -90,14 +91,16 @@ static void write_xml(FILE *f, const char *h5_name, const gs_xdmf_grid *g,
         const char *nt;
         int prec;
         number_type(attrs[a].type, &nt, &prec);
+        const int vec = attrs[a].components > 1;
         fputs("      <Attribute Name=\"", f);
         gs_fput_markup(f, attrs[a].name, 0);
-        fprintf(f, "\" AttributeType=\"Scalar\" Center=\"%s\">\n", cell ? "Cell" : "Node");
-        fprintf(f,
-                "        <DataItem Dimensions=\"%llu %llu %llu\" NumberType=\"%s\" "
-                "Precision=\"%d\" Format=\"HDF\">",
-                (unsigned long long)g->dims[0], (unsigned long long)g->dims[1],
-                (unsigned long long)g->dims[2], nt, prec);
+        fprintf(f, "\" AttributeType=\"%s\" Center=\"%s\">\n", vec ? "Vector" : "Scalar",
+                cell ? "Cell" : "Node");
+        fprintf(f, "        <DataItem Dimensions=\"%llu %llu %llu", (unsigned long long)g->dims[0],
+                (unsigned long long)g->dims[1], (unsigned long long)g->dims[2]);
+        if (vec)
+            fprintf(f, " %d", attrs[a].components);
+        fprintf(f, "\" NumberType=\"%s\" Precision=\"%d\" Format=\"HDF\">", nt, prec);
         gs_fput_markup(f, h5_name, 0);
         fputc(':', f);
         gs_fput_markup(f, attrs[a].dataset, 0);

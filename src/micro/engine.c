@@ -512,11 +512,11 @@ static gs_err micro_run(gs_run *run, void *vcfg, int resume)
         GS_TRY(err, micro_ckpt_read(&job, &round), done);
         gs_log(GS_LOG_INFO, "resumed after round %lld: %lld of %lld steps done", (long long)round,
                (long long)micro_units_done(&job), (long long)micro_units_total(&job));
-    } else if (run->ckpt_seconds > 0 || run->ckpt_every > 0) {
-        /* A first, small checkpoint (no state arrays yet): from here on a
-         * kill at any moment leaves something to resume. */
-        GS_TRY(err, micro_ckpt_write(&job, 0, 0), done);
     }
+    /* No checkpoint before the first due one (there used to be a small one
+     * here, so every finished micro run left checkpoint.h5 behind while the
+     * other engines' short runs left none): a run killed before its first
+     * checkpoint restarts from start.ini (geosynth resume), like the others. */
     GS_TRY(err, micro_queue_create(run->comm, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_QUEUE,
                                    &queue),
            done);

@@ -60,14 +60,25 @@ static gs_err write_h5(const micro_job *job, const micro_instance *in, const cha
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_value", &s_tf, value, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_value", &s_vf, vvalue, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/vertex_label", &s_vl, vlabel, &z), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_count", &s_hi, in->hist.count, NULL), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_prob", &s_hf, in->hist.prob, NULL), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/achieved_count", &s_hi, rep->achieved, NULL), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/bin_error", &s_hi, rep->error, NULL), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/realized_count", &s_hi, realized, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_count", &s_hi, in->hist.count, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/target_prob", &s_hf, in->hist.prob, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/achieved_count", &s_hi, rep->achieved, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/bin_error", &s_hi, rep->error, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/realized_count", &s_hi, realized, &z), fail);
     GS_TRY(err, gs_ckpt_write_whole(h, "/micro/triangle_distance", &s_tf, tdist, &z), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_pos", &s_d, in->dist.pos, NULL), fail);
-    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_neg", &s_d, in->dist.neg, NULL), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_pos", &s_d, in->dist.pos, &z), fail);
+    GS_TRY(err, gs_ckpt_write_whole(h, "/micro/dist_neg", &s_d, in->dist.neg, &z), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro/triangle_label", "index_order",
+                                "one per triangle of mesh.ply, in its face order"), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro/triangle_value", "units",
+                                "distribution units (units_per_model per model unit); > 0 positive region"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro/triangle_distance", "units",
+                                "distribution units (units_per_model per model unit); > 0 positive region"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro/vertex_value", "index_order",
+                                "one per vertex of mesh.ply, in its vertex order"), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/micro", "up_axis", "as the input mesh (mesh_source)"), fail);
     GS_TRY(err, gs_ckpt_set_i64(h, "/micro", "instance", in->id), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/micro", "mesh_source", mi->source), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/micro", "units_per_model", mi->upm), fail);

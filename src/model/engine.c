@@ -469,6 +469,9 @@ typedef struct model_engine {
     int ncolors;
     int32_t *region_status;   /* pass in progress: -1 not run, 0 failed, 1 accepted */
     int32_t *region_attempts; /* pass in progress: tries used */
+    gs_progress pass_prog;    /* regions of the pass in progress (rank 0 prints) */
+    uint64_t pass_done;       /* its regions with a result */
+    int pass_prog_open;
     /* sweep position and statistics (identical on every rank) */
     int pass, color, done;
     int64_t units;
@@ -788,6 +791,8 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     e->stats.choices += h.choices;
     e->stats.backtracks += h.backtracks;
     e->region_cells += cells;
+    if (e->region_status[id] < 0 && e->pass_prog_open)
+        gs_progress_update(&e->pass_prog, ++e->pass_done);
     e->region_status[id] = h.ok == 1;
     e->region_attempts[id] = h.attempts;
     if (h.ok == 3) {
@@ -1016,8 +1021,20 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
         if (e->color == 0)
             gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
                    e->ncolors);
+        if (!e->pass_prog_open) { /* a new pass, or the one a checkpoint stopped in */
+            char label[64];
+            snprintf(label, sizeof label, "pass %d regions", e->pass + 1);
+            gs_progress_begin(&e->pass_prog, label, (uint64_t)e->nplan);
+            e->pass_done = 0;
+            for (size_t i = 0; i < e->nplan; i++)
+                e->pass_done += e->region_status[i] >= 0;
+            gs_progress_update(&e->pass_prog, e->pass_done);
+            e->pass_prog_open = 1;
+        }
         GS_CALL(run_window(run, e));
         if (e->color >= e->ncolors) {
+            gs_progress_end(&e->pass_prog);
+            e->pass_prog_open = 0;
             uint64_t acc = 0, fail = 0;
             for (size_t i = 0; i < e->nplan; i++) {
                 acc += e->region_status[i] == 1;
@@ -1114,6 +1131,83 @@ static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue
 
 /* ---- output --------------------------------------------------------------- */
 
+/* The label table of lattice.h5: the labels the lattice uses, in increasing
+ * order, with their colours (as lattice.vox and mesh.ply colour them) and
+ * names (the tile's name and orientation for a tile set, the palette index
+ * of a .vox example, else "label N"), and a colour per cell for ParaView. */
+static gs_err write_label_table(gs_ckpt_t h, const model_engine *e)
+{
+    const size_t cells = lattice_cells(&e->lat);
+    uint8_t *seen = gs_calloc(65536, 1);
+    GS_CHECK(seen != NULL, GS_ERR_MEM, "label table: out of memory");
+    size_t n = 0;
+    for (size_t i = 0; i < cells; i++)
+        seen[e->lat.labels[i]] = 1;
+    for (int l = 1; l < 65536; l++)
+        n += seen[l];
+    uint16_t *id = NULL;
+    uint8_t *rgb = NULL, *cell_rgb = NULL;
+    char *names = NULL;
+    gs_err err = GS_OK;
+    size_t nn = n ? n : 1, names_len = 0, names_cap = 80 * nn + 1;
+    GS_TRY(err, gs_alloc_array((void **)&id, nn, sizeof *id, "label table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&rgb, nn, 3, "label table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&names, names_cap, 1, "label table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&cell_rgb, cells, 3, "cell colours"), done);
+    names[0] = '\0';
+    n = 0;
+    for (int l = 1; l < 65536; l++) {
+        if (!seen[l])
+            continue;
+        id[n] = (uint16_t)l;
+        gs_model_label_rgb(&e->pal, (uint16_t)l, rgb + 3 * n);
+        const char *tile = e->cfg->tileset[0] && l <= e->ts.ntiles && e->ts.names ? e->ts.names[l - 1] : NULL;
+        if (tile)
+            names_len += (size_t)snprintf(names + names_len, names_cap - names_len, "%s\n", tile);
+        else if (e->pal.from_file)
+            names_len += (size_t)snprintf(names + names_len, names_cap - names_len, "palette %d\n", l);
+        else
+            names_len += (size_t)snprintf(names + names_len, names_cap - names_len, "label %d\n", l);
+        n++;
+    }
+    if (names_len)
+        names[names_len - 1] = '\0'; /* one name a line, no trailing newline */
+    for (size_t i = 0; i < cells; i++) {
+        uint16_t l = e->lat.labels[i];
+        if (l)
+            gs_model_label_rgb(&e->pal, l, cell_rgb + 3 * i);
+        else
+            cell_rgb[3 * i] = cell_rgb[3 * i + 1] = cell_rgb[3 * i + 2] = 255; /* empty: white */
+    }
+    gs_h5_write_opts opts = {4, 0};
+    if (n) {
+        gs_h5_shape is = {GS_H5_U16, 1, {(uint64_t)n}}, rs = {GS_H5_U8, 2, {(uint64_t)n, 3}};
+        GS_TRY(err, gs_ckpt_write_whole(h, "/model/label_table/id", &is, id, &opts), done);
+        GS_TRY(err, gs_ckpt_write_whole(h, "/model/label_table/rgb", &rs, rgb, &opts), done);
+    } else {
+        GS_TRY(err, gs_ckpt_group(h, "/model/label_table"), done);
+    }
+    GS_TRY(err, gs_ckpt_set_i64(h, "/model/label_table", "labels", (int64_t)n), done);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model/label_table", "names", names), done);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model/label_table", "index_order",
+                                "row k: label id[k], colour rgb[k] (0-255), name = line k of @names; "
+                                "label 0 (empty) is not listed"),
+           done);
+    gs_h5_shape cs = {GS_H5_U8, 4, {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx, 3}};
+    GS_TRY(err, gs_ckpt_write_whole(h, "/model/colour", &cs, cell_rgb, &opts), done);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model/colour", "index_order",
+                                "colour[z][y][x][c]; c = red, green, blue (0-255); x fastest, z up; "
+                                "the label's colour, empty cells white"),
+           done);
+done:
+    gs_free(seen);
+    gs_free(id);
+    gs_free(rgb);
+    gs_free(names);
+    gs_free(cell_rgb);
+    return err;
+}
+
 static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *path)
 {
     gs_ckpt_meta meta = {"model", e->params.seed, run->config_text};
@@ -1128,6 +1222,14 @@ static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *p
     GS_TRY(err, gs_ckpt_set_str(h, "/model/labels", "index_order",
                                 "labels[z][y][x]; x fastest, z up; 0 = empty"),
            fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model/labels", "units", "label id (see /model/label_table)"), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model", "up_axis", "z"), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/model", "voxel_size", e->cfg->voxel_size), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/model", "units",
+                                "cell (x, y, z) is [x, x+1] x [y, y+1] x [z, z+1] times voxel_size "
+                                "(model.voxel_size, the example's units per cell)"),
+           fail);
+    GS_TRY(err, write_label_table(h, e), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model", "digest", hex), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model", "example",
                                 e->cfg->tileset[0] ? e->cfg->tileset
@@ -1138,8 +1240,9 @@ static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *p
                          {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx},
                          {0, 0, 0},
                          {e->cfg->voxel_size, e->cfg->voxel_size, e->cfg->voxel_size}};
-    gs_xdmf_attr attr = {"label", "/model/labels", GS_H5_U16};
-    GS_CALL(gs_xdmf_write(path, &grid, &attr, 1));
+    gs_xdmf_attr attr[2] = {{"label", "/model/labels", GS_H5_U16, 1},
+                            {"colour", "/model/colour", GS_H5_U8, 3}};
+    GS_CALL(gs_xdmf_write(path, &grid, attr, 2));
     return GS_OK;
 fail:
     gs_ckpt_discard(&h);
