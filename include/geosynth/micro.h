@@ -309,6 +309,12 @@ gs_err gs_micro_reconstruct(const gs_micro_dual *d, const gs_micro_hist *h,
 typedef struct gs_micro_correct_opts {
     uint32_t max_rounds;
     double target_l1;
+    /* Basin hopping after the greedy rounds: at most hops times, the best
+     * labelling opened and closed (1 and 2 units) and hop_rounds greedy
+     * rounds on each (0 hops: none), while the best L1 / n is above
+     * hop_above. */
+    uint32_t hops, hop_rounds;
+    double hop_above;
     /* Optional [n] values (the reconstruction's): when side[] holds one
      * region only, the target's positive share of triangles with the
      * largest values starts as the positive region. */
