@@ -310,9 +310,10 @@ typedef struct gs_micro_correct_opts {
     uint32_t max_rounds;
     double target_l1;
     /* Basin hopping after the greedy rounds: at most hops times, the best
-     * labelling opened and closed (1 and 2 units) and hop_rounds greedy
-     * rounds on each (0 hops: none), while the best L1 / n is above
-     * hop_above. */
+     * labelling opened and closed (1, 2, 3, 5 units), a region short of its
+     * deepest bins deepened around its deepest triangle (1, 2, 3 units),
+     * hop_rounds greedy rounds after each (0 hops: none), while the best
+     * L1 / n is above hop_above. */
     uint32_t hops, hop_rounds;
     double hop_above;
     /* Optional [n] values (the reconstruction's): when side[] holds one
