@@ -29,6 +29,19 @@ reader cannot hide it. From the file alone:
 
 A welded closed 2-manifold has closed = manifold = true. Exit status 0; the
 figures are for the caller to judge (tests/e2e/model.sh, field's copied.ply).
+
+With --rays [H] also doubled walls, which index checks cannot see: rays
+parallel to each axis through a jittered grid of spacing H (default the
+bounding box's longest side / 128) inside the bounding box; along a ray the
+crossings of an oriented surface without doubled walls alternate in and out
+(the sign of normal . direction, faces fanned into triangles):
+
+  rays, ray_crossings
+  ray_violations          consecutive crossings with the same sign (two walls on top of each
+                          other, a wall the wrong way round, sheets passed through each other)
+  ray_violation_share     share of rays with one
+  ray_violations_at       up to 10 of them: axis, point, the two faces (fanned triangle indices)
+(tests/e2e/field_copied.sh).
 """
 import json
 import os
@@ -155,16 +168,110 @@ def validity(pos, counts, corners):
     return r
 
 
+def ray_parity(V, F, box, h, jitter=(0.31830988, 0.41421356)):
+    """Rays along each axis through (lo + (j + jitter) h); see the module doc."""
+    V = V.astype(np.float64)
+    rays = viol = bad_rays = crossings = 0
+    where = []
+    lo, hi = np.asarray(box[0], float), np.asarray(box[1], float)
+    for ax in range(3):
+        u, v = [(ax + 1) % 3, (ax + 2) % 3]
+        nu = int(np.floor((hi[u] - lo[u]) / h - jitter[0])) + 1
+        nv = int(np.floor((hi[v] - lo[v]) / h - jitter[1])) + 1
+        if nu <= 0 or nv <= 0:
+            continue
+        rays += nu * nv
+        P = V[F]  # (m, 3, 3)
+        pu, pv, pa = P[:, :, u], P[:, :, v], P[:, :, ax]
+        j0 = np.ceil((pu.min(1) - lo[u]) / h - jitter[0]).astype(np.int64)
+        j1 = np.floor((pu.max(1) - lo[u]) / h - jitter[0]).astype(np.int64)
+        k0 = np.ceil((pv.min(1) - lo[v]) / h - jitter[1]).astype(np.int64)
+        k1 = np.floor((pv.max(1) - lo[v]) / h - jitter[1]).astype(np.int64)
+        j0, k0 = np.maximum(j0, 0), np.maximum(k0, 0)
+        j1, k1 = np.minimum(j1, nu - 1), np.minimum(k1, nv - 1)
+        cj, ck = np.maximum(j1 - j0 + 1, 0), np.maximum(k1 - k0 + 1, 0)
+        cnt = cj * ck
+        t = np.repeat(np.arange(len(F)), cnt)
+        if len(t) == 0:
+            continue
+        # position of each candidate inside its triangle's bounding box of rays
+        first = np.repeat(np.cumsum(cnt) - cnt, cnt)
+        r = np.arange(len(t)) - first
+        j = j0[t] + r % cj[t]
+        k = k0[t] + r // cj[t]
+        qu = lo[u] + (j + jitter[0]) * h
+        qv = lo[v] + (k + jitter[1]) * h
+        x0, y0 = pu[t, 0], pv[t, 0]
+        x1, y1 = pu[t, 1], pv[t, 1]
+        x2, y2 = pu[t, 2], pv[t, 2]
+        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        w0 = (x1 - qu) * (y2 - qv) - (x2 - qu) * (y1 - qv)
+        w1 = (x2 - qu) * (y0 - qv) - (x0 - qu) * (y2 - qv)
+        w2 = (x0 - qu) * (y1 - qv) - (x1 - qu) * (y0 - qv)
+        s = np.sign(area)
+        inside = (area != 0) & (w0 * s > 0) & (w1 * s > 0) & (w2 * s > 0)
+        t, j, k, w0, w1, w2, area = t[inside], j[inside], k[inside], w0[inside], w1[inside], w2[inside], area[inside]
+        depth = (w0 * pa[t, 0] + w1 * pa[t, 1] + w2 * pa[t, 2]) / area
+        # the normal's component along the ray: (e1 x e2)[ax] is area in (u, v)
+        sign = np.sign(area).astype(np.int8)
+        ray = j * nv + k
+        o = np.lexsort((depth, ray))
+        ray, sign, depth, t = ray[o], sign[o], depth[o], t[o]
+        crossings += len(ray)
+        same = (ray[1:] == ray[:-1]) & (sign[1:] == sign[:-1])
+        for i in np.flatnonzero(same)[:10]:
+            pt = np.zeros(3)
+            pt[ax], pt[u], pt[v] = depth[i + 1], lo[u] + (ray[i] // nv + jitter[0]) * h, lo[v] + (ray[i] % nv + jitter[1]) * h
+            where.append({"axis": ax, "point": [round(float(x), 4) for x in pt],
+                          "faces": [int(t[i]), int(t[i + 1])]})
+        viol += int(same.sum())
+        bad_rays += int(len(np.unique(ray[1:][same])))
+    return {"rays": int(rays), "ray_crossings": int(crossings), "ray_violations": int(viol),
+            "ray_violation_share": bad_rays / rays if rays else 0.0, "ray_violations_at": where[:10]}
+
+
+def triangles(counts, corners):
+    """Faces fanned into triangles (m, 3)."""
+    counts = np.asarray(counts, np.int64)
+    corners = np.asarray(corners, np.int64)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]]) if len(counts) else np.zeros(0, np.int64)
+    tris = []
+    for j in range(1, int(counts.max()) - 1 if len(counts) else 0):
+        f = counts > j + 1
+        s0 = start[f]
+        tris.append(np.stack([corners[s0], corners[s0 + j], corners[s0 + j + 1]], axis=1))
+    return np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
+
+
+def file_rays(path, h=None):
+    pos, counts, corners = read_faces(path)
+    F = triangles(counts, corners)
+    used = np.zeros(len(pos), bool)
+    used[F.reshape(-1)] = True
+    lo, hi = pos[used].min(0), pos[used].max(0)
+    if h is None:
+        h = float(np.max(hi - lo)) / 128
+    return ray_parity(pos, F, (lo, hi), h)
+
+
 def file_validity(path):
     return validity(*read_faces(path))
 
 
 def main(argv):
+    argv = list(argv)
+    rays, h = "--rays" in argv, None
+    if rays:
+        i = argv.index("--rays")
+        if i + 1 < len(argv) and not argv[i + 1].startswith("--") and not os.path.exists(argv[i + 1]):
+            h = float(argv.pop(i + 1))
     args = [x for x in argv if not x.startswith("--")]
     if len(args) != 1:
         print(__doc__.split("\n\n")[1], file=sys.stderr)
         return 1
     r = file_validity(args[0])
+    if rays:
+        r.update(file_rays(args[0], h))
     if "--json" in argv:
         print(json.dumps(r))
     else:

@@ -77,17 +77,45 @@ gs_err gs_field_from_heightmap(const char *path, int64_t size, int64_t depth, do
 /* Iso-surface of f at iso (OpenVDB), vertices in world units. */
 gs_err gs_field_contour(const gs_field *f, double iso, double adaptivity, gs_mesh *out);
 
-/* The paper's output mode (section 5.3): copies, for every target sample t
- * (final resolution, x fastest over tn), the source triangles whose centroid
- * lies nearest to source sample prov[t] (a linear index into the source of
- * size sn; -1 = none), translated by t - prov[t]; welds the copies
- * (tolerance weld_tol in samples) and relaxes seam vertices (those of
- * triangles next to a triangle from another copy) with `relax` Laplacian
- * iterations of weight 0.5. src_mesh is in source sample units (spacing 1,
- * origin 0); the output is in target sample units. Reports the number of
- * seam vertices in *seam_vertices (may be NULL). */
+/* The paper's output mode (section 5.3), made a valid mesh: the geometry
+ * of the source copied along the synthesis' provenance onto the connectivity
+ * of base, the contour of the synthesized field target (its values read in
+ * target sample units, whatever its spacing) in target sample units (one
+ * welded, manifold sheet; copying the source's own triangles leaves cracks,
+ * overlaps and doubled walls at every seam, and no welding tolerance closes
+ * them). Each base vertex p inside the target box takes, for each of the 8
+ * target samples t around it, the point of the source surface nearest to
+ * p - (t - prov[t]) (within snap samples; else p), translated back, blended
+ * with trilinear weights: inside a copied block that is the source's surface
+ * itself. Vertices within a sample of the box's faces (where the contour
+ * closes the box) stay. prov[t] is a linear index into the source of size sn (x fastest,
+ * -1 = none), t one into the target. Vertices whose samples come
+ * from more than one source offset (seams) then get `relax` Laplacian
+ * iterations of weight 0.5 (the paper's mesh relaxation). No vertex moves
+ * more than 0.45 of the distance to the next surface of target along its
+ * gradient (facing sheets cannot pass through each other). Vertices of
+ * triangles that would fold over (normal turned by more than 60 degrees,
+ * area below a hundredth of the base's) or of vertices moved onto one
+ * another are pulled back towards base until none does. src_mesh is in
+ * source sample units (spacing 1, origin 0); its triangles reaching out of
+ * the source box are ignored. */
+typedef struct gs_field_copy_stats {
+    int64_t seam_vertices;   /* samples around them from more than one source offset */
+    int64_t copied_vertices; /* moved onto the source surface of a copy */
+    int64_t pulled_back;     /* vertices pulled back towards base to unfold it */
+    double mean_shift;       /* mean distance moved from base, in samples */
+} gs_field_copy_stats;
 gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
-                              const int64_t tn[3], float weld_tol, int relax, gs_mesh *out,
-                              int64_t *seam_vertices);
+                              const gs_field *target, const gs_mesh *base, double snap, int relax,
+                              gs_mesh *out, gs_field_copy_stats *st);
+
+/* The paper's Figure 7c: the surface height of every column (x, y) of f,
+ * the highest sign change from inside (< 0) below to outside above, linear
+ * between samples (nz - 1 when the column is inside to the top, 0 when it
+ * is outside throughout), in samples, written as a 16-bit grey PNG with
+ * level = round((z - base) / height * 65535) clamped, row 0 = largest y:
+ * with the base and relief gs_field_from_heightmap used (base = (depth -
+ * height) / 2) the inverse of reading a height map. */
+gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, const char *path);
 
 #endif

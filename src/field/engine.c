@@ -52,8 +52,9 @@
  *             stored target, not a running RNG.
  *  output     field.h5 (+ field.xmf) with the float distance and the quantized
  *             levels, field.vdb, the contoured mesh (OpenVDB) and, with
- *             output.geometry = copy|both, the paper's mesh of copied source
- *             triangles (welded, seams relaxed). Quality metrics go to
+ *             output.geometry = copy|both, the paper's copied geometry: the
+ *             source surface copied along the provenance onto the contour's
+ *             connectivity (a valid mesh, seams relaxed). Quality metrics go to
  *             summary.json. The digest is that of the final quantized target.
  *
  * Memory per rank: source 1 byte/sample + pyramid 8L bytes/sample + tree
@@ -112,7 +113,7 @@ typedef struct field_config {
     char *mesh_format;
     double adaptivity;
     int64_t relax;
-    double weld;
+    double snap;
     int vdb;
     int preview;
     gs_run_config run;
@@ -201,16 +202,17 @@ static const gs_cfg_key field_keys[] = {
                     "of them, so memory per rank falls with the rank count, and every match is "
                     "searched by all ranks together; same output"),
     GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
-                    "output mesh: contour of the field (OpenVDB), copied source triangles "
-                    "(paper 5.3), both, or none"),
+                    "output mesh: contour of the field (OpenVDB), the source's surface copied "
+                    "along the provenance onto it (paper 5.3), both, or none"),
     GS_CFG_KEY_ENUM(field_config, mesh_format, "output.mesh_format", "obj|ply", "ply",
                     "file format of output meshes"),
     GS_CFG_KEY_REAL(field_config, adaptivity, "output.adaptivity", 0, 1, 0, "0",
                     "contour mesh adaptivity (0 = uniform)"),
     GS_CFG_KEY_INT(field_config, relax, "output.relax", 0, 1000, 0, "10",
                    "copied geometry: Laplacian relaxation iterations of seam vertices"),
-    GS_CFG_KEY_REAL(field_config, weld, "output.weld", 0, 2, 0, "0.35",
-                    "copied geometry: weld tolerance across seams, in samples"),
+    GS_CFG_KEY_REAL(field_config, snap, "output.snap", 0, 2, 0, "0.5",
+                    "copied geometry: how far (samples) a contour vertex may move onto the copied "
+                    "source surface"),
     GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
     GS_CFG_KEY_BOOL(field_config, preview, "output.preview", "yes",
                     "write RUN_DIR/preview.png: the source's contour and the output's contour "
@@ -237,6 +239,16 @@ static void mesh_to_samples(gs_mesh *m, const gs_field *f)
     for (size_t v = 0; v < m->nverts; v++)
         for (int a = 0; a < 3; a++)
             m->pos[3 * v + a] = (float)((m->pos[3 * v + a] - f->origin[a]) / f->spacing);
+}
+
+/* The example is a height-map image (example.kind = file, .png/.jpg). */
+static int is_heightmap_example(const field_config *c)
+{
+    if (strcmp(c->kind, "file"))
+        return 0;
+    char ext[16];
+    gs_path_ext(c->path, ext, sizeof ext);
+    return !strcmp(ext, "png") || !strcmp(ext, "jpg") || !strcmp(ext, "jpeg");
 }
 
 /* Rank 0: builds the float example field (and its mesh when wanted). */
@@ -756,6 +768,21 @@ static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
     return GS_OK;
 }
 
+/* Writes m (target sample units) in the world units of f. */
+static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f)
+{
+    float *world = NULL, *unit = m->pos;
+    GS_CALL(gs_alloc_array((void **)&world, 3 * m->nverts + 3, sizeof *world, "world mesh"));
+    for (size_t v = 0; v < m->nverts; v++)
+        for (int a = 0; a < 3; a++)
+            world[3 * v + a] = (float)(f->origin[a] + unit[3 * v + a] * f->spacing);
+    m->pos = world;
+    gs_err err = gs_mesh_write(path, m, NULL);
+    m->pos = unit;
+    gs_free(world);
+    return err;
+}
+
 /* Rank 0: meshes. Fills the metrics object text. */
 static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const field_source *src,
                                    const gs_field *f, const int32_t *prov, gs_json *pm)
@@ -763,50 +790,64 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
     char path[PATH_MAX], name[64];
     int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
     int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    if (!contour && !copy)
+        return GS_OK;
+    /* the contour in sample units: contour.ply, and the copy's connectivity */
+    gs_field unit = *f;
+    unit.spacing = 1, unit.origin[0] = unit.origin[1] = unit.origin[2] = 0;
+    gs_mesh base;
+    GS_CALL(gs_field_contour(&unit, 0.0, copy ? 0.0 : c->adaptivity, &base));
+    gs_err err = GS_OK;
+    gs_mesh m;
+    memset(&m, 0, sizeof m);
     if (contour) {
-        gs_mesh m;
-        GS_CALL(gs_field_contour(f, 0.0, c->adaptivity, &m));
+        if (copy && c->adaptivity > 0)
+            GS_TRY(err, gs_field_contour(&unit, 0.0, c->adaptivity, &m), done);
+        gs_mesh *cm = copy && c->adaptivity > 0 ? &m : &base;
         snprintf(name, sizeof name, "contour.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        gs_err err = gs_mesh_write(path, &m, NULL);
-        gs_json_i64(pm, "contour_triangles", (int64_t)m.ntris);
-        gs_run_metric_i64(run, "contour_triangles", (int64_t)m.ntris);
-        gs_json_f64(pm, "contour_area", gs_mesh_area(&m));
-        if (err == GS_OK && c->preview) {
+        GS_TRY(err, write_world_mesh(path, cm, f), done);
+        gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
+        gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
+        gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
+        if (c->preview) {
             /* The example next to the output, each fitted to its own box. */
-            gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&m, NULL}};
+            gs_preview_panel panels[2] = {{&src->mesh, NULL}, {cm, NULL}};
             gs_run_path(run, "preview.png", path, sizeof path);
             int written;
-            err = gs_preview_write_optional(path, panels, 2, 512, &written);
+            GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &written), done);
             if (written)
                 gs_run_output(run, "preview", "preview", "preview.png", NULL);
         }
         gs_mesh_destroy(&m);
-        GS_CALL(err);
         gs_run_output(run, "mesh", "contour", name, NULL);
     }
     if (copy) {
         const gs_qfield *q = src->q;
-        int64_t sn[3] = {q->nx, q->ny, q->nz}, tn[3] = {f->nx, f->ny, f->nz};
-        gs_mesh m;
-        int64_t seams = 0;
-        GS_CALL(gs_field_copy_geometry(&src->mesh, sn, prov, tn, (float)c->weld, (int)c->relax, &m,
-                                       &seams));
-        /* sample units -> world units of the output field */
-        for (size_t v = 0; v < 3 * m.nverts; v++)
-            m.pos[v] = (float)(m.pos[v] * f->spacing);
+        int64_t sn[3] = {q->nx, q->ny, q->nz};
+        gs_field_copy_stats st;
+        GS_TRY(err, gs_field_copy_geometry(&src->mesh, sn, prov, &unit, &base, c->snap, (int)c->relax,
+                                           &m, &st), done);
         snprintf(name, sizeof name, "copied.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        gs_err err = gs_mesh_write(path, &m, NULL);
+        GS_TRY(err, write_world_mesh(path, &m, f), done);
         gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
-        gs_run_metric_i64(run, "copied_seam_vertices", seams);
-        gs_json_i64(pm, "copied_seam_vertices", seams);
-        gs_mesh_destroy(&m);
-        GS_CALL(err);
+        gs_run_metric_i64(run, "copied_seam_vertices", st.seam_vertices);
+        gs_json_i64(pm, "copied_seam_vertices", st.seam_vertices);
+        double share = m.nverts ? (double)st.copied_vertices / (double)m.nverts : 0;
+        gs_run_metric_f64(run, "copied_vertex_share", share);
+        gs_json_f64(pm, "copied_vertex_share", share);
+        gs_run_metric_f64(run, "copied_mean_shift", st.mean_shift);
+        gs_run_metric_i64(run, "copied_pulled_back", st.pulled_back);
+        gs_json_i64(pm, "copied_pulled_back", st.pulled_back);
+        gs_json_f64(pm, "copied_mean_shift", st.mean_shift);
         gs_run_output(run, "mesh", "copied", name, NULL);
     }
-    return GS_OK;
+done:
+    gs_mesh_destroy(&m);
+    gs_mesh_destroy(&base);
+    return err;
 }
 
 /* Copying, whole objects and distance steps (gs_field_geometry_measure) as
@@ -1069,6 +1110,14 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     if (run->rank == 0) {
         double tg = gs_time_now();
         lerr = write_geometry_rank0(run, c, &src, resf, ctx.prov, &pm);
+        if (!lerr && is_heightmap_example(c)) {
+            /* Figure 7c: the synthesized height map as the example was read */
+            char hp[PATH_MAX];
+            gs_run_path(run, "heightmap.png", hp, sizeof hp);
+            lerr = gs_field_write_heightmap(resf, ((double)c->depth - c->height) / 2, c->height, hp);
+            if (!lerr)
+                gs_run_output(run, "image", "heightmap", "heightmap.png", NULL);
+        }
         gs_json_f64(&pm, "geometry_seconds", gs_time_now() - tg);
         gs_json_f64(&pm, "redistance_seconds", t_redist);
         gs_run_metric_f64(run, "step_violations_synthesized", step_synth);

@@ -202,56 +202,246 @@ gs_err gs_field_contour(const gs_field *f, double iso, double adaptivity, gs_mes
 
 /* ------------------------------------------------------ copied geometry */
 
-static int cmp_i64(const void *x, const void *y)
+/* Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision
+ * Detection 5.1.5); returns the squared distance. */
+static double closest_on_triangle(const double p[3], const double a[3], const double b[3],
+                                  const double c[3], double q[3])
 {
-    int64_t a = *(const int64_t *)x, b = *(const int64_t *)y;
-    return a < b ? -1 : a > b;
+    double ab[3], ac[3], ap[3], bp[3], cp[3];
+    for (int k = 0; k < 3; k++)
+        ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k], bp[k] = p[k] - b[k],
+        cp[k] = p[k] - c[k];
+#define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
+    double d1 = DOT(ab, ap), d2 = DOT(ac, ap), d3 = DOT(ab, bp), d4 = DOT(ac, bp);
+    double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
+#undef DOT
+    double u = 0, v = 0; /* q = a + u ab + v ac */
+    double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
+    if (d1 <= 0 && d2 <= 0)
+        u = 0, v = 0;
+    else if (d3 >= 0 && d4 <= d3)
+        u = 1, v = 0;
+    else if (vc <= 0 && d1 >= 0 && d3 <= 0)
+        u = d1 / (d1 - d3), v = 0;
+    else if (d6 >= 0 && d5 <= d6)
+        u = 0, v = 1;
+    else if (vb <= 0 && d2 >= 0 && d6 <= 0)
+        u = 0, v = d2 / (d2 - d6);
+    else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        u = 1 - w, v = w;
+    } else {
+        double den = 1 / (va + vb + vc);
+        u = vb * den, v = vc * den;
+    }
+    double d = 0;
+    for (int k = 0; k < 3; k++) {
+        q[k] = a[k] + u * ab[k] + v * ac[k];
+        d += (p[k] - q[k]) * (p[k] - q[k]);
+    }
+    return d;
 }
 
-/* Marks (flag[v] = 1) the vertices of edges used by exactly one triangle:
- * after welding, those are the open seams between copies that do not meet.
- * Returns their number. */
-static gs_err mark_seams(const gs_mesh *m, uint8_t *flag, int64_t *count)
+typedef struct copy_src {
+    const gs_mesh *m;
+    int64_t sn[3];
+    const int64_t *start, *tri_of; /* triangles bucketed by the sample nearest their centroid */
+} copy_src;
+
+/* Closest point of the source surface to q (source sample units) among the
+ * triangles of the samples within 1 of round(q); 0 when none lies within
+ * snap. */
+static int snap_to_source(const copy_src *cs, const double q[3], double snap, double out[3])
 {
-    size_t E = 3 * m->ntris;
-    int64_t *key = NULL, n = 0;
-    GS_CALL(gs_alloc_array((void **)&key, E + 1, sizeof *key, "seam edges"));
-    int64_t V = (int64_t)m->nverts;
-    for (size_t t = 0; t < m->ntris; t++)
-        for (int c = 0; c < 3; c++) {
-            int64_t a = m->tris[3 * t + c], b = m->tris[3 * t + (c + 1) % 3];
-            key[3 * t + c] = a < b ? a * V + b : b * V + a;
-        }
-    qsort(key, E, sizeof *key, cmp_i64);
-    for (size_t i = 0; i < E;) {
-        size_t j = i;
-        while (j < E && key[j] == key[i])
-            j++;
-        if (j - i == 1) {
-            int64_t v[2] = {key[i] / V, key[i] % V};
-            for (int q = 0; q < 2; q++)
-                if (!flag[v[q]])
-                    flag[v[q]] = 1, n++;
-        }
-        i = j;
+    int64_t c[3];
+    for (int a = 0; a < 3; a++)
+        c[a] = (int64_t)llround(q[a]);
+    double best = snap * snap;
+    int found = 0;
+    for (int64_t z = c[2] - 1; z <= c[2] + 1; z++)
+        for (int64_t y = c[1] - 1; y <= c[1] + 1; y++)
+            for (int64_t x = c[0] - 1; x <= c[0] + 1; x++) {
+                if (x < 0 || y < 0 || z < 0 || x >= cs->sn[0] || y >= cs->sn[1] || z >= cs->sn[2])
+                    continue;
+                int64_t s = x + cs->sn[0] * (y + cs->sn[1] * z);
+                for (int64_t b = cs->start[s]; b < cs->start[s + 1]; b++) {
+                    const uint32_t *tr = cs->m->tris + 3 * cs->tri_of[b];
+                    double v[3][3], r[3];
+                    for (int k = 0; k < 3; k++)
+                        for (int a = 0; a < 3; a++)
+                            v[k][a] = cs->m->pos[3 * (size_t)tr[k] + a];
+                    double d = closest_on_triangle(q, v[0], v[1], v[2], r);
+                    if (d <= best) {
+                        best = d, found = 1;
+                        memcpy(out, r, sizeof r);
+                    }
+                }
+            }
+    return found;
+}
+
+/* Trilinear value of f (sample units) at p, clamped to the box. */
+static double field_at(const gs_field *f, const double p[3])
+{
+    int64_t n[3] = {f->nx, f->ny, f->nz}, i0[3];
+    double w[3];
+    for (int a = 0; a < 3; a++) {
+        double x = fmin(fmax(p[a], 0), (double)(n[a] - 1));
+        double fl = fmin(floor(x), (double)(n[a] - 2 < 0 ? 0 : n[a] - 2));
+        i0[a] = (int64_t)fl;
+        w[a] = n[a] > 1 ? x - fl : 0;
     }
-    gs_free(key);
-    *count = n;
-    return GS_OK;
+    double v = 0;
+    for (int c = 0; c < 8; c++) {
+        double wt = 1;
+        int64_t idx[3];
+        for (int a = 0; a < 3; a++) {
+            int hi = (c >> a) & 1;
+            idx[a] = i0[a] + hi < n[a] ? i0[a] + hi : n[a] - 1;
+            wt *= hi ? w[a] : 1 - w[a];
+        }
+        if (wt > 0)
+            v += wt * f->v[idx[0] + n[0] * (idx[1] + n[1] * idx[2])];
+    }
+    return v;
+}
+
+/* Distance from p (on the zero level of f) to the next surface of f along
+ * its gradient, either way, up to 2 samples: the room a vertex at p has
+ * before it would pass through another sheet. */
+static double room_at(const gs_field *f, const double p[3])
+{
+    double g[3], gl = 0;
+    for (int a = 0; a < 3; a++) {
+        double q[3] = {p[0], p[1], p[2]}, r[3] = {p[0], p[1], p[2]};
+        q[a] += 0.5, r[a] -= 0.5;
+        g[a] = field_at(f, q) - field_at(f, r);
+        gl += g[a] * g[a];
+    }
+    if (gl <= 0)
+        return 0;
+    gl = sqrt(gl);
+    double room = 2;
+    for (int side = -1; side <= 1; side += 2)
+        for (double t = 0.05; t <= 2; t += 0.05) {
+            double q[3];
+            for (int a = 0; a < 3; a++)
+                q[a] = p[a] + side * t * g[a] / gl;
+            double v = field_at(f, q);
+            if ((side > 0 && v < 0) || (side < 0 && v > 0)) {
+                room = fmin(room, t);
+                break;
+            }
+        }
+    return room;
+}
+
+/* Twice the area vector of triangle t of positions pos. */
+static void tri_normal(const float *pos, const uint32_t *tr, double n[3])
+{
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; a++) {
+        e1[a] = (double)pos[3 * (size_t)tr[1] + a] - pos[3 * (size_t)tr[0] + a];
+        e2[a] = (double)pos[3 * (size_t)tr[2] + a] - pos[3 * (size_t)tr[0] + a];
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+}
+
+typedef struct vkey {
+    float p[3];
+    uint32_t v;
+} vkey;
+
+static int cmp_vkey(const void *x, const void *y)
+{
+    const vkey *a = x, *b = y;
+    for (int k = 0; k < 3; k++)
+        if (a->p[k] != b->p[k])
+            return a->p[k] < b->p[k] ? -1 : 1;
+    return a->v < b->v ? -1 : a->v > b->v;
+}
+
+/* Moved vertices must not fold the base: a triangle whose normal turned by
+ * more than 60 degrees or whose area fell below a hundredth of the base's, and
+ * vertices moved onto one another, pull their vertices halfway back, up to
+ * 8 times, then all the way; the base itself is valid, so this ends.
+ * Returns the number of vertices pulled back in *pulled and flags those
+ * pulled all the way in reverted. */
+static gs_err unfold(gs_mesh *m, const gs_mesh *base, uint8_t *reverted, int64_t *pulled)
+{
+    gs_err err = GS_OK;
+    uint8_t *bad = NULL, *ever = NULL;
+    vkey *order = NULL;
+    GS_TRY(err, gs_alloc_array((void **)&bad, m->nverts + 1, 1, "unfold flags"), done);
+    GS_TRY(err, gs_alloc_array((void **)&ever, m->nverts + 1, 1, "unfold flags"), done);
+    GS_TRY(err, gs_alloc_array((void **)&order, m->nverts + 1, sizeof *order, "unfold order"), done);
+    for (int round = 0;; round++) {
+        memset(bad, 0, m->nverts + 1);
+        int64_t nbad = 0;
+        for (size_t t = 0; t < m->ntris; t++) {
+            const uint32_t *tr = m->tris + 3 * t;
+            double nb[3], nn[3];
+            tri_normal(base->pos, tr, nb);
+            tri_normal(m->pos, tr, nn);
+            double dot = nb[0] * nn[0] + nb[1] * nn[1] + nb[2] * nn[2];
+            double ab = nb[0] * nb[0] + nb[1] * nb[1] + nb[2] * nb[2];
+            double an = nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2];
+            if (dot <= 0.5 * sqrt(ab * an) || an < 0.01 * ab)
+                for (int c = 0; c < 3; c++)
+                    nbad += !bad[tr[c]], bad[tr[c]] = 1;
+        }
+        /* vertices at the very same position (once no triangle folds) */
+        int64_t folds = nbad;
+        for (size_t v = 0; v < m->nverts && folds == 0; v++) {
+            for (int a = 0; a < 3; a++)
+                order[v].p[a] = m->pos[3 * v + a] + 0.0f; /* -0 == +0 */
+            order[v].v = (uint32_t)v;
+        }
+        if (folds == 0)
+            qsort(order, m->nverts, sizeof *order, cmp_vkey);
+        for (size_t i = 1; i < m->nverts && folds == 0; i++)
+            if (!memcmp(order[i - 1].p, order[i].p, sizeof order[i].p))
+                for (int q = 0; q < 2; q++)
+                    nbad += !bad[order[i - q].v], bad[order[i - q].v] = 1;
+        if (nbad == 0)
+            break;
+        double keep = round < 8 ? 0.5 : 0.0;
+        for (size_t v = 0; v < m->nverts; v++)
+            if (bad[v]) {
+                ever[v] = 1;
+                reverted[v] |= keep == 0;
+                for (int a = 0; a < 3; a++)
+                    m->pos[3 * v + a] = (float)(base->pos[3 * v + a] +
+                                                keep * ((double)m->pos[3 * v + a] - base->pos[3 * v + a]));
+            }
+    }
+    *pulled = 0;
+    for (size_t v = 0; v < m->nverts; v++)
+        *pulled += ever[v];
+done:
+    gs_free(bad);
+    gs_free(ever);
+    gs_free(order);
+    return err;
 }
 
 gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
-                              const int64_t tn[3], float weld_tol, int relax, gs_mesh *out,
-                              int64_t *seam_vertices)
+                              const gs_field *target, const gs_mesh *base, double snap, int relax,
+                              gs_mesh *out, gs_field_copy_stats *st)
 {
-    int64_t ns = sn[0] * sn[1] * sn[2], nt = tn[0] * tn[1] * tn[2];
+    const int64_t tn[3] = {target->nx, target->ny, target->nz};
+    int64_t ns = sn[0] * sn[1] * sn[2];
     size_t T = src_mesh->ntris;
     gs_err err = GS_OK;
     int64_t *start = NULL, *tri_of = NULL, *cell = NULL, *fill = NULL, *cnt = NULL;
     double *acc = NULL;
-    uint8_t *seam = NULL;
+    uint8_t *seam = NULL, *copied_flag = NULL;
     gs_mesh m;
     memset(&m, 0, sizeof m);
+    gs_field_copy_stats stats;
+    memset(&stats, 0, sizeof stats);
     /* bucket source triangles by the source sample nearest their centroid */
     GS_TRY(err, gs_alloc_array((void **)&start, (size_t)ns + 1, sizeof *start, "triangle buckets"), done);
     GS_TRY(err, gs_alloc_array((void **)&fill, (size_t)ns + 1, sizeof *fill, "triangle buckets"), done);
@@ -259,14 +449,20 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
     GS_TRY(err, gs_alloc_array((void **)&cell, T + 1, sizeof *cell, "triangle cells"), done);
     for (size_t t = 0; t < T; t++) {
         int64_t c[3];
+        int outside = 0;
         for (int a = 0; a < 3; a++) {
             double s = 0;
-            for (int k = 0; k < 3; k++)
-                s += src_mesh->pos[3 * src_mesh->tris[3 * t + k] + a];
+            for (int k = 0; k < 3; k++) {
+                double x = src_mesh->pos[3 * src_mesh->tris[3 * t + k] + a];
+                outside |= x < -1e-3 || x > (double)(sn[a] - 1) + 1e-3;
+                s += x;
+            }
             c[a] = (int64_t)llround(s / 3);
         }
+        /* triangles reaching out of the source box close a contour there:
+         * not part of the example's surface inside a target */
         cell[t] = -1;
-        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= sn[0] || c[1] >= sn[1] || c[2] >= sn[2])
+        if (outside)
             continue;
         cell[t] = c[0] + sn[0] * (c[1] + sn[1] * c[2]);
         start[cell[t] + 1]++;
@@ -276,39 +472,83 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
     for (size_t t = 0; t < T; t++)
         if (cell[t] >= 0)
             tri_of[start[cell[t]] + fill[cell[t]]++] = (int64_t)t;
-    size_t ntri = 0;
-    for (int64_t t = 0; t < nt; t++)
-        if (prov[t] >= 0 && prov[t] < ns)
-            ntri += (size_t)(start[prov[t] + 1] - start[prov[t]]);
-    GS_TRY_CHECK(err, ntri * 3 < GS_MESH_MAX_ELEMS, GS_ERR_ARG, done,
-                 "copied geometry would have %zu triangles: more than a mesh may hold", ntri);
-    GS_TRY(err, gs_mesh_alloc(&m, ntri * 3, ntri, 0), done);
-    size_t k = 0;
-    for (int64_t t = 0; t < nt; t++) {
-        if (prov[t] < 0 || prov[t] >= ns)
-            continue;
-        int64_t s = prov[t];
-        double off[3] = {(double)(t % tn[0] - s % sn[0]),
-                         (double)(t / tn[0] % tn[1] - s / sn[0] % sn[1]),
-                         (double)(t / (tn[0] * tn[1]) - s / (sn[0] * sn[1]))};
-        for (int64_t b = start[s]; b < start[s + 1]; b++, k++) {
-            const uint32_t *tr = src_mesh->tris + 3 * tri_of[b];
-            for (int c = 0; c < 3; c++) {
-                for (int a = 0; a < 3; a++)
-                    m.pos[3 * (3 * k + c) + a] = (float)(src_mesh->pos[3 * tr[c] + a] + off[a]);
-                m.tris[3 * k + c] = (uint32_t)(3 * k + c);
-            }
-        }
-    }
-    /* copies of neighbouring samples from the same copied block share exact
-     * vertices; across seams vertices within weld_tol are joined */
-    GS_TRY(err, gs_mesh_weld(&m, weld_tol), done);
+    copy_src cs = {src_mesh, {sn[0], sn[1], sn[2]}, start, tri_of};
+    /* the base's connectivity (one welded, manifold sheet); each vertex
+     * takes, for each of the 8 samples around it, the point of the source
+     * surface that sample's copy puts nearest, blended trilinearly */
+    GS_TRY(err, gs_mesh_alloc(&m, base->nverts, base->ntris, 0), done);
+    memcpy(m.tris, base->tris, 3 * base->ntris * sizeof *m.tris);
     GS_TRY(err, gs_alloc_array((void **)&seam, m.nverts + 1, 1, "seam flags"), done);
-    int64_t seams = 0;
-    GS_TRY(err, mark_seams(&m, seam, &seams), done);
+    GS_TRY(err, gs_alloc_array((void **)&copied_flag, m.nverts + 1, 1, "copy flags"), done);
+    for (size_t v = 0; v < m.nverts; v++) {
+        double p[3], acc3[3] = {0, 0, 0}, wsum = 0;
+        int64_t c0[3];
+        double fr[3];
+        for (int a = 0; a < 3; a++) {
+            p[a] = base->pos[3 * v + a];
+            double fl = floor(p[a]);
+            fl = fl < 0 ? 0 : fl > (double)(tn[a] - 2) ? (double)(tn[a] - 2) : fl;
+            c0[a] = (int64_t)fl;
+            fr[a] = fmin(fmax(p[a] - fl, 0), 1);
+        }
+        /* candidates of the distinct offsets so far (mostly one) */
+        int64_t seen_off[8][3];
+        double seen_cand[8][3];
+        int nseen = 0;
+        int64_t off0[3] = {0, 0, 0};
+        int first = 1, mixed = 0, copied = 0, in_box = 1;
+        for (int a = 0; a < 3; a++)
+            in_box &= p[a] >= 1 && p[a] <= (double)(tn[a] - 2);
+        for (int corner = 0; corner < 8 && in_box; corner++) {
+            int64_t t[3];
+            double w = 1;
+            for (int a = 0; a < 3; a++) {
+                int hi = (corner >> a) & 1;
+                t[a] = c0[a] + hi;
+                if (t[a] >= tn[a])
+                    t[a] = tn[a] - 1;
+                w *= hi ? fr[a] : 1 - fr[a];
+            }
+            int64_t ti = t[0] + tn[0] * (t[1] + tn[1] * t[2]);
+            double cand[3] = {p[0], p[1], p[2]};
+            if (prov[ti] >= 0 && prov[ti] < ns) {
+                int64_t s = prov[ti];
+                int64_t o[3] = {t[0] - s % sn[0], t[1] - s / sn[0] % sn[1], t[2] - s / (sn[0] * sn[1])};
+                if (first)
+                    memcpy(off0, o, sizeof o), first = 0;
+                else if (o[0] != off0[0] || o[1] != off0[1] || o[2] != off0[2])
+                    mixed = 1;
+                int k = 0;
+                while (k < nseen && memcmp(seen_off[k], o, sizeof o))
+                    k++;
+                if (k == nseen) {
+                    double q[3] = {p[0] - (double)o[0], p[1] - (double)o[1], p[2] - (double)o[2]}, r[3];
+                    if (snap_to_source(&cs, q, snap, r)) {
+                        for (int a = 0; a < 3; a++)
+                            cand[a] = r[a] + (double)o[a];
+                        copied = 1;
+                    }
+                    memcpy(seen_off[k], o, sizeof o);
+                    memcpy(seen_cand[k], cand, sizeof cand);
+                    nseen++;
+                }
+                memcpy(cand, seen_cand[k], sizeof cand);
+            } else {
+                mixed = 1;
+            }
+            for (int a = 0; a < 3; a++)
+                acc3[a] += w * cand[a];
+            wsum += w;
+        }
+        for (int a = 0; a < 3; a++)
+            m.pos[3 * v + a] = (float)(wsum > 0 ? acc3[a] / wsum : p[a]);
+        seam[v] = (uint8_t)mixed;
+        copied_flag[v] = (uint8_t)copied;
+        stats.seam_vertices += mixed;
+    }
     GS_TRY(err, gs_alloc_array((void **)&cnt, m.nverts + 1, sizeof *cnt, "relaxation"), done);
     GS_TRY(err, gs_alloc_array((void **)&acc, 3 * m.nverts + 3, sizeof *acc, "relaxation"), done);
-    /* Laplacian relaxation (weight 0.5) of the seam vertices */
+    /* the paper's mesh relaxation: Laplacian (weight 0.5) of the seam vertices */
     for (int it = 0; it < relax; it++) {
         memset(acc, 0, (3 * m.nverts + 3) * sizeof *acc);
         memset(cnt, 0, (m.nverts + 1) * sizeof *cnt);
@@ -329,8 +569,39 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
                     m.pos[3 * v + q] =
                         (float)(0.5 * m.pos[3 * v + q] + 0.5 * acc[3 * v + q] / (double)cnt[v]);
     }
-    if (seam_vertices)
-        *seam_vertices = seams;
+    /* no vertex moves more than 0.45 of the room to the next sheet of the
+     * synthesized field: two facing sheets cannot pass through each other */
+    for (size_t v = 0; v < m.nverts; v++) {
+        double p[3], d = 0;
+        for (int a = 0; a < 3; a++) {
+            p[a] = base->pos[3 * v + a];
+            d += ((double)m.pos[3 * v + a] - p[a]) * ((double)m.pos[3 * v + a] - p[a]);
+        }
+        if (d == 0)
+            continue;
+        double lim = 0.45 * room_at(target, p);
+        d = sqrt(d);
+        if (d > lim)
+            for (int a = 0; a < 3; a++)
+                m.pos[3 * v + a] = (float)(p[a] + (lim / d) * ((double)m.pos[3 * v + a] - p[a]));
+    }
+    uint8_t *reverted = seam; /* no longer needed as seam flags */
+    memset(reverted, 0, m.nverts + 1);
+    GS_TRY(err, unfold(&m, base, reverted, &stats.pulled_back), done);
+    stats.copied_vertices = 0;
+    stats.mean_shift = 0;
+    for (size_t v = 0; v < m.nverts; v++) {
+        double d = 0;
+        for (int a = 0; a < 3; a++)
+            d += ((double)m.pos[3 * v + a] - base->pos[3 * v + a]) *
+                 ((double)m.pos[3 * v + a] - base->pos[3 * v + a]);
+        stats.copied_vertices += copied_flag[v] && !reverted[v];
+        stats.mean_shift += sqrt(d);
+    }
+    if (m.nverts)
+        stats.mean_shift /= (double)m.nverts;
+    if (st)
+        *st = stats;
     *out = m;
     memset(&m, 0, sizeof m);
 done:
@@ -342,5 +613,41 @@ done:
     gs_free(cnt);
     gs_free(acc);
     gs_free(seam);
+    gs_free(copied_flag);
+    return err;
+}
+
+/* ------------------------------------------------------ height map out */
+
+gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, const char *path)
+{
+    GS_CHECK(height > 0 && f->nx <= 65535 && f->ny <= 65535, GS_ERR_ARG,
+             "%s: height map of %lldx%lld columns, relief %g: expected relief > 0", path,
+             (long long)f->nx, (long long)f->ny, height);
+    int64_t nx = f->nx, ny = f->ny, nz = f->nz;
+    float *grey = NULL;
+    GS_CALL(gs_alloc_array((void **)&grey, (size_t)(nx * ny), sizeof *grey, "height map"));
+    for (int64_t y = 0; y < ny; y++)
+        for (int64_t x = 0; x < nx; x++) {
+            /* the highest sign change from inside (< 0) below to outside above */
+            const float *col = f->v + x + nx * y;
+            size_t st = (size_t)(nx * ny);
+            double z = col[(size_t)(nz - 1) * st] < 0 ? (double)(nz - 1) : 0;
+            for (int64_t k = nz - 2; k >= 0; k--) {
+                double lo = col[(size_t)k * st], hi = col[(size_t)(k + 1) * st];
+                if (lo < 0 && hi >= 0) {
+                    z = (double)k + lo / (lo - hi);
+                    break;
+                }
+            }
+            /* image row 0 is the top: largest y (as gs_field_from_heightmap reads it) */
+            grey[x + nx * (ny - 1 - y)] = (float)((z - base) / height);
+        }
+    gs_image img;
+    gs_err err = gs_image_from_gray((int)nx, (int)ny, grey, 0.0f, 1.0f, 16, &img);
+    gs_free(grey);
+    GS_CALL(err);
+    err = gs_image_write_png(path, &img);
+    gs_image_destroy(&img);
     return err;
 }

@@ -75,9 +75,10 @@ static void test_balls_no_overlap(void **state)
     gs_field_destroy(&f);
 }
 
-/* Copied geometry: a provenance map that copies the whole source in place
- * reproduces the source mesh (same triangle count, area); a shifted copy
- * moves it. */
+/* Copied geometry: copying the whole source in place puts the contour's
+ * vertices on the source's own surface (no seams, nothing moves); a shifted
+ * source copied back by its provenance lands on the source's surface too;
+ * nothing copied leaves the base as it is. */
 static void test_copy_geometry(void **state)
 {
     (void)state;
@@ -86,23 +87,45 @@ static void test_copy_geometry(void **state)
     gs_mesh src;
     OK(gs_field_contour(f, 0.0, 0.0, &src));
     int64_t sn[3] = {24, 24, 24};
-    int64_t tn[3] = {24, 24, 24};
     int32_t *prov = gs_malloc(24 * 24 * 24 * sizeof *prov);
     for (int i = 0; i < 24 * 24 * 24; i++)
         prov[i] = i;
     gs_mesh out;
-    int64_t seams = -1;
-    OK(gs_field_copy_geometry(&src, sn, prov, tn, 0.0f, 0, &out, &seams));
+    gs_field_copy_stats st;
+    OK(gs_field_copy_geometry(&src, sn, prov, f, &src, 1.0, 10, &out, &st));
     assert_int_equal(out.ntris, src.ntris);
-    assert_true(fabs(gs_mesh_area(&out) - gs_mesh_area(&src)) < 1e-3 * gs_mesh_area(&src));
-    assert_int_equal(seams, 0); /* the contour of a sphere field inside the box is closed */
+    assert_memory_equal(out.tris, src.tris, 3 * src.ntris * sizeof *src.tris);
+    assert_int_equal(st.seam_vertices, 0);
+    assert_true(st.mean_shift < 1e-4);
+    /* all but those within a sample of the box faces (they stay) */
+    assert_true((double)st.copied_vertices > 0.5 * (double)src.nverts);
     gs_mesh_destroy(&out);
-    /* nothing copied: empty mesh */
+    /* target = source shifted by (3, 2, 1): its contour copied back */
+    gs_field *g = NULL;
+    OK(gs_field_create(24, 24, 24, &g));
+    for (int z = 0; z < 24; z++)
+        for (int y = 0; y < 24; y++)
+            for (int x = 0; x < 24; x++) {
+                int sx = (x + 21) % 24, sy = (y + 22) % 24, sz = (z + 23) % 24;
+                int s = sx + 24 * (sy + 24 * sz);
+                prov[x + 24 * (y + 24 * z)] = s;
+                g->v[x + 24 * (y + 24 * z)] = f->v[s];
+            }
+    gs_mesh base;
+    OK(gs_field_contour(g, 0.0, 0.0, &base));
+    OK(gs_field_copy_geometry(&src, sn, prov, g, &base, 1.0, 0, &out, &st));
+    assert_int_equal(out.ntris, base.ntris);
+    assert_true(st.copied_vertices > 0);
+    gs_mesh_destroy(&out);
+    /* nothing copied: the base unchanged */
     for (int i = 0; i < 24 * 24 * 24; i++)
         prov[i] = -1;
-    OK(gs_field_copy_geometry(&src, sn, prov, tn, 0.0f, 0, &out, &seams));
-    assert_int_equal(out.ntris, 0);
+    OK(gs_field_copy_geometry(&src, sn, prov, g, &base, 1.0, 0, &out, &st));
+    assert_int_equal(st.copied_vertices, 0);
+    assert_memory_equal(out.pos, base.pos, 3 * base.nverts * sizeof *base.pos);
     gs_mesh_destroy(&out);
+    gs_mesh_destroy(&base);
+    gs_field_destroy(&g);
     gs_free(prov);
     gs_mesh_destroy(&src);
     gs_field_destroy(&f);
