@@ -15,6 +15,7 @@
 #include "geosynth/error.h"
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
+#include "geosynth/model_io.h"
 
 /* Paul Merrell's samples/NAME (fetched by `make data`: the test skips without it). */
 #define read_sample gs_test_read_merrell_sample
