@@ -116,27 +116,32 @@ gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_n
     gs_atomic_file af;
     GS_CALL(gs_atomic_begin(path, &af));
     FILE *f = af.f;
+    /* float32 (24 bytes an oriented point, as PLY point clouds usually are):
+     * the synthesis' doubles rounded to nearest */
     int ok = fprintf(f, "ply\nformat %s 1.0\ncomment geosynth oriented point set\n"
-                        "element vertex %zu\nproperty double x\nproperty double y\n"
-                        "property double z\n%send_header\n",
+                        "comment up_axis z (input.up = y: the example's y); units: the example's\n"
+                        "comment ParaView: open, then Filters > Convert To Point Cloud (vertex cells)\n"
+                        "element vertex %zu\nproperty float x\nproperty float y\n"
+                        "property float z\n%send_header\n",
                      format == GS_POINTPLY_ASCII ? "ascii" : "binary_little_endian", n,
-                     with_normals ? "property double nx\nproperty double ny\nproperty double nz\n"
+                     with_normals ? "property float nx\nproperty float ny\nproperty float nz\n"
                                   : "") > 0;
     int nv = with_normals ? 6 : 3;
     for (size_t i = 0; i < n && ok; i++) {
         const double *o = v + 6 * i;
         if (format == GS_POINTPLY_ASCII) {
             for (int k = 0; k < nv && ok; k++)
-                ok = fprintf(f, k + 1 < nv ? "%.17g " : "%.17g\n", o[k]) > 0;
+                ok = fprintf(f, k + 1 < nv ? "%.9g " : "%.9g\n", (double)(float)o[k]) > 0;
         } else {
-            unsigned char b[48];
+            unsigned char b[24];
             for (int k = 0; k < nv; k++) {
-                uint64_t u;
-                memcpy(&u, &o[k], sizeof u);
-                for (int j = 0; j < 8; j++)
-                    b[8 * k + j] = (unsigned char)(u >> (8 * j));
+                float x = (float)o[k];
+                uint32_t u;
+                memcpy(&u, &x, sizeof u);
+                for (int j = 0; j < 4; j++)
+                    b[4 * k + j] = (unsigned char)(u >> (8 * j));
             }
-            ok = fwrite(b, 8, (size_t)nv, f) == (size_t)nv;
+            ok = fwrite(b, 4, (size_t)nv, f) == (size_t)nv;
         }
     }
     if (!ok) {

@@ -61,7 +61,7 @@ def body(f):
     n = {l.split()[1]: int(l.split()[2]) for l in h if l.startswith("element")}
     return raw[e:], n
 b, n = body(d + "/points.ply")
-P = np.frombuffer(b[:48 * n["vertex"]], "<f8").reshape(-1, 6)
+P = np.frombuffer(b[:24 * n["vertex"]], "<f4").reshape(-1, 6).astype(np.float64)
 b, n = body(d + "/mesh.ply")
 V = np.frombuffer(b[:12 * n["vertex"]], "<f4").reshape(-1, 3)
 F = np.frombuffer(b[12 * n["vertex"]:12 * n["vertex"] + 13 * n["face"]], np.uint8).reshape(-1, 13)
