@@ -56,6 +56,14 @@ gs_err gs_error_raise(gs_err code, const char *file, int line, const char *func,
 #endif
     ;
 
+/* Marks the current error as agreed by every rank of the job (gs_par_agree
+ * over all of them), first reported by origin_rank: the job then reports it
+ * once, from that rank, and exits without MPI_Abort (gs_fatal). A new error
+ * (gs_error_raise) or gs_error_clear drops the mark. */
+void gs_error_mark_agreed(int origin_rank);
+/* That rank, or -1 when the current error is not marked. */
+int gs_error_agreed_origin(void);
+
 /* Appends a traceback frame to the current error. Use through GS_CALL. */
 void gs_error_push_frame(const char *file, int line, const char *func);
 

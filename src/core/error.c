@@ -21,6 +21,7 @@ typedef struct gs_error_record {
     gs_error_frame frames[GS_ERROR_FRAMES_MAX];
     int nframes;
     int dropped_frames;
+    int agreed; /* 1 + the rank that reported it, when every rank agreed on it; 0 = not */
 } gs_error_record;
 
 static _Thread_local gs_error_record error_record;
@@ -68,6 +69,7 @@ gs_err gs_error_raise(gs_err code, const char *file, int line, const char *func,
     r->code = code == GS_OK ? GS_ERR_INTERNAL : code;
     r->nframes = 0;
     r->dropped_frames = 0;
+    r->agreed = 0;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(r->message, sizeof r->message, fmt, ap);
@@ -106,7 +108,12 @@ void gs_error_clear(void)
     error_record.message[0] = '\0';
     error_record.nframes = 0;
     error_record.dropped_frames = 0;
+    error_record.agreed = 0;
 }
+
+void gs_error_mark_agreed(int origin_rank) { error_record.agreed = origin_rank + 1; }
+
+int gs_error_agreed_origin(void) { return error_record.agreed - 1; }
 
 void gs_error_report(const char *prefix)
 {

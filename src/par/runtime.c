@@ -93,9 +93,22 @@ _Noreturn void gs_fatal(gs_err code, int collective)
     MPI_Initialized(&initialized);
     MPI_Finalized(&finalized);
     int mpi_alive = initialized && !finalized;
+    /* An error every rank agreed on (gs_par_agree) is reported once, by the
+     * rank it came from, and every rank exits with its code: each rank used
+     * to print it (the origin its own message, the others "rank 0 failed:
+     * ...") and the first to get here aborted the job (#24 item 2). */
+    int origin = gs_error_agreed_origin();
+    if (origin >= 0 && origin < par_size)
+        collective = 1;
+    else
+        origin = 0;
     if (collective || !mpi_alive || par_size == 1) {
-        if (par_rank == 0)
-            gs_error_report(NULL);
+        if (par_rank == origin) {
+            char pre[32] = "";
+            if (origin != 0 && par_size > 1)
+                snprintf(pre, sizeof pre, "[rank %d] ", origin);
+            gs_error_report(pre);
+        }
         if (mpi_alive && par_started_mpi)
             MPI_Finalize();
         exit((int)code);
@@ -124,10 +137,18 @@ gs_err gs_par_agree(MPI_Comm comm, gs_err local)
         snprintf(msg, sizeof msg, "%s", gs_error_message());
     GS_MPI(MPI_Bcast(msg, (int)sizeof msg, MPI_CHAR, first, comm));
     msg[sizeof msg - 1] = '\0';
-    if (local != GS_OK)
+    /* Agreed by the whole job: gs_fatal reports it once, from rank first. */
+    int whole = size == par_size;
+    if (local != GS_OK) {
+        if (whole)
+            gs_error_mark_agreed(first);
         return local;
-    return gs_error_raise((gs_err)all[0], __FILE__, __LINE__, __func__,
-                          "rank %d failed: %s", first, msg);
+    }
+    gs_err e = gs_error_raise((gs_err)all[0], __FILE__, __LINE__, __func__, "rank %d failed: %s",
+                              first, msg);
+    if (whole)
+        gs_error_mark_agreed(first);
+    return e;
 }
 
 gs_err gs_par_check_same_i64(MPI_Comm comm, int64_t v, const char *what)

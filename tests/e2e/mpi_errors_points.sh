@@ -51,7 +51,8 @@ for spec in "map-fn 8 internal 1 collective" "search-scan 8 internal 1 collectiv
     if [[ $frank -eq 0 ]]; then
       m=$(grep -cE "^error \($name\): $cause" <<<"$err")
     else
-      m=$(grep -cE "^error \($name\): rank $frank failed: $cause" <<<"$err")
+      # agreed by every rank: reported once, by the rank it came from (#24 item 2)
+      m=$(grep -cE "^\[rank $frank\] error \($name\): $cause" <<<"$err")
     fi
     grep -q "MPI_ABORT" <<<"$err" && bad "$what: a collective failure went through MPI_Abort"
   else
@@ -82,7 +83,7 @@ for frank in 1 0; do
   ok "$what: ends after ${secs}s"
   expect_rc 8 "$what: exit code 8"
   cause="points: injected failure at generate"
-  if [[ $frank -eq 0 ]]; then pat="^error \(internal\): $cause"; else pat="^error \(internal\): rank $frank failed: $cause"; fi
+  if [[ $frank -eq 0 ]]; then pat="^error \(internal\): $cause"; else pat="^\[rank $frank\] error \(internal\): $cause"; fi
   n=$(grep -cF "$cause" <<<"$err"); m=$(grep -cE "$pat" <<<"$err")
   [[ $n -eq 1 && $m -eq 1 ]] && ok "$what: the cause is printed once, naming rank $frank" ||
     bad "$what: cause printed $n times, $m in the expected form; stderr: $(grep -iE 'error|abort' <<<"$err" | head -6)"
