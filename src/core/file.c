@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "geosynth/data.h"
@@ -106,6 +107,16 @@ gs_err gs_atomic_commit(gs_atomic_file *af)
 {
     int bad = ferror(af->f) != 0;
     int e = 0;
+    if (bad) {
+        /* A buffered write failed earlier and its errno is gone: flush what
+         * is left to learn why, or ask the file system whether it is full. */
+        clearerr(af->f);
+        struct statvfs sv;
+        if (fflush(af->f) != 0)
+            e = errno;
+        else if (statvfs(af->tmp_path, &sv) == 0 && sv.f_bavail == 0)
+            e = ENOSPC;
+    }
     if (!bad && fflush(af->f) != 0) {
         bad = 1;
         e = errno;
