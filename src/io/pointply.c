@@ -71,10 +71,15 @@ gs_err gs_pointply_parse(const char *data, size_t len, const char *name, int req
             GS_TRY_CHECK(err, isfinite(o[k]), GS_ERR_FORMAT, done,
                          "%s: %s: vertex %zu has a non-finite coordinate", name, where, item);
         if (normals) {
-            double l = sqrt(o[3] * o[3] + o[4] * o[4] + o[5] * o[5]);
-            GS_TRY_CHECK(err, l > 0 && isfinite(l), GS_ERR_FORMAT, done,
+            /* Scaled by the largest component first: a tiny or huge normal
+             * (1e-160, 1e200) would underflow or overflow its squares. */
+            double m = fmax(fabs(o[3]), fmax(fabs(o[4]), fabs(o[5])));
+            GS_TRY_CHECK(err, m > 0 && isfinite(m), GS_ERR_FORMAT, done,
                          "%s: %s: vertex %zu has a zero or non-finite normal (%g, %g, %g)", name,
                          where, item, o[3], o[4], o[5]);
+            for (int k = 3; k < 6; k++)
+                o[k] /= m;
+            double l = sqrt(o[3] * o[3] + o[4] * o[4] + o[5] * o[5]);
             if (l != 1.0)
                 for (int k = 3; k < 6; k++)
                     o[k] /= l;
