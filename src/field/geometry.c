@@ -349,6 +349,11 @@ static void tri_normal(const float *pos, const uint32_t *tr, double n[3])
     n[2] = e1[0] * e2[1] - e1[1] * e2[0];
 }
 
+static int same_point(const float *a, const float *b)
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
 typedef struct vkey {
     float p[3];
     uint32_t v;
@@ -388,7 +393,10 @@ static gs_err unfold(gs_mesh *m, const gs_mesh *base, uint8_t *reverted, int64_t
             double dot = nb[0] * nn[0] + nb[1] * nn[1] + nb[2] * nn[2];
             double ab = nb[0] * nb[0] + nb[1] * nb[1] + nb[2] * nb[2];
             double an = nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2];
-            if (dot <= 0.5 * sqrt(ab * an) || an < 0.01 * ab)
+            /* a triangle degenerate in the base itself (collinear contour
+             * points) has no normal to keep: skipped, or it would stay bad
+             * after its vertices went all the way back and this never end */
+            if (ab > 0 && (dot <= 0.5 * sqrt(ab * an) || an < 0.01 * ab))
                 for (int c = 0; c < 3; c++)
                     nbad += !bad[tr[c]], bad[tr[c]] = 1;
         }
@@ -402,12 +410,18 @@ static gs_err unfold(gs_mesh *m, const gs_mesh *base, uint8_t *reverted, int64_t
         if (folds == 0)
             qsort(order, m->nverts, sizeof *order, cmp_vkey);
         for (size_t i = 1; i < m->nverts && folds == 0; i++)
-            if (!memcmp(order[i - 1].p, order[i].p, sizeof order[i].p))
+            if (!memcmp(order[i - 1].p, order[i].p, sizeof order[i].p) &&
+                !same_point(base->pos + 3 * (size_t)order[i - 1].v,
+                            base->pos + 3 * (size_t)order[i].v)) /* (one point in the base: left) */
                 for (int q = 0; q < 2; q++)
                     nbad += !bad[order[i - q].v], bad[order[i - q].v] = 1;
+        double keep = round < 8 ? 0.5 : 0.0;
+        if (keep == 0) /* only vertices still off the base can be pulled back */
+            for (size_t v = 0; v < m->nverts; v++)
+                if (bad[v] && same_point(m->pos + 3 * v, base->pos + 3 * v))
+                    bad[v] = 0, nbad--; /* (==, not memcmp: a -0 put back reads +0) */
         if (nbad == 0)
             break;
-        double keep = round < 8 ? 0.5 : 0.0;
         for (size_t v = 0; v < m->nverts; v++)
             if (bad[v]) {
                 ever[v] = 1;
