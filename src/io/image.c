@@ -92,7 +92,7 @@ gs_err gs_image_alloc(gs_image *img, int width, int height, int channels, int bi
  *   file gets its buffer allocated (and zeroed by the allocator) before the
  *   read fails, 0.5 s of CPU each. png_check walks the chunks first and
  *   refuses a length that runs past the end of the file. */
-#define IMAGE_MAX_FILE_BYTES ((size_t)4 << 30)
+#define IMAGE_MAX_FILE_BYTES ((size_t)INT32_MAX) /* stb reads lengths as int */
 
 static gs_err jpeg_check(const unsigned char *d, size_t len, const char *path)
 {

@@ -1277,7 +1277,8 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
             if (s->gone.n + 1 > s->gone_cap) {
                 size_t cap = 2 * s->gone.n + 64;
                 uint32_t *g = gs_realloc(s->gone_obj, cap * sizeof *g);
-                GS_TRY(err, g ? GS_OK : GS_ERR_MEM, done);
+                GS_TRY_CHECK(err, g != NULL, GS_ERR_MEM, done,
+                             "points: out of memory (%zu replaced object points)", cap);
                 s->gone_obj = g;
                 s->gone_cap = cap;
             }
