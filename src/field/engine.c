@@ -216,7 +216,7 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
     GS_CFG_KEY_BOOL(field_config, preview, "output.preview", "yes",
                     "write RUN_DIR/preview.png: the source's contour and the output's contour "
-                    "side by side (needs output.geometry contour or both)"),
+                    "side by side (every output.geometry but none)"),
     GS_CFG_RUN_KEYS(field_config, run, "field"),
 };
 
@@ -800,6 +800,16 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
     gs_err err = GS_OK;
     gs_mesh m;
     memset(&m, 0, sizeof m);
+    if (c->preview) {
+        /* The example next to the output's contour (also for output.geometry
+         * = copy: the copy lies on it), each fitted to its own box. */
+        gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&base, NULL}};
+        gs_run_path(run, "preview.png", path, sizeof path);
+        int written;
+        GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &written), done);
+        if (written)
+            gs_run_output(run, "preview", "preview", "preview.png", NULL);
+    }
     if (contour) {
         if (copy && c->adaptivity > 0)
             GS_TRY(err, gs_field_contour(&unit, 0.0, c->adaptivity, &m), done);
@@ -810,15 +820,6 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
         gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
         gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
-        if (c->preview) {
-            /* The example next to the output, each fitted to its own box. */
-            gs_preview_panel panels[2] = {{&src->mesh, NULL}, {cm, NULL}};
-            gs_run_path(run, "preview.png", path, sizeof path);
-            int written;
-            GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &written), done);
-            if (written)
-                gs_run_output(run, "preview", "preview", "preview.png", NULL);
-        }
         gs_mesh_destroy(&m);
         gs_run_output(run, "mesh", "contour", name, NULL);
     }
