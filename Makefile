@@ -182,8 +182,12 @@ fuzz: fuzz-build
 
 # `make test` is the whole set-up on a fresh Debian 12 machine: it installs what
 # is missing, builds, and runs every suite, ending with "N passed, N failed".
+# A selection of only unit/, mpi/ and e2e/ tests (T="e2e/field unit/test_mesh")
+# does not build the fuzz targets (an ASan+libFuzzer build of the library).
+comma := ,
+TEST_NEEDS_FUZZ := $(if $(strip $(T)),$(filter-out unit/% mpi/% e2e/%,$(subst $(comma), ,$(T))),all)
 test: deps
-	@$(MAKE) --no-print-directory tests-build fuzz-build
+	@$(MAKE) --no-print-directory tests-build $(if $(TEST_NEEDS_FUZZ),fuzz-build)
 	@BUILD=$(BUILD) BIN=$(BIN) NP="$(NP)" T="$(T)" tests/run.sh
 
 valgrind: tests-build
