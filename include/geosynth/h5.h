@@ -116,7 +116,8 @@ typedef struct gs_h5_shape {
 void gs_h5_shape_format(const gs_h5_shape *shape, char *buf, size_t len);
 
 /* Balanced split of n rows over nranks: rank r gets [*start, *start+*count),
- * the first n % nranks ranks one row more. Pure function. */
+ * the first n % nranks ranks one row more (gs_partition, partition.h, on
+ * unsigned rows). Pure function. */
 void gs_h5_split_rows(uint64_t n, int nranks, int rank, uint64_t *start,
                       uint64_t *count);
 

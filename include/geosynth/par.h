@@ -1,5 +1,7 @@
 /* MPI runtime basics: start-up, the one place errors end up, collective
- * status agreement, broadcasts of text.
+ * status agreement, broadcasts of text, and the collectives engines share
+ * (broadcast of arrays and header structs, reductions, gathers); engines
+ * call these and never MPI directly (tests/util/check_layers.py).
  *
  * Error policy (see STYLE.md): functions return gs_err up to main(), which
  * calls gs_fatal(). Two cases:
@@ -53,6 +55,48 @@ gs_err gs_par_check_same_i64(MPI_Comm comm, int64_t v, const char *what);
  * ranks *s must be NULL on entry and receives a gs_malloc'ed copy (free with
  * gs_free). */
 gs_err gs_par_bcast_string(MPI_Comm comm, char **s, int root);
+
+/* ---- collectives engines share (src/par/collective.c) ----------------------
+ * Every function here is collective over comm and returns a gs_err for an MPI
+ * failure (GS_MPI's message). Data moves as bytes: geosynth's ranks run one
+ * architecture (its checkpoints assume it too), so a byte copy of a double or
+ * a struct is the value. Counts are size_t: large arrays go in pieces of at
+ * most 2^30 bytes (MPI counts are int). */
+
+/* This rank and the rank count of comm. */
+gs_err gs_par_comm_rank(MPI_Comm comm, int *rank, int *size);
+gs_err gs_par_barrier(MPI_Comm comm);
+/* A barrier on a clean-up path: 0 when it failed, and no error is raised
+ * (the error being reported stays the current one). */
+int gs_par_barrier_quiet(MPI_Comm comm);
+
+/* Broadcasts bytes bytes at data from root (any length). */
+gs_err gs_par_bcast_bytes(MPI_Comm comm, void *data, size_t bytes, int root);
+/* Broadcasts one object (a named header struct, a scalar, a fixed array)
+ * from root: GS_PAR_BCAST_VALUE(comm, &hdr, 0). */
+#define GS_PAR_BCAST_VALUE(comm, ptr, root) gs_par_bcast_bytes((comm), (ptr), sizeof *(ptr), (root))
+
+/* *out = the minimum (maximum) of v over the ranks. */
+gs_err gs_par_min_i64(MPI_Comm comm, int64_t v, int64_t *out);
+gs_err gs_par_max_u64(MPI_Comm comm, uint64_t v, uint64_t *out);
+
+/* Root receives every rank's bytes bytes, in rank order, at all (which
+ * holds size * bytes on root and is ignored elsewhere). */
+gs_err gs_par_gather_bytes(MPI_Comm comm, const void *mine, size_t bytes, void *all, int root);
+/* Every rank receives every rank's bytes bytes, in rank order. */
+gs_err gs_par_allgather_bytes(MPI_Comm comm, const void *mine, size_t bytes, void *all);
+/* Every rank receives rank r's counts[r] bytes at all + displs[r]; this
+ * rank sends counts[rank] bytes from mine. */
+gs_err gs_par_allgatherv_bytes(MPI_Comm comm, const void *mine, void *all, const int *counts,
+                               const int *displs);
+/* In place: items of item_bytes each; rank r's counts[r] items already sit
+ * at item displs[r] of all on rank r and reach every rank there. */
+gs_err gs_par_allgatherv_items(MPI_Comm comm, void *all, size_t item_bytes, const int *counts,
+                               const int *displs);
+
+/* Local: the MPI standard version and the first line of the library's
+ * version string (truncated to lib_len). */
+void gs_par_mpi_version(int *major, int *minor, char *lib, size_t lib_len);
 
 /* Interrupt flag set by SIGTERM/SIGINT/SIGUSR1 (async-signal-safe).
  * gs_par_interrupted_all() is collective: true on every rank if any rank

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/partition.h"
 
 static const unsigned char hdf5_signature[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
 
@@ -393,10 +394,11 @@ void gs_h5_split_rows(uint64_t n, int nranks, int rank, uint64_t *start, uint64_
 {
     if (nranks < 1)
         nranks = 1;
-    uint64_t base = n / (uint64_t)nranks, extra = n % (uint64_t)nranks;
-    uint64_t r = (uint64_t)rank;
-    *count = base + (r < extra ? 1 : 0);
-    *start = r * base + (r < extra ? r : extra);
+    int64_t lo = 0, hi = 0;
+    if (gs_partition((int64_t)n, nranks, rank, &lo, &hi) != GS_OK) /* rank outside [0, nranks) */
+        gs_error_clear();
+    *start = (uint64_t)lo;
+    *count = (uint64_t)(hi - lo);
 }
 
 /* ---- strings ---------------------------------------------------------------- */

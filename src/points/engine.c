@@ -57,6 +57,7 @@
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
 #include "geosynth/parse.h"
+#include "geosynth/pmap.h"
 #include "geosynth/pointply.h"
 #include "geosynth/preview.h"
 #include "geosynth/points.h"
@@ -409,33 +410,33 @@ static gs_err build_texture(const points_config *c, map_state *ms, gs_points_tex
     return GS_OK;
 }
 
+/* What bcast_texture sends ahead of the points. */
+typedef struct texture_header {
+    uint64_t n; /* points */
+    double box_lo[3], box_hi[3], spacing;
+} texture_header;
+
 /* Collective: rank 0's texture to every rank. */
 static gs_err bcast_texture(MPI_Comm comm, int rank, gs_points_texture *tex)
 {
-    double hdr[8] = {0};
+    texture_header hdr = {0};
     if (rank == 0) {
-        hdr[0] = (double)tex->pts.n;
-        memcpy(hdr + 1, tex->box_lo, 3 * sizeof *hdr);
-        memcpy(hdr + 4, tex->box_hi, 3 * sizeof *hdr);
-        hdr[7] = tex->spacing;
+        hdr.n = tex->pts.n;
+        memcpy(hdr.box_lo, tex->box_lo, sizeof hdr.box_lo);
+        memcpy(hdr.box_hi, tex->box_hi, sizeof hdr.box_hi);
+        hdr.spacing = tex->spacing;
     }
-    GS_MPI(MPI_Bcast(hdr, 8, MPI_DOUBLE, 0, comm));
-    size_t n = (size_t)hdr[0];
+    GS_CALL(GS_PAR_BCAST_VALUE(comm, &hdr, 0));
+    size_t n = (size_t)hdr.n;
     if (rank != 0) {
         memset(tex, 0, sizeof *tex);
-        memcpy(tex->box_lo, hdr + 1, 3 * sizeof *hdr);
-        memcpy(tex->box_hi, hdr + 4, 3 * sizeof *hdr);
-        tex->spacing = hdr[7];
+        memcpy(tex->box_lo, hdr.box_lo, sizeof hdr.box_lo);
+        memcpy(tex->box_hi, hdr.box_hi, sizeof hdr.box_hi);
+        tex->spacing = hdr.spacing;
         GS_CALL(gs_points_reserve(&tex->pts, n));
         tex->pts.n = n;
     }
-    /* In chunks of at most 2^27 doubles (MPI counts are int). */
-    double *d = (double *)tex->pts.v;
-    size_t total = 6 * n, chunk = (size_t)1 << 27;
-    for (size_t at = 0; at < total; at += chunk) {
-        size_t m = total - at < chunk ? total - at : chunk;
-        GS_MPI(MPI_Bcast(d + at, (int)m, MPI_DOUBLE, 0, comm));
-    }
+    GS_CALL(gs_par_bcast_bytes(comm, tex->pts.v, n * sizeof(gs_opoint), 0));
     return GS_OK;
 }
 
@@ -656,9 +657,7 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
     gs_points_cand *more = NULL;
     int *counts = c->counts;
     gs_err err = GS_OK;
-    int rc = MPI_Allgather(mine, REC, MPI_INT64_T, all, REC, MPI_INT64_T, c->comm);
-    GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgather of the search "
-                 "candidates failed");
+    GS_TRY(err, gs_par_allgather_bytes(c->comm, mine, sizeof mine, all), done);
     int failed = 0, overflow = 0;
     int64_t total = 0;
     for (int r = 0; r < c->size; r++) {
@@ -694,10 +693,7 @@ static gs_err distributed_search(void *user, const gs_points_synth *s, const flo
     }
     if (overflow) { /* every rank saw it: all gather every candidate */
         c->regathers++;
-        rc = MPI_Allgatherv(c->local.v, counts[c->rank], MPI_BYTE, more, counts, displs, MPI_BYTE,
-                            c->comm);
-        GS_TRY_CHECK(err, rc == MPI_SUCCESS, GS_ERR_MPI, done, "points: MPI_Allgatherv of the "
-                     "search candidates failed");
+        GS_TRY(err, gs_par_allgatherv_bytes(c->comm, c->local.v, more, counts, displs), done);
     }
     /* After the exchange a failure (the allocations of more and of the
      * merge) is local: points_run aborts every rank. */
@@ -711,25 +707,13 @@ done:
     return err;
 }
 
-/* Up to this many bytes of items a map exchanges in one collective that
- * also carries each rank's status and compute time (items are copied
- * through a buffer); larger maps agree first and gather in place. */
-#define MAP_ONE_EXCHANGE_BYTES ((size_t)16 << 20)
-#define MAP_MAX_RANKS_ADAPTIVE 4096
-
-/* State of the map hook: the share of the items each rank computes. Shares
- * start equal and follow each rank's measured speed (items per second of
- * its last maps): on a shared machine a rank whose core also runs another
- * job is slower, and an equal split would make every map wait for it. Who
- * computes an item never changes its value, and every rank updates the
- * shares from the same gathered numbers with the same arithmetic, so the
- * split is the same everywhere and the output does not depend on it. */
+/* The map hook over the ranks: gs_pmap (include/geosynth/pmap.h) with the
+ * test faults "map-alloc" and "map-fn" and the agreement that remembers a
+ * collective failure. */
 struct map_state {
-    MPI_Comm comm;
-    int size;
+    gs_pmap pm;
     fault_inject *fault;
     int *together; /* set on a failure every rank returns (see agree) */
-    double share[MAP_MAX_RANKS_ADAPTIVE]; /* sums to 1; used when size <= the max */
 };
 
 /* gs_points_gen_params.agree over the ranks (user: map_state). The
@@ -740,188 +724,45 @@ static gs_err map_agree(void *user, gs_err local)
     map_state *m = user;
     if (local == GS_OK && fault_fires(m->fault, FAULT_GENERATE))
         local = fault_raise(m->fault, FAULT_GENERATE, GS_ERR_INTERNAL);
-    return agree(m->together, m->comm, local);
+    return agree(m->together, m->pm.comm, local);
 }
 
-static void map_state_init(map_state *m, MPI_Comm comm, int size)
+static gs_err map_hook_computed(void *user, gs_err local)
 {
-    m->comm = comm;
-    m->size = size;
-    for (int r = 0; r < size && r < MAP_MAX_RANKS_ADAPTIVE; r++)
-        m->share[r] = 1.0 / size;
+    map_state *m = user;
+    if (local == GS_OK && fault_fires(m->fault, FAULT_MAP_FN))
+        local = fault_raise(m->fault, FAULT_MAP_FN, GS_ERR_INTERNAL);
+    return local;
 }
 
-/* Items [start, start + count) of rank r out of n under the shares. */
-static void map_split(const map_state *m, uint64_t n, int r, uint64_t *start, uint64_t *count)
+static gs_err map_hook_exchanging(void *user)
 {
-    if (m->size > MAP_MAX_RANKS_ADAPTIVE) {
-        gs_h5_split_rows(n, m->size, r, start, count);
-        return;
-    }
-    double cum = 0;
-    for (int q = 0; q < r; q++)
-        cum += m->share[q];
-    uint64_t lo = r == 0 ? 0 : (uint64_t)(cum * (double)n);
-    uint64_t hi = r == m->size - 1 ? n : (uint64_t)((cum + m->share[r]) * (double)n);
-    if (lo > n)
-        lo = n;
-    if (hi > n)
-        hi = n;
-    if (hi < lo)
-        hi = lo;
-    *start = lo;
-    *count = hi - lo;
+    map_state *m = user;
+    if (fault_fires(m->fault, FAULT_MAP_ALLOC))
+        return fault_raise(m->fault, FAULT_MAP_ALLOC, GS_ERR_MEM);
+    return GS_OK;
 }
 
-/* New shares from every rank's (items, seconds) of one map: half the old
- * share, half the measured speed; every rank keeps at least a tenth of an
- * equal share so its speed stays measured. Maps too short to time are
- * ignored. */
-static void map_adapt(map_state *m, const double *items, const double *seconds)
+static gs_err map_hook_agree(void *user, MPI_Comm comm, gs_err local)
 {
-    if (m->size > MAP_MAX_RANKS_ADAPTIVE)
-        return;
-    double speed[MAP_MAX_RANKS_ADAPTIVE], total = 0;
-    for (int r = 0; r < m->size; r++) {
-        if (items[r] < 1 || seconds[r] < 2e-4)
-            return;
-        speed[r] = items[r] / seconds[r];
-        total += speed[r];
-    }
-    double floor_share = 0.1 / m->size, sum = 0;
-    for (int r = 0; r < m->size; r++) {
-        double sh = 0.5 * m->share[r] + 0.5 * speed[r] / total;
-        m->share[r] = sh < floor_share ? floor_share : sh;
-        sum += m->share[r];
-    }
-    for (int r = 0; r < m->size; r++)
-        m->share[r] /= sum;
+    map_state *m = user;
+    return agree(m->together, comm, local);
 }
 
-/* The one-collective exchange of mpi_map: every rank sends its items, its
- * status and its compute seconds, then every rank copies all items into out
- * and adapts the shares. On a failure anywhere every rank returns it
- * (gs_par_agree names the first). */
-static gs_err map_exchange_with_status(map_state *m, int rank, size_t n, size_t bytes,
-                                       gs_err local, double seconds, void *out)
+static gs_err map_state_init(map_state *m, MPI_Comm comm, fault_inject *fault, int *together)
 {
-    enum { TRAILER = 2 * sizeof(int64_t) }; /* status, seconds */
-    int size = m->size;
-    int *counts = NULL, *displs = NULL;
-    double *items = NULL, *secs = NULL;
-    char *send = NULL, *recv = NULL;
-    gs_err err = GS_OK;
-    /* A failure before the exchange is local: points_run aborts every rank. */
-    if (fault_fires(m->fault, FAULT_MAP_ALLOC)) {
-        err = fault_raise(m->fault, FAULT_MAP_ALLOC, GS_ERR_MEM);
-        goto done;
-    }
-    GS_TRY(err, gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&items, (size_t)size, 2 * sizeof *items, "map counts"),
-           done);
-    displs = counts + size;
-    secs = items + size;
-    int off = 0;
-    uint64_t mine_start = 0, mine_count = 0;
-    for (int r = 0; r < size; r++) {
-        uint64_t st, ct;
-        map_split(m, n, r, &st, &ct);
-        if (r == rank) {
-            mine_start = st;
-            mine_count = ct;
-        }
-        counts[r] = (int)(ct * bytes + TRAILER);
-        displs[r] = off;
-        off += counts[r];
-    }
-    GS_TRY(err, gs_alloc_array((void **)&send, (size_t)counts[rank], 1, "map exchange"), done);
-    GS_TRY(err, gs_alloc_array((void **)&recv, (size_t)off, 1, "map exchange"), done);
-    int64_t status = (int64_t)local;
-    memcpy(send, (char *)out + mine_start * bytes, mine_count * bytes);
-    memcpy(send + mine_count * bytes, &status, sizeof status);
-    memcpy(send + mine_count * bytes + sizeof status, &seconds, sizeof seconds);
-    int rc = MPI_Allgatherv(send, counts[rank], MPI_BYTE, recv, counts, displs, MPI_BYTE, m->comm);
-    if (rc != MPI_SUCCESS) {
-        err = gs_mpi_error(rc, "MPI_Allgatherv", __FILE__, __LINE__, __func__);
-        goto done;
-    }
-    int failed = 0;
-    for (int r = 0; r < size; r++) {
-        uint64_t st, ct;
-        map_split(m, n, r, &st, &ct);
-        const char *tail = recv + displs[r] + ct * bytes;
-        memcpy(&status, tail, sizeof status);
-        memcpy(&secs[r], tail + sizeof status, sizeof secs[r]);
-        items[r] = (double)ct;
-        failed |= status != GS_OK;
-        if (r != rank)
-            memcpy((char *)out + st * bytes, recv + displs[r], ct * bytes);
-    }
-    if (failed) /* every rank saw it: all of them agree on the message */
-        err = agree(m->together, m->comm, local);
-    else
-        map_adapt(m, items, secs);
-done:
-    gs_free(counts);
-    gs_free(items);
-    gs_free(send);
-    gs_free(recv);
-    return err;
+    gs_pmap_hooks hooks = {m, map_hook_computed, map_hook_exchanging, map_hook_agree};
+    m->fault = fault;
+    m->together = together;
+    return gs_pmap_init(&m->pm, comm, &hooks);
 }
 
-/* gs_points_map_fn over the ranks (user: map_state): each rank computes its
- * part of the items (map_split), then every rank gets all items and the
- * failure status is agreed: in one MPI_Allgatherv that also carries the
- * statuses and compute times up to MAP_ONE_EXCHANGE_BYTES (each exchange
- * waits for the slowest rank, and maps run twice per patch), else
- * gs_par_agree then MPI_Allgatherv in place. Collective. */
+/* gs_points_map_fn over the ranks (user: map_state). Collective. */
 static gs_err mpi_map(void *user, size_t n, size_t bytes, gs_points_range_fn fn, void *ctx,
                       void *out)
 {
     map_state *m = user;
-    MPI_Comm comm = m->comm;
-    int rank, size = m->size;
-    GS_MPI(MPI_Comm_rank(comm, &rank));
-    uint64_t start, count;
-    map_split(m, n, rank, &start, &count);
-    double t0 = gs_time_now();
-    gs_err err = count ? fn(ctx, (size_t)start, (size_t)(start + count),
-                            (char *)out + (size_t)start * bytes)
-                       : GS_OK;
-    if (err == GS_OK && fault_fires(m->fault, FAULT_MAP_FN))
-        err = fault_raise(m->fault, FAULT_MAP_FN, GS_ERR_INTERNAL);
-    double seconds = gs_time_now() - t0;
-    if (size > 1 && n > 0 && n <= MAP_ONE_EXCHANGE_BYTES / bytes) {
-        GS_CALL(map_exchange_with_status(m, rank, n, bytes, err, seconds, out));
-        return GS_OK;
-    }
-    GS_CALL(agree(m->together, comm, err));
-    if (size == 1 || n == 0)
-        return GS_OK;
-    GS_CHECK(n < (size_t)INT_MAX && bytes < (size_t)INT_MAX, GS_ERR_ARG,
-             "points: %zu items of %zu bytes are too many for one exchange", n, bytes);
-    int *counts = NULL, *displs = NULL;
-    GS_CALL(gs_alloc_array((void **)&counts, (size_t)size, 2 * sizeof *counts, "map counts"));
-    displs = counts + size;
-    for (int r = 0; r < size; r++) {
-        uint64_t st, ct;
-        map_split(m, n, r, &st, &ct);
-        counts[r] = (int)ct;
-        displs[r] = (int)st;
-    }
-    MPI_Datatype item;
-    int rc = MPI_Type_contiguous((int)bytes, MPI_BYTE, &item);
-    if (rc == MPI_SUCCESS) {
-        rc = MPI_Type_commit(&item);
-        if (rc == MPI_SUCCESS)
-            rc = MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, out, counts, displs, item,
-                                comm);
-        MPI_Type_free(&item);
-    }
-    gs_free(counts);
-    GS_MPI(rc);
-    return GS_OK;
+    return gs_pmap_run(&m->pm, n, bytes, fn, ctx, out);
 }
 
 /* ------------------------------------------------------------ checkpoints */
@@ -1247,9 +1088,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
 {
     gs_run_phase_begin(run, "setup");
     gs_err err = GS_OK;
-    map_state_init(&rs->map, run->comm, run->size);
-    rs->map.fault = &rs->fault;
-    rs->map.together = &rs->together;
+    GS_CALL(map_state_init(&rs->map, run->comm, &rs->fault, &rs->together));
     int user = kind_is_user(c);
     if (!user) {
         /* Every rank generates it (the dart throwing over the map hook). */
