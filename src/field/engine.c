@@ -80,6 +80,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/par.h"
+#include "geosynth/partition.h"
 #include "geosynth/preview.h"
 #include "geosynth/psearch.h"
 #include "geosynth/regions.h"
@@ -330,25 +331,25 @@ static gs_err build_source(gs_run *run, const field_config *c, int want_mesh, fi
     if (run->rank == 0)
         err = build_source_rank0(c, want_mesh, src);
     GS_CALL(gs_par_agree(run->comm, err));
-    double hdr[9] = {0};
+    struct {
+        int64_t n[3];
+        double lo, hi, spacing, origin[3];
+    } hdr;
+    memset(&hdr, 0, sizeof hdr);
     if (run->rank == 0) {
         const gs_qfield *q = src->q;
-        double h[9] = {(double)q->nx, (double)q->ny, (double)q->nz, q->lo, q->hi, q->spacing,
-                       q->origin[0], q->origin[1], q->origin[2]};
-        memcpy(hdr, h, sizeof hdr);
+        hdr.n[0] = q->nx, hdr.n[1] = q->ny, hdr.n[2] = q->nz;
+        hdr.lo = q->lo, hdr.hi = q->hi, hdr.spacing = q->spacing;
+        memcpy(hdr.origin, q->origin, sizeof hdr.origin);
     }
-    GS_MPI(MPI_Bcast(hdr, 9, MPI_DOUBLE, 0, run->comm));
+    GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &hdr, 0));
     if (run->rank != 0) {
-        GS_CALL(gs_qfield_create((int64_t)hdr[0], (int64_t)hdr[1], (int64_t)hdr[2], hdr[3], hdr[4],
-                                 &src->q));
-        src->q->spacing = hdr[5];
-        memcpy(src->q->origin, hdr + 6, 3 * sizeof(double));
+        GS_CALL(gs_qfield_create(hdr.n[0], hdr.n[1], hdr.n[2], hdr.lo, hdr.hi, &src->q));
+        src->q->spacing = hdr.spacing;
+        memcpy(src->q->origin, hdr.origin, sizeof hdr.origin);
     }
     int64_t n = src->q->nx * src->q->ny * src->q->nz;
-    for (int64_t off = 0; off < n; off += 1 << 30) {
-        int len = (int)(n - off < (1 << 30) ? n - off : (1 << 30));
-        GS_MPI(MPI_Bcast(src->q->q + off, len, MPI_UNSIGNED_CHAR, 0, run->comm));
-    }
+    GS_CALL(gs_par_bcast_bytes(run->comm, src->q->q, (size_t)n, 0));
     return GS_OK;
 }
 
@@ -477,7 +478,7 @@ static gs_err match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t 
         /* psearch orders ties by subtree; the serial answer is the lowest block index */
         int64_t key = ctx->local.found && (double)ctx->local.dist == hit.dist ? ctx->local.index
                                                                               : INT64_MAX, best;
-        GS_MPI(MPI_Allreduce(&key, &best, 1, MPI_INT64_T, MPI_MIN, run->comm));
+        GS_CALL(gs_par_min_i64(run->comm, key, &best));
         GS_CHECK(best != INT64_MAX, GS_ERR_INTERNAL, "distributed block search lost its best block");
         *out = ctx->local;
         out->found = 1;
@@ -552,7 +553,9 @@ static gs_err run_color_regions(gs_run *run, gs_field_synth_t synth, int64_t fir
 
 static gs_err max_over_ranks(gs_run *run, unsigned long long v, unsigned long long *out)
 {
-    GS_MPI(MPI_Allreduce(&v, out, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    uint64_t m;
+    GS_CALL(gs_par_max_u64(run->comm, (uint64_t)v, &m));
+    *out = (unsigned long long)m;
     return GS_OK;
 }
 
@@ -576,11 +579,12 @@ static gs_err write_u8_field(gs_ckpt_t h, gs_run *run, const char *path, const i
                              gs_h5_type type, const void *data)
 {
     gs_h5_shape sh = {type, 3, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]}};
-    uint64_t start, count;
-    gs_h5_split_rows((uint64_t)n[2], run->size, run->rank, &start, &count);
+    int64_t start, end;
+    GS_CALL(gs_partition(n[2], run->size, run->rank, &start, &end));
+    uint64_t count = (uint64_t)(end - start);
     size_t row = (size_t)(n[0] * n[1]) * gs_h5_type_size(type);
     gs_h5_write_opts opts = {4, 0}; /* chunked + deflate, like every output array (#23) */
-    GS_CALL(gs_ckpt_write_slab(h, path, &sh, start, count, (const char *)data + start * row, &opts));
+    GS_CALL(gs_ckpt_write_slab(h, path, &sh, (uint64_t)start, count, (const char *)data + start * row, &opts));
     return GS_OK;
 }
 
@@ -1080,11 +1084,9 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         step_redist = gs_field_step_violations(resf->v, rn, resf->spacing, 1.5);
     }
     GS_TRY(err, gs_par_agree(run->comm, err), done);
-    for (int64_t off = 0, nf = resf->nx * resf->ny * resf->nz; off < nf; off += 1 << 28) {
-        int len = (int)(nf - off < (1 << 28) ? nf - off : (1 << 28));
-        GS_TRY_CHECK(err, MPI_Bcast(resf->v + off, len, MPI_FLOAT, 0, run->comm) == MPI_SUCCESS,
-                     GS_ERR_MPI, done, "broadcast of the redistanced field failed");
-    }
+    GS_TRY(err, gs_par_bcast_bytes(run->comm, resf->v,
+                                   (size_t)(resf->nx * resf->ny * resf->nz) * sizeof *resf->v, 0),
+           done);
     t_redist = gs_time_now() - t_redist;
     GS_TRY(err, write_field_h5(run, res, resf, q), done);
     /* quality: coherence needs the nearest source block of every output
