@@ -519,15 +519,10 @@ static gs_err bcast_lattice(MPI_Comm comm, gs_model_lattice *l, gs_err loaded)
 {
     GS_CALL(gs_par_agree(comm, loaded));
     int dims[3] = {l->nx, l->ny, l->nz};
-    GS_MPI(MPI_Bcast(dims, 3, MPI_INT, 0, comm));
+    GS_CALL(GS_PAR_BCAST_VALUE(comm, &dims, 0));
     if (!l->labels)
         GS_CALL(gs_model_lattice_create(l, dims[0], dims[1], dims[2]));
-    size_t n = lattice_cells(l), off = 0;
-    while (off < n) {
-        size_t chunk = n - off > (1u << 30) ? (1u << 30) : n - off;
-        GS_MPI(MPI_Bcast(l->labels + off, (int)chunk, MPI_UINT16_T, 0, comm));
-        off += chunk;
-    }
+    GS_CALL(gs_par_bcast_bytes(comm, l->labels, lattice_cells(l) * sizeof *l->labels, 0));
     return GS_OK;
 }
 
@@ -600,7 +595,7 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
         if (run->rank == 0)
             err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
-        GS_MPI(MPI_Bcast(&e->pal, (int)sizeof e->pal, MPI_BYTE, 0, run->comm));
+        GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
     }
     if (c->start[0]) {
         if (run->rank == 0) {
@@ -1059,7 +1054,7 @@ static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
             break;
         int stop = 0;
         if (gs_run_checkpoint_due(run, e->units, &stop)) {
-            GS_MPI(MPI_Bcast(&e->synth_seconds, 1, MPI_DOUBLE, 0, run->comm));
+            GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->synth_seconds, 0));
             GS_CALL(write_checkpoint(run, e));
             if (stop) {
                 *stopped = 1;
@@ -1105,7 +1100,7 @@ static gs_err queue_report(gs_run *run, const model_engine *e, double cpu, queue
                                         "cannot gather the per-rank times")
                        : GS_OK;
     GS_CALL(gs_par_agree(run->comm, local));
-    GS_MPI(MPI_Gather(mine, Q_N, MPI_DOUBLE, all, Q_N, MPI_DOUBLE, 0, run->comm));
+    GS_CALL(gs_par_gather_bytes(run->comm, mine, sizeof mine, all, 0));
     memset(q, 0, sizeof *q);
     if (run->rank != 0)
         return GS_OK;
@@ -1884,9 +1879,7 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
     if (err)
         gs_error_push_frame(__FILE__, __LINE__, __func__);
     GS_TRY(err, gs_par_agree(run->comm, err), done);
-    int rc = MPI_Bcast(mesh_counts, 2, MPI_INT64_T, run->size - 1, run->comm);
-    GS_TRY(err, rc == MPI_SUCCESS ? GS_OK : gs_mpi_error(rc, "MPI_Bcast", __FILE__, __LINE__, __func__),
-           done);
+    GS_TRY(err, GS_PAR_BCAST_VALUE(run->comm, &mesh_counts, run->size - 1), done);
     q.quads = (size_t)mesh_counts[0];
     q.unit_faces = (size_t)mesh_counts[1];
     snprintf(extra, sizeof extra, "{\"violations\": %zu, \"quads\": %zu, \"unit_faces\": %zu}",
