@@ -22,20 +22,6 @@
 
 #define MESH_LIST_MAX_BYTES ((size_t)16 << 20)
 
-/* Broadcast from rank 0 in chunks (MPI counts are int). Collective. */
-static gs_err bcast_bytes(MPI_Comm comm, void *data, size_t n)
-{
-    char *p = data;
-    const size_t chunk = (size_t)1 << 30;
-    while (n > 0) {
-        size_t k = n < chunk ? n : chunk;
-        GS_MPI(MPI_Bcast(p, (int)k, MPI_BYTE, 0, comm));
-        p += k;
-        n -= k;
-    }
-    return GS_OK;
-}
-
 /* Rank 0: the mesh paths listed in list_path (one per line, '#' comments,
  * relative to the list's directory or "${data}/..."), as absolute paths joined
  * by '\n'; every listed file must be readable. */
@@ -126,11 +112,11 @@ static gs_err load_mesh_file(MPI_Comm comm, int rank, const char *path, gs_micro
             sizes[0] = m->nverts, sizes[1] = m->ntris;
     }
     GS_CALL(gs_par_agree(comm, err));
-    GS_MPI(MPI_Bcast(sizes, 2, MPI_UINT64_T, 0, comm));
+    GS_CALL(GS_PAR_BCAST_VALUE(comm, &sizes, 0));
     if (rank != 0)
         GS_CALL(gs_micro_mesh_alloc(m, (uint32_t)sizes[0], (uint32_t)sizes[1]));
-    GS_CALL(bcast_bytes(comm, m->pos, (size_t)sizes[0] * 3 * sizeof *m->pos));
-    GS_CALL(bcast_bytes(comm, m->tris, (size_t)sizes[1] * 3 * sizeof *m->tris));
+    GS_CALL(gs_par_bcast_bytes(comm, m->pos, (size_t)sizes[0] * 3 * sizeof *m->pos, 0));
+    GS_CALL(gs_par_bcast_bytes(comm, m->tris, (size_t)sizes[1] * 3 * sizeof *m->tris, 0));
     if (rank != 0) {
         for (uint64_t i = 0; i < 3 * sizes[1]; i++)
             GS_CHECK(m->tris[i] < m->nverts, GS_ERR_INTERNAL, "broadcast mesh is inconsistent");
@@ -362,15 +348,15 @@ static gs_err setup_dist(micro_job *job, gs_micro_dist *d)
             K = d->nbins;
     }
     GS_CALL(gs_par_agree(comm, err));
-    GS_MPI(MPI_Bcast(&K, 1, MPI_UINT32_T, 0, comm));
+    GS_CALL(GS_PAR_BCAST_VALUE(comm, &K, 0));
     if (job->run->rank != 0) {
         d->nbins = K;
         d->pos = d->neg = NULL;
         GS_CALL(gs_alloc_array((void **)&d->pos, K, sizeof *d->pos, "distribution"));
         GS_CALL(gs_alloc_array((void **)&d->neg, K, sizeof *d->neg, "distribution"));
     }
-    GS_MPI(MPI_Bcast(d->pos, (int)K, MPI_DOUBLE, 0, comm));
-    GS_MPI(MPI_Bcast(d->neg, (int)K, MPI_DOUBLE, 0, comm));
+    GS_CALL(gs_par_bcast_bytes(comm, d->pos, K * sizeof *d->pos, 0));
+    GS_CALL(gs_par_bcast_bytes(comm, d->neg, K * sizeof *d->neg, 0));
     return GS_OK;
 }
 
