@@ -41,6 +41,10 @@ typedef struct gs_vdb_dense {
     float *v;          /* nx*ny*nz values (gs_malloc) */
 } gs_vdb_dense;
 
+/* OpenVDB's version as the plugin reports it, loading the plugin on first
+ * use; GS_ERR_* (with the reason it cannot be loaded) when it is absent. */
+gs_err gs_vdb_library_version(const char **version);
+
 /* Allocates a zeroed dense field with origin 0, voxel 1, background 0.
  * Refuses more than GS_VDB_MAX_SAMPLES samples. On error *d is zeroed. */
 #define GS_VDB_MAX_SAMPLES ((size_t)1 << 32)

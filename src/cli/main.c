@@ -30,7 +30,6 @@
 #include "geosynth/run.h"
 #include "geosynth/vdb.h"
 #include "geosynth/version.h"
-#include "plugins/plugin_api.h"
 
 #define MAX_OVERRIDES 256
 
@@ -292,21 +291,14 @@ static int cmd_version(void)
 {
     if (gs_par_rank() == 0) {
         int major, minor;
-        MPI_Get_version(&major, &minor);
-        char lib[MPI_MAX_LIBRARY_VERSION_STRING];
-        int len = 0;
-        MPI_Get_library_version(lib, &len);
-        char *nl = strchr(lib, '\n');
-        if (nl)
-            *nl = '\0';
+        char lib[256];
+        gs_par_mpi_version(&major, &minor, lib, sizeof lib);
         printf("geosynth %s (file format %d)\n", GS_VERSION_STRING, GS_FORMAT_VERSION);
         printf("MPI %d.%d: %s\n", major, minor, lib);
         printf("%s\n", gs_h5_library_version());
-        void *sym; /* loads the plugin, or says why it cannot */
-        if (gs_plugin_sym("vdb", "gs_vdbp_library_version", &sym) == GS_OK) {
-            gs_vdbp_library_version_fn *version;
-            memcpy(&version, &sym, sizeof version);
-            printf("OpenVDB %s (plugin %s)\n", version(), gs_plugin_path("vdb"));
+        const char *vdb; /* loads the plugin, or says why it cannot */
+        if (gs_vdb_library_version(&vdb) == GS_OK) {
+            printf("OpenVDB %s (plugin %s)\n", vdb, gs_plugin_path("vdb"));
         } else {
             printf("OpenVDB: not available: %s\n", gs_error_message());
             gs_error_clear();
@@ -491,12 +483,12 @@ static gs_err cmd_resume(const cli_args *a, int *collective)
         }
     }
     err = gs_par_agree(MPI_COMM_WORLD, err);
-    if (!err && MPI_Bcast(&restart, 1, MPI_INT, 0, MPI_COMM_WORLD) != MPI_SUCCESS)
-        err = gs_error_raise(GS_ERR_MPI, __FILE__, __LINE__, __func__, "broadcast failed");
+    if (!err)
+        err = GS_PAR_BCAST_VALUE(MPI_COMM_WORLD, &restart, 0);
     if (!err)
         err = gs_par_bcast_string(MPI_COMM_WORLD, &config_text, 0) ? gs_error_code() : GS_OK;
-    if (!err && MPI_Bcast(engine, (int)sizeof engine, MPI_CHAR, 0, MPI_COMM_WORLD) != MPI_SUCCESS)
-        err = gs_error_raise(GS_ERR_MPI, __FILE__, __LINE__, __func__, "broadcast failed");
+    if (!err)
+        err = GS_PAR_BCAST_VALUE(MPI_COMM_WORLD, &engine, 0);
     const gs_engine *e = err ? NULL : gs_engine_find(engine);
     if (!err && !e)
         err = gs_error_raise(GS_ERR_FORMAT, __FILE__, __LINE__, __func__,

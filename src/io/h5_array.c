@@ -63,10 +63,10 @@ static gs_err check_tiling(const struct gs_ckpt *h, const char *dset, uint64_t n
     uint64_t mine[2] = {start, count};
     uint64_t *all = NULL;
     GS_CALL(gs_alloc_array((void **)&all, (size_t)h->size * 2, sizeof *all, "slab table"));
-    int rc = MPI_Allgather(mine, 2, MPI_UINT64_T, all, 2, MPI_UINT64_T, h->comm);
-    if (rc != MPI_SUCCESS) {
+    gs_err gathered = gs_par_allgather_bytes(h->comm, mine, sizeof mine, all);
+    if (gathered != GS_OK) {
         gs_free(all);
-        return gs_mpi_error(rc, "MPI_Allgather", __FILE__, __LINE__, __func__);
+        GS_CALL(gathered);
     }
     qsort(all, (size_t)h->size, 2 * sizeof *all, cmp_pair);
     uint64_t next = 0;

@@ -59,8 +59,7 @@ static gs_err new_handle(MPI_Comm comm, const char *path, struct gs_ckpt **out)
     h->rank = 0;
     h->size = 1;
     if (comm != MPI_COMM_NULL) {
-        if (MPI_Comm_rank(comm, &h->rank) != MPI_SUCCESS ||
-            MPI_Comm_size(comm, &h->size) != MPI_SUCCESS) {
+        if (gs_par_comm_rank(comm, &h->rank, &h->size) != GS_OK) {
             gs_free(h);
             GS_RAISE(GS_ERR_MPI, "%s: invalid communicator", path);
         }
@@ -190,7 +189,7 @@ static gs_err fill_write_identity(struct gs_ckpt *h, const gs_ckpt_meta *meta)
     }
     /* Attribute values must be identical on all ranks: rank 0's clock wins. */
     if (is_parallel(h))
-        GS_MPI(MPI_Bcast(h->created, (int)sizeof h->created, MPI_CHAR, 0, h->comm));
+        GS_CALL(GS_PAR_BCAST_VALUE(h->comm, &h->created, 0));
     return GS_OK;
 }
 
@@ -381,7 +380,7 @@ static gs_err durable_rename(const struct gs_ckpt *h)
 static gs_err barrier(const struct gs_ckpt *h)
 {
     if (is_parallel(h))
-        GS_MPI(MPI_Barrier(h->comm));
+        GS_CALL(gs_par_barrier(h->comm));
     return GS_OK;
 }
 
@@ -437,13 +436,13 @@ void gs_ckpt_discard(gs_ckpt_t *hp)
             }
         }
         if (h->writing && is_parallel(h))
-            MPI_Barrier(h->comm);
+            gs_par_barrier_quiet(h->comm);
         H5Fclose(h->file);
     }
     H5Eclear2(H5E_DEFAULT);
     if (h->tmp_path) {
         if (is_parallel(h))
-            MPI_Barrier(h->comm);
+            gs_par_barrier_quiet(h->comm);
         if (h->rank == 0)
             unlink(h->tmp_path);
     }

@@ -72,6 +72,13 @@ static int vdb_fn_quiet(const char *sym, void *f, size_t size)
     return 1;
 }
 
+gs_err gs_vdb_library_version(const char **version)
+{
+    VDB_FN(f, library_version);
+    *version = f();
+    return GS_OK;
+}
+
 gs_err gs_vdb_grid_from_dense(const gs_vdb_dense *d, const char *name, float tolerance,
                               gs_vdb_grid_t *out)
 {
