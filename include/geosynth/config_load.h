@@ -1,4 +1,4 @@
-/* Collective configuration loading (src/par/config_load.c); the tables and
+/* Collective configuration loading (src/run/config_load.c); the tables and
  * the serial parser are in config.h.
  *
  * Rank 0 reads and validates the file and the overrides and prints every

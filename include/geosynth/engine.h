@@ -27,8 +27,7 @@ typedef struct gs_engine {
     gs_err (*run)(gs_run *run, void *config, int resume);
 } gs_engine;
 
-/* The engines built into this binary, in --help order. */
-const gs_engine *const *gs_engines(int *count);
-const gs_engine *gs_engine_find(const char *name);
+/* The registry of the engines built into the program is
+ * include/geosynth/engines.h (src/cli: it names every engine). */
 
 #endif

@@ -79,6 +79,10 @@ gs_err gs_par_bcast_bytes(MPI_Comm comm, void *data, size_t bytes, int root);
 /* *out = the minimum (maximum) of v over the ranks. */
 gs_err gs_par_min_i64(MPI_Comm comm, int64_t v, int64_t *out);
 gs_err gs_par_max_u64(MPI_Comm comm, uint64_t v, uint64_t *out);
+/* out[i] = the maximum (sum) of in[i] over the ranks, i < n; one collective. */
+gs_err gs_par_max_int(MPI_Comm comm, const int *in, int *out, int n);
+gs_err gs_par_max_f64(MPI_Comm comm, const double *in, double *out, int n);
+gs_err gs_par_sum_f64(MPI_Comm comm, const double *in, double *out, int n);
 
 /* Root receives every rank's bytes bytes, in rank order, at all (which
  * holds size * bytes on root and is ignored elsewhere). */

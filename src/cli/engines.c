@@ -2,7 +2,7 @@
  * when it lands; there are no placeholder engines. */
 #include <string.h>
 
-#include "geosynth/engine.h"
+#include "geosynth/engines.h"
 
 extern const gs_engine gs_engine_field;
 extern const gs_engine gs_engine_model;

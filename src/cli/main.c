@@ -15,7 +15,7 @@
 #include "geosynth/config.h"
 #include "geosynth/config_load.h"
 #include "geosynth/data.h"
-#include "geosynth/engine.h"
+#include "geosynth/engines.h"
 #include "geosynth/error.h"
 #include "geosynth/field_examples.h"
 #include "geosynth/file.h"

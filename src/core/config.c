@@ -1,6 +1,6 @@
 /* Typed configuration tables: INI parsing, validation, overrides, help and
  * the resolved text; see include/geosynth/config.h. No MPI here (the
- * collective loader is src/par/config_load.c) so the fuzzer can drive it. */
+ * collective loader is src/run/config_load.c) so the fuzzer can drive it. */
 #include "geosynth/config.h"
 
 #include <ctype.h>

@@ -50,6 +50,24 @@ gs_err gs_par_max_u64(MPI_Comm comm, uint64_t v, uint64_t *out)
     return GS_OK;
 }
 
+gs_err gs_par_max_int(MPI_Comm comm, const int *in, int *out, int n)
+{
+    GS_MPI(MPI_Allreduce(in, out, n, MPI_INT, MPI_MAX, comm));
+    return GS_OK;
+}
+
+gs_err gs_par_max_f64(MPI_Comm comm, const double *in, double *out, int n)
+{
+    GS_MPI(MPI_Allreduce(in, out, n, MPI_DOUBLE, MPI_MAX, comm));
+    return GS_OK;
+}
+
+gs_err gs_par_sum_f64(MPI_Comm comm, const double *in, double *out, int n)
+{
+    GS_MPI(MPI_Allreduce(in, out, n, MPI_DOUBLE, MPI_SUM, comm));
+    return GS_OK;
+}
+
 gs_err gs_par_gather_bytes(MPI_Comm comm, const void *mine, size_t bytes, void *all, int root)
 {
     GS_CHECK(bytes <= (size_t)INT_MAX, GS_ERR_ARG, "gather of %zu bytes a rank is too large",

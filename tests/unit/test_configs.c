@@ -14,7 +14,7 @@
 #include <string.h>
 
 #include "geosynth/config.h"
-#include "geosynth/engine.h"
+#include "geosynth/engines.h"
 #include "geosynth/mem.h"
 
 static void test_every_config_loads(void **state)

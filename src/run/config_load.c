@@ -15,7 +15,7 @@ static gs_err load_collective(MPI_Comm comm, const gs_cfg_table *t, const char *
                               char **resolved_text)
 {
     int rank;
-    GS_MPI(MPI_Comm_rank(comm, &rank));
+    GS_CALL(gs_par_comm_rank(comm, &rank, NULL));
     /* Scratch struct: *out stays unchanged unless every rank succeeds. */
     unsigned char *cfg = gs_calloc(1, t && t->size ? t->size : 1);
     char *text = NULL;

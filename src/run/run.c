@@ -111,8 +111,7 @@ gs_err gs_run_open(gs_run *run, MPI_Comm comm, const char *engine, const char *d
     memset(run, 0, sizeof *run);
     run->lock_fd = -1;
     run->comm = comm;
-    GS_MPI(MPI_Comm_rank(comm, &run->rank));
-    GS_MPI(MPI_Comm_size(comm, &run->size));
+    GS_CALL(gs_par_comm_rank(comm, &run->rank, &run->size));
     snprintf(run->engine, sizeof run->engine, "%s", engine);
     run->seed = seed;
     run->resumed = resumed;
@@ -164,13 +163,13 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
     run->open_phase = -1;
     p->seconds = gs_time_now() - p->start;
     double mine[2] = {p->seconds, -p->seconds}, ext[2], sum;
-    GS_MPI(MPI_Allreduce(mine, ext, 2, MPI_DOUBLE, MPI_MAX, run->comm));
-    GS_MPI(MPI_Allreduce(&p->seconds, &sum, 1, MPI_DOUBLE, MPI_SUM, run->comm));
+    GS_CALL(gs_par_max_f64(run->comm, mine, ext, 2));
+    GS_CALL(gs_par_sum_f64(run->comm, &p->seconds, &sum, 1));
     p->max = ext[0];
     p->min = -ext[1];
     p->avg = sum / run->size;
-    unsigned long long peak = gs_mem_peak(), peak_max;
-    GS_MPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    uint64_t peak_max;
+    GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_peak(), &peak_max));
     if (run->rank != 0)
         return GS_OK;
     gs_json j;
@@ -240,9 +239,9 @@ gs_err gs_run_expect_digest(gs_run *run, const char *hex)
 gs_err gs_run_finish(gs_run *run, uint64_t digest)
 {
     int verified = !run->have_expect_digest || digest == run->expect_digest;
-    unsigned long long peak = gs_mem_peak(), peak_max, rss = gs_mem_rss_peak(), rss_max;
-    GS_MPI(MPI_Allreduce(&peak, &peak_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
-    GS_MPI(MPI_Allreduce(&rss, &rss_max, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, run->comm));
+    uint64_t peak_max, rss_max;
+    GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_peak(), &peak_max));
+    GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_rss_peak(), &rss_max));
     gs_err err = GS_OK;
     if (run->rank == 0) {
         char hex[17];
@@ -357,8 +356,10 @@ int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
     if (gs_par_interrupted())
         flags[1] = 1;
     int all[2] = {flags[0], flags[1]};
-    if (run->size > 1)
-        MPI_Allreduce(flags, all, 2, MPI_INT, MPI_MAX, run->comm);
+    if (run->size > 1 && gs_par_max_int(run->comm, flags, all, 2) != GS_OK) {
+        gs_error_clear(); /* as before: a failed reduction leaves this rank's own flags */
+        all[0] = flags[0], all[1] = flags[1];
+    }
     if (all[1]) {
         *stop = 1;
         return 1;
@@ -381,7 +382,7 @@ gs_err gs_run_units_until_due(gs_run *run, int64_t units_done, int64_t *units)
             left = 1;
     }
     if (run->size > 1)
-        GS_MPI(MPI_Bcast(&left, 1, MPI_INT64_T, 0, run->comm));
+        GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &left, 0));
     *units = left;
     return GS_OK;
 }
