@@ -102,6 +102,16 @@ gs_err gs_measure_interface_dist(gs_measure_geo_t g, const uint8_t *side, double
  * *beyond (optional). */
 void gs_measure_contact_hist(const double *tri_dist, const uint8_t *side, size_t ntris, uint32_t nbins,
                              int64_t *pos, int64_t *neg, uint64_t *beyond);
+/* ---- sorted sets of 64-bit keys (src/measure/keys.c) -------------------------
+ * The lookups of the lattice measures and the model checkers ("does the
+ * example hold this window / this adjacent pair"): sort once, then binary
+ * search. */
+void gs_measure_keys_sort(uint64_t *keys, size_t n);
+/* Sorts and drops repeats; returns the new count. */
+size_t gs_measure_keys_sort_unique(uint64_t *keys, size_t n);
+/* Whether the sorted keys[0..n) hold key. */
+int gs_measure_keys_has(const uint64_t *keys, size_t n, uint64_t key);
+
 /* ---- label lattices (uint16 labels, 0 = empty, x fastest, z up) -------------
  *
  * A lattice is labels[x + nx*(y + ny*z)] with dims {nx, ny, nz}; z = 0 is the

@@ -50,36 +50,6 @@ gs_err gs_measure_window_keys(const uint16_t *labels, const int dims[3], const i
     return GS_OK;
 }
 
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-/* Sorts keys[0..n) and drops repeats; returns the new count. */
-static size_t sort_unique(uint64_t *keys, size_t n)
-{
-    qsort(keys, n, sizeof *keys, cmp_u64);
-    size_t m = 0;
-    for (size_t i = 0; i < n; i++)
-        if (m == 0 || keys[i] != keys[m - 1])
-            keys[m++] = keys[i];
-    return m;
-}
-
-static int has_key(const uint64_t *keys, size_t n, uint64_t key)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (keys[mid] < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < n && keys[lo] == key;
-}
-
 gs_err gs_measure_lattice_windows(const uint16_t *example, const int edims[3],
                                   const uint16_t *output, const int odims[3], int k,
                                   gs_measure_windows *out)
@@ -110,29 +80,29 @@ gs_err gs_measure_lattice_windows(const uint16_t *example, const int edims[3],
     /* every example window (for the figure with empty windows) and the
      * non-empty ones */
     memcpy(eall, ek, ne * sizeof *ek);
-    size_t nall = sort_unique(eall, ne);
+    size_t nall = gs_measure_keys_sort_unique(eall, ne);
     size_t nne = 0;
     for (size_t i = 0; i < ne; i++)
         if (enz[i])
             ek[nne++] = ek[i];
-    nne = sort_unique(ek, nne);
+    nne = gs_measure_keys_sort_unique(ek, nne);
     uint64_t found_all = 0;
     size_t nout = 0;
     for (size_t i = 0; i < no; i++) {
         if (onz[i]) {
             out->output_nonempty++;
-            out->found += (uint64_t)has_key(ek, nne, ok[i]);
+            out->found += (uint64_t)gs_measure_keys_has(ek, nne, ok[i]);
             ok[nout++] = ok[i];
-            found_all += (uint64_t)has_key(ek, nne, ok[i]);
+            found_all += (uint64_t)gs_measure_keys_has(ek, nne, ok[i]);
         } else {
-            found_all += (uint64_t)has_key(eall, nall, ok[i]);
+            found_all += (uint64_t)gs_measure_keys_has(eall, nall, ok[i]);
         }
     }
     out->output_windows = no;
     out->found_share = out->output_nonempty ? (double)out->found / (double)out->output_nonempty : 0;
     out->found_share_all = no ? (double)found_all / (double)no : 0;
     /* completeness: distinct non-empty example windows met in the output */
-    nout = sort_unique(ok, nout);
+    nout = gs_measure_keys_sort_unique(ok, nout);
     out->example_distinct = nne;
     for (size_t i = 0, j = 0; i < nne && j < nout;) {
         if (ek[i] == ok[j]) {

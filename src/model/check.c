@@ -4,31 +4,13 @@
  * every output pair up by binary search. See include/geosynth/model.h. */
 #include <stdlib.h>
 
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/model.h"
 
 static uint64_t pair_key(int axis, unsigned a, unsigned b)
 {
     return ((uint64_t)axis << 32) | ((uint64_t)a << 16) | (uint64_t)b;
-}
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-static int contains(const uint64_t *keys, size_t n, uint64_t k)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (keys[mid] < k)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < n && keys[lo] == k;
 }
 
 static uint16_t at(const gs_model_lattice *l, int x, int y, int z)
@@ -56,7 +38,7 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
                     keys[n++] = pair_key(2, a, at(example, x, y, z + 1));
                 keys[n++] = pair_key(3, a, a); /* "label occurs" */
             }
-    qsort(keys, n, sizeof *keys, cmp_u64);
+    gs_measure_keys_sort(keys, n);
     size_t m = 0;
     for (size_t i = 0; i < n; i++)
         if (m == 0 || keys[i] != keys[m - 1])
@@ -68,7 +50,7 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
             for (int x = 0; x < output->nx; x++) {
                 uint16_t a = at(output, x, y, z);
                 gs_model_violation v = {x, y, z, -1, a, a};
-                if (!contains(keys, m, pair_key(3, a, a))) {
+                if (!gs_measure_keys_has(keys, m, pair_key(3, a, a))) {
                     if (found < cap)
                         out[found] = v;
                     found++;
@@ -78,7 +60,7 @@ gs_err gs_model_check(const gs_model_lattice *example, const gs_model_lattice *o
                     if (qx >= output->nx || qy >= output->ny || qz >= output->nz)
                         continue;
                     uint16_t b = at(output, qx, qy, qz);
-                    if (contains(keys, m, pair_key(axis, a, b)))
+                    if (gs_measure_keys_has(keys, m, pair_key(axis, a, b)))
                         continue;
                     v.dir = 2 * axis;
                     v.b = b;

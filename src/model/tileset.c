@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "geosynth/file.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_tiles.h"
 #include "geosynth/parse.h"
@@ -481,25 +482,6 @@ static uint64_t key3(unsigned axis, unsigned a, unsigned b)
     return ((uint64_t)axis << 32) | ((uint64_t)a << 16) | (uint64_t)b;
 }
 
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-static int has_key(const uint64_t *keys, size_t n, uint64_t k)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (keys[mid] < k)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < n && keys[lo] == k;
-}
-
 gs_err gs_model_tileset_check(const gs_model_tileset *ts, const gs_model_lattice *lat,
                               gs_model_violation *out, size_t cap, size_t *count)
 {
@@ -507,7 +489,7 @@ gs_err gs_model_tileset_check(const gs_model_tileset *ts, const gs_model_lattice
     GS_CALL(gs_alloc_array((void **)&keys, ts->npairs + 1, sizeof *keys, "checker pairs"));
     for (size_t i = 0; i < ts->npairs; i++)
         keys[i] = key3(ts->pairs[i].dir / 2u, ts->pairs[i].a, ts->pairs[i].b);
-    qsort(keys, ts->npairs, sizeof *keys, cmp_u64);
+    gs_measure_keys_sort(keys, ts->npairs);
     size_t found = 0;
     for (int z = 0; z < lat->nz; z++)
         for (int y = 0; y < lat->ny; y++)
@@ -524,7 +506,7 @@ gs_err gs_model_tileset_check(const gs_model_tileset *ts, const gs_model_lattice
                     if (qx >= lat->nx || qy >= lat->ny || qz >= lat->nz)
                         continue;
                     uint16_t b = lat->labels[gs_model_lattice_index(lat, qx, qy, qz)];
-                    if (has_key(keys, ts->npairs, key3((unsigned)axis, a, b)))
+                    if (gs_measure_keys_has(keys, ts->npairs, key3((unsigned)axis, a, b)))
                         continue;
                     v.dir = 2 * axis;
                     v.b = b;
