@@ -77,6 +77,8 @@ size_t gs_points_grid_remove_points(gs_points_grid_t g, const gs_opoint *pts, si
 /* Removes every point with lo[0] <= x < hi[0] and lo[1] <= y < hi[1]
  * (all heights: regions are extruded along z). Returns how many. */
 size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const double hi[2]);
+/* 1 when some point of g lies closer than r to c (|p - c| < r), else 0. */
+int gs_points_grid_any_within(const gs_points_grid *g, const double c[3], double r);
 /* Appends to out every point within radius r of c (|p - c| <= r). */
 gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out);
 /* Appends every point with lo <= p < hi in x and y (any z). */
@@ -85,6 +87,22 @@ gs_err gs_points_grid_query_xy(const gs_points_grid *g, const double lo[2], cons
 size_t gs_points_grid_count(const gs_points_grid *g);
 /* Appends all points in bucket order. */
 gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out);
+
+/* Buckets of the indices of a fixed point array, for queries that need to
+ * know which point they found (the grid above holds copies). pts must
+ * outlive the grid; bounds and cell as for gs_points_grid_create. Answers
+ * come in bucket order (x fastest), increasing index within a bucket. */
+typedef struct gs_points_index_grid gs_points_index_grid;
+typedef struct gs_points_indices {
+    size_t *v; /* gs_free */
+    size_t n, cap;
+} gs_points_indices;
+gs_err gs_points_index_grid_create(const gs_opoint *pts, size_t n, const double lo[3],
+                                   const double hi[3], double cell, gs_points_index_grid **out);
+void gs_points_index_grid_destroy(gs_points_index_grid **g);
+/* Appends to out the index of every point within radius r of c (|p - c| <= r). */
+gs_err gs_points_index_grid_query(const gs_points_index_grid *g, const double c[3], double r,
+                                  gs_points_indices *out);
 
 /* ------------------------------------------------------------ input texture */
 

@@ -222,25 +222,6 @@ static double prim_frame(const prim *pr, double u, double v, double p[3], double
     return prim_normal(pr, u, v, tu, tv, p, ref, n);
 }
 
-static int any_within(const struct gs_points_grid *g, const double c[3], double r)
-{
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; a++) {
-        lo[a] = grid_coord(g, a, c[a] - r);
-        hi[a] = grid_coord(g, a, c[a] + r);
-    }
-    double r2 = r * r;
-    for (int k = lo[2]; k <= hi[2]; k++)
-        for (int j = lo[1]; j <= hi[1]; j++)
-            for (int i = lo[0]; i <= hi[0]; i++) {
-                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                for (size_t q = 0; q < cl->n; q++)
-                    if (v3_dist2(cl->v[q].p, c) < r2)
-                        return 1;
-            }
-    return 0;
-}
-
 static int prim_bounded(const prim *pr)
 {
     return pr->kind == PRIM_TORUS || pr->kind == PRIM_ELLIPSOID;
@@ -502,7 +483,7 @@ static gs_err sample_prims(const gs_points_gen_params *gp, gs_err pre, const pri
         for (size_t k = 0; k < m && err == GS_OK; k++) {
             while (first[pi + 1] <= at + k)
                 pi++;
-            if (darts[k].keep && !any_within(grid, darts[k].p, s)) {
+            if (darts[k].keep && !gs_points_grid_any_within(grid, darts[k].p, s)) {
                 gs_opoint q;
                 dart_sample(&dc, at + k, pi, &q);
                 err = gs_points_grid_add(grid, &q);

@@ -58,12 +58,13 @@ uint64_t gs_points_digest(const gs_points *s)
     return gs_digest_bytes(s->v, s->n * sizeof(gs_opoint));
 }
 
-gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell,
-                             gs_points_grid_t *out)
+/* The cell counts of a grid of cell size cell over [lo, hi]; *total their
+ * product. */
+static gs_err grid_dims(const double lo[3], const double hi[3], double cell, int dim[3],
+                        size_t *total)
 {
     GS_CHECK(cell > 0 && isfinite(cell), GS_ERR_ARG, "bucket grid: cell size %g must be > 0", cell);
-    size_t total = 1;
-    int dim[3];
+    *total = 1;
     for (int a = 0; a < 3; a++) {
         GS_CHECK(isfinite(lo[a]) && isfinite(hi[a]) && hi[a] > lo[a], GS_ERR_ARG,
                  "bucket grid: bounds [%g, %g] on axis %d: expected lo < hi", lo[a], hi[a], a);
@@ -72,8 +73,17 @@ gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell
                  "bucket grid: %g cells on axis %d (extent %g / cell %g): expected < 1e6", d, a,
                  hi[a] - lo[a], cell);
         dim[a] = d < 1 ? 1 : (int)d;
-        GS_CHECK(gs_mul_size(total, (size_t)dim[a], &total), GS_ERR_MEM, "bucket grid too large");
+        GS_CHECK(gs_mul_size(*total, (size_t)dim[a], total), GS_ERR_MEM, "bucket grid too large");
     }
+    return GS_OK;
+}
+
+gs_err gs_points_grid_create(const double lo[3], const double hi[3], double cell,
+                             gs_points_grid_t *out)
+{
+    size_t total;
+    int dim[3];
+    GS_CALL(grid_dims(lo, hi, cell, dim, &total));
     struct gs_points_grid *g = gs_calloc(1, sizeof *g);
     GS_CHECK(g != NULL, GS_ERR_MEM, "bucket grid: out of memory");
     gs_err err = gs_alloc_array((void **)&g->cells, total, sizeof(gs_points), "bucket grid cells");
@@ -106,6 +116,94 @@ static size_t cell_index(const struct gs_points_grid *g, const double p[3])
 {
     int i = grid_coord(g, 0, p[0]), j = grid_coord(g, 1, p[1]), k = grid_coord(g, 2, p[2]);
     return ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
+}
+
+/* The index grid: the geometry of a bucket grid (its cells unused) and the
+ * point indices of each cell, cell by cell (start[c] .. start[c + 1] in
+ * idx), in increasing order within a cell. */
+struct gs_points_index_grid {
+    struct gs_points_grid geom;
+    const gs_opoint *pts;
+    size_t *start; /* cells + 1 */
+    size_t *idx;   /* n */
+};
+
+gs_err gs_points_index_grid_create(const gs_opoint *pts, size_t n, const double lo[3],
+                                   const double hi[3], double cell, gs_points_index_grid **out)
+{
+    size_t total;
+    int dim[3];
+    GS_CALL(grid_dims(lo, hi, cell, dim, &total));
+    struct gs_points_index_grid *g = gs_calloc(1, sizeof *g);
+    GS_CHECK(g != NULL, GS_ERR_MEM, "index grid: out of memory");
+    memcpy(g->geom.lo, lo, sizeof g->geom.lo);
+    memcpy(g->geom.dim, dim, sizeof g->geom.dim);
+    g->geom.cell = cell;
+    g->geom.inv_cell = 1.0 / cell;
+    g->pts = pts;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&g->start, total + 1, sizeof *g->start, "index grid"),
+           fail);
+    GS_TRY(err, gs_alloc_array((void **)&g->idx, n ? n : 1, sizeof *g->idx, "index grid"), fail);
+    for (size_t i = 0; i < n; i++)
+        g->start[cell_index(&g->geom, pts[i].p) + 1]++;
+    for (size_t c = 0; c < total; c++)
+        g->start[c + 1] += g->start[c];
+    for (size_t i = 0; i < n; i++) { /* start[c] runs ahead while filling, then is put back */
+        size_t c = cell_index(&g->geom, pts[i].p);
+        g->idx[g->start[c]++] = i;
+    }
+    for (size_t c = total; c > 0; c--)
+        g->start[c] = g->start[c - 1];
+    g->start[0] = 0;
+    *out = g;
+    return GS_OK;
+fail:
+    gs_points_index_grid_destroy(&g);
+    return err;
+}
+
+void gs_points_index_grid_destroy(gs_points_index_grid **gp)
+{
+    struct gs_points_index_grid *g = *gp;
+    if (!g)
+        return;
+    gs_free(g->start);
+    gs_free(g->idx);
+    gs_free(g);
+    *gp = NULL;
+}
+
+gs_err gs_points_index_grid_query(const gs_points_index_grid *g, const double c[3], double r,
+                                  gs_points_indices *out)
+{
+    const struct gs_points_grid *geo = &g->geom;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = grid_coord(geo, a, c[a] - r);
+        hi[a] = grid_coord(geo, a, c[a] + r);
+    }
+    double r2 = r * r;
+    for (int k = lo[2]; k <= hi[2]; k++)
+        for (int j = lo[1]; j <= hi[1]; j++)
+            for (int i = lo[0]; i <= hi[0]; i++) {
+                size_t cell = ((size_t)k * geo->dim[1] + j) * geo->dim[0] + i;
+                for (size_t q = g->start[cell]; q < g->start[cell + 1]; q++) {
+                    size_t p = g->idx[q];
+                    if (v3_dist2(g->pts[p].p, c) > r2)
+                        continue;
+                    if (out->n == out->cap) {
+                        size_t cap = out->cap ? 2 * out->cap : 64;
+                        size_t *v = gs_realloc(out->v, cap * sizeof *v);
+                        GS_CHECK(v != NULL, GS_ERR_MEM, "index grid: out of memory (%zu answers)",
+                                 cap);
+                        out->v = v;
+                        out->cap = cap;
+                    }
+                    out->v[out->n++] = p;
+                }
+            }
+    return GS_OK;
 }
 
 gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt)
@@ -166,6 +264,25 @@ static inline double slab_dist2(const struct gs_points_grid *g, int a, int i, do
     else if (i < g->dim[a] - 1 && x > hi)
         d = x - hi;
     return d * d;
+}
+
+int gs_points_grid_any_within(const gs_points_grid *g, const double c[3], double r)
+{
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = grid_coord(g, a, c[a] - r);
+        hi[a] = grid_coord(g, a, c[a] + r);
+    }
+    double r2 = r * r;
+    for (int k = lo[2]; k <= hi[2]; k++)
+        for (int j = lo[1]; j <= hi[1]; j++)
+            for (int i = lo[0]; i <= hi[0]; i++) {
+                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                for (size_t q = 0; q < cl->n; q++)
+                    if (v3_dist2(cl->v[q].p, c) < r2)
+                        return 1;
+            }
+    return 0;
 }
 
 gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r, gs_points *out)

@@ -9,26 +9,6 @@
 
 #define RNG_DOMAIN_SAMPLE 0x50545341u /* "PTSA" */
 
-/* 1 when some point of g lies closer than r to c. */
-static int occupied(const struct gs_points_grid *g, const double c[3], double r)
-{
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; a++) {
-        lo[a] = grid_coord(g, a, c[a] - r);
-        hi[a] = grid_coord(g, a, c[a] + r);
-    }
-    double r2 = r * r;
-    for (int k = lo[2]; k <= hi[2]; k++)
-        for (int j = lo[1]; j <= hi[1]; j++)
-            for (int i = lo[0]; i <= hi[0]; i++) {
-                const gs_points *cl = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
-                for (size_t q = 0; q < cl->n; q++)
-                    if (v3_dist2(cl->v[q].p, c) < r2)
-                        return 1;
-            }
-    return 0;
-}
-
 gs_err gs_points_sample_mesh(const float *pos, size_t nverts, const uint32_t *tris, size_t ntris,
                              double spacing, uint64_t seed, const char *what, gs_points *out)
 {
@@ -110,7 +90,7 @@ gs_err gs_points_sample_mesh(const float *pos, size_t nverts, const uint32_t *tr
             if (v3_normalize(q.n) <= 0)
                 continue;
         }
-        if (occupied(grid, q.p, spacing))
+        if (gs_points_grid_any_within(grid, q.p, spacing))
             continue;
         GS_TRY(err, gs_points_grid_add(grid, &q), done);
     }

@@ -301,8 +301,7 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
 static double link_radius(const struct gs_points_synth *s) { return 2 * s->spacing; }
 
 /* Lowers s->obj_gap to the smallest distance between a point of an object
- * of the example and a point of another piece. The grid's points carry
- * their index in n[0]. */
+ * of the example and a point of another piece. */
 static gs_err objects_gap(struct gs_points_synth *s)
 {
     size_t n = s->in.n;
@@ -316,27 +315,25 @@ static gs_err objects_gap(struct gs_points_synth *s)
         lo[a] -= s->obj_gap;
         hi[a] += s->obj_gap;
     }
-    gs_points_grid_t g = NULL;
-    GS_CALL(gs_points_grid_create(lo, hi, s->obj_gap, &g));
+    gs_points_index_grid *g = NULL;
+    GS_CALL(gs_points_index_grid_create(s->in.v, n, lo, hi, s->obj_gap, &g));
+    gs_points_indices near = {0};
     gs_err err = GS_OK;
-    for (size_t i = 0; i < n; i++) {
-        gs_opoint q = {{s->in.v[i].p[0], s->in.v[i].p[1], s->in.v[i].p[2]}, {(double)i, 0, 0}};
-        GS_TRY(err, gs_points_grid_add(g, &q), done);
-    }
     for (size_t i = 0; i < n; i++) {
         uint32_t c = s->in_comp[i];
         if (s->comp_kind[c] != COMP_OBJECT)
             continue;
-        s->scratch.n = 0;
-        GS_TRY(err, gs_points_grid_query(g, s->in.v[i].p, s->obj_gap, &s->scratch), done);
-        for (size_t j = 0; j < s->scratch.n; j++) {
-            double d = sqrt(v3_dist2(s->scratch.v[j].p, s->in.v[i].p));
-            if (d < s->obj_gap && s->in_comp[(size_t)s->scratch.v[j].n[0]] != c)
+        near.n = 0;
+        GS_TRY(err, gs_points_index_grid_query(g, s->in.v[i].p, s->obj_gap, &near), done);
+        for (size_t j = 0; j < near.n; j++) {
+            double d = sqrt(v3_dist2(s->in.v[near.v[j]].p, s->in.v[i].p));
+            if (d < s->obj_gap && s->in_comp[near.v[j]] != c)
                 s->obj_gap = d;
         }
     }
 done:
-    gs_points_grid_destroy(&g);
+    gs_free(near.v);
+    gs_points_index_grid_destroy(&g);
     return err;
 }
 
