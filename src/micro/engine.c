@@ -1,9 +1,13 @@
 /* The micro engine: stochastic microgeometry (Schroeder et al.) as a
  * geosynth subcommand,
  *     mpirun -np N geosynth micro -c configs/micro/X.ini
- * Config keys below (`geosynth micro --help`); the work model, rounds and
- * checkpoint units are described in engine_impl.h, the core in
- * include/geosynth/micro.h.
+ * This file is the driver (phases, rounds, checkpoints, the summary). The
+ * folder: engine_config.c (keys, `geosynth micro --help`, validation),
+ * engine_setup.c (inputs read on rank 0 and broadcast), engine_state.c
+ * (reconstruction slices, checkpoints), engine_output.c (the output pass,
+ * files, JSON), engine_queue.c (the work queue of every pass),
+ * engine_explore.c (the gallery); the work model, rounds and checkpoint
+ * units are described in engine_impl.h, the core in include/geosynth/micro.h.
  *
  * Phases: setup (read, subdivide, dual graphs, distribution, histograms),
  * synthesis (reconstruction rounds through the rank-0 work queue,
@@ -28,186 +32,10 @@
 #include "geosynth/regions.h"
 #include "micro/engine_impl.h"
 
-#define DIRECTIONS MICRO_DIRECTIONS
-#define FUNCS MICRO_FUNCS
-
-static const gs_cfg_key micro_keys[] = {
-    GS_CFG_KEY_ENUM(micro_config, shape, "micro.shape", "file|sphere|disk|bar", "sphere",
-                    "input surface: a mesh file (micro.mesh / micro.mesh_list) or a built-in shape "
-                    "(sphere = planet, disk, bar = candy bar)"),
-    GS_CFG_KEY_PATH(micro_config, mesh, "micro.mesh", "",
-                    "triangle mesh (OBJ, PLY, STL, OFF) when micro.shape = file"),
-    GS_CFG_KEY_PATH(micro_config, mesh_list, "micro.mesh_list", "",
-                    "text file listing several meshes, one path per line (relative to the list), "
-                    "instead of micro.mesh"),
-    GS_CFG_KEY_REAL(micro_config, radius, "micro.radius", 0, 1e6, GS_CFG_OPEN_LO, "1",
-                    "sphere / disk radius in model units"),
-    GS_CFG_KEY_REAL_LIST(micro_config, bar_size, "micro.bar_size", 0, 1e6, GS_CFG_OPEN_LO,
-                         "4, 2, 0.8", "bar edge lengths x, y, z in model units"),
-    GS_CFG_KEY_REAL(micro_config, scale_units, "micro.scale_units", 0, 1e6, GS_CFG_OPEN_LO, "40",
-                    "unit ratio u (paper's ScaleUnits): the model is scaled into a box of edge 2 u "
-                    "distribution units; larger = finer features"),
-    GS_CFG_KEY_REAL(micro_config, max_edge, "micro.max_edge", 0, 1e4, GS_CFG_OPEN_LO, "0.9",
-                    "subdivide until every edge is <= this many distribution units (bins are 1 "
-                    "unit wide)"),
-    GS_CFG_KEY_ENUM(micro_config, dist, "micro.dist", "table|csv|image|random", "table",
-                    "contact distributions from micro.table_pos/neg, micro.table_csv, micro.image "
-                    "or random from micro.random_*"),
-    GS_CFG_KEY_REAL_LIST(micro_config, table_pos, "micro.table_pos", 0, 1, 0,
-                         "0.14, 0.085, 0.04, 0.005",
-                         "positive region: probability of bins 0, 1, ... (with table_neg summing "
-                         "to 1, or each to 1); default: discs, from an image"),
-    GS_CFG_KEY_REAL_LIST(micro_config, table_neg, "micro.table_neg", 0, 1, 0,
-                         "0.18, 0.14, 0.1, 0.08, 0.07, 0.055, 0.04, 0.027, 0.018, 0.015",
-                         "negative region: probability of bins 0, 1, ..."),
-    GS_CFG_KEY_PATH(micro_config, table_csv, "micro.table_csv", "",
-                    "CSV table 'bin, positive, negative' per line when micro.dist = csv"),
-    GS_CFG_KEY_PATH(micro_config, image, "micro.image", "",
-                    "PNG/JPEG texture when micro.dist = image: thresholded to white (positive) "
-                    "and black (negative)"),
-    GS_CFG_KEY_INT(micro_config, image_threshold, "micro.image_threshold", 1, 255, 0, "128",
-                   "grey level (0-255) from which a pixel is white"),
-    GS_CFG_KEY_BOOL(micro_config, image_invert, "micro.image_invert", "no",
-                    "swap white and black before thresholding"),
-    GS_CFG_KEY_REAL(micro_config, image_units_per_pixel, "micro.image_units_per_pixel", 0, 1e4,
-                    GS_CFG_OPEN_LO, "1", "distribution units per image pixel"),
-    GS_CFG_KEY_INT(micro_config, max_bins, "micro.max_bins", 1, 16384, 0, "64",
-                   "image acquisition: bins per region (larger distances count in the last bin)"),
-    GS_CFG_KEY_INT(micro_config, random_min_bins, "micro.random_min_bins", 1, 16384, 0, "3",
-                   "random distribution: fewest bins per region"),
-    GS_CFG_KEY_INT(micro_config, random_max_bins, "micro.random_max_bins", 1, 16384, 0, "8",
-                   "random distribution: most bins per region"),
-    GS_CFG_KEY_REAL(micro_config, random_min_share, "micro.random_min_share", 0, 1, GS_CFG_OPEN_LO,
-                    "0.3", "random distribution: smallest area share of the positive region"),
-    GS_CFG_KEY_REAL(micro_config, random_max_share, "micro.random_max_share", 0, 1, GS_CFG_OPEN_LO,
-                    "0.7", "random distribution: largest area share of the positive region (< 1)"),
-    GS_CFG_KEY_BOOL(micro_config, random_per_instance, "micro.random_per_instance", "no",
-                    "draw a new random distribution for every instance (else one for the run)"),
-    GS_CFG_KEY_ENUM(micro_config, pos_direction, "micro.pos.direction", DIRECTIONS, "out",
-                    "positive region: move vertices out, in or not at all"),
-    GS_CFG_KEY_REAL(micro_config, pos_scale, "micro.pos.scale", 0, 100, 0, "0.02",
-                    "positive region: scale k (offset = k f(|x|) times the half extent)"),
-    GS_CFG_KEY_ENUM(micro_config, pos_func, "micro.pos.func", FUNCS, "sqrt",
-                    "positive region: function f of the distance value"),
-    GS_CFG_KEY_ENUM(micro_config, neg_direction, "micro.neg.direction", DIRECTIONS, "in",
-                    "negative region: move vertices out, in or not at all"),
-    GS_CFG_KEY_REAL(micro_config, neg_scale, "micro.neg.scale", 0, 100, 0, "0.02",
-                    "negative region: scale k"),
-    GS_CFG_KEY_ENUM(micro_config, neg_func, "micro.neg.func", FUNCS, "sqrt",
-                    "negative region: function f of the distance value"),
-    GS_CFG_KEY_BOOL(micro_config, capacity, "micro.capacity", "yes",
-                    "accept a random placement only if the bins it forces still fit (no = the "
-                    "paper as printed, more unassigned triangles)"),
-    GS_CFG_KEY_BOOL(micro_config, correct, "micro.correct", "yes",
-                    "correction pass: move the interface until the regions' true distances to it "
-                    "(the realized contact distribution) match the target (no = the "
-                    "reconstruction's regions as they are)"),
-    GS_CFG_KEY_INT(micro_config, correct_rounds, "micro.correct_rounds", 0, 100000, 0, "300",
-                   "correction pass: at most this many rounds (one fast march each)"),
-    GS_CFG_KEY_REAL(micro_config, correct_target, "micro.correct_target", 0, 2, 0, "0.02",
-                    "correction pass: stop once the realized L1/n is at most this"),
-    GS_CFG_KEY_INT(micro_config, max_rejects_per_bin, "micro.max_rejects_per_bin", 0,
-                   GS_CFG_INT_MAX, 0, "0", "stop a bin after this many rejected placements (0 = "
-                   "no limit)"),
-    GS_CFG_KEY_INT(micro_config, instances, "micro.instances", 1, 1000000, 0, "1",
-                   "instances (seeds) per mesh; each gets RUN_DIR/instance-XXXX/"),
-    GS_CFG_KEY_INT(micro_config, steps_per_round, "micro.steps_per_round", 1, 1000000, 0, "8",
-                   "reconstruction steps (bins) per instance between checkpoint opportunities"),
-    GS_CFG_KEY_INT(micro_config, verify_samples, "micro.verify_samples", 0, 4294967295.0, 0, "200",
-                   "triangles whose 2K neighbourhood the verifier checks (0 = all)"),
-    GS_CFG_KEY_INT(micro_config, preview, "micro.preview", 0, 4096, 0, "384",
-                   "edge in pixels of RUN_DIR/instance-XXXX/preview.png, the displaced mesh in its "
-                   "region colours (0 = none)"),
-    GS_CFG_KEY_ENUM(micro_config, output_format, "micro.output_format", "ply|obj|both", "ply",
-                    "displaced mesh format (PLY carries the vertex label)"),
-    GS_CFG_KEY_BOOL(micro_config, explore, "micro.explore.enable", "no",
-                    "parameter-space exploration (paper 5.1): instead of micro.instances, produce "
-                    "micro.explore.count candidates with random parameters from the ranges below, "
-                    "each with a thumbnail and its own config, and RUN_DIR/gallery/index.html"),
-    GS_CFG_KEY_INT(micro_config, explore_count, "micro.explore.count", 1, 100000, 0, "12",
-                   "gallery: number of candidates N"),
-    GS_CFG_KEY_REAL_LIST(micro_config, explore_scale_units, "micro.explore.scale_units", 0, 1e6,
-                         GS_CFG_OPEN_LO, "",
-                         "gallery: range 'lo, hi' of the unit ratio u (one value: fixed; empty: "
-                         "micro.scale_units); cost grows with u^2"),
-    GS_CFG_KEY_REAL_LIST(micro_config, explore_pos_scale, "micro.explore.pos_scale", 0, 100, 0,
-                         "0.005, 0.05", "gallery: range 'lo, hi' of the positive region's scale k "
-                         "(one value: fixed)"),
-    GS_CFG_KEY_REAL_LIST(micro_config, explore_neg_scale, "micro.explore.neg_scale", 0, 100, 0,
-                         "0.005, 0.05", "gallery: range 'lo, hi' of the negative region's scale k "
-                         "(one value: fixed)"),
-    GS_CFG_KEY_STRING(micro_config, explore_pos_func, "micro.explore.pos_func",
-                      "linear, sqrt, square, cbrt, step",
-                      "gallery: functions f the positive region draws from (any of " FUNCS
-                      ", comma-separated; one name: fixed)"),
-    GS_CFG_KEY_STRING(micro_config, explore_neg_func, "micro.explore.neg_func",
-                      "linear, sqrt, square, cbrt, step",
-                      "gallery: functions f the negative region draws from"),
-    GS_CFG_KEY_STRING(micro_config, explore_pos_direction, "micro.explore.pos_direction",
-                      "out, in", "gallery: directions the positive region draws from (any of "
-                      DIRECTIONS ", comma-separated; one name: fixed)"),
-    GS_CFG_KEY_STRING(micro_config, explore_neg_direction, "micro.explore.neg_direction",
-                      "in, out", "gallery: directions the negative region draws from"),
-    GS_CFG_KEY_INT(micro_config, explore_thumbnail, "micro.explore.thumbnail", 16, 2048, 0, "256",
-                   "gallery: thumbnail edge in pixels (PNG rendered off-screen with OSMesa)"),
-    GS_CFG_RUN_KEYS(micro_config, run, "micro"),
-};
-
 static int set(const char *s)
 {
     return s && s[0];
 }
-
-static void micro_validate(const void *vcfg, gs_cfg_ctx *ctx)
-{
-    const micro_config *c = vcfg;
-    int file = !strcmp(c->shape, "file");
-    if (file && set(c->mesh) == set(c->mesh_list))
-        gs_cfg_report(ctx, set(c->mesh) ? "micro.mesh_list" : "micro.mesh",
-                      "micro.shape = file needs exactly one of micro.mesh and micro.mesh_list");
-    if (!file && set(c->mesh))
-        gs_cfg_report(ctx, "micro.mesh", "is set but micro.shape = %s (use micro.shape = file)",
-                      c->shape);
-    if (!file && set(c->mesh_list))
-        gs_cfg_report(ctx, "micro.mesh_list", "is set but micro.shape = %s (use micro.shape = file)",
-                      c->shape);
-    if (!strcmp(c->shape, "bar") && c->bar_size.n != 3)
-        gs_cfg_report(ctx, "micro.bar_size", "expected 3 sizes (x, y, z), got %lld",
-                      (long long)c->bar_size.n);
-    if (!strcmp(c->dist, "table")) {
-        if (c->table_pos.n + c->table_neg.n == 0) {
-            gs_cfg_report(ctx, "micro.table_pos", "micro.dist = table needs micro.table_pos and/or "
-                                                  "micro.table_neg");
-        } else if (gs_micro_dist_check_sum(c->table_pos.v, (size_t)c->table_pos.n, c->table_neg.v,
-                                           (size_t)c->table_neg.n, 0.01,
-                                           "micro.table_pos + micro.table_neg") != GS_OK) {
-            gs_cfg_report(ctx, "micro.table_pos", "%s", gs_error_message());
-            gs_error_clear();
-        }
-    }
-    if ((strcmp(c->dist, "csv") == 0) != set(c->table_csv))
-        gs_cfg_report(ctx, "micro.table_csv", set(c->table_csv) ? "is set but micro.dist = %s"
-                                                                : "required when micro.dist = csv%s",
-                      set(c->table_csv) ? c->dist : "");
-    if ((strcmp(c->dist, "image") == 0) != set(c->image))
-        gs_cfg_report(ctx, "micro.image", set(c->image) ? "is set but micro.dist = %s"
-                                                        : "required when micro.dist = image%s",
-                      set(c->image) ? c->dist : "");
-    if (c->random_min_bins > c->random_max_bins)
-        gs_cfg_report(ctx, "micro.random_max_bins", "must be >= micro.random_min_bins = %lld",
-                      (long long)c->random_min_bins);
-    if (c->random_min_share > c->random_max_share)
-        gs_cfg_report(ctx, "micro.random_max_share", "must be >= micro.random_min_share = %g",
-                      c->random_min_share);
-    if (c->random_max_share >= 1)
-        gs_cfg_report(ctx, "micro.random_max_share", "must be < 1 (both regions need area)");
-    if (c->random_per_instance && strcmp(c->dist, "random") != 0)
-        gs_cfg_report(ctx, "micro.random_per_instance", "needs micro.dist = random (is %s)",
-                      c->dist);
-    micro_explore_validate(c, ctx);
-}
-
-const gs_cfg_table micro_cfg_table = GS_CFG_TABLE("micro", micro_config, micro_keys, micro_validate);
 
 /* Rank 0: the INPUT SUMMARY of the prepared job, with a memory estimate of
  * what the reconstruction will still allocate on every rank. */
@@ -247,52 +75,6 @@ static void log_inputs(const micro_job *job)
            (long long)job->ninst, job->ninst > 1 ? "s" : "", (long long)c->instances,
            (unsigned long long)tris, job->steps_per_round, (double)state_bytes / 1048576.0,
            (double)(100 * (tris / (uint64_t)job->ninst)) / 1048576.0);
-}
-
-gs_err micro_json_write(gs_json *j, const char *path)
-{
-    gs_err err = GS_OK;
-    if (j->failed) {
-        err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "%s: JSON too large", path);
-    } else {
-        size_t n = j->len;
-        j->buf[n] = '\n';
-        err = gs_file_write_atomic(path, j->buf, n + 1);
-    }
-    gs_json_free(j);
-    return err;
-}
-
-void micro_result_json(gs_json *j, const micro_result *r)
-{
-    gs_json_u64(j, "triangles", r->ntris);
-    gs_json_u64(j, "vertices", r->nverts);
-    gs_json_u64(j, "bins_per_region", r->nbins);
-    gs_json_u64(j, "violations", r->violations);
-    gs_json_u64(j, "pairs_checked", r->pairs_checked);
-    gs_json_f64(j, "max_excess", r->max_excess);
-    gs_json_u64(j, "unassigned", r->unassigned);
-    gs_json_f64(j, "unassigned_share", r->unassigned_share);
-    gs_json_i64(j, "abs_bin_error", r->abs_error_sum);
-    gs_json_i64(j, "max_bin_error", r->max_bin_error);
-    gs_json_f64(j, "bin_error_share", r->error_share);
-    gs_json_f64(j, "realized_l1", r->realized_l1);
-    gs_json_u64(j, "realized_beyond", r->realized_beyond);
-    gs_json_f64(j, "realized_pos_share", r->realized_pos_share);
-    gs_json_f64(j, "recon_realized_l1", r->recon_realized_l1);
-    gs_json_f64(j, "recon_unassigned_share", r->recon_unassigned_share);
-    gs_json_u64(j, "correct_rounds", r->correct_rounds);
-    gs_json_u64(j, "correct_flips", r->correct_flips);
-    if (r->nbins <= MICRO_RESULT_BINS) {
-        gs_json_begin_array(j, "target_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(j, NULL, r->target[i]);
-        gs_json_end_array(j);
-        gs_json_begin_array(j, "realized_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(j, NULL, r->realized[i]);
-        gs_json_end_array(j);
-    }
 }
 
 static gs_err write_instances_json(const micro_job *job, const char *path)
@@ -445,30 +227,6 @@ static gs_err end_phase(gs_run *run, gs_json *j)
     gs_json_end_object(j);
     gs_err err = gs_run_phase_end(run, j->failed ? NULL : j->buf);
     gs_json_free(j);
-    GS_CALL(err);
-    return GS_OK;
-}
-
-gs_err micro_queue_create(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
-                          gs_regions_t *queue)
-{
-    gs_region *regs = gs_calloc((size_t)n, sizeof *regs);
-    GS_CHECK(regs != NULL, GS_ERR_MEM, "region list of %lld items", (long long)n);
-    for (int64_t i = 0; i < n; i++)
-        regs[i] = (gs_region){i, 0};
-    gs_err err = gs_regions_create(comm, regs, n, seed, rng_domain, queue);
-    gs_free(regs);
-    GS_CALL(err);
-    return GS_OK;
-}
-
-gs_err micro_queue_pass(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
-                        gs_region_run_fn run, gs_region_apply_fn apply, void *ctx)
-{
-    gs_regions_t queue = NULL;
-    GS_CALL(micro_queue_create(comm, n, seed, rng_domain, &queue));
-    gs_err err = gs_regions_run_pass(queue, 0, run, apply, ctx);
-    gs_regions_destroy(&queue);
     GS_CALL(err);
     return GS_OK;
 }

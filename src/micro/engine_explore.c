@@ -44,111 +44,6 @@
 #include "geosynth/par.h"
 #include "micro/engine_impl.h"
 
-#define CHOICES_MAX 32
-
-/* ------------------------------------------------------ choice lists -- */
-
-/* Index of the word w[0..n) among the '|'-separated names, or -1. */
-static int choice_index(const char *names, const char *w, size_t n)
-{
-    int i = 0;
-    for (const char *p = names;; i++) {
-        const char *e = strchr(p, '|');
-        size_t len = e ? (size_t)(e - p) : strlen(p);
-        if (len == n && strncmp(p, w, n) == 0)
-            return i;
-        if (!e)
-            return -1;
-        p = e + 1;
-    }
-}
-
-static void choice_name(const char *names, int idx, char *out, size_t outlen)
-{
-    const char *p = names;
-    for (int i = 0; i < idx && p; i++) {
-        p = strchr(p, '|');
-        p = p ? p + 1 : NULL;
-    }
-    const char *e = p ? strchr(p, '|') : NULL;
-    size_t len = !p ? 0 : e ? (size_t)(e - p) : strlen(p);
-    snprintf(out, outlen, "%.*s", (int)len, p ? p : "");
-}
-
-/* Parses "a, b c" into indices of names. Returns the count (>= 1), 0 for a
- * list with no word, -1 for an unknown word (copied into bad), -2 for more
- * than CHOICES_MAX words. */
-static int choice_list(const char *s, const char *names, int idx[CHOICES_MAX], char *bad,
-                       size_t badlen)
-{
-    int n = 0;
-    for (const char *p = s; *p;) {
-        while (*p == ',' || *p == ' ' || *p == '\t')
-            p++;
-        const char *e = p;
-        while (*e && *e != ',' && *e != ' ' && *e != '\t')
-            e++;
-        if (e == p)
-            break;
-        int k = choice_index(names, p, (size_t)(e - p));
-        if (k < 0) {
-            snprintf(bad, badlen, "%.*s", (int)(e - p), p);
-            return -1;
-        }
-        if (n == CHOICES_MAX)
-            return -2;
-        idx[n++] = k;
-        p = e;
-    }
-    return n;
-}
-
-/* ------------------------------------------------------- validation -- */
-
-static void check_range(gs_cfg_ctx *ctx, const char *key, const gs_cfg_real_list *r)
-{
-    if (r->n > 2)
-        gs_cfg_report(ctx, key, "expected a range 'lo, hi' or one fixed value, got %lld values",
-                      (long long)r->n);
-    else if (r->n == 2 && r->v[0] > r->v[1])
-        gs_cfg_report(ctx, key, "range 'lo, hi' has lo = %g > hi = %g (write the smaller first)",
-                      r->v[0], r->v[1]);
-}
-
-static void check_choices(gs_cfg_ctx *ctx, const char *key, const char *s, const char *names)
-{
-    int idx[CHOICES_MAX];
-    char bad[64];
-    int n = choice_list(s, names, idx, bad, sizeof bad);
-    if (n == -1)
-        gs_cfg_report(ctx, key, "unknown choice '%s': expected names from %s, separated by commas",
-                      bad, names);
-    else if (n == -2)
-        gs_cfg_report(ctx, key, "more than %d choices", CHOICES_MAX);
-    else if (n == 0)
-        gs_cfg_report(ctx, key, "expected at least one name from %s", names);
-}
-
-void micro_explore_validate(const micro_config *c, gs_cfg_ctx *ctx)
-{
-    check_range(ctx, "micro.explore.scale_units", &c->explore_scale_units);
-    check_range(ctx, "micro.explore.pos_scale", &c->explore_pos_scale);
-    check_range(ctx, "micro.explore.neg_scale", &c->explore_neg_scale);
-    check_choices(ctx, "micro.explore.pos_func", c->explore_pos_func, MICRO_FUNCS);
-    check_choices(ctx, "micro.explore.neg_func", c->explore_neg_func, MICRO_FUNCS);
-    check_choices(ctx, "micro.explore.pos_direction", c->explore_pos_direction, MICRO_DIRECTIONS);
-    check_choices(ctx, "micro.explore.neg_direction", c->explore_neg_direction, MICRO_DIRECTIONS);
-    if (!c->explore)
-        return;
-    if (c->mesh_list && c->mesh_list[0])
-        gs_cfg_report(ctx, "micro.mesh_list", "a gallery (micro.explore.enable = yes) explores one "
-                                              "surface: use micro.mesh or a built-in shape");
-    if (c->instances != 1)
-        gs_cfg_report(ctx, "micro.instances",
-                      "must be 1 with micro.explore.enable = yes (each candidate is one instance; "
-                      "the gallery size is micro.explore.count)");
-}
-
 /* --------------------------------------------------------- sampling -- */
 
 /* One candidate's drawn parameters (fixed layout: travels as bytes). */
@@ -175,9 +70,9 @@ static double draw_range(gs_rng *r, const gs_cfg_real_list *l, double base)
 
 static int32_t draw_choice(gs_rng *r, const char *list, const char *names)
 {
-    int idx[CHOICES_MAX];
+    int idx[MICRO_CHOICES_MAX];
     char bad[64];
-    int n = choice_list(list, names, idx, bad, sizeof bad);
+    int n = micro_choice_list(list, names, idx, bad, sizeof bad);
     uint64_t k = gs_rng_below(r, n > 0 ? (uint64_t)n : 1);
     return n > 0 ? idx[k] : 0; /* n > 0 after validation */
 }
@@ -230,8 +125,8 @@ static gs_err candidate_config(const explore_job *ej, const micro_candidate *c, 
     enum { NOV = 10 };
     char ov[NOV][PATH_MAX + 80], f[2][16], d[2][16];
     for (int s = 0; s < 2; s++) {
-        choice_name(MICRO_FUNCS, c->func[s], f[s], sizeof f[s]);
-        choice_name(MICRO_DIRECTIONS, c->direction[s], d[s], sizeof d[s]);
+        micro_choice_name(MICRO_FUNCS, c->func[s], f[s], sizeof f[s]);
+        micro_choice_name(MICRO_DIRECTIONS, c->direction[s], d[s], sizeof d[s]);
     }
     snprintf(ov[0], sizeof ov[0], "micro.explore.enable=no");
     snprintf(ov[1], sizeof ov[1], "micro.scale_units=%.17g", c->scale_units);
@@ -267,8 +162,8 @@ static gs_err write_candidate_ini(const explore_job *ej, const micro_candidate *
 {
     char f[2][16], d[2][16];
     for (int s = 0; s < 2; s++) {
-        choice_name(MICRO_FUNCS, c->func[s], f[s], sizeof f[s]);
-        choice_name(MICRO_DIRECTIONS, c->direction[s], d[s], sizeof d[s]);
+        micro_choice_name(MICRO_FUNCS, c->func[s], f[s], sizeof f[s]);
+        micro_choice_name(MICRO_DIRECTIONS, c->direction[s], d[s], sizeof d[s]);
     }
     char head[1024];
     int n = snprintf(head, sizeof head,
@@ -467,8 +362,8 @@ static gs_err write_index_html(const explore_job *ej, uint64_t digest, const cha
         char name[32], fn[2][16], dn[2][16], dh[17];
         candidate_name(i, name, sizeof name);
         for (int s = 0; s < 2; s++) {
-            choice_name(MICRO_FUNCS, c->func[s], fn[s], sizeof fn[s]);
-            choice_name(MICRO_DIRECTIONS, c->direction[s], dn[s], sizeof dn[s]);
+            micro_choice_name(MICRO_FUNCS, c->func[s], fn[s], sizeof fn[s]);
+            micro_choice_name(MICRO_DIRECTIONS, c->direction[s], dn[s], sizeof dn[s]);
         }
         gs_digest_hex(r->res.digest, dh);
         fprintf(f, "<div class=\"card\" id=\"%s\" data-digest=\"%s\">\n"
@@ -548,10 +443,10 @@ static gs_err write_candidates_json(const explore_job *ej, const char *path)
             snprintf(key, sizeof key, "%s_scale", side[k]);
             gs_json_f64(&j, key, r->c.scale[k]);
             snprintf(key, sizeof key, "%s_func", side[k]);
-            choice_name(MICRO_FUNCS, r->c.func[k], s, sizeof s);
+            micro_choice_name(MICRO_FUNCS, r->c.func[k], s, sizeof s);
             gs_json_str(&j, key, s);
             snprintf(key, sizeof key, "%s_direction", side[k]);
-            choice_name(MICRO_DIRECTIONS, r->c.direction[k], s, sizeof s);
+            micro_choice_name(MICRO_DIRECTIONS, r->c.direction[k], s, sizeof s);
             gs_json_str(&j, key, s);
         }
         gs_json_f64(&j, "positive_share", r->pos_share);

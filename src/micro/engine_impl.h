@@ -88,8 +88,17 @@ typedef struct micro_config {
     gs_run_config run;
 } micro_config;
 
-/* The micro engine's config table (engine.c). */
+/* engine_config.c: the micro engine's config table. */
 extern const gs_cfg_table micro_cfg_table;
+
+/* engine_config.c: choice lists ("a, b c") of '|'-separated names. Parses s
+ * into indices of names: returns the count (>= 1), 0 for a list with no
+ * word, -1 for an unknown word (copied into bad), -2 for more than
+ * MICRO_CHOICES_MAX words. micro_choice_name: the idx-th name. */
+#define MICRO_CHOICES_MAX 32
+int micro_choice_list(const char *s, const char *names, int idx[MICRO_CHOICES_MAX], char *bad,
+                      size_t badlen);
+void micro_choice_name(const char *names, int idx, char *out, size_t outlen);
 
 /* One prepared input mesh (identical on every rank). */
 typedef struct micro_mesh_in {
@@ -168,17 +177,17 @@ typedef struct micro_job {
 gs_err micro_setup(micro_job *job);
 void micro_job_free(micro_job *job);
 
-/* engine.c. Collective on comm: a gs_regions work queue of items 0 .. n-1
+/* engine_queue.c. Collective on comm: a gs_regions work queue of items 0 .. n-1
  * (one colour; instances, candidates), and one pass of such a queue. */
 gs_err micro_queue_create(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
                           gs_regions_t *queue);
 gs_err micro_queue_pass(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_domain,
                         gs_region_run_fn run, gs_region_apply_fn apply, void *ctx);
 
-/* engine.c: the output pass's checks of one instance as members of the
+/* engine_output.c: the output pass's checks of one instance as members of the
  * open JSON object j (instances.json, gallery/candidates.json). */
 void micro_result_json(gs_json *j, const micro_result *r);
-/* engine.c: writes j's text + '\n' to path atomically and frees j. */
+/* engine_output.c: writes j's text + '\n' to path atomically and frees j. */
 gs_err micro_json_write(gs_json *j, const char *path);
 
 /* engine_setup.c: names of the displacement choices. */
@@ -187,9 +196,7 @@ gs_err micro_json_write(gs_json *j, const char *path);
 int micro_direction_of(const char *s);
 gs_micro_func micro_func_of(const char *s);
 
-/* engine_explore.c: cross-key checks of [micro.explore] (from micro_validate)
- * and the gallery run (from micro_run when micro.explore.enable). */
-void micro_explore_validate(const micro_config *c, gs_cfg_ctx *ctx);
+/* engine_explore.c: the gallery run (from micro_run when micro.explore.enable). */
 gs_err micro_explore_run(gs_run *run, const micro_config *cfg);
 
 /* engine_state.c */

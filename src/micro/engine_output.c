@@ -352,3 +352,49 @@ gs_err micro_output_apply(void *ctx, int64_t id, const void *buf, size_t len)
     memcpy(&job->inst[id].res, buf, sizeof(micro_result));
     return GS_OK;
 }
+
+gs_err micro_json_write(gs_json *j, const char *path)
+{
+    gs_err err = GS_OK;
+    if (j->failed) {
+        err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__, "%s: JSON too large", path);
+    } else {
+        size_t n = j->len;
+        j->buf[n] = '\n';
+        err = gs_file_write_atomic(path, j->buf, n + 1);
+    }
+    gs_json_free(j);
+    return err;
+}
+
+void micro_result_json(gs_json *j, const micro_result *r)
+{
+    gs_json_u64(j, "triangles", r->ntris);
+    gs_json_u64(j, "vertices", r->nverts);
+    gs_json_u64(j, "bins_per_region", r->nbins);
+    gs_json_u64(j, "violations", r->violations);
+    gs_json_u64(j, "pairs_checked", r->pairs_checked);
+    gs_json_f64(j, "max_excess", r->max_excess);
+    gs_json_u64(j, "unassigned", r->unassigned);
+    gs_json_f64(j, "unassigned_share", r->unassigned_share);
+    gs_json_i64(j, "abs_bin_error", r->abs_error_sum);
+    gs_json_i64(j, "max_bin_error", r->max_bin_error);
+    gs_json_f64(j, "bin_error_share", r->error_share);
+    gs_json_f64(j, "realized_l1", r->realized_l1);
+    gs_json_u64(j, "realized_beyond", r->realized_beyond);
+    gs_json_f64(j, "realized_pos_share", r->realized_pos_share);
+    gs_json_f64(j, "recon_realized_l1", r->recon_realized_l1);
+    gs_json_f64(j, "recon_unassigned_share", r->recon_unassigned_share);
+    gs_json_u64(j, "correct_rounds", r->correct_rounds);
+    gs_json_u64(j, "correct_flips", r->correct_flips);
+    if (r->nbins <= MICRO_RESULT_BINS) {
+        gs_json_begin_array(j, "target_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(j, NULL, r->target[i]);
+        gs_json_end_array(j);
+        gs_json_begin_array(j, "realized_count");
+        for (uint64_t i = 0; i < 2 * r->nbins; i++)
+            gs_json_i64(j, NULL, r->realized[i]);
+        gs_json_end_array(j);
+    }
+}
