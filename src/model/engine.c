@@ -120,6 +120,20 @@ typedef struct model_config {
     gs_run_config run;
 } model_config;
 
+/* Copies the token at p (up to NUL or a character of stops) into tok,
+ * truncated to 31 characters; returns where it ends. */
+static const char *scan_token(const char *p, const char *stops, char tok[32])
+{
+    size_t k = 0;
+    while (*p && !strchr(stops, *p)) {
+        if (k + 1 < 32)
+            tok[k++] = *p;
+        p++;
+    }
+    tok[k] = '\0';
+    return p;
+}
+
 /* Parses "a, b c" into up to cap labels; returns the count or -1 with why. */
 static int parse_column(const char *text, uint16_t *out, int cap, char *why, size_t why_len)
 {
@@ -131,13 +145,7 @@ static int parse_column(const char *text, uint16_t *out, int cap, char *why, siz
         if (!*p)
             break;
         char tok[32];
-        size_t k = 0;
-        while (*p && *p != ' ' && *p != ',' && *p != '\t') {
-            if (k + 1 < sizeof tok)
-                tok[k++] = *p;
-            p++;
-        }
-        tok[k] = '\0';
+        p = scan_token(p, " ,\t", tok);
         int64_t v;
         if (!gs_parse_i64(tok, 0, 65535, &v, why, why_len))
             return -1;
@@ -165,13 +173,7 @@ static int parse_pins(const char *text, const gs_cfg_int3 size, uint16_t *pins, 
             while (*p == ' ')
                 p++;
             char tok[32];
-            size_t len = 0;
-            while (*p && *p != ',' && *p != '=' && *p != ';' && *p != ' ') {
-                if (len + 1 < sizeof tok)
-                    tok[len++] = *p;
-                p++;
-            }
-            tok[len] = '\0';
+            p = scan_token(p, ",=; ", tok);
             int64_t hi = k < 3 ? size[k] - 1 : 65534;
             if (!gs_parse_i64(tok, 0, hi, &v[k], why, why_len)) {
                 char tmp[160];
@@ -1294,6 +1296,23 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
     return err;
 }
 
+/* The result perr of writing preview.png: without a renderer here
+ * (GS_ERR_LIB) the run is still good, so a warning; else perr, and a written
+ * preview is listed in the outputs when record. */
+static gs_err preview_written(gs_run *run, gs_err perr, int record)
+{
+    if (perr == GS_ERR_LIB) {
+        gs_log(GS_LOG_WARN, "preview.png not written: %s (model.preview = false skips it)",
+               gs_error_message());
+        gs_error_clear();
+        return GS_OK;
+    }
+    GS_CALL(perr);
+    if (record)
+        gs_run_output(run, "preview", "preview", "preview.png", NULL);
+    return GS_OK;
+}
+
 /* Rank 0: every output file but the mesh, and the quality measures. */
 static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q)
 {
@@ -1354,31 +1373,17 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     }
     if (c->preview && e->lat.nz > 1 && !c->tileset[0] && !c->sample[0]) {
         gs_run_path(run, "preview.png", path, sizeof path);
-        gs_err perr = gs_model_write_preview(path, &e->example, &e->lat, &e->pal, (int)c->preview_size);
-        if (perr == GS_ERR_LIB) { /* no renderer here: the run is still good */
-            gs_log(GS_LOG_WARN, "preview.png not written: %s (model.preview = false skips it)",
-                   gs_error_message());
-            gs_error_clear();
-        } else {
-            GS_CALL(perr);
-            gs_run_output(run, "preview", "preview", "preview.png", NULL);
-        }
+        GS_CALL(preview_written(run, gs_model_write_preview(path, &e->example, &e->lat, &e->pal,
+                                                            (int)c->preview_size), 1));
     }
     if (e->ts.dim == 3 && c->tile_image) {
         char ppath[PATH_MAX];
         gs_run_path(run, "tiles.vox", path, sizeof path);
         gs_run_path(run, "preview.png", ppath, sizeof ppath);
-        gs_err perr = gs_model_tileset_write_voxels(&e->ts, &e->lat, path, c->preview ? ppath : NULL,
-                                                    (int)c->preview_size);
-        if (perr == GS_ERR_LIB) { /* no renderer here: the run is still good */
-            gs_log(GS_LOG_WARN, "preview.png not written: %s (model.preview = false skips it)",
-                   gs_error_message());
-            gs_error_clear();
-        } else {
-            GS_CALL(perr);
-            if (c->preview)
-                gs_run_output(run, "preview", "preview", "preview.png", NULL);
-        }
+        GS_CALL(preview_written(run, gs_model_tileset_write_voxels(&e->ts, &e->lat, path,
+                                                                   c->preview ? ppath : NULL,
+                                                                   (int)c->preview_size),
+                                (int)c->preview));
         gs_run_output(run, "vox", "tiles", "tiles.vox", NULL); /* dimensions from the file */
     } else if (c->tileset[0] && c->tile_image) {
         gs_run_path(run, "tiles.png", path, sizeof path);
