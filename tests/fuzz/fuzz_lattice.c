@@ -21,16 +21,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    if (size < 1)
-        return 0;
-    int csv = data[0] & 1;
-    char *buf = fuzz_copy(data + 1, size - 1);
+    uint8_t opt;
+    size_t len;
+    char *buf = fuzz_split(data, size, &opt, &len);
     if (!buf)
         return 0;
+    int csv = opt & 1;
     gs_model_lattice lat;
     memset(&lat, 0, sizeof lat);
-    gs_err err = csv ? gs_model_parse_debroglie_csv(buf, size - 1, "fuzz.csv", &lat)
-                     : gs_model_parse_merrell_txt(buf, size - 1, "fuzz.txt", &lat);
+    gs_err err = csv ? gs_model_parse_debroglie_csv(buf, len, "fuzz.csv", &lat)
+                     : gs_model_parse_merrell_txt(buf, len, "fuzz.txt", &lat);
     gs_free(buf);
     if (err != GS_OK) {
         if (lat.labels)

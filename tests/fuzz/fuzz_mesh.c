@@ -11,6 +11,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "fuzz_util.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 
@@ -18,20 +19,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    if (size < 1)
-        return 0;
     static const char *names[4] = {"fuzz.ply", "fuzz.off", "fuzz.stl", "fuzz.obj"};
-    const char *name = names[data[0] % 4];
-    /* an exact-size copy, so ASan sees any read past the end */
-    char *buf = gs_malloc(size - 1 ? size - 1 : 1);
+    uint8_t opt;
+    size_t len;
+    char *buf = fuzz_split(data, size, &opt, &len);
     if (!buf)
         return 0;
-    memcpy(buf, data + 1, size - 1);
+    const char *name = names[opt % 4];
     gs_mesh m;
-    if (gs_mesh_parse(buf, size - 1, name, &m) != GS_OK) {
-        if (gs_error_message()[0] == '\0')
-            __builtin_trap(); /* an error must say what is wrong */
-        gs_error_clear();
+    if (gs_mesh_parse(buf, len, name, &m) != GS_OK) {
+        fuzz_check_error();
     } else {
         if (m.ntris == 0 || gs_mesh_validate(&m, name) != GS_OK)
             __builtin_trap();

@@ -20,14 +20,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    if (size < 1)
-        return 0;
-    int require = data[0] & 1;
-    char *buf = fuzz_copy(data + 1, size - 1);
+    uint8_t opt;
+    size_t len;
+    char *buf = fuzz_split(data, size, &opt, &len);
     if (!buf)
         return 0;
+    int require = opt & 1;
     gs_pointply p;
-    if (gs_pointply_parse(buf, size - 1, "fuzz.ply", require, &p) != GS_OK) {
+    if (gs_pointply_parse(buf, len, "fuzz.ply", require, &p) != GS_OK) {
         fuzz_check_error();
     } else {
         if (require && !p.has_normals)

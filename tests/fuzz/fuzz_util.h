@@ -70,6 +70,18 @@ static char *fuzz_copy(const uint8_t *data, size_t size)
     return buf;
 }
 
+/* The layout of most targets' inputs: one byte of options, then the file.
+ * *opt gets the first byte, *len the file's size, and the file comes back as
+ * a fuzz_copy (gs_free it); NULL for an empty input or out of memory. */
+static char *fuzz_split(const uint8_t *data, size_t size, uint8_t *opt, size_t *len)
+{
+    if (size < 1)
+        return NULL;
+    *opt = data[0];
+    *len = size - 1;
+    return fuzz_copy(data + 1, size - 1);
+}
+
 /* After a refused input: a message, printable, then cleared. */
 static void fuzz_check_error(void)
 {

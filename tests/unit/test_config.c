@@ -15,6 +15,7 @@
 #include "geosynth/config.h"
 #include "geosynth/error.h"
 #include "geosynth/mem.h"
+#include "../util/testutil.h"
 
 typedef struct test_cfg {
     int unrelated_before;
@@ -534,11 +535,7 @@ static void test_many_problems_capped(void **state)
     free(text);
     assert_int_equal(p.n, 301); /* 300 unknown keys + missing source */
     assert_int_equal(p.nkept, GS_CFG_MAX_PROBLEMS);
-    char *buf = NULL;
-    size_t blen = 0;
-    FILE *f = open_memstream(&buf, &blen);
-    gs_cfg_problems_print(&p, f);
-    fclose(f);
+    char *buf = gs_test_problems_text(&p);
     assert_non_null(strstr(buf, "error: ... and 201 more problems"));
     free(buf);
     gs_cfg_problems_free(&p);
@@ -610,11 +607,7 @@ static void test_round_trip(void **state)
                                           &e, &q),
                      GS_ERR_ARG);
     assert_int_equal(q.n, 1);
-    char *msg = NULL;
-    size_t msglen = 0;
-    FILE *mf = open_memstream(&msg, &msglen);
-    gs_cfg_problems_print(&q, mf);
-    fclose(mf);
+    char *msg = gs_test_problems_text(&q);
     fprintf(stderr, "%s", msg);
     assert_non_null(strstr(msg, "blank.ini:2: [field] source"));
     assert_non_null(strstr(msg, "/b/x '"));

@@ -101,3 +101,15 @@ void gs_test_read_merrell_sample(const char *name, gs_model_lattice *ex)
         gs_error_report("gs_test_read_merrell_sample: ");
     assert_int_equal(e, GS_OK);
 }
+
+char *gs_test_problems_text(const gs_cfg_problems *p)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    gs_cfg_problems_print(p, f);
+    assert_int_equal(fclose(f), 0);
+    assert_non_null(buf);
+    return buf;
+}

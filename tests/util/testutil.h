@@ -4,6 +4,7 @@
 
 #include <stddef.h>
 
+#include "geosynth/config.h"
 #include "geosynth/model.h"
 
 /* A private temporary directory for one test program: use
@@ -42,5 +43,9 @@ int gs_test_have_data(const char *rel, ...);
  * it when it cannot be read. Call first in a test, before anything is
  * allocated (a skip leaves the test at once). */
 void gs_test_read_merrell_sample(const char *name, gs_model_lattice *ex);
+
+/* What gs_cfg_problems_print writes for p, as a NUL-terminated text
+ * (malloc'ed: free()); fails the cmocka test when it cannot be captured. */
+char *gs_test_problems_text(const gs_cfg_problems *p);
 
 #endif
