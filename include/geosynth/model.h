@@ -50,8 +50,9 @@
  * accepted regions or `max_passes` is reached.
  *
  * Parallel shape: regions of one pass carry a colour; regions of one colour
- * are separated by at least one cell, so their shells never touch and they
- * can run on different ranks. gs_model_region_run() depends only on (lattice
+ * are separated by at least one cell (with resemblance, at least the window
+ * radius w), so none reads what another writes and they can run on
+ * different ranks. gs_model_region_run() depends only on (lattice
  * state, box, params, region id, pass) and writes the region's new labels;
  * applying the results of a colour in id order, colours in order, gives the
  * same lattice as the serial driver gs_model_synthesize() for any rank count.
@@ -363,7 +364,9 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
 
 /* 1 when regions a and b of an nx*ny*nz output interact: one writes a cell
  * the other reads (its box and the face neighbours around it, across
- * periodic wraps and mirror faces as gs_model_region_run reads them).
+ * periodic wraps and mirror faces as gs_model_region_run reads them; with
+ * p->resem also the box grown by the window radius w along every axis at
+ * once, edges and corners included: the resemblance window of a box cell).
  * Symmetric. Regions of
  * one colour of a plan never interact; the parallel engine runs regions of
  * different colours at once when they do not. */

@@ -89,8 +89,10 @@ gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
  * regions of different colors interact: for the region at list index i
  * (the list given to gs_regions_create), ids[offsets[i] .. offsets[i+1])
  * are the regions of LOWER colors whose write box meets its read box or
- * whose read box meets its write box (model: boxes grown by the one-cell
- * shell overlap). Regions not listed must not interact. Then
+ * whose read box meets its write box (model: gs_model_regions_interact).
+ * A pair that interacts but is left out makes the result depend on timing.
+ * Test hook GS_FLOW_PICK=random:SEED: each rank runs a random ready region
+ * of its share instead of the lowest, so such a pair shows at one rank. Regions not listed must not interact. Then
  * gs_regions_run_pass no longer waits at the end of each color and has no
  * rank-0 queue: every rank runs a region once the results it depends on
  * are applied there, picking among the ready ones (claims sent to all keep

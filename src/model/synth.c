@@ -59,10 +59,20 @@ static void active_z(const gs_model_params *p, int nz, int *lo, int *hi)
     *hi = fix ? nz - 1 : nz;
 }
 
+/* How far outside its box a region reads: the face neighbours (1) and,
+ * with resemblance, every cell of the (2w+1)^3 window of a box cell
+ * (w along every axis at once: edges and corners too). */
+static int resem_reach(const gs_model_params *p)
+{
+    return p->resem ? p->resem->w : 0;
+}
+
 /* Region starts along one axis of extent n with edge b (<= n). Stride
  * b - overlap (b/2 when overlap < 0), at least 1; odd passes shift the grid by a quarter region. Returns the count; colours
- * along the axis in *m (regions k and k+m are >= 1 cell apart). */
-static int axis_starts(int n, int b, int overlap, int pass, int periodic, int *starts, int *m)
+ * along the axis in *m (regions k and k+m are >= gap cells apart, so one
+ * reads nothing the other writes). */
+static int axis_starts(int n, int b, int overlap, int pass, int periodic, int gap, int *starts,
+                       int *m)
 {
     int k = 0;
     if (b >= n) {
@@ -84,13 +94,13 @@ static int axis_starts(int n, int b, int overlap, int pass, int periodic, int *s
     for (;;) {
         int good = 1;
         for (int i = 0; i + mm < k; i++)
-            if (starts[i + mm] < starts[i] + b + 1)
+            if (starts[i + mm] < starts[i] + b + gap)
                 good = 0;
         /* periodic axis: the last region of a colour must also keep a gap
          * to the first one across the wrap */
         for (int c = 0; periodic && b < n && c < mm && c < k; c++) {
             int last = c + ((k - 1 - c) / mm) * mm;
-            if (last != c && starts[c] + n < starts[last] + b + 1)
+            if (last != c && starts[c] + n < starts[last] + b + gap)
                 good = 0;
         }
         if (good)
@@ -117,6 +127,7 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
     active_z(p, nz, &zlo, &zhi);
     const int ext[3] = {nx, ny, zhi - zlo};
     int edge[3], m[3], cnt[3];
+    const int gap = resem_reach(p) > 1 ? resem_reach(p) : 1;
     int *starts[3] = {NULL, NULL, NULL};
     gs_err err = GS_OK;
     for (int a = 0; a < 3; a++) {
@@ -125,7 +136,8 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
         edge[a] = (p->region[a] <= 0 || p->region[a] >= ext[a]) ? ext[a] : p->region[a];
         GS_TRY(err, gs_alloc_array((void **)&starts[a], (size_t)ext[a] + 2, sizeof(int), "plan"),
                done);
-        cnt[a] = axis_starts(ext[a], edge[a], p->overlap, pass, p->periodic[a], starts[a], &m[a]);
+        cnt[a] = axis_starts(ext[a], edge[a], p->overlap, pass, p->periodic[a], gap, starts[a],
+                             &m[a]);
     }
     size_t n = (size_t)cnt[0] * (size_t)cnt[1] * (size_t)cnt[2];
     gs_model_region *list = NULL;
@@ -169,19 +181,23 @@ static int axis_meets(int lo, int hi, int grow, int blo, int bhi, int n, int per
     return 0;
 }
 
-/* Does a read (box + face-neighbour shell) meet b's box? The shell of a box
- * is the box grown by one cell along one axis at a time (no edges or
- * corners: the solver reads face neighbours only). */
+/* Does a read meet b's box? A region reads its box, the face-neighbour
+ * shell (the box grown by one cell along one axis at a time: the
+ * constraints) and, with resemblance of window radius w, the box grown by w
+ * along every axis at once (the window of a box cell reaches edges and
+ * corners: a diagonal region touching only at a corner is read too). */
 static int box_reads(const gs_model_params *p, const int n[3], const int alo[3], const int ahi[3],
                      const int blo[3], const int bhi[3])
 {
-    int plain[3], grown[3];
+    int plain[3], grown[3], window = resem_reach(p) > 0;
     for (int d = 0; d < 3; d++) {
         plain[d] = axis_meets(alo[d], ahi[d], 0, blo[d], bhi[d], n[d], p->periodic[d], 0);
         grown[d] = axis_meets(alo[d], ahi[d], 1, blo[d], bhi[d], n[d], p->periodic[d],
                               p->mirror[d]);
+        window &= axis_meets(alo[d], ahi[d], resem_reach(p), blo[d], bhi[d], n[d], p->periodic[d],
+                             0);
     }
-    return (grown[0] && plain[1] && plain[2]) || (plain[0] && grown[1] && plain[2]) ||
+    return window || (grown[0] && plain[1] && plain[2]) || (plain[0] && grown[1] && plain[2]) ||
            (plain[0] && plain[1] && grown[2]);
 }
 
@@ -200,8 +216,9 @@ static int cmp_size(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Buckets of edge E + 1 along each axis (E = the longest region edge):
- * regions that interact have lower corners less than E + 1 apart along
+/* Buckets of edge E + g along each axis (E = the longest region edge, g the
+ * read reach: 1, or the resemblance radius w when larger):
+ * regions that interact have lower corners less than E + g apart along
  * every axis (straight or across a periodic wrap), so they sit in
  * neighbouring buckets: +-1 along a plain axis; +-2 along a periodic one
  * (its last bucket may be narrower), or every bucket when there are < 5. */
@@ -217,8 +234,9 @@ gs_err gs_model_plan_conflicts(const gs_model_params *p, int nx, int ny, int nz,
         for (int a = 0; a < 3; a++)
             edge[a] = len[a] > edge[a] ? len[a] : edge[a];
     }
+    const int grow = resem_reach(p) > 1 ? resem_reach(p) : 1;
     for (int a = 0; a < 3; a++) {
-        edge[a]++;
+        edge[a] += grow;
         nb[a] = dim[a] > 0 ? (dim[a] + edge[a] - 1) / edge[a] : 1;
     }
     size_t nbuckets = (size_t)nb[0] * (size_t)nb[1] * (size_t)nb[2];

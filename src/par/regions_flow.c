@@ -189,6 +189,8 @@ typedef struct flow {
     int64_t *fin;           /* [2 size]: headers each rank says it sent here (-1 = no FIN
                                yet), then the FIN send buffers */
     int fin_sent;
+    int pick_random;        /* test hook GS_FLOW_PICK=random:SEED: any ready region */
+    uint64_t pick_state;    /* its splitmix64 state */
     MPI_Request sends[FLOW_MAX_SENDS];
     int nsends;
 } flow;
@@ -453,11 +455,30 @@ static gs_err progress(flow *f, int *got)
  * lowest one of a rank that is busy (its last header was a claim) or that
  * left it unclaimed for FLOW_STEAL_AFTER: an idle owner takes its region
  * itself, so two idle ranks do not both grab the one region that just
- * became ready, unless the owner does not run. -1 if none. */
+ * became ready, unless the owner does not run. -1 if none.
+ * Test hook GS_FLOW_PICK=random:SEED: a random candidate of the own share
+ * instead of the lowest (every order the conflicts allow is one a loaded
+ * machine could produce; results must not change, even at one rank). */
 static int64_t pick(flow *f)
 {
     double now = -1;
-    while (f->nheap[0] > 0) {
+    if (f->pick_random) { /* test hook: a random ready region of the own share */
+        int64_t n = 0;
+        for (int64_t i = 0; i < f->nheap[0]; i++)
+            if (!f->claimed[f->heap[0][i]])
+                f->heap[0][n++] = f->heap[0][i];
+        f->nheap[0] = n;
+        if (n > 0) {
+            uint64_t z = (f->pick_state += 0x9e3779b97f4a7c15ull); /* splitmix64 */
+            z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+            z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+            z ^= z >> 31;
+            int64_t at = (int64_t)(z % (uint64_t)n), k = f->heap[0][at];
+            f->heap[0][at] = f->heap[0][--f->nheap[0]];
+            return k;
+        }
+    }
+    while (!f->pick_random && f->nheap[0] > 0) {
         int64_t k = heap_pop(f->heap[0], &f->nheap[0]);
         if (!f->claimed[k])
             return k;
@@ -560,7 +581,13 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
                                       "regions: cannot allocate the dataflow state");
     size_t nn = s->count ? (size_t)s->count : 1, np = (size_t)s->size;
     if (f) {
+        const char *hook = getenv("GS_FLOW_PICK");
         *f = (flow){.s = s, .pass = pass, .run = run, .apply = apply, .ctx = ctx, .n = s->count};
+        if (hook && strncmp(hook, "random:", 7) == 0) {
+            f->pick_random = 1;
+            f->pick_state = strtoull(hook + 7, NULL, 10) + ((uint64_t)s->rank << 32) +
+                            ((uint64_t)pass << 48);
+        }
         f->data = gs_calloc(nn, sizeof *f->data);
         f->hdr = gs_calloc(nn, sizeof *f->hdr);
         f->have = gs_calloc(nn, 1);

@@ -142,68 +142,197 @@ static void test_periodic_plan_gap(void **state)
     }
 }
 
-/* gs_model_regions_interact against cell sets: a region reads its box and
- * its 6-neighbour shell (wrapped on periodic axes), writes its box; two
- * regions interact iff one writes a cell the other reads. Regions of one
- * colour never interact. Periodic x, free y, uneven regions, both passes. */
+/* A small random example for a resemblance index of window radius w. */
+static gs_model_resem_t small_resem(int w)
+{
+    gs_model_lattice ex = {0};
+    assert_int_equal(gs_model_lattice_create(&ex, 7, 6, 4), GS_OK);
+    uint32_t x = 12345;
+    for (size_t i = 0; i < (size_t)7 * 6 * 4; i++) {
+        x = x * 1103515245u + 12345u;
+        ex.labels[i] = (uint16_t)(1 + (x >> 16) % 4);
+    }
+    gs_model_resem_t R = NULL;
+    assert_int_equal(gs_model_resem_build(&ex, w, 0, 1, &R), GS_OK);
+    gs_model_lattice_destroy(&ex);
+    return R;
+}
+
+/* gs_model_regions_interact against cell sets: a region reads its box, its
+ * 6-neighbour shell and, with resemblance of window radius w, the box grown
+ * by w along every axis at once (the window of a box cell: edges and
+ * corners too), wrapped on periodic axes; it writes its box; two regions
+ * interact iff one writes a cell the other reads. Regions of one colour
+ * never interact. Periodic x, free y, uneven regions, both passes; an
+ * overlap that leaves one cell between the regions of a colour along y
+ * (enough for the shell, not for a w = 2 window: the plan then takes more
+ * colours). */
 static void test_regions_interact(void **state)
 {
     (void)state;
-    gs_model_params p;
-    gs_model_params_default(&p);
-    p.region[0] = 10;
-    p.region[1] = 8;
-    p.periodic[0] = 1;
     enum { NX = 37, NY = 23, NZ = 6 };
     static unsigned char reads[NX * NY * NZ];
-    for (int pass = 0; pass < 2; pass++) {
-        gs_model_region *reg = NULL;
-        size_t n = 0;
-        int ncol = 0;
-        assert_int_equal(gs_model_plan(&p, NX, NY, NZ, pass, &reg, &n, &ncol), GS_OK);
-        size_t pairs = 0;
-        unsigned char *hit = calloc(n * n, 1); /* hit[i * n + j]: j writes what i reads */
-        assert_non_null(hit);
-        for (size_t i = 0; i < n; i++) {
-            const gs_model_box *a = &reg[i].box;
-            memset(reads, 0, sizeof reads);
-            for (int z = a->z0 - 1; z <= a->z1; z++)
-                for (int y = a->y0 - 1; y <= a->y1; y++)
-                    for (int x = a->x0 - 1; x <= a->x1; x++) {
-                        int inx = x >= a->x0 && x < a->x1, iny = y >= a->y0 && y < a->y1,
-                            inz = z >= a->z0 && z < a->z1;
-                        if (inx + iny + inz < 2) /* box and face neighbours only */
-                            continue;
-                        if (y < 0 || y >= NY || z < 0 || z >= NZ)
-                            continue;
-                        reads[(x + NX) % NX + NX * (y + NY * z)] = 1;
+    for (int w = 0; w <= 2; w++)
+        for (int ov = 0; ov < 2; ov++) {
+            gs_model_params p;
+            gs_model_params_default(&p);
+            p.region[0] = 10;
+            p.region[1] = ov ? 9 : 8;
+            p.overlap = ov ? 4 : -1;
+            p.periodic[0] = 1;
+            gs_model_resem_t R = w ? small_resem(w) : NULL;
+            p.resem = R;
+            const int g = w > 1 ? w : 1;
+            for (int pass = 0; pass < 2; pass++) {
+                gs_model_region *reg = NULL;
+                size_t n = 0;
+                int ncol = 0;
+                assert_int_equal(gs_model_plan(&p, NX, NY, NZ, pass, &reg, &n, &ncol), GS_OK);
+                size_t pairs = 0;
+                unsigned char *hit = calloc(n * n, 1); /* hit[i * n + j]: j writes what i reads */
+                assert_non_null(hit);
+                for (size_t i = 0; i < n; i++) {
+                    const gs_model_box *a = &reg[i].box;
+                    memset(reads, 0, sizeof reads);
+                    for (int z = a->z0 - g; z < a->z1 + g; z++)
+                        for (int y = a->y0 - g; y < a->y1 + g; y++)
+                            for (int x = a->x0 - g; x < a->x1 + g; x++) {
+                                int inx = x >= a->x0 && x < a->x1, iny = y >= a->y0 && y < a->y1,
+                                    inz = z >= a->z0 && z < a->z1;
+                                int face = inx + iny + inz >= 2 && x >= a->x0 - 1 &&
+                                           x <= a->x1 && y >= a->y0 - 1 && y <= a->y1 &&
+                                           z >= a->z0 - 1 && z <= a->z1;
+                                int window = x >= a->x0 - w && x < a->x1 + w && y >= a->y0 - w &&
+                                             y < a->y1 + w && z >= a->z0 - w && z < a->z1 + w;
+                                if (!face && !(w && window))
+                                    continue;
+                                if (y < 0 || y >= NY || z < 0 || z >= NZ)
+                                    continue;
+                                reads[(x + NX) % NX + NX * (y + NY * z)] = 1;
+                            }
+                    for (size_t j = 0; j < n; j++) {
+                        const gs_model_box *b = &reg[j].box;
+                        for (int z = b->z0; z < b->z1 && j != i && !hit[i * n + j]; z++)
+                            for (int y = b->y0; y < b->y1 && !hit[i * n + j]; y++)
+                                for (int x = b->x0; x < b->x1 && !hit[i * n + j]; x++)
+                                    hit[i * n + j] = reads[x + NX * (y + NY * z)];
                     }
-            for (size_t j = 0; j < n; j++) {
-                const gs_model_box *b = &reg[j].box;
-                for (int z = b->z0; z < b->z1 && j != i && !hit[i * n + j]; z++)
-                    for (int y = b->y0; y < b->y1 && !hit[i * n + j]; y++)
-                        for (int x = b->x0; x < b->x1 && !hit[i * n + j]; x++)
-                            hit[i * n + j] = reads[x + NX * (y + NY * z)];
+                }
+                for (size_t i = 0; i < n; i++)
+                    for (size_t j = 0; j < n; j++) {
+                        if (j == i)
+                            continue;
+                        int fn = gs_model_regions_interact(&p, NX, NY, NZ, &reg[i].box, &reg[j].box);
+                        assert_int_equal(fn, hit[i * n + j] || hit[j * n + i]);
+                        if (reg[i].color == reg[j].color)
+                            assert_false(fn);
+                        pairs += (size_t)fn;
+                    }
+                free(hit);
+                assert_true(pairs > 0);
+                gs_free(reg);
             }
+            gs_model_resem_destroy(&R);
         }
-        for (size_t i = 0; i < n; i++)
-            for (size_t j = 0; j < n; j++) {
-                if (j == i)
-                    continue;
-                int fn = gs_model_regions_interact(&p, NX, NY, NZ, &reg[i].box, &reg[j].box);
-                assert_int_equal(fn, hit[i * n + j] || hit[j * n + i]);
-                if (reg[i].color == reg[j].color)
-                    assert_false(fn);
-                pairs += (size_t)fn;
+}
+
+/* What the parallel engine relies on, against the solver itself: a region's
+ * result does not depend on the cells of the regions it does not interact
+ * with (gs_model_regions_interact). Escheresque (the repository's copy) in
+ * 10x10 regions with resemblance w = 2: each region is run on the start
+ * model and again with every cell of the non-interacting regions' boxes
+ * changed to another label; the results must be equal. A region whose
+ * window reaches a diagonal neighbour that only touches it at a corner
+ * reads that neighbour's cells: when the two were not declared interacting,
+ * two ranks could run them in either order (digests differed in about 1 of
+ * 7 runs at np 2). */
+static void test_region_reads_only_interacting(void **state)
+{
+    (void)state;
+    GS_TEST_NEED_DATA("model-synthesis/debroglie-samples-merrell/escheresque.csv");
+    char path[4096];
+    gs_model_lattice ex = {0}, lat = {0}, alt = {0};
+    assert_int_equal(gs_model_load(gs_test_data("model-synthesis/debroglie-samples-merrell/"
+                                                "escheresque.csv", path, sizeof path),
+                                   "auto", NULL, &ex, NULL),
+                     GS_OK);
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    gs_model_resem_t R = NULL;
+    assert_int_equal(gs_model_resem_build(&ex, 2, 0, 1, &R), GS_OK);
+    enum { NX = 30, NY = 30, NZ = 8 };
+    assert_int_equal(gs_model_lattice_create(&lat, NX, NY, NZ), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&alt, NX, NY, NZ), GS_OK);
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &lat), GS_OK);
+    /* a synthesized lattice: every neighbourhood differs from the start's */
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.resem = R;
+    p.region[0] = p.region[1] = 10;
+    assert_int_equal(gs_model_synthesize(r, &p, &lat, NULL), GS_OK);
+    gs_model_region *reg = NULL;
+    size_t n = 0;
+    int ncol = 0;
+    assert_int_equal(gs_model_plan(&p, NX, NY, NZ, 1, &reg, &n, &ncol), GS_OK);
+    gs_model_solver_t s = NULL;
+    assert_int_equal(gs_model_solver_create(r, p.ac, &s), GS_OK);
+    const size_t cells = (size_t)NX * NY * NZ;
+    uint16_t *a = calloc(cells, sizeof *a), *b = calloc(cells, sizeof *b);
+    unsigned char *mark = calloc(cells, 1);
+    assert_true(a && b && mark);
+    size_t tested = 0, changed_cells = 0;
+    for (size_t i = 0; i < n; i++) {
+        memcpy(alt.labels, lat.labels, cells * sizeof *lat.labels);
+        memset(mark, 0, cells);
+        for (size_t j = 0; j < n; j++) {
+            const gs_model_box *bj = &reg[j].box;
+            if (j == i || gs_model_regions_interact(&p, NX, NY, NZ, &reg[i].box, bj))
+                continue;
+            for (int z = bj->z0; z < bj->z1; z++)
+                for (int y = bj->y0; y < bj->y1; y++)
+                    for (int x = bj->x0; x < bj->x1; x++)
+                        mark[gs_model_lattice_index(&lat, x, y, z)] = 1;
+        }
+        for (size_t c = 0; c < cells; c++)
+            if (mark[c]) { /* another label of the example */
+                uint16_t l = alt.labels[c];
+                do
+                    l = (uint16_t)((l + 1) % gs_model_rules_nlabels(r));
+                while (gs_model_rules_count(r, l) == 0);
+                alt.labels[c] = l;
+                changed_cells++;
             }
-        free(hit);
-        assert_true(pairs > 0);
-        gs_free(reg);
+        gs_model_region_result ra, rb;
+        assert_int_equal(gs_model_region_run(s, &lat, &reg[i].box, &p, reg[i].id, 1, a, &ra),
+                         GS_OK);
+        assert_int_equal(gs_model_region_run(s, &alt, &reg[i].box, &p, reg[i].id, 1, b, &rb),
+                         GS_OK);
+        size_t bc = (size_t)(reg[i].box.x1 - reg[i].box.x0) *
+                    (size_t)(reg[i].box.y1 - reg[i].box.y0) * (size_t)(reg[i].box.z1 - reg[i].box.z0);
+        if (ra.ok != rb.ok || memcmp(a, b, bc * sizeof *a) != 0)
+            fail_msg("region %zu [%d,%d)x[%d,%d): its result changed with cells of regions it "
+                     "does not interact with", i, reg[i].box.x0, reg[i].box.x1, reg[i].box.y0,
+                     reg[i].box.y1);
+        tested++;
     }
+    print_message("%zu regions, %zu cells of non-interacting regions changed: same results\n",
+                  tested, changed_cells);
+    assert_true(tested == n && changed_cells > 0);
+    free(a);
+    free(b);
+    free(mark);
+    gs_free(reg);
+    gs_model_solver_destroy(&s);
+    gs_model_resem_destroy(&R);
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&lat);
+    gs_model_lattice_destroy(&alt);
 }
 
 /* gs_model_plan_conflicts (buckets) lists exactly the pairs the all-pairs
- * test finds, in the same order, for free, periodic and mirrored axes,
+ * test finds, in the same order, for free, periodic and mirrored axes, with
+ * and without a resemblance window (buckets one reach wider),
  * region edges that divide the extent or not, both passes, and windows
  * that start inside the plan. */
 static void test_plan_conflicts_match_all_pairs(void **state)
@@ -213,17 +342,19 @@ static void test_plan_conflicts_match_all_pairs(void **state)
     static const int regs[][3] = {{10, 8, 0}, {10, 10, 0}, {4, 3, 0}, {8, 8, 0}, {6, 7, 4}};
     static const int modes[][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 1}, {1, 1, 1}};
     size_t total = 0;
+    gs_model_resem_t R2 = small_resem(2);
     for (size_t c = 0; c < sizeof dims / sizeof dims[0]; c++)
-        for (size_t md = 0; md < sizeof modes / sizeof modes[0]; md++)
+        for (size_t md = 0; md < 2 * sizeof modes / sizeof modes[0]; md++)
             for (int pass = 0; pass < 2; pass++) {
                 gs_model_params p;
                 gs_model_params_default(&p);
+                p.resem = md & 1 ? R2 : NULL; /* the window reaches 2 cells, corners too */
                 for (int a = 0; a < 3; a++)
                     p.region[a] = regs[c][a];
-                p.periodic[0] = modes[md][0];
-                p.periodic[1] = modes[md][1];
-                p.mirror[0] = modes[md][2];
-                p.mirror[1] = modes[md][2] && !modes[md][1];
+                p.periodic[0] = modes[md / 2][0];
+                p.periodic[1] = modes[md / 2][1];
+                p.mirror[0] = modes[md / 2][2];
+                p.mirror[1] = modes[md / 2][2] && !modes[md / 2][1];
                 const int *d = dims[c];
                 gs_model_region *reg = NULL;
                 size_t n = 0;
@@ -252,6 +383,7 @@ static void test_plan_conflicts_match_all_pairs(void **state)
                 }
                 gs_free(reg);
             }
+    gs_model_resem_destroy(&R2);
     assert_true(total > 0);
 }
 
@@ -498,6 +630,7 @@ int main(void)
         cmocka_unit_test(test_periodic_output),
         cmocka_unit_test(test_periodic_plan_gap),
         cmocka_unit_test(test_regions_interact),
+        cmocka_unit_test(test_region_reads_only_interacting),
         cmocka_unit_test(test_plan_conflicts_match_all_pairs),
         cmocka_unit_test(test_split_rescues_failed_region),
         cmocka_unit_test(test_pins),
