@@ -6,7 +6,8 @@
  * that obey |x_i - x_j| <= d(i, j) and fill the histogram, but a Lipschitz
  * labelling is not a distance function: plateaus of one value (a bin's
  * placements side by side) lie deeper inside their region than their value
- * says, and the dual graph's polygonal metric makes hexagons. Measured from
+ * says (and the paper's dual-graph metric made hexagons; the ring graph,
+ * geo.c, is isotropic within a few percent). Measured from
  * the regions alone, the result misses the target by L1/n 0.1-0.3 (issue
  * 20). The regions are what the surface shows, so they are corrected.
  *

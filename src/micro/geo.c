@@ -1,5 +1,24 @@
-/* Dual graph of triangles and bounded Dijkstra (paper 4.2: geodesic distance
- * = shortest path between triangle centroids along the dual graph). */
+/* Dual graph of triangles, ring graph and bounded Dijkstra.
+ *
+ * The paper (4.2) takes the geodesic distance between triangles as the
+ * shortest path between centroids along the dual graph (edge neighbours).
+ * On a regular mesh that metric is polygonal: dual paths zigzag, 15-36%
+ * longer than the straight line off the few directions they follow, so its
+ * balls, and every region the reconstruction grows from them, are hexagons
+ * (issue 20). The reconstruction's searches use the ring graph instead: each
+ * triangle linked to every triangle sharing a vertex with it (12 on a
+ * regular mesh), weight = the straight centroid distance. Its paths have
+ * twice as many directions to choose from and deviate from the straight
+ * line by at most 3.5% on a regular mesh (a 40x40 equilateral lattice at
+ * radius 8-12: dual 1.154-1.357, ring 1.000-1.035), so regions come out
+ * round. It stays a graph metric on purpose: the reconstruction's pruned
+ * propagation and its forced values rely on the triangle inequality, which
+ * a wavefront distance (fast marching, or straight lines from virtual
+ * sources) only nearly keeps: tried, such labels broke constraints of the
+ * verifier's metric by up to 0.16 units and left the fill contradictory
+ * bounds. Each ring weight is a chord no longer than the dual path between
+ * the two triangles, so ring distances never exceed dual ones and the
+ * constraints the reconstruction keeps imply the verifier's (dual graph). */
 #include <math.h>
 #include <string.h>
 
@@ -71,6 +90,27 @@ void micro_heap_free(micro_heap *h)
 
 /* ------------------------------------------------------- dual graph -- */
 
+/* Centroid distance (distribution units) of every CSR neighbour pair. */
+static void csr_weights(const gs_micro_mesh *m, uint32_t n, const uint32_t *off, const uint32_t *adj,
+                        double units_per_model, double *w)
+{
+    for (uint32_t t = 0; t < n; t++) {
+        double ct[3] = {0, 0, 0};
+        for (int i = 0; i < 3; i++)
+            for (int c = 0; c < 3; c++)
+                ct[c] += m->pos[3 * (size_t)m->tris[3 * (size_t)t + i] + c];
+        for (uint32_t k = off[t]; k < off[t + 1]; k++) {
+            uint32_t u = adj[k];
+            double cu[3] = {0, 0, 0};
+            for (int i = 0; i < 3; i++)
+                for (int c = 0; c < 3; c++)
+                    cu[c] += m->pos[3 * (size_t)m->tris[3 * (size_t)u + i] + c];
+            double dx = (ct[0] - cu[0]) / 3, dy = (ct[1] - cu[1]) / 3, dz = (ct[2] - cu[2]) / 3;
+            w[k] = sqrt(dx * dx + dy * dy + dz * dz) * units_per_model;
+        }
+    }
+}
+
 gs_err gs_micro_dual_build(const gs_micro_mesh *m, double units_per_model, gs_micro_dual *d)
 {
     GS_CHECK(units_per_model > 0 && isfinite(units_per_model), GS_ERR_ARG,
@@ -81,8 +121,8 @@ gs_err gs_micro_dual_build(const gs_micro_mesh *m, double units_per_model, gs_mi
         GS_CHECK(m->tris[i] < m->nverts, GS_ERR_ARG, "triangle %zu refers to vertex %u of %u", i / 3,
                  m->tris[i], m->nverts);
     gs_err err = GS_OK;
-    uint32_t *voff = NULL, *vtri = NULL, *off = NULL, *adj = NULL;
-    double *w = NULL;
+    uint32_t *voff = NULL, *vtri = NULL, *off = NULL, *adj = NULL, *roff = NULL, *radj = NULL;
+    double *w = NULL, *rw = NULL;
     uint32_t n = m->ntris;
     /* Vertex -> incident triangles (CSR, triangles ascending). */
     GS_TRY(err, gs_alloc_array((void **)&voff, (size_t)m->nverts + 1, sizeof *voff, "vertex incidence"), fail);
@@ -127,23 +167,54 @@ gs_err gs_micro_dual_build(const gs_micro_mesh *m, double units_per_model, gs_mi
             GS_TRY(err, gs_alloc_array((void **)&w, (size_t)off[n] + 1, sizeof *w, "dual graph"), fail);
         }
     }
-    double sum = 0;
-    for (uint32_t t = 0; t < n; t++) {
-        double ct[3] = {0, 0, 0};
-        for (int i = 0; i < 3; i++)
-            for (int c = 0; c < 3; c++)
-                ct[c] += m->pos[3 * (size_t)m->tris[3 * (size_t)t + i] + c];
-        for (uint32_t k = off[t]; k < off[t + 1]; k++) {
-            uint32_t u = adj[k];
-            double cu[3] = {0, 0, 0};
-            for (int i = 0; i < 3; i++)
-                for (int c = 0; c < 3; c++)
-                    cu[c] += m->pos[3 * (size_t)m->tris[3 * (size_t)u + i] + c];
-            double dx = (ct[0] - cu[0]) / 3, dy = (ct[1] - cu[1]) / 3, dz = (ct[2] - cu[2]) / 3;
-            w[k] = sqrt(dx * dx + dy * dy + dz * dz) * units_per_model;
-            sum += w[k];
+    /* Ring graph: every other triangle around t's three vertices, ascending,
+     * without repeats (two passes: count, fill). */
+    GS_TRY(err, gs_alloc_array((void **)&roff, (size_t)n + 1, sizeof *roff, "ring graph"), fail);
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t t = 0; t < n; t++) {
+            uint32_t k = pass ? roff[t] : 0, k0 = k;
+            for (int i = 0; i < 3; i++) {
+                uint32_t a = m->tris[3 * (size_t)t + i];
+                for (uint32_t j = voff[a]; j < voff[a + 1]; j++) {
+                    uint32_t u = vtri[j], dup = u == t;
+                    if (pass)
+                        for (uint32_t q = k0; q < k && !dup; q++)
+                            dup = radj[q] == u;
+                    else
+                        for (int i2 = 0; i2 < i && !dup; i2++) {
+                            uint32_t b = m->tris[3 * (size_t)t + i2];
+                            const uint32_t *uv = m->tris + 3 * (size_t)u;
+                            dup = uv[0] == b || uv[1] == b || uv[2] == b;
+                        }
+                    if (dup)
+                        continue;
+                    if (pass) {
+                        /* insertion keeps the row ascending */
+                        uint32_t q = k;
+                        while (q > k0 && radj[q - 1] > u) {
+                            radj[q] = radj[q - 1];
+                            q--;
+                        }
+                        radj[q] = u;
+                    }
+                    k++;
+                }
+            }
+            if (!pass)
+                roff[t + 1] = k;
+        }
+        if (!pass) {
+            for (uint32_t t = 0; t < n; t++)
+                roff[t + 1] += roff[t];
+            GS_TRY(err, gs_alloc_array((void **)&radj, (size_t)roff[n] + 1, sizeof *radj, "ring graph"), fail);
+            GS_TRY(err, gs_alloc_array((void **)&rw, (size_t)roff[n] + 1, sizeof *rw, "ring graph"), fail);
         }
     }
+    csr_weights(m, n, roff, radj, units_per_model, rw);
+    double sum = 0;
+    csr_weights(m, n, off, adj, units_per_model, w);
+    for (uint32_t k = 0; k < off[n]; k++)
+        sum += w[k];
     gs_free(voff);
     gs_free(vtri);
     d->ntris = n;
@@ -151,6 +222,9 @@ gs_err gs_micro_dual_build(const gs_micro_mesh *m, double units_per_model, gs_mi
     d->adj = adj;
     d->w = w;
     d->mean_w = off[n] ? sum / off[n] : 0;
+    d->roff = roff;
+    d->radj = radj;
+    d->rw = rw;
     return GS_OK;
 fail:
     gs_free(voff);
@@ -158,6 +232,9 @@ fail:
     gs_free(off);
     gs_free(adj);
     gs_free(w);
+    gs_free(roff);
+    gs_free(radj);
+    gs_free(rw);
     return err;
 }
 
@@ -168,6 +245,9 @@ void gs_micro_dual_free(gs_micro_dual *d)
     GS_FREE(d->off);
     GS_FREE(d->adj);
     GS_FREE(d->w);
+    GS_FREE(d->roff);
+    GS_FREE(d->radj);
+    GS_FREE(d->rw);
     d->ntris = 0;
 }
 
@@ -213,15 +293,37 @@ void micro_geo_reset(struct gs_micro_geo *g)
     g->nout = 0;
 }
 
+gs_err micro_geo_seed(struct gs_micro_geo *g, uint32_t src)
+{
+    g->dist[src] = 0;
+    g->touched[g->ntouched++] = src;
+    GS_CALL(micro_heap_push(&g->heap, 0, src));
+    return GS_OK;
+}
+
+gs_err micro_geo_relax(struct gs_micro_geo *g, uint32_t u, double du, double radius)
+{
+    const gs_micro_dual *d = g->dual;
+    for (uint32_t k = d->roff[u]; k < d->roff[u + 1]; k++) {
+        uint32_t v = d->radj[k];
+        double dv = du + d->rw[k];
+        if (dv > radius || dv >= g->dist[v])
+            continue;
+        if (g->dist[v] == INFINITY)
+            g->touched[g->ntouched++] = v;
+        g->dist[v] = dv;
+        GS_CALL(micro_heap_push(&g->heap, dv, v));
+    }
+    return GS_OK;
+}
+
 gs_err gs_micro_geo_ball(gs_micro_geo_t g, uint32_t src, double radius, const uint32_t **tris,
                          const double **dist, size_t *count)
 {
     const gs_micro_dual *d = g->dual;
     GS_CHECK(src < d->ntris, GS_ERR_ARG, "triangle %u of %u", src, d->ntris);
     micro_geo_reset(g);
-    g->dist[src] = 0;
-    g->touched[g->ntouched++] = src;
-    GS_CALL(micro_heap_push(&g->heap, 0, src));
+    GS_CALL(micro_geo_seed(g, src));
     double du;
     uint32_t u;
     while (micro_heap_pop(&g->heap, &du, &u)) {
@@ -239,16 +341,7 @@ gs_err gs_micro_geo_ball(gs_micro_geo_t g, uint32_t src, double radius, const ui
         }
         g->out_tris[g->nout] = u;
         g->out_dist[g->nout++] = du;
-        for (uint32_t k = d->off[u]; k < d->off[u + 1]; k++) {
-            uint32_t v = d->adj[k];
-            double dv = du + d->w[k];
-            if (dv > radius || dv >= g->dist[v])
-                continue;
-            if (g->dist[v] == INFINITY)
-                g->touched[g->ntouched++] = v;
-            g->dist[v] = dv;
-            GS_CALL(micro_heap_push(&g->heap, dv, v));
-        }
+        GS_CALL(micro_geo_relax(g, u, du, radius));
     }
     *tris = g->out_tris;
     *dist = g->out_dist;

@@ -65,5 +65,11 @@ struct gs_micro_geo {
 };
 /* Forgets the previous query (resets only what it touched). */
 void micro_geo_reset(struct gs_micro_geo *g);
+/* Starts a query at triangle src (after micro_geo_reset). */
+gs_err micro_geo_seed(struct gs_micro_geo *g, uint32_t src);
+/* Settles u (popped at distance du): offers each ring neighbour its distance
+ * through u, up to radius. The one step of every search of the
+ * reconstruction (geo.c). */
+gs_err micro_geo_relax(struct gs_micro_geo *g, uint32_t u, double du, double radius);
 
 #endif

@@ -1,6 +1,7 @@
 /* Stochastic reconstruction (paper 4.4): label every triangle with a signed
  * distance value so that the labels follow the histogram and every pair obeys
- * |x_i - x_j| <= d(i, j) (d: geodesic distance over the dual graph).
+ * |x_i - x_j| <= d(i, j) (d: geodesic distance over the ring graph, geo.c;
+ * the paper's dual graph grows hexagons).
  *
  * Bins are processed from the highest magnitude down to 0, positive before
  * negative at each magnitude. Each unassigned triangle keeps a range
@@ -383,7 +384,6 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
                     int check, size_t *nrec, int *ok)
 {
     struct gs_micro_geo *g = r->geo;
-    const gs_micro_dual *d = r->d;
     const gs_micro_state *st = &r->st;
     const int64_t *count = r->h->count;
     uint32_t K = st->nbins, ntb = 0;
@@ -413,9 +413,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
         }
         BAND(bound(st, s, c), a);
     }
-    g->dist[c] = 0;
-    g->touched[g->ntouched++] = c;
-    GS_CALL(micro_heap_push(&g->heap, 0, c));
+    GS_CALL(micro_geo_seed(g, c));
     double du;
     uint32_t u;
     double radius = a + floor_b;
@@ -442,16 +440,7 @@ static gs_err probe(struct gs_micro_recon *r, uint32_t c, int s, double a, doubl
                 }
             }
         }
-        for (uint32_t k = d->off[u]; k < d->off[u + 1]; k++) {
-            uint32_t v = d->adj[k];
-            double dv = du + d->w[k];
-            if (dv > radius || dv >= g->dist[v])
-                continue;
-            if (g->dist[v] == INFINITY)
-                g->touched[g->ntouched++] = v;
-            g->dist[v] = dv;
-            GS_CALL(micro_heap_push(&g->heap, dv, v));
-        }
+        GS_CALL(micro_geo_relax(g, u, du, radius));
     }
 #undef DELTA
 #undef BAND
@@ -471,9 +460,9 @@ static int sure_overflow(const struct gs_micro_recon *r, uint32_t c, int s, doub
     const gs_micro_dual *d = r->d;
     const gs_micro_state *st = &r->st;
     double bc = bound(st, s, c);
-    for (uint32_t k = d->off[c]; k < d->off[c + 1]; k++) {
-        double w = d->w[k];
-        if (w < 1 && bc + w < a - 1 - 1e-9 && st->label[d->adj[k]] == GS_MICRO_UNASSIGNED)
+    for (uint32_t k = d->roff[c]; k < d->roff[c + 1]; k++) {
+        double w = d->rw[k];
+        if (w < 1 && bc + w < a - 1 - 1e-9 && st->label[d->radj[k]] == GS_MICRO_UNASSIGNED)
             return 1;
     }
     return 0;

@@ -45,14 +45,16 @@ static void test_geodesic_flat_grid(void **state)
 {
     (void)state;
     gs_micro_mesh m = {0};
-    grid_mesh(&m, 8, 6);
+    grid_mesh(&m, 12, 10);
     uint32_t n = m.ntris;
     const double scale = 2.5;
     gs_micro_dual d;
     assert_int_equal(gs_micro_dual_build(&m, scale, &d), GS_OK);
-    /* Exact all-pairs shortest paths over the dual graph by Floyd-Warshall,
-     * with adjacency found by brute force (two shared vertices). */
-    double *D = malloc(sizeof(double) * n * n);
+    /* Exact all-pairs shortest paths by Floyd-Warshall, with adjacency found
+     * by brute force: D over the ring graph (any shared vertex), E over the
+     * dual graph (two shared vertices, the paper's), straight centroid
+     * distances as weights. */
+    double *D = malloc(sizeof(double) * n * n), *E = malloc(sizeof(double) * n * n);
     for (uint32_t i = 0; i < n; i++)
         for (uint32_t j = 0; j < n; j++) {
             int shared = 0;
@@ -61,23 +63,32 @@ static void test_geodesic_flat_grid(void **state)
                     shared += m.tris[3 * i + a] == m.tris[3 * j + b];
             double ci[3], cj[3];
             centroid(&m, i, ci), centroid(&m, j, cj);
-            D[i * n + j] = i == j ? 0 : shared == 2 ? scale * sqrt((ci[0] - cj[0]) * (ci[0] - cj[0]) +
-                                                                    (ci[1] - cj[1]) * (ci[1] - cj[1]))
-                                                     : INFINITY;
+            double e = scale * hypot(ci[0] - cj[0], ci[1] - cj[1]);
+            D[i * n + j] = i == j ? 0 : shared >= 1 ? e : INFINITY;
+            E[i * n + j] = i == j ? 0 : shared == 2 ? e : INFINITY;
         }
     for (uint32_t k = 0; k < n; k++)
         for (uint32_t i = 0; i < n; i++)
-            for (uint32_t j = 0; j < n; j++)
+            for (uint32_t j = 0; j < n; j++) {
                 if (D[i * n + k] + D[k * n + j] < D[i * n + j])
                     D[i * n + j] = D[i * n + k] + D[k * n + j];
+                if (E[i * n + k] + E[k * n + j] < E[i * n + j])
+                    E[i * n + j] = E[i * n + k] + E[k * n + j];
+            }
     uint32_t edges = 0;
     for (uint32_t t = 0; t < n; t++)
         edges += d.off[t + 1] - d.off[t];
-    assert_int_equal(edges, 2 * (3 * 8 * 6 - 8 - 6)); /* interior edges of the grid, both ways */
+    assert_int_equal(edges, 2 * (3 * 12 * 10 - 12 - 10)); /* interior edges of the grid, both ways */
+    /* The reconstruction's distance (gs_micro_geo_ball) is the ring graph's:
+     * exact, never longer than the dual path (the verifier's metric) nor
+     * shorter than the straight line, and isotropic: within 10% of the
+     * straight line on this right-angled grid beyond 3 squares, where the
+     * dual graph's hop paths run up to 1.8x as long. Hop distances over the
+     * dual graph (the hexagons of issue 20) fail this. */
     gs_micro_geo_t g;
     assert_int_equal(gs_micro_geo_create(&d, &g), GS_OK);
-    const double radius = 9.0;
-    double worst = 0;
+    const double radius = 14.87; /* no centroid distance sum lands on it exactly */
+    double worst = 0, worst_dual = 0;
     for (uint32_t s = 0; s < n; s++) {
         const uint32_t *bt;
         const double *bd;
@@ -87,24 +98,29 @@ static void test_geodesic_flat_grid(void **state)
         for (uint32_t j = 0; j < n; j++)
             expect += D[s * n + j] <= radius;
         assert_int_equal(cnt, expect);
+        double cs[3], cj[3];
+        centroid(&m, s, cs);
         for (size_t i = 0; i < cnt; i++) {
             assert_true(fabs(bd[i] - D[s * n + bt[i]]) < 1e-12);
             if (i)
                 assert_true(bd[i] >= bd[i - 1]);
-            /* the dual path is never shorter than the straight line */
-            double cs[3], cj[3];
-            centroid(&m, s, cs), centroid(&m, bt[i], cj);
+            assert_true(bd[i] <= E[s * n + bt[i]] + 1e-12);
+            centroid(&m, bt[i], cj);
             double e = scale * hypot(cs[0] - cj[0], cs[1] - cj[1]);
             assert_true(bd[i] >= e - 1e-9);
-            if (e > 0)
+            if (e > 3 * scale) {
                 worst = fmax(worst, bd[i] / e);
+                worst_dual = fmax(worst_dual, E[s * n + bt[i]] / e);
+            }
         }
     }
-    printf("dual path / straight line: worst %.3f\n", worst);
-    assert_true(worst > 1.0 && worst < 2.5); /* vertex-sharing neighbours take a detour */
+    printf("geodesic / straight line beyond 3 squares: worst %.3f (dual graph paths: %.3f)\n", worst, worst_dual);
+    assert_true(worst < 1.10);
+    assert_true(worst_dual > 1.3); /* the metric it replaces */
     gs_micro_geo_destroy(&g);
     assert_null(g);
     free(D);
+    free(E);
     gs_micro_dual_free(&d);
     gs_micro_mesh_free(&m);
 }
@@ -340,8 +356,8 @@ static void test_paper_variant(void **state)
     gs_rng rng;
     gs_rng_init(&rng, 5, 0);
     assert_int_equal(gs_micro_verify(&f.m, f.upm, &f.h, v, l, f.m.ntris, &rng, &rep), GS_OK);
-    printf("paper variant, %u tris: violations %llu unassigned %.2f%%\n", f.m.ntris,
-           (unsigned long long)rep.violations, 100 * rep.unassigned_share);
+    printf("paper variant, %u tris: violations %llu (max excess %.3g) unassigned %.2f%%\n", f.m.ntris,
+           (unsigned long long)rep.violations, rep.max_excess, 100 * rep.unassigned_share);
     assert_int_equal(rep.violations, 0);
     assert_true(rep.unassigned_share > 0.01);
     gs_micro_report_free(&rep);
@@ -448,10 +464,10 @@ static void test_random_dist_fill(void **state)
             gs_rng_init(&vrng, 5, 0);
             assert_int_equal(gs_micro_verify(&m, upm, &h, st->value, st->label, 300, &vrng, &rep), GS_OK);
             printf("random dist %d/%llu, K=%u, %u tris: unassigned %.3f%%, abs bin error %lld, "
-                   "violations %llu of %llu pairs\n",
+                   "violations %llu of %llu pairs (max excess %.3g)\n",
                    ri, (unsigned long long)ds, h.nbins, m.ntris, 100 * rep.unassigned_share,
                    (long long)rep.abs_error_sum, (unsigned long long)rep.violations,
-                   (unsigned long long)rep.pairs_checked);
+                   (unsigned long long)rep.pairs_checked, rep.max_excess);
             assert_int_equal(rep.violations, 0);
             /* the bins only fall short, never overflow: error = unassigned */
             assert_int_equal(rep.abs_error_sum, (int64_t)rep.unassigned);
@@ -486,7 +502,7 @@ static void test_random_dist_fill(void **state)
         }
     printf("random dists: mean unassigned %.3f%%, worst %.3f%%\n", 100 * sum_share / runs, 100 * worst);
     assert_true(sum_share / runs < 0.01);
-    assert_true(worst < 0.04); /* dist 0/1: 3.3%, the zero band needs more than bin 0 holds */
+    assert_true(worst < 0.05); /* dist 0/1: 4.1% (3.3% in the dual graph), the zero band needs more than bin 0 holds */
     gs_micro_dual_free(&d);
     gs_micro_mesh_free(&m);
 }
