@@ -87,6 +87,61 @@ static void test_grid_vs_brute_force(void **state)
     gs_points_free(&keep);
 }
 
+static int cmp_size(const void *a, const void *b)
+{
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The index grid answers exactly the brute-force set of indices within r
+ * (also for points outside its bounds), each once; gs_points_grid_any_within
+ * says whether
+ * a point lies strictly closer than r. */
+static void test_index_grid_vs_brute_force(void **state)
+{
+    (void)state;
+    gs_points pts = {0};
+    random_points(&pts, 3000, 5);
+    double lo[3] = {0, 0, 0}, hi[3] = {8, 8, 3}; /* some points lie outside: border buckets */
+    gs_points_index_grid *ig = NULL;
+    assert_int_equal(gs_points_index_grid_create(pts.v, pts.n, lo, hi, 0.6, &ig), GS_OK);
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, 0.6, &g), GS_OK);
+    for (size_t i = 0; i < pts.n; i++)
+        assert_int_equal(gs_points_grid_add(g, &pts.v[i]), GS_OK);
+    gs_points_indices got = {0};
+    size_t *expect = malloc(pts.n * sizeof *expect);
+    assert_non_null(expect);
+    gs_rng r;
+    gs_rng_init(&r, 9, 3);
+    for (int t = 0; t < 200; t++) {
+        double c[3] = {gs_rng_uniform(&r) * 12 - 2, gs_rng_uniform(&r) * 10 - 1,
+                       gs_rng_uniform(&r) * 5 - 1};
+        double rad = 0.05 + 1.2 * gs_rng_uniform(&r);
+        got.n = 0;
+        assert_int_equal(gs_points_index_grid_query(ig, c, rad, &got), GS_OK);
+        size_t ne = 0, closer = 0;
+        for (size_t i = 0; i < pts.n; i++) {
+            double dx = pts.v[i].p[0] - c[0], dy = pts.v[i].p[1] - c[1], dz = pts.v[i].p[2] - c[2];
+            double d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 <= rad * rad)
+                expect[ne++] = i;
+            closer += d2 < rad * rad;
+        }
+        assert_int_equal(got.n, ne);
+        qsort(got.v, got.n, sizeof *got.v, cmp_size);
+        if (ne)
+            assert_memory_equal(got.v, expect, ne * sizeof *expect);
+        assert_int_equal(gs_points_grid_any_within(g, c, rad), closer > 0);
+    }
+    free(expect);
+    gs_free(got.v);
+    gs_points_index_grid_destroy(&ig);
+    assert_null(ig);
+    gs_points_grid_destroy(&g);
+    gs_points_free(&pts);
+}
+
 /* Points on a sphere of radius rad (Fibonacci lattice), outward normals. */
 static void sphere_points(gs_points *s, int n, double rad)
 {
@@ -606,6 +661,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_grid_vs_brute_force),
+        cmocka_unit_test(test_index_grid_vs_brute_force),
         cmocka_unit_test(test_grid_nearest_vs_brute_force),
         cmocka_unit_test(test_mls_projection_plane_sphere),
         cmocka_unit_test(test_tps_interpolates_and_affine),
