@@ -30,6 +30,7 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
 }
 
 /* Index of the example's neighbourhoods for resemblance (src/model/resemble.c). */
+#define GS_MODEL_RESEM_MAX_B 8 /* counter bits (solver.c keeps 8 planes): Q < 2^8 */
 struct gs_model_resem {
     int w, Q;          /* window radius, neighbours per window ((2w+1)^3 - 1) */
     int *off;          /* [Q][3] neighbour offsets */
@@ -41,7 +42,7 @@ struct gs_model_resem {
     int32_t *slot;     /* [Q][L] bitset of (offset, label), -1 = none */
     uint64_t *bits;    /* [nslots][PW] */
     size_t nslots;
-    int B;             /* bits of the match counters */
+    int B;             /* bits of the match counters (<= GS_MODEL_RESEM_MAX_B) */
     int slack;         /* d0 - minimum distance */
     int nz, layers;    /* example layers; layers = 1: a cell at height z only draws
                           patterns found at example layer min(z, nz - 1) */

@@ -162,6 +162,8 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
     int B = 1;
     while ((1 << B) <= Q)
         B++;
+    GS_TRY_CHECK(err, B <= GS_MODEL_RESEM_MAX_B, GS_ERR_INTERNAL, fail,
+                 "resemblance: %d neighbours need %d counter bits", Q, B);
     r->B = B;
     gs_free(rows);
     *out = r;

@@ -758,7 +758,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     const struct gs_model_resem *R = s->resem;
     const size_t W = (size_t)s->W, PW = (size_t)R->PW;
     const uint64_t *dc = s->dom + (size_t)c * W;
-    const size_t need = PW * (size_t)(R->B + 4);
+    const size_t need = PW * (size_t)(R->B + 4) + (size_t)R->Q;
     if (need > s->rs_cap) {
         uint64_t *nb = gs_realloc(s->rs_buf, need * 8);
         if (!nb)
@@ -768,7 +768,8 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     }
     uint64_t *cand = s->rs_buf, *mask = cand + PW, *tmp = mask + PW, *cnt = tmp + PW;
     uint32_t *act = (uint32_t *)(cnt + (size_t)R->B * PW); /* words with a candidate */
-    size_t nact = 0;
+    uint64_t *nbl = cnt + (size_t)(R->B + 1) * PW; /* [Q] bitsets of the decided neighbours */
+    size_t nact = 0, nn = 0;
     /* candidate patterns: the centre runs of the candidate labels */
     size_t wlo = PW, whi = 0;
     for (size_t w = 0; w < W; w++)
@@ -817,12 +818,9 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         }
     }
     for (size_t w = wlo; w < whi; w++)
-        if (cand[w]) {
+        if (cand[w])
             act[nact++] = (uint32_t)w;
-            for (int b = 0; b < R->B; b++)
-                cnt[(size_t)b * PW + w] = 0;
-        }
-    /* add the bitset of every decided neighbour */
+    /* the bitset of every decided neighbour */
     const int rx = s->box_rx, ry = s->box_ry, rz = s->box_rz;
     const int x = c % rx, y = (c / rx) % ry, z = c / (rx * ry);
     const gs_model_lattice *lat = s->lat;
@@ -851,19 +849,33 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         if (label >= R->L)
             continue;
         int32_t slot = R->slot[(size_t)q * (size_t)R->L + (size_t)label];
-        if (slot < 0)
-            continue;
-        const uint64_t *bs = R->bits + (size_t)slot * PW;
-        for (size_t j = 0; j < nact; j++) {
-            const size_t w = act[j];
-            uint64_t carry = bs[w] & cand[w];
-            for (int b = 0; carry && b < R->B; b++) {
-                uint64_t *cb = cnt + (size_t)b * PW + w;
-                uint64_t t = *cb & carry;
-                *cb ^= carry;
-                carry = t;
-            }
+        if (slot >= 0)
+            nbl[nn++] = (uint64_t)slot * PW;
+    }
+    /* match counts: the neighbours' bits added into bit-sliced counters, one
+     * candidate word at a time with the 8 counter planes in registers
+     * (counts <= Q < 2^B, B <= 7 for w <= 2, so the planes above B stay 0).
+     * Adding neighbour by neighbour over every word loaded and stored the
+     * planes each time: most of the choice's time. */
+    for (size_t j = 0; j < nact; j++) {
+        const size_t w = act[j];
+        const uint64_t cw = cand[w];
+        const uint64_t *bw = R->bits + w;
+        uint64_t p0 = 0, p1 = 0, p2 = 0, p3 = 0, p4 = 0, p5 = 0, p6 = 0, p7 = 0, t;
+        for (size_t i = 0; i < nn; i++) {
+            uint64_t carry = bw[nbl[i]] & cw;
+            t = p0 & carry; p0 ^= carry; carry = t;
+            t = p1 & carry; p1 ^= carry; carry = t;
+            t = p2 & carry; p2 ^= carry; carry = t;
+            t = p3 & carry; p3 ^= carry; carry = t;
+            t = p4 & carry; p4 ^= carry; carry = t;
+            t = p5 & carry; p5 ^= carry; carry = t;
+            t = p6 & carry; p6 ^= carry; carry = t;
+            p7 ^= carry;
         }
+        const uint64_t planes[8] = {p0, p1, p2, p3, p4, p5, p6, p7};
+        for (int b = 0; b < R->B; b++)
+            cnt[(size_t)b * PW + w] = planes[b];
     }
     /* the highest count among the candidates: top bit down */
     memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
