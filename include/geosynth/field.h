@@ -323,7 +323,9 @@ typedef struct gs_field_synth_config {
     int64_t target[3];               /* final target size; each divisible by 2^(iterations-1) */
     int block[GS_FIELD_MAX_ITER];    /* block size per iteration, coarse to fine (paper: last 16) */
     uint64_t seed;                   /* seeds the random source samples of iteration 0 */
-    int mask_unsynthesized;          /* 0 (paper): match whole blocks, seed values included;
+    int mask_unsynthesized;          /* 0 (paper): match whole blocks, the random seeds of
+                                        iteration 0 at weight GS_FIELD_PAPER_SEED_WEIGHT
+                                        (src/field/field_impl.h), later the coarse result fully;
                                         1: unsynthesized samples are unknown in the query,
                                         weighted by seed_weight */
     int seed_weight;                 /* 0..256 (1/256): weight of the unsynthesized samples

@@ -181,7 +181,8 @@ static const gs_cfg_key field_keys[] = {
                     "target samples x y z (paper: 128^3 from a 64^3 source)"),
     GS_CFG_KEY_BOOL(field_config, mask_unsynthesized, "field.mask_unsynthesized", "yes",
                     "yes: only synthesized samples count in a match (faithful statistics); "
-                    "no: the paper's whole blocks incl. random seeds (biased, see configs/field)"),
+                    "no: the paper's whole blocks, its random seeds only breaking ties (at full weight "
+                    "they outweigh the overlap)"),
     GS_CFG_KEY_REAL(field_config, seed_weight, "field.seed_weight", 0, 1, 0, "0",
                     "masked matching: weight of unsynthesized samples (seeds, coarse result) "
                     "against synthesized ones; 0 = ignored (copies the source), 1 = paper"),

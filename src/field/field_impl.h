@@ -4,6 +4,27 @@
 
 #include "geosynth/field.h"
 
+/* Weight (1/256) of the random seeds of iteration 0 in the paper's
+ * whole-block matching (mask_unsynthesized = no). The paper (5.1) seeds the
+ * target with random source samples because "these will match approximately
+ * equally well with any block in the source, so the matching process is
+ * dominated by the overlap". In squared distance they do not: a seed X costs
+ * a candidate value b on average (b - mu)^2 + var(X), and the quantized
+ * truncated distance field is bimodal (quick.ini: mu = 200 of 255, so a seed
+ * costs an inside value 43,900 and an outside one 4,000-6,900 per sample,
+ * while the best overlap costs about 72 per sample). At weight 1 the 1/8 of
+ * seeds outweighs the 7/8 of overlap ~100 times and every match is pulled
+ * towards blocks near the source's mean, i.e. outside: quick.ini volume
+ * fraction 0.067 vs the source's 0.163 (single resolution 0.009). For the
+ * seeds to leave the overlap in charge, their cost spread over the source's
+ * values (~4e4 per seed) times their weight must stay below one level^2 per
+ * overlap sample (7 per seed): w < 2e-4, below the smallest weight the exact
+ * integer distance holds (1/256). So they weigh 1/256: they break ties
+ * among equally good overlaps (the randomness the paper wants them for),
+ * nothing more. From iteration 1 on there are no random seeds and the whole
+ * block counts, as in the paper. */
+#define GS_FIELD_PAPER_SEED_WEIGHT 1
+
 #define GS_FIELD_MAX_LEVEL 5 /* log2 of the largest block size (32) */
 
 /* A pyramid cell of c = 8^m samples: their sum S and their spread

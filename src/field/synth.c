@@ -9,9 +9,11 @@
  * raster (x fastest) at a stride of B/2, the last position of each axis
  * clamped to the target edge, so after the first row each new block has one
  * unsynthesized octant (paper: "1/8th of the block"). The best match of the
- * whole block (paper) -- or, with mask_unsynthesized, of its synthesized
- * samples plus seed_weight/256 times its unsynthesized ones (seeds, coarse
- * result; 0 = ignored) -- is copied into the unsynthesized samples. With
+ * whole block (paper; its random seeds of iteration 0 at the weight
+ * GS_FIELD_PAPER_SEED_WEIGHT, field_impl.h says why) -- or, with
+ * mask_unsynthesized, of its synthesized samples plus seed_weight/256 times
+ * its unsynthesized ones (seeds, coarse result; 0 = ignored) -- is copied
+ * into the unsynthesized samples. With
  * seed_blocks, iteration 0 starts from tiles of random source blocks.
  *
  * Measured (seed 1 and 2, quality against the source; see configs/field):
@@ -440,8 +442,17 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     /* with masking, the first block (nothing known yet) is matched on its
      * seeds; after iteration 0 the unsynthesized samples hold the upsampled
      * coarse result, weighted by coarse_weight (256: the whole block) */
-    int w = it > 0 ? s->cfg.coarse_weight : s->cfg.seed_weight;
-    int masked = s->cfg.mask_unsynthesized && any_known > 0 && w < 256;
+    int w, masked;
+    if (s->cfg.mask_unsynthesized) {
+        w = it > 0 ? s->cfg.coarse_weight : s->cfg.seed_weight;
+        masked = any_known > 0 && w < 256;
+    } else {
+        /* the paper: whole blocks, the coarse result at full weight; its
+         * random seeds "match approximately equally well with any block" only
+         * if they weigh next to nothing (see GS_FIELD_PAPER_SEED_WEIGHT) */
+        w = GS_FIELD_PAPER_SEED_WEIGHT;
+        masked = it == 0 && any_known > 0;
+    }
     gs_field_query q = {B, s->qval, masked ? s->qknown : NULL, w};
     gs_field_search_opts opts = {0};
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */

@@ -104,12 +104,12 @@ assert m["copy_largest_region_of_source"] < 0.25, m["copy_largest_region_of_sour
 # a distance field after redistancing: neighbour steps within the source's
 assert m["step_violations_redistanced"] <= m["step_violations_src"] + 1e-3, m["step_violations_redistanced"]
 EOF
-# the literal paper mode is measurably worse on the same example (why masked is the default)
+# the literal paper mode runs and is not the masked result (its statistics:
+# e2e/field_guided)
 run_gs 1 field -c "$Q" -o paper --set field.mask_unsynthesized=no --set output.geometry=none --set output.vdb=no
 expect_rc 0 "paper's whole-block matching runs"
-c_paper=$(metric paper coherence) c_mask=$(metric np1 coherence)
-/usr/bin/python3 -c "import sys; sys.exit(0 if float('$c_paper') > 3 * float('$c_mask') else 1)" &&
-  ok "whole-block matching is less coherent ($c_paper vs $c_mask)" || bad "paper mode coherence $c_paper vs masked $c_mask"
+[[ -n "$(digest_of paper)" && "$(digest_of paper)" != "$ref" ]] && ok "whole-block matching differs from masked" ||
+  bad "whole-block digest $(digest_of paper) vs masked $ref"
 
 # --- weighted seeds (field.seed_weight) and random-block seeding: exact and
 # deterministic too (the weighted distance is searched with weighted bounds,
