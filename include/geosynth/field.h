@@ -284,8 +284,19 @@ typedef struct gs_field_search_opts {
      * query holds random seed samples; here K is measured on the source and
      * on the query separately, so the bound is always valid (with random
      * seeds it is merely too loose to prune). Applied only to fully known
-     * queries. Results are identical with or without it. */
+     * queries. Results are identical with or without it. It is applied when
+     * a node past the octant steps is expanded, which the tree as built
+     * never asks for (leaves are completed as their parent trie node is
+     * expanded), so it never prunes: the synthesis prunes with start_bound
+     * instead (field.upper_bound, src/field/synth.c candidate_bound). */
     int use_upper_bound;
+    /* > 0: an upper bound on the best distance known before the search (the
+     * exact distance of a candidate block in the tree, e.g. the continuation
+     * of the neighbouring block's match): subtrees whose lower bound passes
+     * it are dropped from the start. The answer is the same (ties still go to
+     * the lowest index: blocks at exactly this distance are kept); a search
+     * over part of the tree that holds no block within it finds nothing. */
+    uint64_t start_bound;
     /* Called every poll_every pops (when poll != NULL) with the shared bound;
      * it may lower *bound (e.g. to the best distance other ranks found). */
     void (*poll)(void *ctx, uint64_t *bound);

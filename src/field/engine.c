@@ -192,8 +192,10 @@ static const gs_cfg_key field_keys[] = {
                     "(multi-resolution then does nothing)"),
     GS_CFG_KEY_BOOL(field_config, seed_blocks, "field.seed_blocks", "no",
                     "iteration 0 starts from random source blocks instead of random samples"),
-    GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "no",
-                    "queue pruning with the paper's upper bound (eq. 3); same result"),
+    GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "yes",
+                    "queue pruning after iteration 0 (paper eq. 3's role): each search starts "
+                    "bounded by the exact distance of the neighbour's match continued; same "
+                    "result, fewer queue entries"),
     GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "

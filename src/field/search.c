@@ -474,6 +474,8 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
     out->known = s->known;
     int use_ub = opts->use_upper_bound && s->known == ((int64_t)1 << (3 * L));
     uint64_t bnd = *bound;
+    if (opts->start_bound && opts->start_bound < bnd)
+        bnd = opts->start_bound;
     const uint64_t inf = UINT64_MAX;
 #define SCALED(b) ((b) > (inf >> (3 * L)) ? inf : (b) << (3 * L))
     uint64_t bnd_scaled = SCALED(bnd);

@@ -50,6 +50,8 @@ struct gs_field_synth {
     /* target regions of the current iteration (region_blocks > 0), sorted
      * by (color, id); order[cursor] = block index (x fastest over npos) */
     int64_t *order;               /* NULL: the raster order */
+    int64_t *match_at;            /* per block position of the iteration: matched index + 1
+                                     (0: not yet), for the upper bound's candidate */
     int64_t nreg;
     gs_field_region *reg;
     uint8_t *scratch;             /* 2 x the largest region box: target, mask */
@@ -236,6 +238,11 @@ static gs_err enter_iteration(struct gs_field_synth *s)
         s->npos[a] = n;
     }
     s->st.blocks_in_iteration = s->npos[0] * s->npos[1] * s->npos[2];
+    gs_free(s->match_at);
+    s->match_at = NULL;
+    GS_CALL(gs_alloc_array((void **)&s->match_at, (size_t)s->st.blocks_in_iteration,
+                           sizeof *s->match_at, "block matches"));
+    memset(s->match_at, 0, (size_t)s->st.blocks_in_iteration * sizeof *s->match_at);
     GS_CALL(build_regions(s, B));
     gs_free(s->qval);
     gs_free(s->qknown);
@@ -357,6 +364,7 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_free(s->qval);
     gs_free(s->qknown);
     gs_free(s->order);
+    gs_free(s->match_at);
     gs_free(s->reg);
     gs_free(s->scratch);
     GS_FREE(*sp);
@@ -425,8 +433,30 @@ static void block_pos(const struct gs_field_synth *s, int64_t cursor, int64_t p[
 
 /* Matches the block at target position p on view v (the hook: serial path
  * only). */
+/* Upper bound for the queue pruning (iterations >= 1, whole tree): the exact
+ * distance of the continuation of the x-neighbour's match (its source block
+ * moved by the same step), 0 when there is none. The overlap the query
+ * shares with that neighbour was mostly copied from it, so the continuation
+ * is usually close to the best match. */
+static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const gs_field_query *q)
+{
+    int64_t ix = b % s->npos[0];
+    if (ix == 0 || !s->match_at[b - 1])
+        return 0;
+    const gs_qfield *ls = s->level_src;
+    int B = q->block;
+    int64_t bp[3];
+    gs_field_block_position(ls, B, s->match_at[b - 1] - 1, bp);
+    int64_t x = bp[0] + s->pos[0][ix] - s->pos[0][ix - 1];
+    if (x + B > ls->nx)
+        return 0;
+    int64_t bx = ls->nx - B + 1, by = ls->ny - B + 1;
+    uint64_t d = gs_field_block_distance(ls, x + bx * (bp[1] + by * bp[2]), q);
+    return d ? d : 1;
+}
+
 static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
-                          int use_hook, block_result *r)
+                          int64_t b, int use_hook, block_result *r)
 {
     int it = s->st.iteration, B = s->cfg.block[it];
     int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
@@ -456,6 +486,8 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     gs_field_query q = {B, s->qval, masked ? s->qknown : NULL, w};
     gs_field_search_opts opts = {0};
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
+    if (opts.use_upper_bound && s->cfg.tree_shards <= 1)
+        opts.start_bound = candidate_bound(s, b, &q);
     gs_field_match m;
     if (use_hook && s->cfg.match)
         GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, &q, &opts, &m));
@@ -465,6 +497,7 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     uint64_t wk, wu;
     gs_field_query_weights(&q, &wk, &wu);
     r->index = m.index;
+    s->match_at[b] = m.index + 1;
     r->nd = m.known ? (double)m.dist / (double)wk / (double)m.known : 0;
     r->pops = m.pops;
     r->pushes = m.pushes;
@@ -532,7 +565,7 @@ static gs_err synth_block(struct gs_field_synth *s)
     block_pos(s, s->st.cursor, p);
     synth_view v = whole_view(s);
     block_result r;
-    GS_CALL(match_block(s, &v, p, 1, &r));
+    GS_CALL(match_block(s, &v, p, s->order ? s->order[s->st.cursor] : s->st.cursor, 1, &r));
     copy_block(s, &v, p, r.index, 1);
     account(s, &r);
     return GS_OK;
@@ -606,7 +639,7 @@ gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out)
         int64_t p[3];
         block_pos(s, g->first + i, p);
         block_result r;
-        GS_CALL(match_block(s, &v, p, 0, &r));
+        GS_CALL(match_block(s, &v, p, s->order[g->first + i], 0, &r));
         copy_block(s, &v, p, r.index, 0);
         memcpy(&res[i], &r, sizeof r);
     }
@@ -636,6 +669,7 @@ gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const voi
                  (long long)region, (long long)i, (long long)r.index, (long long)M);
         int64_t p[3];
         block_pos(s, s->st.cursor, p);
+        s->match_at[s->order[s->st.cursor]] = r.index + 1;
         copy_block(s, &v, p, r.index, 1);
         account(s, &r);
     }

@@ -36,6 +36,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/field.h"
 #include "geosynth/field_examples.h"
 #include "geosynth/file.h"
@@ -686,6 +687,49 @@ static int run_case(int64_t n, int B, int queries, int brute_queries, int64_t br
     return ok;
 }
 
+/* One whole synthesis with cfg (one core); the result's digest in *digest. */
+static gs_field_synth_t synthesize(const gs_qfield *src, const gs_field_synth_config *cfg,
+                                   double *seconds, uint64_t *digest)
+{
+    gs_field_synth_t syn = NULL;
+    double t0 = gs_time_now();
+    if (gs_field_synth_create(src, cfg, &syn) != GS_OK) {
+        gs_error_report("bench_field: ");
+        return NULL;
+    }
+    int finished = 0;
+    while (!finished) {
+        if (gs_field_synth_run(syn, 64, &finished) != GS_OK) {
+            gs_error_report("bench_field: ");
+            gs_field_synth_destroy(&syn);
+            return NULL;
+        }
+        const gs_field_synth_state *st = gs_field_synth_get_state(syn);
+        fprintf(stderr, "\rbench_field: synthesis%s iteration %d block %lld/%lld   ",
+                cfg->use_upper_bound ? "" : " (no upper bound)", st->iteration,
+                (long long)st->cursor, (long long)st->blocks_in_iteration);
+    }
+    fprintf(stderr, "\n");
+    *seconds = gs_time_now() - t0;
+    const gs_field_synth_state *st = gs_field_synth_get_state(syn);
+    *digest = gs_digest_bytes(st->target, (size_t)(st->tn[0] * st->tn[1] * st->tn[2]));
+    return syn;
+}
+
+static void print_iterations(const gs_field_synth_config *cfg, const gs_field_synth_state *st)
+{
+    for (int i = 0; i < cfg->iterations; i++)
+        printf("%s{\"matches\": %lld, \"mean_dist\": %.2f, \"max_dist\": %.2f, \"mean_pops\": %.0f, "
+               "\"pops\": %llu, \"pushes\": %llu}",
+               i ? ", " : "", (long long)st->stat_count[i],
+               st->stat_count[i] ? st->stat_sum[i] / st->stat_count[i] : 0, st->stat_max[i],
+               st->stat_count[i] ? (double)st->stat_pops[i] / st->stat_count[i] : 0,
+               (unsigned long long)st->stat_pops[i], (unsigned long long)st->stat_pushes[i]);
+}
+
+/* The engine's default synthesis of the 64^3 shape (3 iterations, 128^3),
+ * with the queue pruning (field.upper_bound, the default) and without it:
+ * the same result (digest), the pops and queue pushes of each iteration. */
 static int run_synthesis(gs_field_shape shape)
 {
     gs_field *f = NULL;
@@ -695,33 +739,24 @@ static int run_synthesis(gs_field_shape shape)
     gs_field_destroy(&f);
     gs_field_synth_config cfg;
     gs_field_synth_config_default(&cfg, src);
-    gs_field_synth_t syn = NULL;
-    double t0 = gs_time_now();
-    if (gs_field_synth_create(src, &cfg, &syn) != GS_OK) {
-        gs_error_report("bench_field: ");
+    cfg.use_upper_bound = 0;
+    double plain_s = 0, synth_s = 0;
+    uint64_t plain_digest = 0, digest = 0;
+    gs_field_synth_t plain = synthesize(src, &cfg, &plain_s, &plain_digest);
+    cfg.use_upper_bound = 1;
+    gs_field_synth_t syn = plain ? synthesize(src, &cfg, &synth_s, &digest) : NULL;
+    if (!syn) {
+        gs_field_synth_destroy(&plain);
+        gs_qfield_destroy(&src);
         return 0;
     }
-    int finished = 0;
-    int64_t blocks = 0;
-    while (!finished) {
-        if (gs_field_synth_run(syn, 64, &finished) != GS_OK) {
-            gs_error_report("bench_field: ");
-            return 0;
-        }
-        blocks += 64;
-        const gs_field_synth_state *st = gs_field_synth_get_state(syn);
-        fprintf(stderr, "\rbench_field: synthesis iteration %d block %lld/%lld   ", st->iteration,
-                (long long)st->cursor, (long long)st->blocks_in_iteration);
-    }
-    fprintf(stderr, "\n");
-    double synth_s = gs_time_now() - t0;
     const gs_field_synth_state *st = gs_field_synth_get_state(syn);
     gs_qfield *res = NULL;
     gs_field_synth_result(syn, &res);
     gs_field_tree_t tree = NULL;
     gs_field_tree_build(src, cfg.block[cfg.iterations - 1], &tree);
     gs_field_quality qm;
-    t0 = gs_time_now();
+    double t0 = gs_time_now();
     gs_field_quality_measure(res, src, tree, &qm);
     double quality_s = gs_time_now() - t0;
     printf(",\n  \"synthesis\": {\"source\": 64, \"target\": %lld, \"iterations\": %d, \"blocks\": [",
@@ -729,12 +764,11 @@ static int run_synthesis(gs_field_shape shape)
     for (int i = 0; i < cfg.iterations; i++)
         printf("%s%d", i ? ", " : "", cfg.block[i]);
     printf("], \"seconds_one_core\": %.2f, \"per_iteration\": [", synth_s);
-    for (int i = 0; i < cfg.iterations; i++)
-        printf("%s{\"matches\": %lld, \"mean_dist\": %.2f, \"max_dist\": %.2f, \"mean_pops\": %.0f}",
-               i ? ", " : "", (long long)st->stat_count[i],
-               st->stat_count[i] ? st->stat_sum[i] / st->stat_count[i] : 0, st->stat_max[i],
-               st->stat_count[i] ? (double)st->stat_pops[i] / st->stat_count[i] : 0);
-    printf("],\n    \"volume_fraction_out\": %.4f, \"volume_fraction_src\": %.4f, "
+    print_iterations(&cfg, st);
+    printf("],\n    \"no_upper_bound\": {\"seconds_one_core\": %.2f, \"same_digest\": %s, "
+           "\"per_iteration\": [", plain_s, plain_digest == digest ? "true" : "false");
+    print_iterations(&cfg, gs_field_synth_get_state(plain));
+    printf("]},\n    \"volume_fraction_out\": %.4f, \"volume_fraction_src\": %.4f, "
            "\"surface_per_volume_out\": %.4f, \"surface_per_volume_src\": %.4f, "
            "\"coherence\": %.2f, \"coherence_blocks\": %lld, \"quality_s\": %.2f}",
            qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
@@ -742,8 +776,9 @@ static int run_synthesis(gs_field_shape shape)
     gs_field_tree_destroy(&tree);
     gs_qfield_destroy(&res);
     gs_field_synth_destroy(&syn);
+    gs_field_synth_destroy(&plain);
     gs_qfield_destroy(&src);
-    return 1;
+    return plain_digest == digest;
 }
 
 int main(int argc, char **argv)
