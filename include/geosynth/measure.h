@@ -193,7 +193,8 @@ gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_
  * more than one step). cell: completeness is measured over the source cells
  * of cell^3 window positions (a grid from the origin) holding a unique
  * window: the share of them whose windows occur in out at least once.
- * k in 2..8. Memory: 4 bytes per output position (union-find) + 12 bytes
+ * A periodic source (periods below) is measured modulo its periods:
+ * uniqueness, offsets and completeness. k in 2..8. Memory: 4 bytes per output position (union-find) + 12 bytes
  * per source position (hash table); cost O(k^2) per position. */
 typedef struct gs_measure_copy {
     int window;                     /* k */
@@ -205,6 +206,12 @@ typedef struct gs_measure_copy {
     double large_share;             /* share of output positions in regions > large */
     double completeness;            /* share of informative source cells represented */
     double source_unique_share;     /* share of source windows that are unique */
+    int periods;                    /* exact periods found in src (translations v with
+                                       src[x + v] == src[x] wherever both are inside): a
+                                       periodic source is measured modulo them, windows
+                                       unique and offsets equal up to a period, so a tiling
+                                       of it is one region; 0 = none */
+    double shortest_period;         /* length of the shortest (samples; 0 = none) */
 } gs_measure_copy;
 gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                         const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m);

@@ -869,6 +869,9 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_i64(run, "copy_largest_region", cp->largest_region);
     gs_run_metric_i64(run, "copy_regions", cp->regions);
     gs_run_metric_f64(run, "copy_completeness", cp->completeness);
+    /* the source's exact periods: copying is measured modulo them */
+    gs_run_metric_i64(run, "copy_source_periods", cp->periods);
+    gs_run_metric_f64(run, "copy_source_shortest_period", cp->shortest_period);
     gs_run_metric_i64(run, "components_out", g->components_out);
     gs_run_metric_i64(run, "components_src", g->components_src);
     gs_run_metric_f64(run, "components_per_msample_out", g->components_per_msample_out);
@@ -883,9 +886,9 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
            "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
-           "one offset larger than a block, largest region %.3f of the source, completeness %.3f",
+           "one offset larger than a block, largest region %.3f of the source, completeness %.3f%s",
            cp->matched_share, cp->window, cp->large_share, cp->largest_region_of_source,
-           cp->completeness);
+           cp->completeness, cp->periods ? " (modulo the source's periods)" : "");
     gs_log(GS_LOG_INFO,
            "objects: %lld inside components (%.1f per 10^6 samples; source %lld, %.1f), median "
            "size %.0f (source %.0f), size KS %.3f, fragments %.3f (source %.3f); steps > 1.5 "

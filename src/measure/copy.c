@@ -6,6 +6,8 @@
  * final mix, and every hit is verified byte by byte, so the measure never
  * mistakes a collision for a copy. Regions are joined with a union-find over
  * the output positions (parent array, path halving). */
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/measure.h"
@@ -15,7 +17,75 @@ typedef struct win_entry {
     uint64_t h;
     uint32_t pos;  /* first source position with this content */
     uint32_t count;
+    uint32_t pos2; /* the second one (count >= 2): a period candidate */
 } win_entry;
+
+/* Exact periods of the source (translations v with src[x + v] == src[x]
+ * wherever both are inside), and positions reduced modulo them. */
+#define MAX_PERIODS 12
+typedef struct periods {
+    int n;
+    int64_t v[MAX_PERIODS][3];
+    int64_t sp[3];                 /* window positions per axis */
+} periods;
+
+/* Does translation v map src onto itself wherever both are inside (with at
+ * least half of the source overlapping)? */
+static int is_period(const uint8_t *src, const int64_t sn[3], const int64_t v[3])
+{
+    int64_t lo[3], hi[3], over = 1;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = v[a] < 0 ? -v[a] : 0, hi[a] = v[a] > 0 ? sn[a] - v[a] : sn[a];
+        if (hi[a] <= lo[a])
+            return 0;
+        over *= hi[a] - lo[a];
+    }
+    if (2 * over < sn[0] * sn[1] * sn[2] / 4)
+        return 0;
+    int64_t d = v[0] + sn[0] * (v[1] + sn[1] * v[2]);
+    for (int64_t z = lo[2]; z < hi[2]; z++)
+        for (int64_t y = lo[1]; y < hi[1]; y++) {
+            int64_t i = lo[0] + sn[0] * (y + sn[1] * z);
+            if (memcmp(src + i, src + i + d, (size_t)(hi[0] - lo[0])))
+                return 0;
+        }
+    return 1;
+}
+
+/* How far c lies outside the window positions (0: inside). */
+static inline int64_t outside(const periods *P, const int64_t c[3])
+{
+    int64_t d = 0;
+    for (int a = 0; a < 3; a++)
+        d += c[a] < 0 ? -c[a] : c[a] >= P->sp[a] ? c[a] - P->sp[a] + 1 : 0;
+    return d;
+}
+
+/* Position c reduced modulo the periods: moved by +-v while that brings it
+ * inside or to a lower linear index (deterministic; the lowest translate for
+ * the lattices met here). Returns the linear index, or -2 when no translate
+ * is inside (never the -1 of an unmatched position). */
+static int64_t reduce(const periods *P, const int64_t c0[3])
+{
+    int64_t c[3] = {c0[0], c0[1], c0[2]};
+    for (int moved = 1; moved;) {
+        moved = 0;
+        for (int i = 0; i < P->n; i++)
+            for (int sg = -1; sg <= 1; sg += 2) {
+                int64_t t[3] = {c[0] + sg * P->v[i][0], c[1] + sg * P->v[i][1], c[2] + sg * P->v[i][2]};
+                int64_t ot = outside(P, t), oc = outside(P, c);
+                int64_t lt = t[0] + P->sp[0] * (t[1] + P->sp[1] * t[2]);
+                int64_t lc = c[0] + P->sp[0] * (c[1] + P->sp[1] * c[2]);
+                if (ot < oc || (ot == 0 && oc == 0 && lt < lc)) {
+                    memcpy(c, t, sizeof c);
+                    moved = 1;
+                }
+            }
+    }
+    if (outside(P, c))
+        return -2;
+    return c[0] + P->sp[0] * (c[1] + P->sp[1] * c[2]);
+}
 
 static uint64_t mix64(uint64_t z)
 {
@@ -87,6 +157,66 @@ static void uf_union(uint32_t *p, uint32_t a, uint32_t b)
         p[a] = b;
 }
 
+static int cmp_i64(const void *a, const void *b)
+{
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static gs_err find_periods(const win_entry *tab, size_t cap, const uint8_t *src, const int64_t sn[3],
+                           periods *P)
+{
+    size_t nd = 0;
+    for (size_t i = 0; i < cap; i++)
+        nd += tab[i].count >= 2;
+    if (!nd)
+        return GS_OK;
+    int64_t *d = NULL;
+    GS_CALL(gs_alloc_array((void **)&d, nd, sizeof *d, "copy measure: period candidates"));
+    nd = 0;
+    for (size_t i = 0; i < cap; i++)
+        if (tab[i].count >= 2)
+            d[nd++] = (int64_t)tab[i].pos2 - (int64_t)tab[i].pos; /* > 0: in scan order */
+    qsort(d, nd, sizeof *d, cmp_i64);
+    /* the most frequent differences, tried in order of frequency (ties: the
+     * smaller difference) */
+    for (int tries = 0; tries < 4 * MAX_PERIODS && P->n < MAX_PERIODS; tries++) {
+        size_t best = 0, bn = 0;
+        for (size_t i = 0; i < nd;) {
+            size_t j = i;
+            while (j < nd && d[j] == d[i])
+                j++;
+            if (d[i] != 0 && j - i > bn)
+                best = i, bn = j - i;
+            i = j;
+        }
+        if (bn < 2)
+            break;
+        int64_t L = d[best];
+        for (size_t i = 0; i < nd; i++)
+            if (d[i] == L)
+                d[i] = 0; /* tried */
+        /* linear difference -> vector (x may be negative: a row below) */
+        int64_t sxy = sn[0] * sn[1], vz = L / sxy, r = L - vz * sxy;
+        int64_t vy = r / sn[0], vx = r - vy * sn[0];
+        if (vx > sn[0] / 2)
+            vx -= sn[0], vy++;
+        if (vy > sn[1] / 2)
+            vy -= sn[1], vz++;
+        int64_t v[3] = {vx, vy, vz};
+        int known = 0;
+        for (int i = 0; i < P->n; i++)
+            known |= (P->v[i][0] == v[0] && P->v[i][1] == v[1] && P->v[i][2] == v[2]) ||
+                     (P->v[i][0] == -v[0] && P->v[i][1] == -v[1] && P->v[i][2] == -v[2]);
+        if (!known && is_period(src, sn, v)) {
+            memcpy(P->v[P->n], v, sizeof v);
+            P->n++;
+        }
+    }
+    gs_free(d);
+    return GS_OK;
+}
+
 gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                         const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m)
 {
@@ -120,25 +250,53 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&tab, cap, sizeof *tab, "copy measure: window table"), done);
     memset(tab, 0, cap * sizeof *tab);
-    for (int64_t z = 0; z < sp[2]; z++)
-        for (int64_t y = 0; y < sp[1]; y++)
-            for (int64_t x = 0; x < sp[0]; x++) {
-                int64_t base = x + sn[0] * (y + sn[1] * z);
-                int flat;
-                uint64_t h = win_hash(src, sn, base, k, mul, &flat);
-                size_t i = (size_t)h & (cap - 1);
-                for (;; i = (i + 1) & (cap - 1)) {
-                    win_entry *e = &tab[i];
-                    if (!e->count) {
-                        e->h = h, e->pos = (uint32_t)base, e->count = 1 + flat;
-                        break;
-                    }
-                    if (e->h == h && win_equal(src, sn, e->pos, src, sn, base, k)) {
-                        e->count++;
-                        break;
+    periods P;
+    memset(&P, 0, sizeof P);
+    memcpy(P.sp, sp, sizeof P.sp);
+    for (int pass = 0;; pass++) {
+        /* pass 0: every position; later passes (a periodic source): the
+         * positions reduced modulo the periods found so far */
+        for (int64_t z = 0; z < sp[2]; z++)
+            for (int64_t y = 0; y < sp[1]; y++)
+                for (int64_t x = 0; x < sp[0]; x++) {
+                    if (pass && reduce(&P, (int64_t[3]){x, y, z}) != x + sp[0] * (y + sp[1] * z))
+                        continue;
+                    int64_t base = x + sn[0] * (y + sn[1] * z);
+                    int flat;
+                    uint64_t h = win_hash(src, sn, base, k, mul, &flat);
+                    size_t i = (size_t)h & (cap - 1);
+                    for (;; i = (i + 1) & (cap - 1)) {
+                        win_entry *e = &tab[i];
+                        if (!e->count) {
+                            e->h = h, e->pos = e->pos2 = (uint32_t)base, e->count = 1 + flat;
+                            break;
+                        }
+                        if (e->h == h && win_equal(src, sn, e->pos, src, sn, base, k)) {
+                            if (e->count++ == 1)
+                                e->pos2 = (uint32_t)base;
+                            break;
+                        }
                     }
                 }
-            }
+        /* periods: the translations between the first two occurrences of
+         * repeated windows, most frequent first, that map the whole source
+         * onto itself. The first two occurrences mostly differ by one
+         * period (chainmail.ini: 24 along x), the next ones show among the
+         * positions reduced modulo it (its face-centred periods (-12, 12, 0)
+         * ...), so this repeats until no new one shows */
+        int had = P.n;
+        if (pass < 4)
+            GS_TRY(err, find_periods(tab, cap, src, sn, &P), done);
+        if (P.n == had)
+            break;
+        memset(tab, 0, cap * sizeof *tab);
+    }
+    m->periods = P.n;
+    for (int i = 0; i < P.n; i++) {
+        int64_t l2 = P.v[i][0] * P.v[i][0] + P.v[i][1] * P.v[i][1] + P.v[i][2] * P.v[i][2];
+        if (!m->shortest_period || (double)l2 < m->shortest_period * m->shortest_period)
+            m->shortest_period = sqrt((double)l2);
+    }
     /* source windows: unique ones, and which of them the output uses */
     GS_TRY(err, gs_alloc_array((void **)&used, (size_t)ns, 1, "copy measure: used windows"), done);
     GS_TRY(err, gs_alloc_array((void **)&uniq, (size_t)ns, 1, "copy measure: unique windows"), done);
@@ -151,7 +309,15 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
             uniq[x + sp[0] * (y + sp[1] * z)] = 1;
             nuniq++;
         }
-    m->source_unique_share = (double)nuniq / (double)ns;
+    int64_t nred = ns;
+    if (P.n) {
+        nred = 0;
+        for (int64_t z = 0; z < sp[2]; z++)
+            for (int64_t y = 0; y < sp[1]; y++)
+                for (int64_t x = 0; x < sp[0]; x++)
+                    nred += reduce(&P, (int64_t[3]){x, y, z}) == x + sp[0] * (y + sp[1] * z);
+    }
+    m->source_unique_share = (double)nuniq / (double)nred;
     GS_TRY(err, gs_alloc_array((void **)&parent, (size_t)no, sizeof *parent, "copy measure: regions"), done);
     size_t plane = (size_t)(op[0] * op[1]);
     GS_TRY(err, gs_alloc_array((void **)&opos, 2 * plane, sizeof *opos, "copy measure: planes"), done);
@@ -184,13 +350,26 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                 if (s < 0)
                     continue;
                 matched++;
-                /* same offset as a lower neighbour: the same piece */
-                if (x > 0 && cur[pi - 1] == s - 1)
-                    uf_union(parent, id, id - 1);
-                if (y > 0 && cur[pi - op[0]] == s - sp[0])
-                    uf_union(parent, id, id - (uint32_t)op[0]);
-                if (z > 0 && prev[pi] == s - sp[0] * sp[1])
-                    uf_union(parent, id, id - (uint32_t)plane);
+                /* same offset as a lower neighbour (modulo the periods): the
+                 * same piece */
+                if (!P.n) {
+                    if (x > 0 && cur[pi - 1] == s - 1)
+                        uf_union(parent, id, id - 1);
+                    if (y > 0 && cur[pi - op[0]] == s - sp[0])
+                        uf_union(parent, id, id - (uint32_t)op[0]);
+                    if (z > 0 && prev[pi] == s - sp[0] * sp[1])
+                        uf_union(parent, id, id - (uint32_t)plane);
+                } else {
+                    int64_t c[3] = {s % sp[0], s / sp[0] % sp[1], s / (sp[0] * sp[1])};
+                    int64_t cx[3] = {c[0] - 1, c[1], c[2]}, cy[3] = {c[0], c[1] - 1, c[2]},
+                            cz[3] = {c[0], c[1], c[2] - 1};
+                    if (x > 0 && cur[pi - 1] >= 0 && cur[pi - 1] == reduce(&P, cx))
+                        uf_union(parent, id, id - 1);
+                    if (y > 0 && cur[pi - op[0]] >= 0 && cur[pi - op[0]] == reduce(&P, cy))
+                        uf_union(parent, id, id - (uint32_t)op[0]);
+                    if (z > 0 && prev[pi] >= 0 && prev[pi] == reduce(&P, cz))
+                        uf_union(parent, id, id - (uint32_t)plane);
+                }
             }
         /* unmatched positions never join: mark them so they are not counted */
         for (int64_t i = 0; i < (int64_t)plane; i++)

@@ -153,6 +153,12 @@ for f in sys.argv[1:]:
     assert 0 <= m["verbatim_share"] <= 1 and m["verbatim_run"] >= 0, (f, m)
     # verbatim share 1 exactly when every output block exists in the source
     assert (m["verbatim_share"] == 1) == (m["coherence"] == 0), (f, m)
+    # the copy measure sees the chain mail's periods (4: face-centred, 17.0
+    # samples) and a tiling of it as copied: a region larger than the source
+    # (it was blind: no unique window, matched share 0; seed 1: 0.744, region
+    # 6.9 x the source)
+    assert m["copy_source_periods"] >= 1, (f, m)
+    assert m["verbatim_share"] < 1 or m["copy_largest_region_of_source"] > 1, (f, m)
 EOF2
 
 # --- the GRID default itself (configs/field/grid.ini: 64^3 -> 128^3, three ---

@@ -355,6 +355,72 @@ static void test_lattice_measures(void **state)
     gs_measure_profile_free(&p);
 }
 
+/* Copy measure on a periodic source: a face-centred pattern (periods
+ * (8,8,0), (8,0,8), (0,8,8): every window repeats, none is unique in the
+ * plain sense) tiled into the output is one copied region larger than the
+ * source, while a random source has no period and a shuffled output copies
+ * only pieces. */
+static void test_copy_periodic(void **state)
+{
+    (void)state;
+    enum { S = 40, O = 64 };
+    uint8_t *cell = malloc(16 * 16 * 16), *src = malloc(S * S * S), *out = malloc(O * O * O);
+    assert_non_null(cell);
+    assert_non_null(src);
+    assert_non_null(out);
+    uint64_t r = 7;
+    for (int i = 0; i < 16 * 16 * 16; i++) {
+        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+        cell[i] = (uint8_t)(r >> 56);
+    }
+    /* make the cell itself face-centred: value at p = value at p reduced */
+    for (int64_t z = 0; z < 16; z++)
+        for (int64_t y = 0; y < 16; y++)
+            for (int64_t x = 0; x < 16; x++) {
+                int64_t c[3] = {x, y, z};
+                /* the representative: the lowest of p, p - (8,8,0), p - (8,0,8), p - (0,8,8) mod 16 */
+                int64_t best = x + 16 * (y + 16 * z);
+                const int64_t v[3][3] = {{8, 8, 0}, {8, 0, 8}, {0, 8, 8}};
+                for (int i = 0; i < 3; i++) {
+                    int64_t t[3];
+                    for (int a = 0; a < 3; a++)
+                        t[a] = (c[a] + v[i][a]) % 16;
+                    int64_t l = t[0] + 16 * (t[1] + 16 * t[2]);
+                    best = l < best ? l : best;
+                }
+                cell[x + 16 * (y + 16 * z)] = cell[best];
+            }
+    for (int64_t z = 0; z < S; z++)
+        for (int64_t y = 0; y < S; y++)
+            for (int64_t x = 0; x < S; x++)
+                src[x + S * (y + S * z)] = cell[x % 16 + 16 * (y % 16 + 16 * (z % 16))];
+    /* the output: the same infinite pattern, shifted (a tiling of the source) */
+    for (int64_t z = 0; z < O; z++)
+        for (int64_t y = 0; y < O; y++)
+            for (int64_t x = 0; x < O; x++)
+                out[x + O * (y + O * z)] = cell[(x + 3) % 16 + 16 * ((y + 5) % 16 + 16 * ((z + 11) % 16))];
+    const int64_t sn[3] = {S, S, S}, on[3] = {O, O, O};
+    gs_measure_copy m;
+    assert_int_equal(gs_measure_copy3(out, on, src, sn, 4, 64, 4, &m), GS_OK);
+    assert_true(m.periods >= 3);
+    assert_true(fabs(m.shortest_period - sqrt(128.0)) < 1e-9);
+    assert_true(m.matched_share > 0.99);
+    assert_int_equal(m.regions, 1);
+    assert_true(m.largest_region_of_source > 1);
+    assert_true(m.completeness > 0.99);
+    /* a source without periods: none found, the same output copies nothing */
+    for (int64_t i = 0; i < S * S * S; i++) {
+        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+        src[i] = (uint8_t)(r >> 56);
+    }
+    assert_int_equal(gs_measure_copy3(out, on, src, sn, 4, 64, 4, &m), GS_OK);
+    assert_int_equal(m.periods, 0);
+    assert_true(m.matched_share < 0.01);
+    free(cell);
+    free(src);
+    free(out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -364,6 +430,7 @@ int main(void)
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
+        cmocka_unit_test(test_copy_periodic),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
