@@ -904,7 +904,11 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
 static gs_err field_run(gs_run *run, void *cfg_, int resume)
 {
     const field_config *c = cfg_;
-    int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    /* the source's mesh: copied.ply, and the left panel of preview.png (a
+     * height map's preview with output.geometry = contour showed an empty
+     * source panel) */
+    int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both") ||
+                    (c->preview && !strcmp(c->geometry, "contour"));
     field_source src;
     memset(&src, 0, sizeof src);
     gs_field_synth_t synth = NULL;

@@ -55,6 +55,19 @@ if need_config "texture.ini height map" "$GS_ROOT/configs/field/texture.ini"; th
   run_gs 0 field -c "$GS_ROOT/configs/field/texture.ini" -o texture --set example.size=32 --set field.target=64x64x16
   expect_rc 0 "texture.ini"
   check_png texture.ini texture "$DATA/textures/embark-5.png" 16 8
+  # output.geometry = contour: the preview still shows the source on the left
+  # (it was empty: the source mesh was built only for copied.ply)
+  lr=$(/usr/bin/python3 - texture/preview.png <<'PY'
+import sys, matplotlib.image as mi
+im = mi.imread(sys.argv[1])[..., :3]
+w = im.shape[1]
+bg = im[0, 0]
+share = lambda a: float((abs(a - bg).sum(-1) > 0.05).mean())
+print("%.2f %.2f" % (share(im[:, : w // 2 - 4]), share(im[:, w // 2 + 4 :])))
+PY
+)
+  /usr/bin/python3 -c "import sys; l, r = map(float, '$lr'.split()); sys.exit(0 if l > 0.05 and r > 0.05 else 1)" &&
+    ok "texture.ini preview: source and output drawn (shares $lr)" || bad "texture.ini preview: a panel is empty (shares $lr)"
 fi
 # no height map for other examples
 run_gs 0 field -c "$GS_ROOT/configs/field/quick.ini" -o quick --set output.preview=no
