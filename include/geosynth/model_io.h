@@ -123,11 +123,22 @@ gs_err gs_model_mesh_weld(const gs_model_lattice *lat, const gs_model_quads *q, 
                           gs_model_polymesh *out);
 void gs_model_polymesh_free(gs_model_polymesh *m);
 
-/* Writes the welded mesh as binary PLY (vertex float x y z; faces
- * "list uchar int vertex_indices" + uchar red green blue + ushort label:
- * face colours from the palette, as in lattice.vox) or as OBJ with an MTL
- * file next to it (one material "label_N" per label, Kd from the palette;
- * faces grouped by label). Picks by extension (.ply / .obj). Atomic writes. */
+/* The polygons of in as faces every reader takes as they are: a polygon of
+ * 4 corners (a plain rectangle) stays a quad; one with more (its
+ * neighbours' vertices on its edges) becomes triangles by ear clipping that
+ * never cuts a zero-area triangle (a fan from one corner, as MeshLab and
+ * three.js do with polygons, makes zero-area triangles along the sides and
+ * edges shared by 3 or more triangles). Same vertices, every triangle and
+ * quad of a polygon keeps its label and orientation; still a closed
+ * 2-manifold. Free with gs_model_polymesh_free(). */
+gs_err gs_model_polymesh_triangulate(const gs_model_polymesh *in, gs_model_polymesh *out);
+
+/* Writes the welded mesh, triangulated as above, as binary PLY (vertex
+ * float x y z; faces "list uchar int vertex_indices" + uchar red green blue
+ * + ushort label: face colours from the palette, as in lattice.vox), as OBJ
+ * with an MTL file next to it (one material "label_N" per label, Kd from the
+ * palette; faces grouped by label). Picks by extension (.ply / .obj).
+ * Atomic writes. */
 gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m,
                            const gs_model_palette *pal);
 

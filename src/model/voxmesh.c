@@ -363,6 +363,118 @@ done:
     return err;
 }
 
+/* ---- triangulation ------------------------------------------------------ */
+
+/* Twice the signed area of (a, b, c) in the plane's axes (u, v), times the
+ * polygon's orientation sign: > 0 a strictly convex corner, 0 collinear. The
+ * coordinates of points on one side of a rectangle are bit-equal along it,
+ * so collinear corners give exactly 0. */
+static double corner_turn(const float *pos, uint32_t a, uint32_t b, uint32_t c, int u, int v, double sign)
+{
+    const float *A = pos + 3 * (size_t)a, *B = pos + 3 * (size_t)b, *C = pos + 3 * (size_t)c;
+    return sign * (((double)B[u] - A[u]) * ((double)C[v] - A[v]) - ((double)B[v] - A[v]) * ((double)C[u] - A[u]));
+}
+
+static int strict_corners(const float *pos, const uint32_t *p, int n, int skip, int u, int v, double sign)
+{
+    int cnt = 0;
+    for (int i = 0; i < n; i++) {
+        if (i == skip)
+            continue;
+        int a = (i + n - 1) % n, b = (i + 1) % n;
+        if (a == skip)
+            a = (a + n - 1) % n;
+        if (b == skip)
+            b = (b + 1) % n;
+        cnt += corner_turn(pos, p[a], p[i], p[b], u, v, sign) > 0;
+    }
+    return cnt;
+}
+
+gs_err gs_model_polymesh_triangulate(const gs_model_polymesh *in, gs_model_polymesh *out)
+{
+    memset(out, 0, sizeof *out);
+    size_t nf = 0, nc = 0;
+    for (size_t f = 0; f < in->nf; f++) {
+        const size_t k = in->start[f + 1] - in->start[f];
+        nf += k == 4 ? 1 : k - 2;
+        nc += k == 4 ? 4 : 3 * (k - 2);
+    }
+    gs_model_polymesh r;
+    memset(&r, 0, sizeof r);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&r.pos, in->nv ? 3 * in->nv : 1, sizeof *r.pos, "mesh vertices"), done);
+    GS_TRY(err, gs_alloc_array((void **)&r.start, nf + 1, sizeof *r.start, "mesh faces"), done);
+    GS_TRY(err, gs_alloc_array((void **)&r.corner, nc ? nc : 1, sizeof *r.corner, "mesh corners"), done);
+    GS_TRY(err, gs_alloc_array((void **)&r.label, nf ? nf : 1, sizeof *r.label, "mesh faces"), done);
+    memcpy(r.pos, in->pos, 3 * in->nv * sizeof *r.pos);
+    r.nv = in->nv;
+    r.start[0] = 0;
+    uint32_t p[8 * GS_MODEL_QUAD_MAX];
+    for (size_t f = 0; f < in->nf; f++) {
+        const uint32_t *c = in->corner + in->start[f];
+        int n = (int)(in->start[f + 1] - in->start[f]);
+        if (n == 4) {
+            r.label[r.nf] = in->label[f];
+            memcpy(r.corner + r.start[r.nf], c, 4 * sizeof *c);
+            r.start[r.nf + 1] = r.start[r.nf] + 4;
+            r.nf++;
+            continue;
+        }
+        GS_TRY_CHECK(err, n >= 3 && n <= 8 * GS_MODEL_QUAD_MAX, GS_ERR_INTERNAL, done,
+                     "mesh: polygon %zu has %d corners", f, n);
+        memcpy(p, c, (size_t)n * sizeof *p);
+        /* the plane's axis: the one along which every corner has one value */
+        int a = 0;
+        for (int t = 0; t < 3; t++) {
+            int flat = 1;
+            for (int i = 1; i < n && flat; i++)
+                flat = r.pos[3 * (size_t)p[i] + (size_t)t] == r.pos[3 * (size_t)p[0] + (size_t)t];
+            if (flat)
+                a = t;
+        }
+        const int u = (a + 1) % 3, v = (a + 2) % 3;
+        double area = 0;
+        for (int i = 1; i + 1 < n; i++)
+            area += corner_turn(r.pos, p[0], p[i], p[i + 1], u, v, 1.0);
+        const double sign = area >= 0 ? 1.0 : -1.0;
+        /* ear clipping of a convex polygon whose sides carry collinear
+         * corners: cut a strictly convex corner whose cut leaves at least 3
+         * strictly convex corners (or a proper triangle), so no triangle has
+         * zero area (a fan from one corner would: its sides' corners) */
+        while (n > 3) {
+            int ear = -1;
+            for (int i = 0; i < n && ear < 0; i++) {
+                if (corner_turn(r.pos, p[(i + n - 1) % n], p[i], p[(i + 1) % n], u, v, sign) <= 0)
+                    continue;
+                if (strict_corners(r.pos, p, n, i, u, v, sign) >= 3)
+                    ear = i;
+            }
+            GS_TRY_CHECK(err, ear >= 0, GS_ERR_INTERNAL, done, "mesh: polygon %zu: no ear to cut", f);
+            uint32_t *o = r.corner + r.start[r.nf];
+            o[0] = p[(ear + n - 1) % n];
+            o[1] = p[ear];
+            o[2] = p[(ear + 1) % n];
+            r.label[r.nf] = in->label[f];
+            r.start[r.nf + 1] = r.start[r.nf] + 3;
+            r.nf++;
+            memmove(p + ear, p + ear + 1, (size_t)(n - ear - 1) * sizeof *p);
+            n--;
+        }
+        GS_TRY_CHECK(err, corner_turn(r.pos, p[0], p[1], p[2], u, v, sign) > 0, GS_ERR_INTERNAL, done,
+                     "mesh: polygon %zu: last triangle has no area", f);
+        memcpy(r.corner + r.start[r.nf], p, 3 * sizeof *p);
+        r.label[r.nf] = in->label[f];
+        r.start[r.nf + 1] = r.start[r.nf] + 3;
+        r.nf++;
+    }
+    *out = r;
+    memset(&r, 0, sizeof r);
+done:
+    gs_model_polymesh_free(&r);
+    return err;
+}
+
 void gs_model_polymesh_free(gs_model_polymesh *m)
 {
     if (!m)
@@ -385,8 +497,9 @@ static gs_err write_ply(const char *path, const gs_model_polymesh *m, const gs_m
     int ok = fprintf(af.f,
                      "ply\nformat binary_little_endian 1.0\n"
                      "comment geosynth model: surface of the filled voxel cells, welded closed "
-                     "2-manifold; faces are merged rectangles (polygons with their neighbours' "
-                     "vertices on their edges), colour and label of their cell\n"
+                     "2-manifold; faces are merged rectangles (quads), or the triangles of one "
+                     "that has its neighbours' vertices on its edges (no T-junctions, no zero-area "
+                     "triangles), colour and label of their cell\n"
                      "comment up_axis z; units: model.voxel_size per cell\n"
                      "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n"
                      "element face %zu\nproperty list uchar int vertex_indices\n"
@@ -445,7 +558,9 @@ static gs_err write_obj(const char *path, const gs_model_polymesh *m, const gs_m
     GS_TRY(err, gs_atomic_begin(path, &af), done);
     ok = fprintf(af.f,
                  "# geosynth model: surface of the filled voxel cells, welded closed 2-manifold "
-                 "(%zu vertices, %zu polygons); z up, units: model.voxel_size per cell\nmtllib %s\n",
+                 "(%zu vertices, %zu faces: merged rectangles as quads, or triangles where a "
+                 "rectangle has its neighbours' vertices on its edges); z up, units: "
+                 "model.voxel_size per cell\nmtllib %s\n",
                  m->nv, m->nf, mtl_base) > 0;
     for (size_t i = 0; ok && i < m->nv; i++)
         ok = fprintf(af.f, "v %.9g %.9g %.9g\n", m->pos[3 * i], m->pos[3 * i + 1],
@@ -482,11 +597,13 @@ gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m, const g
 {
     char ext[16];
     gs_path_ext(path, ext, sizeof ext);
-    if (!strcmp(ext, "ply"))
-        return write_ply(path, m, pal);
-    if (!strcmp(ext, "obj"))
-        return write_obj(path, m, pal);
-    GS_RAISE(GS_ERR_ARG, "%s: mesh output must end in .ply or .obj", path);
+    GS_CHECK(!strcmp(ext, "ply") || !strcmp(ext, "obj"), GS_ERR_ARG,
+             "%s: mesh output must end in .ply or .obj", path);
+    gs_model_polymesh t;
+    GS_CALL(gs_model_polymesh_triangulate(m, &t));
+    gs_err err = !strcmp(ext, "ply") ? write_ply(path, &t, pal) : write_obj(path, &t, pal);
+    gs_model_polymesh_free(&t);
+    return err;
 }
 
 /* ---- preview picture ------------------------------------------------------ */

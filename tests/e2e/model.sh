@@ -107,6 +107,16 @@ assert abs(r["volume"] - filled) < 1e-6 * filled, (r["volume"], filled)
 # welded: one vertex per surface lattice point (unwelded quads have 4 each);
 # coincident vertices only where cubes touch along an edge or at a corner
 assert r["coincident_vertices"] < 0.05 * r["vertices"], r
+# as MeshLab, three.js and most readers take polygons: fanned from their first
+# corner. Faces are quads or triangles, so the fan is the mesh itself: still a
+# closed 2-manifold, no zero-area triangle (MeshLab found 3 non-manifold edges
+# when the rectangles were written as polygons with their sides' vertices)
+pos, counts, corners = mesh_validity.read_faces(f"{run}/{mesh}")
+assert counts.max() <= 4, counts.max()
+F = mesh_validity.triangles(counts, corners)
+t = mesh_validity.validity(pos, np.full(len(F), 3), F.reshape(-1))
+print("fanned", t)
+assert t["manifold"] and t["zero_area_faces"] == 0 and t["nonmanifold_vertices"] == 0, t
 if mesh.endswith(".ply"):
     p = gsio.read_ply_polygons(f"{run}/{mesh}")
     f = p["face"]
@@ -119,6 +129,15 @@ EOF
 mesh_valid run1 mesh.ply "mesh.ply: welded closed 2-manifold, volume = filled cells, face colours = lattice.vox palette"
 run_gs 0 model -c small.ini -o runobj --set model.mesh=obj
 mesh_valid runobj mesh.obj "mesh.obj: welded closed 2-manifold, volume = filled cells"
+# MeshLab's own reading (meshlabserver, Compute Topological Measures)
+if command -v meshlabserver >/dev/null && command -v xvfb-run >/dev/null; then
+  printf '<!DOCTYPE FilterScript>\n<FilterScript>\n <filter name="Compute Topological Measures"/>\n</FilterScript>\n' >topo.mlx
+  ml=$(timeout 300 xvfb-run -a meshlabserver -i run1/mesh.ply -s topo.mlx 2>&1 | grep -E '^(Mesh is|Boundary Edges|Genus)' | sort -u | tr '\n' ' ')
+  [[ $ml == *"Mesh is two-manifold"* && $ml == *"Boundary Edges 0"* ]] \
+    && ok "MeshLab reads mesh.ply as a closed two-manifold ($ml)" || bad "MeshLab on mesh.ply: $ml"
+else
+  skipped "MeshLab check of mesh.ply: meshlabserver is not installed (apt-get install meshlab)"
+fi
 
 # --- stop after N units + resume at another np --------------------------------
 GS_STOP_AFTER_UNITS=9 run_gs 2 model -c small.ini -o stop
