@@ -380,6 +380,77 @@ def read_mesh(path):
     return read_obj(path) if path.lower().endswith(".obj") else read_ply(path)
 
 
+def _linear_to_srgb8(x):
+    x = np.clip(np.asarray(x, np.float64), 0, 1)
+    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    return np.rint(s * 255).astype(np.uint8)
+
+
+def read_glb(path):
+    """A glTF 2.0 binary as geosynth writes it (include/geosynth/glb.h), checked
+    against the format as it is read: header, 4-byte aligned JSON and BIN
+    chunks, every accessor inside its buffer view and the buffer, POSITION
+    min/max as stored, indices in range. Returns {"json", "pos" (n, 3) back in
+    z-up, "normals" or None, "rgb" (n, 3) sRGB bytes of COLOR_0 or None,
+    "primitives": [{"mode", "indices" or None, "material", "rgb" sRGB bytes of
+    baseColorFactor}]}. Raises ValueError naming what is wrong."""
+    b = open(path, "rb").read()
+    if len(b) < 20 or b[:4] != b"glTF":
+        raise ValueError(f"{path}: not a glTF binary")
+    version, length = np.frombuffer(b[4:12], "<u4")
+    if version != 2 or length != len(b):
+        raise ValueError(f"{path}: version {version}, length {length} of {len(b)} bytes")
+    jl, jt = np.frombuffer(b[12:20], "<u4")
+    if jt != 0x4E4F534A or jl % 4 or 20 + jl + 8 > len(b):
+        raise ValueError(f"{path}: bad JSON chunk")
+    js = json.loads(b[20:20 + jl].decode("utf-8"))
+    bl, bt = np.frombuffer(b[20 + jl:28 + jl], "<u4")
+    binary = b[28 + jl:28 + jl + bl]
+    if bt != 0x004E4942 or bl % 4 or 28 + jl + bl != len(b):
+        raise ValueError(f"{path}: bad BIN chunk")
+    if js["asset"]["version"] != "2.0" or js["buffers"][0]["byteLength"] > bl:
+        raise ValueError(f"{path}: asset version or buffer length")
+    comps = {5126: ("<f4", 4), 5125: ("<u4", 4), 5123: ("<u2", 2), 5121: ("u1", 1)}
+    width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+
+    def accessor(i):
+        a = js["accessors"][i]
+        v = js["bufferViews"][a["bufferView"]]
+        dt, size = comps[a["componentType"]]
+        k = width[a["type"]]
+        start = v.get("byteOffset", 0) + a.get("byteOffset", 0)
+        end = start + a["count"] * k * size
+        if start % size or end > v.get("byteOffset", 0) + v["byteLength"] or \
+                v.get("byteOffset", 0) + v["byteLength"] > js["buffers"][0]["byteLength"] or "byteStride" in v:
+            raise ValueError(f"{path}: accessor {i} outside its view or buffer")
+        x = np.frombuffer(binary[start:end], dt).reshape(-1, k) if k > 1 else np.frombuffer(binary[start:end], dt)
+        if "min" in a and not (np.array_equal(x.min(0), np.float32(a["min"])) and np.array_equal(x.max(0), np.float32(a["max"]))):
+            raise ValueError(f"{path}: accessor {i} min/max differ from the data")
+        return x
+
+    def z_up(v):  # stored (x, z, -y)
+        return np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1).astype(np.float64) + 0.0
+
+    mesh = js["meshes"][js["nodes"][js["scenes"][js["scene"]]["nodes"][0]]["mesh"]]
+    attrs = mesh["primitives"][0]["attributes"]
+    pos = accessor(attrs["POSITION"])
+    if "min" not in js["accessors"][attrs["POSITION"]]:
+        raise ValueError(f"{path}: POSITION without min/max")
+    out = {"json": js, "pos": z_up(pos), "normals": z_up(accessor(attrs["NORMAL"])) if "NORMAL" in attrs else None,
+           "rgb": _linear_to_srgb8(accessor(attrs["COLOR_0"])) if "COLOR_0" in attrs else None, "primitives": []}
+    for p in mesh["primitives"]:
+        if p["attributes"] != attrs:
+            raise ValueError(f"{path}: primitives with different vertex lists")
+        idx = accessor(p["indices"]).astype(np.int64) if "indices" in p else None
+        if idx is not None and (len(idx) % 3 or (len(idx) and idx.max() >= len(pos))):
+            raise ValueError(f"{path}: indices out of range or not triangles")
+        m = js["materials"][p["material"]]
+        f = m["pbrMetallicRoughness"]["baseColorFactor"]
+        out["primitives"].append({"mode": p.get("mode", 4), "indices": idx, "material": m["name"],
+                                  "rgb": _linear_to_srgb8(f[:3])})
+    return out
+
+
 def mesh_face_count(path):
     """Faces as the file stores them (polygons count once, however many corners)."""
     if path.lower().endswith(".ply"):

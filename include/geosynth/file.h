@@ -42,6 +42,9 @@ void gs_atomic_abort(gs_atomic_file *af);
 
 /* Lower-case extension of path without the dot ("" when none) into ext. */
 void gs_path_ext(const char *path, char *ext, size_t ext_len);
+/* path with its extension (after the last '.' of the last component, if
+ * any) replaced by ext, e.g. "run/mesh.ply" + "glb" -> "run/mesh.glb". */
+void gs_path_with_ext(const char *path, const char *ext, char *out, size_t len);
 
 gs_err gs_file_write_atomic(const char *path, const void *data, size_t len);
 

@@ -28,7 +28,8 @@
  * Writing is atomic (path.tmp + rename). OBJ: v, vn (when normals), f (1-based,
  * v//vn with normals). PLY: binary little endian, x y z float, optional
  * nx ny nz float, optional one per-vertex property (scalar: float, label:
- * uchar), faces as "list uchar int vertex_indices".
+ * uchar), optional uchar red green blue, faces as "list uchar int
+ * vertex_indices". glTF binary: src/io/glb.c.
  */
 #ifndef GEOSYNTH_MESH_H
 #define GEOSYNTH_MESH_H
@@ -79,6 +80,23 @@ gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_na
  * after the property; NULL: none), which mesh viewers show directly. */
 gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb);
 gs_err gs_mesh_write(const char *path, const gs_mesh *m, const char *prop_name);
+
+/* What an output mesh is, for its readers: the units of its coordinates and
+ * one line on what it holds (the up axis is always z). PLY: header comments
+ * "up_axis z; units: ..." and the line; OBJ: the same as '#' lines; glTF:
+ * asset.extras (include/geosynth/glb.h). NULL members are left out. */
+typedef struct gs_mesh_meta {
+    const char *name;  /* glTF node name */
+    const char *units;
+    const char *about;
+} gs_mesh_meta;
+/* gs_mesh_write / gs_mesh_write_ply_rgb with meta (NULL: none); by extension
+ * .ply, .obj or .glb (rgb: per-vertex colours, PLY and glTF only). */
+gs_err gs_mesh_write_meta(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb,
+                          const gs_mesh_meta *meta);
+/* glTF binary of m (one primitive; normals when m has them; rgb per-vertex
+ * colours or NULL): include/geosynth/glb.h. */
+gs_err gs_mesh_write_glb(const char *path, const gs_mesh *m, const uint8_t *rgb, const gs_mesh_meta *meta);
 
 /* Axis-aligned bounding box (lo = hi = 0 for an empty mesh). */
 void gs_mesh_bbox(const gs_mesh *m, float lo[3], float hi[3]);

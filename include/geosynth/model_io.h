@@ -137,8 +137,9 @@ gs_err gs_model_polymesh_triangulate(const gs_model_polymesh *in, gs_model_polym
  * float x y z; faces "list uchar int vertex_indices" + uchar red green blue
  * + ushort label: face colours from the palette, as in lattice.vox), as OBJ
  * with an MTL file next to it (one material "label_N" per label, Kd from the
- * palette; faces grouped by label). Picks by extension (.ply / .obj).
- * Atomic writes. */
+ * palette; faces grouped by label) or as glTF binary (one primitive and
+ * material "label_N" per label over the shared vertices; include/geosynth/
+ * glb.h). Picks by extension (.ply / .obj / .glb). Atomic writes. */
 gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m,
                            const gs_model_palette *pal);
 

@@ -339,3 +339,10 @@ void gs_fput_markup(FILE *f, const char *s, int keep_newlines)
         }
     }
 }
+
+void gs_path_with_ext(const char *path, const char *ext, char *out, size_t len)
+{
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : strlen(path);
+    snprintf(out, len, "%.*s.%s", (int)stem, path, ext);
+}

@@ -775,8 +775,9 @@ static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
     return GS_OK;
 }
 
-/* Writes m (target sample units) in the world units of f. */
-static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f)
+/* Writes m (target sample units) in the world units of f, and the same as
+ * glTF binary next to it (NAME.glb, with smooth normals). */
+static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, const char *about)
 {
     float *world = NULL, *unit = m->pos;
     GS_CALL(gs_alloc_array((void **)&world, 3 * m->nverts + 3, sizeof *world, "world mesh"));
@@ -784,7 +785,18 @@ static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f)
         for (int a = 0; a < 3; a++)
             world[3 * v + a] = (float)(f->origin[a] + unit[3 * v + a] * f->spacing);
     m->pos = world;
-    gs_err err = gs_mesh_write(path, m, NULL);
+    const gs_mesh_meta meta = {"geosynth field", "the example's units (field.h5 /field/distance spacing)", about};
+    gs_err err = gs_mesh_write_meta(path, m, NULL, NULL, &meta);
+    if (err == GS_OK && m->ntris) {
+        char glb[PATH_MAX];
+        gs_path_with_ext(path, "glb", glb, sizeof glb);
+        gs_mesh g = *m;
+        g.normals = NULL;
+        err = gs_mesh_compute_normals(&g);
+        if (err == GS_OK)
+            err = gs_mesh_write_glb(glb, &g, NULL, &meta);
+        gs_free(g.normals);
+    }
     m->pos = unit;
     gs_free(world);
     return err;
@@ -823,12 +835,15 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_mesh *cm = copy && c->adaptivity > 0 ? &m : &base;
         snprintf(name, sizeof name, "contour.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        GS_TRY(err, write_world_mesh(path, cm, f), done);
+        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)"), done);
         gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
         gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
         gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
+        const int glb = cm->ntris > 0;
         gs_mesh_destroy(&m);
         gs_run_output(run, "mesh", "contour", name, NULL);
+        if (glb)
+            gs_run_output(run, "mesh", "contour", "contour.glb", NULL);
     }
     if (copy) {
         const gs_qfield *q = src->q;
@@ -838,7 +853,7 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
                                            &m, &st), done);
         snprintf(name, sizeof name, "copied.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        GS_TRY(err, write_world_mesh(path, &m, f), done);
+        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)"), done);
         gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_seam_vertices", st.seam_vertices);
@@ -851,6 +866,8 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_json_i64(pm, "copied_pulled_back", st.pulled_back);
         gs_json_f64(pm, "copied_mean_shift", st.mean_shift);
         gs_run_output(run, "mesh", "copied", name, NULL);
+        if (m.ntris)
+            gs_run_output(run, "mesh", "copied", "copied.glb", NULL);
     }
 done:
     gs_mesh_destroy(&m);

@@ -10,6 +10,7 @@
 
 #include "geosynth/mem.h"
 #include "geosynth/file.h"
+#include "geosynth/glb.h"
 
 void gs_mesh_destroy(gs_mesh *m)
 {
@@ -69,13 +70,17 @@ gs_err gs_mesh_validate(const gs_mesh *m, const char *what)
 
 /* ---------------------------------------------------------------- writing */
 
-gs_err gs_mesh_write_obj(const char *path, const gs_mesh *m)
+static gs_err write_obj(const char *path, const gs_mesh *m, const gs_mesh_meta *meta)
 {
     GS_CALL(gs_mesh_validate(m, path));
     gs_atomic_file af;
     GS_CALL(gs_atomic_begin(path, &af));
     FILE *f = af.f;
     fprintf(f, "# geosynth mesh: %zu vertices, %zu triangles\n", m->nverts, m->ntris);
+    if (meta && meta->units)
+        fprintf(f, "# up_axis z; units: %s\n", meta->units);
+    if (meta && meta->about)
+        fprintf(f, "# %s\n", meta->about);
     for (size_t i = 0; i < m->nverts; i++)
         fprintf(f, "v %.9g %.9g %.9g\n", (double)m->pos[3 * i], (double)m->pos[3 * i + 1],
                 (double)m->pos[3 * i + 2]);
@@ -121,12 +126,32 @@ static int ply_name_ok(const char *s)
     return 1;
 }
 
+gs_err gs_mesh_write_obj(const char *path, const gs_mesh *m)
+{
+    return write_obj(path, m, NULL);
+}
+
+static gs_err write_ply(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb,
+                        const gs_mesh_meta *meta);
+
 gs_err gs_mesh_write_ply(const char *path, const gs_mesh *m, const char *prop_name)
 {
-    return gs_mesh_write_ply_rgb(path, m, prop_name, NULL);
+    return write_ply(path, m, prop_name, NULL, NULL);
 }
 
 gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb)
+{
+    return write_ply(path, m, prop_name, rgb, NULL);
+}
+
+/* A meta text goes into a header line: no line breaks. */
+static int one_line(const char *s)
+{
+    return !s || !strpbrk(s, "\r\n");
+}
+
+static gs_err write_ply(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb,
+                        const gs_mesh_meta *meta)
 {
     GS_CALL(gs_mesh_validate(m, path));
     int prop = 0; /* 0 none, 1 float scalar, 2 uchar label */
@@ -140,6 +165,10 @@ gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *pro
     GS_CALL(gs_atomic_begin(path, &af));
     FILE *f = af.f;
     fprintf(f, "ply\nformat binary_little_endian 1.0\ncomment geosynth\n");
+    if (meta && meta->units)
+        fprintf(f, "comment up_axis z; units: %s\n", meta->units);
+    if (meta && meta->about)
+        fprintf(f, "comment %s\n", meta->about);
     fprintf(f, "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n",
             m->nverts);
     if (m->normals)
@@ -181,15 +210,34 @@ gs_err gs_mesh_write_ply_rgb(const char *path, const gs_mesh *m, const char *pro
 
 gs_err gs_mesh_write(const char *path, const gs_mesh *m, const char *prop_name)
 {
+    return gs_mesh_write_meta(path, m, prop_name, NULL, NULL);
+}
+
+gs_err gs_mesh_write_meta(const char *path, const gs_mesh *m, const char *prop_name, const uint8_t *rgb,
+                          const gs_mesh_meta *meta)
+{
     char ext[8];
     gs_path_ext(path, ext, sizeof ext);
+    GS_CHECK(!meta || (one_line(meta->units) && one_line(meta->about)), GS_ERR_ARG,
+             "%s: mesh description with a line break", path);
     if (!strcmp(ext, "obj"))
-        GS_CALL(gs_mesh_write_obj(path, m));
+        GS_CALL(write_obj(path, m, meta));
     else if (!strcmp(ext, "ply"))
-        GS_CALL(gs_mesh_write_ply(path, m, prop_name));
+        GS_CALL(write_ply(path, m, prop_name, rgb, meta));
+    else if (!strcmp(ext, "glb"))
+        GS_CALL(gs_mesh_write_glb(path, m, rgb, meta));
     else
-        GS_RAISE(GS_ERR_ARG, "%s: unknown mesh extension '.%s': expected .obj or .ply", path, ext);
+        GS_RAISE(GS_ERR_ARG, "%s: unknown mesh extension '.%s': expected .obj, .ply or .glb", path, ext);
     return GS_OK;
+}
+
+gs_err gs_mesh_write_glb(const char *path, const gs_mesh *m, const uint8_t *rgb, const gs_mesh_meta *meta)
+{
+    GS_CALL(gs_mesh_validate(m, path));
+    const gs_glb_part part = {m->tris, m->ntris, "surface", NULL};
+    const gs_glb_desc d = {m->pos,  m->nverts, m->normals, rgb, &part, m->ntris ? 1 : 0,
+                           meta ? meta->name : NULL, meta ? meta->units : NULL, meta ? meta->about : NULL};
+    return gs_glb_write(path, &d);
 }
 
 /* ---------------------------------------------------------------- geometry */

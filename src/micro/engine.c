@@ -150,6 +150,8 @@ static gs_err report_results(micro_job *job, gs_json *phase)
                 snprintf(rel, sizeof rel, "%s/mesh.obj", dir);
                 gs_run_output(run, "mesh", "instance", rel, NULL);
             }
+            snprintf(rel, sizeof rel, "%s/mesh.glb", dir);
+            gs_run_output(run, "mesh", "instance", rel, NULL);
             snprintf(rel, sizeof rel, "%s/micro.h5", dir);
             gs_run_output(run, "h5", "labels", rel, NULL);
             if (job->thumbnail <= 0 && job->cfg->preview > 0) { /* written by the output pass */

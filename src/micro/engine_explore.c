@@ -26,7 +26,7 @@
  *                              relative links only)
  *   candidates.json            per candidate: parameters, checks, digest
  *   candidate-XXX/             candidate-XXX.ini, mesh.ply (mesh.obj),
- *                              micro.h5, thumb.png
+ *                              mesh.glb, micro.h5, thumb.png
  * The run digest (summary.json) is the digest of the candidate digests in
  * candidate order. Gallery runs write no checkpoint: each candidate is a
  * short complete run, and a gallery is rerun rather than resumed. */

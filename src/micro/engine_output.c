@@ -1,7 +1,8 @@
 /* micro driver, output pass: per instance the displacement (paper 4.5),
  * the independent verifier, and the files of RUN_DIR/instance-XXXX/:
  *   mesh.ply (and/or mesh.obj)  displaced mesh, normals, PLY vertex property
- *                               "label" (uchar, see below)
+ *                               "label" (uchar, see below), region colours
+ *   mesh.glb                    the same as glTF binary (COLOR_0 = the colours)
  *   micro.h5                    /micro/triangle_label uint16 [n], triangle_value
  *                               float64 [n], vertex_value float64 [nv],
  *                               vertex_label uint8 [nv], target_count int64 [2K],
@@ -186,14 +187,19 @@ static gs_err write_meshes(const micro_job *job, const micro_instance *in, const
     vertex_colors(vvalue, om.nverts, in->hist.nbins, rgb);
     const char *fmt = job->cfg->output_format;
     char path[PATH_MAX + 32];
+    const gs_mesh_meta meta = {"geosynth micro", "the input mesh's units",
+                               "the input surface displaced by the synthesized microstructure; "
+                               "vertex colours: positive region sand, negative blue, darker with the distance bin"};
     if (strcmp(fmt, "obj") != 0) {
         snprintf(path, sizeof path, "%s/mesh.ply", dir);
-        GS_TRY(err, gs_mesh_write_ply_rgb(path, &om, "label", rgb), done);
+        GS_TRY(err, gs_mesh_write_meta(path, &om, "label", rgb, &meta), done);
     }
     if (strcmp(fmt, "ply") != 0) {
         snprintf(path, sizeof path, "%s/mesh.obj", dir);
-        GS_TRY(err, gs_mesh_write(path, &om, NULL), done);
+        GS_TRY(err, gs_mesh_write_meta(path, &om, NULL, NULL, &meta), done);
     }
+    snprintf(path, sizeof path, "%s/mesh.glb", dir);
+    GS_TRY(err, gs_mesh_write_glb(path, &om, rgb, &meta), done);
     if (job->thumbnail > 0) {
         snprintf(path, sizeof path, "%s/thumb.png", dir);
         GS_TRY(err, write_render(&om, rgb, job->thumbnail, path), done);

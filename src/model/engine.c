@@ -419,7 +419,8 @@ static const gs_cfg_key model_keys[] = {
                     "output wraps along these axes (rules hold across the wrap; z needs "
                     "fix_z_faces = false)"),
     GS_CFG_KEY_ENUM(model_config, mesh, "model.mesh", "ply|obj|none", "ply",
-                    "mesh of coloured voxel cubes with merged faces"),
+                    "mesh of coloured voxel cubes with merged faces; mesh.glb (glTF binary) "
+                    "is written next to it"),
     GS_CFG_KEY_BOOL(model_config, vox, "model.vox", "true",
                     "also write lattice.vox (MagicaVoxel)"),
     GS_CFG_KEY_BOOL(model_config, preview, "model.preview", "true",
@@ -1289,6 +1290,10 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
         gs_run_path(run, name, path, sizeof path);
         err = gs_model_write_mesh(path, &m, pal);
+        if (err == GS_OK) {
+            gs_run_path(run, "mesh.glb", path, sizeof path);
+            err = gs_model_write_mesh(path, &m, pal);
+        }
     }
     gs_model_polymesh_free(&m);
     gs_model_quads_free(&quads);
@@ -1365,6 +1370,7 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         char name[16];
         snprintf(name, sizeof name, "mesh.%s", c->mesh);
         gs_run_output(run, "mesh", "lattice", name, NULL); /* written by write_mesh */
+        gs_run_output(run, "mesh", "lattice", "mesh.glb", NULL);
     }
     if (e->lat.nz == 1) {
         gs_run_path(run, "lattice.png", path, sizeof path);

@@ -5,6 +5,7 @@
 
 #include "geosynth/digest.h"
 #include "geosynth/file.h"
+#include "geosynth/glb.h"
 #include "geosynth/mem.h"
 #include "geosynth/mesh.h"
 #include "geosynth/model_io.h"
@@ -593,15 +594,76 @@ done:
     return err;
 }
 
+/* glTF: one primitive (material label_N, the label's colour) per label, in
+ * label order, over the shared vertices; quads as two triangles. */
+static gs_err write_glb(const char *path, const gs_model_polymesh *m, const gs_model_palette *pal)
+{
+    size_t ntri = 0;
+    for (size_t f = 0; f < m->nf; f++)
+        ntri += m->start[f + 1] - m->start[f] - 2;
+    uint32_t *tris = NULL;
+    size_t *first = NULL;
+    gs_glb_part *parts = NULL;
+    uint8_t *rgb = NULL;
+    char (*names)[16] = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&tris, 3 * ntri + 1, sizeof *tris, "glTF triangles"), done);
+    GS_TRY(err, gs_alloc_array((void **)&first, 65537, sizeof *first, "glTF parts"), done);
+    memset(first, 0, 65537 * sizeof *first);
+    for (size_t f = 0; f < m->nf; f++)
+        first[m->label[f] + 1] += m->start[f + 1] - m->start[f] - 2;
+    size_t nparts = 0;
+    for (int l = 0; l < 65536; l++) {
+        nparts += first[l + 1] > 0;
+        first[l + 1] += first[l];
+    }
+    GS_TRY(err, gs_alloc_array((void **)&parts, nparts + 1, sizeof *parts, "glTF parts"), done);
+    GS_TRY(err, gs_alloc_array((void **)&rgb, 3 * nparts + 1, 1, "glTF parts"), done);
+    GS_TRY(err, gs_alloc_array((void **)&names, nparts + 1, sizeof *names, "glTF parts"), done);
+    for (int l = 0, k = 0; l < 65536; l++) {
+        if (first[l + 1] == first[l])
+            continue;
+        gs_model_label_rgb(pal, (uint16_t)l, rgb + 3 * k);
+        snprintf(names[k], sizeof names[k], "label_%d", l);
+        parts[k] = (gs_glb_part){tris + 3 * first[l], first[l + 1] - first[l], names[k], rgb + 3 * k};
+        k++;
+    }
+    for (size_t f = 0; f < m->nf; f++) {
+        const uint32_t *c = m->corner + m->start[f];
+        const uint32_t k = m->start[f + 1] - m->start[f];
+        uint32_t *o = tris + 3 * first[m->label[f]];
+        for (uint32_t t = 1; t + 1 < k; t++, o += 3) { /* a triangle, or a quad's two */
+            o[0] = c[0];
+            o[1] = c[t];
+            o[2] = c[t + 1];
+        }
+        first[m->label[f]] += k - 2;
+    }
+    const gs_glb_desc d = {m->pos, m->nv, NULL, NULL, parts, nparts, "geosynth model",
+                           "model.voxel_size per cell",
+                           "surface of the filled voxel cells, one material label_N per label "
+                           "(its lattice.vox colour); welded: primitives share the vertices"};
+    err = gs_glb_write(path, &d);
+done:
+    gs_free(tris);
+    gs_free(first);
+    gs_free(parts);
+    gs_free(rgb);
+    gs_free(names);
+    return err;
+}
+
 gs_err gs_model_write_mesh(const char *path, const gs_model_polymesh *m, const gs_model_palette *pal)
 {
     char ext[16];
     gs_path_ext(path, ext, sizeof ext);
-    GS_CHECK(!strcmp(ext, "ply") || !strcmp(ext, "obj"), GS_ERR_ARG,
-             "%s: mesh output must end in .ply or .obj", path);
+    GS_CHECK(!strcmp(ext, "ply") || !strcmp(ext, "obj") || !strcmp(ext, "glb"), GS_ERR_ARG,
+             "%s: mesh output must end in .ply, .obj or .glb", path);
     gs_model_polymesh t;
     GS_CALL(gs_model_polymesh_triangulate(m, &t));
-    gs_err err = !strcmp(ext, "ply") ? write_ply(path, &t, pal) : write_obj(path, &t, pal);
+    gs_err err = !strcmp(ext, "ply") ? write_ply(path, &t, pal)
+                 : !strcmp(ext, "obj") ? write_obj(path, &t, pal)
+                                       : write_glb(path, &t, pal);
     gs_model_polymesh_free(&t);
     return err;
 }

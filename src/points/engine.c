@@ -1002,7 +1002,14 @@ static gs_err write_mesh(const points_config *c, const gs_points *pts, double sp
             v[2] = a;
         }
     }
-    GS_TRY(err, gs_mesh_write_ply(path, &m, NULL), done);
+    const gs_mesh_meta meta = {"geosynth points surface", "the example's units",
+                               "surface reconstructed from the synthesized points (output.mesh)"};
+    GS_TRY(err, gs_mesh_write_meta(path, &m, NULL, NULL, &meta), done);
+    if (m.ntris) {
+        char glb[PATH_MAX];
+        gs_path_with_ext(path, "glb", glb, sizeof glb);
+        GS_TRY(err, gs_mesh_write_glb(glb, &m, NULL, &meta), done);
+    }
     *ntris = m.ntris;
 done:
     gs_mesh_destroy(&m);
@@ -1582,6 +1589,8 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
             local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
             if (local == GS_OK)
                 gs_run_output(run, "mesh", "surface", "mesh.ply", NULL);
+            if (local == GS_OK && ntris)
+                gs_run_output(run, "mesh", "surface", "mesh.glb", NULL);
         }
         if (c->preview && local == GS_OK) {
             int written = 0;

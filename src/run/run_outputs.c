@@ -143,6 +143,31 @@ static int obj_counts(FILE *f, int64_t *verts, int64_t *faces)
     return 1;
 }
 
+/* glTF binary: the counts geosynth's writer puts in asset.extras
+ * (include/geosynth/glb.h), from the JSON chunk. */
+static int glb_counts(FILE *f, int64_t *verts, int64_t *faces)
+{
+    unsigned char b[20];
+    if (fread(b, 1, sizeof b, f) != sizeof b || memcmp(b, "glTF", 4) || memcmp(b + 16, "JSON", 4))
+        return 0;
+    const uint32_t n = le32(b + 12);
+    if (n > (1u << 24))
+        return 0;
+    char *json = gs_malloc((size_t)n + 1);
+    if (!json)
+        return 0;
+    int ok = fread(json, 1, n, f) == n;
+    json[ok ? n : 0] = '\0';
+    const char *x = ok ? strstr(json, "\"extras\":{") : NULL;
+    const char *v = x ? strstr(x, "\"vertices\":") : NULL, *t = x ? strstr(x, "\"triangles\":") : NULL;
+    long long nv = -1, nt = -1;
+    ok = v && t && sscanf(v, "\"vertices\":%lld", &nv) == 1 && sscanf(t, "\"triangles\":%lld", &nt) == 1;
+    gs_free(json);
+    *verts = nv;
+    *faces = nt;
+    return ok;
+}
+
 static int ends_with(const char *s, const char *suffix)
 {
     size_t n = strlen(s), m = strlen(suffix);
@@ -190,6 +215,7 @@ gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key)
         } else if ((mesh || points) &&
                    (ends_with(o->path, ".ply") ? ply_counts(f, &a, &b)
                     : ends_with(o->path, ".obj") ? obj_counts(f, &a, &b)
+                    : ends_with(o->path, ".glb") ? glb_counts(f, &a, &b)
                                                  : 0)) {
             gs_json_i64(j, points ? "points" : "vertices", a);
             if (mesh)

@@ -98,7 +98,8 @@ for i in inst:
     check(os.path.exists(os.path.join(run, i["dir"], "preview.png")), "preview.png missing")
     check(os.path.exists(os.path.join(run, i["dir"], "micro.h5")), "micro.h5 missing")
 kinds = [(o["kind"], o["role"]) for o in summ["outputs"]]
-check(kinds.count(("mesh", "instance")) == 3 and kinds.count(("h5", "labels")) == 3, "outputs registered: %s" % kinds)
+meshes = sorted(o["path"].rsplit(".", 1)[1] for o in summ["outputs"] if (o["kind"], o["role"]) == ("mesh", "instance"))
+check(meshes == ["glb"] * 3 + ["ply"] * 3 and kinds.count(("h5", "labels")) == 3, "outputs registered: %s" % kinds)
 for b in bad: print("  " + b)
 sys.exit(1 if bad else 0)
 EOF
