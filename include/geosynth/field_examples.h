@@ -56,7 +56,8 @@ gs_err gs_field_example_mesh(const char *kind, int64_t n, uint64_t seed, gs_mesh
  * surface of any mesh turns into a thin solid with a zero level set. */
 gs_err gs_field_from_mesh(const gs_mesh *m, const char *what, int64_t samples, double margin,
                           int is_signed, double shell, gs_field **out);
-/* Float grid of an OpenVDB file (grid NULL or "" = the first float grid). */
+/* Float grid of an OpenVDB file (grid NULL or "" = the first level set,
+ * else the first float grid). */
 gs_err gs_field_from_vdb(const char *path, const char *grid, gs_field **out);
 /* float32 3D dataset {nz, ny, nx} of an HDF5 file written by geosynth (or any
  * HDF5 file with a /geosynth group); spacing and origin from the dataset's

@@ -66,8 +66,8 @@ size_t gs_vdb_grid_active_voxels(gs_vdb_grid_t g);
 
 /* Writes n grids into one .vdb file (atomically). */
 gs_err gs_vdb_write(const char *path, const gs_vdb_grid_t *grids, int n);
-/* Reads the float grid called name, or the first float grid when name is
- * NULL. A missing name gives GS_ERR_ARG listing the grids in the file. */
+/* Reads the float grid called name, or when name is NULL the first level
+ * set (grid class), else the first float grid. A missing name gives GS_ERR_ARG listing the grids in the file. */
 gs_err gs_vdb_read(const char *path, const char *name, gs_vdb_grid_t *out);
 
 /* Checks the structure of a .vdb file image (header, metadata, grid
@@ -117,7 +117,10 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
  * `pad` samples of padding on every side (e.g. its edge values repeated),
  * so the surface is not closed at the box faces; they are cut off again.
  * path != NULL: writes the grid (clipped to the unpadded box, index space
- * starting at sample 0 of the padded box) as a .vdb file; out != NULL: the
+ * starting at sample 0 of the padded box) as a .vdb file, with a fog volume
+ * "density" beside it (OpenVDB sdfToFogVolume: 0 outside, 1 inside, a ramp
+ * across the band; what renderers' default volume shaders read) and grid
+ * metadata up_axis = "z" and units on both; out != NULL: the
  * redistanced values over the unpadded box (background = +-background
  * beyond the band). */
 gs_err gs_vdb_level_set(const gs_vdb_dense *d, int pad, double half_width, const char *name,

@@ -162,7 +162,7 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_REAL(field_config, margin, "example.margin", 0, 64, 0, "2",
                     "mesh: samples of empty margin around the bounding box"),
     GS_CFG_KEY_STRING(field_config, vdb_grid, "example.vdb_grid", "",
-                      ".vdb: float grid name (empty = the first float grid)"),
+                      ".vdb: float grid name (empty = the first level set, else the first float grid)"),
     GS_CFG_KEY_STRING(field_config, dataset, "example.dataset", "/field/distance",
                       "HDF5: float32 dataset {nz, ny, nx} holding the distance field"),
     GS_CFG_KEY_INT(field_config, depth, "example.depth", 4, 4096, 0, "32",

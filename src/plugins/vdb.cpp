@@ -22,6 +22,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/LevelSetRebuild.h>
+#include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
@@ -126,6 +127,13 @@ gs_err check_dense(const gs_vdb_dense *d, const char *what)
     return GS_OK;
 }
 
+// What users' tools cannot guess: the up axis and the units (docs/FORMATS.md).
+void axis_meta(openvdb::GridBase &g)
+{
+    g.insertMeta("up_axis", openvdb::StringMetadata("z"));
+    g.insertMeta("units", openvdb::StringMetadata("world units: the example's (voxel size = sample spacing)"));
+}
+
 // Grid over the dense box, stored box in metadata.
 openvdb::FloatGrid::Ptr grid_from_dense(const gs_vdb_dense *d, float tolerance)
 {
@@ -136,6 +144,7 @@ openvdb::FloatGrid::Ptr grid_from_dense(const gs_vdb_dense *d, float tolerance)
     grid->insertMeta("gs_dense_min", openvdb::Vec3IMetadata(openvdb::Vec3i(0, 0, 0)));
     grid->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
                                          (int)d->nx - 1, (int)d->ny - 1, (int)d->nz - 1)));
+    axis_meta(*grid);
     return grid;
 }
 
@@ -268,12 +277,19 @@ extern "C" gs_err gs_vdbp_read(const char *path, const char *name, gs_vdb_grid_t
         file.open();
         auto metas = file.readAllGridMetadata();
         std::string avail, pick;
+        bool level_set = false;
         for (const auto &m : *metas) {
             avail += (avail.empty() ? "" : ", ") + std::string("'") + m->getName() + "' (" +
                      m->type() + ")";
             bool is_float = m->type() == openvdb::FloatGrid::gridType();
             if (pick.empty() && is_float && (!name || m->getName() == name))
                 pick = m->getName();
+            // unnamed: a level set before any other float grid (geosynth's field.vdb also
+            // holds the fog volume "density", which is no distance)
+            if (!name && is_float && !level_set && m->getGridClass() == openvdb::GRID_LEVEL_SET) {
+                pick = m->getName();
+                level_set = true;
+            }
             if (name && m->getName() == name && !is_float) {
                 file.close();
                 GS_RAISE(GS_ERR_FORMAT, "%s: grid '%s' is a %s: expected a float grid", path,
@@ -512,9 +528,16 @@ extern "C" gs_err gs_vdbp_level_set(const gs_vdb_dense *d, int pad, double half_
             ls->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
                                                (int)d->nx - 1 - pad, (int)d->ny - 1 - pad,
                                                (int)d->nz - 1 - pad)));
-            gs_vdb_grid w{ls, ls->getName()};
-            gs_vdb_grid *wp = &w;
-            GS_CALL(gs_vdbp_write(path, &wp, 1));
+            axis_meta(*ls);
+            // a fog volume "density" beside it (0 outside, rising to 1 across the band inside,
+            // 1 in the interior): what Blender's and most renderers' default volume shader
+            // reads, so the file renders without a shader of one's own (docs/FORMATS.md)
+            openvdb::FloatGrid::Ptr fog = ls->deepCopy();
+            openvdb::tools::sdfToFogVolume(*fog);
+            fog->setName("density");
+            gs_vdb_grid w[2] = {{ls, ls->getName()}, {fog, fog->getName()}};
+            gs_vdb_grid *wp[2] = {&w[0], &w[1]};
+            GS_CALL(gs_vdbp_write(path, wp, 2));
         }
         return GS_OK;
     });

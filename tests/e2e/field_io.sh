@@ -25,7 +25,25 @@ g = vdb.read(sys.argv[1], "surface")
 assert g.gridClass == vdb.GridClass.LEVEL_SET, g.gridClass
 assert abs(g.background - 3.0) < 1e-6, g.background
 assert tuple(g.transform.voxelSize()) == (1.0, 1.0, 1.0), g.transform.voxelSize()
-assert g.activeVoxelCount() > 0' np1/field.vdb && ok "field.vdb: level set surface, background = band, voxel = spacing" || bad "field.vdb is not a proper level set"
+assert g.activeVoxelCount() > 0
+assert g.metadata["up_axis"] == "z" and "units" in g.metadata["units"], dict(g.metadata)
+# the fog volume renderers read: 0 outside, 1 deep inside, inside = negative distance
+d = vdb.read(sys.argv[1], "density")
+assert d.gridClass == vdb.GridClass.FOG_VOLUME and d.background == 0, (d.gridClass, d.background)
+lo, hi = d.evalMinMax()
+assert 0 <= lo and abs(hi - 1) < 1e-6, (lo, hi)
+acc, sacc = d.getConstAccessor(), g.getConstAccessor()
+n = inside = 0
+for item in g.citerOnValues():
+    if item.count != 1:
+        continue
+    v = sacc.getValue(item.min)
+    if v < -0.5 * g.background:
+        n += 1
+        inside += acc.getValue(item.min) > 0.4
+assert n > 100 and inside == n, (n, inside)
+assert d.metadata["up_axis"] == "z", dict(d.metadata)' np1/field.vdb \
+    && ok "field.vdb: level set surface, background = band, voxel = spacing, up_axis + units metadata; fog volume density inside it" || bad "field.vdb is not a proper level set with its density"
 else
   echo "check skipped: field.vdb read by OpenVDB: needs python3-openvdb (scripts/install-deps.sh)"
 fi
