@@ -24,8 +24,15 @@ out_size = 2.5, 2.5
 EOF
 run_gs 2 points -c ply.ini -o plyrun --set output.mesh=true
 expect_rc 0 "PLY example at np=2 with a mesh"
-/usr/bin/python3 - plyrun/mesh.ply <<'EOF' && ok "mesh.ply re-reads (binary PLY, sizes consistent)" || bad "mesh.ply invalid"
+/usr/bin/python3 - plyrun/mesh.ply "$GS_ROOT" <<'EOF' && ok "mesh.ply re-reads (binary PLY, sizes consistent), every vertex used, edges manifold and oriented" || bad "mesh.ply invalid"
 import sys
+sys.path.insert(0, sys.argv[2] + "/analysis")
+import mesh_validity
+r = mesh_validity.file_validity(sys.argv[1])
+print(r)
+# trimmed to the points it is open, but no vertex is left loose (MeshLab and
+# Blender show those as stray points) and no edge is shared by 3 faces
+assert r["unreferenced_vertices"] == 0 and r["nonmanifold_edges"] == r["misoriented_edges"] == 0, r
 raw = open(sys.argv[1], "rb").read()
 end = raw.index(b"end_header\n") + 11
 h = raw[:end].decode().split("\n")
