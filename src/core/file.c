@@ -1,5 +1,6 @@
 /* File helpers; see include/geosynth/file.h. */
 #include "geosynth/file.h"
+#include "geosynth/killpoint.h"
 
 #include "geosynth/data.h"
 
@@ -44,8 +45,10 @@ gs_err gs_file_commit(const char *tmp, const char *path)
     int saved = errno;
     close(fd);
     GS_CHECK(rc == 0, GS_ERR_IO, "%s: fsync failed: %s", tmp, strerror(saved));
+    gs_kill_point("%s synced, not renamed", gs_kill_base(tmp));
     GS_CHECK(rename(tmp, path) == 0, GS_ERR_IO, "cannot rename %s to %s: %s", tmp, path,
              strerror(errno));
+    gs_kill_point("%s renamed", gs_kill_base(path));
     return fsync_dir_of(path);
 }
 
@@ -59,6 +62,8 @@ FILE *gs_fopen_new(const char *path)
     FILE *f = fdopen(fd, "wb");
     if (!f)
         close(fd);
+    else
+        gs_kill_point("%s created", gs_kill_base(path));
     return f;
 }
 
@@ -117,6 +122,7 @@ gs_err gs_atomic_commit(gs_atomic_file *af)
         else if (statvfs(af->tmp_path, &sv) == 0 && sv.f_bavail == 0)
             e = ENOSPC;
     }
+    gs_kill_point("%s written, not flushed", gs_kill_base(af->tmp_path));
     if (!bad && fflush(af->f) != 0) {
         bad = 1;
         e = errno;

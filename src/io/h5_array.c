@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/killpoint.h"
 #include "geosynth/par.h"
 
 static int is_parallel(const struct gs_ckpt *h) { return h->comm != MPI_COMM_NULL; }
@@ -212,6 +213,7 @@ static gs_err write_rows(struct gs_ckpt *h, const char *dset, const gs_h5_shape 
                              detail);
         goto done;
     }
+    gs_kill_point("%s %s created, not written", gs_kill_base(h->path), dset);
     mspace = select_rows(fspace, s, start, count, row_elems);
     dxpl = H5Pcreate(H5P_DATASET_XFER);
     if (is_parallel(h))
@@ -223,6 +225,8 @@ static gs_err write_rows(struct gs_ckpt *h, const char *dset, const gs_h5_shape 
                              "%s: cannot write dataset %s (HDF5: %s)", file_name(h), dset,
                              detail);
     }
+    if (!err)
+        gs_kill_point("%s %s written", gs_kill_base(h->path), dset);
 done:
     if (dxpl >= 0)
         H5Pclose(dxpl);

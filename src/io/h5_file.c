@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "geosynth/digest.h"
+#include "geosynth/killpoint.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 #include "geosynth/version.h"
@@ -236,6 +237,7 @@ gs_err gs_ckpt_create(MPI_Comm comm, const char *path, const gs_ckpt_meta *meta,
                                "%s: cannot create the HDF5 file (HDF5: %s)", h->tmp_path, d);
     }
     GS_TRY(err, agree(h, local), fail_created);
+    gs_kill_point("%s.tmp created", gs_kill_base(path));
     h->writing = 1;
     GS_TRY(err, gs_h5_reserve(h, strlen(h->config), "/geosynth"), fail_created);
     local = write_identity(h);
@@ -318,6 +320,7 @@ static gs_err keep_previous(const struct gs_ckpt *h)
                  h->path, tmp, strerror(errno));
         return GS_OK; /* the first one: nothing to keep */
     }
+    gs_kill_point("%s linked, not renamed", gs_kill_base(tmp));
     GS_CHECK(rename(tmp, h->prev_path) == 0, GS_ERR_IO, "%s: cannot rename %s over it: %s",
              h->prev_path, tmp, strerror(errno));
     return GS_OK;
@@ -357,10 +360,14 @@ static gs_err durable_rename(const struct gs_ckpt *h)
         GS_RAISE(GS_ERR_IO, "%s: fsync failed: %s", h->tmp_path, strerror(e));
     }
     close(fd);
-    if (h->prev_path)
+    gs_kill_point("%s synced, not renamed", gs_kill_base(h->tmp_path));
+    if (h->prev_path) {
         GS_CALL(keep_previous(h));
+        gs_kill_point("%s: previous kept, new one not renamed", gs_kill_base(h->tmp_path));
+    }
     GS_CHECK(rename(h->tmp_path, h->path) == 0, GS_ERR_IO, "%s: cannot rename %s over it: %s",
              h->path, h->tmp_path, strerror(errno));
+    gs_kill_point("%s renamed", gs_kill_base(h->path));
     char dir[4096];
     GS_CALL(dir_of(h->path, dir, sizeof dir));
     int dfd = open(dir, O_RDONLY | O_DIRECTORY);
@@ -403,6 +410,7 @@ gs_err gs_ckpt_commit(gs_ckpt_t *hp)
                                "%s: close failed (HDF5: %s)", h->tmp_path, d);
     }
     h->file = -1;
+    gs_kill_point("%s closed", gs_kill_base(h->tmp_path));
     if (local == GS_OK)
         local = barrier(h); /* every rank's data is in the file before the fsync */
     err = agree(h, local);

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "geosynth/file.h"
+#include "geosynth/killpoint.h"
 #include "geosynth/h5.h"
 
 gs_err gs_xdmf_path(const char *h5_path, char *out, size_t len)
@@ -130,6 +131,7 @@ gs_err gs_xdmf_write(const char *h5_path, const gs_xdmf_grid *grid, const gs_xdm
         unlink(tmp);
         GS_RAISE(GS_ERR_IO, "%s: write failed: %s", tmp, strerror(e));
     }
+    gs_kill_point("%s synced, not renamed", gs_kill_base(tmp));
     if (rename(tmp, xmf) != 0) {
         e = errno;
         unlink(tmp);

@@ -1,5 +1,6 @@
 /* Run directory, phases, metrics.jsonl and summary.json; see run.h. */
 #include "geosynth/run.h"
+#include "geosynth/killpoint.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -139,6 +140,8 @@ void gs_run_phase_begin(gs_run *run, const char *name)
     p->start = gs_time_now();
     run->open_phase = run->nphases++;
     gs_log_section(name);
+    gs_kill_point_phase(name);
+    gs_kill_point("phase begins");
 }
 
 void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len)
@@ -159,6 +162,7 @@ static gs_err append_line(const char *path, const char *line)
 gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
 {
     GS_CHECK(run->open_phase >= 0, GS_ERR_INTERNAL, "gs_run_phase_end without a running phase");
+    gs_kill_point("phase ends");
     gs_run_phase *p = &run->phases[run->open_phase];
     run->open_phase = -1;
     p->seconds = gs_time_now() - p->start;
@@ -238,6 +242,8 @@ gs_err gs_run_expect_digest(gs_run *run, const char *hex)
 
 gs_err gs_run_finish(gs_run *run, uint64_t digest)
 {
+    gs_kill_point_phase("summary");
+    gs_kill_point("summary begins");
     int verified = !run->have_expect_digest || digest == run->expect_digest;
     uint64_t peak_max, rss_max;
     GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_peak(), &peak_max));
@@ -343,6 +349,7 @@ static int64_t stop_hook_units(const gs_run *run)
 
 int gs_run_checkpoint_due(gs_run *run, int64_t units_done, int *stop)
 {
+    gs_kill_point("safe point after %lld units", (long long)units_done);
     int flags[2] = {0, 0}; /* {due, stop} decided from rank 0's clock and every rank's signals */
     if (run->rank == 0) {
         if (run->ckpt_seconds > 0 && gs_time_now() - run->ckpt_last_time >= run->ckpt_seconds)
