@@ -10,6 +10,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "geosynth/error.h"
+
 typedef struct gs_digest {
     void *state; /* XXH3_state_t, opaque */
 } gs_digest;
@@ -36,5 +38,9 @@ static inline uint64_t gs_hash_mix64(uint64_t x)
 
 /* Writes 16 lowercase hex digits and a NUL into out[17]. */
 void gs_digest_hex(uint64_t h, char out[17]);
+
+/* XXH3-64 of a whole file's bytes (read in 64 KiB pieces) and its size.
+ * GS_ERR_IO naming the file when it cannot be opened or read. */
+gs_err gs_digest_file(const char *path, uint64_t *hash, uint64_t *bytes);
 
 #endif

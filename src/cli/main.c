@@ -15,11 +15,13 @@
 #include "geosynth/config.h"
 #include "geosynth/config_load.h"
 #include "geosynth/data.h"
+#include "geosynth/digest.h"
 #include "geosynth/engines.h"
 #include "geosynth/error.h"
 #include "geosynth/field_examples.h"
 #include "geosynth/file.h"
 #include "geosynth/h5.h"
+#include "geosynth/killpoint.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_io.h"
@@ -344,6 +346,121 @@ static gs_err check_inputs(const gs_engine *e, const void *cfg, const char *orig
     return gs_par_agree(MPI_COMM_WORLD, err);
 }
 
+/* The inputs' digests (#25 item 2): one comment line per input file the
+ * config names (every PATH key but run.output),
+ *   "; input KEY xxh3 HEX BYTES PATH"
+ * appended to the resolved config on a fresh run, so that start.ini and
+ * every checkpoint record them; `resume` checks each against the file as it
+ * is now and refuses a changed one (the result would no longer be the
+ * run's). Rank 0; *lines is gs_malloc'ed ("" when the config names none). */
+#define INPUT_TAG "; input "
+
+static gs_err input_digests(const gs_engine *e, const void *cfg, char **lines)
+{
+    size_t cap = 1, len = 0;
+    char *s = gs_malloc(cap);
+    GS_CHECK(s, GS_ERR_MEM, "out of memory for the inputs' digests");
+    s[0] = '\0';
+    const gs_cfg_table *t = e->config;
+    gs_err err = GS_OK;
+    for (size_t i = 0; i < t->nkeys && !err; i++) {
+        const gs_cfg_key *k = &t->keys[i];
+        if (k->type != GS_CFG_PATH || !strcmp(k->name, "run.output"))
+            continue;
+        const char *path = *(char *const *)((const char *)cfg + k->offset);
+        if (!path || !*path)
+            continue;
+        uint64_t h = 0, bytes = 0;
+        err = gs_digest_file(path, &h, &bytes);
+        if (err)
+            break;
+        char hex[17];
+        gs_digest_hex(h, hex);
+        size_t need = strlen(INPUT_TAG) + strlen(k->name) + strlen(path) + 64;
+        char *grown = gs_realloc(s, cap + need);
+        if (!grown) {
+            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                 "out of memory for the inputs' digests");
+            break;
+        }
+        s = grown;
+        cap += need;
+        len += (size_t)snprintf(s + len, cap - len, "%s%s xxh3 %s %llu %s\n", INPUT_TAG, k->name,
+                                hex, (unsigned long long)bytes, path);
+    }
+    if (err) {
+        gs_free(s);
+        return err;
+    }
+    *lines = s;
+    return GS_OK;
+}
+
+/* Rank 0 of a resume: every "; input" line of the stored config text
+ * against the file now; *lines gets those lines (to be recorded again). */
+static gs_err input_verify(const char *stored, const char *dir, const char *origin, char **lines)
+{
+    size_t cap = strlen(stored) + 1, len = 0;
+    char *s = gs_malloc(cap);
+    GS_CHECK(s, GS_ERR_MEM, "out of memory for the inputs' digests");
+    s[0] = '\0';
+    int changed = 0;
+    char first[3 * PATH_MAX] = "";
+    for (const char *p = stored; p && *p;) {
+        const char *nl = strchr(p, '\n');
+        size_t n = nl ? (size_t)(nl - p) : strlen(p);
+        if (n > strlen(INPUT_TAG) && !strncmp(p, INPUT_TAG, strlen(INPUT_TAG)) &&
+            n < 2 * PATH_MAX) {
+            char line[2 * PATH_MAX], key[128], hex[17];
+            unsigned long long bytes = 0;
+            int at = 0;
+            memcpy(line, p, n);
+            line[n] = '\0';
+            memcpy(s + len, line, n);
+            len += n;
+            s[len++] = '\n';
+            s[len] = '\0';
+            if (sscanf(line + strlen(INPUT_TAG), "%127s xxh3 %16s %llu %n", key, hex, &bytes,
+                       &at) < 3 || !at) {
+                gs_free(s);
+                GS_RAISE(GS_ERR_FORMAT, "%s: damaged input record '%.200s'", origin, line);
+            }
+            const char *path = line + strlen(INPUT_TAG) + at;
+            uint64_t h = 0, now = 0;
+            char hex_now[17] = "(unreadable)";
+            gs_err err = gs_digest_file(path, &h, &now);
+            if (!err)
+                gs_digest_hex(h, hex_now);
+            else
+                gs_error_clear();
+            if (err || strcmp(hex, hex_now) || now != bytes) {
+                char why[PATH_MAX + 256];
+                if (err)
+                    snprintf(why, sizeof why, "%s = %s cannot be read any more", key, path);
+                else
+                    snprintf(why, sizeof why,
+                             "%s = %s has changed since the run started (then XXH3 %s, %llu "
+                             "bytes; now %s, %llu bytes)",
+                             key, path, hex, bytes, hex_now, (unsigned long long)now);
+                if (!changed++)
+                    snprintf(first, sizeof first, "%s", why);
+                else
+                    gs_log(GS_LOG_ERROR, "%s: also %s", dir, why);
+            }
+        }
+        p = nl ? nl + 1 : NULL;
+    }
+    if (changed) {
+        gs_free(s);
+        GS_RAISE(GS_ERR_ARG,
+                 "cannot resume %s: %s%s; resuming would not give the run's output: put the "
+                 "original input back, or start a new run",
+                 dir, first, changed > 1 ? " (and the inputs listed above)" : "");
+    }
+    *lines = s;
+    return GS_OK;
+}
+
 /* Runs an engine fresh (resume = 0) or from RUN_DIR (resume = 1).
  * Collective. Config problems are collective failures. */
 static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resume_config,
@@ -402,9 +519,42 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
     }
+    char *inputs = NULL;
+    if (gs_par_rank() == 0)
+        err = resume_config ? input_verify(resume_config, a->positional, origin, &inputs)
+                            : input_digests(e, cfg, &inputs);
+    err = gs_par_agree(MPI_COMM_WORLD, err);
+    if (!err && gs_par_rank() == 0 && inputs[0]) {
+        size_t n = strlen(resolved) + strlen(inputs) + 1;
+        char *both = gs_malloc(n);
+        if (both) {
+            snprintf(both, n, "%s%s", resolved, inputs);
+            gs_free(resolved);
+            resolved = both;
+        } else {
+            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                 "out of memory for the config");
+        }
+    }
+    gs_free(inputs);
+    err = gs_par_agree(MPI_COMM_WORLD, err);
+    if (!err && gs_par_rank() != 0) {
+        gs_free(resolved);
+        resolved = NULL;
+    }
+    if (!err)
+        err = gs_par_bcast_string(MPI_COMM_WORLD, &resolved, 0) ? gs_error_code() : GS_OK;
+    if (err) {
+        gs_config_free(e->config, cfg);
+        gs_free(cfg);
+        gs_free(resolved);
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
     const gs_run_config *rc = (const gs_run_config *)((const char *)cfg + e->run_offset);
     if (!log_level_from_cli)
         gs_log_set_level(log_level_from_name(rc->log_level));
+    gs_kill_point_setup(gs_par_rank(), resume_config != NULL); /* test hook GS_KILL_AT */
     gs_run run;
     err = gs_run_open(&run, MPI_COMM_WORLD, e->name, resume_config ? a->positional : rc->output,
                       resolved, (uint64_t)rc->seed, resume);
@@ -478,6 +628,14 @@ static gs_err cmd_resume(const cli_args *a, int *collective)
                        "again from %s",
                        a->positional, start);
             }
+        } else if (!err && access(path, F_OK) != 0 && errno == ENOENT &&
+                   access(start, F_OK) != 0 && errno == ENOENT) {
+            /* A kill before start.ini was in place (or not a run directory). */
+            err = gs_error_raise(GS_ERR_IO, __FILE__, __LINE__, __func__,
+                                 "cannot resume %s: there is neither %s nor %s (a run killed "
+                                 "before it recorded its config, or not a run directory): "
+                                 "start the run again with 'geosynth ENGINE -c CONFIG -o %s'",
+                                 a->positional, path, start, a->positional);
         } else if (!err) {
             err = gs_ckpt_peek(path, engine, sizeof engine, &config_text);
         }

@@ -1,8 +1,14 @@
 /* XXH3-64 digests; see include/geosynth/digest.h. */
 #include "geosynth/digest.h"
 
+#include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
+#include <string.h>
+#include <unistd.h>
 #include <xxhash.h>
+
+#include "geosynth/error.h"
 
 uint64_t gs_digest_bytes(const void *data, size_t n)
 {
@@ -35,4 +41,32 @@ uint64_t gs_digest_final(gs_digest *d)
 void gs_digest_hex(uint64_t h, char out[17])
 {
     snprintf(out, 17, "%016llx", (unsigned long long)h);
+}
+
+gs_err gs_digest_file(const char *path, uint64_t *hash, uint64_t *bytes)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    GS_CHECK(fd >= 0, GS_ERR_IO, "cannot open %s: %s", path, strerror(errno));
+    XXH3_state_t *s = XXH3_createState();
+    if (!s) {
+        close(fd);
+        GS_RAISE(GS_ERR_MEM, "%s: cannot allocate a digest state", path);
+    }
+    XXH3_64bits_reset(s);
+    char buf[1 << 16];
+    uint64_t total = 0;
+    ssize_t n;
+    while ((n = read(fd, buf, sizeof buf)) > 0 || (n < 0 && errno == EINTR))
+        if (n > 0) {
+            XXH3_64bits_update(s, buf, (size_t)n);
+            total += (uint64_t)n;
+        }
+    int e = errno;
+    close(fd);
+    uint64_t h = (uint64_t)XXH3_64bits_digest(s);
+    XXH3_freeState(s);
+    GS_CHECK(n == 0, GS_ERR_IO, "cannot read %s: %s", path, strerror(e));
+    *hash = h;
+    *bytes = total;
+    return GS_OK;
 }

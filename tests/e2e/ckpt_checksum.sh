@@ -18,9 +18,6 @@ FLIP="/usr/bin/python3 $GS_ROOT/tests/e2e/ckpt_flip.py"
 TRIALS=${TRIALS:-3}
 seed=2025
 
-golden() { awk -F'\t' -v e="$1" -v c="$2" '$1 == e && $2 == c { print $5; exit }' \
-  "$GS_ROOT/tests/golden/digests.tsv"; }
-
 # engine config stop-after (two checkpoints before the stop with checkpoint_every=1)
 cases=(
   "field configs/field/quick.ini 17"

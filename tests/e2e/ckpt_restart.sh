@@ -6,12 +6,10 @@
 # uninterrupted digest (tests/golden/digests.tsv). Every engine's quick
 # config at np 2 with checkpoints off, every rank killed with SIGKILL at a
 # random moment after start.ini appears, resumed at np 1 or 3.
-# TRIALS=N kills per engine (default 1).
+# TRIALS=N kills per engine (default 1). Then the inputs' digests (below).
 source "$GS_ROOT/tests/e2e/lib.bash"
 TRIALS=${TRIALS:-1}
 RANDOM=${SEED:-4242}
-golden() { awk -F'\t' -v e="$1" -v c="$2" '$1 == e && $2 == c { print $5; exit }' \
-  "$GS_ROOT/tests/golden/digests.tsv"; }
 cases=("field configs/field/quick.ini" "points configs/points/quick.ini"
        "micro configs/micro/quick.ini" "model configs/model/demo.ini")
 for c in "${cases[@]}"; do
@@ -38,4 +36,37 @@ for c in "${cases[@]}"; do
       || bad "$eng trial $t: resume with no checkpoint: exit $rc, digest $got (expected $ref): ${err:0:500}"
   done
 done
+
+# The inputs' digests: start.ini (and every checkpoint) records each input
+# file's XXH3; resume refuses a changed input (exit 2, naming the key, the
+# file and both digests) and goes on once the original is back, both from a
+# checkpoint and from start.ini alone.
+if need_config "model demo" "$GS_ROOT/configs/model/demo.ini"; then
+  src=$DATA/model-synthesis/debroglie-samples-merrell/parliament.csv
+  for how in checkpoint start.ini; do
+    d=inputs-$how; rm -rf "$d"; cp "$src" "$PWD/example-$how.csv"
+    if [[ $how == checkpoint ]]; then
+      GS_STOP_AFTER_UNITS=10 run_gs 2 model -c "$GS_ROOT/configs/model/demo.ini" -o "$d" \
+        --set "model.example=$PWD/example-$how.csv" </dev/null
+    else # killed at the setup phase's start (GS_KILL_AT: kill point 5 of rank 0)
+      GS_KILL_AT=5 run_gs 2 model -c "$GS_ROOT/configs/model/demo.ini" -o "$d" \
+        --set "model.example=$PWD/example-$how.csv" --set run.checkpoint_seconds=0 </dev/null
+    fi
+    grep -q "^; input model.example xxh3 [0-9a-f]\{16\} [0-9]* $PWD/example-$how.csv$" "$d/start.ini" \
+      && [[ ($how == checkpoint && -f $d/checkpoint.h5) || ($how == start.ini && ! -f $d/checkpoint.h5) ]] \
+      && ok "inputs ($how): start.ini records model.example's digest and size" \
+      || bad "inputs ($how): no input digest in start.ini or wrong state: $(grep '^; input' "$d/start.ini")"
+    printf '\n' >>"example-$how.csv" # one more byte
+    run_gs 1 resume "$d"
+    [[ $rc -eq 2 ]] && grep -q "cannot resume .*model.example = $PWD/example-$how.csv has changed since the run started (then XXH3 [0-9a-f]*, 19066 bytes; now [0-9a-f]*, 19067 bytes)" <<<"$err" \
+      && ok "inputs ($how): resume with a changed input is refused (exit 2) naming it" \
+      || bad "inputs ($how): resume with a changed input: exit $rc: ${err:0:500}"
+    cp "$src" "example-$how.csv"
+    run_gs 3 resume "$d"
+    got=$(digest_of "$d" 2>/dev/null)
+    [[ $rc -eq 0 && $got == "$(golden model configs/model/demo.ini)" ]] \
+      && ok "inputs ($how): with the original back, resume at np 3 gives the uninterrupted digest $got" \
+      || bad "inputs ($how): resume with the original input: exit $rc, digest $got: ${err:0:500}"
+  done
+fi
 finish

@@ -86,6 +86,10 @@ expect_no_crash() {
   fi
 }
 
+# golden ENGINE CONFIG: the digest tests/golden/digests.tsv pins for CONFIG.
+golden() { awk -F'\t' -v e="$1" -v c="$2" '$1 == e && $2 == c { print $5; exit }' \
+  "$GS_ROOT/tests/golden/digests.tsv"; }
+
 digest_of() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]))["digest"])' "$1/summary.json"; }
 
 finish() { exit $e2e_failed; }
