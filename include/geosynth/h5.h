@@ -295,6 +295,8 @@ typedef struct gs_xdmf_grid {
     uint64_t dims[3];      /* data dims slowest first {nz, ny, nx} */
     double origin[3];      /* x, y, z */
     double spacing[3];     /* dx, dy, dz (> 0) */
+    uint64_t frames;       /* 0 or 1: one grid; T > 1: a time series (ParaView plays it),
+                              every dataset [T][dims...] and frame t its hyperslab t */
 } gs_xdmf_grid;
 
 typedef struct gs_xdmf_attr {

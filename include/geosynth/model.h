@@ -5,7 +5,14 @@
  * - A lattice holds one uint16 label per cell, index x + nx*(y + ny*z)
  *   (x fastest). Label 0 is empty space. Axis z points up; the example's
  *   lowest layer is the ground.
- * - Directions: 0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z (opposite = d ^ 1).
+ * - Directions: 0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z, 6 +t, 7 -t (opposite =
+ *   d ^ 1). Time (paper Sec. 4.3, 4D): a lattice of frames > 1 time steps
+ *   holds them stacked along z, frame t at z in [t*fz, (t+1)*fz) with fz =
+ *   nz / frames (so the memory, files and regions of a 3D lattice carry it
+ *   unchanged); +z/-z never cross from one frame into the next, +t/-t join
+ *   cell (x, y, z) of frame t to the same cell of frame t +- 1. Transitions
+ *   along t are learned from the example's frames like those along x, y, z;
+ *   a 3D lattice (frames 0 or 1) has no t neighbours.
  * - Transition function (paper Eq. 1): label b may sit at v+e_d next to
  *   label a at v iff that ordered pair occurs somewhere inside the example.
  *   Only pairs of cells that are both inside the example count: the outside
@@ -76,9 +83,30 @@
 typedef struct gs_model_lattice {
     int nx, ny, nz;
     uint16_t *labels; /* nx*ny*nz, x fastest; owned */
+    int frames;       /* time steps stacked along z (4D); 0 or 1 = a 3D lattice */
 } gs_model_lattice;
 
-/* Allocates a zero-filled (all empty) lattice; dims in [1, 2^20] and the cell
+/* Cells per frame along z (nz for a 3D lattice). */
+static inline int gs_model_frame_nz(const gs_model_lattice *l)
+{
+    return l->frames > 1 ? l->nz / l->frames : l->nz;
+}
+/* z of the neighbour of a cell at height z along direction d (4..7; x and
+ * y directions keep z), or -1 when it lies outside the lattice or, along
+ * +z/-z, in another frame. */
+static inline int gs_model_step_z(const gs_model_lattice *l, int z, int d)
+{
+    const int fz = gs_model_frame_nz(l);
+    int q = d == 4 ? z + 1 : d == 5 ? z - 1 : d == 6 ? z + fz : d == 7 ? z - fz : z;
+    if (q < 0 || q >= l->nz || (d >= 6 && l->frames <= 1))
+        return -1;
+    if ((d == 4 || d == 5) && q / fz != z / fz)
+        return -1;
+    return q;
+}
+
+/* Allocates a zero-filled (all empty) 3D lattice (frames = 1; a 4D one sets
+ * frames afterwards, nz a multiple of it); dims in [1, 2^20] and the cell
  * count below 2^31. On error *lat is left unchanged. Free with
  * gs_model_lattice_destroy(). */
 gs_err gs_model_lattice_create(gs_model_lattice *lat, int nx, int ny, int nz);
@@ -87,12 +115,23 @@ static inline size_t gs_model_lattice_index(const gs_model_lattice *l, int x, in
 {
     return (size_t)x + (size_t)l->nx * ((size_t)y + (size_t)l->ny * (size_t)z);
 }
-/* Digest of the labels (gs_digest_bytes over the array plus dims). */
+/* 4D: frame t of l as a 3D lattice (out allocated; free it). */
+gs_err gs_model_lattice_frame(const gs_model_lattice *l, int t, gs_model_lattice *out);
+/* 4D: the first min(frames, max_frames) frames side by side along x, gap
+ * empty columns between them (a 3D lattice to render or mesh; frame 0 at x
+ * = 0). A 3D lattice comes out as a copy. */
+gs_err gs_model_lattice_filmstrip(const gs_model_lattice *l, int gap, int max_frames,
+                                  gs_model_lattice *out);
+/* Digest of the labels (gs_digest_bytes over the array plus dims; plus the
+ * frames of a 4D lattice). */
 uint64_t gs_model_lattice_digest(const gs_model_lattice *lat);
 
 /* Reads Paul Merrell's samples/NAME.txt format: three free header lines, then
  * "X Y Z" extents, then X*Y*Z integers read z outermost, then x, then y
  * innermost; an optional "<Objects>" section ends the labels and is ignored.
+ * A 4D lattice (geosynth's extension, Sec. 4.3) has a fourth extent T on
+ * the same line, "X Y Z T", and T frames of X*Y*Z labels, frame 0 first,
+ * each in the order above (read as frames = T, nz = Z*T).
  * Errors name the file and line ("castle.txt:7: expected a label in
  * [0, 65535], got 'a'"). On error *out is left unchanged. */
 gs_err gs_model_read_merrell_txt(const char *path, gs_model_lattice *out);
@@ -100,7 +139,8 @@ gs_err gs_model_read_merrell_txt(const char *path, gs_model_lattice *out);
 gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name,
                                   gs_model_lattice *out);
 /* Writes a lattice in the same format (readable by the reader above and by
- * the author's editor scripts, without an <Objects> section). */
+ * the author's editor scripts, without an <Objects> section; a 4D lattice
+ * with its fourth extent). */
 gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat);
 
 /* Reads DeBroglie's CSV lattice format (its samples/merrell/NAME.csv, the
@@ -122,7 +162,7 @@ gs_err gs_model_parse_debroglie_csv(const char *text, size_t len, const char *na
 
 /* ---- rules learned from the example ------------------------------------- */
 
-enum { GS_MODEL_DIRS = 6 };
+enum { GS_MODEL_DIRS = 8 }; /* +-x, +-y, +-z, +-t */
 #define GS_MODEL_FREE 0xffffu /* "no label": unpinned cell */
 
 typedef struct gs_model_rules *gs_model_rules_t;
@@ -168,12 +208,14 @@ size_t gs_model_rules_violations(const gs_model_rules_t rules, const gs_model_la
 
 typedef struct gs_model_violation {
     int x, y, z;   /* first cell */
-    int dir;       /* 0 +x, 2 +y, 4 +z: the second cell is at +1 along that axis */
+    int dir;       /* 0 +x, 2 +y, 4 +z, 6 +t: the second cell is at +1 along that
+                      axis (+t: the same cell of the next frame) */
     uint16_t a, b; /* labels of the first and second cell */
 } gs_model_violation;
 
 /* Lists the adjacent pairs of output that never occur in example along the
- * same direction, recomputing the allowed pairs from the example directly
+ * same direction (4D lattices: along t too, the same cell of consecutive
+ * frames; along z only inside a frame), recomputing the allowed pairs from the example directly
  * (shares no code with the synthesizer). Also flags cells whose label never
  * occurs in the example (reported as a pair with itself, dir = -1).
  * Writes at most cap entries to out (out may be NULL when cap == 0) and the

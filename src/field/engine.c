@@ -723,7 +723,7 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
     err = GS_OK;
     if (run->rank == 0) {
         gs_xdmf_grid g = {"field", GS_XDMF_NODE, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]},
-                          {0, 0, 0}, {f->spacing, f->spacing, f->spacing}};
+                          {0, 0, 0}, {f->spacing, f->spacing, f->spacing}, 1};
         gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32, 1},
                               {"levels", "/field/levels", GS_H5_U8, 1}};
         err = gs_xdmf_write(path, &g, at, 2);

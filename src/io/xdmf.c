@@ -71,11 +71,23 @@ static void write_xml(FILE *f, const char *h5_name, const gs_xdmf_grid *g,
     /* A cell-centred lattice of n voxels has n + 1 grid points per axis. */
     unsigned long long tz = g->dims[0] + (unsigned)cell, ty = g->dims[1] + (unsigned)cell,
                        tx = g->dims[2] + (unsigned)cell;
+    const unsigned long long T = g->frames > 1 ? g->frames : 1;
     fputs("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-          "<Xdmf Version=\"2.0\">\n  <Domain>\n    <Grid Name=\"",
+          "<Xdmf Version=\"2.0\">\n  <Domain>\n",
           f);
+    if (T > 1) {
+        fputs("    <Grid Name=\"", f);
+        gs_fput_markup(f, g->name, 0);
+        fputs("\" GridType=\"Collection\" CollectionType=\"Temporal\">\n", f);
+    }
+    for (unsigned long long t = 0; t < T; t++) {
+    fputs("    <Grid Name=\"", f);
     gs_fput_markup(f, g->name, 0);
+    if (T > 1)
+        fprintf(f, " t=%llu", t);
     fputs("\" GridType=\"Uniform\">\n", f);
+    if (T > 1)
+        fprintf(f, "      <Time Value=\"%llu\"/>\n", t);
     fprintf(f, "      <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"%llu %llu %llu\"/>\n",
             tz, ty, tx);
     /* ORIGIN_DXDYDZ lists z, y, x (slowest first), like Dimensions. */
@@ -97,17 +109,37 @@ static void write_xml(FILE *f, const char *h5_name, const gs_xdmf_grid *g,
         gs_fput_markup(f, attrs[a].name, 0);
         fprintf(f, "\" AttributeType=\"%s\" Center=\"%s\">\n", vec ? "Vector" : "Scalar",
                 cell ? "Cell" : "Node");
-        fprintf(f, "        <DataItem Dimensions=\"%llu %llu %llu", (unsigned long long)g->dims[0],
-                (unsigned long long)g->dims[1], (unsigned long long)g->dims[2]);
+        const unsigned long long d0 = g->dims[0], d1 = g->dims[1], d2 = g->dims[2];
+        if (T > 1) { /* frame t: hyperslab start t 0 0 0 (0), stride 1, count 1 dims */
+            const int rank = 4 + vec;
+            fprintf(f, "        <DataItem ItemType=\"HyperSlab\" Dimensions=\"%llu %llu %llu", d0,
+                    d1, d2);
+            if (vec)
+                fprintf(f, " %d", attrs[a].components);
+            fprintf(f, "\" Type=\"HyperSlab\">\n          <DataItem Dimensions=\"3 %d\" "
+                       "Format=\"XML\">%llu 0 0 0%s 1 1 1 1%s 1 %llu %llu %llu",
+                    rank, t, vec ? " 0" : "", vec ? " 1" : "", d0, d1, d2);
+            if (vec)
+                fprintf(f, " %d", attrs[a].components);
+            fprintf(f, "</DataItem>\n          <DataItem Dimensions=\"%llu %llu %llu %llu", T, d0, d1,
+                    d2);
+        } else {
+            fprintf(f, "        <DataItem Dimensions=\"%llu %llu %llu", d0, d1, d2);
+        }
         if (vec)
             fprintf(f, " %d", attrs[a].components);
         fprintf(f, "\" NumberType=\"%s\" Precision=\"%d\" Format=\"HDF\">", nt, prec);
         gs_fput_markup(f, h5_name, 0);
         fputc(':', f);
         gs_fput_markup(f, attrs[a].dataset, 0);
-        fputs("</DataItem>\n      </Attribute>\n", f);
+        fputs(T > 1 ? "</DataItem>\n        </DataItem>\n      </Attribute>\n"
+                    : "</DataItem>\n      </Attribute>\n", f);
     }
-    fputs("    </Grid>\n  </Domain>\n</Xdmf>\n", f);
+    fputs("    </Grid>\n", f);
+    }
+    if (T > 1)
+        fputs("    </Grid>\n", f);
+    fputs("  </Domain>\n</Xdmf>\n", f);
 }
 
 gs_err gs_xdmf_write(const char *h5_path, const gs_xdmf_grid *grid, const gs_xdmf_attr *attrs,

@@ -67,6 +67,7 @@
 #define MODEL_MAX_EXTENT 1048576.0
 #define MODEL_RNG_DOMAIN 0x6d6f646cu /* "modl": unused by the regions, kept distinct */
 #define MODEL_VIOLATION_LIST 20
+#define MODEL_PREVIEW_FRAMES 6 /* 4D preview: the first frames side by side */
 
 typedef struct model_config {
     char *example;
@@ -102,6 +103,7 @@ typedef struct model_config {
     char *start;
     char *start_column;
     int64_t start_block;
+    int64_t frames;
     int64_t split_depth;
     char *pins;
     char *border;
@@ -263,6 +265,25 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
     if (strchr(c->periodic, 'z') && !strcmp(c->fix_z_faces, "true"))
         gs_cfg_report(ctx, "model.periodic",
                       "= %s wraps z: needs model.fix_z_faces = false", c->periodic);
+    if (c->frames > 1) {
+        /* 4D: frames are stacked along z; these read or cut z as one axis */
+        const char *key = c->tileset[0] || c->sample[0] ? "model.example"
+                          : c->region[2] > 0 && c->region[2] < c->size[2] ? "model.region"
+                          : strcmp(c->mirror, "none")  ? "model.mirror"
+                          : strchr(c->periodic, 'z')   ? "model.periodic"
+                          : !strcmp(c->fix_z_faces, "true") ? "model.fix_z_faces"
+                          : c->start_block > 0         ? "model.start_block"
+                          : c->start[0]                ? "model.start"
+                          : c->pins[0]                 ? "model.pins"
+                          : c->border[0]               ? "model.border"
+                                                       : NULL;
+        if (key)
+            gs_cfg_report(ctx, key,
+                          "not supported with model.frames = %lld (4D): needs a lattice example, "
+                          "region z = 0 (whole frames), no mirror, no periodic z, "
+                          "fix_z_faces auto or false, no start_block/start/pins/border",
+                          (long long)c->frames);
+    }
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start_block",
                       "cannot be combined with model.start or model.start_column");
@@ -412,6 +433,11 @@ static const gs_cfg_key model_keys[] = {
                    "model.shape with resemblance: outside the target (m < 0.5) the choice also "
                    "weighs example neighbourhoods this much farther than the closest, so "
                    "proposals can end structure there"),
+    GS_CFG_KEY_INT(model_config, frames, "model.frames", 1, 4096, 0, "1",
+                   "time steps of a 4D output (paper Sec. 4.3): > 1 needs a 4D example (Merrell "
+                   ".txt with an 'X Y Z T' extents line); transitions along time are learned "
+                   "from its frames like those in space; writes frame_NNN.vox per frame and "
+                   "lattice.xmf as a time series"),
     GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -521,10 +547,11 @@ static size_t lattice_cells(const gs_model_lattice *l)
 static gs_err bcast_lattice(MPI_Comm comm, gs_model_lattice *l, gs_err loaded)
 {
     GS_CALL(gs_par_agree(comm, loaded));
-    int dims[3] = {l->nx, l->ny, l->nz};
+    int dims[4] = {l->nx, l->ny, l->nz, l->frames};
     GS_CALL(GS_PAR_BCAST_VALUE(comm, &dims, 0));
     if (!l->labels)
         GS_CALL(gs_model_lattice_create(l, dims[0], dims[1], dims[2]));
+    l->frames = dims[3];
     GS_CALL(gs_par_bcast_bytes(comm, l->labels, lattice_cells(l) * sizeof *l->labels, 0));
     return GS_OK;
 }
@@ -836,6 +863,11 @@ static uint64_t min_coverage(const model_engine *e)
 static gs_h5_shape lattice_shape(const gs_model_lattice *l)
 {
     gs_h5_shape s = {GS_H5_U16, 3, {(uint64_t)l->nz, (uint64_t)l->ny, (uint64_t)l->nx}};
+    if (l->frames > 1) { /* 4D: [t][z][y][x], the same bytes */
+        gs_h5_shape s4 = {GS_H5_U16, 4, {(uint64_t)l->frames, (uint64_t)gs_model_frame_nz(l),
+                                         (uint64_t)l->ny, (uint64_t)l->nx}};
+        return s4;
+    }
     return s;
 }
 
@@ -1191,11 +1223,18 @@ static gs_err write_label_table(gs_ckpt_t h, const model_engine *e)
                                 "row k: label id[k], colour rgb[k] (0-255), name = line k of @names; "
                                 "label 0 (empty) is not listed"),
            done);
-    gs_h5_shape cs = {GS_H5_U8, 4, {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx, 3}};
+    const gs_h5_shape ls = lattice_shape(&e->lat);
+    gs_h5_shape cs = {GS_H5_U8, ls.rank + 1, {0}};
+    for (int i = 0; i < ls.rank; i++)
+        cs.dims[i] = ls.dims[i];
+    cs.dims[ls.rank] = 3;
     GS_TRY(err, gs_ckpt_write_whole(h, "/model/colour", &cs, cell_rgb, &opts), done);
     GS_TRY(err, gs_ckpt_set_str(h, "/model/colour", "index_order",
-                                "colour[z][y][x][c]; c = red, green, blue (0-255); x fastest, z up; "
-                                "the label's colour, empty cells white"),
+                                e->lat.frames > 1
+                                    ? "colour[t][z][y][x][c]; c = red, green, blue (0-255); x "
+                                      "fastest, z up, t = frame; the label's colour, empty cells white"
+                                    : "colour[z][y][x][c]; c = red, green, blue (0-255); x fastest, z up; "
+                                      "the label's colour, empty cells white"),
            done);
 done:
     gs_free(seen);
@@ -1218,8 +1257,13 @@ static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *p
     gs_digest_hex(gs_model_lattice_digest(&e->lat), hex);
     GS_TRY(err, gs_ckpt_write_whole(h, "/model/labels", &ls, e->lat.labels, &opts), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model/labels", "index_order",
-                                "labels[z][y][x]; x fastest, z up; 0 = empty"),
+                                e->lat.frames > 1
+                                    ? "labels[t][z][y][x]; x fastest, z up, t = frame (time step); "
+                                      "0 = empty"
+                                    : "labels[z][y][x]; x fastest, z up; 0 = empty"),
            fail);
+    if (e->lat.frames > 1)
+        GS_TRY(err, gs_ckpt_set_i64(h, "/model", "frames", e->lat.frames), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model/labels", "units", "label id (see /model/label_table)"), fail);
     GS_TRY(err, gs_ckpt_set_str(h, "/model", "up_axis", "z"), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, "/model", "voxel_size", e->cfg->voxel_size), fail);
@@ -1235,9 +1279,10 @@ static gs_err write_lattice_h5(gs_run *run, const model_engine *e, const char *p
            fail);
     GS_TRY(err, gs_ckpt_commit(&h), fail);
     gs_xdmf_grid grid = {"model lattice", GS_XDMF_CELL,
-                         {(uint64_t)e->lat.nz, (uint64_t)e->lat.ny, (uint64_t)e->lat.nx},
+                         {(uint64_t)gs_model_frame_nz(&e->lat), (uint64_t)e->lat.ny, (uint64_t)e->lat.nx},
                          {0, 0, 0},
-                         {e->cfg->voxel_size, e->cfg->voxel_size, e->cfg->voxel_size}};
+                         {e->cfg->voxel_size, e->cfg->voxel_size, e->cfg->voxel_size},
+                         (uint64_t)(e->lat.frames > 1 ? e->lat.frames : 1)};
     gs_xdmf_attr attr[2] = {{"label", "/model/labels", GS_H5_U16, 1},
                             {"colour", "/model/colour", GS_H5_U8, 3}};
     GS_CALL(gs_xdmf_write(path, &grid, attr, 2));
@@ -1271,7 +1316,10 @@ static gs_err write_mesh(gs_run *run, const model_engine *e, int64_t counts[2])
     const gs_model_lattice *lat = &e->lat;
     const gs_model_palette *pal = &e->pal;
     double voxel = c->voxel_size;
-    if (e->ts.dim == 3) { /* the tiles' voxels, not one cube per tile */
+    if (e->lat.frames > 1) { /* 4D: every frame, side by side along x */
+        GS_CALL(gs_model_lattice_filmstrip(&e->lat, 1, 0, &vox));
+        lat = &vox;
+    } else if (e->ts.dim == 3) { /* the tiles' voxels, not one cube per tile */
         GS_CALL(gs_model_tileset_assemble(&e->ts, &e->lat, &vox, vpal.rgba));
         lat = &vox;
         pal = &vpal;
@@ -1358,7 +1406,20 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     GS_CALL(write_lattice_h5(run, e, path));
     gs_run_output(run, "h5", "lattice", "lattice.h5", dims);
     gs_run_output(run, "xdmf", "lattice", "lattice.xmf", dims);
-    if (c->vox) {
+    if (c->vox && e->lat.frames > 1) { /* 4D: one .vox per frame */
+        gs_model_lattice fr = {0};
+        int64_t fdims[3] = {e->lat.nx, e->lat.ny, gs_model_frame_nz(&e->lat)};
+        for (int t = 0; t < e->lat.frames; t++) {
+            char name[32];
+            snprintf(name, sizeof name, "frame_%03d.vox", t);
+            gs_run_path(run, name, path, sizeof path);
+            GS_CALL(gs_model_lattice_frame(&e->lat, t, &fr));
+            gs_err ferr = gs_model_write_vox(path, &fr, &e->pal, &q->vox_renumbered);
+            gs_model_lattice_destroy(&fr);
+            GS_CALL(ferr);
+            gs_run_output(run, "vox", "frame", name, fdims);
+        }
+    } else if (c->vox) {
         gs_run_path(run, "lattice.vox", path, sizeof path);
         GS_CALL(gs_model_write_vox(path, &e->lat, &e->pal, &q->vox_renumbered));
         gs_run_output(run, "vox", "lattice", "lattice.vox", dims);
@@ -1379,8 +1440,19 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     }
     if (c->preview && e->lat.nz > 1 && !c->tileset[0] && !c->sample[0]) {
         gs_run_path(run, "preview.png", path, sizeof path);
-        GS_CALL(preview_written(run, gs_model_write_preview(path, &e->example, &e->lat, &e->pal,
-                                                            (int)c->preview_size), 1));
+        gs_err perr = GS_OK;
+        if (e->lat.frames > 1) { /* 4D: the frames side by side, example and output */
+            gs_model_lattice exs = {0}, outs = {0};
+            GS_CALL(gs_model_lattice_filmstrip(&e->example, 1, MODEL_PREVIEW_FRAMES, &exs));
+            perr = gs_model_lattice_filmstrip(&e->lat, 1, MODEL_PREVIEW_FRAMES, &outs);
+            if (perr == GS_OK)
+                perr = gs_model_write_preview(path, &exs, &outs, &e->pal, (int)c->preview_size);
+            gs_model_lattice_destroy(&exs);
+            gs_model_lattice_destroy(&outs);
+        } else {
+            perr = gs_model_write_preview(path, &e->example, &e->lat, &e->pal, (int)c->preview_size);
+        }
+        GS_CALL(preview_written(run, perr, 1));
     }
     if (e->ts.dim == 3 && c->tile_image) {
         char ppath[PATH_MAX];
@@ -1575,25 +1647,32 @@ static gs_err decide_z_faces(model_engine *e)
 {
     const model_config *c = e->cfg;
     const gs_model_lattice *ex = &e->example;
+    const int fours = ex->frames > 1, exfz = gs_model_frame_nz(ex);
+    if (fours)
+        e->params.fix_z_faces = 0; /* fixed faces would be the lattice's, not each frame's */
     if (strcmp(c->fix_z_faces, "auto") || c->tileset[0] || c->sample[0] || strchr(c->periodic, 'z') ||
-        c->size[2] < 3 || ex->nz < 2)
+        c->size[2] < 3 || exfz < 2)
         return GS_OK;
     const int L = gs_model_rules_nlabels(e->rules);
     const size_t W = ((size_t)L + 63) / 64, layer = (size_t)ex->nx * (size_t)ex->ny;
     GS_CALL(gs_alloc_array((void **)&e->zface, 2 * W, 8, "z face labels"));
     memset(e->zface, 0, 2 * W * 8);
     int distinct[2] = {0, 0};
-    for (int f = 0; f < 2; f++) {
-        const uint16_t *lab = ex->labels + (size_t)(f ? ex->nz - 1 : 0) * layer;
-        uint64_t *m = e->zface + (size_t)f * W;
-        for (size_t i = 0; i < layer; i++) {
-            uint64_t bit = (uint64_t)1 << (lab[i] & 63);
-            if (!(m[lab[i] >> 6] & bit))
-                distinct[f]++;
-            m[lab[i] >> 6] |= bit;
+    for (int f = 0; f < 2; f++)
+        for (int t = 0; t < (fours ? ex->frames : 1); t++) {
+            /* 4D: the bottom / top layer of every frame */
+            const uint16_t *lab = ex->labels + (size_t)(t * exfz + (f ? exfz - 1 : 0)) * layer;
+            uint64_t *m = e->zface + (size_t)f * W;
+            for (size_t i = 0; i < layer; i++) {
+                uint64_t bit = (uint64_t)1 << (lab[i] & 63);
+                if (!(m[lab[i] >> 6] & bit))
+                    distinct[f]++;
+                m[lab[i] >> 6] |= bit;
+            }
         }
-    }
-    if (distinct[0] == 1) {
+    /* 4D frames cannot keep fixed faces (only the lattice's lowest and
+     * highest layers would stay): each frame's faces take the example's */
+    if (distinct[0] == 1 && !fours) {
         gs_free(e->zface);
         e->zface = NULL;
         return GS_OK;
@@ -1636,13 +1715,20 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     const model_config *c = e->cfg;
     GS_CALL(engine_params(c, &e->params));
     GS_CALL(load_inputs(run, e));
+    const int frames = (int)c->frames, exframes = e->example.frames > 1 ? e->example.frames : 1;
+    GS_CHECK(frames > 1 ? exframes > 1 : exframes == 1, GS_ERR_ARG,
+             frames > 1 ? "model.frames = %d: the example %s has no frames (a 4D example is a "
+                          "Merrell .txt whose extents line reads 'X Y Z T')"
+                        : "model.frames = %d: the example %s has %d frames: set model.frames > 1 "
+                          "for a 4D output",
+             frames, c->example, exframes);
     if (!e->rules)
         GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
     GS_CALL(decide_z_faces(e));
     int L = gs_model_rules_nlabels(e->rules), present = 0;
     for (int l = 0; l < L; l++)
         present += gs_model_rules_count(e->rules, l) > 0;
-    size_t cells = (size_t)c->size[0] * (size_t)c->size[1] * (size_t)c->size[2];
+    size_t cells = (size_t)c->size[0] * (size_t)c->size[1] * (size_t)c->size[2] * (size_t)frames;
     size_t rcells = 1;
     for (int a = 0; a < 3; a++) {
         int64_t ext = c->size[a];
@@ -1689,6 +1775,8 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
             dims[a] = (dims[a] + 1) / 2;
         }
     }
+    dims[2] *= frames; /* 4D: the frames stacked along z */
+    e->full[2] = dims[2];
     if (e->params.mirror[0] || e->params.mirror[1])
         GS_CALL(mirror_setup(e));
     if (c->ground)
@@ -1703,6 +1791,12 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
                (long long)c->resemblance_slack);
     }
     GS_CALL(gs_model_lattice_create(&e->lat, dims[0], dims[1], dims[2]));
+    e->lat.frames = frames;
+    if (frames > 1)
+        gs_log(GS_LOG_INFO, "4D: %d frames of %lldx%lldx%lld from the example's %d frames of "
+               "%dx%dx%d (transitions along time learned from consecutive frames)",
+               frames, (long long)c->size[0], (long long)c->size[1], (long long)c->size[2],
+               exframes, e->example.nx, e->example.ny, gs_model_frame_nz(&e->example));
     if (c->shape[0]) {
         gs_image img = {0};
         float *grey = NULL;

@@ -30,6 +30,7 @@ gs_err gs_model_lattice_create(gs_model_lattice *lat, int nx, int ny, int nz)
     lat->ny = ny;
     lat->nz = nz;
     lat->labels = p;
+    lat->frames = 1;
     return GS_OK;
 }
 
@@ -38,7 +39,7 @@ void gs_model_lattice_destroy(gs_model_lattice *lat)
     if (!lat)
         return;
     GS_FREE(lat->labels);
-    lat->nx = lat->ny = lat->nz = 0;
+    lat->nx = lat->ny = lat->nz = lat->frames = 0;
 }
 
 uint64_t gs_model_lattice_digest(const gs_model_lattice *lat)
@@ -46,11 +47,43 @@ uint64_t gs_model_lattice_digest(const gs_model_lattice *lat)
     gs_digest d;
     if (!gs_digest_init(&d))
         return 0;
-    int32_t dims[3] = {lat->nx, lat->ny, lat->nz};
-    gs_digest_update(&d, dims, sizeof dims);
+    int32_t dims[4] = {lat->nx, lat->ny, lat->nz, lat->frames};
+    /* frames only for 4D lattices: 3D digests stay what they were */
+    gs_digest_update(&d, dims, lat->frames > 1 ? sizeof dims : 3 * sizeof dims[0]);
     gs_digest_update(&d, lat->labels,
                      (size_t)lat->nx * (size_t)lat->ny * (size_t)lat->nz * sizeof(uint16_t));
     return gs_digest_final(&d);
+}
+
+gs_err gs_model_lattice_frame(const gs_model_lattice *l, int t, gs_model_lattice *out)
+{
+    const int T = l->frames > 1 ? l->frames : 1, fz = gs_model_frame_nz(l);
+    GS_CHECK(t >= 0 && t < T, GS_ERR_ARG, "frame %d of a lattice of %d frames", t, T);
+    gs_model_lattice f = {0};
+    GS_CALL(gs_model_lattice_create(&f, l->nx, l->ny, fz));
+    const size_t n = (size_t)l->nx * (size_t)l->ny * (size_t)fz;
+    memcpy(f.labels, l->labels + (size_t)t * n, n * sizeof *f.labels);
+    *out = f;
+    return GS_OK;
+}
+
+gs_err gs_model_lattice_filmstrip(const gs_model_lattice *l, int gap, int max_frames,
+                                  gs_model_lattice *out)
+{
+    int T = l->frames > 1 ? l->frames : 1;
+    if (max_frames > 0 && T > max_frames)
+        T = max_frames;
+    const int fz = gs_model_frame_nz(l), step = l->nx + (gap > 0 ? gap : 0);
+    gs_model_lattice f = {0};
+    GS_CALL(gs_model_lattice_create(&f, step * (T - 1) + l->nx, l->ny, fz));
+    for (int t = 0; t < T; t++)
+        for (int z = 0; z < fz; z++)
+            for (int y = 0; y < l->ny; y++)
+                memcpy(f.labels + gs_model_lattice_index(&f, t * step, y, z),
+                       l->labels + gs_model_lattice_index(l, 0, y, t * fz + z),
+                       (size_t)l->nx * sizeof *f.labels);
+    *out = f;
+    return GS_OK;
 }
 
 /* ---- Merrell's .txt -------------------------------------------------------- */
@@ -119,6 +152,15 @@ gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name
     static const char *ext_name[3] = {"the x extent", "the y extent", "the z extent"};
     for (int i = 0; i < 3; i++)
         GS_CALL(read_int(&c, 1, 4096, ext_name[i], &ext[i]));
+    /* a fourth extent on the same line: frames of a 4D lattice */
+    int64_t frames = 1;
+    while (c.p < c.end && (*c.p == ' ' || *c.p == '\t' || *c.p == '\r'))
+        c.p++;
+    if (c.p < c.end && *c.p != '\n')
+        GS_CALL(read_int(&c, 1, 4096, "the t extent (frames)", &frames));
+    GS_CHECK(ext[2] * frames <= 4096, GS_ERR_FORMAT, "%s:%d: %lld frames of %lld layers: at most "
+             "4096 layers in all", c.name, c.line, (long long)frames, (long long)ext[2]);
+    ext[2] *= frames;
     size_t n = (size_t)(ext[0] * ext[1] * ext[2]);
     /* Each label takes a digit and a separator: refuse extents the rest of
      * the file cannot hold before allocating them (4096^3 from a 30-byte file
@@ -131,8 +173,10 @@ gs_err gs_model_parse_merrell_txt(const char *text, size_t len, const char *name
              (size_t)(c.end - c.p), room);
     gs_model_lattice lat = {0};
     GS_CALL(gs_model_lattice_create(&lat, (int)ext[0], (int)ext[1], (int)ext[2]));
+    lat.frames = (int)frames;
     gs_err err = GS_OK;
-    /* File order: z outermost, then x, then y innermost. */
+    /* File order (frame after frame, each like a 3D lattice, is the same
+     * as z stacked over the frames): z outermost, then x, then y innermost. */
     size_t k = 0;
     for (int z = 0; z < lat.nz; z++)
         for (int x = 0; x < lat.nx; x++)
@@ -200,8 +244,12 @@ gs_err gs_model_write_merrell_txt(const char *path, const gs_model_lattice *lat)
 {
     FILE *f = gs_fopen_new(path); /* never through a planted symlink */
     GS_CHECK(f != NULL, GS_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
-    fprintf(f, "Model synthesized by geosynth.\n\nx, y, and z extents\n%d %d %d\n", lat->nx,
-            lat->ny, lat->nz);
+    if (lat->frames > 1)
+        fprintf(f, "Model synthesized by geosynth.\n\nx, y, z extents and frames\n%d %d %d %d\n",
+                lat->nx, lat->ny, gs_model_frame_nz(lat), lat->frames);
+    else
+        fprintf(f, "Model synthesized by geosynth.\n\nx, y, and z extents\n%d %d %d\n", lat->nx,
+                lat->ny, lat->nz);
     for (int z = 0; z < lat->nz; z++) {
         fputc('\n', f);
         for (int x = 0; x < lat->nx; x++) {

@@ -6,8 +6,9 @@
 #include "geosynth/model_tiles.h"
 #include "model/model_impl.h"
 
-static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
-                                           {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+/* x and y steps; z and t steps from gs_model_step_z */
+static const int step[GS_MODEL_DIRS][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1},
+                                           {0, 0}, {0, 0}, {0, 0}, {0, 0}};
 
 static inline void set_bit(uint64_t *s, int b) { s[b >> 6] |= (uint64_t)1 << (b & 63); }
 static inline int get_bit(const uint64_t *s, int b) { return (int)((s[b >> 6] >> (b & 63)) & 1); }
@@ -38,9 +39,10 @@ gs_err gs_model_rules_learn(const gs_model_lattice *ex, gs_model_rules_t *out)
                 int a = ex->labels[gs_model_lattice_index(ex, x, y, z)];
                 r->count[a]++;
                 for (int d = 0; d < GS_MODEL_DIRS; d++) {
-                    int qx = x + step[d][0], qy = y + step[d][1], qz = z + step[d][2];
-                    /* Only pairs inside the example count: the outside is not a label. */
-                    if (qx < 0 || qy < 0 || qz < 0 || qx >= ex->nx || qy >= ex->ny || qz >= ex->nz)
+                    int qx = x + step[d][0], qy = y + step[d][1], qz = gs_model_step_z(ex, z, d);
+                    /* Only pairs inside the example (and along z inside one
+                     * frame) count: the outside is not a label. */
+                    if (qx < 0 || qy < 0 || qz < 0 || qx >= ex->nx || qy >= ex->ny)
                         continue;
                     int b = ex->labels[gs_model_lattice_index(ex, qx, qy, qz)];
                     set_bit(r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W, b);
@@ -101,8 +103,8 @@ size_t gs_model_rules_violations(const gs_model_rules_t r, const gs_model_lattic
                     continue;
                 }
                 for (int d = 0; d < GS_MODEL_DIRS; d += 2) {
-                    int qx = x + step[d][0], qy = y + step[d][1], qz = z + step[d][2];
-                    if (qx >= lat->nx || qy >= lat->ny || qz >= lat->nz)
+                    int qx = x + step[d][0], qy = y + step[d][1], qz = gs_model_step_z(lat, z, d);
+                    if (qx >= lat->nx || qy >= lat->ny || qz < 0)
                         continue;
                     int b = lat->labels[gs_model_lattice_index(lat, qx, qy, qz)];
                     if (b >= r->nlabels || !get_bit(gs_model_allow(r, a, d), b))
@@ -149,15 +151,18 @@ size_t gs_model_rules_violations_wrap(const gs_model_rules_t r, const gs_model_l
 
 /* ---- trivial start model ------------------------------------------------------ */
 
-static int tiles_horizontally(const struct gs_model_rules *r, int l)
+/* A uniform layer of l is consistent (and, in 4D, stays l from frame to frame). */
+static int tiles_horizontally(const struct gs_model_rules *r, int l, int frames)
 {
-    return r->count[l] && get_bit(gs_model_allow(r, l, 0), l) && get_bit(gs_model_allow(r, l, 2), l);
+    return r->count[l] && get_bit(gs_model_allow(r, l, 0), l) && get_bit(gs_model_allow(r, l, 2), l) &&
+           (frames <= 1 || get_bit(gs_model_allow(r, l, 6), l));
 }
 
 gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
                         const uint16_t *column, gs_model_lattice *out)
 {
-    const int nz = out->nz, L = r->nlabels;
+    /* 4D: one column per frame, the same in every frame */
+    const int nz = gs_model_frame_nz(out), L = r->nlabels, exnz = gs_model_frame_nz(ex);
     uint16_t *col = NULL;
     double *score = NULL;
     int32_t *from = NULL;
@@ -170,7 +175,7 @@ gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
             GS_TRY_CHECK(err, l < L && r->count[l], GS_ERR_ARG, done,
                          "initial column: label %d at z=%d does not occur in the example", l, z);
             if (out->nx > 1 || out->ny > 1)
-                GS_TRY_CHECK(err, tiles_horizontally(r, l), GS_ERR_ARG, done,
+                GS_TRY_CHECK(err, tiles_horizontally(r, l, out->frames), GS_ERR_ARG, done,
                              "initial column: label %d at z=%d never sits next to itself along x "
                              "and y in the example, so a uniform layer of it is inconsistent",
                              l, z);
@@ -192,13 +197,13 @@ gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
         const double NONE = -1.0;
         size_t layer = (size_t)ex->nx * (size_t)ex->ny;
         for (int z = 0; z < nz; z++) {
-            int ez = z < ex->nz ? z : ex->nz - 1;
-            int preferred = z < ex->nz ? ex->labels[gs_model_lattice_index(ex, 0, 0, z)] : 0;
+            int ez = z < exnz ? z : exnz - 1;
+            int preferred = z < exnz ? ex->labels[gs_model_lattice_index(ex, 0, 0, z)] : 0;
             for (int l = 0; l < L; l++) {
                 double *s = &score[(size_t)z * L + l];
                 *s = NONE;
                 from[(size_t)z * L + l] = -1;
-                if (!r->count[l] || ((out->nx > 1 || out->ny > 1) && !tiles_horizontally(r, l)))
+                if (!r->count[l] || ((out->nx > 1 || out->ny > 1) && !tiles_horizontally(r, l, out->frames)))
                     continue;
                 uint64_t freq = 0;
                 for (size_t i = 0; i < layer; i++)
@@ -234,10 +239,10 @@ gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
             best = from[(size_t)z * L + best];
         }
     }
-    for (int z = 0; z < nz; z++)
+    for (int z = 0; z < out->nz; z++)
         for (int y = 0; y < out->ny; y++)
             for (int x = 0; x < out->nx; x++)
-                out->labels[gs_model_lattice_index(out, x, y, z)] = col[z];
+                out->labels[gs_model_lattice_index(out, x, y, z)] = col[z % nz];
     /* Verify (cheap) rather than trust the construction. */
     size_t bad = gs_model_rules_violations(r, out);
     GS_TRY_CHECK(err, bad == 0, GS_ERR_INTERNAL, done,

@@ -132,8 +132,11 @@ gs_err gs_model_solver_load_box(struct gs_model_solver *s, int rx, int ry, int r
     return gs_model_solver_load_box_wrap(s, rx, ry, rz, none);
 }
 
-gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
-                                     const int wrap[3])
+/* fz > 0: the box's z holds frames of fz layers (4D), its first layer at
+ * height z0 of the lattice: +z/-z stop at frame boundaries, +t/-t join the
+ * cells fz layers apart. */
+static gs_err load_box_frames(struct gs_model_solver *s, int rx, int ry, int rz, const int wrap[3],
+                              int fz, int z0)
 {
     size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
     GS_CALL(gs_model_solver_reserve(s, n));
@@ -150,6 +153,15 @@ gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, 
                 nb[3] = y > 0 ? c - rx : (wrap[1] ? c + rx * (ry - 1) : -1);
                 nb[4] = z + 1 < rz ? c + rx * ry : (wrap[2] ? c - rx * ry * (rz - 1) : -1);
                 nb[5] = z > 0 ? c - rx * ry : (wrap[2] ? c + rx * ry * (rz - 1) : -1);
+                nb[6] = nb[7] = -1;
+                if (fz > 0) {
+                    if ((z0 + z + 1) % fz == 0)
+                        nb[4] = -1; /* the next layer is the next frame's bottom */
+                    if ((z0 + z) % fz == 0)
+                        nb[5] = -1;
+                    nb[6] = z + fz < rz ? c + rx * ry * fz : -1;
+                    nb[7] = z >= fz ? c - rx * ry * fz : -1;
+                }
                 memcpy(s->dom + (size_t)c * W, present, W * 8);
                 s->size[c] = (uint16_t)s->rules->npresent;
             }
@@ -164,6 +176,12 @@ gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, 
     s->heap_on = 0;
     s->heap_len = 0;
     return GS_OK;
+}
+
+gs_err gs_model_solver_load_box_wrap(struct gs_model_solver *s, int rx, int ry, int rz,
+                                     const int wrap[3])
+{
+    return load_box_frames(s, rx, ry, rz, wrap, 0, 0);
 }
 
 int gs_model_solver_recount(struct gs_model_solver *s)
@@ -595,7 +613,8 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     /* a region spanning a whole periodic axis wraps onto itself */
     const int wrap[3] = {periodic[0] && rx == lat->nx, periodic[1] && ry == lat->ny,
                          periodic[2] && rz == lat->nz};
-    GS_CALL(gs_model_solver_load_box_wrap(s, rx, ry, rz, wrap));
+    const int fz = lat->frames > 1 ? gs_model_frame_nz(lat) : 0;
+    GS_CALL(load_box_frames(s, rx, ry, rz, wrap, fz, b->z0));
     /* mirror faces: the +a neighbour of a cell on the lattice's upper face
      * is its own mirror image S(l) (even full extent: (l, S l) must be
      * allowed along +a) or, odd, the face is the shared centre (S l = l; its
@@ -636,14 +655,18 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
             }
         }
     for (int f = 0; f < 2; f++) {
-        /* synthesized z faces: the example's own bottom / top labels only */
-        const int zf = f ? lat->nz - 1 : 0;
-        if (!s->zface[f] || zf < b->z0 || zf >= b->z1)
-            continue;
-        const int32_t layer = rx * ry, c0 = (int32_t)(zf - b->z0) * layer;
-        for (int32_t c = c0; c < c0 + layer; c++)
-            for (int w = 0; w < s->W; w++)
-                s->dom[(size_t)c * (size_t)s->W + (size_t)w] &= s->zface[f][w];
+        /* synthesized z faces: the example's own bottom / top labels only
+         * (4D: the bottom and top of every frame) */
+        const int fh = gs_model_frame_nz(lat);
+        for (int t = 0; s->zface[f] && t < (lat->frames > 1 ? lat->frames : 1); t++) {
+            const int zf = t * fh + (f ? fh - 1 : 0);
+            if (zf < b->z0 || zf >= b->z1)
+                continue;
+            const int32_t layer = rx * ry, c0 = (int32_t)(zf - b->z0) * layer;
+            for (int32_t c = c0; c < c0 + layer; c++)
+                for (int w = 0; w < s->W; w++)
+                    s->dom[(size_t)c * (size_t)s->W + (size_t)w] &= s->zface[f][w];
+        }
     }
     const uint16_t *pins = s->pins;
     s->box_x0 = b->x0;
@@ -659,8 +682,8 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
         s->periodic[a] = periodic[a];
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
-    static const int step[GS_MODEL_DIRS][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
-                                               {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    static const int step[GS_MODEL_DIRS][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1},
+                                               {0, 0}, {0, 0}, {0, 0}, {0, 0}};
     int32_t c = 0;
     *ok = 1;
     for (int z = 0; z < rz; z++)
@@ -674,14 +697,19 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                             dc[w] = (pin >> 6) == (int)w ? dc[w] & ((uint64_t)1 << (pin & 63)) : 0;
                     }
                 }
-                if (x > 0 && x + 1 < rx && y > 0 && y + 1 < ry && z > 0 && z + 1 < rz)
+                if (x > 0 && x + 1 < rx && y > 0 && y + 1 < ry && z > 0 && z + 1 < rz &&
+                    (fz == 0 || (z >= fz && z + fz < rz)))
                     continue; /* interior: jump handled by the loop cheaply enough */
                 const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
                 for (int d = 0; d < GS_MODEL_DIRS; d++) {
                     if (nb[d] >= 0)
                         continue;
+                    if (d >= 6 && fz == 0)
+                        break; /* a 3D lattice has no time neighbours */
+                    if (fz > 0 && (d >> 1) >= 2 && gs_model_step_z(lat, b->z0 + z, d) < 0)
+                        continue; /* another frame along z, or no frame along t: free */
                     int qx = b->x0 + x + step[d][0], qy = b->y0 + y + step[d][1],
-                        qz = b->z0 + z + step[d][2];
+                        qz = b->z0 + z + (d == 4) - (d == 5) + (d == 6 ? fz : d == 7 ? -fz : 0);
                     if ((s->mirror[0] && qx == lat->nx) || (s->mirror[1] && qy == lat->ny) ||
                         (s->mirror[2] && qz == lat->nz))
                         continue; /* beyond a mirror face: the face mask above */
