@@ -182,6 +182,25 @@ void gs_model_rules_destroy(gs_model_rules_t *rules);
  * themselves first; when none is found within a budget, *exact = 0 and each
  * label takes its first consistent candidate or none. S has nlabels entries. */
 gs_err gs_model_rules_learn_mirror(const gs_model_rules_t rules, int ax, int *S, int *exact);
+/* ax = 3: the mirror across the diagonal x = y (x and y directions swap);
+ * a 90-degree turn about z is that mirror followed by the x mirror, R l =
+ * Sx(Sdiag l).
+ * Rotation-symmetric model (90 degrees about z, paper Sec. 4.1): keeps a
+ * pair (a, d, b) only when (R a, d turned, R b) is allowed too, until
+ * nothing changes, and sets directions 6/7 (unused by a 3D lattice) to the
+ * quarter's rotation face: b in allow[a][6] when R b may sit at +x of a
+ * (the cell beyond the +x face of the lower-left quarter at (h-1, y) is the
+ * turned image of the quarter's cell (y, h-1); gs_model_params.rotate_map).
+ * R[l] = -1: l has no image and loses its pairs. Modifies rules in place. */
+gs_err gs_model_rules_rotation(gs_model_rules_t rules, const int *R, size_t *dropped);
+/* An involution S for an example whose pairs are not exactly symmetric
+ * (castle.txt: its walls along x are longer than along y, so no exact
+ * diagonal S exists): starting from the identity, a label swaps with
+ * another found at the same layers of ex when that keeps more of the
+ * example's pairs (a, d, b) with an allowed image (S a, d', S b), until no
+ * swap helps. *kept / *total (may be NULL): pairs kept, all pairs. */
+gs_err gs_model_rules_learn_mirror_near(const gs_model_rules_t rules, const gs_model_lattice *ex,
+                                        int ax, int *S, size_t *kept, size_t *total);
 /* S from label pairs "A B, C D" (config key named in errors): listed labels
  * swap, other present labels map to themselves, absent ones to -1. */
 gs_err gs_model_rules_mirror_pairs(const gs_model_rules_t rules, const char *key,
@@ -296,6 +315,13 @@ typedef struct gs_model_params {
                            mirror half holds S(label); a face cell's label l
                            needs (l, S l) allowed across the face (even extent)
                            or S l = l (odd: the shared centre). Not owned */
+    const int *rotate_map; /* 90-degree rotation symmetry (NULL = none): the
+                           lattice is the lower-left h x h quarter of an output
+                           that looks the same turned by 90 degrees about z,
+                           the label of a cell turned mapped by rotate_map (R);
+                           rules from gs_model_rules_rotation; the cell (h-1, y)
+                           and (y, h-1) are joined along direction 6/7 (a region
+                           must span the whole quarter in x and y). Not owned */
     const uint64_t *ground; /* overlapping model `ground` (WFC samples.xml): label
                            bitset (nlabels bits, 64 per word) the cells of the
                            lattice's last y row (the picture's bottom) are

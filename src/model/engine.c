@@ -110,6 +110,7 @@ typedef struct model_config {
     char *mirror;
     char *mirror_x_pairs;
     char *mirror_y_pairs;
+    char *rotate;
     char *shape;
     double shape_weight;
     double shape_mh;
@@ -284,6 +285,23 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "fix_z_faces auto or false, no start_block/start/pins/border",
                           (long long)c->frames);
     }
+    if (!strcmp(c->rotate, "90")) {
+        const char *why = c->size[0] != c->size[1] || (c->size[0] & 1)
+                              ? "needs a square output of even x = y (model.size)"
+                          : (c->region[0] > 0 && c->region[0] < c->size[0] / 2) ||
+                                  (c->region[1] > 0 && c->region[1] < c->size[1] / 2)
+                              ? "needs regions spanning the whole quarter in x and y (model.region "
+                                "x, y = 0)"
+                          : c->tileset[0] || c->sample[0] ? "needs a lattice example (model.example)"
+                          : strcmp(c->mirror, "none") || c->pins[0] || c->border[0] ||
+                                  c->start_block > 0 || c->start[0] || c->shape[0] ||
+                                  strcmp(c->periodic, "none") || c->frames > 1
+                              ? "cannot be combined with mirror, pins, border, start_block, start, "
+                                "shape, periodic or frames"
+                              : NULL;
+        if (why)
+            gs_cfg_report(ctx, "model.rotate", "= 90 %s", why);
+    }
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start_block",
                       "cannot be combined with model.start or model.start_column");
@@ -411,6 +429,12 @@ static const gs_cfg_key model_keys[] = {
                     "mirror-symmetric output: synthesizes the lower half with the transition "
                     "function restricted to pairs whose mirror image (labels mapped by the "
                     "label symmetry S, paper Sec. 4.1) is allowed, then mirrors it, S applied"),
+    GS_CFG_KEY_ENUM(model_config, rotate, "model.rotate", "none|90", "none",
+                    "rotation-symmetric output (paper Sec. 4.1, Figure 12): 90 = the same turned "
+                    "by 90 degrees about z; the label symmetry R (which label is the turned "
+                    "image of which) is learned from the example as the diagonal mirror then "
+                    "the x mirror; synthesizes the lower-left quarter (rules T' = T and R.T, "
+                    "its +x face joined to its +y face), then turns it three times, R applied"),
     GS_CFG_KEY_STRING(model_config, mirror_x_pairs, "model.mirror_x_pairs", "",
                       "label symmetry S of the x mirror as label pairs \"A B, C D\" (other "
                       "labels map to themselves); \"\" = learned from the example's adjacency"),
@@ -480,6 +504,7 @@ typedef struct model_engine {
     int nstructure_labels;
     int full[3];             /* output extents (mirror: lat holds the lower half) */
     int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */
+    int *rotate_map;         /* model.rotate: R, the label turned by 90 degrees (NULL = none) */
     uint64_t *ground;        /* model.ground: [2][W] ground labels, labels only there */
     uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
                                 the example's bottom and top layers */
@@ -1531,6 +1556,7 @@ static void engine_free(model_engine *e)
     gs_free(e->pins);
     gs_free(e->shape);
     gs_free(e->structure);
+    gs_free(e->rotate_map);
     gs_free(e->mirror_map[0]);
     gs_free(e->mirror_map[1]);
     gs_free(e->ground);
@@ -1603,6 +1629,64 @@ static gs_err mirror_setup(model_engine *e)
     gs_log(GS_LOG_INFO, "mirror: %zu transition pairs without an allowed mirror image removed",
            dropped);
     return GS_OK;
+}
+
+/* model.rotate = 90: R = Sx . Sdiag, both learned like the mirrors; a label
+ * whose orbit under R does not close after 4 turns (or meets a label without
+ * an image) gets none and leaves the model. */
+static gs_err rotation_setup(model_engine *e)
+{
+    const int L = gs_model_rules_nlabels(e->rules);
+    int *Sx = NULL, *Sd = NULL;
+    gs_err err = GS_OK;
+    GS_CALL(gs_alloc_array((void **)&e->rotate_map, (size_t)L, sizeof(int), "label rotation"));
+    GS_TRY(err, gs_alloc_array((void **)&Sx, (size_t)L, sizeof(int), "label symmetry"), done);
+    GS_TRY(err, gs_alloc_array((void **)&Sd, (size_t)L, sizeof(int), "label symmetry"), done);
+    int ex = 1, ed = 1;
+    GS_TRY(err, gs_model_rules_learn_mirror(e->rules, 0, Sx, &ex), done);
+    GS_TRY(err, gs_model_rules_learn_mirror(e->rules, 3, Sd, &ed), done);
+    if (!ed) { /* not exactly symmetric: the involution keeping most pairs */
+        size_t kept = 0, total = 0;
+        GS_TRY(err, gs_model_rules_learn_mirror_near(e->rules, &e->example, 3, Sd, &kept, &total),
+               done);
+        gs_log(GS_LOG_INFO, "rotate 90: no exact diagonal mirror in the example; the nearest keeps "
+               "%zu of %zu pairs", kept, total);
+    }
+    int *R = e->rotate_map;
+    for (int l = 0; l < L; l++)
+        R[l] = Sd[l] >= 0 ? Sx[Sd[l]] : -1;
+    int moved = 0, lost = 0, present = 0, fixed = 0;
+    for (int l = 0; l < L; l++) {
+        if (!gs_model_rules_count(e->rules, l))
+            continue;
+        int k = l, n = 0;
+        while (n < 4 && k >= 0) {
+            k = R[k];
+            n++;
+        }
+        if (k != l) /* no closed orbit within four turns */
+            R[l] = -1;
+    }
+    for (int l = 0; l < L; l++) {
+        if (!gs_model_rules_count(e->rules, l))
+            continue;
+        present++;
+        lost += R[l] < 0;
+        moved += R[l] >= 0 && R[l] != l;
+        fixed += R[l] == l;
+    }
+    size_t dropped = 0;
+    GS_TRY(err, gs_model_rules_rotation(e->rules, R, &dropped), done);
+    e->params.rotate_map = R;
+    gs_log(GS_LOG_INFO,
+           "rotate 90: label rotation R = Sx.Sdiag learned from the example%s: %d of %d labels "
+           "turn into another, %d are their own image, %d without an image; %zu transition pairs "
+           "without an allowed turned image removed",
+           ex && ed ? "" : " (no exact involution: greedy)", moved, present, fixed, lost, dropped);
+done:
+    gs_free(Sx);
+    gs_free(Sd);
+    return err;
 }
 
 /* model.ground: label sets of the bottom row and of the patterns banned above
@@ -1777,6 +1861,11 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     }
     dims[2] *= frames; /* 4D: the frames stacked along z */
     e->full[2] = dims[2];
+    if (!strcmp(c->rotate, "90")) { /* the lower-left quarter */
+        dims[0] /= 2;
+        dims[1] /= 2;
+        GS_CALL(rotation_setup(e));
+    }
     if (e->params.mirror[0] || e->params.mirror[1])
         GS_CALL(mirror_setup(e));
     if (c->ground)
@@ -1970,6 +2059,30 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                         l = e.mirror_map[1][l];
                     if (hx != x && e.mirror_map[0] && e.mirror_map[0][l] >= 0)
                         l = e.mirror_map[0][l];
+                    full.labels[gs_model_lattice_index(&full, x, y, z)] = (uint16_t)l;
+                }
+        gs_model_lattice_destroy(&e.lat);
+        e.lat = full;
+    }
+    if (e.rotate_map) {
+        /* turn the synthesized quarter three times into the full output:
+         * the cell reached from quarter cell q by k turns holds R^k(label) */
+        gs_model_lattice full = {0};
+        GS_TRY(err, gs_model_lattice_create(&full, e.full[0], e.full[1], e.full[2]), done);
+        const int N = full.nx, h = e.lat.nx;
+        for (int z = 0; z < full.nz; z++)
+            for (int y = 0; y < full.ny; y++)
+                for (int x = 0; x < full.nx; x++) {
+                    int px = x, py = y, k = 0;
+                    while (px >= h || py >= h) { /* turn back: (x, y) -> (y, N-1-x) */
+                        int t = px;
+                        px = py;
+                        py = N - 1 - t;
+                        k++;
+                    }
+                    int l = e.lat.labels[gs_model_lattice_index(&e.lat, px, py, z)];
+                    for (int i = 0; i < k && e.rotate_map[l] >= 0; i++)
+                        l = e.rotate_map[l];
                     full.labels[gs_model_lattice_index(&full, x, y, z)] = (uint16_t)l;
                 }
         gs_model_lattice_destroy(&e.lat);

@@ -77,6 +77,7 @@ struct gs_model_solver {
     int box_x0, box_y0, box_rx, box_ry, lat_nx; /* current box (shape lookup) */
     int mirror[3], mirror_odd[3];
     const int *mirror_map[3]; /* label symmetry per mirrored axis (NULL = identity) */
+    const int *rotate_map; /* params.rotate_map: the quarter's rotation face */
     const uint64_t *ground, *ground_only; /* overlapping model ground rows (params) */
     const uint64_t *zface[2]; /* bottom / top layer label masks (params) */
     int order_log;         /* ENTROPY_LOG buckets */

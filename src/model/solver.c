@@ -641,6 +641,27 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
             }
         }
     }
+    if (s->rotate_map && fz == 0 && rx == lat->nx && ry == lat->ny && rx == ry) {
+        /* rotation face: beyond (h-1, y) lies the turned image of (y, h-1),
+         * joined along direction 6 (the partner along 7); the corner
+         * (h-1, h-1) is its own partner: it keeps labels a with R a allowed
+         * at +x of a */
+        for (int z = 0; z < rz; z++)
+            for (int y = 0; y < ry; y++) {
+                const int32_t c1 = (int32_t)(rx - 1 + rx * (y + ry * z));
+                const int32_t c2 = (int32_t)(y + rx * (ry - 1 + ry * z));
+                if (c1 != c2) {
+                    s->nbr[(size_t)c1 * GS_MODEL_DIRS + 6] = c2;
+                    s->nbr[(size_t)c2 * GS_MODEL_DIRS + 7] = c1;
+                    continue;
+                }
+                uint64_t *dc = s->dom + (size_t)c1 * (size_t)s->W;
+                for (int l = 0; l < s->L; l++)
+                    if (((dc[l >> 6] >> (l & 63)) & 1) &&
+                        !((gs_model_allow(s->rules, l, 6)[l >> 6] >> (l & 63)) & 1))
+                        dc[l >> 6] &= ~((uint64_t)1 << (l & 63));
+            }
+    }
     if (s->ground || s->ground_only)
         for (int32_t c = 0; c < (int32_t)s->n; c++) {
             /* ground: the last row holds ground patterns, the others none of
@@ -1227,6 +1248,7 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     }
     s->ground = p->ground;
     s->ground_only = p->ground_only;
+    s->rotate_map = p->rotate_map;
     s->zface[0] = p->zface[0];
     s->zface[1] = p->zface[1];
     for (int a = 0; a < s->L; a++)

@@ -12,8 +12,21 @@ static inline int get_bit(const uint64_t *s, int b) { return (int)((s[b >> 6] >>
 static inline void set_bit(uint64_t *s, int b) { s[b >> 6] |= (uint64_t)1 << (b & 63); }
 static inline void clr_bit(uint64_t *s, int b) { s[b >> 6] &= ~((uint64_t)1 << (b & 63)); }
 
-/* The direction d seen in the mirror along axis ax: flipped along ax. */
-static inline int mirror_dir(int d, int ax) { return d >> 1 == ax ? d ^ 1 : d; }
+/* The direction d seen in the mirror along axis ax: flipped along ax; ax 3
+ * is the diagonal x = y (x and y swap). */
+static inline int mirror_dir(int d, int ax)
+{
+    if (ax == 3)
+        return d < 4 ? d ^ 2 : d;
+    return d >> 1 == ax ? d ^ 1 : d;
+}
+
+/* The direction d turned by 90 degrees about z (x -> y -> -x). */
+static inline int rotate_dir(int d)
+{
+    static const int rot[GS_MODEL_DIRS] = {2, 3, 1, 0, 4, 5, 6, 7};
+    return rot[d];
+}
 
 static int popcount_set(const uint64_t *s, size_t W)
 {
@@ -83,7 +96,7 @@ static int search_from(search *q, int i)
 
 gs_err gs_model_rules_learn_mirror(const gs_model_rules_t r, int ax, int *S, int *exact)
 {
-    GS_CHECK(ax >= 0 && ax < 3, GS_ERR_ARG, "mirror axis %d: expected 0..2", ax);
+    GS_CHECK(ax >= 0 && ax < 4, GS_ERR_ARG, "mirror axis %d: expected 0..3", ax);
     const int L = r->nlabels;
     const size_t W = (size_t)r->words;
     uint64_t *cand = NULL;
@@ -253,5 +266,145 @@ gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3], const in
             for (int d = 0; d < GS_MODEL_DIRS; d++)
                 for (size_t w = 0; w < W; w++)
                     r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    return GS_OK;
+}
+
+gs_err gs_model_rules_rotation(gs_model_rules_t r, const int *R, size_t *dropped)
+{
+    const size_t W = (size_t)r->words;
+    const int L = r->nlabels;
+    uint64_t *old = NULL;
+    GS_CALL(gs_alloc_array((void **)&old, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"));
+    size_t before = 0, after = 0;
+    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
+        before += (size_t)__builtin_popcountll(r->allow[i]);
+    /* keep (a, d, b) only when (R a, R d, R b) is allowed, until nothing
+     * changes: the rules are then the same turned by 90 degrees */
+    for (int changed = 1; changed;) {
+        changed = 0;
+        memcpy(old, r->allow, (size_t)L * GS_MODEL_DIRS * W * 8);
+        for (int a = 0; a < L; a++)
+            for (int d = 0; d < 6; d++) {
+                uint64_t *al = r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * W;
+                const int dr = rotate_dir(d);
+                for (int b = 0; b < L; b++) {
+                    if (!get_bit(al, b))
+                        continue;
+                    int keep = R[a] >= 0 && R[b] >= 0 &&
+                               get_bit(old + ((size_t)R[a] * GS_MODEL_DIRS + (size_t)dr) * W, R[b]);
+                    if (!keep) {
+                        clr_bit(al, b);
+                        changed = 1;
+                    }
+                }
+            }
+    }
+    gs_free(old);
+    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
+        after += (size_t)__builtin_popcountll(r->allow[i]);
+    if (dropped)
+        *dropped = (before - after) / 2;
+    /* the quarter's rotation face (+t / -t of a 3D lattice): b at the
+     * partner cell stands for R b beyond the +x face */
+    for (int a = 0; a < L; a++) {
+        uint64_t *f = r->allow + ((size_t)a * GS_MODEL_DIRS + 6) * W;
+        memset(f, 0, W * 8);
+        memset(f + W, 0, W * 8); /* direction 7 */
+    }
+    for (int a = 0; a < L; a++)
+        for (int b = 0; b < L; b++)
+            if (R[b] >= 0 && get_bit(gs_model_allow(r, a, 0), R[b])) {
+                set_bit(r->allow + ((size_t)a * GS_MODEL_DIRS + 6) * W, b);
+                set_bit(r->allow + ((size_t)b * GS_MODEL_DIRS + 7) * W, a);
+            }
+    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
+    for (int a = 0; a < L; a++)
+        if (r->count[a])
+            for (int d = 0; d < GS_MODEL_DIRS; d++)
+                for (size_t w = 0; w < W; w++)
+                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    return GS_OK;
+}
+
+/* Transition pairs (a, d, b) whose image (S a, d mirrored, S b) is allowed. */
+static size_t preserved_pairs(const struct gs_model_rules *r, int ax, const int *S)
+{
+    const int L = r->nlabels;
+    size_t n = 0;
+    for (int a = 0; a < L; a++) {
+        if (!r->count[a] || S[a] < 0)
+            continue;
+        for (int d = 0; d < 6; d++) {
+            const uint64_t *al = gs_model_allow(r, a, d), *im = gs_model_allow(r, S[a], mirror_dir(d, ax));
+            for (int b = 0; b < L; b++)
+                n += get_bit(al, b) && S[b] >= 0 && get_bit(im, S[b]);
+        }
+    }
+    return n;
+}
+
+static uint64_t layer_set(const gs_model_lattice *ex, int l)
+{
+    uint64_t m = 0;
+    const size_t layer = (size_t)ex->nx * (size_t)ex->ny;
+    for (int z = 0; z < ex->nz && z < 64; z++)
+        for (size_t i = 0; i < layer; i++)
+            if (ex->labels[(size_t)z * layer + i] == l) {
+                m |= (uint64_t)1 << z;
+                break;
+            }
+    return m;
+}
+
+gs_err gs_model_rules_learn_mirror_near(const gs_model_rules_t r, const gs_model_lattice *ex, int ax,
+                                        int *S, size_t *kept, size_t *total)
+{
+    GS_CHECK(ax >= 0 && ax < 4, GS_ERR_ARG, "mirror axis %d: expected 0..3", ax);
+    const int L = r->nlabels;
+    uint64_t *zs = NULL;
+    GS_CALL(gs_alloc_array((void **)&zs, (size_t)L, sizeof *zs, "label layers"));
+    for (int l = 0; l < L; l++) {
+        S[l] = r->count[l] ? l : -1;
+        zs[l] = r->count[l] ? layer_set(ex, l) : 0;
+    }
+    /* coordinate ascent from the identity: swap a with b (same layers) when
+     * more pairs keep an allowed image; fixed order, so deterministic */
+    size_t best = preserved_pairs(r, ax, S);
+    for (int round = 0, better = 1; better && round < 20; round++) {
+        better = 0;
+        for (int a = 0; a < L; a++) {
+            if (!r->count[a])
+                continue;
+            for (int b = 0; b < L; b++) {
+                if (b == S[a] || !r->count[b] || zs[b] != zs[a])
+                    continue;
+                int old[4] = {a, S[a], b, S[b]}, was[4];
+                for (int i = 0; i < 4; i++)
+                    was[i] = S[old[i]];
+                /* undo a's and b's pairs, then pair a with b */
+                S[S[a]] = S[a];
+                S[S[b]] = S[b];
+                S[a] = b;
+                S[b] = a;
+                size_t n = preserved_pairs(r, ax, S);
+                if (n > best) {
+                    best = n;
+                    better = 1;
+                } else {
+                    for (int i = 0; i < 4; i++)
+                        S[old[i]] = was[i];
+                }
+            }
+        }
+    }
+    size_t all = 0;
+    for (int a = 0; a < L; a++)
+        for (int d = 0; d < 6; d++)
+            all += (size_t)popcount_set(gs_model_allow(r, a, d), (size_t)r->words);
+    gs_free(zs);
+    if (kept)
+        *kept = best;
+    if (total)
+        *total = all;
     return GS_OK;
 }
