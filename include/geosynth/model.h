@@ -64,8 +64,8 @@
  * applying the results of a colour in id order, colours in order, gives the
  * same lattice as the serial driver gs_model_synthesize() for any rank count.
  *
- * Memory: rules hold 6*L*ceil(L/64) words (L = largest label + 1). A solver
- * holds per region cell ceil(L/64)*8 + 40 bytes (AC-3) plus 12*L bytes for
+ * Memory: rules hold 8*L*ceil(L/64) words (8 directions) (L = largest label + 1). A solver
+ * holds per region cell ceil(L/64)*8 + 48 bytes (AC-3) plus 16*L bytes for
  * AC-4 support counts (only when AC-4 is selected).
  * Cost: per region cell roughly one propagation of its choice, each revise
  * O(|D| * L/64) word operations (AC-3) or O(removed * L/64) (AC-4).

@@ -1820,8 +1820,9 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
         rcells *= (size_t)edge;
     }
     size_t W = ((size_t)L + 63) / 64;
-    double mem = (double)cells * 4 + (double)rcells * (double)(W * 8 + 40 + 2) +
-                 6.0 * L * (double)W * 8 + (e->params.ac == GS_MODEL_AC4 ? 12.0 * L * rcells : 0);
+    rcells *= (size_t)frames; /* 4D: a region spans every frame */
+    double mem = (double)cells * 4 + (double)rcells * (double)(W * 8 + 48 + 2) +
+                 8.0 * L * (double)W * 8 + (e->params.ac == GS_MODEL_AC4 ? 16.0 * L * rcells : 0);
     if (c->tileset[0] && e->ts.dim == 3)
         gs_log(GS_LOG_INFO,
                "tile set %s: %d tiles in %d orientations under %d symmetries, %zu allowed pairs, "

@@ -18,7 +18,7 @@ struct gs_model_rules {
     int nlabels;            /* L = largest label + 1 */
     int words;              /* W */
     int npresent;           /* labels occurring in the example */
-    uint64_t *allow;        /* [L][6][W]: labels allowed at v+e_d given label a at v */
+    uint64_t *allow;        /* [L][8][W]: labels allowed at v+e_d given label a at v (d: +-x, +-y, +-z, +-t) */
     uint64_t *present;      /* [W] */
     uint64_t *full_support; /* [6][W]: union of allow[a][d] over present a */
     uint64_t *count;        /* [L] occurrences */

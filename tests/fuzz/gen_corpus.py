@@ -82,6 +82,8 @@ for name, (X, Y, Z) in {"2x3x2": (2, 3, 2), "4x4x1": (4, 4, 1), "1x1x1": (1, 1, 
 put("lattice", "txt_objects", b"\x00a\nb\nc\n2 1 1\n1 2\n<Objects>\n1 0 0 0\n")
 put("lattice", "csv_crlf_blank", b"\x01\r\n1,2\r\n3,4\r\n\r\n\r\n0,1\r\n1,0\r\n\r\n")
 put("lattice", "txt_big_label", b"\x00h\nh\nh\n1 2 1\n65535 0\n")
+# 4D (geosynth's fourth extent, frames): 2x2x1 in 3 frames
+put("lattice", "txt_4d_2x2x1x3", b"\x00a\nb\nc\n2 2 1 3\n1 0\n0 1\n\n0 1\n1 0\n\n1 1\n0 0\n")
 
 # ---- tile sets: byte 0 bit 0 json, bit 1 images, bit 2 subset "s" ----------
 MX = """<set size="2">

@@ -707,7 +707,7 @@ static void test_xdmf(void **state)
     assert_int_equal(gs_ckpt_commit(&h), GS_OK);
 
     gs_xdmf_grid node = {"distance <field> & co", GS_XDMF_NODE, {NZ, NY, NX}, {1, 2, 3},
-                         {0.5, 0.25, 2}};
+                         {0.5, 0.25, 2}, 1};
     gs_xdmf_attr na = {"distance", "/model/distance", GS_H5_F32, 1};
     gs_xdmf_grid cell = {"lattice", GS_XDMF_CELL, {NZ, NY, NX}, {0, 0, 0}, {1, 1, 1}, 1};
     gs_xdmf_attr ca = {"label", "/model/lattice", GS_H5_U16, 1};
