@@ -16,7 +16,9 @@
  *         (VoxModSynth: empty 255 -> 0, index k -> k + 1, ground -> 255);
  *   h5    a geosynth HDF5 file (gs_ckpt reader: the file needs the /geosynth
  *         group, e.g. a model run's lattice.h5 or a checkpoint.h5) holding a
- *         uint16 dataset of shape {nz, ny, nx} (default "/model/labels").
+ *         uint16 dataset of shape {nz, ny, nx} (default "/model/labels"),
+ *         or {nt, nz, ny, nx}: a 4D lattice of nt frames (a 4D run's
+ *         lattice.h5), read with frames = nt and the frames stacked along z.
  *         Plain HDF5 files from other tools are not read: write them with a
  *         /geosynth group or convert them to .vox/.txt.
  *

@@ -459,8 +459,9 @@ static const gs_cfg_key model_keys[] = {
                    "proposals can end structure there"),
     GS_CFG_KEY_INT(model_config, frames, "model.frames", 1, 4096, 0, "1",
                    "time steps of a 4D output (paper Sec. 4.3): > 1 needs a 4D example (Merrell "
-                   ".txt with an 'X Y Z T' extents line); transitions along time are learned "
-                   "from its frames like those in space; writes frame_NNN.vox per frame and "
+                   ".txt with an 'X Y Z T' extents line, or an .h5 [T, Z, Y, X] dataset); "
+                   "transitions along time are learned from its frames like those in space; "
+                   "writes frame_NNN.vox per frame and "
                    "lattice.xmf as a time series"),
     GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
@@ -1802,7 +1803,8 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     const int frames = (int)c->frames, exframes = e->example.frames > 1 ? e->example.frames : 1;
     GS_CHECK(frames > 1 ? exframes > 1 : exframes == 1, GS_ERR_ARG,
              frames > 1 ? "model.frames = %d: the example %s has no frames (a 4D example is a "
-                          "Merrell .txt whose extents line reads 'X Y Z T')"
+                          "Merrell .txt whose extents line reads 'X Y Z T', or an .h5 dataset "
+                          "[T, Z, Y, X])"
                         : "model.frames = %d: the example %s has %d frames: set model.frames > 1 "
                           "for a 4D output",
              frames, c->example, exframes);

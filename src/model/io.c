@@ -106,18 +106,22 @@ static gs_err load_h5(const char *path, const char *dataset, gs_model_lattice *o
     GS_TRY(err, gs_ckpt_shape(h, dataset, &sh), done);
     char got[128];
     gs_h5_shape_format(&sh, got, sizeof got);
-    GS_TRY_CHECK(err, sh.type == GS_H5_U16 && (sh.rank == 3 || sh.rank == 2), GS_ERR_FORMAT, done,
+    GS_TRY_CHECK(err, sh.type == GS_H5_U16 && sh.rank >= 2 && sh.rank <= 4, GS_ERR_FORMAT, done,
                  "%s: dataset %s is %s: expected a uint16 label lattice [nz x ny x nx] (or "
-                 "[ny x nx])",
+                 "[ny x nx], or 4D frames [nt x nz x ny x nx])",
                  path, dataset, got);
-    int nz = sh.rank == 3 ? (int)sh.dims[0] : 1;
+    int ok = 1;
+    for (int i = 0; i < sh.rank; i++)
+        ok &= sh.dims[i] <= (1u << 20);
+    GS_TRY_CHECK(err, ok && (sh.rank < 4 || sh.dims[0] * sh.dims[1] <= (1u << 20)), GS_ERR_FORMAT,
+                 done, "%s: dataset %s is %s: extents above 2^20", path, dataset, got);
+    /* 4D: the frames stacked along z, as the engine holds them */
+    int frames = sh.rank == 4 ? (int)sh.dims[0] : 1;
+    int nz = sh.rank == 4 ? (int)(sh.dims[0] * sh.dims[1]) : sh.rank == 3 ? (int)sh.dims[0] : 1;
     int ny = (int)sh.dims[sh.rank - 2], nx = (int)sh.dims[sh.rank - 1];
-    GS_TRY_CHECK(err, sh.dims[0] <= (1u << 20) && sh.dims[1] <= (1u << 20) &&
-                          (sh.rank == 2 || sh.dims[2] <= (1u << 20)),
-                 GS_ERR_FORMAT, done, "%s: dataset %s is %s: extents above 2^20", path, dataset,
-                 got);
     GS_TRY(err, gs_ckpt_check_stored(h, dataset, &sh), done);
     GS_TRY(err, gs_model_lattice_create(&lat, nx, ny, nz), done);
+    lat.frames = frames;
     GS_TRY(err, gs_ckpt_read_whole(h, dataset, &sh, lat.labels), done);
     *out = lat;
     lat.labels = NULL;

@@ -6,7 +6,7 @@
 # when synthesis ignores the time neighbours: cars then appear, vanish or stand still), the
 # space pairs too, the cars move (the labels that change are the example's moving ones, at
 # least half the example's share of changing cells), one .vox per frame, lattice.txt reads
-# back as the same 4D lattice, and ParaView plays lattice.xmf as 8 time steps equal to the
+# back as a 4D example (and so does lattice.h5), and ParaView plays lattice.xmf as 8 time steps equal to the
 # frames of lattice.h5. About 5 s here; needs nothing fetched.
 source "$GS_ROOT/tests/e2e/lib.bash"
 C=$GS_ROOT/configs/model
@@ -47,6 +47,9 @@ n=$(ls c0/frame_*.vox 2>/dev/null | wc -l)
 cp c0/lattice.txt back.txt
 run_gs 0 model -c "$C/city4d.ini" --set model.example="$PWD/back.txt" --set model.passes=1 --set model.max_passes=1 -o back
 expect_rc 0 "city4d: lattice.txt (X Y Z T) reads back as a 4D example"
+run_gs 0 model -c "$C/city4d.ini" --set model.example="$PWD/c0/lattice.h5" --set model.passes=1 --set model.max_passes=1 -o backh5
+expect_rc 0 "city4d: lattice.h5 ([t][z][y][x]) reads back as a 4D example"
+expect_err "4D: 8 frames of 32x32x3 from the example's 8 frames of 32x32x3" "city4d: the .h5 example has its 8 frames"
 grep -q 'GridType="Collection" CollectionType="Temporal"' c0/lattice.xmf && ok "lattice.xmf is a time series" || bad "lattice.xmf: no temporal collection"
 if command -v pvpython >/dev/null; then
   cat >pv.py <<'EOF2'

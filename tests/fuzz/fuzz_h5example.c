@@ -40,8 +40,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     gs_model_lattice lat;
     memset(&lat, 0, sizeof lat);
     if (gs_model_load(path, "h5", NULL, &lat, NULL) == GS_OK) {
-        if (lat.nx < 1 || lat.ny < 1 || lat.nz < 1 || !lat.labels)
-            __builtin_trap();
+        if (lat.nx < 1 || lat.ny < 1 || lat.nz < 1 || !lat.labels || lat.frames < 1 ||
+            lat.nz % lat.frames != 0)
+            __builtin_trap(); /* a 4D dataset: frames stacked along z */
         gs_model_lattice_destroy(&lat);
     } else {
         fuzz_check_error();
