@@ -44,8 +44,12 @@
  * candidates are its label only), periodic outputs (params.periodic: shells
  * and whole-axis regions wrap), mirror-symmetric outputs (params.mirror with
  * gs_model_rules_symmetrize(): the lower half is synthesized with a mirror
- * face, then mirrored), and a tiled start (gs_model_initial_tiled(): a
- * periodic block repeated, so region shells are not all one column).
+ * face, then mirrored), rotation-symmetric outputs (params.rotate_map with
+ * gs_model_rules_rotation(): the lower-left quarter with its +x face joined
+ * to its +y face, then turned three times), 4D lattices (frames, +-t
+ * transitions learned from the example's frames), and a tiled start
+ * (gs_model_initial_tiled(): a periodic block repeated, so region shells are
+ * not all one column).
  *
  * Cell order inside a region (measured on the author's samples, see the
  * bench program): ENTROPY (fewest candidates first, random tie-break) is the
