@@ -12,7 +12,9 @@
 #   PMIx plugin (`srun --mpi=list`).
 # - Threads per rank: OMP_NUM_THREADS and GS_THREADS (OpenVDB's TBB pool) are
 #   set from SLURM_CPUS_PER_TASK (sbatch -c N), default 1.
-# - A checkpoint in RUN_DIR means "resume": `geosynth resume RUN_DIR`.
+# - A checkpoint in RUN_DIR means "resume": `geosynth resume RUN_DIR`, once
+#   RUN_DIR/start.ini shows it is a run of this engine and configuration
+#   (gs_job_same_run; run.* --set may differ and pass through, others refuse).
 # - Time limits: the scripts ask for SIGUSR1 120 s before the limit
 #   (#SBATCH --signal=USR1@120, sent to the job step, i.e. every rank).
 #   geosynth writes a checkpoint at the next safe point on all ranks and
@@ -39,6 +41,45 @@ gs_job_script() {
   echo "${cmd:-$0}"
 }
 
+# The configuration part of a resolved config on stdin (comments, blank
+# lines and the [run] keys a resume may change left out; run.seed stays).
+gs_job_config_body() {
+  awk '/^\[/ { sec = $0 } /^[;#]/ || /^[[:space:]]*$/ { next }
+       sec != "[run]" || $1 == "seed" { print }'
+}
+
+# A checkpoint in RUN_DIR must be of this job's engine and configuration:
+# start.ini records both (first line "; geosynth ENGINE", then the resolved
+# config), and `geosynth ENGINE -c CONFIG --set ... --check` prints what this
+# job asks for in the same form. A RUN_DIR of another engine, or a config or
+# --set that differ from the run's (other than run.* keys), is refused with
+# exit 2 instead of resuming the other run and dropping the --set silently.
+gs_job_same_run() {
+  local engine=$1 config=$2 run_dir=$3 geosynth=$4 job=$5
+  shift 5
+  local start=$run_dir/start.ini was want d
+  [[ -f $start ]] || return 0 # written by every run since 7e7307f; nothing to compare
+  was=$(sed -n '1s/^; geosynth \([a-z]*\).*/\1/p' "$start")
+  if [[ -n $was && $was != "$engine" ]]; then
+    echo "geosynth job $job: error: $run_dir holds a checkpoint of a $was run (start.ini), not of" \
+      "$engine: submit jobs/$was.sbatch to resume it, or give this job another RUN_DIR" >&2
+    return 2
+  fi
+  if ! want=$("$geosynth" "$engine" -c "$config" "$@" --check); then # (its error: above)
+    echo "geosynth job $job: error: $config with these --set does not load; not resuming $run_dir" >&2
+    return 2
+  fi
+  d=$(diff <(gs_job_config_body <"$start") <(gs_job_config_body <<<"$want"))
+  if [[ -n $d ]]; then
+    echo "geosynth job $job: error: $run_dir holds a checkpoint of another configuration than" \
+      "$config with these --set: resuming would ignore the difference (only run.* keys may" \
+      "change on resume). Lines of $start (<) against this job's (>):" >&2
+    echo "$d" | grep '^[<>]' | head -20 >&2
+    echo "geosynth job $job: give this job another RUN_DIR, or submit the run's own config again" >&2
+    return 2
+  fi
+}
+
 gs_job() {
   local engine=${1:?usage: sbatch jobs/ENGINE.sbatch CONFIG [RUN_DIR] [--set section.key=value ...]}
   local config=${2:?usage: sbatch jobs/$engine.sbatch CONFIG [RUN_DIR] [--set section.key=value ...]}
@@ -62,6 +103,7 @@ gs_job() {
   echo "geosynth job $job: $(date -Is) on ${SLURM_JOB_NODELIST:-$(hostname)}, ${SLURM_NTASKS:-?} ranks x $threads threads, restart ${SLURM_RESTART_COUNT:-0}"
   local -a cmd
   if [[ -f "$run_dir/checkpoint.h5" ]]; then
+    gs_job_same_run "$engine" "$config" "$run_dir" "$geosynth" "$job" "$@" || return
     echo "geosynth job $job: resuming $run_dir"
     # Only run.* keys may change on resume; pass those through.
     local -a runset=()
