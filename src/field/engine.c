@@ -220,7 +220,7 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
     GS_CFG_KEY_BOOL(field_config, preview, "output.preview", "yes",
                     "write RUN_DIR/preview.png: the source's contour and the output's contour "
-                    "side by side (every output.geometry but none)"),
+                    "side by side (whatever output.geometry is)"),
     GS_CFG_RUN_KEYS(field_config, run, "field"),
 };
 
@@ -809,9 +809,10 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
     char path[PATH_MAX], name[64];
     int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
     int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
-    if (!contour && !copy)
+    if (!contour && !copy && !c->preview)
         return GS_OK;
-    /* the contour in sample units: contour.ply, and the copy's connectivity */
+    /* the contour in sample units: contour.ply, the copy's connectivity and
+     * the preview (also with output.geometry = none: a picture of every run) */
     gs_field unit = *f;
     unit.spacing = 1, unit.origin[0] = unit.origin[1] = unit.origin[2] = 0;
     gs_mesh base;
@@ -924,8 +925,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     /* the source's mesh: copied.ply, and the left panel of preview.png (a
      * height map's preview with output.geometry = contour showed an empty
      * source panel) */
-    int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both") ||
-                    (c->preview && !strcmp(c->geometry, "contour"));
+    int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both") || c->preview;
     field_source src;
     memset(&src, 0, sizeof src);
     gs_field_synth_t synth = NULL;

@@ -18,7 +18,10 @@ done
 ref=${dig[1]}
 
 # --- preview.png: source and output contours side by side, listed in summary ---
-out=$(/usr/bin/python3 - np1 <<'EOF2'
+# (every run has one: with output.geometry = copy or none too)
+preview_check() { # DIR LABEL
+  local out
+  out=$(/usr/bin/python3 - "$1" <<'EOF2'
 import json, sys, matplotlib.image as mi
 d = sys.argv[1]
 outs = [o for o in json.load(open(d + "/summary.json"))["outputs"] if o["kind"] == "preview"]
@@ -33,7 +36,13 @@ sys.exit(0 if len(outs) == 1 and outs[0]["path"] == "preview.png" and w == 2 * h
          and l > 0.05 and r > 0.05 else 1)
 EOF2
 )
-[[ $? -eq 0 ]] && ok "preview.png: source | output, both drawn, listed ($out)" || bad "preview.png: $out"
+  [[ $? -eq 0 ]] && ok "preview.png ($2): source | output, both drawn, listed ($out)" || bad "preview.png ($2): $out"
+}
+preview_check np1 "output.geometry = contour"
+for g in copy none; do
+  run_gs 1 field -c "$GS_ROOT/configs/field/quick.ini" -o "geom-$g" --set output.geometry=$g
+  [[ $rc -eq 0 ]] && preview_check "geom-$g" "output.geometry = $g" || bad "output.geometry = $g: exit $rc: ${err:0:300}"
+done
 
 # --- target regions: parallel at np>1, and the paper's raster-order result ---
 # quick.ini (default field.region_blocks = 4): per iteration 3x2x2 regions in 5
