@@ -242,6 +242,9 @@ def read_ply(path):
                 else:
                     fields.append((p[1], end + _PLY_TYPES[p[0]]))
             dt = np.dtype(fields)
+            if off + dt.itemsize * count > len(body):
+                # rows shorter than the first one's (a model mesh: quads, then triangles)
+                return _fan(read_ply_polygons(path))
             arr = np.frombuffer(body, dt, count, off)
             if count and not np.all(arr["n"] == k):
                 return _fan(read_ply_polygons(path))
