@@ -10,8 +10,10 @@
  *   geosynth-render.so  src/plugins/render_gl.c    (gs_render_mesh, render.h)
  *
  * A plugin is looked up in, in order: $GEOSYNTH_PLUGIN_DIR; the program's
- * directory/../lib/geosynth (make install puts them there); the build tree
- * the program was built in. A plugin calls back into the program's gs_*
+ * directory/../lib/geosynth (make install puts them there); the program's
+ * directory/../build/plugins (a source tree's bin/ and build/, wherever the
+ * tree is: a cluster node may mount it at another path than the one it was
+ * built at); the build tree the program was built in. A plugin calls back into the program's gs_*
  * functions, which the programs export (-rdynamic). Plugins stay loaded
  * until exit. Thread-safe.
  */

@@ -33,7 +33,7 @@ static int plugin_file(char *buf, size_t cap, const char *dir, const char *name)
 }
 
 /* The directories to try, in order (see plugin.h); *n of them. */
-static void plugin_dirs(char dirs[3][PATH_MAX], int *n)
+static void plugin_dirs(char dirs[4][PATH_MAX], int *n)
 {
     *n = 0;
     const char *env = getenv("GEOSYNTH_PLUGIN_DIR");
@@ -46,9 +46,12 @@ static void plugin_dirs(char dirs[3][PATH_MAX], int *n)
         char *slash = strrchr(exe, '/');
         if (slash) {
             *slash = 0;
-            int k = snprintf(dirs[*n], PATH_MAX, "%s/../lib/geosynth", exe);
-            if (k > 0 && k < PATH_MAX)
-                (*n)++;
+            static const char *const rel[2] = {"../lib/geosynth", "../build/plugins"};
+            for (int r = 0; r < 2; r++) {
+                int k = snprintf(dirs[*n], PATH_MAX, "%s/%s", exe, rel[r]);
+                if (k > 0 && k < PATH_MAX)
+                    (*n)++;
+            }
         }
     }
     if (GS_PLUGIN_BUILD_DIR[0] && strlen(GS_PLUGIN_BUILD_DIR) < PATH_MAX)
@@ -65,7 +68,7 @@ static gs_err plugin_get(const char *name, plugin **out)
         }
     GS_CHECK(nplugins < MAX_PLUGINS && strlen(name) < sizeof plugins[0].name, GS_ERR_INTERNAL,
              "plugin '%s': no room in the plugin table", name);
-    char dirs[3][PATH_MAX], file[PATH_MAX], tried[3 * PATH_MAX + 64] = "";
+    char dirs[4][PATH_MAX], file[PATH_MAX], tried[4 * PATH_MAX + 64] = "";
     int ndirs;
     plugin_dirs(dirs, &ndirs);
     char why[512] = "";

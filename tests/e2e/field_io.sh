@@ -129,6 +129,12 @@ plugdir=$(sed -n 's|.*(plugin \(.*\)/geosynth-vdb.so)|\1|p' <<<"$out")
 cp "$GS_BIN" inst/bin/ && cp "$plugdir"/geosynth-*.so inst/lib/geosynth/
 out=$(inst/bin/geosynth version 2>&1)
 grep -qF "inst/bin/../lib/geosynth/geosynth-vdb.so" <<<"$out" && ok "an installed program finds its plugins in ../lib/geosynth" || bad "installed program: $out"
+# a source tree at another path than it was built at (a cluster node mounting
+# it elsewhere; e2e/multinode): bin/ finds ../build/plugins
+mkdir -p moved/bin moved/build/plugins
+cp "$GS_BIN" moved/bin/ && cp "$plugdir"/geosynth-*.so moved/build/plugins/
+out=$(moved/bin/geosynth version 2>&1)
+grep -qF "moved/bin/../build/plugins/geosynth-vdb.so" <<<"$out" && ok "a moved source tree finds its plugins in ../build/plugins" || bad "moved tree: $out"
 # a broken plugin is named, nothing else is tried, no output is left half-written
 mkdir -p badplug && echo "not a shared object" > badplug/geosynth-vdb.so
 GEOSYNTH_PLUGIN_DIR=$PWD/badplug run_gs 2 field -c "$Q" -o badvdb
