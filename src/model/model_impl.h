@@ -20,7 +20,7 @@ struct gs_model_rules {
     int npresent;           /* labels occurring in the example */
     uint64_t *allow;        /* [L][8][W]: labels allowed at v+e_d given label a at v (d: +-x, +-y, +-z, +-t) */
     uint64_t *present;      /* [W] */
-    uint64_t *full_support; /* [6][W]: union of allow[a][d] over present a */
+    uint64_t *full_support; /* [8][W]: union of allow[a][d] over present a */
     uint64_t *count;        /* [L] occurrences */
 };
 
@@ -28,6 +28,10 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
 {
     return r->allow + ((size_t)a * GS_MODEL_DIRS + (size_t)d) * (size_t)r->words;
 }
+
+/* Recompute full_support from allow and count, after the rules changed
+ * (learned, read from pairs, symmetrized, turned). */
+void gs_model_rules_rebuild_support(struct gs_model_rules *r);
 
 /* Index of the example's neighbourhoods for resemblance (src/model/resemble.c). */
 #define GS_MODEL_RESEM_MAX_B 8 /* counter bits (solver.c keeps 8 planes): Q < 2^8 */

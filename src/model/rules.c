@@ -53,15 +53,26 @@ gs_err gs_model_rules_learn(const gs_model_lattice *ex, gs_model_rules_t *out)
             continue;
         set_bit(r->present, a);
         r->npresent++;
-        for (int d = 0; d < GS_MODEL_DIRS; d++)
-            for (size_t w = 0; w < W; w++)
-                r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
     }
+    gs_model_rules_rebuild_support(r);
     *out = r;
     return GS_OK;
 fail:
     gs_model_rules_destroy(&r);
     return err;
+}
+
+/* full_support[d] = every label some present label allows along d: the
+ * candidate set of a cell whose neighbour along d is still open. */
+void gs_model_rules_rebuild_support(struct gs_model_rules *r)
+{
+    const size_t W = (size_t)r->words;
+    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
+    for (int a = 0; a < r->nlabels; a++)
+        if (r->count[a])
+            for (int d = 0; d < GS_MODEL_DIRS; d++)
+                for (size_t w = 0; w < W; w++)
+                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
 }
 
 void gs_model_rules_destroy(gs_model_rules_t *rules)
@@ -274,7 +285,6 @@ gs_err gs_model_rules_from_pairs(int L, const gs_model_pair *pairs, size_t npair
     GS_TRY(err, gs_alloc_array((void **)&r->count, (size_t)L, 8, "label counts"), fail);
     memset(r->allow, 0, (size_t)L * GS_MODEL_DIRS * W * 8);
     memset(r->present, 0, W * 8);
-    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
     for (int l = 0; l < L; l++)
         r->count[l] = counts[l];
     for (size_t i = 0; i < npairs; i++) {
@@ -290,10 +300,8 @@ gs_err gs_model_rules_from_pairs(int L, const gs_model_pair *pairs, size_t npair
             continue;
         set_bit(r->present, a);
         r->npresent++;
-        for (int d = 0; d < GS_MODEL_DIRS; d++)
-            for (size_t w = 0; w < W; w++)
-                r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
     }
+    gs_model_rules_rebuild_support(r);
     *out = r;
     return GS_OK;
 fail:

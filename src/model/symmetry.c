@@ -218,6 +218,17 @@ gs_err gs_model_rules_mirror_pairs(const gs_model_rules_t r, const char *key, co
     return GS_OK;
 }
 
+/* Allowed (a, d, b) entries over every direction (each pair counts along
+ * +d and -d). */
+static size_t count_allowed(const struct gs_model_rules *r)
+{
+    const size_t n = (size_t)r->nlabels * GS_MODEL_DIRS * (size_t)r->words;
+    size_t bits = 0;
+    for (size_t i = 0; i < n; i++)
+        bits += (size_t)__builtin_popcountll(r->allow[i]);
+    return bits;
+}
+
 gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3], const int *const maps[3],
                                  size_t *dropped)
 {
@@ -225,9 +236,7 @@ gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3], const in
     const int L = r->nlabels;
     uint64_t *old = NULL;
     GS_CALL(gs_alloc_array((void **)&old, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"));
-    size_t before = 0, after = 0;
-    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
-        before += (size_t)__builtin_popcountll(r->allow[i]);
+    const size_t before = count_allowed(r);
     /* keep (a, d, b) only when (S a, d', S b) is allowed, for every mirrored
      * axis, until nothing changes (two mirrors: T = T ∩ Sx T ∩ Sy T ...) */
     for (int changed = 1; changed;) {
@@ -256,16 +265,10 @@ gs_err gs_model_rules_symmetrize(gs_model_rules_t r, const int axes[3], const in
         }
     }
     gs_free(old);
-    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
-        after += (size_t)__builtin_popcountll(r->allow[i]);
+    const size_t after = count_allowed(r);
     if (dropped)
         *dropped = (before - after) / 2; /* each pair is stored along +d and -d */
-    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
-    for (int a = 0; a < L; a++)
-        if (r->count[a])
-            for (int d = 0; d < GS_MODEL_DIRS; d++)
-                for (size_t w = 0; w < W; w++)
-                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    gs_model_rules_rebuild_support(r);
     return GS_OK;
 }
 
@@ -275,9 +278,7 @@ gs_err gs_model_rules_rotation(gs_model_rules_t r, const int *R, size_t *dropped
     const int L = r->nlabels;
     uint64_t *old = NULL;
     GS_CALL(gs_alloc_array((void **)&old, (size_t)L * GS_MODEL_DIRS * W, 8, "transition sets"));
-    size_t before = 0, after = 0;
-    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
-        before += (size_t)__builtin_popcountll(r->allow[i]);
+    const size_t before = count_allowed(r);
     /* keep (a, d, b) only when (R a, R d, R b) is allowed, until nothing
      * changes: the rules are then the same turned by 90 degrees */
     for (int changed = 1; changed;) {
@@ -300,8 +301,7 @@ gs_err gs_model_rules_rotation(gs_model_rules_t r, const int *R, size_t *dropped
             }
     }
     gs_free(old);
-    for (size_t i = 0; i < (size_t)L * GS_MODEL_DIRS * W; i++)
-        after += (size_t)__builtin_popcountll(r->allow[i]);
+    const size_t after = count_allowed(r);
     if (dropped)
         *dropped = (before - after) / 2;
     /* the quarter's rotation face (+t / -t of a 3D lattice): b at the
@@ -317,12 +317,7 @@ gs_err gs_model_rules_rotation(gs_model_rules_t r, const int *R, size_t *dropped
                 set_bit(r->allow + ((size_t)a * GS_MODEL_DIRS + 6) * W, b);
                 set_bit(r->allow + ((size_t)b * GS_MODEL_DIRS + 7) * W, a);
             }
-    memset(r->full_support, 0, GS_MODEL_DIRS * W * 8);
-    for (int a = 0; a < L; a++)
-        if (r->count[a])
-            for (int d = 0; d < GS_MODEL_DIRS; d++)
-                for (size_t w = 0; w < W; w++)
-                    r->full_support[(size_t)d * W + w] |= gs_model_allow(r, a, d)[w];
+    gs_model_rules_rebuild_support(r);
     return GS_OK;
 }
 
