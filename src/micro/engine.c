@@ -207,14 +207,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
         gs_json_f64(mj, "realized_l1", r->realized_l1);
         gs_json_f64(mj, "unassigned_share", r->unassigned_share);
         gs_json_u64(mj, "realized_beyond", r->realized_beyond);
-        gs_json_begin_array(mj, "target_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(mj, NULL, r->target[i]);
-        gs_json_end_array(mj);
-        gs_json_begin_array(mj, "realized_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(mj, NULL, r->realized[i]);
-        gs_json_end_array(mj);
+        micro_result_counts_json(mj, r);
         gs_json_end_object(mj);
     }
     char path[PATH_MAX];

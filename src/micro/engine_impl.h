@@ -187,6 +187,10 @@ gs_err micro_queue_pass(MPI_Comm comm, int64_t n, uint64_t seed, uint32_t rng_do
 /* engine_output.c: the output pass's checks of one instance as members of the
  * open JSON object j (instances.json, gallery/candidates.json). */
 void micro_result_json(gs_json *j, const micro_result *r);
+/* The target_count / realized_count arrays (signed axis) of r, when r carries
+ * them (nbins <= MICRO_RESULT_BINS): the one writer of both for instances.json,
+ * the gallery's candidates.json and the run metrics. */
+void micro_result_counts_json(gs_json *j, const micro_result *r);
 /* engine_output.c: writes j's text + '\n' to path atomically and frees j. */
 gs_err micro_json_write(gs_json *j, const char *path);
 

@@ -393,14 +393,19 @@ void micro_result_json(gs_json *j, const micro_result *r)
     gs_json_f64(j, "recon_unassigned_share", r->recon_unassigned_share);
     gs_json_u64(j, "correct_rounds", r->correct_rounds);
     gs_json_u64(j, "correct_flips", r->correct_flips);
-    if (r->nbins <= MICRO_RESULT_BINS) {
-        gs_json_begin_array(j, "target_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(j, NULL, r->target[i]);
-        gs_json_end_array(j);
-        gs_json_begin_array(j, "realized_count");
-        for (uint64_t i = 0; i < 2 * r->nbins; i++)
-            gs_json_i64(j, NULL, r->realized[i]);
-        gs_json_end_array(j);
-    }
+    micro_result_counts_json(j, r);
+}
+
+void micro_result_counts_json(gs_json *j, const micro_result *r)
+{
+    if (r->nbins > MICRO_RESULT_BINS)
+        return;
+    gs_json_begin_array(j, "target_count");
+    for (uint64_t i = 0; i < 2 * r->nbins; i++)
+        gs_json_i64(j, NULL, r->target[i]);
+    gs_json_end_array(j);
+    gs_json_begin_array(j, "realized_count");
+    for (uint64_t i = 0; i < 2 * r->nbins; i++)
+        gs_json_i64(j, NULL, r->realized[i]);
+    gs_json_end_array(j);
 }
