@@ -196,14 +196,20 @@ gs_err gs_micro_dist_check_sum(const double *pos, size_t npos, const double *neg
 gs_err gs_micro_dist_from_image(gs_micro_dist *d, uint32_t w, uint32_t h, const uint8_t *pix,
                                 uint8_t threshold, double units_per_pixel, uint32_t max_bins);
 
-/* Random distribution from a parameter range (paper 5.1): each side gets a
- * bin count in [min_bins, max_bins] and random bin values sorted to be
- * non-increasing with distance (the length of a distance level set in the
- * plane does not grow with distance for simply connected regions), scaled so
- * the positive side holds a share in [min_pos_share, max_pos_share]. */
+/* Random distribution from a parameter range (paper 5.1), drawn as the
+ * contact distribution of a random set (3.2) so that both sides describe one
+ * partition: a Boolean model (discs of radii uniform in [R/2, R] units at
+ * uniform centres, added until the positive share s is reached) on a flat
+ * torus of the surface's area, measured by the radial search of 5.3.
+ * R is drawn in [min_bins, max_bins] (the positive side's depth in bins),
+ * capped so 4 discs fit the positive area and at least 1; s in
+ * [min_pos_share, max_pos_share]; area: the surface's area in distribution
+ * units (0: a 64 x 64 unit torus). Tables drawn bin by bin for each side on
+ * its own ask for coasts the two sides do not share (issue 20). */
 typedef struct gs_micro_dist_range {
     uint32_t min_bins, max_bins;
     double min_pos_share, max_pos_share;
+    double area;
 } gs_micro_dist_range;
 gs_err gs_micro_dist_random(gs_micro_dist *d, const gs_micro_dist_range *range, gs_rng *rng);
 

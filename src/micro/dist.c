@@ -91,10 +91,13 @@ static void edt_1d(const double *f, double *out, size_t n, size_t *v, double *z)
     }
 }
 
-/* Squared distance from every pixel to the nearest pixel with feat[] != 0. */
-static gs_err edt_2d(uint32_t w, uint32_t h, const uint8_t *feat, double *out)
+/* Squared distance from every pixel to the nearest pixel with feat[] != 0;
+ * periodic: the image is a torus (its edges wrap), as a Boolean-model image
+ * drawn by gs_micro_image_boolean is. Each 1-D pass then runs on the line
+ * repeated three times and keeps the middle copy. */
+static gs_err edt_2d(uint32_t w, uint32_t h, const uint8_t *feat, int periodic, double *out)
 {
-    size_t n = w > h ? w : h;
+    size_t rep = periodic ? 3 : 1, n = (w > h ? w : h) * rep;
     double *f = NULL, *g = NULL, *z = NULL;
     size_t *v = NULL;
     gs_err err = GS_OK;
@@ -102,16 +105,19 @@ static gs_err edt_2d(uint32_t w, uint32_t h, const uint8_t *feat, double *out)
     GS_TRY(err, gs_alloc_array((void **)&g, n, sizeof *g, "distance transform"), done);
     GS_TRY(err, gs_alloc_array((void **)&z, n + 1, sizeof *z, "distance transform"), done);
     GS_TRY(err, gs_alloc_array((void **)&v, n, sizeof *v, "distance transform"), done);
+    size_t mid_h = periodic ? h : 0, mid_w = periodic ? w : 0;
     for (uint32_t x = 0; x < w; x++) { /* columns */
+        for (size_t y = 0; y < rep * h; y++)
+            f[y] = feat[(y % h) * w + x] ? 0 : INFINITY;
+        edt_1d(f, g, rep * h, v, z);
         for (uint32_t y = 0; y < h; y++)
-            f[y] = feat[(size_t)y * w + x] ? 0 : INFINITY;
-        edt_1d(f, g, h, v, z);
-        for (uint32_t y = 0; y < h; y++)
-            out[(size_t)y * w + x] = g[y];
+            out[(size_t)y * w + x] = g[mid_h + y];
     }
     for (uint32_t y = 0; y < h; y++) { /* rows */
-        memcpy(f, out + (size_t)y * w, w * sizeof *f);
-        edt_1d(f, out + (size_t)y * w, w, v, z);
+        for (size_t x = 0; x < rep * w; x++)
+            f[x] = out[(size_t)y * w + x % w];
+        edt_1d(f, g, rep * w, v, z);
+        memcpy(out + (size_t)y * w, g + mid_w, w * sizeof *g);
     }
 done:
     gs_free(f);
@@ -121,8 +127,21 @@ done:
     return err;
 }
 
+static gs_err contact_of_image(gs_micro_dist *d, uint32_t w, uint32_t h, const uint8_t *pix,
+                               uint8_t threshold, double units_per_pixel, uint32_t max_bins,
+                               int periodic);
+
 gs_err gs_micro_dist_from_image(gs_micro_dist *d, uint32_t w, uint32_t h, const uint8_t *pix,
                                 uint8_t threshold, double units_per_pixel, uint32_t max_bins)
+{
+    return contact_of_image(d, w, h, pix, threshold, units_per_pixel, max_bins, 0);
+}
+
+/* The paper's radial search (5.3) over every pixel; periodic: the image is a
+ * torus. */
+static gs_err contact_of_image(gs_micro_dist *d, uint32_t w, uint32_t h, const uint8_t *pix,
+                               uint8_t threshold, double units_per_pixel, uint32_t max_bins,
+                               int periodic)
 {
     GS_CHECK(w > 0 && h > 0 && (uint64_t)w * h < (1ull << 34), GS_ERR_ARG,
              "image %u x %u: expected a non-empty image below 2^34 pixels", w, h);
@@ -145,10 +164,10 @@ gs_err gs_micro_dist_from_image(gs_micro_dist *d, uint32_t w, uint32_t h, const 
     GS_TRY(err, gs_alloc_array((void **)&cn, max_bins, sizeof *cn, "distribution counters"), done);
     for (size_t i = 0; i < n; i++)
         mask[i] = pix[i] < threshold; /* black pixels: what white pixels search for */
-    GS_TRY(err, edt_2d(w, h, mask, dw), done);
+    GS_TRY(err, edt_2d(w, h, mask, periodic, dw), done);
     for (size_t i = 0; i < n; i++)
         mask[i] = !mask[i];
-    GS_TRY(err, edt_2d(w, h, mask, db), done);
+    GS_TRY(err, edt_2d(w, h, mask, periodic, db), done);
     uint32_t used = 1;
     for (size_t i = 0; i < n; i++) {
         int is_white = pix[i] >= threshold;
@@ -197,12 +216,6 @@ gs_err gs_micro_image_boolean(uint32_t w, uint32_t h, double rmin, double rmax, 
     return GS_OK;
 }
 
-static int cmp_desc(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x > y ? -1 : x < y;
-}
-
 gs_err gs_micro_dist_random(gs_micro_dist *d, const gs_micro_dist_range *r, gs_rng *rng)
 {
     GS_CHECK(r->min_bins >= 1 && r->min_bins <= r->max_bins && r->max_bins <= 16384, GS_ERR_ARG,
@@ -210,27 +223,26 @@ gs_err gs_micro_dist_random(gs_micro_dist *d, const gs_micro_dist_range *r, gs_r
     GS_CHECK(r->min_pos_share > 0 && r->min_pos_share <= r->max_pos_share && r->max_pos_share < 1,
              GS_ERR_ARG, "random distribution positive share [%g, %g]: expected 0 < min <= max < 1",
              r->min_pos_share, r->max_pos_share);
-    uint32_t kp = r->min_bins + (uint32_t)gs_rng_below(rng, r->max_bins - r->min_bins + 1);
-    uint32_t kn = r->min_bins + (uint32_t)gs_rng_below(rng, r->max_bins - r->min_bins + 1);
+    GS_CHECK(r->area >= 0 && isfinite(r->area), GS_ERR_ARG,
+             "random distribution surface area %g: expected >= 0 (0: a 64 x 64 unit torus)", r->area);
+    double area = r->area > 0 ? r->area : 64.0 * 64.0;
     double share = r->min_pos_share + (r->max_pos_share - r->min_pos_share) * gs_rng_uniform(rng);
-    uint32_t K = kp > kn ? kp : kn;
-    double *p = NULL, *q = NULL;
+    double rmax = (double)r->min_bins + (double)(r->max_bins - r->min_bins) * gs_rng_uniform(rng);
+    /* at least 4 discs' worth of positive area on the surface, a disc at least 1 unit */
+    rmax = fmin(rmax, sqrt(area * share / (4 * 3.14159265358979323846)));
+    rmax = fmax(rmax, 1.0);
+    /* the torus has the surface's area (at most 512 x 512 units), 2-8 pixels a unit */
+    double side = fmin(sqrt(area), 512.0), ppu = fmax(2.0, fmin(8.0, 1024.0 / side));
+    uint32_t w = (uint32_t)ceil(side * ppu);
+    if ((double)w <= 2.5 * rmax * ppu) /* a disc must fit the torus */
+        w = (uint32_t)ceil(2.5 * rmax * ppu) + 1;
+    uint8_t *pix = NULL;
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&p, K, sizeof *p, "distribution"), done);
-    GS_TRY(err, gs_alloc_array((void **)&q, K, sizeof *q, "distribution"), done);
-    double sp = 0, sn = 0;
-    for (uint32_t k = 0; k < kp; k++)
-        sp += p[k] = 0.05 + gs_rng_uniform(rng);
-    for (uint32_t k = 0; k < kn; k++)
-        sn += q[k] = 0.05 + gs_rng_uniform(rng);
-    qsort(p, kp, sizeof *p, cmp_desc);
-    qsort(q, kn, sizeof *q, cmp_desc);
-    for (uint32_t k = 0; k < K; k++)
-        p[k] *= share / sp, q[k] *= (1 - share) / sn;
-    GS_TRY(err, gs_micro_dist_create(d, K, p, q), done);
+    GS_TRY(err, gs_alloc_array((void **)&pix, (size_t)w * w, 1, "random distribution image"), done);
+    GS_TRY(err, gs_micro_image_boolean(w, w, 0.5 * rmax * ppu, rmax * ppu, share, rng, pix), done);
+    GS_TRY(err, contact_of_image(d, w, w, pix, 128, 1.0 / ppu, 64, 1), done);
 done:
-    gs_free(p);
-    gs_free(q);
+    gs_free(pix);
     return err;
 }
 

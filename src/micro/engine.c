@@ -138,6 +138,9 @@ static gs_err report_results(micro_job *job, gs_json *phase)
                (unsigned long long)r->violations, (unsigned long long)r->pairs_checked,
                100 * r->unassigned_share, (long long)r->abs_error_sum, (long long)r->max_bin_error,
                100 * r->error_share, r->realized_l1, hex);
+        char what[48];
+        snprintf(what, sizeof what, "instance %lld", (long long)i);
+        micro_result_warn(r, what);
         if (run->rank == 0) {
             char dir[64], rel[128];
             micro_instance_dir(i, dir, sizeof dir);

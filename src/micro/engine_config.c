@@ -52,11 +52,15 @@ static const gs_cfg_key micro_keys[] = {
     GS_CFG_KEY_INT(micro_config, max_bins, "micro.max_bins", 1, 16384, 0, "64",
                    "image acquisition: bins per region (larger distances count in the last bin)"),
     GS_CFG_KEY_INT(micro_config, random_min_bins, "micro.random_min_bins", 1, 16384, 0, "3",
-                   "random distribution: fewest bins per region"),
+                   "random distribution: smallest depth R of the positive region in bins (units); the "
+                   "distribution is measured (paper 5.3) from a Boolean model of discs of radii in "
+                   "[R/2, R] on a torus of the surface's area, so both sides describe one partition"),
     GS_CFG_KEY_INT(micro_config, random_max_bins, "micro.random_max_bins", 1, 16384, 0, "8",
-                   "random distribution: most bins per region"),
+                   "random distribution: largest depth R of the positive region in bins (capped so "
+                   "that 4 discs fit the positive area)"),
     GS_CFG_KEY_REAL(micro_config, random_min_share, "micro.random_min_share", 0, 1, GS_CFG_OPEN_LO,
-                    "0.3", "random distribution: smallest area share of the positive region"),
+                    "0.3", "random distribution: smallest area share of the positive region (the Boolean "
+                    "model's coverage; its last disc may pass the drawn share)"),
     GS_CFG_KEY_REAL(micro_config, random_max_share, "micro.random_max_share", 0, 1, GS_CFG_OPEN_LO,
                     "0.7", "random distribution: largest area share of the positive region (< 1)"),
     GS_CFG_KEY_BOOL(micro_config, random_per_instance, "micro.random_per_instance", "no",

@@ -511,6 +511,9 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
                (unsigned long long)r->res.ntris, (unsigned long long)r->res.nbins,
                100 * r->res.unassigned_share, r->res.realized_l1,
                (unsigned long long)r->res.violations, r->seconds, hex);
+        char what[48];
+        snprintf(what, sizeof what, "candidate %lld", (long long)i);
+        micro_result_warn(&r->res, what);
     }
     uint64_t digest = gs_digest_bytes(digests, (size_t)n * sizeof *digests);
     gs_free(digests);

@@ -191,6 +191,15 @@ void micro_result_json(gs_json *j, const micro_result *r);
  * them (nbins <= MICRO_RESULT_BINS): the one writer of both for instances.json,
  * the gallery's candidates.json and the run metrics. */
 void micro_result_counts_json(gs_json *j, const micro_result *r);
+
+/* The realized L1/n a target must be met within (issue 20's bound). */
+#define MICRO_REALIZED_L1_OK 0.05
+
+/* A warning naming what (an instance, a candidate) when r's realized contact
+ * distribution misses its target by more than MICRO_REALIZED_L1_OK: the coast
+ * bins of both sides and the worst bin, so a table no partition gives is not
+ * missed silently. */
+void micro_result_warn(const micro_result *r, const char *what);
 /* engine_output.c: writes j's text + '\n' to path atomically and frees j. */
 gs_err micro_json_write(gs_json *j, const char *path);
 

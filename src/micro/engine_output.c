@@ -409,3 +409,31 @@ void micro_result_counts_json(gs_json *j, const micro_result *r)
         gs_json_i64(j, NULL, r->realized[i]);
     gs_json_end_array(j);
 }
+
+void micro_result_warn(const micro_result *r, const char *what)
+{
+    if (r->realized_l1 <= MICRO_REALIZED_L1_OK)
+        return;
+    if (r->nbins > MICRO_RESULT_BINS || r->nbins == 0) {
+        gs_log(GS_LOG_WARN, "%s: the realized contact distribution misses the target by L1/n %.3f "
+               "(> %.2f): the table may ask for what no two-region partition of this surface gives",
+               what, r->realized_l1, MICRO_REALIZED_L1_OK);
+        return;
+    }
+    uint64_t K = r->nbins, worst = 0;
+    for (uint64_t i = 1; i < 2 * K; i++)
+        if (llabs(r->realized[i] - r->target[i]) > llabs(r->realized[worst] - r->target[worst]))
+            worst = i;
+    int pos = worst >= K;
+    uint64_t bin = pos ? worst - K : K - 1 - worst;
+    /* signed axis: K-1 is negative bin 0, K positive bin 0 */
+    gs_log(GS_LOG_WARN, "%s: the realized contact distribution misses the target by L1/n %.3f "
+           "(> %.2f): the table may ask for what no two-region partition of this surface gives. "
+           "Both sides share one coast, yet the table puts %lld triangles in negative bin 0 and "
+           "%lld in positive bin 0 (a round island of radius R has (2R+1)/(2R-1) times more sea "
+           "than land within 1 unit of it); the worst bin, %s %llu, wants %lld and got %lld. "
+           "micro.dist = image or random draws a distribution from a real partition",
+           what, r->realized_l1, MICRO_REALIZED_L1_OK, (long long)r->target[K - 1],
+           (long long)r->target[K], pos ? "positive" : "negative", (unsigned long long)bin,
+           (long long)r->target[worst], (long long)r->realized[worst]);
+}

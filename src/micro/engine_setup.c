@@ -291,10 +291,13 @@ done:
     return err;
 }
 
-static gs_err dist_random(const micro_config *cfg, uint64_t seed, uint64_t stream, gs_micro_dist *d)
+/* A random distribution sized to mi's surface (gs_micro_dist_random). */
+static gs_err dist_random(const micro_config *cfg, const micro_mesh_in *mi, uint64_t seed,
+                          uint64_t stream, gs_micro_dist *d)
 {
     gs_micro_dist_range r = {(uint32_t)cfg->random_min_bins, (uint32_t)cfg->random_max_bins,
-                             cfg->random_min_share, cfg->random_max_share};
+                             cfg->random_min_share, cfg->random_max_share,
+                             mesh_area(&mi->m) * mi->upm * mi->upm};
     gs_rng rng;
     gs_rng_init(&rng, seed, stream);
     GS_CALL(gs_micro_dist_random(d, &r, &rng));
@@ -324,7 +327,7 @@ static gs_err setup_dist(micro_job *job, gs_micro_dist *d)
         return err;
     }
     if (!strcmp(kind, "random")) {
-        GS_CALL(dist_random(cfg, (uint64_t)cfg->run.seed,
+        GS_CALL(dist_random(cfg, &job->meshes[0], (uint64_t)cfg->run.seed,
                             gs_rng_stream_id(MICRO_DOMAIN_DIST, 0, 0, 0), d));
         return GS_OK;
     }
@@ -420,7 +423,7 @@ gs_err micro_setup(micro_job *job)
         in->mesh = (uint32_t)(i / per);
         in->seed = gs_rng_stream_id(MICRO_DOMAIN_SEED, (uint64_t)cfg->run.seed, (uint64_t)i, 0);
         if (cfg->random_per_instance)
-            GS_TRY(err, dist_random(cfg, (uint64_t)cfg->run.seed,
+            GS_TRY(err, dist_random(cfg, &job->meshes[i / per], (uint64_t)cfg->run.seed,
                                     gs_rng_stream_id(MICRO_DOMAIN_DIST, 1, (uint64_t)i, 0), &in->dist),
                    done);
         else

@@ -10,6 +10,8 @@
 #   and > 0.05 with micro.correct = no (the measure is not the labels); the
 #   reconstruction's metric on planet.ini is isotropic (excess over the straight
 #   line < 2/sqrt(3), which hop paths over the dual graph reach); a CSV table and several meshes work;
+# - a table whose sides do not share a coast (the old gallery card 1) is warned
+#   about, naming its coast bins; quick.ini gives no such warning;
 # - bad inputs: missing mesh, negative probability, table sum, CSV errors,
 #   unknown key, wrong type, missing image: exit 2/3 naming the file/key.
 # Stop/resume and kill -9 are in micro_resume.sh.
@@ -23,6 +25,8 @@ for np in 1 2 3; do
   expect_rc 0 "quick.ini at np=$np"
   dg[$np]=$(digest_of q$np 2>/dev/null)
 done
+grep -qF "misses the target" <<<"$err" && bad "quick.ini warns that its realized distribution misses the target" \
+  || ok "quick.ini: no missed-target warning"
 if [[ -n "${dg[1]}" && "${dg[1]}" == "${dg[2]}" && "${dg[1]}" == "${dg[3]}" ]]; then
   ok "quick.ini digest identical at np 1, 2, 3 (${dg[1]})"
 else
@@ -256,6 +260,23 @@ printf '[micro]\ndist = image\nimage = none.png\n' > b8.ini
 run_gs 2 micro -c b8.ini -o b8
 expect_rc 3 "missing image"
 expect_err "none.png" "missing image names the path"
+
+# ---- a table no partition gives is not missed silently ----
+# The stop-29 gallery's card 1, drawn per side: 1500 of 3200 triangles in
+# negative bin 0 against 211 in positive bin 0, with land 6 units deep.
+cat > coast.ini <<EOF
+[micro]
+scale_units = 7.302126195691006
+table_pos = 0.0659375, 0.0625, 0.0553125, 0.0475, 0.0321875, 0.015625, 0.00875
+table_neg = 0.46875, 0.14, 0.1034375
+EOF
+run_gs 1 micro -c coast.ini -o coast
+expect_rc 0 "an unrealizable table still gives an output"
+expect_err "warning: instance 0: the realized contact distribution misses the target by L1/n" \
+  "an unrealizable table is warned about"
+expect_err "1500 triangles in negative bin 0 and 211 in positive bin 0" "the warning names the coast bins"
+/usr/bin/python3 -c 'import json,sys; sys.exit(0 if json.load(open("coast/instances.json"))[0]["realized_l1"] > 0.05 else 1)' \
+  && ok "the warned run's instances.json holds realized L1/n > 0.05" || bad "coast.ini: realized L1/n not above 0.05"
 
 printf '[micro]\nshape = sphere\nmesh = x.obj\n' > b9.ini
 run_gs 1 micro -c b9.ini -o b9

@@ -5,6 +5,8 @@
 # - every candidate has mesh.ply, micro.h5, its .ini and a thumbnail PNG that
 #   is not blank (background and lit pixels, several grey levels) and shows
 #   both regions' colours;
+# - every candidate's random distribution is realized: L1/n <= 0.05 between
+#   its realized and target histograms, unassigned < 1% (issue 20);
 # - a candidate's .ini run alone reproduces that candidate's mesh digest;
 # - the page in headless Chromium: a non-empty 1200x900 screenshot, exactly
 #   6 candidate cards in the DOM, and all 6 thumbnails loaded (the page's own
@@ -58,6 +60,15 @@ check(len(set(round(c["scale_units"], 9) for c in cand)) == n, "u was not drawn 
 check(all(5 <= c["scale_units"] <= 8 for c in cand), "u outside the range 5, 8")
 check(summ["metrics"]["candidates"] == n and summ["metrics"]["violations"] == 0,
       "summary metrics: %s" % summ["metrics"])
+# Issue 20 item 2: every random distribution is realized: L1/n <= 0.05 between
+# the realized and the target histograms (both in the card), unassigned < 1%.
+for c in cand:
+    t, r = c["target_count"], c["realized_count"]
+    l1 = sum(abs(a - b) for a, b in zip(t, r)) / c["triangles"]
+    check(abs(l1 - c["realized_l1"]) < 1e-9, "%s: realized_l1 is not the histograms' L1/n" % c["dir"])
+    check(l1 <= 0.05 and c["unassigned_share"] < 0.01,
+          "%s: realized L1/n %.4f (<= 0.05), unassigned %.4f (< 0.01)" % (c["dir"], l1, c["unassigned_share"]))
+print("  realized L1/n per candidate: %s" % ", ".join("%.3f" % c["realized_l1"] for c in cand))
 bg = None
 for c in cand:
     d = os.path.join(run, "gallery", c["dir"])

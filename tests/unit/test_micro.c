@@ -221,17 +221,35 @@ static void test_image_distribution(void **state)
     assert_non_null(strstr(gs_error_message(), "all black"));
     gs_error_clear();
 
-    gs_micro_dist_range rr = {3, 6, 0.3, 0.6};
-    assert_int_equal(gs_micro_dist_random(&d, &rr, &rng), GS_OK);
-    assert_true(d.nbins >= 3 && d.nbins <= 6);
-    double sp = 0, sn = 0;
-    for (uint32_t k = 0; k < d.nbins; k++) {
-        sp += d.pos[k], sn += d.neg[k];
-        if (k)
-            assert_true(d.pos[k] <= d.pos[k - 1] && d.neg[k] <= d.neg[k - 1]);
+    /* A random distribution is the contact distribution of a Boolean model
+     * (one partition, both sides): on a 64 x 64 unit torus with discs of
+     * radius <= 6 units the positive side is at most 6 units deep, holds the
+     * drawn share (up to the last disc, pi 6^2 / 64^2 = 0.028), and the two
+     * coast bins describe one coast: a disc of radius r in [3, 6] has
+     * (2r+1)/(2r-1) <= 1.4 times more sea than land within 1 unit, overlaps
+     * and close neighbours only lower it, so the negative bin 0 stays within
+     * [0.5, 1.4] times the positive one (the old per-side tables drew 0.56 to
+     * 7.1 on the gallery). */
+    gs_micro_dist_range rr = {3, 6, 0.3, 0.6, 0};
+    for (int rep = 0; rep < 4; rep++) {
+        assert_int_equal(gs_micro_dist_random(&d, &rr, &rng), GS_OK);
+        double sp = 0, sn = 0;
+        uint32_t deepest = 0;
+        for (uint32_t k = 0; k < d.nbins; k++) {
+            sp += d.pos[k], sn += d.neg[k];
+            if (d.pos[k] > 0)
+                deepest = k;
+        }
+        printf("random dist %d: K=%u, positive share %.3f, deepest positive bin %u, coast "
+               "negative/positive %.3f\n", rep, d.nbins, sp, deepest, d.neg[0] / d.pos[0]);
+        assert_true(sp >= 0.3 - 1e-12 && sp <= 0.6 + 0.028 && fabs(sp + sn - 1) < 1e-12);
+        assert_true(deepest <= 6);
+        assert_true(d.neg[0] >= 0.5 * d.pos[0] && d.neg[0] <= 1.4 * d.pos[0]);
+        gs_micro_dist_free(&d);
     }
-    assert_true(sp >= 0.3 - 1e-12 && sp <= 0.6 + 1e-12 && fabs(sp + sn - 1) < 1e-12);
-    gs_micro_dist_free(&d);
+    rr.area = -1;
+    assert_int_equal(gs_micro_dist_random(&d, &rr, &rng), GS_ERR_ARG);
+    gs_error_clear();
 }
 
 /* Shared fixture: a sphere at the paper's resolution (~3 triangles per
@@ -428,7 +446,8 @@ static void test_determinism_and_resume(void **state)
  * pool grew with a bin's own placements a top bin stopped after its first
  * isolated seeds had filled the next bin (planet 2%, stone 8.8%): the bins
  * must now fill by growing plateaus: under 1% unassigned on average here
- * (0.70%; the earlier code gave 5.2%, worst 11.2%), no violation, every
+ * (0.05% with the Boolean-model tables, 0.70% with the earlier per-side ones;
+ * the earlier code gave 5.2%, worst 11.2%), no violation, every
  * label's value in its bin, and the same digest when resumed mid-way. */
 static void test_random_dist_fill(void **state)
 {
@@ -440,7 +459,8 @@ static void test_random_dist_fill(void **state)
     assert_int_equal(gs_micro_dual_build(&m, upm, &d), GS_OK);
     gs_micro_recon_opts o;
     gs_micro_recon_defaults(&o);
-    const gs_micro_dist_range ranges[2] = {{3, 6, 0.5, 0.7}, {3, 8, 0.3, 0.7}};
+    const double area = 4 * 3.14159265358979 * upm * upm; /* the sphere in units^2 */
+    const gs_micro_dist_range ranges[2] = {{3, 6, 0.5, 0.7, area}, {3, 8, 0.3, 0.7, area}};
     double sum_share = 0, worst = 0;
     int runs = 0;
     for (int ri = 0; ri < 2; ri++)
