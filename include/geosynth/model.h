@@ -394,6 +394,11 @@ void gs_model_params_default(gs_model_params *p);
  * out must already have the output dims; all its labels are overwritten. */
 gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *example,
                         const uint16_t *column, gs_model_lattice *out);
+/* Same, the inferred column's bottom label in the label bitset bottom and
+ * its top label in top (NULL = any): the 3D overlapping model's z faces. */
+gs_err gs_model_initial_faces(const gs_model_rules_t rules, const gs_model_lattice *example,
+                              const uint16_t *column, const uint64_t *bottom,
+                              const uint64_t *top, gs_model_lattice *out);
 
 /* Tiled start with real variety: synthesizes a tile*tile*nz block that is
  * periodic in x and y (whole block, start = the trivial column model, fixed z

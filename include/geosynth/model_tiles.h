@@ -204,4 +204,40 @@ gs_err gs_model_patterns_write_png(const char *path, const gs_model_patterns *p,
 gs_err gs_model_patterns_check(const gs_model_patterns *p, const gs_model_lattice *lat,
                                size_t *count);
 
+/* ---- 3D overlapping model (model.overlap3d = N) ---------------------------
+ *
+ * Every N x N x N window of an example lattice lying wholly inside it (the
+ * example is not wrapped: Merrell's examples are not periodic) is a pattern;
+ * pattern i is label i + 1. Pattern b may lie at +x (+y, +z) of pattern a
+ * when a's cells at coordinate 1..N-1 along that axis equal b's at 0..N-2
+ * (their (N-1)-thick overlap). The synthesized lattice of patterns decodes
+ * to each cell's pattern's origin cell (offset 0, 0, 0), so every output
+ * window of edge k <= N is a window of the example. */
+typedef struct gs_model_patterns3d {
+    int n;                 /* pattern edge N */
+    int npatterns;
+    uint16_t *pat;         /* [npatterns][N^3] example labels, x fastest, then y, z */
+    uint64_t *count;       /* [npatterns] windows of the example with that content */
+    gs_model_pair *pairs;  /* allowed (dir 0 / 2 / 4, a, b), a and b labels */
+    size_t npairs;
+    gs_model_lattice windows; /* (nx-N+1) x (ny-N+1) x (nz-N+1): the pattern label
+                                 of the example's window at each origin */
+} gs_model_patterns3d;
+
+/* Learns the patterns of ex (name for messages); more than max_patterns
+ * distinct windows is GS_ERR_ARG. *out must be zeroed. */
+gs_err gs_model_patterns3d_learn(const gs_model_lattice *ex, int n, int max_patterns,
+                                 const char *name, gs_model_patterns3d *out);
+void gs_model_patterns3d_destroy(gs_model_patterns3d *p);
+/* Rules over the pattern labels from the overlap pairs; counts = windows. */
+gs_err gs_model_patterns3d_rules(const gs_model_patterns3d *p, gs_model_rules_t *out);
+/* out (created here) = each cell's pattern's origin label. */
+gs_err gs_model_patterns3d_decode(const gs_model_patterns3d *p, const gs_model_lattice *plat,
+                                  gs_model_lattice *out);
+/* Independent checker: face-adjacent pattern pairs of plat (across the wrap
+ * where periodic[axis], which may be NULL) whose overlaps disagree, plus
+ * cells holding no pattern; compares pattern contents, not the rules. */
+size_t gs_model_patterns3d_check(const gs_model_patterns3d *p, const gs_model_lattice *plat,
+                                 const int periodic[3]);
+
 #endif

@@ -27,6 +27,9 @@
  * (MarkovJunior XML, DeBroglie JSON) run at any z: their ground, border and
  * fixed tiles (and model.border_tile) become pins, and the outputs add
  * tiles.vox; mesh.ply and preview.png show the assembled voxels.
+ * model.overlap3d = N (3D overlapping model, overlap3d.c) turns the example's
+ * N^3 windows into labels: the solver, regions and checkpoints see pattern
+ * labels, the outputs the decoded lattice (each pattern's origin cell).
  *
  * Work units (checkpoint cadence, GS_STOP_AFTER_UNITS) are regions
  * finished; checkpoints are taken between colours, since regions of
@@ -65,6 +68,10 @@
 #include "geosynth/run.h"
 
 #define MODEL_MAX_EXTENT 1048576.0
+/* model.overlap3d: most distinct N^3 windows (labels); the rules then take
+ * 8 * L * L / 64 * 8 bytes (64 MiB) and the solver's candidate sets L / 8
+ * bytes per cell */
+#define MODEL_OVERLAP3D_MAX_PATTERNS 8192
 #define MODEL_RNG_DOMAIN 0x6d6f646cu /* "modl": unused by the regions, kept distinct */
 #define MODEL_VIOLATION_LIST 20
 #define MODEL_PREVIEW_FRAMES 6 /* 4D preview: the first frames side by side */
@@ -104,6 +111,7 @@ typedef struct model_config {
     char *start_column;
     int64_t start_block;
     int64_t frames;
+    int64_t overlap3d;
     int64_t split_depth;
     char *pins;
     char *border;
@@ -302,6 +310,26 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
         if (why)
             gs_cfg_report(ctx, "model.rotate", "= 90 %s", why);
     }
+    if (c->overlap3d > 0) {
+        /* these read or set example labels, which are patterns here */
+        const char *key = !c->example[0]                 ? "model.example"
+                          : c->frames > 1                ? "model.frames"
+                          : strcmp(c->mirror, "none")    ? "model.mirror"
+                          : strcmp(c->rotate, "none")    ? "model.rotate"
+                          : c->shape[0]                  ? "model.shape"
+                          : c->pins[0]                   ? "model.pins"
+                          : c->border[0]                 ? "model.border"
+                          : c->start[0]                  ? "model.start"
+                          : c->start_column[0]           ? "model.start_column"
+                          : c->start_block > 0           ? "model.start_block"
+                                                         : NULL;
+        if (key)
+            gs_cfg_report(ctx, key,
+                          "not supported with model.overlap3d = %lld (3D overlapping model): "
+                          "needs a 3D lattice example (model.example), no frames, mirror, rotate, "
+                          "shape, pins, border, start, start_column or start_block",
+                          (long long)c->overlap3d);
+    }
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start_block",
                       "cannot be combined with model.start or model.start_column");
@@ -463,6 +491,13 @@ static const gs_cfg_key model_keys[] = {
                    "transitions along time are learned from its frames like those in space; "
                    "writes frame_NNN.vox per frame and "
                    "lattice.xmf as a time series"),
+    GS_CFG_KEY_INT(model_config, overlap3d, "model.overlap3d", 0, 4, 0, "0",
+                   "3D overlapping model: N > 0 makes every NxNxN window lying inside the "
+                   "example a label, neighbours along x/y/z agreeing on their (N-1)-thick "
+                   "overlap; the output holds each pattern's origin cell, so its k^3 windows "
+                   "(k <= N) are example windows; z faces take the patterns of the example's "
+                   "bottom / top (model.fix_z_faces = auto); at most 8192 patterns; 0 = off "
+                   "(labels = the example's labels)"),
     GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",
                    "start model: N > 0 tiles a synthesized NxN block periodic in x and y "
                    "(regions then see the example's variety at their shells); 0 = one column"),
@@ -513,6 +548,10 @@ typedef struct model_engine {
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */
     gs_model_patterns pats;  /* model.sample */
+    gs_model_patterns3d p3;  /* model.overlap3d: e->example holds the pattern label of
+                                each example window (p3.windows' copy), src the example */
+    gs_model_lattice src, plat; /* overlap3d: the example's labels; after synthesis, the
+                                   lattice of patterns (e->lat is decoded) */
     gs_model_rules_t rules;
     gs_model_resem_t resem;
     gs_model_solver_t solver;
@@ -628,6 +667,30 @@ static gs_err pseudo_example(model_engine *e)
     return GS_OK;
 }
 
+/* model.overlap3d (every rank, from the broadcast example): patterns,
+ * their overlap rules; e->example becomes the lattice of the example's
+ * window patterns (its bottom / top layers give the z face patterns, its
+ * columns the start model's preference), the example itself moves to src. */
+static gs_err overlap3d_setup(model_engine *e)
+{
+    const model_config *c = e->cfg;
+    GS_CALL(gs_model_patterns3d_learn(&e->example, (int)c->overlap3d,
+                                      MODEL_OVERLAP3D_MAX_PATTERNS, c->example, &e->p3));
+    GS_CALL(gs_model_patterns3d_rules(&e->p3, &e->rules));
+    e->src = e->example;
+    memset(&e->example, 0, sizeof e->example);
+    const gs_model_lattice *w = &e->p3.windows;
+    GS_CALL(gs_model_lattice_create(&e->example, w->nx, w->ny, w->nz));
+    memcpy(e->example.labels, w->labels, lattice_cells(w) * sizeof *w->labels);
+    const int L = gs_model_rules_nlabels(e->rules);
+    gs_log(GS_LOG_INFO,
+           "overlap3d: %d distinct %dx%dx%d windows of the example's %zu (%dx%dx%d origins), "
+           "%zu overlap pairs, rules %.1f MiB",
+           e->p3.npatterns, e->p3.n, e->p3.n, e->p3.n, lattice_cells(w), w->nx, w->ny, w->nz,
+           e->p3.npairs, 8.0 * L * (double)((L + 63) / 64) * 8 / 1048576.0);
+    return GS_OK;
+}
+
 static gs_err load_inputs(gs_run *run, model_engine *e)
 {
     const model_config *c = e->cfg;
@@ -652,6 +715,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
             err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
         GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
+        if (c->overlap3d > 0)
+            GS_CALL(overlap3d_setup(e));
     }
     if (c->start[0]) {
         if (run->rank == 0) {
@@ -669,8 +734,10 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
     }
     e->example_digest = gs_model_lattice_digest(&e->example);
     /* Pair lists by value (the struct has padding bytes), plus the weights. */
-    const gs_model_pair *pairs = e->ts.npairs ? e->ts.pairs : e->pats.pairs;
-    size_t np = e->ts.npairs ? e->ts.npairs : e->pats.npairs;
+    const gs_model_pair *pairs = e->ts.npairs   ? e->ts.pairs
+                                 : e->p3.npairs ? e->p3.pairs
+                                                : e->pats.pairs;
+    size_t np = e->ts.npairs ? e->ts.npairs : e->p3.npairs ? e->p3.npairs : e->pats.npairs;
     if (np) {
         uint64_t *keys = NULL;
         GS_CALL(gs_alloc_array((void **)&keys, np, sizeof *keys, "input digest"));
@@ -752,6 +819,17 @@ static gs_err build_start(model_engine *e)
         (void)parse_column(c->start_column, col, e->lat.nz, why, sizeof why);
         gs_err err = gs_model_initial(e->rules, &e->example, col, &e->lat);
         gs_free(col);
+        if (err)
+            gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
+    if (c->overlap3d > 0) {
+        /* a column of layer-filling patterns, its bottom and top found at the
+         * example's bottom and top (the z face masks, also made for fixed
+         * faces; none with fix_z_faces = false) */
+        const size_t W = ((size_t)gs_model_rules_nlabels(e->rules) + 63) / 64;
+        gs_err err = gs_model_initial_faces(e->rules, &e->example, NULL, e->zface,
+                                            e->zface ? e->zface + W : NULL, &e->lat);
         if (err)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
@@ -1403,12 +1481,14 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
         GS_CALL(gs_model_tileset_check(&e->ts, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
     else if (c->sample[0])
         GS_CALL(gs_model_patterns_check(&e->pats, &e->lat, &q->violations));
-    else
+    else /* overlap3d: e->example is the example's labels again, e->lat decoded */
         GS_CALL(gs_model_check(&e->example, &e->lat, v, MODEL_VIOLATION_LIST, &q->violations));
     for (size_t i = 0; i < q->violations && i < MODEL_VIOLATION_LIST && !c->sample[0]; i++)
         gs_log(GS_LOG_WARN, "violation: cell (%d, %d, %d) label %u, dir %d label %u", v[i].x,
                v[i].y, v[i].z, v[i].a, v[i].dir, v[i].b);
-    q->rule_violations = gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
+    q->rule_violations = c->overlap3d > 0
+                             ? gs_model_patterns3d_check(&e->p3, &e->plat, e->params.periodic)
+                             : gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
     if (!c->tileset[0] && !c->sample[0]) { /* no example lattice to compare with */
         GS_CALL(gs_model_quality(&e->example, &e->lat, &q->fig));
         q->has_figures = 1;
@@ -1552,6 +1632,9 @@ static void engine_free(model_engine *e)
     gs_model_resem_destroy(&e->resem);
     gs_model_tileset_destroy(&e->ts);
     gs_model_patterns_destroy(&e->pats);
+    gs_model_patterns3d_destroy(&e->p3);
+    gs_model_lattice_destroy(&e->src);
+    gs_model_lattice_destroy(&e->plat);
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
     gs_free(e->pins);
@@ -1735,8 +1818,11 @@ static gs_err decide_z_faces(model_engine *e)
     const int fours = ex->frames > 1, exfz = gs_model_frame_nz(ex);
     if (fours)
         e->params.fix_z_faces = 0; /* fixed faces would be the lattice's, not each frame's */
-    if (strcmp(c->fix_z_faces, "auto") || c->tileset[0] || c->sample[0] || strchr(c->periodic, 'z') ||
-        c->size[2] < 3 || exfz < 2)
+    /* overlap3d: the masks also choose the start column's end patterns when
+     * the faces are kept (fix_z_faces = true) */
+    const int o3 = c->overlap3d > 0 && strcmp(c->fix_z_faces, "false");
+    if ((strcmp(c->fix_z_faces, "auto") && !o3) || c->tileset[0] || c->sample[0] ||
+        strchr(c->periodic, 'z') || c->size[2] < 3 || exfz < 2)
         return GS_OK;
     const int L = gs_model_rules_nlabels(e->rules);
     const size_t W = ((size_t)L + 63) / 64, layer = (size_t)ex->nx * (size_t)ex->ny;
@@ -1757,7 +1843,15 @@ static gs_err decide_z_faces(model_engine *e)
         }
     /* 4D frames cannot keep fixed faces (only the lattice's lowest and
      * highest layers would stay): each frame's faces take the example's */
-    if (distinct[0] == 1 && !fours) {
+    if (o3 && strcmp(c->fix_z_faces, "auto")) {
+        gs_log(GS_LOG_INFO, "overlap3d: z faces kept from the start column, whose bottom and "
+               "top patterns are among the example's %d bottom and %d top patterns",
+               distinct[0], distinct[1]);
+        return GS_OK;
+    }
+    /* overlap3d: one bottom pattern is a mask all the same (kept faces would
+     * be the start column's, which need not be it) */
+    if (distinct[0] == 1 && !fours && !o3) {
         gs_free(e->zface);
         e->zface = NULL;
         return GS_OK;
@@ -1840,8 +1934,9 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
         gs_log(GS_LOG_INFO, "sample %s: %d colours, %d patterns of %dx%d (symmetry %lld), %zu allowed pairs",
                c->sample, e->pats.ncolors, e->pats.npatterns, e->pats.n, e->pats.n,
                (long long)c->symmetry, e->pats.npairs);
-    gs_log(GS_LOG_INFO, "example %s: %dx%dx%d, %d labels present (largest %d)%s", c->example,
-           e->example.nx, e->example.ny, e->example.nz, present, L - 1,
+    const gs_model_lattice *exl = c->overlap3d > 0 ? &e->src : &e->example;
+    gs_log(GS_LOG_INFO, "example %s: %dx%dx%d, %d %s present (largest %d)%s", c->example,
+           exl->nx, exl->ny, exl->nz, present, c->overlap3d > 0 ? "patterns" : "labels", L - 1,
            e->pal.from_file ? ", palette from the file" : "");
     gs_log(GS_LOG_INFO,
            "output %lldx%lldx%lld (%zu cells), region %lldx%lldx%lld (0 = whole axis), overlap "
@@ -2047,6 +2142,16 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         GS_TRY(err, err, done);
     }
 
+    if (e.cfg->overlap3d > 0) {
+        /* every rank: the patterns decode to their origin cells; the example's
+         * labels come back for the checks, measures and preview */
+        e.plat = e.lat;
+        memset(&e.lat, 0, sizeof e.lat);
+        GS_TRY(err, gs_model_patterns3d_decode(&e.p3, &e.plat, &e.lat), done);
+        gs_model_lattice_destroy(&e.example);
+        e.example = e.src;
+        memset(&e.src, 0, sizeof e.src);
+    }
     if (e.params.mirror[0] || e.params.mirror[1]) {
         /* mirror the synthesized lower half into the full output */
         gs_model_lattice full = {0};
@@ -2116,6 +2221,10 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
         gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);
         gs_run_metric_i64(run, "failed_regions", (int64_t)e.stats.failed);
         gs_run_metric_i64(run, "z_faces_fixed", e.params.fix_z_faces && e.lat.nz >= 3);
+        if (e.cfg->overlap3d > 0) {
+            gs_run_metric_i64(run, "overlap3d_patterns", e.p3.npatterns);
+            gs_run_metric_i64(run, "overlap3d_pairs", (int64_t)e.p3.npairs);
+        }
         gs_run_metric_i64(run, "retries", (int64_t)(e.stats.attempts - e.stats.regions));
         gs_run_metric_i64(run, "rejected_attempts",
                           (int64_t)(e.stats.attempts - e.stats.accepted));

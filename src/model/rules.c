@@ -172,6 +172,13 @@ static int tiles_horizontally(const struct gs_model_rules *r, int l, int frames)
 gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
                         const uint16_t *column, gs_model_lattice *out)
 {
+    return gs_model_initial_faces(r, ex, column, NULL, NULL, out);
+}
+
+gs_err gs_model_initial_faces(const gs_model_rules_t r, const gs_model_lattice *ex,
+                              const uint16_t *column, const uint64_t *bottom, const uint64_t *top,
+                              gs_model_lattice *out)
+{
     /* 4D: one column per frame, the same in every frame */
     const int nz = gs_model_frame_nz(out), L = r->nlabels, exnz = gs_model_frame_nz(ex);
     uint16_t *col = NULL;
@@ -215,6 +222,8 @@ gs_err gs_model_initial(const gs_model_rules_t r, const gs_model_lattice *ex,
                 *s = NONE;
                 from[(size_t)z * L + l] = -1;
                 if (!r->count[l] || ((out->nx > 1 || out->ny > 1) && !tiles_horizontally(r, l, out->frames)))
+                    continue;
+                if ((z == 0 && bottom && !get_bit(bottom, l)) || (z == nz - 1 && top && !get_bit(top, l)))
                     continue;
                 uint64_t freq = 0;
                 for (size_t i = 0; i < layer; i++)
