@@ -140,7 +140,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
                100 * r->error_share, r->realized_l1, hex);
         char what[48];
         snprintf(what, sizeof what, "instance %lld", (long long)i);
-        micro_result_warn(r, what);
+        micro_result_warn(r, what, job->cfg->correct);
         if (run->rank == 0) {
             char dir[64], rel[128];
             micro_instance_dir(i, dir, sizeof dir);

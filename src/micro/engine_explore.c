@@ -513,7 +513,7 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
                (unsigned long long)r->res.violations, r->seconds, hex);
         char what[48];
         snprintf(what, sizeof what, "candidate %lld", (long long)i);
-        micro_result_warn(&r->res, what);
+        micro_result_warn(&r->res, what, cfg->correct);
     }
     uint64_t digest = gs_digest_bytes(digests, (size_t)n * sizeof *digests);
     gs_free(digests);

@@ -198,8 +198,8 @@ void micro_result_counts_json(gs_json *j, const micro_result *r);
 /* A warning naming what (an instance, a candidate) when r's realized contact
  * distribution misses its target by more than MICRO_REALIZED_L1_OK: the coast
  * bins of both sides and the worst bin, so a table no partition gives is not
- * missed silently. */
-void micro_result_warn(const micro_result *r, const char *what);
+ * missed silently; corrected = 0 (micro.correct = no) names that cause. */
+void micro_result_warn(const micro_result *r, const char *what, int corrected);
 /* engine_output.c: writes j's text + '\n' to path atomically and frees j. */
 gs_err micro_json_write(gs_json *j, const char *path);
 

@@ -410,10 +410,17 @@ void micro_result_counts_json(gs_json *j, const micro_result *r)
     gs_json_end_array(j);
 }
 
-void micro_result_warn(const micro_result *r, const char *what)
+void micro_result_warn(const micro_result *r, const char *what, int corrected)
 {
     if (r->realized_l1 <= MICRO_REALIZED_L1_OK)
         return;
+    if (!corrected) {
+        gs_log(GS_LOG_WARN, "%s: the realized contact distribution misses the target by L1/n %.3f "
+               "(> %.2f): micro.correct = no keeps the reconstruction's regions, whose labels are "
+               "not distances to their interface (micro.correct = yes moves the interface)",
+               what, r->realized_l1, MICRO_REALIZED_L1_OK);
+        return;
+    }
     if (r->nbins > MICRO_RESULT_BINS || r->nbins == 0) {
         gs_log(GS_LOG_WARN, "%s: the realized contact distribution misses the target by L1/n %.3f "
                "(> %.2f): the table may ask for what no two-region partition of this surface gives",

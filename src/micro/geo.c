@@ -18,7 +18,16 @@
  * verifier's metric by up to 0.16 units and left the fill contradictory
  * bounds. Each ring weight is a chord no longer than the dual path between
  * the two triangles, so ring distances never exceed dual ones and the
- * constraints the reconstruction keeps imply the verifier's (dual graph). */
+ * constraints the reconstruction keeps imply the verifier's (dual graph).
+ * The verifier's side is right for a non-graph metric too: a dual path is a
+ * path on the surface, so the dual distance is at least the true geodesic,
+ * and values 1-Lipschitz in the true geodesic always pass it; the fast
+ * marched labels that failed it by 0.16 units broke the paper's constraint
+ * in the true metric as well (fast marching is only first-order accurate).
+ * Measured on planet.ini's undisplaced sphere against the exact great-circle
+ * distance between centroids, 3-12 units, 12 sources (29k pairs): ring
+ * 1.000-1.071, median 1.022; dual 1.062-1.649, median 1.265; the reach of an
+ * 8-unit ball over 24 sectors varies by cv 0.015 (ring) and 0.071 (dual). */
 #include <math.h>
 #include <string.h>
 
