@@ -68,6 +68,126 @@ static uint64_t le_u64(const unsigned char *p, int n)
 
 static int valid_size(unsigned s) { return s == 2 || s == 4 || s == 8; }
 
+/* The global heap (#25): variable-length strings (our string attributes)
+ * live in global heap collections ("GCOL"), the one part of an HDF5 file
+ * whose structure carries no checksum even in checksummed files, and which
+ * libhdf5 1.10 trusts: an object's size is only asserted to fit its
+ * collection, and H5HG_read copies that many bytes into a conversion buffer
+ * sized from the (checksummed) attribute's own string length, rounded up to
+ * a multiple of 4096 bytes (H5T_VLEN_MIN_CONF_BUF_SIZE), at least 4096. One
+ * flipped size byte (8 -> 524288, found by fuzz_h5example) was a heap
+ * overflow inside H5Aread. So every collection is walked here first, as
+ * libhdf5 walks it, and refused unless:
+ *   - it is at least 4096 bytes (H5HG_MINSIZE) and lies inside the file;
+ *   - its objects tile it exactly (header + size rounded up to 8 each, the
+ *     free-space object 0 last, or fewer than a header's bytes left over);
+ *   - object ids are 1..n, each once (a missing id is a NULL object);
+ *   - an object of more than 4096 bytes is alone in its collection with no
+ *     free space (libhdf5 writes such a collection to fit exactly), so its
+ *     size cannot have grown past its string's length rounded up to 8, and
+ *     smaller ones always fit the conversion buffer.
+ * A candidate needs "GCOL" and version 1 (libhdf5 refuses other versions
+ * itself); scanning every byte finds collections wherever they are. */
+#define GCOL_MIN ((uint64_t)4096)
+#define GCOL_OBJ_INLINE ((uint64_t)4096)
+#define GCOL_SCAN_CHUNK ((size_t)1 << 20)
+
+static gs_err check_collection(const char *name, uint64_t at, uint64_t size,
+                               gs_h5_read_at_fn read_at, void *ctx, unsigned sl)
+{
+    unsigned char hdr[8 + 8];
+    uint64_t hsize = 8 + (uint64_t)sl, ohdr = 8 + (uint64_t)sl;
+    if (read_at(ctx, at, hdr, (size_t)hsize) != hsize)
+        return GS_OK; /* cut off: libhdf5 cannot load it either */
+    if (hdr[4] != 1)
+        return GS_OK; /* not a collection libhdf5 would accept */
+    uint64_t csize = le_u64(hdr + 8, (int)sl);
+    GS_CHECK(csize >= GCOL_MIN && csize <= size && at <= size - csize, GS_ERR_FORMAT,
+             "%s: corrupt HDF5 file: the global heap collection at byte %llu declares %llu bytes "
+             "(at least 4096, inside the file's %llu): its variable-length strings cannot be "
+             "read safely",
+             name, (unsigned long long)at, (unsigned long long)csize, (unsigned long long)size);
+    uint64_t p = hsize, biggest = 0;
+    unsigned nobj = 0, maxid = 0, has_free = 0;
+    unsigned char seen[65536 / 8];
+    memset(seen, 0, sizeof seen);
+    while (p < csize) {
+        if (p + ohdr > csize) { /* a tail too small for a header: free space */
+            has_free = 1;
+            break;
+        }
+        unsigned char oh[16];
+        GS_CHECK(read_at(ctx, at + p, oh, (size_t)ohdr) == ohdr, GS_ERR_FORMAT,
+                 "%s: truncated HDF5 file inside the global heap collection at byte %llu", name,
+                 (unsigned long long)at);
+        unsigned id = (unsigned)oh[0] | (unsigned)oh[1] << 8;
+        uint64_t osize = le_u64(oh + 8, (int)sl);
+        if (id == 0) { /* free space: its size includes its header, and it is last */
+            GS_CHECK(osize == csize - p, GS_ERR_FORMAT,
+                     "%s: corrupt HDF5 file: the free space of the global heap collection at "
+                     "byte %llu declares %llu bytes where %llu are left",
+                     name, (unsigned long long)at, (unsigned long long)osize,
+                     (unsigned long long)(csize - p));
+            has_free = 1;
+            break;
+        }
+        uint64_t room = csize - p - ohdr;
+        GS_CHECK(osize <= room && ((osize + 7) & ~(uint64_t)7) <= room, GS_ERR_FORMAT,
+                 "%s: corrupt HDF5 file: object %u of the global heap collection at byte %llu "
+                 "declares %llu bytes where %llu are left (a damaged variable-length string)",
+                 name, id, (unsigned long long)at, (unsigned long long)osize,
+                 (unsigned long long)room);
+        GS_CHECK(!(seen[id / 8] & (1u << (id % 8))), GS_ERR_FORMAT,
+                 "%s: corrupt HDF5 file: object %u appears twice in the global heap collection "
+                 "at byte %llu",
+                 name, id, (unsigned long long)at);
+        seen[id / 8] |= (unsigned char)(1u << (id % 8));
+        nobj++;
+        maxid = id > maxid ? id : maxid;
+        biggest = osize > biggest ? osize : biggest;
+        p += ohdr + ((osize + 7) & ~(uint64_t)7);
+    }
+    GS_CHECK(maxid == nobj, GS_ERR_FORMAT,
+             "%s: corrupt HDF5 file: the global heap collection at byte %llu holds %u objects "
+             "but numbers them up to %u (a missing object cannot be read)",
+             name, (unsigned long long)at, nobj, maxid);
+    GS_CHECK(biggest <= GCOL_OBJ_INLINE || (nobj == 1 && !has_free), GS_ERR_FORMAT,
+             "%s: corrupt HDF5 file: an object of %llu bytes shares the global heap collection "
+             "at byte %llu with %s (HDF5 writes so large a string alone): its size cannot be "
+             "trusted",
+             name, (unsigned long long)biggest, (unsigned long long)at,
+             nobj > 1 ? "other objects" : "free space");
+    return GS_OK;
+}
+
+static gs_err check_global_heaps(const char *name, uint64_t size, gs_h5_read_at_fn read_at,
+                                 void *ctx, unsigned sl)
+{
+    static const unsigned char sig[4] = {'G', 'C', 'O', 'L'};
+    unsigned char *buf = gs_malloc(GCOL_SCAN_CHUNK + 3);
+    GS_CHECK(buf, GS_ERR_MEM, "%s: out of memory to check the file", name);
+    gs_err err = GS_OK;
+    for (uint64_t off = 0; off < size && !err;) {
+        /* chunks overlap by 3 bytes, so a signature across a border is seen */
+        size_t want = size - off < GCOL_SCAN_CHUNK + 3 ? (size_t)(size - off) : GCOL_SCAN_CHUNK + 3;
+        size_t got = read_at(ctx, off, buf, want);
+        if (got < 4)
+            break;
+        for (const unsigned char *q = buf, *end = buf + got; !err && end - q >= 4; q++) {
+            q = memchr(q, sig[0], (size_t)(end - q - 3));
+            if (!q)
+                break;
+            if (!memcmp(q, sig, sizeof sig))
+                err = check_collection(name, off + (uint64_t)(q - buf), size, read_at, ctx, sl);
+        }
+        if (got < want)
+            break;
+        off += got - 3;
+    }
+    gs_free(buf);
+    return err;
+}
+
 gs_err gs_h5_precheck(const char *name, uint64_t size, gs_h5_read_at_fn read_at, void *ctx,
                       int checksummed)
 {
@@ -140,6 +260,7 @@ gs_err gs_h5_precheck(const char *name, uint64_t size, gs_h5_read_at_fn read_at,
     GS_CHECK(root != undef && root < eof, GS_ERR_FORMAT,
              "%s: corrupt HDF5 superblock: root group at address %llu, end of file %llu",
              name, (unsigned long long)root, (unsigned long long)eof);
+    GS_CALL(check_global_heaps(name, size, read_at, ctx, sl));
     return GS_OK;
 }
 

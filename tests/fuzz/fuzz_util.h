@@ -52,6 +52,10 @@ static const char *fuzz_file(const char *name, const uint8_t *data, size_t size)
 {
     static char path[1024];
     snprintf(path, sizeof path, "%s/%s", fuzz_dir(), name);
+    /* A new file each time, not the last one truncated: ext4 (auto_da_alloc)
+     * writes a truncated-and-rewritten file back to disk when it is closed,
+     * which held fuzz_h5example to a few runs a second on a busy disk. */
+    unlink(path);
     FILE *f = fopen(path, "wb");
     if (!f || (size && fwrite(data, 1, size, f) != size) || fclose(f) != 0) {
         perror(path);
