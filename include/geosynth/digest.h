@@ -43,4 +43,24 @@ void gs_digest_hex(uint64_t h, char out[17]);
  * GS_ERR_IO naming the file when it cannot be opened or read. */
 gs_err gs_digest_file(const char *path, uint64_t *hash, uint64_t *bytes);
 
+/* Inputs' digests (#25 items 2 and 4): a run records, in start.ini, every
+ * checkpoint and summary.json, one line per input file,
+ *   "; input KEY xxh3 HEX BYTES PATH"
+ * and `resume` refuses to go on when one no longer matches its file.
+ * gs_input_line formats that line (with its newline) for a file as it is
+ * now; *line is gs_malloc'ed.
+ *
+ * The files a config names are covered by the driver; the files that input
+ * files name in turn (a tile set's tile images and .vox tiles, a mesh list's
+ * meshes) only their readers know, so a reader notes each one it reads:
+ * gs_input_note(VIA, PATH), VIA being the config key of the file that named
+ * it ("model.tileset"). The line is kept (once per distinct line) until
+ * gs_input_notes_take hands over every noted line since the last call
+ * ("" when none; gs_free it); the run layer records them. Readers of
+ * named files run on rank 0, whose notes are the ones taken. */
+#define GS_INPUT_TAG "; input "
+gs_err gs_input_line(const char *key, const char *path, char **line);
+gs_err gs_input_note(const char *via, const char *path);
+char *gs_input_notes_take(void);
+
 #endif

@@ -346,21 +346,20 @@ static gs_err check_inputs(const gs_engine *e, const void *cfg, const char *orig
     return gs_par_agree(MPI_COMM_WORLD, err);
 }
 
-/* The inputs' digests (#25 item 2): one comment line per input file the
- * config names (every PATH key but run.output),
- *   "; input KEY xxh3 HEX BYTES PATH"
+/* The inputs' digests (#25 item 2): one GS_INPUT_TAG line per input file
+ * the config names (every PATH key but run.output; see gs_input_line)
  * appended to the resolved config on a fresh run, so that start.ini and
  * every checkpoint record them; `resume` checks each against the file as it
  * is now and refuses a changed one (the result would no longer be the
- * run's). Rank 0; *lines is gs_malloc'ed ("" when the config names none). */
-#define INPUT_TAG "; input "
-
+ * run's). The files those name in turn are noted by their readers and
+ * recorded by the run (gs_input_note). Rank 0; *lines is gs_malloc'ed (""
+ * when the config names none). */
 static gs_err input_digests(const gs_engine *e, const void *cfg, char **lines)
 {
-    size_t cap = 1, len = 0;
-    char *s = gs_malloc(cap);
+    char *s = gs_malloc(1);
     GS_CHECK(s, GS_ERR_MEM, "out of memory for the inputs' digests");
     s[0] = '\0';
+    size_t len = 0;
     const gs_cfg_table *t = e->config;
     gs_err err = GS_OK;
     for (size_t i = 0; i < t->nkeys && !err; i++) {
@@ -370,23 +369,22 @@ static gs_err input_digests(const gs_engine *e, const void *cfg, char **lines)
         const char *path = *(char *const *)((const char *)cfg + k->offset);
         if (!path || !*path)
             continue;
-        uint64_t h = 0, bytes = 0;
-        err = gs_digest_file(path, &h, &bytes);
+        char *line = NULL;
+        err = gs_input_line(k->name, path, &line);
         if (err)
             break;
-        char hex[17];
-        gs_digest_hex(h, hex);
-        size_t need = strlen(INPUT_TAG) + strlen(k->name) + strlen(path) + 64;
-        char *grown = gs_realloc(s, cap + need);
+        size_t n = strlen(line);
+        char *grown = gs_realloc(s, len + n + 1);
         if (!grown) {
+            gs_free(line);
             err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                  "out of memory for the inputs' digests");
             break;
         }
         s = grown;
-        cap += need;
-        len += (size_t)snprintf(s + len, cap - len, "%s%s xxh3 %s %llu %s\n", INPUT_TAG, k->name,
-                                hex, (unsigned long long)bytes, path);
+        memcpy(s + len, line, n + 1);
+        len += n;
+        gs_free(line);
     }
     if (err) {
         gs_free(s);
@@ -409,7 +407,7 @@ static gs_err input_verify(const char *stored, const char *dir, const char *orig
     for (const char *p = stored; p && *p;) {
         const char *nl = strchr(p, '\n');
         size_t n = nl ? (size_t)(nl - p) : strlen(p);
-        if (n > strlen(INPUT_TAG) && !strncmp(p, INPUT_TAG, strlen(INPUT_TAG)) &&
+        if (n > strlen(GS_INPUT_TAG) && !strncmp(p, GS_INPUT_TAG, strlen(GS_INPUT_TAG)) &&
             n < 2 * PATH_MAX) {
             char line[2 * PATH_MAX], key[128], hex[17];
             unsigned long long bytes = 0;
@@ -420,12 +418,12 @@ static gs_err input_verify(const char *stored, const char *dir, const char *orig
             len += n;
             s[len++] = '\n';
             s[len] = '\0';
-            if (sscanf(line + strlen(INPUT_TAG), "%127s xxh3 %16s %llu %n", key, hex, &bytes,
+            if (sscanf(line + strlen(GS_INPUT_TAG), "%127s xxh3 %16s %llu %n", key, hex, &bytes,
                        &at) < 3 || !at) {
                 gs_free(s);
                 GS_RAISE(GS_ERR_FORMAT, "%s: damaged input record '%.200s'", origin, line);
             }
-            const char *path = line + strlen(INPUT_TAG) + at;
+            const char *path = line + strlen(GS_INPUT_TAG) + at;
             uint64_t h = 0, now = 0;
             char hex_now[17] = "(unreadable)";
             gs_err err = gs_digest_file(path, &h, &now);

@@ -9,6 +9,7 @@
 #include <xxhash.h>
 
 #include "geosynth/error.h"
+#include "geosynth/mem.h"
 
 uint64_t gs_digest_bytes(const void *data, size_t n)
 {
@@ -69,4 +70,55 @@ gs_err gs_digest_file(const char *path, uint64_t *hash, uint64_t *bytes)
     *hash = h;
     *bytes = total;
     return GS_OK;
+}
+
+gs_err gs_input_line(const char *key, const char *path, char **line)
+{
+    uint64_t h = 0, bytes = 0;
+    GS_CALL(gs_digest_file(path, &h, &bytes));
+    char hex[17];
+    gs_digest_hex(h, hex);
+    size_t n = strlen(GS_INPUT_TAG) + strlen(key) + strlen(path) + 64;
+    char *s = gs_malloc(n);
+    GS_CHECK(s, GS_ERR_MEM, "out of memory for the digest of %s", path);
+    snprintf(s, n, "%s%s xxh3 %s %llu %s\n", GS_INPUT_TAG, key, hex, (unsigned long long)bytes,
+             path);
+    *line = s;
+    return GS_OK;
+}
+
+static char *input_notes; /* noted lines not yet taken */
+static char *input_seen;  /* every line noted, so each is kept once */
+
+static gs_err append_text(char **buf, const char *text)
+{
+    size_t have = *buf ? strlen(*buf) : 0, add = strlen(text);
+    char *grown = gs_realloc(*buf, have + add + 1);
+    GS_CHECK(grown, GS_ERR_MEM, "out of memory for the inputs' digests");
+    memcpy(grown + have, text, add + 1);
+    *buf = grown;
+    return GS_OK;
+}
+
+gs_err gs_input_note(const char *via, const char *path)
+{
+    char *line = NULL;
+    GS_CALL(gs_input_line(via, path, &line));
+    gs_err err = GS_OK;
+    if (!input_seen || !strstr(input_seen, line)) {
+        err = append_text(&input_seen, line);
+        if (!err)
+            err = append_text(&input_notes, line);
+    }
+    gs_free(line);
+    return err;
+}
+
+char *gs_input_notes_take(void)
+{
+    char *s = input_notes;
+    input_notes = NULL;
+    if (!s && (s = gs_malloc(1)) != NULL)
+        s[0] = '\0';
+    return s;
 }

@@ -63,6 +63,11 @@ static gs_err read_mesh_list(const char *list_path, char **joined)
                 GS_TRY_CHECK(err, 0, GS_ERR_IO, done, "micro.mesh_list = %s, line %d: %s: %s%s%s",
                              list_path, line_no, p, strerror(why), hint[0] ? "; " : "", hint);
             }
+            gs_err noted = gs_input_note("micro.mesh_list", abs); /* resume checks it (#25) */
+            if (noted) {
+                gs_free(abs);
+                GS_TRY(err, noted, done);
+            }
             size_t n = strlen(abs);
             if (used + n + 2 > cap) {
                 size_t ncap = 2 * (used + n + 2) + 256;

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/file.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
@@ -122,6 +123,11 @@ static gs_err parse_ref(const xml_doc *d, const xml_elem *el, const char *attr, 
 static gs_err load_rgba(const char *path, gs_image *img, int *w, int *h, uint8_t *dst_or_null)
 {
     GS_CALL(gs_image_read(path, img));
+    gs_err noted = gs_input_note("model.tileset", path); /* resume checks it (#25) */
+    if (noted) {
+        gs_image_destroy(img);
+        GS_CALL(noted);
+    }
     if (*w == 0) {
         *w = img->width;
         *h = img->height;

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_io.h"
@@ -183,6 +184,7 @@ static gs_err read_tile(builder *b, const char *file, int line, uint8_t **vox)
     gs_vox v;
     GS_CALL(gs_vox_read(file, &v));
     gs_err err = GS_OK;
+    GS_TRY(err, gs_input_note("model.tileset", file), done); /* resume checks it (#25) */
     GS_TRY_CHECK(err, v.nmodels == 1, GS_ERR_FORMAT, done,
                  "%s (tile of %s:%d): %d models: expected one", file, b->path, line, v.nmodels);
     const gs_vox_model *m = &v.models[0];

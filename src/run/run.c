@@ -78,6 +78,22 @@ static gs_err lock_dir(gs_run *run)
     return GS_OK;
 }
 
+/* start.ini: the engine and the resolved config (with its inputs' digests),
+ * written atomically. Rank 0. */
+static gs_err write_start(const gs_run *run)
+{
+    char path[PATH_MAX];
+    gs_run_path(run, GS_RUN_START_FILE, path, sizeof path);
+    size_t n = strlen(run->config_text) + 64;
+    char *text = gs_malloc(n);
+    GS_CHECK(text, GS_ERR_MEM, "out of memory for %s", path);
+    int len = snprintf(text, n, "; geosynth %s\n%s", run->engine, run->config_text);
+    gs_err err = gs_file_write_atomic(path, text, (size_t)len);
+    gs_free(text);
+    GS_CALL(err);
+    return GS_OK;
+}
+
 static gs_err open_dir_rank0(gs_run *run, const char *dir)
 {
     GS_CALL(gs_path_absolute(dir, NULL, &run->dir));
@@ -92,17 +108,53 @@ static gs_err open_dir_rank0(gs_run *run, const char *dir)
     GS_CALL(gs_mkdir_p(run->dir));
     GS_CALL(gs_dir_check_writable(run->dir));
     GS_CALL(lock_dir(run));
-    if (!run->resumed) { /* what `resume` needs to start again before the first checkpoint */
-        char path[PATH_MAX];
-        gs_run_path(run, GS_RUN_START_FILE, path, sizeof path);
-        size_t n = strlen(run->config_text) + 64;
-        char *text = gs_malloc(n);
-        GS_CHECK(text, GS_ERR_MEM, "out of memory for %s", path);
-        int len = snprintf(text, n, "; geosynth %s\n%s", run->engine, run->config_text);
-        gs_err err = gs_file_write_atomic(path, text, (size_t)len);
-        gs_free(text);
-        GS_CALL(err);
+    if (!run->resumed) /* what `resume` needs to start again before the first checkpoint */
+        GS_CALL(write_start(run));
+    return GS_OK;
+}
+
+/* The files input files name (tile images, listed meshes), noted by their
+ * readers on rank 0 as they read them (gs_input_note), join the run's
+ * config text: every later checkpoint and summary.json record them, and so
+ * does start.ini (rewritten; a fresh run's only), so `resume` refuses a
+ * changed one as it does a changed config input. Collective: called where
+ * every rank is (a phase's end, a checkpoint, the summary). */
+static gs_err sync_inputs(gs_run *run)
+{
+    char *notes = NULL;
+    gs_err err = GS_OK;
+    if (run->rank == 0) {
+        notes = gs_input_notes_take();
+        if (!notes)
+            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                 "out of memory for the inputs' digests");
     }
+    GS_CALL(gs_par_agree(run->comm, err));
+    GS_CALL(gs_par_bcast_string(run->comm, &notes, 0));
+    size_t have = strlen(run->config_text), add = 0;
+    char *grown = gs_realloc(run->config_text, have + strlen(notes) + 1);
+    if (!grown) {
+        gs_free(notes);
+        GS_RAISE(GS_ERR_MEM, "out of memory for the inputs' digests");
+    }
+    run->config_text = grown;
+    for (char *p = notes; *p;) { /* lines the config does not hold yet (a resumed run's do) */
+        char *nl = strchr(p, '\n');
+        size_t n = nl ? (size_t)(nl - p) + 1 : strlen(p);
+        char c = p[n];
+        p[n] = '\0';
+        if (!strstr(run->config_text, p)) {
+            memcpy(run->config_text + have + add, p, n + 1);
+            add += n;
+        }
+        p[n] = c;
+        p += n;
+    }
+    gs_free(notes);
+    err = GS_OK;
+    if (add && run->rank == 0 && !run->resumed)
+        err = write_start(run);
+    GS_CALL(gs_par_agree(run->comm, err));
     return GS_OK;
 }
 
@@ -163,6 +215,7 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
 {
     GS_CHECK(run->open_phase >= 0, GS_ERR_INTERNAL, "gs_run_phase_end without a running phase");
     gs_kill_point("phase ends");
+    GS_CALL(sync_inputs(run));
     gs_run_phase *p = &run->phases[run->open_phase];
     run->open_phase = -1;
     p->seconds = gs_time_now() - p->start;
@@ -244,6 +297,7 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
 {
     gs_kill_point_phase("summary");
     gs_kill_point("summary begins");
+    GS_CALL(sync_inputs(run));
     int verified = !run->have_expect_digest || digest == run->expect_digest;
     uint64_t peak_max, rss_max;
     GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_peak(), &peak_max));
@@ -400,6 +454,7 @@ gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out)
     gs_run_path(run, "checkpoint.h5", path, sizeof path);
     char prev[PATH_MAX];
     gs_run_path(run, "checkpoint.prev.h5", prev, sizeof prev);
+    GS_CALL(sync_inputs(run));
     gs_ckpt_meta meta = {run->engine, run->seed, run->config_text};
     GS_CALL(gs_ckpt_create(run->comm, path, &meta, out));
     gs_err err = gs_ckpt_keep_previous(*out, prev);

@@ -6,7 +6,8 @@
 # uninterrupted digest (tests/golden/digests.tsv). Every engine's quick
 # config at np 2 with checkpoints off, every rank killed with SIGKILL at a
 # random moment after start.ini appears, resumed at np 1 or 3.
-# TRIALS=N kills per engine (default 1). Then the inputs' digests (below).
+# TRIALS=N kills per engine (default 1). Then the inputs' digests (below),
+# also of files that input files name (a mesh list's meshes, tile-set tiles).
 source "$GS_ROOT/tests/e2e/lib.bash"
 TRIALS=${TRIALS:-1}
 RANDOM=${SEED:-4242}
@@ -68,5 +69,52 @@ if need_config "model demo" "$GS_ROOT/configs/model/demo.ini"; then
       && ok "inputs ($how): with the original back, resume at np 3 gives the uninterrupted digest $got" \
       || bad "inputs ($how): resume with the original input: exit $rc, digest $got: ${err:0:500}"
   done
+fi
+
+# Files that input files name in turn (#25): a mesh list's meshes and a tile
+# set's tiles are recorded in start.ini and every checkpoint by their readers
+# (gs_input_note); a changed one used to be resumed silently. A micro run
+# over a mesh list, stopped with a checkpoint; a model run over a copied
+# DeBroglie tile set, killed as its synthesis begins (start.ini only).
+mkdir -p named; "$GS_BIN" example grid --out named/m.obj --size 16 >/dev/null
+printf '# one mesh\nm.obj\n' >named/list.txt
+d=named-micro; rm -rf "$d"
+GS_STOP_AFTER_UNITS=3 run_gs 2 micro -c "$GS_ROOT/configs/micro/quick.ini" -o "$d" \
+  --set micro.shape=file --set "micro.mesh_list=$PWD/named/list.txt" --set micro.instances=2 </dev/null
+rec="^ *; input micro.mesh_list xxh3 [0-9a-f]\{16\} [0-9]* $PWD/named/m.obj\$"
+[[ $rc -eq 9 ]] && grep -q "$rec" "$d/start.ini" && h5dump -d /geosynth/config "$d/checkpoint.h5" | grep -q "$rec" \
+  && ok "named inputs: start.ini and the checkpoint record the mesh the mesh list names" \
+  || bad "named inputs: the listed mesh is not recorded (exit $rc): $(grep '^; input' "$d/start.ini")"
+cp named/m.obj named/m.orig; printf '# changed\n' >>named/m.obj
+run_gs 1 resume "$d"
+[[ $rc -eq 2 ]] && grep -q "cannot resume .*micro.mesh_list = $PWD/named/m.obj has changed since the run started" <<<"$err" \
+  && ok "named inputs: resume with a changed listed mesh is refused (exit 2) naming it" \
+  || bad "named inputs: resume with a changed listed mesh: exit $rc: ${err:0:500}"
+cp named/m.orig named/m.obj
+run_gs 3 resume "$d"
+[[ $rc -eq 0 && -f $d/summary.json ]] && grep -q "micro.mesh_list xxh3 .* $PWD/named/m.obj" "$d/summary.json" \
+  && ok "named inputs: with the mesh back, resume at np 3 finishes and summary.json records it" \
+  || bad "named inputs: resume with the original mesh: exit $rc: ${err:0:500}"
+if need_config "model tiles-castle" "$GS_ROOT/configs/model/tiles-castle.ini"; then
+  rm -rf named/ts; cp -r "$DATA/vox/DeBroglie-castle" named/ts
+  tsargs=(model -c "$GS_ROOT/configs/model/tiles-castle.ini" --set "model.tileset=$PWD/named/ts/castle.json")
+  d=named-model; rm -rf "$d" "$d-trace"
+  GS_KILL_TRACE=$PWD/named/trace GS_KILL_AT=100000 run_gs 2 "${tsargs[@]}" -o "$d-trace" </dev/null
+  at=$(awk -F'\t' '$2 == "synthesis" && $3 == "phase begins" { print $1; exit }' named/trace)
+  GS_KILL_AT=${at:-0} run_gs 2 "${tsargs[@]}" -o "$d" </dev/null
+  [[ -n $at && ! -f $d/checkpoint.h5 && ! -f $d/summary.json ]] \
+    && grep -q "^; input model.tileset xxh3 [0-9a-f]\{16\} [0-9]* $PWD/named/ts/turret.vox$" "$d/start.ini" \
+    && ok "named inputs: killed at kill point $at (synthesis begins), start.ini records the tile set's .vox tiles" \
+    || bad "named inputs: tiles not recorded in start.ini (kill point '$at', exit $rc): $(grep -c '^; input' "$d/start.ini") input lines"
+  cp named/ts/turret.vox named/turret.orig; printf 'x' >>named/ts/turret.vox
+  run_gs 1 resume "$d"
+  [[ $rc -eq 2 ]] && grep -q "cannot resume .*model.tileset = $PWD/named/ts/turret.vox has changed since the run started" <<<"$err" \
+    && ok "named inputs: resume with a changed tile is refused (exit 2) naming it" \
+    || bad "named inputs: resume with a changed tile: exit $rc: ${err:0:500}"
+  cp named/turret.orig named/ts/turret.vox
+  run_gs 1 resume "$d"
+  [[ $rc -eq 0 && $(digest_of "$d") == $(digest_of "$d-trace") ]] \
+    && ok "named inputs: with the tile back, resume gives the uninterrupted digest $(digest_of "$d")" \
+    || bad "named inputs: resume with the original tile: exit $rc: ${err:0:500}"
 fi
 finish
