@@ -388,7 +388,9 @@ void gs_points_params_default(double lx, double ly, double spacing, gs_points_pa
  * formulas of gs_points_params_default, in dependency order; nonzero
  * members are kept (so a user's patch_cells also sets the default overlap). */
 void gs_points_params_complete(double lx, double ly, double spacing, gs_points_params *p);
-/* How far geometry must extend past the example's box for these params. */
+/* How far geometry must extend past the example's box for these params:
+ * patches are taken from half an overlap strip past each side of the box,
+ * plus the extra region, the warp margin and the MLS radius. */
 double gs_points_params_padding(const gs_points_params *p);
 
 typedef struct gs_points_patch_metrics {

@@ -124,9 +124,20 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     gs_points_params_complete(lx, ly, s, p);
 }
 
+/* How far (in field steps) the patches' origins reach past each side of the
+ * example box: half an overlap strip. A patch pastes what lies on its side
+ * of its strips' middles, half a strip in from its edges; patches taken
+ * only inside the box would never paste the half strip along the box's
+ * sides, and little of what is near it (flowers.ini's example as generated
+ * before this reach, input.pad 0.668: its two tallest flowers, centred
+ * 0.44 and 0.13 from its low sides, were pasted by 9 and 0 of its 625
+ * patches, a flower in the middle by 169; they never appeared). The
+ * padding the example needs grows by as much. */
+static int border_cells(const gs_points_params *p) { return p->overlap_cells / 2; }
+
 double gs_points_params_padding(const gs_points_params *p)
 {
-    return p->extra_cells * p->field_step + p->warp_margin + p->mls_radius;
+    return (p->extra_cells + border_cells(p)) * p->field_step + p->warp_margin + p->mls_radius;
 }
 
 static gs_err check_params(const gs_points_params *p, double s)
@@ -219,8 +230,8 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
 static gs_err field_dims(const gs_points_texture *tex, const gs_points_params *p, int *nx,
                          int *ny, int *nz)
 {
-    double g = p->field_step;
-    double bx = tex->box_hi[0] - tex->box_lo[0], by = tex->box_hi[1] - tex->box_lo[1];
+    double g = p->field_step, bb = 2 * border_cells(p) * g;
+    double bx = tex->box_hi[0] - tex->box_lo[0] + bb, by = tex->box_hi[1] - tex->box_lo[1] + bb;
     double bz = tex->box_hi[2] - tex->box_lo[2];
     GS_CHECK(g > 0 && isfinite(g) && bx > 0 && by > 0 && bz >= 0 && bx / g < 1e6 && by / g < 1e6 &&
                  bz / g < 1e6, GS_ERR_ARG,
@@ -283,7 +294,9 @@ static gs_err input_field_nodes(void *vctx, size_t lo, size_t hi, void *vout)
 {
     struct gs_points_synth *s = vctx;
     double step[3] = {s->g, s->g, s->gz};
-    GS_CALL(gs_points_field_range(s->in_grid, s->p.mls_radius, s->p.trunc, s->reach, s->box_lo,
+    double flo[3] = {s->box_lo[0] - border_cells(&s->p) * s->g,
+                     s->box_lo[1] - border_cells(&s->p) * s->g, s->box_lo[2]};
+    GS_CALL(gs_points_field_range(s->in_grid, s->p.mls_radius, s->p.trunc, s->reach, flo,
                                   step, s->nx, s->ny, lo, hi - lo, &s->scratch, vout));
     return GS_OK;
 }
@@ -1495,7 +1508,8 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
     double t1 = gs_time_now();
     /* F_k = tr(P_k U E_k), extended by the warp margin. */
     int pi = (int)(chosen % (uint64_t)s->npx), pj = (int)(chosen / (uint64_t)s->npx);
-    double pin[2] = {s->box_lo[0] + pi * s->g, s->box_lo[1] + pj * s->g};
+    double pin[2] = {s->box_lo[0] + (pi - border_cells(p)) * s->g,
+                     s->box_lo[1] + (pj - border_cells(p)) * s->g};
     double glo[2] = {pin[0] - s->m, pin[1] - s->m};
     double ghi[2] = {pin[0] + s->ps + s->we + s->m, pin[1] + s->ps + s->we + s->m};
     double tr[2] = {o[0] - pin[0], o[1] - pin[1]};
