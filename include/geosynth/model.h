@@ -360,7 +360,8 @@ typedef struct gs_model_params {
  * and k is drawn with P(k) = L(k) / sum L (Eq. 6). Unlike Eq. 4 a location
  * counts only for its own centre label (a location matching equally well
  * with another centre would add the same count to every label). Neighbours
- * past the example's faces match nothing. With no decided neighbour every
+ * past the example's faces match nothing by default (half a match or a
+ * match with gs_model_resem_set_outside). With no decided neighbour every
  * location ties, so P(k) is the example's frequency of k.
  * layers != 0 (an extension, not in the paper): output and example stand on
  * the same ground, so a cell at height z only considers the locations of
@@ -372,6 +373,11 @@ typedef struct gs_model_params {
 typedef struct gs_model_resem *gs_model_resem_t;
 gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack, int layers,
                             gs_model_resem_t *out);
+/* What a neighbourhood cell past the example's faces scores against a decided
+ * output neighbour: 0 a mismatch (as a defined different label), 1 half a
+ * match, 2 a match (the paper's distance over defined cells only). A defined
+ * equal label scores a match. The default after build is 0. */
+void gs_model_resem_set_outside(gs_model_resem_t r, int weight);
 void gs_model_resem_destroy(gs_model_resem_t *r);
 /* Distinct neighbourhood patterns of the index (0 for NULL). */
 int gs_model_resem_patterns(const gs_model_resem_t r);

@@ -34,7 +34,8 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
 void gs_model_rules_rebuild_support(struct gs_model_rules *r);
 
 /* Index of the example's neighbourhoods for resemblance (src/model/resemble.c). */
-#define GS_MODEL_RESEM_MAX_B 8 /* counter bits (solver.c keeps 8 planes): Q < 2^8 */
+#define GS_MODEL_RESEM_MAX_B 8 /* counter bits (solver.c keeps 8 planes): counts are in
+                                 half matches, 2Q < 2^8 */
 struct gs_model_resem {
     int w, Q;          /* window radius, neighbours per window ((2w+1)^3 - 1) */
     int *off;          /* [Q][3] neighbour offsets */
@@ -52,6 +53,11 @@ struct gs_model_resem {
                           patterns found at example layer min(z, nz - 1) */
     uint32_t *zmult;   /* [nz][P] locations per layer (layers only) */
     uint64_t *zbits;   /* [nz][PW] patterns present in each layer */
+    int32_t *oslot;    /* [Q] bitset (in bits) of the patterns with a cell past the
+                          example's faces at q, -1 = none */
+    int outside;       /* what such a cell scores against a decided neighbour, in half
+                          matches: 0 (a mismatch), 1 (half), 2 (a match); a defined
+                          equal label scores 2 */
 };
 
 struct gs_model_solver {

@@ -4,7 +4,9 @@
  *
  * Every example location v' gives a pattern: its label E[v'] (the centre)
  * and the labels of its (2w+1)^3 - 1 neighbours (OUTSIDE past the example's
- * faces: it matches nothing). Equal patterns are merged with a multiplicity.
+ * faces: undefined; per offset q a bitset marks the patterns with OUTSIDE
+ * there, which the chooser scores as gs_model_resem_set_outside says: a
+ * mismatch by default, half a match, or a match). Equal patterns are merged with a multiplicity.
  * Patterns are sorted by centre label, so the patterns whose centre is a
  * candidate of a cell form a few runs of bit positions. For every (offset
  * q, label a) that occurs, a bitset over the patterns marks those with label
@@ -137,6 +139,27 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
             uint64_t *b = r->bits + (size_t)r->slot[(size_t)q * L + a] * (size_t)r->PW;
             b[i >> 6] |= (uint64_t)1 << (i & 63);
         }
+    /* the patterns with OUTSIDE at q: one more bitset per such offset */
+    GS_TRY(err, gs_alloc_array((void **)&r->oslot, (size_t)Q, sizeof *r->oslot, "outside slots"),
+           fail);
+    size_t extra = 0;
+    for (q = 0; q < Q; q++) {
+        r->oslot[q] = -1;
+        for (i = 0; i < P && r->oslot[q] < 0; i++)
+            if (rows[i * row + 1 + (size_t)q] == OUTSIDE)
+                r->oslot[q] = (int32_t)(nslots + extra++);
+    }
+    if (extra) {
+        void *nb = gs_realloc(r->bits, (nslots + extra) * (size_t)r->PW * 8);
+        GS_TRY_CHECK(err, nb != NULL, GS_ERR_MEM, fail, "resemblance index: out of memory");
+        r->bits = nb;
+        memset(r->bits + nslots * (size_t)r->PW, 0, extra * (size_t)r->PW * 8);
+        for (q = 0; q < Q; q++)
+            for (i = 0; r->oslot[q] >= 0 && i < P; i++)
+                if (rows[i * row + 1 + (size_t)q] == OUTSIDE)
+                    r->bits[(size_t)r->oslot[q] * (size_t)r->PW + (i >> 6)] |= (uint64_t)1 << (i & 63);
+    }
+    nslots += extra;
     r->nslots = nslots;
     r->nz = ex->nz;
     r->layers = layers;
@@ -159,8 +182,8 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
     gs_free(first);
     zs = NULL;
     first = NULL;
-    int B = 1;
-    while ((1 << B) <= Q)
+    int B = 1; /* counts in half matches: at most 2Q */
+    while ((1 << B) <= 2 * Q)
         B++;
     GS_TRY_CHECK(err, B <= GS_MODEL_RESEM_MAX_B, GS_ERR_INTERNAL, fail,
                  "resemblance: %d neighbours need %d counter bits", Q, B);
@@ -189,8 +212,15 @@ void gs_model_resem_destroy(gs_model_resem_t *pr)
     gs_free(r->bits);
     gs_free(r->zmult);
     gs_free(r->zbits);
+    gs_free(r->oslot);
     gs_free(r);
     *pr = NULL;
 }
 
 int gs_model_resem_patterns(const gs_model_resem_t r) { return r ? r->P : 0; }
+
+void gs_model_resem_set_outside(gs_model_resem_t r, int weight)
+{
+    if (r)
+        r->outside = weight < 0 ? 0 : weight > 2 ? 2 : weight;
+}

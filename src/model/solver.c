@@ -807,7 +807,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     const struct gs_model_resem *R = s->resem;
     const size_t W = (size_t)s->W, PW = (size_t)R->PW;
     const uint64_t *dc = s->dom + (size_t)c * W;
-    const size_t need = PW * (size_t)(R->B + 4) + (size_t)R->Q;
+    const size_t need = PW * (size_t)(R->B + 4) + 2 * (size_t)R->Q;
     if (need > s->rs_cap) {
         uint64_t *nb = gs_realloc(s->rs_buf, need * 8);
         if (!nb)
@@ -817,8 +817,12 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     }
     uint64_t *cand = s->rs_buf, *mask = cand + PW, *tmp = mask + PW, *cnt = tmp + PW;
     uint32_t *act = (uint32_t *)(cnt + (size_t)R->B * PW); /* words with a candidate */
-    uint64_t *nbl = cnt + (size_t)(R->B + 1) * PW; /* [Q] bitsets of the decided neighbours */
-    size_t nact = 0, nn = 0;
+    /* [2Q] bitsets of the decided neighbours: nn scoring 2 (equal label, or
+     * past the example's faces with outside = 2), then no scoring 1 (past the
+     * faces, outside = 1) from the end */
+    uint64_t *nbl = cnt + (size_t)(R->B + 1) * PW;
+    uint64_t *nbo = nbl + R->Q;
+    size_t nact = 0, nn = 0, no = 0;
     /* candidate patterns: the centre runs of the candidate labels */
     size_t wlo = PW, whi = 0;
     for (size_t w = 0; w < W; w++)
@@ -900,10 +904,17 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         int32_t slot = R->slot[(size_t)q * (size_t)R->L + (size_t)label];
         if (slot >= 0)
             nbl[nn++] = (uint64_t)slot * PW;
+        if (R->outside && R->oslot[q] >= 0) {
+            if (R->outside == 2)
+                nbl[nn++] = (uint64_t)R->oslot[q] * PW;
+            else
+                nbo[no++] = (uint64_t)R->oslot[q] * PW;
+        }
     }
     /* match counts: the neighbours' bits added into bit-sliced counters, one
      * candidate word at a time with the 8 counter planes in registers
-     * (counts <= Q < 2^B, B <= 7 for w <= 2, so the planes above B stay 0).
+     * (counts in half matches <= 2Q < 2^B, B <= 8 for w <= 2: a match adds
+     * from plane 1, a half match from plane 0).
      * Adding neighbour by neighbour over every word loaded and stored the
      * planes each time: most of the choice's time. */
     for (size_t j = 0; j < nact; j++) {
@@ -911,17 +922,27 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         const uint64_t cw = cand[w];
         const uint64_t *bw = R->bits + w;
         uint64_t p0 = 0, p1 = 0, p2 = 0, p3 = 0, p4 = 0, p5 = 0, p6 = 0, p7 = 0, t;
+        /* carry added into planes 1..7 (a match scores 2 half matches) */
+#define ADD_FROM_PLANE1(carry)                                                                   \
+    do {                                                                                         \
+        t = p1 & carry; p1 ^= carry; carry = t;                                                  \
+        t = p2 & carry; p2 ^= carry; carry = t;                                                  \
+        t = p3 & carry; p3 ^= carry; carry = t;                                                  \
+        t = p4 & carry; p4 ^= carry; carry = t;                                                  \
+        t = p5 & carry; p5 ^= carry; carry = t;                                                  \
+        t = p6 & carry; p6 ^= carry; carry = t;                                                  \
+        p7 ^= carry;                                                                             \
+    } while (0)
+        for (size_t i = 0; i < no; i++) { /* half matches: from plane 0 */
+            uint64_t carry = bw[nbo[i]] & cw;
+            t = p0 & carry; p0 ^= carry; carry = t;
+            ADD_FROM_PLANE1(carry);
+        }
         for (size_t i = 0; i < nn; i++) {
             uint64_t carry = bw[nbl[i]] & cw;
-            t = p0 & carry; p0 ^= carry; carry = t;
-            t = p1 & carry; p1 ^= carry; carry = t;
-            t = p2 & carry; p2 ^= carry; carry = t;
-            t = p3 & carry; p3 ^= carry; carry = t;
-            t = p4 & carry; p4 ^= carry; carry = t;
-            t = p5 & carry; p5 ^= carry; carry = t;
-            t = p6 & carry; p6 ^= carry; carry = t;
-            p7 ^= carry;
+            ADD_FROM_PLANE1(carry);
         }
+#undef ADD_FROM_PLANE1
         const uint64_t planes[8] = {p0, p1, p2, p3, p4, p5, p6, p7};
         for (int b = 0; b < R->B; b++)
             cnt[(size_t)b * PW + w] = planes[b];
@@ -943,8 +964,8 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     /* outside the target shape the constraint-weighted choice also sees the
      * next closest neighbourhoods (shape_slack more), so it can leave out
      * structure the closest ones would continue */
-    const int slack = R->slack + (s->shape && shape_factor(s, c) < 1.0 ? s->shape_slack : 0);
-    if (slack > 0) { /* counts >= best - slack: bit-sliced compare */
+    const int slack = 2 * (R->slack + (s->shape && shape_factor(s, c) < 1.0 ? s->shape_slack : 0));
+    if (slack > 0) { /* counts >= best - slack (half matches): bit-sliced compare */
         int t = best - slack;
         if (t <= 0) {
             memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);

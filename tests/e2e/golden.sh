@@ -25,6 +25,7 @@ first_ok=""
 for row in "${rows[@]}"; do
   IFS=$'\t' read -r engine cfg ranks sets digest <<<"$row"
   name=$(basename "$cfg" .ini)
+  [[ $sets == - ]] || name+=-$(printf %s "$sets" | cksum | cut -d" " -f1)  # rows of one config with other --set
   extra=()
   if [[ $sets != - ]]; then read -ra kv <<<"$sets"; for s in "${kv[@]}"; do extra+=(--set "$s"); done; fi
   if ! need_config "golden $engine/$name" "$GS_ROOT/$cfg"; then
