@@ -6,7 +6,9 @@
 # false), without the blend (points.blend = false) and without candidate
 # randomness (points.eps = 0: always the best patch), each at SEEDS. Prints
 # one JSON object (stdout) with every run's quality figures (summary.json:
-# warp residual, seam measure, variety, height KS, fragments) and the mean
+# warp residual, seam measure, variety, height KS, fragments, specks, points
+# above the example's highest: measured by the engine from the output points
+# and the example, not from the synthesis' own counters) and the mean
 # per variant, and a table on stderr.
 # env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four),
 # GS_DATA (heightfield needs textures/embark-1.jpg; skipped without it).
@@ -53,7 +55,9 @@ done
 import json, sys, collections
 keys = ["warp_residual_mean", "seam_dist", "inside_dist", "seam_normal", "inside_normal",
         "seam_unmatched", "inside_unmatched", "source_patches", "verbatim_share",
-        "height_ks", "fragments_per_area", "example_fragments_per_area", "output_points"]
+        "height_ks", "example_height_ks_halves", "height_max", "example_height_max",
+        "points_above_example_max", "fragments_per_area", "example_fragments_per_area",
+        "small_fragments_per_area", "example_small_fragments_per_area", "output_points"]
 runs, acc = [], collections.defaultdict(lambda: collections.defaultdict(list))
 for line in open(sys.argv[1]):
     cfg, v, seed, d = line.rstrip("\n").split("\t")
@@ -69,7 +73,8 @@ mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}
 json.dump({"benchmark": "points_elements", "runs": runs, "mean": mean}, sys.stdout, indent=1)
 print()
 cols = ["warp_residual_mean", "seam_dist", "seam_unmatched", "seam_normal", "inside_dist",
-        "source_patches", "verbatim_share", "height_ks", "fragments_per_area"]
+        "source_patches", "verbatim_share", "height_ks", "fragments_per_area",
+        "small_fragments_per_area", "points_above_example_max"]
 print("%-12s %-11s " % ("config", "variant") + " ".join("%10s" % c[:10] for c in cols),
       file=sys.stderr)
 for r in mean:
