@@ -323,12 +323,18 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           : c->start[0]                  ? "model.start"
                           : c->start_column[0]           ? "model.start_column"
                           : c->start_block > 0           ? "model.start_block"
+                          : !strcmp(c->fix_z_faces, "true") ? "model.fix_z_faces"
                                                          : NULL;
+        /* fixed faces: the start column's uniform bottom pattern fixes the N-1
+         * layers above it through the overlap, and so on up: the output would
+         * be the start model (parliament: run lengths 30 of 30) */
         if (key)
             gs_cfg_report(ctx, key,
                           "not supported with model.overlap3d = %lld (3D overlapping model): "
                           "needs a 3D lattice example (model.example), no frames, mirror, rotate, "
-                          "shape, pins, border, start, start_column or start_block",
+                          "shape, pins, border, start, start_column or start_block, and "
+                          "fix_z_faces auto or false (kept uniform faces would fix every layer "
+                          "through the overlaps)",
                           (long long)c->overlap3d);
     }
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
@@ -833,8 +839,8 @@ static gs_err build_start(model_engine *e)
     }
     if (c->overlap3d > 0) {
         /* a column of layer-filling patterns, its bottom and top found at the
-         * example's bottom and top (the z face masks, also made for fixed
-         * faces; none with fix_z_faces = false) */
+         * example's bottom and top (the z face masks; none with fix_z_faces =
+         * false) */
         const size_t W = ((size_t)gs_model_rules_nlabels(e->rules) + 63) / 64;
         gs_err err = gs_model_initial_faces(e->rules, &e->example, NULL, e->zface,
                                             e->zface ? e->zface + W : NULL, &e->lat);
@@ -1826,10 +1832,8 @@ static gs_err decide_z_faces(model_engine *e)
     const int fours = ex->frames > 1, exfz = gs_model_frame_nz(ex);
     if (fours)
         e->params.fix_z_faces = 0; /* fixed faces would be the lattice's, not each frame's */
-    /* overlap3d: the masks also choose the start column's end patterns when
-     * the faces are kept (fix_z_faces = true) */
-    const int o3 = c->overlap3d > 0 && strcmp(c->fix_z_faces, "false");
-    if ((strcmp(c->fix_z_faces, "auto") && !o3) || c->tileset[0] || c->sample[0] ||
+    const int o3 = c->overlap3d > 0; /* (fix_z_faces = true is refused with it) */
+    if (strcmp(c->fix_z_faces, "auto") || c->tileset[0] || c->sample[0] ||
         strchr(c->periodic, 'z') || c->size[2] < 3 || exfz < 2)
         return GS_OK;
     const int L = gs_model_rules_nlabels(e->rules);
@@ -1851,12 +1855,6 @@ static gs_err decide_z_faces(model_engine *e)
         }
     /* 4D frames cannot keep fixed faces (only the lattice's lowest and
      * highest layers would stay): each frame's faces take the example's */
-    if (o3 && strcmp(c->fix_z_faces, "auto")) {
-        gs_log(GS_LOG_INFO, "overlap3d: z faces kept from the start column, whose bottom and "
-               "top patterns are among the example's %d bottom and %d top patterns",
-               distinct[0], distinct[1]);
-        return GS_OK;
-    }
     /* overlap3d: one bottom pattern is a mask all the same (kept faces would
      * be the start column's, which need not be it) */
     if (distinct[0] == 1 && !fours && !o3) {

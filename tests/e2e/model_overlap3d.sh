@@ -102,4 +102,6 @@ expect_rc 2 "overlap3d on 40x40x10 noise is refused"
 expect_err "more than 8192 distinct 3x3x3 windows (model.overlap3d = 3)" "overlap3d cap: the error names the cap and the key"
 run_gs 0 model -c "$C" --set model.start_block=4 -o bad
 expect_err "not supported with model.overlap3d" "overlap3d with start_block: a clear config error"
+run_gs 0 model -c "$C" --set model.fix_z_faces=true -o keptfaces
+expect_err "kept uniform faces would fix every layer" "overlap3d with fix_z_faces = true: refused (the output would be the start model)"
 finish
