@@ -21,7 +21,14 @@ discs: per region of at least min_area units^2 (regions: edge-connected
   and the radial profile's coefficient of variation about the region's
   centroid (0 for a disc, 0.03 for a regular hexagon).
 
-usage: micro_outline.py INSTANCE_DIR [--json]
+summary (per side): the regions of at least min_area except a side's
+  largest when it holds over half that side's area (the surrounding sea or
+  land, not a disc), their count, the
+  area-weighted mean of perimeter / 2 pi r and of radial cv, and the largest
+  area over the median (merged discs show as a few regions many times the
+  others').
+
+usage: micro_outline.py INSTANCE_DIR [--json] [--min-area A] (default 100 units^2)
 """
 import json
 import os
@@ -110,14 +117,38 @@ def discs(v, f, d, min_area=100.0):
     return out
 
 
+def summary(regions):
+    out = {}
+    for side, name in ((True, "positive"), (False, "negative")):
+        rs = sorted((r for r in regions if r["positive"] == side), key=lambda r: -r["area"])
+        if rs and rs[0]["area"] > 0.5 * sum(r["area"] for r in rs):
+            rs = rs[1:]  # the region around the others
+        if not rs:
+            out[name] = {"count": 0}
+            continue
+        a = np.array([r["area"] for r in rs])
+        out[name] = {"count": len(rs),
+                     "perimeter_ratio": float(np.average([r["perimeter_ratio"] for r in rs], weights=a)),
+                     "radial_cv": float(np.average([r["radial_cv"] for r in rs], weights=a)),
+                     "largest_over_median": float(a.max() / np.median(a))}
+    return out
+
+
 def main():
     inst = sys.argv[1]
     v, f, x, d = load(inst)
-    res = {"metric_excess": metric_excess(v, f, x), "discs": discs(v, f, d)}
+    ma = float(sys.argv[sys.argv.index("--min-area") + 1]) if "--min-area" in sys.argv else 100.0
+    res = {"metric_excess": metric_excess(v, f, x), "discs": discs(v, f, d, min_area=ma)}
+    res["summary"] = summary(res["discs"])
     if "--json" in sys.argv:
         print(json.dumps(res))
         return
     print("metric excess (max |dx| / straight line, 3-6 units): %.3f" % res["metric_excess"])
+    for name, sm in res["summary"].items():
+        if sm["count"]:
+            print("%s regions (not the surrounding one): %d, area-weighted perimeter / 2 pi r %.2f, radial cv %.3f, "
+                  "largest / median area %.1f" % (name, sm["count"], sm["perimeter_ratio"], sm["radial_cv"],
+                                                  sm["largest_over_median"]))
     for r in sorted(res["discs"], key=lambda r: -r["area"]):
         print("  %s region: area %.0f, r %.1f, perimeter / 2 pi r %.2f, radial cv %.3f"
               % ("positive" if r["positive"] else "negative", r["area"], r["radius"],

@@ -337,6 +337,15 @@ typedef struct gs_micro_correct_opts {
      * region only, the target's positive share of triangles with the
      * largest values starts as the positive region. */
     const double *init_value;
+    /* Nonzero: side[] is replaced by separate discs before the first
+     * round (micro.correct_discs): n discs of radius R + 1/2 for each step
+     * of the positive table's slope at its bin R - 1 (a disc of radius r
+     * holds 2 pi (r - k - 1/2) units^2 in bin k), centres placed farthest-
+     * point by geodesic clearance to the discs placed (the largest first;
+     * the first at the largest init_value, else vertex 0), each disc the
+     * triangles within its radius (fast marching). stats->l1_before stays
+     * the L1/n of the side[] given. */
+    int disc_seed;
 } gs_micro_correct_opts;
 typedef struct gs_micro_correct_stats {
     uint32_t rounds;

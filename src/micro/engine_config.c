@@ -88,6 +88,10 @@ static const gs_cfg_key micro_keys[] = {
                    "correction pass: at most this many rounds (one fast march each)"),
     GS_CFG_KEY_REAL(micro_config, correct_target, "micro.correct_target", 0, 2, 0, "0.02",
                     "correction pass: stop once the realized L1/n is at most this"),
+    GS_CFG_KEY_BOOL(micro_config, correct_discs, "micro.correct_discs", "no",
+                    "correction pass: start from separate discs sized by the positive table's "
+                    "second differences (geodesic, farthest-point centres) instead of the "
+                    "reconstruction's regions (no = the reconstruction's regions)"),
     GS_CFG_KEY_INT(micro_config, max_rejects_per_bin, "micro.max_rejects_per_bin", 0,
                    GS_CFG_INT_MAX, 0, "0", "stop a bin after this many rejected placements (0 = "
                    "no limit)"),
