@@ -38,6 +38,10 @@ size_t gs_mem_current(void);
 size_t gs_mem_peak(void);
 /* Peak resident set size of the process in bytes (from /proc), 0 if unknown. */
 size_t gs_mem_rss_peak(void);
+/* Memory this process may still take, in bytes: MemAvailable of
+ * /proc/meminfo, lowered to what the cgroup (v2 memory.max - memory.current)
+ * leaves; 0 if unknown. */
+size_t gs_mem_available(void);
 
 #ifdef __cplusplus
 }

@@ -65,6 +65,9 @@ gs_err gs_par_bcast_string(MPI_Comm comm, char **s, int root);
 
 /* This rank and the rank count of comm. */
 gs_err gs_par_comm_rank(MPI_Comm comm, int *rank, int *size);
+/* How many ranks of comm share this rank's node (its shared memory).
+ * Collective. */
+gs_err gs_par_node_size(MPI_Comm comm, int *size);
 gs_err gs_par_barrier(MPI_Comm comm);
 /* A barrier on a clean-up path: 0 when it failed, and no error is raised
  * (the error being reported stays the current one). */

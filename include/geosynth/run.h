@@ -102,6 +102,14 @@ void gs_run_path(const gs_run *run, const char *name, char *out, size_t out_len)
  * check, else exactly 16 hex digits; anything else is GS_ERR_ARG naming the key). */
 gs_err gs_run_expect_digest(gs_run *run, const char *hex);
 
+/* Refuses a run whose engine estimates more memory per rank (bytes) than
+ * its node has available for its ranks there (#25 item 4: a target far
+ * beyond memory used to start and fail at its first large allocation, or be
+ * killed later): GS_ERR_MEM naming the estimate, the ranks on the node, what
+ * is available and hint (the keys that size it). Before any large
+ * allocation. Collective; a no-op when the memory available is unknown. */
+gs_err gs_run_check_memory(gs_run *run, double bytes, const char *hint);
+
 /* Collective: writes summary.json with the digest and prints the RESULTS
  * section on rank 0. With run.expect_digest set, summary.json also records
  * "expect_digest" and "digest_verified"; a different digest is GS_ERR_ARG on

@@ -120,3 +120,32 @@ size_t gs_mem_rss_peak(void)
     fclose(f);
     return kb * 1024;
 }
+
+static size_t read_number(const char *path, const char *key, size_t scale)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return 0;
+    char line[256];
+    size_t v = 0;
+    while (fgets(line, sizeof line, f)) {
+        if (!key[0] || !strncmp(line, key, strlen(key))) {
+            char *end;
+            unsigned long long n = strtoull(line + strlen(key), &end, 10);
+            v = end != line + strlen(key) ? (size_t)n * scale : 0; /* "max": no limit */
+            break;
+        }
+    }
+    fclose(f);
+    return v;
+}
+
+size_t gs_mem_available(void)
+{
+    size_t avail = read_number("/proc/meminfo", "MemAvailable:", 1024);
+    size_t max = read_number("/sys/fs/cgroup/memory.max", "", 1);
+    size_t cur = read_number("/sys/fs/cgroup/memory.current", "", 1);
+    if (max && max > cur && (avail == 0 || max - cur < avail))
+        avail = max - cur;
+    return avail;
+}

@@ -990,6 +990,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
                             "mask, provenance)%s", est / 1048576.0,
                ctx.sharded ? "; tree and pyramid sharded over the ranks" : "");
     }
+    GS_TRY(err, gs_run_check_memory(run, est, "field.target (or field.block)"), done);
     GS_TRY(err, gs_alloc_array((void **)&ctx.prov, (size_t)nt, sizeof *ctx.prov, "provenance map"), done);
     for (int64_t i = 0; i < nt; i++)
         ctx.prov[i] = -1;

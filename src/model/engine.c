@@ -1954,6 +1954,7 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
            (long long)c->attempts, (long long)c->backtracks, c->order, c->weights, c->ac);
     gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (lattice + coverage, solver, rules)",
            mem / 1048576.0);
+    GS_CALL(gs_run_check_memory(run, mem, "model.size or model.region"));
     int dims[3] = {(int)c->size[0], (int)c->size[1], (int)c->size[2]};
     for (int a = 0; a < 3; a++) {
         e->full[a] = dims[a];

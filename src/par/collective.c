@@ -18,6 +18,16 @@ gs_err gs_par_comm_rank(MPI_Comm comm, int *rank, int *size)
     return GS_OK;
 }
 
+gs_err gs_par_node_size(MPI_Comm comm, int *size)
+{
+    MPI_Comm node;
+    GS_MPI(MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node));
+    int rc = MPI_Comm_size(node, size);
+    MPI_Comm_free(&node);
+    GS_MPI(rc);
+    return GS_OK;
+}
+
 gs_err gs_par_barrier(MPI_Comm comm)
 {
     GS_MPI(MPI_Barrier(comm));

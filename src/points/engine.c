@@ -1187,6 +1187,7 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (example %.1f, field %.1f, bank "
                "share %.1f, output %.1f)", bytes / 1048576.0, t->pts.n * 112.0 / 1048576.0,
                nx * ny * nz * 16 / 1048576.0, bank / 1048576.0, est_out * 288.0 / 1048576.0);
+        GS_CALL(gs_run_check_memory(run, bytes, "points.out_size (or points.out_points)"));
     }
     int64_t lo, hi;
     GS_CALL(gs_partition((int64_t)npatch, run->size, run->rank, &lo, &hi));

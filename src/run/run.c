@@ -448,6 +448,23 @@ gs_err gs_run_units_until_due(gs_run *run, int64_t units_done, int64_t *units)
     return GS_OK;
 }
 
+gs_err gs_run_check_memory(gs_run *run, double bytes, const char *hint)
+{
+    int local = 1;
+    GS_CALL(gs_par_node_size(run->comm, &local));
+    double need = bytes * local, avail = (double)gs_mem_available();
+    gs_err err = GS_OK;
+    if (avail > 0 && need > avail)
+        err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                             "memory estimate per rank %.0f MiB x %d rank%s on this node = %.0f "
+                             "MiB, but %.0f MiB are available: the run would fail or be killed "
+                             "part way; reduce %s, or spread the ranks over more nodes",
+                             bytes / 1048576.0, local, local > 1 ? "s" : "", need / 1048576.0,
+                             avail / 1048576.0, hint);
+    GS_CALL(gs_par_agree(run->comm, err));
+    return GS_OK;
+}
+
 gs_err gs_run_checkpoint_begin(gs_run *run, gs_ckpt_t *out)
 {
     char path[PATH_MAX];

@@ -116,6 +116,8 @@ case_ ".vdb example: not a VDB file" 4 "text.vdb|not a VDB file" \
   field -c "$FQ" -o run-out --set example.kind=file --set example.path=text.vdb
 case_ ".vox example: truncated" 4 "cut.vox" \
   model -c "$MQ" -o run-out --set model.example=cut.vox
+case_ "field target far beyond memory: refused before any large allocation" 5 "memory estimate per rank 393217 MiB|MiB are available|reduce field.target" \
+  field -c "$FQ" -o run-out --set field.target=4096
 case_ "resume: checkpoint that is not HDF5" 4 "checkpoint.h5|not an HDF5 file" \
   resume ckptdir
 finish
