@@ -219,6 +219,12 @@ typedef struct gs_field_match {
  * exceeds *bound are ignored; on return *bound = min(*bound, best). */
 gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
                              int64_t end, uint64_t *bound, gs_field_match *out);
+/* The same, skipping the blocks whose position lies in one of nexclude
+ * boxes {lo x, lo y, lo z, hi x, hi y, hi z} (inclusive): the reference for
+ * gs_field_search_opts.exclude. */
+gs_err gs_field_brute_search_excluding(const gs_qfield *src, const gs_field_query *q,
+                                       const int64_t (*exclude)[6], int nexclude, int64_t begin,
+                                       int64_t end, uint64_t *bound, gs_field_match *out);
 
 typedef struct gs_field_tree *gs_field_tree_t;
 
@@ -307,6 +313,15 @@ typedef struct gs_field_search_opts {
      * so every rank can try a query locally and agree, without talking,
      * whether to spread it over the ranks (src/field/engine.c). */
     uint64_t max_pops;
+    /* Source block positions no match may take: nexclude boxes {lo x, lo y,
+     * lo z, hi x, hi y, hi z} (inclusive, block positions of the searched
+     * source). The cost there is infinite, nothing else changes: the answer is
+     * the exact best of the other blocks, ties to the lowest index, as
+     * gs_field_brute_search_excluding finds it. start_bound must then be the
+     * distance of a block that is not excluded. The synthesis uses it to end
+     * a copy that has grown too large (field.copy_limit, src/field/synth.c). */
+    const int64_t (*exclude)[6];
+    int nexclude;
 } gs_field_search_opts;
 
 /* Exact best match of q among the blocks under top-level subtrees
@@ -350,6 +365,17 @@ typedef struct gs_field_synth_config {
     int seed_blocks;                 /* 1: iteration 0 seeds the target with random source
                                         blocks (tiles of block[0]) instead of random samples */
     int use_upper_bound;             /* queue pruning, see gs_field_search_opts */
+    double copy_limit;               /* > 0: no copy of one source offset grows past this share
+                                        of the source's samples (its bounding box, at each
+                                        iteration's resolution): the continuation of such a
+                                        neighbour's offset (+- block/4 positions) is excluded
+                                        from the match (src/field/synth.c); 0 = the paper (off) */
+    int blend;                       /* > 0 (needs prov): after the last iteration every
+                                        sample within `blend` samples of a seam (a neighbour
+                                        copied from another source offset) becomes the mean of
+                                        the source continued by each offset of its
+                                        (2*blend+1)^3 neighbourhood (overlap blending, paper
+                                        5.3); 0 = off (the paper) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's
                                         tree (gs_field_tree_build_shard, split by count; shards
@@ -387,6 +413,10 @@ typedef struct gs_field_synth_state {
     int64_t tn[3];                   /* current target size */
     uint8_t *target;                 /* tn[0]*tn[1]*tn[2] quantized samples */
     uint8_t *mask;                   /* 1 = synthesized in this iteration */
+    int64_t *matches;                /* per block position of the iteration: matched source
+                                        block + 1 (0 = not yet); blocks_in_iteration entries,
+                                        read for [0, cursor) of the visit order on resume
+                                        (copy_limit needs them) */
     /* per-block match statistics of each iteration (normalized distance =
      * dist / known samples, in squared quantization levels) */
     int64_t stat_count[GS_FIELD_MAX_ITER];

@@ -108,6 +108,8 @@ typedef struct field_config {
     double coarse_weight;
     int seed_blocks;
     int upper_bound;
+    double copy_limit;
+    int64_t blend;
     int64_t region_blocks;
     char *tree;
     char *geometry;
@@ -196,6 +198,16 @@ static const gs_cfg_key field_keys[] = {
                     "queue pruning after iteration 0 (paper eq. 3's role): each search starts "
                     "bounded by the exact distance of the neighbour's match continued; same "
                     "result, fewer queue entries"),
+    GS_CFG_KEY_REAL(field_config, copy_limit, "field.copy_limit", 0, 1, 0, "0",
+                    "no piece copied verbatim from one source offset grows past this share of "
+                    "the source (its bounding box): the search then excludes that offset's "
+                    "continuation; 0 = off (the paper: large verbatim copies); 0.25 in terrain, texture, "
+                    "balls and fibers.ini"),
+    GS_CFG_KEY_INT(field_config, blend, "field.blend", 0, 4, 0, "0",
+                   "seam blending after the last iteration: samples within this many of a seam "
+                   "between pieces copied from different source offsets fade from one piece into "
+                   "the other (overlap blending); 0 = off (the paper: the pieces meet in steps); 2 "
+                   "where copy_limit is set"),
     GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "
@@ -618,6 +630,10 @@ static gs_err write_checkpoint(gs_run *run, match_ctx *ctx, uint64_t src_digest)
     GS_TRY(err, write_u8_field(h, run, "/field/target", st->tn, GS_H5_U8, st->target), fail);
     GS_TRY(err, write_u8_field(h, run, "/field/mask", st->tn, GS_H5_U8, st->mask), fail);
     GS_TRY(err, write_u8_field(h, run, "/field/provenance", ctx->target, GS_H5_I32, ctx->prov), fail);
+    if (st->matches && st->blocks_in_iteration > 0) {
+        gs_h5_shape sm = {GS_H5_I64, 1, {(uint64_t)st->blocks_in_iteration}};
+        GS_TRY(err, gs_ckpt_write_whole(h, "/field/matches", &sm, st->matches, NULL), fail);
+    }
     GS_CALL(gs_run_checkpoint_commit(run, &h, units_done(st)));
     return GS_OK;
 fail:
@@ -670,10 +686,20 @@ static gs_err read_checkpoint(gs_run *run, const gs_qfield *src, const gs_field_
     gs_h5_shape sp = {GS_H5_I32, 3,
                       {(uint64_t)ctx->target[2], (uint64_t)ctx->target[1], (uint64_t)ctx->target[0]}};
     GS_TRY(err, gs_ckpt_read_whole(h, "/field/provenance", &sp, ctx->prov), done);
+    if (st.iteration < sc->iterations) {
+        GS_TRY_CHECK(err, st.blocks_in_iteration > 0 && st.blocks_in_iteration <= ((int64_t)1 << 32),
+                     GS_ERR_FORMAT, done, "%s: /field blocks_in_iteration = %lld is impossible",
+                     gs_ckpt_path(h), (long long)st.blocks_in_iteration);
+        GS_TRY(err, gs_alloc_array((void **)&st.matches, (size_t)st.blocks_in_iteration,
+                                   sizeof *st.matches, "checkpoint matches"), done);
+        gs_h5_shape sm = {GS_H5_I64, 1, {(uint64_t)st.blocks_in_iteration}};
+        GS_TRY(err, gs_ckpt_read_whole(h, "/field/matches", &sm, st.matches), done);
+    }
     GS_TRY(err, gs_field_synth_resume(src, sc, &st, out), done);
 done:
     gs_free(st.target);
     gs_free(st.mask);
+    gs_free(st.matches);
     gs_ckpt_close(&h);
     return err;
 }
@@ -957,6 +983,8 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         sc.coarse_weight = 1;
     sc.seed_blocks = c->seed_blocks;
     sc.use_upper_bound = c->upper_bound;
+    sc.copy_limit = c->copy_limit;
+    sc.blend = (int)c->blend;
     sc.region_blocks = (int)c->region_blocks;
     ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;
     if (ctx.sharded)

@@ -412,7 +412,7 @@ static inline void prefetch_node(const struct gs_field_searcher *s, uint32_t id)
  * and its block (the leaf's lowest index), sorted by (lb, rep). */
 typedef struct cand {
     uint64_t lb;
-    uint32_t rep, step;
+    uint32_t rep, step, node;
 } cand;
 
 static int cand_cmp(const void *pa, const void *pb)
@@ -421,6 +421,32 @@ static int cand_cmp(const void *pa, const void *pb)
     if (a->lb != b->lb)
         return a->lb < b->lb ? -1 : 1;
     return a->rep < b->rep ? -1 : a->rep > b->rep;
+}
+
+/* Does block position p lie in one of the boxes? */
+static int in_boxes(const int64_t (*box)[6], int n, const int64_t p[3])
+{
+    for (int i = 0; i < n; i++)
+        if (p[0] >= box[i][0] && p[0] <= box[i][3] && p[1] >= box[i][1] && p[1] <= box[i][4] &&
+            p[2] >= box[i][2] && p[2] <= box[i][5])
+            return 1;
+    return 0;
+}
+
+/* The block of leaf node nd a match may take: its lowest member outside
+ * opts->exclude (members share their content, so their distance), or -1. */
+static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_opts *o,
+                         const gs_tree_node *nd)
+{
+    if (!o->nexclude)
+        return nd->rep;
+    for (uint32_t i = 0; i < nd->count; i++) {
+        int64_t g = (int64_t)t->members[nd->first + i] + t->index_offset;
+        int64_t p[3] = {g % t->bx, g / t->bx % t->by, g / (t->bx * t->by)};
+        if (!in_boxes(o->exclude, o->nexclude, p))
+            return t->members[nd->first + i];
+    }
+    return -1;
 }
 
 /* Exact distance of the leaf whose block is at base, from a state after
@@ -528,8 +554,9 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         int64_t base = gs_tree_block_base(t, nd->rep);
         uint64_t d;
         if (nd->end == steps_total) {
-            if (leaf_eval(s, base, e.step, bnd, bnd_scaled, smax, out, &d))
-                CONSIDER(d, nd->rep);
+            int64_t pick = leaf_pick(t, opts, nd);
+            if (pick >= 0 && leaf_eval(s, base, e.step, bnd, bnd_scaled, smax, out, &d))
+                CONSIDER(d, (uint32_t)pick);
             continue;
         }
         int requeued = 0, dropped = 0;
@@ -581,7 +608,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                     s->cand = a;
                     s->cand_cap = cap;
                 }
-                s->cand[nc++] = (cand){ce.lb, t->nodes[id].rep, ce.step};
+                s->cand[nc++] = (cand){ce.lb, t->nodes[id].rep, ce.step, id};
                 continue;
             }
             GS_CALL(heap_push(s, ce));
@@ -598,8 +625,10 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 break;
             }
             out->pops++;
-            if (leaf_eval(s, gs_tree_block_base(t, cd->rep), cd->step, bnd, bnd_scaled, smax, out, &d))
-                CONSIDER(d, cd->rep);
+            int64_t pick = leaf_pick(t, opts, &t->nodes[cd->node]);
+            if (pick >= 0 &&
+                leaf_eval(s, gs_tree_block_base(t, cd->rep), cd->step, bnd, bnd_scaled, smax, out, &d))
+                CONSIDER(d, (uint32_t)pick);
         }
         if (out->truncated)
             break;
@@ -691,6 +720,13 @@ static uint64_t leaf_exact(const struct gs_field_searcher *s, int64_t base, int 
 gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
                              int64_t end, uint64_t *bound, gs_field_match *out)
 {
+    return gs_field_brute_search_excluding(src, q, NULL, 0, begin, end, bound, out);
+}
+
+gs_err gs_field_brute_search_excluding(const gs_qfield *src, const gs_field_query *q,
+                                       const int64_t (*exclude)[6], int nexclude, int64_t begin,
+                                       int64_t end, uint64_t *bound, gs_field_match *out)
+{
     int B = q->block;
     int64_t M = gs_field_block_count(src, B);
     GS_CHECK(M > 0, GS_ERR_ARG, "query block %d does not fit the source", B);
@@ -705,6 +741,9 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
     int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;
     uint64_t best = *bound;
     for (int64_t idx = begin; idx < end; idx++) {
+        int64_t p[3] = {idx % bx, idx / bx % by, idx / (bx * by)};
+        if (in_boxes(exclude, nexclude, p))
+            continue;
         uint64_t d = ssd(src->q + gs_block_base(bx, by, src->nx, src->ny, idx), src->nx, nxy,
                          q->values, q->known, wk, wu, B, 0, B);
         if (d <= best && (!out->found || d < out->dist)) {

@@ -51,7 +51,10 @@ struct gs_field_synth {
      * by (color, id); order[cursor] = block index (x fastest over npos) */
     int64_t *order;               /* NULL: the raster order */
     int64_t *match_at;            /* per block position of the iteration: matched index + 1
-                                     (0: not yet), for the upper bound's candidate */
+                                     (0: not yet), for the upper bound's candidate and the
+                                     copy limit */
+    int32_t (*rbox)[6];           /* per matched block position: bounding box (samples, lo
+                                     x y z, hi x y z) of the copy it belongs to (copy_limit) */
     int64_t nreg;
     gs_field_region *reg;
     uint8_t *scratch;             /* 2 x the largest region box: target, mask */
@@ -243,6 +246,10 @@ static gs_err enter_iteration(struct gs_field_synth *s)
     GS_CALL(gs_alloc_array((void **)&s->match_at, (size_t)s->st.blocks_in_iteration,
                            sizeof *s->match_at, "block matches"));
     memset(s->match_at, 0, (size_t)s->st.blocks_in_iteration * sizeof *s->match_at);
+    gs_free(s->rbox);
+    s->rbox = NULL;
+    GS_CALL(gs_alloc_array((void **)&s->rbox, (size_t)s->st.blocks_in_iteration, sizeof *s->rbox,
+                           "copy boxes"));
     GS_CALL(build_regions(s, B));
     gs_free(s->qval);
     gs_free(s->qknown);
@@ -263,6 +270,8 @@ static gs_err alloc_state(struct gs_field_synth *s, const int64_t tn[3])
     memcpy(s->st.tn, tn, sizeof s->st.tn);
     return GS_OK;
 }
+
+static void note_match(struct gs_field_synth *s, int64_t b);
 
 static gs_err synth_new(const gs_qfield *src, const gs_field_synth_config *c, struct gs_field_synth **out)
 {
@@ -335,6 +344,7 @@ gs_err gs_field_synth_resume(const gs_qfield *src, const gs_field_synth_config *
                      (long long)st->tn[a], a, (long long)(c->target[a] / f), st->iteration);
     gs_field_synth_state keep = *st;
     keep.target = keep.mask = NULL;
+    keep.matches = NULL;
     s->st = keep;
     GS_TRY(err, alloc_state(s, st->tn), fail);
     size_t n = (size_t)(st->tn[0] * st->tn[1] * st->tn[2]);
@@ -344,6 +354,19 @@ gs_err gs_field_synth_resume(const gs_qfield *src, const gs_field_synth_config *
     GS_TRY_CHECK(err, s->st.iteration >= c->iterations || (st->cursor >= 0 && st->cursor <= s->st.blocks_in_iteration),
                  GS_ERR_ARG, fail, "checkpoint cursor %lld: expected 0..%lld", (long long)st->cursor,
                  (long long)s->st.blocks_in_iteration);
+    if (s->st.iteration < c->iterations) {
+        /* the matches of the blocks done, in visit order (lower neighbours first) */
+        int64_t M = gs_field_block_count(s->level_src, c->block[s->st.iteration]);
+        for (int64_t i = 0; i < st->cursor; i++) {
+            int64_t b = s->order ? s->order[i] : i;
+            int64_t m = st->matches ? st->matches[b] : 0;
+            GS_TRY_CHECK(err, m >= 1 && m <= M, GS_ERR_ARG, fail,
+                         "checkpoint /field/matches: block %lld holds %lld, expected 1..%lld",
+                         (long long)b, (long long)m, (long long)M);
+            s->match_at[b] = m;
+            note_match(s, b);
+        }
+    }
     *out = s;
     return GS_OK;
 fail:
@@ -365,6 +388,7 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_free(s->qknown);
     gs_free(s->order);
     gs_free(s->match_at);
+    gs_free(s->rbox);
     gs_free(s->reg);
     gs_free(s->scratch);
     GS_FREE(*sp);
@@ -396,11 +420,129 @@ static void upsample2(const uint8_t *c, const int64_t n[3], uint8_t *f)
     }
 }
 
+/* Seam blending after the last iteration (cfg.blend = w > 0, cfg.prov
+ * given). Every sample was copied from one source offset (prov); where two
+ * pieces of different offsets meet, the field steps (terrain.ini: height
+ * steps across the lines of the 8-sample grid were 2.4 times those elsewhere,
+ * the source's 0.8-1.3: a rectangular patchwork). Texture synthesis blends
+ * the overlap of neighbouring patches [Liang et al. 2001]; here each sample
+ * within w of a seam becomes the mean, over the (2w+1)^3 samples around it,
+ * of the source continued at it by each one's offset (where that lies in the
+ * source). Inside a piece every offset is the same and nothing changes; across
+ * a seam the pieces fade into each other over 2w+1 samples. It reads only
+ * prov and the source, so it is the same on every rank; levels are linear in
+ * distance, so it averages distances. */
+static gs_err blend_seams(struct gs_field_synth *s)
+{
+    int w = s->cfg.blend;
+    const int32_t *prov = s->cfg.prov;
+    if (w <= 0 || !prov)
+        return GS_OK;
+    const gs_qfield *src = s->src;
+    const int64_t sn[3] = {src->nx, src->ny, src->nz};
+    const int64_t *tn = s->st.tn;
+    int64_t tx = tn[0], txy = tn[0] * tn[1], P = 2 * w + 1;
+    /* offsets of 2w+1 planes (z mod P), packed 21 bits an axis; NONE: no provenance */
+    const int64_t NONE = INT64_MIN, H = (int64_t)1 << 20;
+    int64_t *po = NULL;
+    uint8_t *ux = NULL; /* per plane sample: the 2w+1 around it along x share its offset */
+    GS_CALL(gs_alloc_array((void **)&po, (size_t)(P * txy), sizeof *po, "seam offsets"));
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&ux, (size_t)(P * txy), 1, "seam flags"), done);
+    for (int64_t z = -w; z < tn[2]; z++) {
+        int64_t zn = z + w; /* plane entering the window */
+        if (zn < tn[2]) {
+            int64_t *pl = po + (zn % P) * txy;
+            for (int64_t i = 0; i < txy; i++) {
+                int64_t g = i + txy * zn, p = prov[g];
+                pl[i] = p < 0 ? NONE
+                              : ((p % sn[0] - i % tx + H) << 42) |
+                                    ((p / sn[0] % sn[1] - i / tx + H) << 21) |
+                                    (p / (sn[0] * sn[1]) - zn + H);
+            }
+            uint8_t *u = ux + (zn % P) * txy;
+            for (int64_t r = 0; r < tn[1]; r++) {
+                const int64_t *row = pl + tx * r;
+                int64_t run = 0; /* equal predecessors */
+                for (int64_t x = 0; x < tx; x++) {
+                    run = x > 0 && row[x] == row[x - 1] ? run + 1 : 0;
+                    u[tx * r + x] = run >= (x < w ? x : w);
+                }
+                run = 0;
+                for (int64_t x = tx - 1; x >= 0; x--) {
+                    run = x + 1 < tx && row[x] == row[x + 1] ? run + 1 : 0;
+                    u[tx * r + x] &= run >= (tx - 1 - x < w ? tx - 1 - x : w);
+                }
+            }
+        }
+        if (z < 0)
+            continue;
+        int64_t k0 = z - w > 0 ? z - w : 0, k1 = z + w < tn[2] - 1 ? z + w : tn[2] - 1;
+        for (int64_t y = 0; y < tn[1]; y++) {
+            int64_t j0 = y - w > 0 ? y - w : 0, j1 = y + w < tn[1] - 1 ? y + w : tn[1] - 1;
+            for (int64_t x = 0; x < tx; x++) {
+                int64_t h0 = x - w > 0 ? x - w : 0, h1 = x + w < tx - 1 ? x + w : tx - 1;
+                /* one piece around (every row of the window uniform with this
+                 * offset): unchanged, the usual case, 25 tests instead of 125 */
+                int64_t me = po[(z % P) * txy + x + tx * y];
+                int one = 1;
+                for (int64_t k = k0; k <= k1 && one; k++)
+                    for (int64_t j = j0; j <= j1 && one; j++) {
+                        int64_t i = (k % P) * txy + x + tx * j;
+                        one = ux[i] && po[i] == me;
+                    }
+                if (one)
+                    continue;
+                /* distinct offsets of the window and how often each occurs */
+                enum { MAXD = 27 };
+                int64_t d[MAXD], cnt[MAXD];
+                int nd = 0;
+                for (int64_t k = k0; k <= k1; k++) {
+                    const int64_t *pl = po + (k % P) * txy;
+                    for (int64_t j = j0; j <= j1; j++)
+                        for (int64_t h = h0; h <= h1; h++) {
+                            int64_t o = pl[h + tx * j];
+                            if (o == NONE)
+                                continue;
+                            int f = 0;
+                            while (f < nd && d[f] != o)
+                                f++;
+                            if (f == nd) {
+                                if (nd == MAXD)
+                                    continue; /* more pieces than that: the first 27 */
+                                d[nd] = o, cnt[nd++] = 0;
+                            }
+                            cnt[f]++;
+                        }
+                }
+                if (nd < 2)
+                    continue; /* inside one piece: unchanged */
+                uint64_t acc = 0, n = 0;
+                for (int f = 0; f < nd; f++) {
+                    int64_t c0 = x + (d[f] >> 42) - H, c1 = y + ((d[f] >> 21) & (2 * H - 1)) - H,
+                            c2 = z + (d[f] & (2 * H - 1)) - H;
+                    if (c0 < 0 || c0 >= sn[0] || c1 < 0 || c1 >= sn[1] || c2 < 0 || c2 >= sn[2])
+                        continue;
+                    acc += (uint64_t)cnt[f] * src->q[c0 + sn[0] * (c1 + sn[1] * c2)];
+                    n += (uint64_t)cnt[f];
+                }
+                if (n)
+                    s->st.target[x + tx * y + txy * z] = (uint8_t)((acc + n / 2) / n);
+            }
+        }
+    }
+done:
+    gs_free(po);
+    gs_free(ux);
+    return err;
+}
+
 /* Next iteration: upsample the result by 2 as the new seed. */
 static gs_err advance_iteration(struct gs_field_synth *s)
 {
     int next = s->st.iteration + 1;
     if (next >= s->cfg.iterations) {
+        GS_CALL(blend_seams(s));
         s->st.iteration = next;
         s->st.cursor = 0;
         return enter_iteration(s);
@@ -438,7 +580,155 @@ static void block_pos(const struct gs_field_synth *s, int64_t cursor, int64_t p[
  * moved by the same step), 0 when there is none. The overlap the query
  * shares with that neighbour was mostly copied from it, so the continuation
  * is usually close to the best match. */
-static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const gs_field_query *q)
+/* ------------------------------------------------------------ copy limit
+ *
+ * The exact best match of a block whose overlap was copied from one source
+ * offset is almost always that offset continued (the overlap then costs 0),
+ * so a synthesis left alone copies large pieces of the source verbatim: the
+ * copy measure (src/measure/copy.c) found terrain.ini's largest copied
+ * region at 0.27 of the source and texture.ini's at 0.55 (discs cut into
+ * crescents where such pieces meet). The paper does nothing against it
+ * beyond its random seeds. With copy_limit, every copy (block positions
+ * joined through lower neighbours that took the same offset) keeps the
+ * bounding box of its samples; a block whose taking the offset of a lower
+ * neighbour would grow that box (plus B/2 along every axis, see below) past
+ * copy_limit times the source's samples
+ * may not take it, nor the offsets within block/4 positions of it (else the
+ * copy goes on shifted by a sample): those source blocks are excluded from
+ * the search (gs_field_search_opts.exclude), which stays exact for that
+ * cost. Lower neighbours (b - d, d in {0,1}^3) are matched before b in the
+ * raster order and in every region order (see build_regions), so the
+ * result is the same for every rank count; the matches are checkpointed. */
+
+static void block_coords(const struct gs_field_synth *s, int64_t b, int64_t c[3])
+{
+    c[0] = b % s->npos[0];
+    c[1] = b / s->npos[0] % s->npos[1];
+    c[2] = b / (s->npos[0] * s->npos[1]);
+}
+
+/* Source offset (source block position - target position) of matched block b. */
+static void block_offset(const struct gs_field_synth *s, int64_t b, int B, int64_t o[3])
+{
+    int64_t c[3], sp[3];
+    block_coords(s, b, c);
+    gs_field_block_position(s->level_src, B, s->match_at[b] - 1, sp);
+    for (int a = 0; a < 3; a++)
+        o[a] = sp[a] - s->pos[a][c[a]];
+}
+
+/* Matched lower neighbours of b (b - d, d in {0,1}^3 \ 0). */
+static int lower_neighbours(const struct gs_field_synth *s, int64_t b, int64_t nb[7])
+{
+    int64_t c[3], n = 0;
+    block_coords(s, b, c);
+    for (int d = 1; d < 8; d++) {
+        int64_t x = c[0] - (d & 1), y = c[1] - (d >> 1 & 1), z = c[2] - (d >> 2);
+        if (x < 0 || y < 0 || z < 0)
+            continue;
+        int64_t i = x + s->npos[0] * (y + s->npos[1] * z);
+        if (s->match_at[i])
+            nb[n++] = i;
+    }
+    return (int)n;
+}
+
+/* Bounding box (samples) of the copy block b joins when it takes offset o:
+ * its own box and those of its lower neighbours copied with offset o. */
+static void copy_box(const struct gs_field_synth *s, int64_t b, int B, const int64_t o[3],
+                     int64_t box[6])
+{
+    int64_t c[3], nb[7];
+    block_coords(s, b, c);
+    for (int a = 0; a < 3; a++)
+        box[a] = s->pos[a][c[a]], box[a + 3] = s->pos[a][c[a]] + B;
+    int n = lower_neighbours(s, b, nb);
+    for (int i = 0; i < n; i++) {
+        int64_t on[3];
+        block_offset(s, nb[i], B, on);
+        if (on[0] != o[0] || on[1] != o[1] || on[2] != o[2])
+            continue;
+        for (int a = 0; a < 3; a++) {
+            if (s->rbox[nb[i]][a] < box[a])
+                box[a] = s->rbox[nb[i]][a];
+            if (s->rbox[nb[i]][a + 3] > box[a + 3])
+                box[a + 3] = s->rbox[nb[i]][a + 3];
+        }
+    }
+}
+
+/* Records the copy box of block b, just matched (match_at[b] set). */
+static void note_match(struct gs_field_synth *s, int64_t b)
+{
+    int B = s->cfg.block[s->st.iteration];
+    int64_t o[3], box[6];
+    block_offset(s, b, B, o);
+    copy_box(s, b, B, o, box);
+    for (int i = 0; i < 6; i++)
+        s->rbox[b][i] = (int32_t)box[i];
+}
+
+/* Source block boxes block b may not take (at most 7): the continuations
+ * (+- B/4 positions) of lower neighbours' offsets whose copy would outgrow
+ * copy_limit. */
+static int copy_exclusions(const struct gs_field_synth *s, int64_t b, int B, int64_t ex[7][6])
+{
+    if (s->cfg.copy_limit <= 0)
+        return 0;
+    const gs_qfield *ls = s->level_src;
+    const int64_t sn[3] = {ls->nx, ls->ny, ls->nz};
+    double limit = s->cfg.copy_limit * (double)(sn[0] * sn[1] * sn[2]);
+    int64_t c[3], nb[7], seen[7][3];
+    block_coords(s, b, c);
+    int n = lower_neighbours(s, b, nb), ne = 0, ns = 0;
+    int64_t r = B / 4 > 0 ? B / 4 : 1;
+    for (int i = 0; i < n; i++) {
+        int64_t o[3];
+        block_offset(s, nb[i], B, o);
+        int dup = 0;
+        for (int j = 0; j < ns && !dup; j++)
+            dup = seen[j][0] == o[0] && seen[j][1] == o[1] && seen[j][2] == o[2];
+        if (dup)
+            continue;
+        memcpy(seen[ns++], o, sizeof o);
+        int64_t box[6];
+        copy_box(s, b, B, o, box);
+        /* a block's anti-diagonal neighbours (one position up along an axis,
+         * down along another) may take the same offset unseen: neither is a
+         * lower neighbour of the other (in the region order one of them may
+         * not be matched yet), so each grows the copy by up to B/2 along an
+         * axis without the other knowing (balls.ini 32^3: copies of 0.37 of
+         * the source under a limit of 0.25). Counting B/2 more along every
+         * axis keeps the copies within the limit. */
+        for (int a = 0; a < 3; a++)
+            box[a + 3] = box[a + 3] + B / 2 < s->st.tn[a] ? box[a + 3] + B / 2 : s->st.tn[a];
+        double vol = (double)(box[3] - box[0]) * (double)(box[4] - box[1]) * (double)(box[5] - box[2]);
+        if (vol <= limit)
+            continue;
+        for (int a = 0; a < 3; a++) {
+            int64_t cont = s->pos[a][c[a]] + o[a], hi = sn[a] - B;
+            ex[ne][a] = cont - r > 0 ? cont - r : 0;
+            ex[ne][a + 3] = cont + r < hi ? cont + r : hi;
+        }
+        ne++;
+    }
+    /* a source so small that the boxes cover every block: no exclusion */
+    int64_t covered = 0;
+    for (int i = 0; i < ne; i++)
+        for (int64_t z = ex[i][2]; z <= ex[i][5]; z++)
+            for (int64_t y = ex[i][1]; y <= ex[i][4]; y++)
+                for (int64_t x = ex[i][0]; x <= ex[i][3]; x++) {
+                    int before = 0;
+                    for (int j = 0; j < i && !before; j++)
+                        before = x >= ex[j][0] && x <= ex[j][3] && y >= ex[j][1] && y <= ex[j][4] &&
+                                 z >= ex[j][2] && z <= ex[j][5];
+                    covered += !before;
+                }
+    return covered < gs_field_block_count(ls, B) ? ne : 0;
+}
+
+static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const gs_field_query *q,
+                                const int64_t ex[][6], int nex)
 {
     int64_t ix = b % s->npos[0];
     if (ix == 0 || !s->match_at[b - 1])
@@ -450,6 +740,10 @@ static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const
     int64_t x = bp[0] + s->pos[0][ix] - s->pos[0][ix - 1];
     if (x + B > ls->nx)
         return 0;
+    for (int i = 0; i < nex; i++) /* the bound must be a block the search may take */
+        if (x >= ex[i][0] && x <= ex[i][3] && bp[1] >= ex[i][1] && bp[1] <= ex[i][4] &&
+            bp[2] >= ex[i][2] && bp[2] <= ex[i][5])
+            return 0;
     int64_t bx = ls->nx - B + 1, by = ls->ny - B + 1;
     uint64_t d = gs_field_block_distance(ls, x + bx * (bp[1] + by * bp[2]), q);
     return d ? d : 1;
@@ -485,9 +779,12 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     }
     gs_field_query q = {B, s->qval, masked ? s->qknown : NULL, w};
     gs_field_search_opts opts = {0};
+    int64_t ex[7][6];
+    opts.nexclude = copy_exclusions(s, b, B, ex);
+    opts.exclude = (const int64_t(*)[6])ex;
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     if (opts.use_upper_bound && s->cfg.tree_shards <= 1)
-        opts.start_bound = candidate_bound(s, b, &q);
+        opts.start_bound = candidate_bound(s, b, &q, (const int64_t(*)[6])ex, opts.nexclude);
     gs_field_match m;
     if (use_hook && s->cfg.match)
         GS_CALL(s->cfg.match(s->cfg.match_ctx, s->tree, s->searcher, it, &q, &opts, &m));
@@ -498,6 +795,7 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     gs_field_query_weights(&q, &wk, &wu);
     r->index = m.index;
     s->match_at[b] = m.index + 1;
+    note_match(s, b);
     r->nd = m.known ? (double)m.dist / (double)wk / (double)m.known : 0;
     r->pops = m.pops;
     r->pushes = m.pushes;
@@ -670,6 +968,7 @@ gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const voi
         int64_t p[3];
         block_pos(s, s->st.cursor, p);
         s->match_at[s->order[s->st.cursor]] = r.index + 1;
+        note_match(s, s->order[s->st.cursor]);
         copy_block(s, &v, p, r.index, 1);
         account(s, &r);
     }
@@ -696,6 +995,7 @@ gs_err gs_field_synth_run(gs_field_synth_t s, int64_t max_blocks, int *finished)
 
 const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s)
 {
+    s->st.matches = s->match_at;
     return &s->st;
 }
 

@@ -153,6 +153,8 @@ static void make_query(gs_rng *r, const gs_qfield *src, const gs_qfield *other, 
     }
 }
 
+static int excluded_queries;
+
 static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int queries,
                                      uint64_t seed, int *done)
 {
@@ -188,6 +190,29 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
         gs_field_match mt, mb;
         gs_field_search_opts opts = {0};
         opts.use_upper_bound = t % 2;
+        /* every third query excludes 1-3 boxes of source blocks (the copy
+         * limit's), the first around the best unexcluded match so far */
+        int64_t ex[3][6];
+        if (t % 3 == 1) {
+            int64_t nbx = src->nx - B + 1, nby = src->ny - B + 1, nbz = src->nz - B + 1;
+            const int64_t nbp[3] = {nbx, nby, nbz};
+            int ne = 1 + (int)gs_rng_below(&r, 3);
+            gs_field_match m0;
+            uint64_t b0 = UINT64_MAX;
+            OK(gs_field_brute_search(src, &q, 0, info.blocks, &b0, &m0));
+            int64_t c[3];
+            gs_field_block_position(src, B, m0.index, c);
+            for (int e = 0; e < ne; e++) {
+                int64_t rad = (int64_t)gs_rng_below(&r, 4);
+                for (int a = 0; a < 3; a++) {
+                    int64_t at = e == 0 ? c[a] : (int64_t)gs_rng_below(&r, (uint64_t)nbp[a]);
+                    ex[e][a] = at - rad > 0 ? at - rad : 0;
+                    ex[e][a + 3] = at + rad < nbp[a] - 1 ? at + rad : nbp[a] - 1;
+                }
+            }
+            opts.exclude = (const int64_t(*)[6])ex;
+            opts.nexclude = ne;
+        }
         if (t % 7 == 3) { /* a pop budget either answers exactly or says it gave up */
             gs_field_search_opts bo = opts;
             bo.max_pops = 1 + (uint64_t)(t % 50);
@@ -197,14 +222,16 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
             if (mt.found) {
                 uint64_t b2 = UINT64_MAX;
                 gs_field_match m2;
-                OK(gs_field_brute_search(src, &q, 0, info.blocks, &b2, &m2));
+                OK(gs_field_brute_search_excluding(src, &q, opts.exclude, opts.nexclude, 0,
+                                                   info.blocks, &b2, &m2));
                 assert_int_equal(mt.index, m2.index);
                 assert_int_equal(mt.dist, m2.dist);
             }
         }
         OK(gs_field_tree_best_match(s, &q, &opts, &mt));
         uint64_t bound = UINT64_MAX;
-        OK(gs_field_brute_search(src, &q, 0, info.blocks, &bound, &mb));
+        OK(gs_field_brute_search_excluding(src, &q, opts.exclude, opts.nexclude, 0, info.blocks,
+                                           &bound, &mb));
         if (mt.index != mb.index || mt.dist != mb.dist)
             fprintf(stderr, "MISMATCH %s n=%lld B=%d query %d kind %d: tree (%lld, %llu) brute (%lld, %llu)\n",
                     gs_field_shape_name(kind), (long long)n, B, t, qk, (long long)mt.index,
@@ -213,8 +240,16 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
         assert_int_equal(mt.index, mb.index);
         assert_int_equal(mt.dist, gs_field_block_distance(src, mt.index, &q));
         assert_int_equal(mt.known, mb.known);
-        if (qk == Q_SOURCE)
+        if (qk == Q_SOURCE && !opts.nexclude)
             assert_int_equal(mt.dist, 0);
+        if (opts.nexclude) {
+            int64_t p[3];
+            gs_field_block_position(src, B, mt.index, p);
+            for (int e = 0; e < opts.nexclude; e++)
+                assert_false(p[0] >= ex[e][0] && p[0] <= ex[e][3] && p[1] >= ex[e][1] &&
+                             p[1] <= ex[e][4] && p[2] >= ex[e][2] && p[2] <= ex[e][5]);
+            excluded_queries++;
+        }
         (*done)++;
     }
     gs_free(val);
@@ -238,6 +273,7 @@ static void test_tree_matches_brute_force(void **state)
     check_tree_against_brute(GS_FIELD_CHAINMAIL, 16, 2, 60, 17, &done);
     check_tree_against_brute(GS_FIELD_BALLS, 64, 8, 30, 18, &done);
     assert_true(done >= 1000);
+    assert_true(excluded_queries >= 300);
 }
 
 /* Every query of real syntheses (not made up): a 3-iteration synthesis of
@@ -250,6 +286,7 @@ typedef struct synth_check {
     const gs_qfield *src;
     gs_qfield *level[3];  /* source of each iteration */
     int64_t queries, mismatches, exact_zero, far, large;
+    int64_t excluding;    /* queries with the copy limit's exclusions */
 } synth_check;
 
 static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
@@ -261,7 +298,10 @@ static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s,
     const gs_qfield *src = c->level[iteration];
     uint64_t bound = UINT64_MAX;
     gs_field_match mb;
-    GS_CALL(gs_field_brute_search(src, q, 0, gs_field_block_count(src, q->block), &bound, &mb));
+    GS_CALL(gs_field_brute_search_excluding(src, q, opts ? opts->exclude : NULL,
+                                            opts ? opts->nexclude : 0, 0,
+                                            gs_field_block_count(src, q->block), &bound, &mb));
+    c->excluding += opts && opts->nexclude > 0;
     if (mb.index != out->index || mb.dist != out->dist) {
         fprintf(stderr, "MISMATCH iteration %d query %lld: tree (%lld, %llu) brute (%lld, %llu)\n",
                 iteration, (long long)c->queries, (long long)out->index,
@@ -287,14 +327,14 @@ static void test_synthesis_queries_match_brute_force(void **state)
     } sizes[3] = {{24, {4, 4, 8}, {28, 24, 20}},
                   {40, {4, 8, 16}, {44, 40, 36}},
                   {48, {4, 8, 32}, {52, 48, 40}}};
-    int64_t total = 0, far = 0, large = 0;
+    int64_t total = 0, far = 0, large = 0, excluding = 0;
     for (int sz = 0; sz < 3; sz++)
         for (int kind = 0; kind < 4; kind++)
             for (int st = 0; st < 3; st++) {
                 if (sz > 0 && kind % 2) /* brute force of large blocks is slow: two shapes */
                     continue;
                 gs_qfield *src = make_source((gs_field_shape)kind, sizes[sz].side, 5 + (uint64_t)kind);
-                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0};
+                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0, 0};
                 OK(gs_qfield_downsample(src, 4, &c.level[0]));
                 OK(gs_qfield_downsample(src, 2, &c.level[1]));
                 c.level[2] = src;
@@ -308,6 +348,7 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 cfg.seed_weight = settings[st][1];
                 cfg.seed_blocks = settings[st][2];
                 cfg.seed = 3 + (uint64_t)st;
+                cfg.copy_limit = st == 2 ? 0.05 : 0; /* the engine's default setting, strict */
                 cfg.match = check_hook;
                 cfg.match_ctx = &c;
                 gs_field_synth_t syn = NULL;
@@ -319,14 +360,17 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 assert_int_equal(c.mismatches, 0);
                 assert_true(c.queries > (sz == 0 ? 200 : 20));
                 total += c.queries;
+                excluding += c.excluding;
                 far += c.far;
                 large += sz > 0 ? c.large : 0;
                 gs_qfield_destroy(&c.level[0]);
                 gs_qfield_destroy(&c.level[1]);
                 gs_qfield_destroy(&src);
             }
-    fprintf(stderr, "%lld synthesis queries, %lld far from every block, %lld of 16^3 or 32^3\n",
-            (long long)total, (long long)far, (long long)large);
+    fprintf(stderr, "%lld synthesis queries, %lld far from every block, %lld of 16^3 or 32^3, "
+            "%lld with copy-limit exclusions\n",
+            (long long)total, (long long)far, (long long)large, (long long)excluding);
+    assert_true(excluding >= 50);
     assert_true(total >= 2500);
     assert_true(far > 0); /* queries far from any block, where the bounds are weakest */
     assert_true(large >= 100);
@@ -542,6 +586,7 @@ static gs_field_synth_config small_config(const gs_qfield *src)
     c.block[0] = 4, c.block[1] = 8;
     c.target[0] = 40, c.target[1] = 32, c.target[2] = 24;
     c.seed = 42;
+    c.copy_limit = 0.05; /* the copy limit at work (strict, so it acts on this small source) */
     return c;
 }
 
@@ -584,10 +629,13 @@ static void test_synthesis_resume(void **state)
         copy.mask = gs_malloc(n);
         memcpy(copy.target, st->target, n);
         memcpy(copy.mask, st->mask, n);
+        copy.matches = gs_malloc((size_t)st->blocks_in_iteration * sizeof *copy.matches);
+        memcpy(copy.matches, st->matches, (size_t)st->blocks_in_iteration * sizeof *copy.matches);
         gs_field_synth_destroy(&b);
         OK(gs_field_synth_resume(src, &c, &copy, &r));
         gs_free(copy.target);
         gs_free(copy.mask);
+        gs_free(copy.matches);
         b = r;
         r = NULL;
     }

@@ -1,0 +1,56 @@
+#!/usr/bin/python3
+"""Seams of a field run, from field.h5 alone (/field/levels, /source/levels):
+how much larger the field's steps are across the planes where the last
+iteration's pieces meet than elsewhere.
+
+  analysis/field_seams.py RUN_DIR PERIOD   -> one JSON line
+
+The last iteration copies blocks at a stride of PERIOD = block/2 samples, so
+neighbouring pieces meet between samples i and i+1 with i % PERIOD ==
+PERIOD - 1 along every axis. seam_ratio = mean |level difference| of
+neighbours across those planes / mean elsewhere (all three axes): 1 = no
+seams, a rectangular patchwork is well above 1. The example has no pieces:
+its ratio at every phase of the same period (source_ratio_max, the largest)
+shows how far from 1 chance alone goes, the threshold a test uses.
+"""
+import json
+import sys
+
+import h5py
+import numpy as np
+
+
+def ratios(lv, period):
+    """ratio at each phase p: planes i % period == p against the others."""
+    lv = lv.astype(np.float64)
+    out = []
+    for p in range(period):
+        on = off = 0.0
+        non = noff = 0
+        for ax in range(3):
+            d = np.abs(np.diff(lv, axis=ax))
+            idx = np.arange(d.shape[ax]) % period == p
+            sel = [slice(None)] * 3
+            sel[ax] = idx
+            a = d[tuple(sel)]
+            sel[ax] = ~idx
+            b = d[tuple(sel)]
+            on += a.sum(); non += a.size
+            off += b.sum(); noff += b.size
+        out.append((on / max(non, 1)) / max(off / max(noff, 1), 1e-12))
+    return out
+
+
+def main():
+    run, period = sys.argv[1], int(sys.argv[2])
+    with h5py.File(run + "/field.h5", "r") as f:
+        out = f["/field/levels"][...]
+        src = f["/source/levels"][...]
+    r = ratios(out, period)
+    s = ratios(src, period)
+    print(json.dumps({"run": run, "period": period, "seam_ratio": round(r[period - 1], 4),
+                      "source_ratio_max": round(max(s), 4), "source_ratio_min": round(min(s), 4)}))
+
+
+if __name__ == "__main__":
+    main()

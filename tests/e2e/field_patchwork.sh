@@ -1,0 +1,61 @@
+# End-to-end: the field engine makes new geometry, not a patchwork of the
+# source (#19 items 2 and 7), on configs/field/balls.ini at a small size
+# (BALLS 32^3 -> 64^3, blocks 8 and 16, about 5 s on one core):
+# - copies: no piece copied verbatim from one source offset is larger than a
+#   quarter of the source (copy_largest_region_of_source, src/measure/copy.c,
+#   from the output and the source alone);
+# - seams: the field's steps across the planes where the last iteration's
+#   pieces meet (every block/2 = 8 samples) are no larger than the source's
+#   own steps at any phase of that period allow (analysis/field_seams.py:
+#   seam_ratio <= source max + the source's spread over phases);
+# - statistics: volume fraction and surface per volume no further from the
+#   source's than without the copy limit, plus 10% of the source's.
+# The measures flag the unlimited synthesis (field.copy_limit = 0: one copy
+# of 0.93 of the source) and the unblended one (field.blend = 0: seam ratio
+# 2.5 against the source's 1.11), checked below too.
+# Broken on purpose, each fails here (watched, see notes of #19):
+#   copy_exclusions (src/field/synth.c) returning no exclusion: largest copy 0.93;
+#   blend_seams returning at once: seam ratio 2.5.
+source "$GS_ROOT/tests/e2e/lib.bash"
+B=$GS_ROOT/configs/field/balls.ini
+SMALL=(--set example.size=32 --set field.target=64 --set output.geometry=none --set output.vdb=no)
+
+figures() { /usr/bin/python3 - "$1" "$GS_ROOT" <<'PY'
+import json, subprocess, sys
+run = sys.argv[1]
+m = json.load(open(run + "/summary.json"))["metrics"]
+s = json.loads(subprocess.check_output(
+    ["/usr/bin/python3", sys.argv[2] + "/analysis/field_seams.py", run, "8"]))
+print(json.dumps({"largest": m["copy_largest_region_of_source"], "vf": m["volume_fraction_out"],
+                  "vf_src": m["volume_fraction_src"], "spv": m["surface_per_volume_out"],
+                  "spv_src": m["surface_per_volume_src"], "seam": s["seam_ratio"],
+                  "seam_max": s["source_ratio_max"] + (s["source_ratio_max"] - s["source_ratio_min"])}))
+PY
+}
+get() { /usr/bin/python3 -c 'import json,sys;print(json.loads(sys.argv[1])[sys.argv[2]])' "$1" "$2"; }
+le() { /usr/bin/python3 -c "import sys; sys.exit(0 if $1 <= $2 else 1)"; }
+
+run_gs 1 field -c "$B" -o limited "${SMALL[@]}"
+expect_rc 0 "balls.ini small"
+run_gs 1 field -c "$B" -o unlimited "${SMALL[@]}" --set field.copy_limit=0 --set field.blend=0
+expect_rc 0 "balls.ini small, field.copy_limit = 0, field.blend = 0"
+new=$(figures limited) old=$(figures unlimited)
+echo "limited:   $new"
+echo "unlimited: $old"
+
+l=$(get "$new" largest)
+le "$l" 0.25 && ok "largest copy $l of the source (at most a quarter)" || bad "largest copy $l of the source, more than a quarter"
+lo=$(get "$old" largest)
+le "$lo" 0.25 && bad "unlimited synthesis not flagged: largest copy $lo" || ok "unlimited synthesis flagged: largest copy $lo"
+
+s=$(get "$new" seam) sm=$(get "$new" seam_max)
+le "$s" "$sm" && ok "seam ratio $s within the source's $sm" || bad "seams: ratio $s, the source's phases reach $sm"
+so=$(get "$old" seam)
+le "$so" "$sm" && bad "unblended seams not flagged: ratio $so" || ok "unblended seams flagged: ratio $so > $sm"
+
+for k in vf spv; do
+  a=$(get "$new" $k) b=$(get "$old" $k) src=$(get "$new" ${k}_src)
+  /usr/bin/python3 -c "import sys; sys.exit(0 if abs($a - $src) <= abs($b - $src) + 0.1 * $src else 1)" &&
+    ok "$k $a (unlimited $b, source $src)" || bad "$k $a moved away from the source $src (unlimited $b)"
+done
+finish
