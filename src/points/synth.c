@@ -1101,8 +1101,14 @@ static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2]
         if (s->p.ray_blend)
             GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
         if (!ok) {
+            /* Reach 4 R: a point of F' farther than R from N_k must still
+             * find N_k. With reach R it failed and the point stayed where
+             * it was while its neighbours (closer than R) were pulled onto
+             * N_k: the patch tore and the stranded points were left as
+             * specks 2-6 spacings off the surface, in rows along the seams
+             * (heightfield.ini: 337 of 815 speck points were such points). */
             gs_points_mls_result r;
-            GS_CALL(gs_points_mls_project(s->out, R, R, q.p, &s->scratch, &r));
+            GS_CALL(gs_points_mls_project(s->out, R, 4 * R, q.p, &s->scratch, &r));
             ok = r.ok;
             memcpy(y, r.y, sizeof y);
             memcpy(n, r.n, sizeof n);
