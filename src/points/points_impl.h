@@ -83,6 +83,11 @@ gs_err gs_points_field_range(const gs_points_grid *g, double R, double trunc, do
                              const double lo[3], const double step[3], int nx, int ny,
                              size_t first, size_t count, gs_points *scratch, float *out);
 
+/* The blend of one point q of F' onto N_k (synth.c): see there. */
+gs_err gs_points_blend_onto(const gs_points_grid *out, double R, int ray, int blend, double t,
+                            gs_points *scratch, gs_points *scratch2, gs_opoint *q,
+                            double *resid, int *found, int *keep);
+
 /* An index sorted by a double key, ties by index (a total order, so a sort
  * gives one result whatever the input order). */
 typedef struct keyed {

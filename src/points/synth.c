@@ -747,17 +747,16 @@ static gs_err gather_patch(struct gs_points_synth *s, const double lo[2], const 
 
 /* Limited ray intersection (Adamson-Alexa 2003 style): Newton steps on the
  * MLS implicit function along the line x + l d, |l| <= L. */
-static gs_err ray_hit(struct gs_points_synth *s, const double x[3], const double d[3], double L,
-                      double y[3], double n[3], int *ok)
+static gs_err ray_hit(const gs_points_grid *out, double R, gs_points *nb, const double x[3],
+                      const double d[3], double L, double y[3], double n[3], int *ok)
 {
-    double R = s->p.mls_radius;
     *ok = 0;
-    s->scratch2.n = 0;
-    GS_CALL(gs_points_grid_query(s->out, x, L + R, &s->scratch2));
+    nb->n = 0;
+    GS_CALL(gs_points_grid_query(out, x, L + R, nb));
     double a[3];
     memcpy(y, x, 3 * sizeof *y);
     for (int it = 0; it < 8; it++) {
-        if (gs_points_mls_frame(&s->scratch2, R, y, a, n) <= 0)
+        if (gs_points_mls_frame(nb, R, y, a, n) <= 0)
             return GS_OK;
         double f = n[0] * (y[0] - a[0]) + n[1] * (y[1] - a[1]) + n[2] * (y[2] - a[2]);
         double den = v3_dot(n, d);
@@ -1084,6 +1083,52 @@ static gs_err object_moves(struct gs_points_synth *s, const gs_points_tps *tps)
     return GS_OK;
 }
 
+/* The blend of one point q of F' (blend weight t > 0) onto N_k (out): y
+ * on N_k is the ray hit along q's normal (ray: within 0.5 R) or else q's
+ * MLS projection; q moves to (1 - t) q + t y (blend == 0: stays, only
+ * measured) and its normal likewise. *found = 0 when N_k was not found
+ * (q unchanged); else *resid = |y - q|. *keep = 0 when the blended normal
+ * vanishes (drop the point). */
+gs_err gs_points_blend_onto(const gs_points_grid *out, double R, int ray, int blend, double t,
+                            gs_points *scratch, gs_points *scratch2, gs_opoint *q,
+                            double *resid, int *found, int *keep)
+{
+    double y[3], n[3];
+    int ok = 0;
+    *found = 0;
+    *keep = 1;
+    if (ray)
+        GS_CALL(ray_hit(out, R, scratch2, q->p, q->n, 0.5 * R, y, n, &ok));
+    if (!ok) {
+        /* Reach 4 R: a point of F' farther than R from N_k must still
+         * find N_k. With reach R it failed and the point stayed where
+         * it was while its neighbours (closer than R) were pulled onto
+         * N_k: the patch tore and the stranded points were left as
+         * specks 2-6 spacings off the surface, in rows along the seams
+         * (heightfield.ini: 337 of 815 speck points were such points).
+         * tests/unit/test_points_synth.c (blend_bridges_a_step) fails
+         * with reach R. */
+        gs_points_mls_result r;
+        GS_CALL(gs_points_mls_project(out, R, 4 * R, q->p, scratch, &r));
+        ok = r.ok;
+        memcpy(y, r.y, sizeof y);
+        memcpy(n, r.n, sizeof n);
+    }
+    if (!ok)
+        return GS_OK;
+    *found = 1;
+    *resid = sqrt(v3_dist2(y, q->p));
+    if (!blend)
+        t = 0; /* measured, not blended */
+    for (int k = 0; k < 3; k++) {
+        q->p[k] = (1 - t) * q->p[k] + t * y[k];
+        q->n[k] = (1 - t) * q->n[k] + t * n[k];
+    }
+    if (v3_normalize(q->n) <= 0)
+        *keep = 0;
+    return GS_OK;
+}
+
 /* One point of F through the warp (if any) and the blend (fig. 3c). */
 static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2],
                           blend_item *it)
@@ -1096,37 +1141,12 @@ static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2]
         return GS_OK;
     double t = mode ? blend_weight(s, mode, o, q.p) : 0;
     if (t > 0) {
-        double y[3], n[3];
-        int ok = 0;
-        if (s->p.ray_blend)
-            GS_CALL(ray_hit(s, q.p, q.n, 0.5 * R, y, n, &ok));
-        if (!ok) {
-            /* Reach 4 R: a point of F' farther than R from N_k must still
-             * find N_k. With reach R it failed and the point stayed where
-             * it was while its neighbours (closer than R) were pulled onto
-             * N_k: the patch tore and the stranded points were left as
-             * specks 2-6 spacings off the surface, in rows along the seams
-             * (heightfield.ini: 337 of 815 speck points were such points). */
-            gs_points_mls_result r;
-            GS_CALL(gs_points_mls_project(s->out, R, 4 * R, q.p, &s->scratch, &r));
-            ok = r.ok;
-            memcpy(y, r.y, sizeof y);
-            memcpy(n, r.n, sizeof n);
-        }
-        if (ok) {
-            it->resid = sqrt(v3_dist2(y, q.p));
-            it->counted = 1;
-            if (!s->p.blend)
-                t = 0; /* measured, not blended */
-            for (int k = 0; k < 3; k++) {
-                q.p[k] = (1 - t) * q.p[k] + t * y[k];
-                q.n[k] = (1 - t) * q.n[k] + t * n[k];
-            }
-            if (v3_normalize(q.n) <= 0)
-                return GS_OK;
-            if (!in_xy(q.p, blo, bhi))
-                return GS_OK;
-        }
+        int found, keep;
+        GS_CALL(gs_points_blend_onto(s->out, R, s->p.ray_blend, s->p.blend, t, &s->scratch,
+                                     &s->scratch2, &q, &it->resid, &found, &keep));
+        it->counted = found;
+        if (!keep || (found && !in_xy(q.p, blo, bhi)))
+            return GS_OK;
     }
     it->q = q;
     it->keep = 1;

@@ -1,5 +1,6 @@
 /* Unit tests for the points synthesis loop: determinism by seed, exact
- * resume from a saved state, output density, metrics, parameter errors. */
+ * resume from a saved state, output density, metrics, parameter errors,
+ * the blend of an overlap strip across a step (issue #21). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -13,6 +14,7 @@
 #include "geosynth/digest.h"
 #include "geosynth/error.h"
 #include "geosynth/points.h"
+#include "points/points_impl.h"
 
 enum { IMG = 48 };
 static float image[IMG * IMG];
@@ -276,6 +278,96 @@ static void test_bad_parameters(void **state)
     gs_error_clear();
 }
 
+/* Union-find root with path halving (blend_bridges_a_step). */
+static size_t uf_root(size_t *up, size_t i)
+{
+    while (up[i] != i)
+        i = up[i] = up[up[i]];
+    return i;
+}
+
+/* The blend (gs_points_blend_onto, what the synthesis runs on each point
+ * of a patch F' in an overlap strip) across a step: N_k is the flat output
+ * z = 0 on a lattice of spacing h, F' the same lattice at z = 2 R over the
+ * strip x in [0, ow) (blend weight t = 1 - x / ow, as blend_weight gives for
+ * a left strip) and beyond. Every point of F' in the strip lies 2 R from
+ * N_k, past a projection reach of R (issue #21: with reach R those points
+ * stayed where they were, the patch tore off N_k and left rows of specks
+ * 2-6 spacings off the surface along the seams). Checks:
+ * - at the strip's outer edge (t >= 11/12) a blended point lies on N_k to
+ *   within (1 - t) 2 R <= 2 R / 12 = 0.5 h (R = 3 h), plus 0.5 h for the
+ *   MLS: 1 h; a stranded point is 2 R = 6 h off;
+ * - N_k and the blended F' are one connected component at the link
+ *   distance 1.5 h (lattice neighbours are h apart, diagonals 1.41 h, and
+ *   the blended ramp rises 2 R / ow = 0.5 per unit x, so neighbours stay
+ *   within 1.12 h; a gap of 2 R = 6 h is not linked). */
+static void test_blend_bridges_a_step(void **state)
+{
+    (void)state;
+    gs_points_params p = params; /* the synthesis' defaults (ray blend on) */
+    const double h = 0.06, R = p.mls_radius, ow = 12 * h, off = 2 * R;
+    assert_true(fabs(R - 3 * h) < 1e-12); /* the figures above assume R = 3 h */
+    enum { NX0 = -20, NX1 = 12, FX1 = 24, NY = 16 };
+    double lo[3] = {NX0 * h - R, -R, -R}, hi[3] = {FX1 * h + R, NY * h + R, off + R};
+    gs_points_grid_t g = NULL;
+    assert_int_equal(gs_points_grid_create(lo, hi, R, &g), GS_OK);
+    gs_points all = {0};
+    for (int j = 0; j < NY; j++)
+        for (int i = NX0; i < NX1; i++) {
+            gs_opoint q = {{i * h, j * h, 0}, {0, 0, 1}};
+            assert_int_equal(gs_points_grid_add(g, &q), GS_OK);
+            assert_int_equal(gs_points_append(&all, &q, 1), GS_OK);
+        }
+    size_t nk = all.n;
+    gs_points scratch = {0}, scratch2 = {0};
+    int stranded = 0, found_all = 1;
+    double worst = 0;
+    for (int j = 0; j < NY; j++)
+        for (int i = 0; i < FX1; i++) {
+            gs_opoint q = {{i * h, j * h, off}, {0, 0, 1}};
+            double t = 1 - q.p[0] / ow;
+            if (t > 0) {
+                double resid = 0;
+                int found = 0, keep = 0;
+                assert_int_equal(gs_points_blend_onto(g, R, p.ray_blend, p.blend, t, &scratch,
+                                                      &scratch2, &q, &resid, &found, &keep),
+                                 GS_OK);
+                assert_true(keep);
+                found_all &= found;
+                if (t >= 11.0 / 12 && fabs(q.p[2]) > h) {
+                    stranded++;
+                    worst = fmax(worst, fabs(q.p[2]));
+                }
+            }
+            assert_int_equal(gs_points_append(&all, &q, 1), GS_OK);
+        }
+    size_t n = all.n, *up = malloc(n * sizeof *up);
+    assert_non_null(up);
+    for (size_t i = 0; i < n; i++)
+        up[i] = i;
+    const double link = 1.5 * h;
+    for (size_t i = 0; i < n; i++)
+        for (size_t k = i + 1; k < n; k++)
+            if (v3_dist2(all.v[i].p, all.v[k].p) <= link * link)
+                up[uf_root(up, i)] = uf_root(up, k);
+    size_t ncomp = 0;
+    for (size_t i = 0; i < n; i++)
+        ncomp += uf_root(up, i) == i;
+    if (stranded || ncomp != 1 || !found_all)
+        print_message("blend across a 2 R step: %d outer-edge points of F' left > 1 spacing off "
+                      "N_k (worst %.3f = %.1f spacings), %zu components at link 1.5 spacings "
+                      "(N_k %zu + F' %zu points), every strip point found N_k: %d\n",
+                      stranded, worst, worst / h, ncomp, nk, n - nk, found_all);
+    assert_int_equal(stranded, 0);
+    assert_int_equal(ncomp, 1);
+    assert_true(found_all);
+    free(up);
+    gs_points_free(&all);
+    gs_points_free(&scratch);
+    gs_points_free(&scratch2);
+    gs_points_grid_destroy(&g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -284,6 +376,7 @@ int main(void)
         cmocka_unit_test(test_density_and_metrics),
         cmocka_unit_test(test_split_bank_matches_serial),
         cmocka_unit_test(test_bad_parameters),
+        cmocka_unit_test(test_blend_bridges_a_step),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
