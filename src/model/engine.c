@@ -705,6 +705,44 @@ static gs_err overlap3d_setup(model_engine *e)
     return GS_OK;
 }
 
+/* The rules are bit sets indexed by label id, sized by the largest id: one
+ * id 65534 in a 4x4x6 example asked for 4 GB of transition sets. Ids are
+ * not renumbered (outputs keep the example's ids), so a sparse set whose
+ * rules would take more than 64 MiB and more than 64 times what the labels
+ * present need with ids 1..k is refused here, naming the label and a cell
+ * holding it. */
+#define MODEL_SPARSE_RULES_MIB 64
+static gs_err check_label_ids(const char *path, const gs_model_lattice *ex)
+{
+    size_t n = lattice_cells(ex), at = 0;
+    uint8_t *seen = gs_calloc(65536, 1);
+    GS_CHECK(seen, GS_ERR_MEM, "label set: cannot allocate");
+    int maxl = 0, k = 0;
+    for (size_t i = 0; i < n; i++) {
+        int l = ex->labels[i];
+        if (!seen[l]) {
+            seen[l] = 1;
+            k++;
+        }
+        if (l > maxl) {
+            maxl = l;
+            at = i;
+        }
+    }
+    gs_free(seen);
+    double need = (double)(maxl + 1) * GS_MODEL_DIRS * (double)((maxl + 64) / 64) * 8;
+    double dense = (double)k * GS_MODEL_DIRS * (double)((k + 63) / 64) * 8;
+    if (need <= MODEL_SPARSE_RULES_MIB * 1048576.0 || need <= 64 * dense)
+        return GS_OK;
+    const size_t plane = (size_t)ex->nx * (size_t)ex->ny;
+    GS_RAISE(GS_ERR_FORMAT,
+             "%s: label %d (at x %zu y %zu z %zu) among %d distinct labels: rules are sized by "
+             "the largest label id, %.0f MiB here (more than %d MiB); renumber the labels "
+             "densely (1, 2, 3, ...; 0 stays empty)",
+             path, maxl, at % (size_t)ex->nx, at % plane / (size_t)ex->nx, at / plane, k,
+             need / 1048576.0, MODEL_SPARSE_RULES_MIB);
+}
+
 static gs_err load_inputs(gs_run *run, model_engine *e)
 {
     const model_config *c = e->cfg;
@@ -720,6 +758,20 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
             err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
                                  "model.size z = %lld: %s is a 2D tile set, expected z = 1",
                                  (long long)c->size[2], c->tileset);
+        /* tiles.png is assembled after the synthesis: refuse a picture the
+         * PNG writer cannot take before spending the synthesis on it (tile
+         * images are loaded on rank 0 only). */
+        if (!err && c->tileset[0] && e->ts.dim == 2 && c->tile_image && e->ts.pixels &&
+            (c->size[0] * e->ts.tile_w > GS_IMAGE_MAX_SIDE ||
+             c->size[1] * e->ts.tile_h > GS_IMAGE_MAX_SIDE))
+            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
+                                 "model.tile_image: model.size = %lldx%lld tiles of %s (%dx%d "
+                                 "pixels each) make a tiles.png of %lldx%lld pixels, more than "
+                                 "%d per side; set model.tile_image = false or a smaller "
+                                 "model.size",
+                                 (long long)c->size[0], (long long)c->size[1], c->tileset,
+                                 e->ts.tile_w, e->ts.tile_h, (long long)c->size[0] * e->ts.tile_w,
+                                 (long long)c->size[1] * e->ts.tile_h, GS_IMAGE_MAX_SIDE);
         GS_CALL(gs_par_agree(run->comm, err));
         GS_CALL(c->tileset[0] ? gs_model_tileset_rules(&e->ts, &e->rules)
                               : gs_model_patterns_rules(&e->pats, &e->rules));
@@ -727,6 +779,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
     } else {
         if (run->rank == 0)
             err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
+        if (run->rank == 0 && !err)
+            err = check_label_ids(c->example, &e->example);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
         GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
         if (c->overlap3d > 0)

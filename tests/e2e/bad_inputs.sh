@@ -26,6 +26,9 @@ printf 'ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty floa
 printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n0 0 0 0 0 1\n1 0 0 0 zero 1\n' >points.ply
 printf 'castle\nseed\nfree\n1024 1024 1000\n1 2 3\n' >huge.txt
 printf '1, 2, 3\n4, 5\n' >ragged.csv
+# a 4x4x2 lattice with one label id 65534 (rows are x, columns y): its rules,
+# sized by the largest id, took 4 GB of address space
+printf 'sparse\n\nx, y, and z extents\n4 4 2\n1 1 1 1\n1 1 1 1\n1 65534 1 1\n1 1 1 1\n2 2 2 2\n2 2 2 2\n2 2 2 2\n2 2 2 2\n' >sparse.txt
 printf '<set>\n<tiles>\n<tile name="a" symmetry="Z"/>\n</tiles>\n</set>\n' >badsym.xml
 printf 'bin,positive,negative\n0,0.5,0.5\n1,1.5,0.5\n' >badtable.csv
 $PY - <<'PYEOF'
@@ -45,6 +48,15 @@ open('dht.jpg', 'wb').write(bytes([0xFF, 0xD8, 0xFF, 0xC4, 0x00, 0x13, 0x00, 0xF
 open('text.vdb', 'wb').write(b'not a vdb file at all, just text\n' * 4)
 open('cut.vox', 'wb').write(b'VOX \x96\x00\x00\x00MAIN\x00\x00\x00\x00\xff\x00\x00\x00SIZE\x0c\x00\x00\x00')
 open('text.h5', 'w').write('this is not an HDF5 file\n')
+# a tile set whose one tile is 4096x4096 grey pixels: 17x17 tiles make a
+# tiles.png of 69632 pixels a side, past what the PNG writer takes (65536)
+import os
+os.makedirs('bigtile', exist_ok=True)
+raw = (b'\0' + b'\x80' * 4096) * 4096
+open('bigtile/a.png', 'wb').write(sig + chunk(b'IHDR', struct.pack('>IIBBBBB', 4096, 4096, 8, 0, 0, 0, 0))
+                                  + chunk(b'IDAT', zlib.compress(raw, 1)) + chunk(b'IEND', b''))
+open('bigtile.xml', 'w').write('<set>\n<tiles>\n<tile name="a" symmetry="X"/>\n</tiles>\n'
+                               '<neighbors>\n<neighbor left="a" right="a"/>\n</neighbors>\n</set>\n')
 PYEOF
 mkdir -p ckptdir && cp text.h5 ckptdir/checkpoint.h5
 printf '[field]\n' >ckptdir/start.ini
@@ -96,10 +108,19 @@ case_ "point-set PLY: a word for a number" 4 "points.ply|line 12" \
   --set "input.box_lo=0 0 0" --set "input.box_hi=1 1 1"
 case_ "Merrell .txt: extents the file cannot hold" 4 "huge.txt:4|1024 x 1024 x 1000" \
   model -c "$MQ" -o run-out --set model.example=huge.txt
+case_ "Merrell .txt: one label id 65534 among 3 labels" 4 "sparse.txt|label 65534 (at x 2 y 1 z 0)|renumber" \
+  model -c "$MQ" -o run-out --set model.example=sparse.txt
 case_ "DeBroglie .csv: ragged row" 4 "ragged.csv:2" \
   model -c "$MQ" -o run-out --set model.example=ragged.csv
 case_ "tile set XML: unknown symmetry" 4 "badsym.xml:3|symmetry" \
   model -c "$MQ" -o run-out --set model.example= --set model.tileset=badsym.xml --set model.size=8x8x1 --set model.region=8x8x1
+# refused at setup, before the synthesis: no lattice.h5 (it used to be
+# written, then tiles.png failed after the whole synthesis, no summary.json)
+case_ "tile set: tiles.png past 65536 pixels a side, refused before synthesis" 2 \
+  "model.tile_image|bigtile.xml|69632x69632|65536" \
+  model -c "$MQ" -o run-out --set model.example= --set model.tileset=bigtile.xml --set model.size=17x17x1 --set model.region=17x17x1
+[[ -e run-out/lattice.h5 ]] && bad "tile set: tiles.png past 65536 pixels: lattice.h5 written, the synthesis ran before the refusal" \
+  || ok "tile set: tiles.png past 65536 pixels: no lattice.h5, refused before the synthesis"
 case_ "micro CSV: probability above 1" 2 "badtable.csv:3|1.5" \
   micro -c "$UQ" -o run-out --set micro.dist=csv --set micro.table_csv=badtable.csv
 case_ "PNG height map: truncated" 4 "cut.png" \
