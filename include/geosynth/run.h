@@ -61,6 +61,9 @@ typedef struct gs_run {
     int failed_together;    /* set by an engine returning an error that every rank returned
                              * from the same collective (gs_par_agree): the CLI then ends
                              * the run collectively (rank 0 reports once), not by MPI_Abort */
+    int failed_alone;       /* set by an engine operation returning an error the other ranks may
+                             * not have returned (they may wait in a collective): the driver
+                             * ends every rank with MPI_Abort (include/geosynth/engine.h) */
 } gs_run;
 
 /* Collective. Creates dir (and parents) on rank 0, checks it is writable,

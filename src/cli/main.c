@@ -566,7 +566,7 @@ static gs_err run_engine(const gs_engine *e, const cli_args *a, const char *resu
     }
     if (!err) {
         *collective = 0; /* engine failures may be local to one rank */
-        err = e->run(&run, cfg, resume);
+        err = gs_engine_drive(e, &run, cfg, resume);
         if (err)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         if (err && run.failed_together)

@@ -945,206 +945,261 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
 
 /* ----------------------------------------------------------------- run */
 
-static gs_err field_run(gs_run *run, void *cfg_, int resume)
+/* ---- the run driver's operations (include/geosynth/engine.h) -------------- */
+
+typedef struct field_drive {
+    const field_config *c;
+    field_source src;
+    gs_field_synth_config sc;
+    gs_field_synth_t synth;
+    match_ctx ctx;
+    uint64_t src_digest;
+    gs_qfield *res;
+    gs_field *resf;
+    int64_t total;              /* blocks of every iteration */
+    /* this process's synthesis statistics (a resumed run: since the resume) */
+    int started;
+    double t0;
+    int64_t start_units;
+    int64_t region_colors, serial_colors;
+    region_times rt;
+    double t_setup, t_order;
+    unsigned long long tree_peak; /* bytes: this rank's tree + pyramid */
+} field_drive;
+
+static gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
+                             gs_json *phase)
 {
     const field_config *c = cfg_;
+    field_drive *d = gs_calloc(1, sizeof *d);
+    GS_CHECK(d != NULL, GS_ERR_MEM, "field: out of memory for the run state");
+    *state = d;
+    d->c = c;
+    d->ctx.ps_iteration = -1;
     /* the source's mesh: copied.ply, and the left panel of preview.png (a
      * height map's preview with output.geometry = contour showed an empty
      * source panel) */
     int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both") || c->preview;
-    field_source src;
-    memset(&src, 0, sizeof src);
-    gs_field_synth_t synth = NULL;
-    match_ctx ctx;
-    memset(&ctx, 0, sizeof ctx);
-    ctx.ps_iteration = -1;
-    gs_qfield *res = NULL;
-    gs_field *resf = NULL;
     gs_err err = GS_OK;
-    char js[1024];
-
-    gs_run_phase_begin(run, "setup");
-    GS_TRY(err, build_source(run, c, want_mesh, &src), done);
-    const gs_qfield *q = src.q;
-    uint64_t src_digest = gs_digest_bytes(q->q, (size_t)(q->nx * q->ny * q->nz));
-    gs_field_synth_config sc;
-    gs_field_synth_config_default(&sc, q);
-    sc.iterations = (int)c->iterations;
-    for (int i = 0; i < sc.iterations; i++)
-        sc.block[i] = (int)(i == sc.iterations - 1 ? c->block : c->coarse_block);
-    memcpy(sc.target, c->target, sizeof sc.target);
-    sc.seed = (uint64_t)c->run.seed;
-    sc.mask_unsynthesized = c->mask_unsynthesized;
-    sc.seed_weight = (int)lround(c->seed_weight * 256);
-    if (c->seed_weight > 0 && sc.seed_weight < 1)
-        sc.seed_weight = 1;
-    sc.coarse_weight = (int)lround(c->coarse_weight * 256);
-    if (c->coarse_weight > 0 && sc.coarse_weight < 1)
-        sc.coarse_weight = 1;
-    sc.seed_blocks = c->seed_blocks;
-    sc.use_upper_bound = c->upper_bound;
-    sc.copy_limit = c->copy_limit;
-    sc.blend = (int)c->blend;
-    sc.region_blocks = (int)c->region_blocks;
-    ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;
-    if (ctx.sharded)
-        sc.tree_shards = run->size, sc.tree_shard = run->rank;
-    sc.match = match_block;
-    sc.match_ctx = &ctx;
-    ctx.run = run;
-    memcpy(ctx.target, c->target, sizeof ctx.target);
+    GS_CALL(build_source(run, c, want_mesh, &d->src));
+    const gs_qfield *q = d->src.q;
+    d->src_digest = gs_digest_bytes(q->q, (size_t)(q->nx * q->ny * q->nz));
+    gs_field_synth_config_default(&d->sc, q);
+    d->sc.iterations = (int)c->iterations;
+    for (int i = 0; i < d->sc.iterations; i++)
+        d->sc.block[i] = (int)(i == d->sc.iterations - 1 ? c->block : c->coarse_block);
+    memcpy(d->sc.target, c->target, sizeof d->sc.target);
+    d->sc.seed = (uint64_t)c->run.seed;
+    d->sc.mask_unsynthesized = c->mask_unsynthesized;
+    d->sc.seed_weight = (int)lround(c->seed_weight * 256);
+    if (c->seed_weight > 0 && d->sc.seed_weight < 1)
+        d->sc.seed_weight = 1;
+    d->sc.coarse_weight = (int)lround(c->coarse_weight * 256);
+    if (c->coarse_weight > 0 && d->sc.coarse_weight < 1)
+        d->sc.coarse_weight = 1;
+    d->sc.seed_blocks = c->seed_blocks;
+    d->sc.use_upper_bound = c->upper_bound;
+    d->sc.copy_limit = c->copy_limit;
+    d->sc.blend = (int)c->blend;
+    d->sc.region_blocks = (int)c->region_blocks;
+    d->ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;
+    if (d->ctx.sharded)
+        d->sc.tree_shards = run->size, d->sc.tree_shard = run->rank;
+    d->sc.match = match_block;
+    d->sc.match_ctx = &d->ctx;
+    d->ctx.run = run;
+    memcpy(d->ctx.target, c->target, sizeof d->ctx.target);
     int64_t nt = c->target[0] * c->target[1] * c->target[2];
     int L = 0;
     while ((1 << L) < c->block)
         L++;
     double ns = (double)(q->nx * q->ny * q->nz);
     /* source + (tree slab copy, pyramid 8L, nodes ~20) per sample of the tree's share */
-    double share = ctx.sharded ? 1.0 / run->size + (double)c->block / (double)q->nz : 1.0;
+    double share = d->ctx.sharded ? 1.0 / run->size + (double)c->block / (double)q->nz : 1.0;
     double est = ns + ns * (share < 1 ? share : 1) * (1 + 8.0 * L + 20.0) + (double)nt * (2 + 4);
     if (run->rank == 0) {
-        gs_log(GS_LOG_INFO, "example: %s", src.desc);
+        gs_log(GS_LOG_INFO, "example: %s", d->src.desc);
         gs_log(GS_LOG_INFO, "source: %lldx%lldx%lld samples, spacing %g, quantized over [%g, %g]",
                (long long)q->nx, (long long)q->ny, (long long)q->nz, q->spacing, q->lo, q->hi);
         gs_log(GS_LOG_INFO, "target: %lldx%lldx%lld, %d iterations, blocks %d..%d, %s matching",
                (long long)c->target[0], (long long)c->target[1], (long long)c->target[2],
-               sc.iterations, sc.block[0], sc.block[sc.iterations - 1],
+               d->sc.iterations, d->sc.block[0], d->sc.block[d->sc.iterations - 1],
                c->mask_unsynthesized ? "masked" : "whole-block (paper)");
         if (c->mask_unsynthesized)
             gs_log(GS_LOG_INFO, "unsynthesized samples weigh %d/256 (seeds, iteration 0) and "
                                 "%d/256 (upsampled coarse result), iteration 0 seeded with "
-                                "random %s", sc.seed_weight, sc.coarse_weight,
-                   sc.seed_blocks ? "blocks" : "samples");
+                                "random %s", d->sc.seed_weight, d->sc.coarse_weight,
+                   d->sc.seed_blocks ? "blocks" : "samples");
         gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (source, pyramid, tree, target, "
                             "mask, provenance)%s", est / 1048576.0,
-               ctx.sharded ? "; tree and pyramid sharded over the ranks" : "");
+               d->ctx.sharded ? "; tree and pyramid sharded over the ranks" : "");
     }
-    GS_TRY(err, gs_run_check_memory(run, est, "field.target (or field.block)"), done);
-    GS_TRY(err, gs_alloc_array((void **)&ctx.prov, (size_t)nt, sizeof *ctx.prov, "provenance map"), done);
+    GS_CALL(gs_run_check_memory(run, est, "field.target (or field.block)"));
+    GS_CALL(gs_alloc_array((void **)&d->ctx.prov, (size_t)nt, sizeof *d->ctx.prov,
+                           "provenance map"));
     for (int64_t i = 0; i < nt; i++)
-        ctx.prov[i] = -1;
-    sc.prov = ctx.prov;
-    if (resume)
-        err = read_checkpoint(run, q, &sc, &ctx, src_digest, &synth);
-    else
-        err = gs_field_synth_create(q, &sc, &synth);
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    ctx.synth = synth;
-    const gs_field_synth_state *st = gs_field_synth_get_state(synth);
-    snprintf(js, sizeof js,
-             "{\"source\":[%lld,%lld,%lld],\"target\":[%lld,%lld,%lld],\"resumed_at_units\":%lld}",
-             (long long)q->nx, (long long)q->ny, (long long)q->nz, (long long)c->target[0],
-             (long long)c->target[1], (long long)c->target[2], (long long)units_done(st));
-    GS_TRY(err, gs_run_phase_end(run, js), done);
-
-    gs_run_phase_begin(run, "synthesis");
-    int64_t total = 0;
-    for (int i = 0; i < sc.iterations; i++) {
-        int64_t f = (int64_t)1 << (sc.iterations - 1 - i), cnt = 1;
+        d->ctx.prov[i] = -1;
+    d->sc.prov = d->ctx.prov;
+    if (!resume) /* a resumed run's synthesis comes from the checkpoint (field_restore) */
+        err = gs_field_synth_create(q, &d->sc, &d->synth);
+    GS_CALL(gs_par_agree(run->comm, err));
+    d->ctx.synth = d->synth;
+    for (int i = 0; i < d->sc.iterations; i++) {
+        int64_t f = (int64_t)1 << (d->sc.iterations - 1 - i), cnt = 1;
         for (int a = 0; a < 3; a++) {
-            int64_t T = c->target[a] / f, B = sc.block[i], np = 1;
+            int64_t T = c->target[a] / f, B = d->sc.block[i], np = 1;
             for (int64_t p = 0; p + B < T; p += B / 2)
                 np++;
             cnt *= np;
         }
-        total += cnt;
+        d->total += cnt;
     }
-    gs_progress prog;
-    gs_progress_begin(&prog, "blocks", (uint64_t)total);
-    int finished = st->iteration >= sc.iterations;
-    double t0 = gs_time_now();
-    int64_t start_units = units_done(st);
-    int64_t region_colors = 0, serial_colors = 0;
-    region_times rt = {0};
-    double t_setup = 0, t_order = 0;
-    unsigned long long tree_peak = 0, tree_peak_max = 0; /* bytes: this rank's tree + pyramid */
-    while (!finished) {
-        int64_t begin, end, r0, nr;
-        const gs_field_region *regs;
-        double ta = gs_time_now();
-        GS_TRY(err, gs_field_synth_color(synth, &begin, &end, &regs, &r0, &nr, &finished), done);
-        double tb = gs_time_now();
-        t_setup += tb - ta; /* a new iteration: level source, tree */
-        if (finished)
-            break;
-        st = gs_field_synth_get_state(synth);
-        gs_field_tree_t tr = gs_field_synth_tree(synth);
-        if (tr) {
-            gs_field_tree_info ti;
-            gs_field_tree_get_info(tr, &ti);
-            if (ti.tree_bytes + ti.pyramid_bytes > tree_peak)
-                tree_peak = ti.tree_bytes + ti.pyramid_bytes;
-        }
-        if (run->size > 1 && nr >= run->size && st->cursor == begin && !ctx.sharded) {
-            /* a color with a region for every rank: regions in parallel */
-            GS_TRY(err, run_color_regions(run, synth, r0, nr, &rt), done);
-            region_colors++;
-        } else {
-            /* one region (or fewer than ranks, or a color resumed in its
-             * middle): the color's blocks in order, each query spread over
-             * the ranks. Batches: the checkpoint test is a collective, and
-             * most blocks take microseconds (identical batches on every rank) */
-            int64_t left = end - st->cursor, n = left < FIELD_UNIT_BATCH ? left : FIELD_UNIT_BATCH;
-            GS_TRY(err, gs_field_synth_run(synth, n, &finished), done);
-            serial_colors += n == left;
-            t_order += gs_time_now() - tb;
-        }
-        st = gs_field_synth_get_state(synth);
-        finished = finished || synth_finished(st, sc.iterations);
-        int64_t u = units_done(st);
-        gs_progress_update(&prog, (uint64_t)u);
-        int stop = 0;
-        if (!finished && gs_run_checkpoint_due(run, u, &stop)) {
-            GS_TRY(err, write_checkpoint(run, &ctx, src_digest), done);
-            if (stop) {
-                gs_progress_end(&prog);
-                err = gs_run_interrupted(run);
-                goto done;
-            }
-        }
+    gs_json_begin_array(phase, "source");
+    gs_json_i64(phase, NULL, q->nx);
+    gs_json_i64(phase, NULL, q->ny);
+    gs_json_i64(phase, NULL, q->nz);
+    gs_json_end_array(phase);
+    gs_json_begin_array(phase, "target");
+    for (int a = 0; a < 3; a++)
+        gs_json_i64(phase, NULL, c->target[a]);
+    gs_json_end_array(phase);
+    return GS_OK;
+}
+
+static gs_err field_restore(void *state, gs_run *run)
+{
+    field_drive *d = state;
+    gs_err err = read_checkpoint(run, d->src.q, &d->sc, &d->ctx, d->src_digest, &d->synth);
+    GS_CALL(gs_par_agree(run->comm, err));
+    d->ctx.synth = d->synth;
+    return GS_OK;
+}
+
+static void field_units(const void *state, int64_t *done, int64_t *total)
+{
+    const field_drive *d = state;
+    const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
+    *done = units_done(st);
+    *total = *done > d->total ? *done : d->total;
+}
+
+/* One colour's regions in parallel, or up to FIELD_UNIT_BATCH blocks of a
+ * colour in order (each query spread over the ranks). */
+static gs_err field_advance(void *state, gs_run *run, int *finished)
+{
+    field_drive *d = state;
+    const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
+    if (!d->started) {
+        d->started = 1;
+        d->t0 = gs_time_now();
+        d->start_units = units_done(st);
     }
-    gs_progress_end(&prog);
-    st = gs_field_synth_get_state(synth);
-    double syn_s = gs_time_now() - t0;
-    GS_TRY(err, max_over_ranks(run, tree_peak, &tree_peak_max), done);
-    unsigned long long pops_max = 0;
-    GS_TRY(err, max_over_ranks(run, ctx.pops, &pops_max), done);
+    *finished = st->iteration >= d->sc.iterations;
+    if (*finished)
+        return GS_OK;
+    int64_t begin, end, r0, nr;
+    const gs_field_region *regs;
+    double ta = gs_time_now();
+    GS_CALL(gs_field_synth_color(d->synth, &begin, &end, &regs, &r0, &nr, finished));
+    double tb = gs_time_now();
+    d->t_setup += tb - ta; /* a new iteration: level source, tree */
+    if (*finished)
+        return GS_OK;
+    st = gs_field_synth_get_state(d->synth);
+    gs_field_tree_t tr = gs_field_synth_tree(d->synth);
+    if (tr) {
+        gs_field_tree_info ti;
+        gs_field_tree_get_info(tr, &ti);
+        if (ti.tree_bytes + ti.pyramid_bytes > d->tree_peak)
+            d->tree_peak = ti.tree_bytes + ti.pyramid_bytes;
+    }
+    if (run->size > 1 && nr >= run->size && st->cursor == begin && !d->ctx.sharded) {
+        /* a color with a region for every rank: regions in parallel */
+        GS_CALL(run_color_regions(run, d->synth, r0, nr, &d->rt));
+        d->region_colors++;
+    } else {
+        /* one region (or fewer than ranks, or a color resumed in its
+         * middle): the color's blocks in order, each query spread over
+         * the ranks. Batches: the checkpoint test is a collective, and
+         * most blocks take microseconds (identical batches on every rank) */
+        int64_t left = end - st->cursor, n = left < FIELD_UNIT_BATCH ? left : FIELD_UNIT_BATCH;
+        GS_CALL(gs_field_synth_run(d->synth, n, finished));
+        d->serial_colors += n == left;
+        d->t_order += gs_time_now() - tb;
+    }
+    st = gs_field_synth_get_state(d->synth);
+    *finished = *finished || synth_finished(st, d->sc.iterations);
+    return GS_OK;
+}
+
+static gs_err field_save(void *state, gs_run *run)
+{
+    field_drive *d = state;
+    return write_checkpoint(run, &d->ctx, d->src_digest);
+}
+
+static gs_err field_synthesis_report(void *state, gs_run *run, gs_json *phase)
+{
+    field_drive *d = state;
+    const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
+    double syn_s = d->started ? gs_time_now() - d->t0 : 0;
+    unsigned long long tree_peak_max = 0, pops_max = 0;
+    GS_CALL(max_over_ranks(run, d->tree_peak, &tree_peak_max));
+    GS_CALL(max_over_ranks(run, d->ctx.pops, &pops_max));
     if (run->rank == 0) {
         gs_log(GS_LOG_INFO, "search tree + pyramid per rank: %.1f MiB (largest rank), %s",
-               (double)tree_peak_max / 1048576.0, ctx.sharded ? "sharded" : "whole");
+               (double)tree_peak_max / 1048576.0, d->ctx.sharded ? "sharded" : "whole");
         gs_run_metric_i64(run, "tree_bytes_rank_max", (int64_t)tree_peak_max);
     }
-    snprintf(js, sizeof js, "{\"tree\":\"%s\",\"tree_bytes_rank_max\":%llu,\"blocks\":%lld,\"blocks_this_run\":%lld,\"blocks_per_second\":%.3f,"
-             "\"colors_in_regions\":%lld,\"colors_in_order\":%lld,"
-             "\"rank0_seconds\":{\"iteration_setup\":%.3f,\"in_order\":%.3f,"
-             "\"regions_compute\":%.3f,\"regions_wait\":%.3f,\"regions_exchange\":%.3f,"
-             "\"regions_apply\":%.3f},\"rank0_regions\":%lld,"
-             "\"queries_local\":%lld,\"queries_spread\":%lld,\"search_pops_rank_max\":%llu}",
-             ctx.sharded ? "sharded" : "whole", tree_peak_max,
-             (long long)units_done(st), (long long)(units_done(st) - start_units),
-             syn_s > 0 ? (double)(units_done(st) - start_units) / syn_s : 0.0,
-             (long long)region_colors, (long long)serial_colors, t_setup, t_order, rt.compute,
-             rt.wait, rt.exchange, rt.apply, (long long)rt.regions, (long long)ctx.local_queries, (long long)(run->size > 1 ? ctx.queries - ctx.local_queries : 0),
-             pops_max);
-    GS_TRY(err, gs_run_phase_end(run, js), done);
+    const int64_t u = units_done(st), here = u - (d->started ? d->start_units : u);
+    gs_json_str(phase, "tree", d->ctx.sharded ? "sharded" : "whole");
+    gs_json_u64(phase, "tree_bytes_rank_max", tree_peak_max);
+    gs_json_i64(phase, "blocks", u);
+    gs_json_i64(phase, "blocks_this_run", here);
+    gs_json_f64(phase, "blocks_per_second", syn_s > 0 ? (double)here / syn_s : 0.0);
+    gs_json_i64(phase, "colors_in_regions", d->region_colors);
+    gs_json_i64(phase, "colors_in_order", d->serial_colors);
+    gs_json_begin_object(phase, "rank0_seconds");
+    gs_json_f64(phase, "iteration_setup", d->t_setup);
+    gs_json_f64(phase, "in_order", d->t_order);
+    gs_json_f64(phase, "regions_compute", d->rt.compute);
+    gs_json_f64(phase, "regions_wait", d->rt.wait);
+    gs_json_f64(phase, "regions_exchange", d->rt.exchange);
+    gs_json_f64(phase, "regions_apply", d->rt.apply);
+    gs_json_end_object(phase);
+    gs_json_i64(phase, "rank0_regions", d->rt.regions);
+    gs_json_i64(phase, "queries_local", d->ctx.local_queries);
+    gs_json_i64(phase, "queries_spread", run->size > 1 ? d->ctx.queries - d->ctx.local_queries : 0);
+    gs_json_u64(phase, "search_pops_rank_max", pops_max);
+    return GS_OK;
+}
 
-    gs_run_phase_begin(run, "output");
-    GS_TRY(err, gs_field_synth_result(synth, &res), done);
-    res->spacing = q->spacing;
-    GS_TRY(err, gs_qfield_dequantize(res, &resf), done);
-    uint64_t digest = gs_digest_bytes(res->q, (size_t)(res->nx * res->ny * res->nz));
+/* The result, redistanced (rank 0, broadcast), field.h5, the quality
+ * measures with the distributed matcher, the meshes and pictures (rank 0). */
+static gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest_out)
+{
+    field_drive *d = state;
+    const field_config *c = d->c;
+    const gs_qfield *q = d->src.q;
+    const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_field_synth_result(d->synth, &d->res), fail);
+    d->res->spacing = q->spacing;
+    GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
+    uint64_t digest = gs_digest_bytes(d->res->q, (size_t)(d->res->nx * d->res->ny * d->res->nz));
     double step_synth = 0, step_redist = 0, t_redist = gs_time_now();
     if (run->rank == 0) {
-        int64_t rn[3] = {resf->nx, resf->ny, resf->nz};
-        step_synth = gs_field_step_violations(resf->v, rn, resf->spacing, 1.5);
-        err = redistance_rank0(run, c, resf);
-        step_redist = gs_field_step_violations(resf->v, rn, resf->spacing, 1.5);
+        int64_t rn[3] = {d->resf->nx, d->resf->ny, d->resf->nz};
+        step_synth = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
+        err = redistance_rank0(run, c, d->resf);
+        step_redist = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
     }
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    GS_TRY(err, gs_par_bcast_bytes(run->comm, resf->v,
-                                   (size_t)(resf->nx * resf->ny * resf->nz) * sizeof *resf->v, 0),
-           done);
+    GS_TRY(err, gs_par_agree(run->comm, err), fail);
+    GS_TRY(err, gs_par_bcast_bytes(run->comm, d->resf->v,
+                                   (size_t)(d->resf->nx * d->resf->ny * d->resf->nz) * sizeof *d->resf->v, 0),
+           fail);
     t_redist = gs_time_now() - t_redist;
-    GS_TRY(err, write_field_h5(run, res, resf, q), done);
+    GS_TRY(err, write_field_h5(run, d->res, d->resf, q), fail);
     /* quality: coherence needs the nearest source block of every output
      * block; every rank runs the measure with the distributed matcher of
      * the synthesis (match_block): sharded, each rank searches its slab of
@@ -1155,36 +1210,33 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
     memset(&qm, 0, sizeof qm);
     gs_err qerr = GS_OK;
     double tq = gs_time_now();
-    qerr = gs_field_tree_build_shard(q, (int)c->block, ctx.sharded ? run->size : 1, run->rank,
-                                     &ctx.qtree);
-    if (!qerr && ctx.qtree)
-        qerr = gs_field_searcher_create(ctx.qtree, &ctx.qsearcher);
-    GS_TRY(err, gs_par_agree(run->comm, qerr), done);
-    GS_TRY(err, gs_field_quality_measure_with(res, q, (int)c->block, quality_match, &ctx, &qm), done);
+    qerr = gs_field_tree_build_shard(q, (int)c->block, d->ctx.sharded ? run->size : 1, run->rank,
+                                     &d->ctx.qtree);
+    if (!qerr && d->ctx.qtree)
+        qerr = gs_field_searcher_create(d->ctx.qtree, &d->ctx.qsearcher);
+    GS_TRY(err, gs_par_agree(run->comm, qerr), fail);
+    GS_TRY(err, gs_field_quality_measure_with(d->res, q, (int)c->block, quality_match, &d->ctx, &qm), fail);
     double quality_s = gs_time_now() - tq;
-    gs_json pm;
-    gs_json_init(&pm);
-    gs_json_begin_object(&pm, NULL);
     gs_err lerr = GS_OK;
     if (run->rank == 0) {
         double tg = gs_time_now();
-        lerr = write_geometry_rank0(run, c, &src, resf, ctx.prov, &pm);
+        lerr = write_geometry_rank0(run, c, &d->src, d->resf, d->ctx.prov, phase);
         if (!lerr && is_heightmap_example(c)) {
             /* Figure 7c: the synthesized height map as the example was read */
             char hp[PATH_MAX];
             gs_run_path(run, "heightmap.png", hp, sizeof hp);
-            lerr = gs_field_write_heightmap(resf, ((double)c->depth - c->height) / 2, c->height, hp);
+            lerr = gs_field_write_heightmap(d->resf, ((double)c->depth - c->height) / 2, c->height, hp);
             if (!lerr)
                 gs_run_output(run, "image", "heightmap", "heightmap.png", NULL);
         }
-        gs_json_f64(&pm, "geometry_seconds", gs_time_now() - tg);
-        gs_json_f64(&pm, "redistance_seconds", t_redist);
+        gs_json_f64(phase, "geometry_seconds", gs_time_now() - tg);
+        gs_json_f64(phase, "redistance_seconds", t_redist);
         gs_run_metric_f64(run, "step_violations_synthesized", step_synth);
         gs_run_metric_f64(run, "step_violations_redistanced", step_redist);
         gs_log(GS_LOG_INFO, "redistanced into a level set (%.2f s): steps > 1.5 samples between "
                             "neighbours %.4f -> %.4f", t_redist, step_synth, step_redist);
         /* quality of the output against the source */
-        for (int i = 0; i < sc.iterations; i++) {
+        for (int i = 0; i < d->sc.iterations; i++) {
             char k[64];
             double mean = st->stat_count[i] ? st->stat_sum[i] / (double)st->stat_count[i] : 0;
             snprintf(k, sizeof k, "match_mean_it%d", i);
@@ -1203,7 +1255,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             snprintf(k, sizeof k, "match_pushes_it%d", i);
             gs_run_metric_i64(run, k, (int64_t)st->stat_pushes[i]);
         }
-        int last = sc.iterations - 1;
+        int last = d->sc.iterations - 1;
         gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
         /* coarse guidance: share of the copied samples whose sign differs
          * from the upsampled coarse result they replace, over the share
@@ -1214,7 +1266,7 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
             for (int64_t i = 0; i < nq; i++)
                 in += gs_qfield_value(q, q->q[i]) < 0;
             double v = (double)in / (double)nq, unrelated = 2 * v * (1 - v), worst = 0;
-            for (int i = 1; i < sc.iterations; i++) {
+            for (int i = 1; i < d->sc.iterations; i++) {
                 char k[64];
                 double dep = st->stat_coarse_n[i] && unrelated > 0
                                  ? (double)st->stat_coarse_flips[i] / (double)st->stat_coarse_n[i] /
@@ -1229,11 +1281,11 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
         }
         gs_field_geometry_report gr;
         if (!lerr)
-            lerr = gs_field_geometry_measure(res, q, (int)c->block, &gr);
+            lerr = gs_field_geometry_measure(d->res, q, (int)c->block, &gr);
         if (!lerr)
-            report_geometry(run, &gr, &pm);
+            report_geometry(run, &gr, phase);
         /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
-        gs_json_f64(&pm, "quality_seconds", quality_s);
+        gs_json_f64(phase, "quality_seconds", quality_s);
         if (!lerr) {
             gs_run_metric_f64(run, "volume_fraction_out", qm.volume_fraction_out);
             gs_run_metric_f64(run, "volume_fraction_src", qm.volume_fraction_src);
@@ -1253,25 +1305,38 @@ static gs_err field_run(gs_run *run, void *cfg_, int resume)
                    gs_time_now() - tq);
         }
     }
-    gs_json_end_object(&pm);
     err = gs_par_agree(run->comm, lerr);
-    if (!err)
-        err = gs_run_phase_end(run, pm.buf ? pm.buf : "{}");
-    gs_json_free(&pm);
-    if (err)
-        goto done;
-    GS_TRY(err, gs_run_finish(run, digest), done);
-done:
-    gs_field_searcher_destroy(&ctx.qsearcher);
-    gs_field_tree_destroy(&ctx.qtree);
-    gs_psearch_destroy(&ctx.ps);
-    gs_field_synth_destroy(&synth);
-    gs_free(ctx.prov);
-    gs_qfield_destroy(&res);
-    gs_field_destroy(&resf);
-    source_free(&src);
+    *digest_out = digest;
+fail:
     return err;
 }
+
+static void field_destroy(void *state)
+{
+    field_drive *d = state;
+    if (!d)
+        return;
+    gs_field_searcher_destroy(&d->ctx.qsearcher);
+    gs_field_tree_destroy(&d->ctx.qtree);
+    gs_psearch_destroy(&d->ctx.ps);
+    gs_field_synth_destroy(&d->synth);
+    gs_free(d->ctx.prov);
+    gs_qfield_destroy(&d->res);
+    gs_field_destroy(&d->resf);
+    source_free(&d->src);
+    gs_free(d);
+}
+
+static const gs_engine_ops field_ops = {
+    .setup = field_setup_op,
+    .restore = field_restore,
+    .units = field_units,
+    .advance = field_advance,
+    .save = field_save,
+    .synthesis_report = field_synthesis_report,
+    .output = field_output_op,
+    .destroy = field_destroy,
+};
 
 const gs_engine gs_engine_field = {
     "field",
@@ -1280,5 +1345,5 @@ const gs_engine gs_engine_field = {
     &field_table,
     sizeof(field_config),
     offsetof(field_config, run),
-    field_run,
+    &field_ops,
 };

@@ -1,8 +1,10 @@
 /* The micro engine: stochastic microgeometry (Schroeder et al.) as a
  * geosynth subcommand,
  *     mpirun -np N geosynth micro -c configs/micro/X.ini
- * This file is the driver (phases, rounds, checkpoints, the summary). The
- * folder: engine_config.c (keys, `geosynth micro --help`, validation),
+ * This file holds the engine's operations for the run driver
+ * (include/geosynth/engine.h, src/run/driver.c, which owns the phases,
+ * checkpoint cadence, signals and the summary): set-up, restore, one
+ * reconstruction round per advance, save, output. The folder: engine_config.c (keys, `geosynth micro --help`, validation),
  * engine_setup.c (inputs read on rank 0 and broadcast), engine_state.c
  * (reconstruction slices, checkpoints), engine_output.c (the output pass,
  * files, JSON), engine_queue.c (the work queue of every pass),
@@ -220,131 +222,164 @@ static gs_err report_results(micro_job *job, gs_json *phase)
     return GS_OK;
 }
 
-static gs_err end_phase(gs_run *run, gs_json *j)
-{
-    gs_json_end_object(j);
-    gs_err err = gs_run_phase_end(run, j->failed ? NULL : j->buf);
-    gs_json_free(j);
-    GS_CALL(err);
-    return GS_OK;
-}
+/* The driver's state (include/geosynth/engine.h): the job, the work queue
+ * of the reconstruction rounds and the round counters. */
+typedef struct micro_drive {
+    micro_job job;
+    gs_regions_t queue; /* the rounds' queue, from the first advance to the report */
+    int64_t round;      /* rounds done, including before a resume */
+    int64_t rounds_here;
+} micro_drive;
 
-static gs_err micro_run(gs_run *run, void *vcfg, int resume)
+/* micro.explore.enable: the gallery, a run of many short complete runs
+ * without checkpoints (engine_explore.c). */
+static gs_err micro_whole(gs_run *run, const void *vcfg, int resume, int *handled)
 {
     const micro_config *cfg = vcfg;
-    micro_job job;
-    memset(&job, 0, sizeof job);
-    job.run = run;
-    job.cfg = cfg;
-    if (cfg->explore) {
-        GS_CHECK(!resume, GS_ERR_ARG, "%s: a gallery run (micro.explore.enable) keeps no "
-                 "checkpoint; run it again (each candidate is a short, complete run)", run->dir);
-        GS_CALL(micro_explore_run(run, cfg));
+    *handled = cfg->explore;
+    if (!cfg->explore)
         return GS_OK;
-    }
-    gs_regions_t queue = NULL;
-    gs_err err = GS_OK;
-    gs_json pj;
-    gs_json_init(&pj);
+    GS_CHECK(!resume, GS_ERR_ARG, "%s: a gallery run (micro.explore.enable) keeps no "
+             "checkpoint; run it again (each candidate is a short, complete run)", run->dir);
+    return micro_explore_run(run, cfg);
+}
+
+static gs_err micro_setup_op(gs_run *run, const void *vcfg, int resume, void **state,
+                             gs_json *phase)
+{
+    const micro_config *cfg = vcfg;
+    micro_drive *d = gs_calloc(1, sizeof *d);
+    GS_CHECK(d != NULL, GS_ERR_MEM, "micro: out of memory for the run state");
+    *state = d;
+    d->job.run = run;
+    d->job.cfg = cfg;
     gs_log(GS_LOG_INFO, "surface: %s%s%s; distribution: %s; u = %g, max edge %g units; %lld "
            "instance%s per mesh",
            cfg->shape, set(cfg->mesh) ? " " : "", set(cfg->mesh) ? cfg->mesh
                                                                 : set(cfg->mesh_list) ? cfg->mesh_list : "",
            cfg->dist, cfg->scale_units, cfg->max_edge, (long long)cfg->instances,
            cfg->instances > 1 ? "s" : "");
+    GS_CALL(micro_setup(&d->job));
+    log_inputs(&d->job);
+    gs_json_i64(phase, "meshes", d->job.nmeshes);
+    gs_json_i64(phase, "instances", d->job.ninst);
+    gs_json_i64(phase, "units_total", micro_units_total(&d->job));
+    return GS_OK;
+}
 
-    gs_run_phase_begin(run, "setup");
-    GS_TRY(err, micro_setup(&job), done);
-    log_inputs(&job);
-    gs_json_begin_object(&pj, NULL);
-    gs_json_i64(&pj, "meshes", job.nmeshes);
-    gs_json_i64(&pj, "instances", job.ninst);
-    gs_json_i64(&pj, "units_total", micro_units_total(&job));
-    GS_TRY(err, end_phase(run, &pj), done);
+static gs_err micro_restore(void *state, gs_run *run)
+{
+    micro_drive *d = state;
+    GS_CALL(micro_ckpt_read(&d->job, &d->round));
+    gs_log(GS_LOG_INFO, "resumed after round %lld: %lld of %lld steps done", (long long)d->round,
+           (long long)micro_units_done(&d->job), (long long)micro_units_total(&d->job));
+    return GS_OK;
+}
 
-    gs_run_phase_begin(run, "synthesis");
-    int64_t round = 0;
-    if (resume) {
-        GS_TRY(err, micro_ckpt_read(&job, &round), done);
-        gs_log(GS_LOG_INFO, "resumed after round %lld: %lld of %lld steps done", (long long)round,
-               (long long)micro_units_done(&job), (long long)micro_units_total(&job));
-    }
-    /* No checkpoint before the first due one (there used to be a small one
-     * here, so every finished micro run left checkpoint.h5 behind while the
-     * other engines' short runs left none): a run killed before its first
-     * checkpoint restarts from start.ini (geosynth resume), like the others. */
-    GS_TRY(err, micro_queue_create(run->comm, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_QUEUE,
-                                   &queue),
-           done);
-    int64_t units = micro_units_done(&job), total = micro_units_total(&job);
-    int64_t rounds_here = 0;
-    gs_progress prog;
-    gs_progress_begin(&prog, "reconstruction", (uint64_t)total);
-    gs_progress_update(&prog, (uint64_t)units);
-    while (units < total) {
-        GS_TRY(err, gs_regions_run_pass(queue, (int)(round & 0x3fffffff), micro_slice_run,
-                                        micro_slice_apply, &job),
-               done);
-        round++;
-        rounds_here++;
-        units = micro_units_done(&job);
-        gs_progress_update(&prog, (uint64_t)units);
-        int stop = 0;
-        if (gs_run_checkpoint_due(run, units, &stop))
-            GS_TRY(err, micro_ckpt_write(&job, units, round), done);
-        if (stop) {
-            gs_progress_end(&prog);
-            err = gs_run_interrupted(run);
-            goto done;
-        }
-    }
-    gs_progress_end(&prog);
+static void micro_units(const void *state, int64_t *done, int64_t *total)
+{
+    const micro_drive *d = state;
+    *done = micro_units_done(&d->job);
+    *total = micro_units_total(&d->job);
+}
+
+/* One reconstruction round: every unfinished instance advances by up to
+ * steps_per_round steps, instances spread over the ranks by the queue. No
+ * checkpoint before the first due one (there used to be a small one at the
+ * start, so every finished micro run left checkpoint.h5 behind while the
+ * other engines' short runs left none): a run killed before its first
+ * checkpoint restarts from start.ini (geosynth resume), like the others. */
+static gs_err micro_advance(void *state, gs_run *run, int *finished)
+{
+    micro_drive *d = state;
+    *finished = micro_units_done(&d->job) >= micro_units_total(&d->job);
+    if (*finished)
+        return GS_OK;
+    if (!d->queue)
+        GS_CALL(micro_queue_create(run->comm, d->job.ninst, (uint64_t)d->job.cfg->run.seed,
+                                   MICRO_DOMAIN_QUEUE, &d->queue));
+    GS_CALL(gs_regions_run_pass(d->queue, (int)(d->round & 0x3fffffff), micro_slice_run,
+                                micro_slice_apply, &d->job));
+    d->round++;
+    d->rounds_here++;
+    *finished = micro_units_done(&d->job) >= micro_units_total(&d->job);
+    return GS_OK;
+}
+
+static gs_err micro_save(void *state, gs_run *run)
+{
+    micro_drive *d = state;
+    return micro_ckpt_write(&d->job, micro_units_done(&d->job), d->round);
+}
+
+static gs_err micro_synthesis_report(void *state, gs_run *run, gs_json *pj)
+{
+    micro_drive *d = state;
+    const micro_job *job = &d->job;
     gs_micro_recon_counters tot = {0};
     double recon_s = 0;
-    for (int64_t i = 0; i < job.ninst; i++) {
-        tot.forced += job.inst[i].cnt.forced;
-        tot.random_accepted += job.inst[i].cnt.random_accepted;
-        tot.random_rejected += job.inst[i].cnt.random_rejected;
-        tot.filled += job.inst[i].cnt.filled;
-        recon_s += job.inst[i].recon_seconds;
+    for (int64_t i = 0; i < job->ninst; i++) {
+        tot.forced += job->inst[i].cnt.forced;
+        tot.random_accepted += job->inst[i].cnt.random_accepted;
+        tot.random_rejected += job->inst[i].cnt.random_rejected;
+        tot.filled += job->inst[i].cnt.filled;
+        recon_s += job->inst[i].recon_seconds;
     }
-    gs_regions_stats qs = gs_regions_get_stats(queue);
-    gs_json_init(&pj);
-    gs_json_begin_object(&pj, NULL);
-    gs_json_i64(&pj, "rounds", rounds_here);
-    gs_json_i64(&pj, "units", units);
-    gs_json_u64(&pj, "forced", tot.forced);
-    gs_json_u64(&pj, "random_accepted", tot.random_accepted);
-    gs_json_u64(&pj, "random_rejected", tot.random_rejected);
-    gs_json_u64(&pj, "filled", tot.filled);
-    gs_json_f64(&pj, "recon_cpu_seconds", recon_s);
-    gs_json_i64(&pj, "regions_computed_rank0", qs.computed);
-    gs_json_f64(&pj, "exchange_seconds_rank0", qs.t_exchange);
-    GS_TRY(err, end_phase(run, &pj), done);
-    gs_regions_destroy(&queue);
-
-    gs_run_phase_begin(run, "output");
-    GS_TRY(err, micro_queue_pass(run->comm, job.ninst, (uint64_t)cfg->run.seed, MICRO_DOMAIN_OUTPUT,
-                                 micro_output_run, micro_output_apply, &job),
-           done);
-    uint64_t *digests = gs_malloc((size_t)job.ninst * sizeof *digests);
-    GS_TRY_CHECK(err, digests != NULL, GS_ERR_MEM, done, "instance digests");
-    for (int64_t i = 0; i < job.ninst; i++)
-        digests[i] = job.inst[i].res.digest;
-    uint64_t digest = gs_digest_bytes(digests, (size_t)job.ninst * sizeof *digests);
-    gs_free(digests);
-    gs_json_init(&pj);
-    gs_json_begin_object(&pj, NULL);
-    err = report_results(&job, &pj);
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    GS_TRY(err, end_phase(run, &pj), done);
-    GS_TRY(err, gs_run_finish(run, digest), done);
-done:
-    gs_json_free(&pj);
-    gs_regions_destroy(&queue);
-    micro_job_free(&job);
-    return err;
+    gs_regions_stats qs = {0};
+    if (d->queue)
+        qs = gs_regions_get_stats(d->queue);
+    gs_json_i64(pj, "rounds", d->rounds_here);
+    gs_json_i64(pj, "units", micro_units_done(job));
+    gs_json_u64(pj, "forced", tot.forced);
+    gs_json_u64(pj, "random_accepted", tot.random_accepted);
+    gs_json_u64(pj, "random_rejected", tot.random_rejected);
+    gs_json_u64(pj, "filled", tot.filled);
+    gs_json_f64(pj, "recon_cpu_seconds", recon_s);
+    gs_json_i64(pj, "regions_computed_rank0", qs.computed);
+    gs_json_f64(pj, "exchange_seconds_rank0", qs.t_exchange);
+    gs_regions_destroy(&d->queue);
+    return GS_OK;
 }
+
+/* The output pass (displacement, verifier, files per instance through the
+ * queue), then the reports; the digest is the digest of the instance
+ * digests in instance order. */
+static gs_err micro_output_op(void *state, gs_run *run, gs_json *pj, uint64_t *digest)
+{
+    micro_drive *d = state;
+    micro_job *job = &d->job;
+    GS_CALL(micro_queue_pass(run->comm, job->ninst, (uint64_t)job->cfg->run.seed,
+                             MICRO_DOMAIN_OUTPUT, micro_output_run, micro_output_apply, job));
+    uint64_t *digests = gs_malloc((size_t)job->ninst * sizeof *digests);
+    GS_CHECK(digests != NULL, GS_ERR_MEM, "instance digests");
+    for (int64_t i = 0; i < job->ninst; i++)
+        digests[i] = job->inst[i].res.digest;
+    *digest = gs_digest_bytes(digests, (size_t)job->ninst * sizeof *digests);
+    gs_free(digests);
+    return report_results(job, pj);
+}
+
+static void micro_destroy(void *state)
+{
+    micro_drive *d = state;
+    if (!d)
+        return;
+    gs_regions_destroy(&d->queue);
+    micro_job_free(&d->job);
+    gs_free(d);
+}
+
+static const gs_engine_ops micro_ops = {
+    .whole = micro_whole,
+    .setup = micro_setup_op,
+    .restore = micro_restore,
+    .units = micro_units,
+    .advance = micro_advance,
+    .save = micro_save,
+    .synthesis_report = micro_synthesis_report,
+    .output = micro_output_op,
+    .destroy = micro_destroy,
+};
 
 const gs_engine gs_engine_micro = {
     "micro",
@@ -353,5 +388,5 @@ const gs_engine gs_engine_micro = {
     &micro_cfg_table,
     sizeof(micro_config),
     offsetof(micro_config, run),
-    micro_run,
+    &micro_ops,
 };

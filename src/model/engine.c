@@ -1213,63 +1213,56 @@ done:
     return err;
 }
 
-static gs_err synthesize(gs_run *run, model_engine *e, int *stopped)
+/* Collective: the next batch of the synthesis (a new pass's plan, then one
+ * window of colours, run_window); *finished once the passes are done. */
+static gs_err advance_window(gs_run *run, model_engine *e, int *finished)
 {
-    *stopped = 0;
-    double t0 = gs_time_now(), base = e->synth_seconds;
-    while (!e->done) {
-        if (!e->plan)
-            GS_CALL(make_plan(e));
-        if (e->color == 0)
-            gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
-                   e->ncolors);
-        if (!e->pass_prog_open) { /* a new pass, or the one a checkpoint stopped in */
-            char label[64];
-            snprintf(label, sizeof label, "pass %d regions", e->pass + 1);
-            gs_progress_begin(&e->pass_prog, label, (uint64_t)e->nplan);
-            e->pass_done = 0;
-            for (size_t i = 0; i < e->nplan; i++)
-                e->pass_done += e->region_status[i] >= 0;
-            gs_progress_update(&e->pass_prog, e->pass_done);
-            e->pass_prog_open = 1;
-        }
-        GS_CALL(run_window(run, e));
-        if (e->color >= e->ncolors) {
-            gs_progress_end(&e->pass_prog);
-            e->pass_prog_open = 0;
-            uint64_t acc = 0, fail = 0;
-            for (size_t i = 0; i < e->nplan; i++) {
-                acc += e->region_status[i] == 1;
-                fail += e->region_status[i] == 0;
-            }
-            e->stats.min_coverage = min_coverage(e);
-            gs_log(GS_LOG_INFO,
-                   "pass %d done: %llu accepted, %llu failed; every cell in >= %llu accepted "
-                   "regions (goal %d)",
-                   e->pass + 1, (unsigned long long)acc, (unsigned long long)fail,
-                   (unsigned long long)e->stats.min_coverage, e->params.min_changes);
-            e->pass++;
-            e->color = 0;
-            if (e->stats.min_coverage >= (uint64_t)e->params.min_changes ||
-                e->pass >= e->params.max_passes)
-                e->done = 1;
-            else
-                GS_CALL(make_plan(e));
-        }
-        e->synth_seconds = base + (gs_time_now() - t0);
-        if (e->done)
-            break;
-        int stop = 0;
-        if (gs_run_checkpoint_due(run, e->units, &stop)) {
-            GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->synth_seconds, 0));
-            GS_CALL(write_checkpoint(run, e));
-            if (stop) {
-                *stopped = 1;
-                return GS_OK;
-            }
-        }
+    *finished = e->done;
+    if (e->done) {
+        e->stats.passes = e->pass;
+        return GS_OK;
     }
-    e->stats.passes = e->pass;
+    if (!e->plan)
+        GS_CALL(make_plan(e));
+    if (e->color == 0)
+        gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
+               e->ncolors);
+    if (!e->pass_prog_open) { /* a new pass, or the one a checkpoint stopped in */
+        char label[64];
+        snprintf(label, sizeof label, "pass %d regions", e->pass + 1);
+        gs_progress_begin(&e->pass_prog, label, (uint64_t)e->nplan);
+        e->pass_done = 0;
+        for (size_t i = 0; i < e->nplan; i++)
+            e->pass_done += e->region_status[i] >= 0;
+        gs_progress_update(&e->pass_prog, e->pass_done);
+        e->pass_prog_open = 1;
+    }
+    GS_CALL(run_window(run, e));
+    if (e->color >= e->ncolors) {
+        gs_progress_end(&e->pass_prog);
+        e->pass_prog_open = 0;
+        uint64_t acc = 0, fail = 0;
+        for (size_t i = 0; i < e->nplan; i++) {
+            acc += e->region_status[i] == 1;
+            fail += e->region_status[i] == 0;
+        }
+        e->stats.min_coverage = min_coverage(e);
+        gs_log(GS_LOG_INFO,
+               "pass %d done: %llu accepted, %llu failed; every cell in >= %llu accepted "
+               "regions (goal %d)",
+               e->pass + 1, (unsigned long long)acc, (unsigned long long)fail,
+               (unsigned long long)e->stats.min_coverage, e->params.min_changes);
+        e->pass++;
+        e->color = 0;
+        if (e->stats.min_coverage >= (uint64_t)e->params.min_changes ||
+            e->pass >= e->params.max_passes)
+            e->done = 1;
+        else
+            GS_CALL(make_plan(e));
+    }
+    *finished = e->done;
+    if (e->done)
+        e->stats.passes = e->pass;
     return GS_OK;
 }
 
@@ -2136,112 +2129,144 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
     GS_CALL(gs_alloc_array((void **)&e->coverage, cells, sizeof *e->coverage, "coverage"));
     memset(e->coverage, 0, cells * sizeof *e->coverage);
     GS_CALL(gs_model_solver_create(e->rules, e->params.ac, &e->solver));
-    if (resume) {
-        GS_CALL(read_checkpoint(run, e));
-        gs_log(GS_LOG_INFO, "resumed at pass %d, colour %d after %lld regions", e->pass + 1,
-               e->color, (long long)e->units);
-    } else {
+    if (!resume) { /* a resumed run's lattice comes from the checkpoint (model_restore) */
         GS_CALL(build_start(e));
         GS_CALL(check_z_faces(e));
     }
     return GS_OK;
 }
 
-static gs_err model_run(gs_run *run, void *cfgp, int resume)
-{
+/* ---- the run driver's operations (include/geosynth/engine.h) -------------- */
+
+typedef struct model_drive {
     model_engine e;
-    memset(&e, 0, sizeof e);
     model_quality q;
-    memset(&q, 0, sizeof q);
-    e.cfg = cfgp;
+    queue_report_t qr; /* the synthesis report's per-rank times, for the output's metrics */
+    int started;       /* the first advance of this process ran */
+    double cpu0, t0, base;
+} model_drive;
+
+static gs_err model_setup_op(gs_run *run, const void *cfgp, int resume, void **state,
+                             gs_json *phase)
+{
+    model_drive *d = gs_calloc(1, sizeof *d);
+    GS_CHECK(d != NULL, GS_ERR_MEM, "model: out of memory for the run state");
+    *state = d;
+    model_engine *e = &d->e;
+    e->cfg = cfgp;
+    GS_CALL(setup(run, e, resume));
+    gs_json_begin_array(phase, "example");
+    gs_json_i64(phase, NULL, e->example.nx);
+    gs_json_i64(phase, NULL, e->example.ny);
+    gs_json_i64(phase, NULL, e->example.nz);
+    gs_json_end_array(phase);
+    gs_json_i64(phase, "labels", gs_model_rules_nlabels(e->rules));
+    gs_json_begin_array(phase, "output");
+    gs_json_i64(phase, NULL, e->lat.nx);
+    gs_json_i64(phase, NULL, e->lat.ny);
+    gs_json_i64(phase, NULL, e->lat.nz);
+    gs_json_end_array(phase);
+    return GS_OK;
+}
+
+static gs_err model_restore(void *state, gs_run *run)
+{
+    model_engine *e = &((model_drive *)state)->e;
+    GS_CALL(read_checkpoint(run, e));
+    gs_log(GS_LOG_INFO, "resumed at pass %d, colour %d after %lld regions", e->pass + 1, e->color,
+           (long long)e->units);
+    return GS_OK;
+}
+
+/* Regions run, including before a resume; the passes needed are not known
+ * in advance (each pass has its own progress line). */
+static void model_units(const void *state, int64_t *done, int64_t *total)
+{
+    *done = ((const model_drive *)state)->e.units;
+    *total = 0;
+}
+
+static gs_err model_advance(void *state, gs_run *run, int *finished)
+{
+    model_drive *d = state;
+    model_engine *e = &d->e;
+    if (!d->started) {
+        d->started = 1;
+        d->cpu0 = gs_cpu_now();
+        d->t0 = gs_time_now();
+        d->base = e->synth_seconds;
+    }
+    GS_CALL(advance_window(run, e, finished));
+    e->synth_seconds = d->base + (gs_time_now() - d->t0);
+    return GS_OK;
+}
+
+static gs_err model_save(void *state, gs_run *run)
+{
+    model_engine *e = &((model_drive *)state)->e;
+    GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->synth_seconds, 0));
+    return write_checkpoint(run, e);
+}
+
+static gs_err model_synthesis_report(void *state, gs_run *run, gs_json *j)
+{
+    model_drive *d = state;
+    const model_engine *e = &d->e;
+    const double cells = (double)lattice_cells(&e->lat);
+    gs_json_i64(j, "passes", e->stats.passes);
+    gs_json_u64(j, "regions", e->stats.regions);
+    gs_json_u64(j, "accepted", e->stats.accepted);
+    gs_json_u64(j, "failed", e->stats.failed);
+    gs_json_u64(j, "retries", e->stats.attempts - e->stats.regions);
+    gs_json_u64(j, "rejected_attempts", e->stats.attempts - e->stats.accepted);
+    gs_json_u64(j, "backtracks", e->stats.backtracks);
+    gs_json_u64(j, "min_coverage", e->stats.min_coverage);
+    gs_json_f64(j, "cells_per_second", e->synth_seconds > 0 ? cells / e->synth_seconds : 0.0);
+    GS_CALL(queue_report(run, e, d->started ? gs_cpu_now() - d->cpu0 : 0, &d->qr, j));
+    GS_CHECK(!j->failed, GS_ERR_MEM, "out of memory for the synthesis phase report");
+    return GS_OK;
+}
+
+/* Collective: the mirrored half or the turned quarter into the full output. */
+static gs_err expand_symmetry(model_engine *e)
+{
     gs_err err = GS_OK;
-    char extra[512];
-
-    gs_run_phase_begin(run, "setup");
-    err = setup(run, &e, resume);
-    if (err)
-        gs_error_push_frame(__FILE__, __LINE__, __func__);
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    snprintf(extra, sizeof extra,
-             "{\"example\": [%d, %d, %d], \"labels\": %d, \"output\": [%d, %d, %d], "
-             "\"resumed\": %s}",
-             e.example.nx, e.example.ny, e.example.nz, gs_model_rules_nlabels(e.rules), e.lat.nx,
-             e.lat.ny, e.lat.nz, resume ? "true" : "false");
-    GS_TRY(err, gs_run_phase_end(run, extra), done);
-
-    gs_run_phase_begin(run, "synthesis");
-    int stopped = 0;
-    double cpu0 = gs_cpu_now();
-    err = synthesize(run, &e, &stopped);
-    if (err)
-        gs_error_push_frame(__FILE__, __LINE__, __func__);
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    if (stopped) {
-        err = gs_run_interrupted(run);
-        goto done;
-    }
-    const double cells = (double)lattice_cells(&e.lat);
-    queue_report_t qr;
-    {
-        gs_json j;
-        gs_json_init(&j);
-        gs_json_begin_object(&j, NULL);
-        gs_json_i64(&j, "passes", e.stats.passes);
-        gs_json_u64(&j, "regions", e.stats.regions);
-        gs_json_u64(&j, "accepted", e.stats.accepted);
-        gs_json_u64(&j, "failed", e.stats.failed);
-        gs_json_u64(&j, "retries", e.stats.attempts - e.stats.regions);
-        gs_json_u64(&j, "rejected_attempts", e.stats.attempts - e.stats.accepted);
-        gs_json_u64(&j, "backtracks", e.stats.backtracks);
-        gs_json_u64(&j, "min_coverage", e.stats.min_coverage);
-        gs_json_f64(&j, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
-        err = queue_report(run, &e, gs_cpu_now() - cpu0, &qr, &j);
-        gs_json_end_object(&j);
-        if (err == GS_OK && j.failed)
-            err = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
-                                 "out of memory for the synthesis phase report");
-        if (err == GS_OK)
-            err = gs_run_phase_end(run, j.buf);
-        gs_json_free(&j);
-        GS_TRY(err, err, done);
-    }
-
-    if (e.cfg->overlap3d > 0) {
+    if (e->cfg->overlap3d > 0) {
         /* every rank: the patterns decode to their origin cells; the example's
          * labels come back for the checks, measures and preview */
-        e.plat = e.lat;
-        memset(&e.lat, 0, sizeof e.lat);
-        GS_TRY(err, gs_model_patterns3d_decode(&e.p3, &e.plat, &e.lat), done);
-        gs_model_lattice_destroy(&e.example);
-        e.example = e.src;
-        memset(&e.src, 0, sizeof e.src);
+        e->plat = e->lat;
+        memset(&e->lat, 0, sizeof e->lat);
+        GS_TRY(err, gs_model_patterns3d_decode(&e->p3, &e->plat, &e->lat), fail);
+        gs_model_lattice_destroy(&e->example);
+        e->example = e->src;
+        memset(&e->src, 0, sizeof e->src);
     }
-    if (e.params.mirror[0] || e.params.mirror[1]) {
+    if (e->params.mirror[0] || e->params.mirror[1]) {
         /* mirror the synthesized lower half into the full output */
         gs_model_lattice full = {0};
-        GS_TRY(err, gs_model_lattice_create(&full, e.full[0], e.full[1], e.full[2]), done);
+        GS_TRY(err, gs_model_lattice_create(&full, e->full[0], e->full[1], e->full[2]), fail);
         for (int z = 0; z < full.nz; z++)
             for (int y = 0; y < full.ny; y++)
                 for (int x = 0; x < full.nx; x++) {
-                    int hx = x < e.lat.nx ? x : full.nx - 1 - x;
-                    int hy = y < e.lat.ny ? y : full.ny - 1 - y;
-                    int l = e.lat.labels[gs_model_lattice_index(&e.lat, hx, hy, z)];
+                    int hx = x < e->lat.nx ? x : full.nx - 1 - x;
+                    int hy = y < e->lat.ny ? y : full.ny - 1 - y;
+                    int l = e->lat.labels[gs_model_lattice_index(&e->lat, hx, hy, z)];
                     /* the mirrored half holds S(l) (Sec. 4.1) */
-                    if (hy != y && e.mirror_map[1] && e.mirror_map[1][l] >= 0)
-                        l = e.mirror_map[1][l];
-                    if (hx != x && e.mirror_map[0] && e.mirror_map[0][l] >= 0)
-                        l = e.mirror_map[0][l];
+                    if (hy != y && e->mirror_map[1] && e->mirror_map[1][l] >= 0)
+                        l = e->mirror_map[1][l];
+                    if (hx != x && e->mirror_map[0] && e->mirror_map[0][l] >= 0)
+                        l = e->mirror_map[0][l];
                     full.labels[gs_model_lattice_index(&full, x, y, z)] = (uint16_t)l;
                 }
-        gs_model_lattice_destroy(&e.lat);
-        e.lat = full;
+        gs_model_lattice_destroy(&e->lat);
+        e->lat = full;
     }
-    if (e.rotate_map) {
+    if (e->rotate_map) {
         /* turn the synthesized quarter three times into the full output:
          * the cell reached from quarter cell q by k turns holds R^k(label) */
         gs_model_lattice full = {0};
-        GS_TRY(err, gs_model_lattice_create(&full, e.full[0], e.full[1], e.full[2]), done);
-        const int N = full.nx, h = e.lat.nx;
+        GS_TRY(err, gs_model_lattice_create(&full, e->full[0], e->full[1], e->full[2]), fail);
+        const int N = full.nx, h = e->lat.nx;
         for (int z = 0; z < full.nz; z++)
             for (int y = 0; y < full.ny; y++)
                 for (int x = 0; x < full.nx; x++) {
@@ -2252,80 +2277,74 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                         py = N - 1 - t;
                         k++;
                     }
-                    int l = e.lat.labels[gs_model_lattice_index(&e.lat, px, py, z)];
-                    for (int i = 0; i < k && e.rotate_map[l] >= 0; i++)
-                        l = e.rotate_map[l];
+                    int l = e->lat.labels[gs_model_lattice_index(&e->lat, px, py, z)];
+                    for (int i = 0; i < k && e->rotate_map[l] >= 0; i++)
+                        l = e->rotate_map[l];
                     full.labels[gs_model_lattice_index(&full, x, y, z)] = (uint16_t)l;
                 }
-        gs_model_lattice_destroy(&e.lat);
-        e.lat = full;
+        gs_model_lattice_destroy(&e->lat);
+        e->lat = full;
     }
-    gs_run_phase_begin(run, "output");
-    int64_t mesh_counts[2] = {0, 0};
-    if (run->rank == 0)
-        err = write_outputs(run, &e, &q);
-    if (err == GS_OK && run->rank == run->size - 1)
-        err = write_mesh(run, &e, mesh_counts);
-    if (err)
-        gs_error_push_frame(__FILE__, __LINE__, __func__);
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
-    GS_TRY(err, GS_PAR_BCAST_VALUE(run->comm, &mesh_counts, run->size - 1), done);
-    q.quads = (size_t)mesh_counts[0];
-    q.unit_faces = (size_t)mesh_counts[1];
-    snprintf(extra, sizeof extra, "{\"violations\": %zu, \"quads\": %zu, \"unit_faces\": %zu}",
-             q.violations, q.quads, q.unit_faces);
-    GS_TRY(err, gs_run_phase_end(run, extra), done);
+fail:
+    return err;
+}
 
+/* Rank 0: the run's metrics and log lines. */
+static void report_metrics(gs_run *run, model_drive *d)
+{
+    model_engine *e = &d->e;
+    model_quality *q = &d->q;
+    const double cells = (double)lattice_cells(&e->lat);
     if (run->rank == 0) {
-        gs_run_metric_i64(run, "violations", (int64_t)q.violations);
-        gs_run_metric_i64(run, "rule_violations", (int64_t)q.rule_violations);
-        gs_run_metric_i64(run, "pins_unmet", (int64_t)gs_model_pins_unmet(&e.params, &e.lat));
-        gs_run_metric_i64(run, "passes", e.stats.passes);
-        gs_run_metric_i64(run, "regions", (int64_t)e.stats.regions);
-        gs_run_metric_i64(run, "accepted_regions", (int64_t)e.stats.accepted);
-        gs_run_metric_i64(run, "failed_regions", (int64_t)e.stats.failed);
-        gs_run_metric_i64(run, "z_faces_fixed", e.params.fix_z_faces && e.lat.nz >= 3);
-        if (e.cfg->overlap3d > 0) {
-            gs_run_metric_i64(run, "overlap3d_patterns", e.p3.npatterns);
-            gs_run_metric_i64(run, "overlap3d_pairs", (int64_t)e.p3.npairs);
+        gs_run_metric_i64(run, "violations", (int64_t)q->violations);
+        gs_run_metric_i64(run, "rule_violations", (int64_t)q->rule_violations);
+        gs_run_metric_i64(run, "pins_unmet", (int64_t)gs_model_pins_unmet(&e->params, &e->lat));
+        gs_run_metric_i64(run, "passes", e->stats.passes);
+        gs_run_metric_i64(run, "regions", (int64_t)e->stats.regions);
+        gs_run_metric_i64(run, "accepted_regions", (int64_t)e->stats.accepted);
+        gs_run_metric_i64(run, "failed_regions", (int64_t)e->stats.failed);
+        gs_run_metric_i64(run, "z_faces_fixed", e->params.fix_z_faces && e->lat.nz >= 3);
+        if (e->cfg->overlap3d > 0) {
+            gs_run_metric_i64(run, "overlap3d_patterns", e->p3.npatterns);
+            gs_run_metric_i64(run, "overlap3d_pairs", (int64_t)e->p3.npairs);
         }
-        gs_run_metric_i64(run, "retries", (int64_t)(e.stats.attempts - e.stats.regions));
+        gs_run_metric_i64(run, "retries", (int64_t)(e->stats.attempts - e->stats.regions));
         gs_run_metric_i64(run, "rejected_attempts",
-                          (int64_t)(e.stats.attempts - e.stats.accepted));
-        gs_run_metric_i64(run, "backtracks", (int64_t)e.stats.backtracks);
-        gs_run_metric_i64(run, "min_coverage", (int64_t)e.stats.min_coverage);
-        if (e.params.shape) { /* soft constraint: structure inside vs outside the target */
-            const int nl = gs_model_rules_nlabels(e.rules);
+                          (int64_t)(e->stats.attempts - e->stats.accepted));
+        gs_run_metric_i64(run, "backtracks", (int64_t)e->stats.backtracks);
+        gs_run_metric_i64(run, "min_coverage", (int64_t)e->stats.min_coverage);
+        if (e->params.shape) { /* soft constraint: structure inside vs outside the target */
+            const int nl = gs_model_rules_nlabels(e->rules);
             double sin = 0, sout = 0, sex = 0;
-            gs_model_structure_shares(&e.lat, e.structure, nl, e.shape, &sin, &sout);
-            const size_t ne = lattice_cells(&e.example); /* the example's own share */
+            gs_model_structure_shares(&e->lat, e->structure, nl, e->shape, &sin, &sout);
+            const size_t ne = lattice_cells(&e->example); /* the example's own share */
             for (size_t i = 0; i < ne; i++)
-                sex += e.example.labels[i] < nl && e.structure[e.example.labels[i]];
+                sex += e->example.labels[i] < nl && e->structure[e->example.labels[i]];
             sex = ne ? sex / (double)ne : 0;
-            gs_run_metric_i64(run, "structure_labels", e.nstructure_labels);
+            gs_run_metric_i64(run, "structure_labels", e->nstructure_labels);
             gs_run_metric_f64(run, "structure_share_inside", sin);
             gs_run_metric_f64(run, "structure_share_outside", sout);
             gs_run_metric_f64(run, "structure_share_example", sex);
-            gs_run_metric_i64(run, "mh_rejected_regions", (int64_t)e.stats.mh_rejected);
+            gs_run_metric_i64(run, "mh_rejected_regions", (int64_t)e->stats.mh_rejected);
             gs_log(GS_LOG_INFO, "shape: structure share inside the target %.3f, outside %.3f "
                    "(example %.3f); %llu regions not accepted by the Metropolis step", sin, sout,
-                   sex, (unsigned long long)e.stats.mh_rejected);
+                   sex, (unsigned long long)e->stats.mh_rejected);
         }
-        if (q.has_figures)
-            write_figures(run, &q.fig);
+        if (q->has_figures)
+            write_figures(run, &q->fig);
         static const char *axis_key[3][3] = {
             {"run_length_x", "run_length_x_example", "run_length_x_ratio"},
             {"run_length_y", "run_length_y_example", "run_length_y_ratio"},
             {"run_length_z", "run_length_z_example", "run_length_z_ratio"}};
         for (int a = 0; a < 3; a++) {
-            gs_run_metric_f64(run, axis_key[a][0], q.run_out[a]);
-            gs_run_metric_f64(run, axis_key[a][1], q.run_ex[a]);
+            gs_run_metric_f64(run, axis_key[a][0], q->run_out[a]);
+            gs_run_metric_f64(run, axis_key[a][1], q->run_ex[a]);
             gs_run_metric_f64(run, axis_key[a][2],
-                              q.run_ex[a] > 0 ? q.run_out[a] / q.run_ex[a] : 0.0);
+                              q->run_ex[a] > 0 ? q->run_out[a] / q->run_ex[a] : 0.0);
         }
-        gs_run_metric_f64(run, "synthesis_seconds", e.synth_seconds);
+        gs_run_metric_f64(run, "synthesis_seconds", e->synth_seconds);
         /* this process's share (a resumed run: since the resume) */
-        const double *qs = qr.sum, *qm = qr.max;
+        const double *qs = d->qr.sum, *qm = d->qr.max;
         gs_run_metric_f64(run, "region_seconds_total", qs[Q_COMPUTE]);
         gs_run_metric_f64(run, "region_seconds_max_rank", qm[Q_COMPUTE]);
         gs_run_metric_f64(run, "ideal_speedup", qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0);
@@ -2344,31 +2363,72 @@ static gs_err model_run(gs_run *run, void *cfgp, int resume)
                qs[Q_COMPUTE], run->size, qm[Q_COMPUTE],
                qm[Q_COMPUTE] > 0 ? qs[Q_COMPUTE] / qm[Q_COMPUTE] : 0, qm[Q_WAIT], qm[Q_EXCHANGE],
                qm[Q_APPLY], qm[Q_CPU]);
-        gs_run_metric_f64(run, "cells_per_second", e.synth_seconds > 0 ? cells / e.synth_seconds : 0);
+        gs_run_metric_f64(run, "cells_per_second", e->synth_seconds > 0 ? cells / e->synth_seconds : 0);
         gs_run_metric_f64(run, "region_cells_per_second",
-                          e.synth_seconds > 0 ? (double)e.region_cells / e.synth_seconds : 0);
-        gs_run_metric_i64(run, "labels_used", q.labels_used);
-        gs_run_metric_i64(run, "mesh_quads", (int64_t)q.quads);
-        gs_run_metric_i64(run, "mesh_unit_faces", (int64_t)q.unit_faces);
+                          e->synth_seconds > 0 ? (double)e->region_cells / e->synth_seconds : 0);
+        gs_run_metric_i64(run, "labels_used", q->labels_used);
+        gs_run_metric_i64(run, "mesh_quads", (int64_t)q->quads);
+        gs_run_metric_i64(run, "mesh_unit_faces", (int64_t)q->unit_faces);
         gs_log(GS_LOG_INFO,
                "%d passes, %llu regions: %llu accepted, %llu failed, %llu retries; "
                "%.0f cells/s",
-               e.stats.passes, (unsigned long long)e.stats.regions,
-               (unsigned long long)e.stats.accepted, (unsigned long long)e.stats.failed,
-               (unsigned long long)(e.stats.attempts - e.stats.regions),
-               e.synth_seconds > 0 ? cells / e.synth_seconds : 0.0);
+               e->stats.passes, (unsigned long long)e->stats.regions,
+               (unsigned long long)e->stats.accepted, (unsigned long long)e->stats.failed,
+               (unsigned long long)(e->stats.attempts - e->stats.regions),
+               e->synth_seconds > 0 ? cells / e->synth_seconds : 0.0);
         gs_log(GS_LOG_INFO,
                "adjacency violations (independent checker): %zu; resemblance (non-empty "
                "windows found in the example) 3x3x3 %.3f, 2x2x2 %.3f; run lengths x/y/z %.2f/%.2f/%.2f (example %.2f/%.2f/%.2f)",
-               q.violations, q.resemblance3, q.resemblance2, q.run_out[0], q.run_out[1],
-               q.run_out[2], q.run_ex[0], q.run_ex[1], q.run_ex[2]);
+               q->violations, q->resemblance3, q->resemblance2, q->run_out[0], q->run_out[1],
+               q->run_out[2], q->run_ex[0], q->run_ex[1], q->run_ex[2]);
     }
-    err = gs_run_finish(run, gs_model_lattice_digest(&e.lat));
-done:
-    gs_measure_profile_free(&q.fig.profile);
-    engine_free(&e);
-    return err;
 }
+
+static gs_err model_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest)
+{
+    model_drive *d = state;
+    model_engine *e = &d->e;
+    model_quality *q = &d->q;
+    GS_CALL(expand_symmetry(e));
+    int64_t mesh_counts[2] = {0, 0};
+    gs_err err = GS_OK;
+    if (run->rank == 0)
+        err = write_outputs(run, e, q);
+    if (err == GS_OK && run->rank == run->size - 1)
+        err = write_mesh(run, e, mesh_counts);
+    GS_CALL(gs_par_agree(run->comm, err));
+    GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &mesh_counts, run->size - 1));
+    q->quads = (size_t)mesh_counts[0];
+    q->unit_faces = (size_t)mesh_counts[1];
+    gs_json_u64(phase, "violations", q->violations);
+    gs_json_u64(phase, "quads", q->quads);
+    gs_json_u64(phase, "unit_faces", q->unit_faces);
+    if (run->rank == 0)
+        report_metrics(run, d);
+    *digest = gs_model_lattice_digest(&e->lat);
+    return GS_OK;
+}
+
+static void model_destroy(void *state)
+{
+    model_drive *d = state;
+    if (!d)
+        return;
+    gs_measure_profile_free(&d->q.fig.profile);
+    engine_free(&d->e);
+    gs_free(d);
+}
+
+static const gs_engine_ops model_ops = {
+    .setup = model_setup_op,
+    .restore = model_restore,
+    .units = model_units,
+    .advance = model_advance,
+    .save = model_save,
+    .synthesis_report = model_synthesis_report,
+    .output = model_output_op,
+    .destroy = model_destroy,
+};
 
 const gs_engine gs_engine_model = {
     "model",
@@ -2376,5 +2436,5 @@ const gs_engine gs_engine_model = {
     &model_table,
     sizeof(model_config),
     offsetof(model_config, run),
-    model_run,
+    &model_ops,
 };

@@ -1086,6 +1086,9 @@ typedef struct run_state {
     int together;  /* the error being returned is collective (see agree) */
     gs_points_seam_stats seam;    /* of the output (rank 0) */
     objects_stats obj;            /* whole objects: heights and fragments (rank 0) */
+    gs_points_synth_share share;  /* this rank's bank share and the search/map hooks */
+    const points_config *c;
+    double dens_out;              /* output points per unit area */
     gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
 } run_state;
 
@@ -1097,9 +1100,9 @@ static void run_state_free(run_state *r)
     gs_points_free(&r->out);
 }
 
-static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, int resume)
+static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, int resume,
+                          gs_json *phase)
 {
-    gs_run_phase_begin(run, "setup");
     gs_err err = GS_OK;
     GS_CALL(map_state_init(&rs->map, run->comm, &rs->fault, &rs->together));
     int user = kind_is_user(c);
@@ -1199,92 +1202,55 @@ static gs_err phase_setup(gs_run *run, const points_config *c, run_state *rs, in
     rs->sctx.fault = &rs->fault;
     rs->sctx.together = &rs->together;
     GS_CALL(search_ctx_alloc(&rs->sctx));
-    gs_points_synth_share share = {.first = (size_t)lo,
-                                   .count = (size_t)(hi - lo),
-                                   .fn = distributed_search,
-                                   .user = &rs->sctx,
-                                   .map = run->size > 1 ? mpi_map : NULL,
-                                   .map_user = &rs->map};
-    err = GS_OK;
+    rs->share = (gs_points_synth_share){.first = (size_t)lo,
+                                        .count = (size_t)(hi - lo),
+                                        .fn = distributed_search,
+                                        .user = &rs->sctx,
+                                        .map = run->size > 1 ? mpi_map : NULL,
+                                        .map_user = &rs->map};
     if (hi == lo) { /* more ranks than patches: an empty share still joins every search */
-        share.first = 0;
-        share.count = 0;
+        rs->share.first = 0;
+        rs->share.count = 0;
     }
-    if (resume) {
-        gs_points_synth_state st;
-        GS_CALL(read_checkpoint(run, rs->tex_digest, &st));
-        err = gs_points_synth_resume_share(t, p, &share, &st, &rs->synth);
-        gs_points_synth_state_free(&st);
-        GS_CALL(err);
-        run->ckpt_last_units = (int64_t)gs_points_synth_cursor(rs->synth);
-        gs_log(GS_LOG_INFO, "resumed at patch %llu of %llu",
-               (unsigned long long)gs_points_synth_cursor(rs->synth),
-               (unsigned long long)gs_points_synth_total(rs->synth));
-    } else {
-        GS_CALL(gs_points_synth_create_share(t, p, &share, &rs->synth));
-    }
-    gs_json j;
-    gs_json_init(&j);
-    gs_json_begin_object(&j, NULL);
-    gs_json_u64(&j, "input_points", t->pts.n);
-    gs_json_u64(&j, "input_points_in_box", inside);
-    gs_json_u64(&j, "input_patches", npatch);
-    gs_json_i64(&j, "bank_share", hi - lo);
-    gs_json_u64(&j, "patches", gs_points_synth_total(rs->synth));
-    gs_json_end_object(&j);
-    err = gs_run_phase_end(run, j.buf);
-    gs_json_free(&j);
-    GS_CALL(err);
+    if (!resume) /* a resumed run's synthesis comes from the checkpoint (points_restore) */
+        GS_CALL(gs_points_synth_create_share(t, p, &rs->share, &rs->synth));
+    gs_json_u64(phase, "input_points", t->pts.n);
+    gs_json_u64(phase, "input_points_in_box", inside);
+    gs_json_u64(phase, "input_patches", npatch);
+    gs_json_i64(phase, "bank_share", hi - lo);
+    if (!resume)
+        gs_json_u64(phase, "patches", gs_points_synth_total(rs->synth));
     return GS_OK;
 }
 
-static gs_err phase_synthesis(gs_run *run, run_state *rs, int *stopped)
+/* One patch placed (the search is spread over the ranks). */
+static gs_err synth_step(run_state *rs, int *finished)
 {
-    gs_run_phase_begin(run, "synthesis");
     gs_points_synth_t s = rs->synth;
-    gs_progress prog;
-    gs_progress_begin(&prog, "patches", gs_points_synth_total(s));
-    gs_progress_update(&prog, gs_points_synth_cursor(s));
-    *stopped = 0;
-    while (gs_points_synth_cursor(s) < gs_points_synth_total(s)) {
-        fault_inject *f = &rs->fault;
-        f->armed = f->site != FAULT_NONE && gs_points_synth_cursor(s) == f->patch;
-        GS_CALL(gs_points_synth_step(s));
-        if (fault_fires(f, FAULT_STEP))
-            GS_CALL(fault_raise(f, FAULT_STEP, GS_ERR_LIB));
-        f->armed = 0;
-        uint64_t done = gs_points_synth_cursor(s);
-        gs_progress_update(&prog, done);
-        int stop = 0;
-        if (gs_run_checkpoint_due(run, (int64_t)done, &stop) &&
-            done < gs_points_synth_total(s)) {
-            GS_CALL(write_checkpoint(run, s, rs->tex_digest));
-            GS_DEBUG("checkpoint at patch %llu", (unsigned long long)done);
-        } else if (stop) {
-            GS_CALL(write_checkpoint(run, s, rs->tex_digest));
-        }
-        if (stop) {
-            *stopped = 1;
-            break;
-        }
-    }
-    gs_progress_end(&prog);
-    gs_points_times tm = gs_points_synth_times(s);
-    gs_json j;
-    gs_json_init(&j);
-    gs_json_begin_object(&j, NULL);
-    gs_json_u64(&j, "patches_done", gs_points_synth_cursor(s));
-    gs_json_f64(&j, "search_seconds", tm.search);
-    gs_json_f64(&j, "warp_seconds", tm.warp);
-    gs_json_f64(&j, "blend_seconds", tm.blend);
-    gs_json_f64(&j, "other_seconds", tm.other);
-    gs_json_i64(&j, "candidates_offered_rank0", rs->sctx.offers);
-    gs_json_i64(&j, "search_regathers", rs->sctx.regathers);
-    gs_json_end_object(&j);
-    gs_err err = gs_run_phase_end(run, j.buf);
-    gs_json_free(&j);
-    GS_CALL(err);
+    *finished = gs_points_synth_cursor(s) >= gs_points_synth_total(s);
+    if (*finished)
+        return GS_OK;
+    fault_inject *f = &rs->fault;
+    f->armed = f->site != FAULT_NONE && gs_points_synth_cursor(s) == f->patch;
+    GS_CALL(gs_points_synth_step(s));
+    if (fault_fires(f, FAULT_STEP))
+        GS_CALL(fault_raise(f, FAULT_STEP, GS_ERR_LIB));
+    f->armed = 0;
+    *finished = gs_points_synth_cursor(s) >= gs_points_synth_total(s);
     return GS_OK;
+}
+
+static void synthesis_report(const run_state *rs, gs_json *j)
+{
+    gs_points_synth_t s = rs->synth;
+    gs_points_times tm = gs_points_synth_times(s);
+    gs_json_u64(j, "patches_done", gs_points_synth_cursor(s));
+    gs_json_f64(j, "search_seconds", tm.search);
+    gs_json_f64(j, "warp_seconds", tm.warp);
+    gs_json_f64(j, "blend_seconds", tm.blend);
+    gs_json_f64(j, "other_seconds", tm.other);
+    gs_json_i64(j, "candidates_offered_rank0", rs->sctx.offers);
+    gs_json_i64(j, "search_regathers", rs->sctx.regathers);
 }
 
 static int u64_cmp(const void *a, const void *b)
@@ -1523,43 +1489,96 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "relax_seconds", tm.relax);
 }
 
-static gs_err points_run(gs_run *run, void *vcfg, int resume)
+/* ---- the run driver's operations (include/geosynth/engine.h) -------------- */
+
+/* An operation's status. A failure every rank returned from the same
+ * collective (rs->together, see agree) is agreed by the driver; one that
+ * may be this rank's alone (the others may be waiting in an exchange) ends
+ * every rank at once (gs_run.failed_alone). */
+static gs_err op_status(gs_run *run, const run_state *rs, gs_err err)
 {
-    const points_config *c = vcfg;
-    run_state rs;
-    memset(&rs, 0, sizeof rs);
-    gs_err err = GS_OK;
-    int stopped = 0;
-    err = fault_init(&rs.fault, run->rank);
+    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs->together)
+        run->failed_alone = 1;
+    return err;
+}
+
+static gs_err points_setup_op(gs_run *run, const void *vcfg, int resume, void **state,
+                              gs_json *phase)
+{
+    run_state *rs = gs_calloc(1, sizeof *rs);
+    GS_CHECK(rs != NULL, GS_ERR_MEM, "points: out of memory for the run state");
+    *state = rs;
+    rs->c = vcfg;
+    gs_err err = fault_init(&rs->fault, run->rank);
     if (err != GS_OK) { /* the same environment, so the same error, on every rank */
-        rs.together = 1;
-        goto done;
+        rs->together = 1;
+        return err;
     }
-    GS_TRY(err, phase_setup(run, c, &rs, resume), done);
-    GS_TRY(err, phase_synthesis(run, &rs, &stopped), done);
-    if (stopped) {
-        err = gs_run_interrupted(run);
-        goto done;
+    return op_status(run, rs, phase_setup(run, rs->c, rs, resume, phase));
+}
+
+static gs_err points_restore(void *state, gs_run *run)
+{
+    run_state *rs = state;
+    gs_points_synth_state st;
+    gs_err err = read_checkpoint(run, rs->tex_digest, &st);
+    if (err == GS_OK) {
+        err = gs_points_synth_resume_share(&rs->tex, &rs->params, &rs->share, &st, &rs->synth);
+        gs_points_synth_state_free(&st);
     }
-    /* Relaxation, trimming, back to the example's axes. */
-    gs_run_phase_begin(run, "finish");
-    GS_TRY(err, gs_points_synth_finish(rs.synth, &rs.out), done);
-    gs_points_permute_from_z(&rs.out, kind_is_user(c) ? up_axis(c) : 2);
-    double area = rs.params.out_size[0] * rs.params.out_size[1];
-    double dens_out = rs.out.n / area;
-    {
-        gs_json j;
-        gs_json_init(&j);
-        gs_json_begin_object(&j, NULL);
-        gs_json_u64(&j, "output_points", rs.out.n);
-        gs_json_f64(&j, "relax_seconds", gs_points_synth_times(rs.synth).relax);
-        gs_json_end_object(&j);
-        err = gs_run_phase_end(run, j.buf);
-        gs_json_free(&j);
-        GS_TRY(err, err, done);
-    }
-    uint64_t digest = gs_points_digest(&rs.out);
-    gs_run_phase_begin(run, "output");
+    GS_CALL(op_status(run, rs, err));
+    run->ckpt_last_units = (int64_t)gs_points_synth_cursor(rs->synth);
+    gs_log(GS_LOG_INFO, "resumed at patch %llu of %llu",
+           (unsigned long long)gs_points_synth_cursor(rs->synth),
+           (unsigned long long)gs_points_synth_total(rs->synth));
+    return GS_OK;
+}
+
+static void points_units(const void *state, int64_t *done, int64_t *total)
+{
+    const run_state *rs = state;
+    *done = (int64_t)gs_points_synth_cursor(rs->synth);
+    *total = (int64_t)gs_points_synth_total(rs->synth);
+}
+
+static gs_err points_advance(void *state, gs_run *run, int *finished)
+{
+    run_state *rs = state;
+    return op_status(run, rs, synth_step(rs, finished));
+}
+
+static gs_err points_save(void *state, gs_run *run)
+{
+    run_state *rs = state;
+    gs_err err = write_checkpoint(run, rs->synth, rs->tex_digest);
+    GS_DEBUG("checkpoint at patch %llu", (unsigned long long)gs_points_synth_cursor(rs->synth));
+    return op_status(run, rs, err);
+}
+
+static gs_err points_synthesis_report(void *state, gs_run *run, gs_json *phase)
+{
+    synthesis_report(state, phase);
+    return GS_OK;
+}
+
+/* Relaxation, trimming, back to the example's axes. */
+static gs_err points_finish(void *state, gs_run *run, gs_json *phase)
+{
+    run_state *rs = state;
+    GS_CALL(op_status(run, rs, gs_points_synth_finish(rs->synth, &rs->out)));
+    gs_points_permute_from_z(&rs->out, kind_is_user(rs->c) ? up_axis(rs->c) : 2);
+    double area = rs->params.out_size[0] * rs->params.out_size[1];
+    rs->dens_out = rs->out.n / area;
+    gs_json_u64(phase, "output_points", rs->out.n);
+    gs_json_f64(phase, "relax_seconds", gs_points_synth_times(rs->synth).relax);
+    return GS_OK;
+}
+
+static gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest)
+{
+    run_state *rs = state;
+    const points_config *c = rs->c;
+    *digest = gs_points_digest(&rs->out);
     gs_err local = GS_OK;
     size_t ntris = 0;
     if (run->rank == 0) {
@@ -1568,13 +1587,13 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
                                                                 : GS_POINTPLY_ASCII;
         if (c->write_points && local == GS_OK) {
             gs_run_path(run, "points.ply", path, sizeof path);
-            local = gs_pointply_write(path, (const double *)rs.out.v, rs.out.n, 1, fmt);
+            local = gs_pointply_write(path, (const double *)rs->out.v, rs->out.n, 1, fmt);
             if (local == GS_OK)
                 gs_run_output(run, "points", "points", "points.ply", NULL);
         }
         if (c->patch_csv && local == GS_OK) {
             size_t nm;
-            const gs_points_patch_metrics *m = gs_points_synth_metrics(rs.synth, &nm);
+            const gs_points_patch_metrics *m = gs_points_synth_metrics(rs->synth, &nm);
             gs_run_path(run, "patches.csv", path, sizeof path);
             local = write_patch_csv(path, m, nm);
             if (local == GS_OK)
@@ -1584,16 +1603,16 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
          * restores the axes. */
         gs_points zup = {0};
         if (local == GS_OK)
-            local = gs_points_append(&zup, rs.out.v, rs.out.n);
+            local = gs_points_append(&zup, rs->out.v, rs->out.n);
         if (local == GS_OK) {
             gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
-            local = seam_measures(&rs, &zup);
+            local = seam_measures(rs, &zup);
             if (local == GS_OK)
-                local = object_measures(&rs, &zup);
+                local = object_measures(rs, &zup);
         }
         if (c->mesh && local == GS_OK) {
             gs_run_path(run, "mesh.ply", path, sizeof path);
-            local = write_mesh(c, &zup, rs.tex.spacing, rs.params.mls_radius, path, &ntris);
+            local = write_mesh(c, &zup, rs->tex.spacing, rs->params.mls_radius, path, &ntris);
             if (local == GS_OK)
                 gs_run_output(run, "mesh", "surface", "mesh.ply", NULL);
             if (local == GS_OK && ntris)
@@ -1602,38 +1621,42 @@ static gs_err points_run(gs_run *run, void *vcfg, int resume)
         if (c->preview && local == GS_OK) {
             int written = 0;
             gs_run_path(run, "preview.png", path, sizeof path);
-            local = write_preview(c, &rs.tex, &zup, rs.params.mls_radius, path, &written);
+            local = write_preview(c, &rs->tex, &zup, rs->params.mls_radius, path, &written);
             if (local == GS_OK && written)
                 gs_run_output(run, "preview", "preview", "preview.png", NULL);
         }
         gs_points_free(&zup);
         if (local == GS_OK)
-            record_metrics(run, c, &rs, dens_out);
+            record_metrics(run, c, rs, rs->dens_out);
     }
-    GS_TRY(err, agree(&rs.together, run->comm, local), done);
-    {
-        gs_json j;
-        gs_json_init(&j);
-        gs_json_begin_object(&j, NULL);
-        gs_json_u64(&j, "mesh_triangles", ntris);
-        gs_json_end_object(&j);
-        err = gs_run_phase_end(run, j.buf);
-        gs_json_free(&j);
-        GS_TRY(err, err, done);
-    }
+    GS_CALL(agree(&rs->together, run->comm, local));
+    gs_json_u64(phase, "mesh_triangles", ntris);
     gs_log(GS_LOG_INFO, "output: %zu points, density %.4g per unit area (example %.4g, ratio "
-           "%.3f)", rs.out.n, dens_out, gs_points_synth_input_density(rs.synth),
-           dens_out / gs_points_synth_input_density(rs.synth));
-    GS_TRY(err, gs_run_finish(run, digest), done);
-done:
-    /* A local failure (see the header): the other ranks may be waiting in
-     * an exchange, so end every rank now. */
-    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs.together && run->size > 1)
-        gs_fatal(err, 0);
-    run->failed_together = err != GS_OK && rs.together;
-    run_state_free(&rs);
-    return err;
+           "%.3f)", rs->out.n, rs->dens_out, gs_points_synth_input_density(rs->synth),
+           rs->dens_out / gs_points_synth_input_density(rs->synth));
+    return GS_OK;
 }
+
+static void points_destroy(void *state)
+{
+    run_state *rs = state;
+    if (!rs)
+        return;
+    run_state_free(rs);
+    gs_free(rs);
+}
+
+static const gs_engine_ops points_ops = {
+    .setup = points_setup_op,
+    .restore = points_restore,
+    .units = points_units,
+    .advance = points_advance,
+    .save = points_save,
+    .synthesis_report = points_synthesis_report,
+    .finish = points_finish,
+    .output = points_output_op,
+    .destroy = points_destroy,
+};
 
 const gs_engine gs_engine_points = {
     "points",
@@ -1641,5 +1664,5 @@ const gs_engine gs_engine_points = {
     &points_table,
     sizeof(points_config),
     offsetof(points_config, run),
-    points_run,
+    &points_ops,
 };
