@@ -125,8 +125,13 @@ gs_err gs_par_agree(MPI_Comm comm, gs_err local)
     int rank, size;
     GS_MPI(MPI_Comm_rank(comm, &rank));
     GS_MPI(MPI_Comm_size(comm, &size));
-    /* Highest code, and lowest failing rank (as -rank maximized). */
-    int mine[2] = {(int)local, local != GS_OK ? -rank : -size};
+    /* Highest code, and lowest failing rank (as -rank maximized). An error
+     * that was already agreed (an engine's own agreement, then the driver's)
+     * keeps the rank it came from, so it is still reported once, from there. */
+    int origin = local != GS_OK ? gs_error_agreed_origin() : -1;
+    if (local != GS_OK && (origin < 0 || origin >= size))
+        origin = rank;
+    int mine[2] = {(int)local, local != GS_OK ? -origin : -size};
     int all[2];
     GS_MPI(MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm));
     if (all[0] == GS_OK)

@@ -103,9 +103,14 @@ for ((t = 0; t < 400; t++)); do
 done
 delay_ms=$((RANDOM % 400 + 10))
 sleep "$(printf '%d.%03d' $((delay_ms / 1000)) $((delay_ms % 1000)))"
-ranks=$(pgrep -P "$job")
-kill -KILL $ranks "$job" 2>/dev/null
+launcher=$(pgrep -d, -P "$job") # mpirun (the child of timeout); the ranks are its children
+ranks=$(pgrep -P "$launcher")
+kill -KILL $ranks ${launcher//,/ } "$job" 2>/dev/null
 wait "$job" 2>/dev/null
+for ((t = 0; t < 100; t++)); do # the killed ranks hold the run directory's lock until gone
+  kill -0 $ranks 2>/dev/null || break
+  sleep 0.05
+done
 finished=no
 [[ -e kill/summary.json ]] && finished=yes
 run_gs 1 resume kill
