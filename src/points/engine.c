@@ -1497,7 +1497,8 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
  * every rank at once (gs_run.failed_alone). */
 static gs_err op_status(gs_run *run, const run_state *rs, gs_err err)
 {
-    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs->together)
+    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs->together &&
+        gs_error_agreed_origin() < 0) /* not agreed here nor by a run-layer check */
         run->failed_alone = 1;
     return err;
 }
