@@ -34,7 +34,10 @@
  * by its rank). An operation that fails on one rank while the others may be
  * waiting inside it (points: a rank failing in the middle of an exchange)
  * sets run->failed_alone before returning: the driver then ends every rank
- * at once (gs_fatal(err, 0): MPI_Abort) instead of waiting for agreement. */
+ * at once (gs_fatal(err, 0): MPI_Abort) instead of waiting for agreement;
+ * an error every rank already agreed inside the operation (gs_par_agree,
+ * e.g. gs_run_check_memory) still ends the job cleanly, reported once:
+ * gs_fatal treats an agreed error as collective. */
 typedef struct gs_engine_ops {
     /* Collective, optional. A mode that does not follow the lifecycle below
      * (micro's gallery: many short complete runs and no checkpoint). Sets

@@ -1240,8 +1240,9 @@ static gs_err synth_step(run_state *rs, int *finished)
     return GS_OK;
 }
 
-static void synthesis_report(const run_state *rs, gs_json *j)
+static gs_err points_synthesis_report(void *state, gs_run *run, gs_json *j)
 {
+    const run_state *rs = state;
     gs_points_synth_t s = rs->synth;
     gs_points_times tm = gs_points_synth_times(s);
     gs_json_u64(j, "patches_done", gs_points_synth_cursor(s));
@@ -1251,6 +1252,7 @@ static void synthesis_report(const run_state *rs, gs_json *j)
     gs_json_f64(j, "other_seconds", tm.other);
     gs_json_i64(j, "candidates_offered_rank0", rs->sctx.offers);
     gs_json_i64(j, "search_regathers", rs->sctx.regathers);
+    return GS_OK;
 }
 
 static int u64_cmp(const void *a, const void *b)
@@ -1497,8 +1499,7 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
  * every rank at once (gs_run.failed_alone). */
 static gs_err op_status(gs_run *run, const run_state *rs, gs_err err)
 {
-    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs->together &&
-        gs_error_agreed_origin() < 0) /* not agreed here nor by a run-layer check */
+    if (err != GS_OK && err != GS_ERR_INTERRUPTED && !rs->together)
         run->failed_alone = 1;
     return err;
 }
@@ -1556,11 +1557,6 @@ static gs_err points_save(void *state, gs_run *run)
     return op_status(run, rs, err);
 }
 
-static gs_err points_synthesis_report(void *state, gs_run *run, gs_json *phase)
-{
-    synthesis_report(state, phase);
-    return GS_OK;
-}
 
 /* Relaxation, trimming, back to the example's axes. */
 static gs_err points_finish(void *state, gs_run *run, gs_json *phase)
