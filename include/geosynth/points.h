@@ -372,12 +372,22 @@ typedef struct gs_points_params {
                              warped (for measuring what the blend does) */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
     int objects;          /* 1: the example's disconnected objects (components no wider than
-                             a patch core, away from its edges) are pasted whole or not at
+                             a patch core, away from its edges, of at least
+                             GS_POINTS_SPECK_POINTS points) are pasted whole or not at
                              all, each by the patch holding its centre (no cut flowers or
                              rings at the seams); 0: every point by its position (the paper) */
     int relax_iterations;
     uint64_t seed;
 } gs_points_params;
+
+/* A piece (component of points linked within 2 spacings) of fewer points
+ * than this is a speck: a few samples, not an object. A Poisson-disk
+ * sampling leaves such pieces on a connected surface too, where a hole in
+ * the sampling is a little wider than 2 spacings (the heightfield.ini
+ * example has 17 in its box, 1-3 points each, all within 0.5 spacing of
+ * the surface next to them). The fragment measures count them; the
+ * synthesis never treats them as objects. */
+#define GS_POINTS_SPECK_POINTS 30
 
 /* Defaults scaled to an example box of lx x ly and sampling spacing
  * (output 2x the box side, chain mail weights of table 1). */
