@@ -523,7 +523,9 @@ gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src,
  * quantized fields alone (src/field/report.c): copying (gs_measure_copy3 with
  * windows of GS_FIELD_COPY_WINDOW^3, regions larger than one block of B^3
  * counted as large, completeness over source cells of B^3), the inside
- * components (face-connected inside samples, gs_measure_components3) and the
+ * components (face-connected inside samples, gs_measure_components3; those
+ * touching a face of the grid are left out, in the output and the source
+ * alike, as the box may cut them) and the
  * steps between 6-neighbours (a distance field changes by at most one sample
  * between neighbours; steps above 1.5 samples are violations). */
 #define GS_FIELD_COPY_WINDOW 4

@@ -55,8 +55,10 @@ static int cmp_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Inside components of q: count and sizes (sorted ascending, *sizes owned
- * by the caller, *n entries). */
+/* Inside components of q that touch none of its faces (one that does may be
+ * cut by the box: the output's at its faces are, and the source's would be):
+ * count and sizes (sorted ascending, *sizes owned by the caller, *n
+ * entries). */
 static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n)
 {
     int64_t cells = q->nx * q->ny * q->nz;
@@ -73,10 +75,20 @@ static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n
         mask[i] = inside[q->q[i]];
     GS_TRY(err, gs_measure_components3(mask, (int)q->nx, (int)q->ny, (int)q->nz, NULL, label, &nc,
                                        &sz), done);
-    memmove(sz, sz + 1, nc * sizeof *sz);
-    qsort(sz, nc, sizeof *sz, cmp_u64);
+    /* components touching a face: size 0, dropped */
+    for (int64_t z = 0; z < q->nz; z++)
+        for (int64_t y = 0; y < q->ny; y++) {
+            int face = z == 0 || z == q->nz - 1 || y == 0 || y == q->ny - 1;
+            for (int64_t x = 0; x < q->nx; x += face || x == q->nx - 1 ? 1 : q->nx - 1)
+                sz[label[x + q->nx * (y + q->ny * z)]] = 0;
+        }
+    uint32_t keep = 0;
+    for (uint32_t c = 1; c <= nc; c++)
+        if (sz[c])
+            sz[keep++] = sz[c];
+    qsort(sz, keep, sizeof *sz, cmp_u64);
     *sizes = sz;
-    *n = nc;
+    *n = keep;
     sz = NULL;
 done:
     gs_free(mask);
