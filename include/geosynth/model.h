@@ -360,8 +360,8 @@ typedef struct gs_model_params {
  * and k is drawn with P(k) = L(k) / sum L (Eq. 6). Unlike Eq. 4 a location
  * counts only for its own centre label (a location matching equally well
  * with another centre would add the same count to every label). Neighbours
- * past the example's faces match nothing by default (half a match or a
- * match with gs_model_resem_set_outside). With no decided neighbour every
+ * past the example's faces match nothing by default (half a match, a
+ * match, or a match against the face background with gs_model_resem_set_outside). With no decided neighbour every
  * location ties, so P(k) is the example's frequency of k.
  * layers != 0 (an extension, not in the paper): output and example stand on
  * the same ground, so a cell at height z only considers the locations of
@@ -375,8 +375,11 @@ gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack, i
                             gs_model_resem_t *out);
 /* What a neighbourhood cell past the example's faces scores against a decided
  * output neighbour: 0 a mismatch (as a defined different label), 1 half a
- * match, 2 a match (the paper's distance over defined cells only). A defined
- * equal label scores a match. The default after build is 0. */
+ * match, 2 a match (the paper's distance over defined cells only), 3 a match
+ * when the output neighbour is the example's face background of its layer
+ * (the commonest label on the example's x/y faces there: what the example
+ * most likely holds past them) and a mismatch otherwise. A defined equal
+ * label scores a match. The default after build is 0. */
 void gs_model_resem_set_outside(gs_model_resem_t r, int weight);
 void gs_model_resem_destroy(gs_model_resem_t *r);
 /* Distinct neighbourhood patterns of the index (0 for NULL). */

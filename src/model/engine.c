@@ -434,12 +434,14 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
                    "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
     GS_CFG_KEY_ENUM(model_config, resemblance_outside, "model.resemblance_outside",
-                    "mismatch|half|match", "mismatch",
+                    "mismatch|half|match|background", "mismatch",
                     "resemblance: what a neighbourhood cell past the example's faces scores "
                     "against a decided output cell: a mismatch (before #18 item 2: features near "
-                    "the faces, like castle.txt's bushes, never win), half a match, or a match "
+                    "the faces, like castle.txt's bushes, never win), half a match, a match "
                     "(the paper's distance over defined cells only: such neighbourhoods then win "
-                    "too easily, castle 3x3x3 share 0.26-0.57); configs/model/DEFAULTS.md"),
+                    "too easily, castle 3x3x3 share 0.26-0.57), or background: a match when the "
+                    "output cell holds the commonest label of the example's x/y faces at its "
+                    "layer, else a mismatch; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "true",
                     "resemblance: a cell at height z draws only from the example's "
                     "neighbourhoods at the same height (output and example share the ground)"),
@@ -2027,7 +2029,8 @@ static gs_err setup(gs_run *run, model_engine *e, int resume)
                                      c->resemblance_layers, &e->resem));
         gs_model_resem_set_outside(e->resem, !strcmp(c->resemblance_outside, "mismatch") ? 0
                                              : !strcmp(c->resemblance_outside, "half")   ? 1
-                                                                                         : 2);
+                                             : !strcmp(c->resemblance_outside, "match")  ? 2
+                                                                                         : 3);
         e->params.resem = e->resem;
         gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
                gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,

@@ -58,6 +58,9 @@ struct gs_model_resem {
     int outside;       /* what such a cell scores against a decided neighbour, in half
                           matches: 0 (a mismatch), 1 (half), 2 (a match); a defined
                           equal label scores 2 */
+    int outside_bg;    /* 1: such a cell scores a match against the example's background
+                          label of the decided neighbour's layer (bg), else a mismatch */
+    uint16_t *bg;      /* [nz] commonest label of the example's x/y faces at each layer */
 };
 
 struct gs_model_solver {

@@ -6,7 +6,8 @@
  * and the labels of its (2w+1)^3 - 1 neighbours (OUTSIDE past the example's
  * faces: undefined; per offset q a bitset marks the patterns with OUTSIDE
  * there, which the chooser scores as gs_model_resem_set_outside says: a
- * mismatch by default, half a match, or a match). Equal patterns are merged with a multiplicity.
+ * mismatch by default, half a match, a match, or a match only against the
+ * example's face background of that layer (bg), a mismatch against anything else). Equal patterns are merged with a multiplicity.
  * Patterns are sorted by centre label, so the patterns whose centre is a
  * candidate of a cell form a few runs of bit positions. For every (offset
  * q, label a) that occurs, a bitset over the patterns marks those with label
@@ -162,6 +163,27 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
     nslots += extra;
     r->nslots = nslots;
     r->nz = ex->nz;
+    /* the background of every layer: the commonest label on the example's x/y faces there
+     * (what an example continued past its faces most likely holds) */
+    GS_TRY(err, gs_alloc_array((void **)&r->bg, (size_t)ex->nz, sizeof *r->bg, "backgrounds"),
+           fail);
+    {
+        uint32_t *hist = gs_calloc((size_t)L, sizeof *hist);
+        GS_TRY_CHECK(err, hist != NULL, GS_ERR_MEM, fail, "resemblance index: out of memory");
+        for (int z = 0; z < ex->nz; z++) {
+            memset(hist, 0, (size_t)L * sizeof *hist);
+            for (int y = 0; y < ex->ny; y++)
+                for (int x = 0; x < ex->nx; x++)
+                    if (x == 0 || y == 0 || x == ex->nx - 1 || y == ex->ny - 1)
+                        hist[ex->labels[gs_model_lattice_index(ex, x, y, z)]]++;
+            int best = 0;
+            for (int l = 1; l < L; l++)
+                if (hist[l] > hist[best])
+                    best = l;
+            r->bg[z] = (uint16_t)best;
+        }
+        gs_free(hist);
+    }
     r->layers = layers;
     if (layers) {
         GS_TRY(err, gs_alloc_array((void **)&r->zmult, (size_t)ex->nz * P, sizeof *r->zmult,
@@ -213,6 +235,7 @@ void gs_model_resem_destroy(gs_model_resem_t *pr)
     gs_free(r->zmult);
     gs_free(r->zbits);
     gs_free(r->oslot);
+    gs_free(r->bg);
     gs_free(r);
     *pr = NULL;
 }
@@ -221,6 +244,8 @@ int gs_model_resem_patterns(const gs_model_resem_t r) { return r ? r->P : 0; }
 
 void gs_model_resem_set_outside(gs_model_resem_t r, int weight)
 {
-    if (r)
-        r->outside = weight < 0 ? 0 : weight > 2 ? 2 : weight;
+    if (r) {
+        r->outside_bg = weight == 3;
+        r->outside = weight == 3 ? 0 : weight < 0 ? 0 : weight > 2 ? 2 : weight;
+    }
 }

@@ -904,6 +904,14 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         int32_t slot = R->slot[(size_t)q * (size_t)R->L + (size_t)label];
         if (slot >= 0)
             nbl[nn++] = (uint64_t)slot * PW;
+        if (R->outside_bg && R->oslot[q] >= 0) {
+            /* outside = background: past the example's faces lies its face
+             * background of the neighbour's layer (a match), nothing else */
+            const int zb = s->box_z0 + pz < R->nz ? s->box_z0 + pz : R->nz - 1;
+            if (zb >= 0 && label == R->bg[zb])
+                nbl[nn++] = (uint64_t)R->oslot[q] * PW;
+            continue;
+        }
         if (R->outside && R->oslot[q] >= 0) {
             if (R->outside == 2)
                 nbl[nn++] = (uint64_t)R->oslot[q] * PW;

@@ -120,4 +120,46 @@ expect_rc 0 "terrain: resume at np 1"
 d1=$(digest_of terrain)
 [[ $(digest_of terrain2) == "$d1" && $(digest_of terrain_stop) == "$d1" ]] \
   && ok "terrain: digest $d1 at np 1, np 2 and stop + resume" || bad "terrain: digests differ across np or resume"
+
+# castle.ini (Merrell's castle.txt, fetched): its features near its own faces (labels every one
+# of whose example cells lies within 2 cells of the example's x/y faces: the bushes) keep their
+# share, and the output meets the example's windows. model.resemblance_outside = background
+# scores a neighbourhood cell past the example's faces as a match only against the example's
+# face background of that layer. Checks from the example, seeds 1 and 2: near-face labels'
+# share of all cells within [0.5, 2] x the example's; completeness >= the example's half vs
+# half (the lower); non-empty 3x3x3 share >= the better half vs half; labels used >= 0.8 x.
+# Broken on purpose: resemblance_outside = half (the previous castle.ini) fails the first check.
+CASTLE=model-synthesis/merrell42-model-synthesis/samples/castle.txt
+if need_data "castle: near-face features (bushes) and windows" $CASTLE; then
+  for s in 1 2; do
+    run_gs 0 model -c "$GS_ROOT/configs/model/castle.ini" --set run.seed=$s --set model.mesh=none -o castle$s
+    expect_rc 0 "castle.ini seed $s"
+    res=$(/usr/bin/python3 - "$DATA/$CASTLE" castle$s <<'EOF'
+import json, os, sys
+import numpy as np
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
+ex = lm.read_lattice(sys.argv[1])
+out = lm.read_lattice(sys.argv[2] + "/lattice.h5")
+m = json.load(open(sys.argv[2] + "/summary.json"))["metrics"]
+Z, Y, X = ex.shape
+yy, xx = np.meshgrid(np.arange(Y), np.arange(X), indexing="ij")
+near = np.broadcast_to(np.minimum(np.minimum(xx, X - 1 - xx), np.minimum(yy, Y - 1 - yy)) <= 2, ex.shape)
+labels = [l for l in np.unique(ex[ex != 0]).tolist() if (ex[~near] != l).all()]
+se, so = np.isin(ex, labels).mean(), np.isin(out, labels).mean()
+f, h = lm.figures(ex, out, ks=(3,)), lm.half_figures(ex, ks=(3,))
+chk = lm.Checks()
+need = chk.need
+need(len(labels) > 0, "the example has near-face labels: %s (share %.4f)" % (labels, se))
+need(0.5 * se <= so <= 2 * se, "near-face labels' share %.4f within [0.5, 2] x the example's %.4f" % (so, se))
+need(f["completeness_3"] >= h["completeness_3"], "completeness %.3f >= example half vs half %.3f" % (f["completeness_3"], h["completeness_3"]))
+need(f["share_3"] >= h["share_3"], "non-empty 3x3x3 share %.3f >= example half vs half %.3f" % (f["share_3"], h["share_3"]))
+need(f["labels_used"] >= 0.8 * f["labels_example"], "labels used %d >= 0.8 x example's %d" % (f["labels_used"], f["labels_example"]))
+need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+chk.result()
+EOF
+)
+    verdict castle$s "keeps the example's near-face features and windows" "$res"
+  done
+fi
 finish
