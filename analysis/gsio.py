@@ -260,6 +260,22 @@ def read_ply(path):
     return verts, faces
 
 
+def read_ply_vertex_property(path, name):
+    """The vertex property `name` of a binary PLY file whose vertex element
+    comes first (geosynth's meshes: micro's uchar label) as a numpy array."""
+    fmt, elements, _, body = _ply_header(path)
+    if fmt == "ascii" or not elements or elements[0][0] != "vertex":
+        raise ValueError(f"{path}: expected a binary PLY whose first element is vertex")
+    end = "<" if fmt == "binary_little_endian" else ">"
+    _, count, props = elements[0]
+    if any(p[0] == "list" for p in props):
+        raise ValueError(f"{path}: list property in the vertex element")
+    dt = np.dtype([(p[1], end + _PLY_TYPES[p[0]]) for p in props])
+    if name not in dt.names:
+        raise ValueError(f"{path}: no vertex property {name}")
+    return np.frombuffer(body, dt, count, 0)[name].copy()
+
+
 def _ply_ascii(body, elements):
     lines = body.decode("ascii").splitlines()
     pos, verts, faces = 0, None, None

@@ -37,23 +37,34 @@
  * 7 islands, the largest 2735 units^2, 6.8x the median) that the pass then
  * only carves. A table whose positive side falls linearly (the contact
  * distribution of discs) says how many discs of which radius; disc_seed
- * places them apart (farthest-point, geodesic) and the pass starts there:
- * planet.ini 13 islands of 1.1x the median, radial cv 0.065 against
- * 0.235, perimeter / 2 pi r 1.38 against 2.14 (analysis/micro_outline.py),
- * realized L1/n 0.023 against 0.019, 300 rounds against 27. The discs
- * alone are round (cv 0.011) but miss by L1/n 0.12: evenly spread, their
- * sea is 11+ units deep on 3861 triangles against 1600, so the pass still
- * adds capes and specks there.
+ * places them apart (farthest-point, geodesic) and arrange() then moves
+ * their centres until the round discs alone come closest to both tables.
+ * Evenly spread discs miss by L1/n 0.12 (their sea is too shallow and too
+ * uniform: the table wants straits and open ocean), and the greedy rounds
+ * from there squeeze the islands into polygons facing each other across
+ * straight channels with ragged coasts (planet.ini: perimeter / 2 pi r 1.08x
+ * an ideal disc drawn on the same mesh, radial cv 0.067, from mesh.ply by
+ * analysis/micro_outline.py). Arranged, the discs alone realize L1/n 0.043
+ * (412 evaluations), so planet.ini's target 0.045 needs no greedy round:
+ * 1.00x the ideal disc, cv 0.015. Greedy rounds on to 0.02 from there give
+ * the rough coasts back (1.10x, islands merge), to 0.04 a little (3 rounds,
+ * 1.05x). Neither a coast-length term in the move prices (weight 1: 1.23x,
+ * islands merge, the histogram then pulls them apart unevenly) nor a
+ * curvature step after every round (a triangle with two neighbours on the
+ * other side joins them: 1.12x) made the greedy rounds' coasts rounder.
  * The pass prices the histogram only: where a table asks for more coast
- * than round regions give, it carves ragged coasts (planet.ini: opening and
+ * than round regions give, it carves ragged coasts (planet.ini from
+ * evenly spread discs: opening and
  * closing its result by 1 unit shortens the coast 2134 -> 1784 edges and
  * raises L1/n 0.019 -> 0.169, the sea too far from land).
- * Cost per round: one fast march over the mesh plus O(n). Deterministic
- * (no random numbers; ties by vertex index). */
+ * Cost per round: one fast march over the mesh plus O(n); the arrangement:
+ * one march per evaluation (24 per disc + 100 at most). Deterministic (no
+ * random numbers; ties by vertex index, candidate centres by a hash). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "micro/micro_impl.h"
@@ -327,6 +338,102 @@ static gs_err deepen(corr *c, uint8_t *side, int s, double delta, int *done)
     return GS_OK;
 }
 
+/* L1 / n of the round discs at cen[] (clearance offsets off[] = minus
+ * their radii) against the target, their distances read from one march of
+ * the clearance field min_i (d(centre_i, .) - r_i): inside a disc (discs
+ * apart) it is minus the depth, outside the distance to the nearest coast.
+ * A triangle takes its vertices' mean (its side: mean <= 0, as disc_seed
+ * labels it); beyond K units everything is in the last bin, so the march
+ * stops there. */
+static gs_err disc_l1(corr *c, const uint32_t *cen, const double *off, uint32_t nd, double *l1)
+{
+    uint32_t n = c->n, K = c->K;
+    GS_CALL(gs_measure_geo_march(c->g, cen, off, nd, (double)K));
+    const double *vd = gs_measure_geo_vertex_dist(c->g);
+    memset(c->e, 0, 2 * (size_t)K * sizeof *c->e);
+    for (uint32_t t = 0; t < n; t++) {
+        const uint32_t *tv = c->m->tris + 3 * (size_t)t;
+        double x = 0;
+        for (int i = 0; i < 3; i++)
+            x += isfinite(vd[tv[i]]) ? vd[tv[i]] : (double)K;
+        x /= 3;
+        c->e[x <= 0 ? bin_of(K, 1, -x) : bin_of(K, 0, x)]++;
+    }
+    int64_t sum = 0;
+    for (uint32_t i = 0; i < 2 * K; i++)
+        sum += llabs(c->e[i] - c->h->count[i]);
+    *l1 = n ? (double)sum / n : 0;
+    return GS_OK;
+}
+
+/* Arrangement of the discs (micro.correct_discs): farthest-point
+ * centres spread the discs evenly, but a table asks for its own sea: its
+ * shallow bins (straits between close discs) and its deep ones (open
+ * ocean) at once (planet.ini: evenly spread discs hold 3861 triangles of
+ * sea 11+ units deep against 1600, the pass then squeezes the islands into
+ * polygons facing each other across channels). Local search: each disc in
+ * turn tries candidate centres `step` units away (vertices of the ring
+ * [step / 2, step] picked by a hash of vertex, disc and try: deterministic),
+ * keeping a move that lowers disc_l1 and keeps every pair of discs at least
+ * `gap` units apart (separate, round islands); the step halves (4, 2, 1
+ * units) when a sweep finds nothing, within a budget of evaluations. */
+static gs_err arrange(corr *c, uint32_t *cen, double *off, uint32_t nd)
+{
+    const double gap = 2.0;
+    const uint32_t tries = 4, budget = 24 * nd + 100;
+    double best;
+    GS_CALL(disc_l1(c, cen, off, nd, &best));
+    double rmax = 0;
+    for (uint32_t i = 0; i < nd; i++)
+        rmax = fmax(rmax, -off[i]);
+    uint32_t evals = 1, sweep = 0;
+    for (double step = 4.0; step >= 1.0 && evals < budget; step /= 2) {
+        int improved = 1;
+        while (improved && evals < budget) {
+            improved = 0;
+            sweep++;
+            for (uint32_t j = 0; j < nd && evals < budget; j++)
+                for (uint32_t k = 0; k < tries && evals < budget; k++) {
+                    /* Candidate: the ring vertex of smallest hash. */
+                    GS_CALL(gs_measure_geo_march(c->g, &cen[j], NULL, 1, step));
+                    const double *vd = gs_measure_geo_vertex_dist(c->g);
+                    uint32_t cand = UINT32_MAX;
+                    uint64_t hbest = UINT64_MAX;
+                    for (uint32_t v = 0; v < c->nv; v++)
+                        if (isfinite(vd[v]) && vd[v] >= 0.5 * step) {
+                            uint64_t hv = gs_hash_mix64(((uint64_t)v << 24) ^ ((uint64_t)j << 8) ^ k ^
+                                                        ((uint64_t)sweep << 48));
+                            if (hv < hbest) {
+                                hbest = hv;
+                                cand = v;
+                            }
+                        }
+                    if (cand == UINT32_MAX)
+                        continue;
+                    /* Separation from every other disc. */
+                    GS_CALL(gs_measure_geo_march(c->g, &cand, NULL, 1, -off[j] + rmax + gap));
+                    vd = gs_measure_geo_vertex_dist(c->g);
+                    int apart = 1;
+                    for (uint32_t i = 0; i < nd && apart; i++)
+                        apart = i == j || !(vd[cen[i]] < -off[j] - off[i] + gap);
+                    if (!apart)
+                        continue;
+                    uint32_t keep = cen[j];
+                    cen[j] = cand;
+                    double l1;
+                    GS_CALL(disc_l1(c, cen, off, nd, &l1));
+                    evals++;
+                    if (l1 < best) {
+                        best = l1;
+                        improved = 1;
+                    } else
+                        cen[j] = keep;
+                }
+        }
+    }
+    return GS_OK;
+}
+
 /* Discs from the positive table: a disc of radius R (plane) holds area
  * 2 pi (R - k - 1/2) in bin k < R, so the table's second differences give
  * how many discs of each radius. Centres by farthest-point placement
@@ -386,19 +493,24 @@ static gs_err disc_seed(corr *c, uint8_t *side, const double *init)
     /* clear[v]: geodesic clearance of v to the discs placed (distance to
      * the nearest centre minus its radius); each new disc marches only as
      * far as it can lower a clearance (incremental farthest-point). */
-    double *clear = NULL;
+    double *clear = NULL, *off = NULL;
+    uint32_t *cen = NULL;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&clear, nv, sizeof *clear, "disc clearances"), out);
+    GS_TRY(err, gs_alloc_array((void **)&cen, ndiscs, sizeof *cen, "disc centres"), out);
+    GS_TRY(err, gs_alloc_array((void **)&off, ndiscs, sizeof *off, "disc radii"), out);
     for (uint32_t v = 0; v < nv; v++)
         clear[v] = INFINITY;
     uint32_t t0 = 0;
     for (uint32_t t = 1; init && t < n; t++)
         if (init[t] > init[t0])
             t0 = t;
-    uint32_t centre = m->tris[3 * (size_t)t0];
+    uint32_t centre = m->tris[3 * (size_t)t0], placed = 0;
     double top = INFINITY;
     for (uint32_t i = 0; i < ndiscs; i++) {
         double r = rad[i] + 0.5;
+        cen[placed] = centre;
+        off[placed++] = -r;
         GS_TRY(err, gs_measure_geo_march(c->g, &centre, NULL, 1, top + r), out);
         const double *vd = gs_measure_geo_vertex_dist(c->g);
         for (uint32_t v = 0; v < nv; v++)
@@ -413,13 +525,20 @@ static gs_err disc_seed(corr *c, uint8_t *side, const double *init)
         if (!(top > 0))
             break; /* no room for another disc */
     }
+    if (placed > 1)
+        GS_TRY(err, arrange(c, cen, off, placed), out);
+    /* The discs' clearance field (their union: clearance <= 0). */
+    GS_TRY(err, gs_measure_geo_march(c->g, cen, off, placed, INFINITY), out);
+    const double *vd = gs_measure_geo_vertex_dist(c->g);
     for (uint32_t t = 0; t < n; t++) {
         const uint32_t *tv = m->tris + 3 * (size_t)t;
-        side[t] = clear[tv[0]] + clear[tv[1]] + clear[tv[2]] <= 0;
+        side[t] = vd[tv[0]] + vd[tv[1]] + vd[tv[2]] <= 0;
     }
 out:
     gs_free(rad);
     gs_free(clear);
+    gs_free(cen);
+    gs_free(off);
     return err;
 }
 

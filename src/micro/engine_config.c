@@ -90,7 +90,8 @@ static const gs_cfg_key micro_keys[] = {
                     "correction pass: stop once the realized L1/n is at most this"),
     GS_CFG_KEY_BOOL(micro_config, correct_discs, "micro.correct_discs", "no",
                     "correction pass: start from separate discs sized by the positive table's "
-                    "second differences (geodesic, farthest-point centres) instead of the "
+                    "second differences (geodesic, farthest-point centres, then moved until the "
+                    "round discs alone come closest to both tables) instead of the "
                     "reconstruction's regions (no = the reconstruction's regions)"),
     GS_CFG_KEY_INT(micro_config, max_rejects_per_bin, "micro.max_rejects_per_bin", 0,
                    GS_CFG_INT_MAX, 0, "0", "stop a bin after this many rejected placements (0 = "
