@@ -295,10 +295,33 @@ def table_rows(runs, agree):
     return "\n".join(rows)
 
 
+def micro_coast(run):
+    """Outline of the first instance's islands, from its mesh.ply alone
+    (analysis/micro_outline.py): 'measured / ideal (islands)', the
+    area-weighted perimeter / 2 pi r of the positive regions other than the
+    surrounding one against ideal discs of their areas drawn on the same
+    mesh; '-' without such regions or a readable mesh.ply."""
+    plys = [p for p in gsio.outputs(run, "mesh", "instance") if p.endswith(".ply")]
+    if not plys:
+        return "-"
+    import micro_outline
+    try:
+        v, f, _, vl = micro_outline.load(os.path.dirname(plys[0]))
+    except (OSError, KeyError, ValueError) as e:
+        gsio.warn(f"{plys[0]}: no outline ({e})")
+        return "-"
+    regions, specks = micro_outline.discs(v, f, vl)
+    sm = micro_outline.summary(regions, specks)["positive"]
+    if not sm["count"]:
+        return "-"
+    return f'{sm["perimeter_ratio"]:.3f} / {sm["ideal_ratio"]:.3f} ({sm["count"]})'
+
+
 def micro_table(runs):
     """Realized contact distribution of the micro runs (summary.json metrics:
     true geodesic distance of each triangle to the region interface against
-    the target; src/measure/geodesic.c)."""
+    the target; src/measure/geodesic.c) and their islands' outline
+    (micro_coast)."""
     rows = []
     for r in runs:
         m = r.get("metrics", {})
@@ -306,14 +329,20 @@ def micro_table(runs):
             continue
         rows.append(f'<tr><td class="l">{html.escape(r["_dir"])}</td><td class="l">{html.escape(r["_config_name"])}</td>'
                     f'<td>{m.get("triangles", 0)}</td><td>{m["realized_l1"]:.4f}</td>'
-                    f'<td>{m.get("realized_l1_max", 0):.4f}</td><td>{100 * m.get("unassigned_share", m.get("unassigned_share_max", 0)):.3f}%</td></tr>')
+                    f'<td>{m.get("realized_l1_max", 0):.4f}</td><td>{100 * m.get("unassigned_share", m.get("unassigned_share_max", 0)):.3f}%</td>'
+                    f'<td>{html.escape(micro_coast(r))}</td></tr>')
     if not rows:
         return ""
     return ("<h2>Contact distributions (micro)</h2>\n<p>realized L1/n: sum over the signed bins of |realized - target| "
             "divided by the triangle count, where realized is each triangle's true geodesic distance to the "
-            "interface between the regions (the side of its label), histogrammed like the target.</p>\n"
+            "interface between the regions (the side of its label), histogrammed like the target. Islands: "
+            "the first instance's positive regions of at least 100 units^2 other than the surrounding one, "
+            "from its mesh.ply's vertex labels: area-weighted perimeter / 2 pi r (r: the radius of a disc of "
+            "the same area) / the same for ideal discs of those areas drawn on the same mesh (above 1 from "
+            "the staircase of its edges) (count); round coasts come close to the ideal.</p>\n"
             '<table id="micro"><tr><th class="l">run</th><th class="l">config</th><th>triangles</th>'
-            "<th>realized L1/n</th><th>worst instance</th><th>unassigned</th></tr>\n" + "\n".join(rows) + "\n</table>")
+            "<th>realized L1/n</th><th>worst instance</th><th>unassigned</th><th>islands: perimeter / 2 pi r, "
+            "measured / ideal (count)</th></tr>\n" + "\n".join(rows) + "\n</table>")
 
 
 def main():
