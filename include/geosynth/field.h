@@ -311,7 +311,7 @@ typedef struct gs_field_search_opts {
     /* > 0: give up after this many pops (out->truncated = 1, out->found = 0).
      * Deterministic: the same query on the same tree stops at the same pop,
      * so every rank can try a query locally and agree, without talking,
-     * whether to spread it over the ranks (src/field/engine.c). */
+     * whether to spread it over the ranks (src/field/engine_match.c). */
     uint64_t max_pops;
     /* Source block positions no match may take: nexclude boxes {lo x, lo y,
      * lo z, hi x, hi y, hi z} (inclusive, block positions of the searched
@@ -392,7 +392,7 @@ typedef struct gs_field_synth_config {
      * gs_field_synth_run synthesizes (not by the region functions) instead of
      * gs_field_tree_best_match(searcher, q, opts, out), with the iteration
      * and its tree. It must give exactly that answer (found, index, dist,
-     * known); the engine (src/field/engine.c) uses it to spread the search
+     * known); the engine (src/field/engine_match.c) uses it to spread the search
      * over MPI ranks. */
     gs_err (*match)(void *ctx, gs_field_tree_t tree, gs_field_searcher_t searcher, int iteration,
                     const gs_field_query *q, const gs_field_search_opts *opts,
@@ -512,7 +512,7 @@ typedef struct gs_field_quality {
 gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
                                 gs_field_quality *q);
 /* The same with any exact matcher of blocks of size B on src (global block
- * indices), e.g. slab trees on several ranks combined (src/field/engine.c);
+ * indices), e.g. slab trees on several ranks combined (src/field/engine_match.c);
  * every rank of such a matcher calls it. */
 gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src, int B,
                                      gs_err (*match)(void *ctx, const gs_field_query *q,

@@ -1,0 +1,123 @@
+/* field's configuration: the key table (`geosynth field --help`) and its
+ * validation. See engine_impl.h. */
+#include <string.h>
+
+#include "geosynth/field_examples.h"
+#include "field/engine_impl.h"
+
+static void validate_config(const void *cfg_, gs_cfg_ctx *ctx)
+{
+    const field_config *c = cfg_;
+    int file = !strcmp(c->kind, "file");
+    if (file && !c->path[0])
+        gs_cfg_report(ctx, "example.path", "is required with example.kind = file (a mesh, .vdb, "
+                                           "height-map image or HDF5 field)");
+    if (!file && c->path[0])
+        gs_cfg_report(ctx, "example.path",
+                      "is only read with example.kind = file (example.kind = %s generates the "
+                      "example)", c->kind);
+    int64_t f = (int64_t)1 << (c->iterations - 1);
+    for (int a = 0; a < 3; a++)
+        if (c->target[a] % f != 0 || c->target[a] < c->block)
+            gs_cfg_report(ctx, "field.target",
+                          "axis %d = %lld: expected a multiple of 2^(iterations-1) = %lld and at "
+                          "least field.block = %lld",
+                          a, (long long)c->target[a], (long long)f, (long long)c->block);
+    if (c->iterations > 1 && c->coarse_block * (f / 2) > c->target[0] && c->coarse_block * (f / 2) > c->target[1])
+        gs_cfg_report(ctx, "field.coarse_block",
+                      "%lld does not fit the target at the coarsest iteration (target / %lld)",
+                      (long long)c->coarse_block, (long long)f);
+}
+
+static const gs_cfg_key field_keys[] = {
+    GS_CFG_KEY_ENUM(field_config, kind, "example.kind", "file|" GS_EXAMPLE_KINDS, "grid",
+                    "example geometry: a built-in generator, or file = example.path"),
+    GS_CFG_KEY_PATH(field_config, path, "example.path", "",
+                    "example file: mesh (.obj .ply .stl .off), .vdb level set, height map "
+                    "(.png .jpg) or HDF5 field (.h5)"),
+    GS_CFG_KEY_INT(field_config, size, "example.size", 8, 1024, 0, "64",
+                   "source samples along the longest axis (mesh, generator, height map)"),
+    GS_CFG_KEY_INT(field_config, example_seed, "example.seed", 0, GS_CFG_INT_MAX, 0, "1",
+                   "seed of the built-in generators (independent of run.seed)"),
+    GS_CFG_KEY_ENUM(field_config, sign, "example.sign", "signed|unsigned", "signed",
+                    "mesh distance: signed needs a closed mesh; unsigned works for any mesh "
+                    "(surface thickened by example.shell)"),
+    GS_CFG_KEY_REAL(field_config, shell, "example.shell", 0, 8, 0, "1",
+                    "unsigned meshes: half thickness of the solid shell, in samples"),
+    GS_CFG_KEY_REAL(field_config, margin, "example.margin", 0, 64, 0, "2",
+                    "mesh: samples of empty margin around the bounding box"),
+    GS_CFG_KEY_STRING(field_config, vdb_grid, "example.vdb_grid", "",
+                      ".vdb: float grid name (empty = the first level set, else the first float grid)"),
+    GS_CFG_KEY_STRING(field_config, dataset, "example.dataset", "/field/distance",
+                      "HDF5: float32 dataset {nz, ny, nx} holding the distance field"),
+    GS_CFG_KEY_INT(field_config, depth, "example.depth", 4, 4096, 0, "32",
+                   "height map: samples along z"),
+    GS_CFG_KEY_REAL(field_config, height, "example.height", 0, 4096, GS_CFG_OPEN_LO, "16",
+                    "height map: relief (black to white) in samples"),
+    GS_CFG_KEY_REAL(field_config, range, "field.range", 0, 64, GS_CFG_OPEN_LO, "3",
+                    "quantization: 256 levels over [-range, +range] samples of distance"),
+    GS_CFG_KEY_INT(field_config, iterations, "field.iterations", 1, GS_FIELD_MAX_ITER, 0, "3",
+                   "multi-resolution iterations (paper: 3)"),
+    GS_CFG_KEY_INT(field_config, block, "field.block", 2, 32, GS_CFG_POW2, "16",
+                   "block size of the last iteration (paper: 16)"),
+    GS_CFG_KEY_INT(field_config, coarse_block, "field.coarse_block", 2, 32, GS_CFG_POW2, "8",
+                   "block size of the earlier iterations (paper: 8)"),
+    GS_CFG_KEY_INT3(field_config, target, "field.target", 2, 4096, 0, "128",
+                    "target samples x y z (paper: 128^3 from a 64^3 source)"),
+    GS_CFG_KEY_BOOL(field_config, mask_unsynthesized, "field.mask_unsynthesized", "yes",
+                    "yes: only synthesized samples count in a match (faithful statistics); "
+                    "no: the paper's whole blocks, its random seeds only breaking ties (at full weight "
+                    "they outweigh the overlap)"),
+    GS_CFG_KEY_REAL(field_config, seed_weight, "field.seed_weight", 0, 1, 0, "0",
+                    "masked matching: weight of unsynthesized samples (seeds, coarse result) "
+                    "against synthesized ones; 0 = ignored (copies the source), 1 = paper"),
+    GS_CFG_KEY_REAL(field_config, coarse_weight, "field.coarse_weight", 0, 1, 0, "1",
+                    "masked matching after the first iteration: weight of the upsampled coarse "
+                    "result against synthesized samples; 1 = equal (paper), 0 = ignored "
+                    "(multi-resolution then does nothing)"),
+    GS_CFG_KEY_BOOL(field_config, seed_blocks, "field.seed_blocks", "no",
+                    "iteration 0 starts from random source blocks instead of random samples"),
+    GS_CFG_KEY_BOOL(field_config, upper_bound, "field.upper_bound", "yes",
+                    "queue pruning after iteration 0 (paper eq. 3's role): each search starts "
+                    "bounded by the exact distance of the neighbour's match continued; same "
+                    "result, fewer queue entries"),
+    GS_CFG_KEY_REAL(field_config, copy_limit, "field.copy_limit", 0, 1, 0, "0",
+                    "no piece copied verbatim from one source offset grows past this share of "
+                    "the source (its bounding box): the search then excludes that offset's "
+                    "continuation; 0 = off (the paper: large verbatim copies); 0.25 in terrain, texture, "
+                    "balls and fibers.ini"),
+    GS_CFG_KEY_INT(field_config, blend, "field.blend", 0, 4, 0, "0",
+                   "seam blending after the last iteration: samples within this many of a seam "
+                   "between pieces copied from different source offsets fade from one piece into "
+                   "the other (overlap blending); 0 = off (the paper: the pieces meet in steps); 2 "
+                   "where copy_limit is set"),
+    GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
+                   "target regions run in parallel on the ranks: block positions (stride "
+                   "block/2) per region along each axis; 0 = one region; any value gives the "
+                   "paper's raster-order result, for any rank count"),
+    GS_CFG_KEY_ENUM(field_config, tree, "field.tree", "whole|sharded", "whole",
+                    "search tree per rank: whole = every rank holds the whole tree and pyramid "
+                    "(fastest, target regions in parallel); sharded = each rank holds a z-slab "
+                    "of them, so memory per rank falls with the rank count, and every match is "
+                    "searched by all ranks together; same output"),
+    GS_CFG_KEY_ENUM(field_config, geometry, "output.geometry", "contour|copy|both|none", "contour",
+                    "output mesh: contour of the field (OpenVDB), the source's surface copied "
+                    "along the provenance onto it (paper 5.3), both, or none"),
+    GS_CFG_KEY_ENUM(field_config, mesh_format, "output.mesh_format", "obj|ply", "ply",
+                    "file format of output meshes"),
+    GS_CFG_KEY_REAL(field_config, adaptivity, "output.adaptivity", 0, 1, 0, "0",
+                    "contour mesh adaptivity (0 = uniform)"),
+    GS_CFG_KEY_INT(field_config, relax, "output.relax", 0, 1000, 0, "10",
+                   "copied geometry: Laplacian relaxation iterations of seam vertices"),
+    GS_CFG_KEY_REAL(field_config, snap, "output.snap", 0, 2, 0, "0.5",
+                    "copied geometry: how far (samples) a contour vertex may move onto the copied "
+                    "source surface"),
+    GS_CFG_KEY_BOOL(field_config, vdb, "output.vdb", "yes", "also write field.vdb"),
+    GS_CFG_KEY_BOOL(field_config, preview, "output.preview", "yes",
+                    "write RUN_DIR/preview.png: the source's contour and the output's contour "
+                    "side by side (whatever output.geometry is)"),
+    GS_CFG_RUN_KEYS(field_config, run, "field"),
+};
+
+const gs_cfg_table field_cfg_table =
+    GS_CFG_TABLE("field", field_config, field_keys, validate_config);

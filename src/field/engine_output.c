@@ -1,0 +1,391 @@
+/* field driver, output: the result redistanced, field.h5 (+ field.xmf),
+ * field.vdb, the contoured and copied meshes, the quality measures (matched
+ * with the distributed matcher) and the pictures, into summary.json. */
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/digest.h"
+#include "geosynth/field_examples.h"
+#include "geosynth/file.h"
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/par.h"
+#include "geosynth/preview.h"
+#include "geosynth/vdb.h"
+#include "field/engine_impl.h"
+
+static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f,
+                             const gs_qfield *src)
+{
+    char path[PATH_MAX];
+    gs_run_path(run, "field.h5", path, sizeof path);
+    gs_ckpt_meta meta = {"field", run->seed, run->config_text};
+    gs_ckpt_t h = NULL;
+    GS_CALL(gs_ckpt_create(run->comm, path, &meta, &h));
+    int64_t n[3] = {res->nx, res->ny, res->nz};
+    gs_err err = GS_OK;
+    GS_TRY(err, field_write_slabs(h, run, "/field/distance", n, GS_H5_F32, f->v), fail);
+    GS_TRY(err, field_write_slabs(h, run, "/field/levels", n, GS_H5_U8, res->q), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "spacing", f->spacing), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_x", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_y", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/distance", "origin_z", 0), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "lo", res->lo), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/field/levels", "hi", res->hi), fail);
+    static const char order[] = "data[z][y][x]; x fastest, z up; sample (x, y, z) at spacing * (x, y, z)";
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/distance", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/distance", "units",
+                                "signed distance in the example's units (spacing per sample), "
+                                "negative inside"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/levels", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field/levels", "units",
+                                "quantized distance: level q is lo + q * (hi - lo) / 255"),
+           fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/field", "up_axis", "z"), fail);
+    /* the quantized (cropped) example, so that any measure of the output
+     * against its example can be taken from this file alone */
+    int64_t sn[3] = {src->nx, src->ny, src->nz};
+    GS_TRY(err, field_write_slabs(h, run, "/source/levels", sn, GS_H5_U8, src->q), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "lo", src->lo), fail);
+    GS_TRY(err, gs_ckpt_set_f64(h, "/source/levels", "hi", src->hi), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/source/levels", "index_order", order), fail);
+    GS_TRY(err, gs_ckpt_set_str(h, "/source/levels", "units",
+                                "quantized distance of the cropped example: lo + q * (hi - lo) / 255"),
+           fail);
+    GS_CALL(gs_ckpt_commit(&h));
+    err = GS_OK;
+    if (run->rank == 0) {
+        gs_xdmf_grid g = {"field", GS_XDMF_NODE, {(uint64_t)n[2], (uint64_t)n[1], (uint64_t)n[0]},
+                          {0, 0, 0}, {f->spacing, f->spacing, f->spacing}, 1};
+        gs_xdmf_attr at[2] = {{"distance", "/field/distance", GS_H5_F32, 1},
+                              {"levels", "/field/levels", GS_H5_U8, 1}};
+        err = gs_xdmf_write(path, &g, at, 2);
+        gs_run_output(run, "h5", "field", "field.h5", n);
+        gs_run_output(run, "xdmf", "field", "field.xmf", n);
+    }
+    GS_CALL(gs_par_agree(run->comm, err));
+    return GS_OK;
+fail:
+    gs_ckpt_discard(&h);
+    return err;
+}
+
+/* Rank 0: the synthesized field redistanced into a proper level set (the
+ * exact distance to its zero surface within field.range samples, OpenVDB
+ * levelSetRebuild on a copy padded with its edge values so the surface stays
+ * open at the box faces), written as field.vdb (grid `surface`, class level
+ * set, background = band width, voxel size = sample spacing) when
+ * output.vdb = yes; f->v receives the redistanced values. */
+static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
+{
+    int pad = (int)ceil(c->range) + 1;
+    gs_vdb_dense d, out;
+    size_t n[3] = {(size_t)f->nx + 2 * (size_t)pad, (size_t)f->ny + 2 * (size_t)pad,
+                   (size_t)f->nz + 2 * (size_t)pad};
+    GS_CALL(gs_vdb_dense_alloc(&d, n[0], n[1], n[2]));
+    d.voxel = f->spacing;
+    for (int a = 0; a < 3; a++)
+        d.origin[a] = -pad * f->spacing;
+    d.background = (float)(c->range * f->spacing);
+    for (size_t z = 0; z < n[2]; z++)
+        for (size_t y = 0; y < n[1]; y++)
+            for (size_t x = 0; x < n[0]; x++) {
+                int64_t sx = (int64_t)x - pad, sy = (int64_t)y - pad, sz = (int64_t)z - pad;
+                sx = sx < 0 ? 0 : sx >= f->nx ? f->nx - 1 : sx;
+                sy = sy < 0 ? 0 : sy >= f->ny ? f->ny - 1 : sy;
+                sz = sz < 0 ? 0 : sz >= f->nz ? f->nz - 1 : sz;
+                d.v[x + n[0] * (y + n[1] * z)] = f->v[sx + f->nx * (sy + f->ny * sz)];
+            }
+    char path[PATH_MAX];
+    gs_run_path(run, "field.vdb", path, sizeof path);
+    gs_err err = gs_vdb_level_set(&d, pad, c->range, "surface", c->vdb ? path : NULL, &out);
+    gs_vdb_dense_destroy(&d);
+    GS_CALL(err);
+    memcpy(f->v, out.v, (size_t)(f->nx * f->ny * f->nz) * sizeof *f->v);
+    gs_vdb_dense_destroy(&out);
+    if (c->vdb)
+        gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
+    return GS_OK;
+}
+
+/* Writes m (target sample units) in the world units of f, and the same as
+ * glTF binary next to it (NAME.glb, with smooth normals). */
+static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, const char *about)
+{
+    float *world = NULL, *unit = m->pos;
+    GS_CALL(gs_alloc_array((void **)&world, 3 * m->nverts + 3, sizeof *world, "world mesh"));
+    for (size_t v = 0; v < m->nverts; v++)
+        for (int a = 0; a < 3; a++)
+            world[3 * v + a] = (float)(f->origin[a] + unit[3 * v + a] * f->spacing);
+    m->pos = world;
+    const gs_mesh_meta meta = {"geosynth field", "the example's units (field.h5 /field/distance spacing)", about};
+    gs_err err = gs_mesh_write_meta(path, m, NULL, NULL, &meta);
+    if (err == GS_OK && m->ntris) {
+        char glb[PATH_MAX];
+        gs_path_with_ext(path, "glb", glb, sizeof glb);
+        gs_mesh g = *m;
+        g.normals = NULL;
+        err = gs_mesh_compute_normals(&g);
+        if (err == GS_OK)
+            err = gs_mesh_write_glb(glb, &g, NULL, &meta);
+        gs_free(g.normals);
+    }
+    m->pos = unit;
+    gs_free(world);
+    return err;
+}
+
+/* Rank 0: meshes. Fills the metrics object text. */
+static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const field_source *src,
+                                   const gs_field *f, const int32_t *prov, gs_json *pm)
+{
+    char path[PATH_MAX], name[64];
+    int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
+    int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    if (!contour && !copy && !c->preview)
+        return GS_OK;
+    /* the contour in sample units: contour.ply, the copy's connectivity and
+     * the preview (also with output.geometry = none: a picture of every run) */
+    gs_field unit = *f;
+    unit.spacing = 1, unit.origin[0] = unit.origin[1] = unit.origin[2] = 0;
+    gs_mesh base;
+    GS_CALL(gs_field_contour(&unit, 0.0, copy ? 0.0 : c->adaptivity, &base));
+    gs_err err = GS_OK;
+    gs_mesh m;
+    memset(&m, 0, sizeof m);
+    if (c->preview) {
+        /* The example next to the output's contour (also for output.geometry
+         * = copy: the copy lies on it), each fitted to its own box. */
+        gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&base, NULL}};
+        gs_run_path(run, "preview.png", path, sizeof path);
+        int written;
+        GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &written), done);
+        if (written)
+            gs_run_output(run, "preview", "preview", "preview.png", NULL);
+    }
+    if (contour) {
+        if (copy && c->adaptivity > 0)
+            GS_TRY(err, gs_field_contour(&unit, 0.0, c->adaptivity, &m), done);
+        gs_mesh *cm = copy && c->adaptivity > 0 ? &m : &base;
+        snprintf(name, sizeof name, "contour.%s", c->mesh_format);
+        gs_run_path(run, name, path, sizeof path);
+        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)"), done);
+        gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
+        gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
+        gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
+        const int glb = cm->ntris > 0;
+        gs_mesh_destroy(&m);
+        gs_run_output(run, "mesh", "contour", name, NULL);
+        if (glb)
+            gs_run_output(run, "mesh", "contour", "contour.glb", NULL);
+    }
+    if (copy) {
+        const gs_qfield *q = src->q;
+        int64_t sn[3] = {q->nx, q->ny, q->nz};
+        gs_field_copy_stats st;
+        GS_TRY(err, gs_field_copy_geometry(&src->mesh, sn, prov, &unit, &base, c->snap, (int)c->relax,
+                                           &m, &st), done);
+        snprintf(name, sizeof name, "copied.%s", c->mesh_format);
+        gs_run_path(run, name, path, sizeof path);
+        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)"), done);
+        gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
+        gs_run_metric_i64(run, "copied_seam_vertices", st.seam_vertices);
+        gs_json_i64(pm, "copied_seam_vertices", st.seam_vertices);
+        double share = m.nverts ? (double)st.copied_vertices / (double)m.nverts : 0;
+        gs_run_metric_f64(run, "copied_vertex_share", share);
+        gs_json_f64(pm, "copied_vertex_share", share);
+        gs_run_metric_f64(run, "copied_mean_shift", st.mean_shift);
+        gs_run_metric_i64(run, "copied_pulled_back", st.pulled_back);
+        gs_json_i64(pm, "copied_pulled_back", st.pulled_back);
+        gs_json_f64(pm, "copied_mean_shift", st.mean_shift);
+        gs_run_output(run, "mesh", "copied", name, NULL);
+        if (m.ntris)
+            gs_run_output(run, "mesh", "copied", "copied.glb", NULL);
+    }
+done:
+    gs_mesh_destroy(&m);
+    gs_mesh_destroy(&base);
+    return err;
+}
+
+/* Copying, whole objects and distance steps (gs_field_geometry_measure) as
+ * run metrics and in the output phase record. */
+static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_json *pm)
+{
+    const gs_measure_copy *cp = &g->copy;
+    gs_run_metric_f64(run, "copy_matched_share", cp->matched_share);
+    gs_run_metric_f64(run, "copy_large_share", cp->large_share);
+    gs_run_metric_f64(run, "copy_largest_region_of_source", cp->largest_region_of_source);
+    gs_run_metric_i64(run, "copy_largest_region", cp->largest_region);
+    gs_run_metric_i64(run, "copy_regions", cp->regions);
+    gs_run_metric_f64(run, "copy_completeness", cp->completeness);
+    /* the source's exact periods: copying is measured modulo them */
+    gs_run_metric_i64(run, "copy_source_periods", cp->periods);
+    gs_run_metric_f64(run, "copy_source_shortest_period", cp->shortest_period);
+    gs_run_metric_i64(run, "components_out", g->components_out);
+    gs_run_metric_i64(run, "components_src", g->components_src);
+    gs_run_metric_f64(run, "components_per_msample_out", g->components_per_msample_out);
+    gs_run_metric_f64(run, "components_per_msample_src", g->components_per_msample_src);
+    gs_run_metric_f64(run, "component_median_out", g->component_median_out);
+    gs_run_metric_f64(run, "component_median_src", g->component_median_src);
+    gs_run_metric_f64(run, "component_size_ks", g->component_size_ks);
+    gs_run_metric_f64(run, "fragment_share_out", g->fragment_share_out);
+    gs_run_metric_f64(run, "fragment_share_src", g->fragment_share_src);
+    gs_run_metric_f64(run, "step_violations_out", g->step_violations_out);
+    gs_run_metric_f64(run, "step_violations_src", g->step_violations_src);
+    gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
+    gs_log(GS_LOG_INFO,
+           "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
+           "one offset larger than a block, largest region %.3f of the source, completeness %.3f%s",
+           cp->matched_share, cp->window, cp->large_share, cp->largest_region_of_source,
+           cp->completeness, cp->periods ? " (modulo the source's periods)" : "");
+    gs_log(GS_LOG_INFO,
+           "objects: %lld inside components (%.1f per 10^6 samples; source %lld, %.1f), median "
+           "size %.0f (source %.0f), size KS %.3f, fragments %.3f (source %.3f); steps > 1.5 "
+           "samples %.4f (source %.4f) (%.2f s)",
+           (long long)g->components_out, g->components_per_msample_out,
+           (long long)g->components_src, g->components_per_msample_src, g->component_median_out,
+           g->component_median_src, g->component_size_ks, g->fragment_share_out,
+           g->fragment_share_src, g->step_violations_out, g->step_violations_src, g->seconds);
+}
+
+/* The result, redistanced (rank 0, broadcast), field.h5, the quality
+ * measures with the distributed matcher, the meshes and pictures (rank 0). */
+gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest_out)
+{
+    field_drive *d = state;
+    const field_config *c = d->c;
+    const gs_qfield *q = d->src.q;
+    const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_field_synth_result(d->synth, &d->res), fail);
+    d->res->spacing = q->spacing;
+    GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
+    uint64_t digest = gs_digest_bytes(d->res->q, (size_t)(d->res->nx * d->res->ny * d->res->nz));
+    double step_synth = 0, step_redist = 0, t_redist = gs_time_now();
+    if (run->rank == 0) {
+        int64_t rn[3] = {d->resf->nx, d->resf->ny, d->resf->nz};
+        step_synth = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
+        err = redistance_rank0(run, c, d->resf);
+        step_redist = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
+    }
+    GS_TRY(err, gs_par_agree(run->comm, err), fail);
+    GS_TRY(err, gs_par_bcast_bytes(run->comm, d->resf->v,
+                                   (size_t)(d->resf->nx * d->resf->ny * d->resf->nz) * sizeof *d->resf->v, 0),
+           fail);
+    t_redist = gs_time_now() - t_redist;
+    GS_TRY(err, write_field_h5(run, d->res, d->resf, q), fail);
+    /* quality: coherence needs the nearest source block of every output
+     * block; every rank runs the measure with the distributed matcher of
+     * the synthesis (field_match_block): sharded, each rank searches its slab of
+     * the full-resolution tree; whole, each tries a query alone and the
+     * long ones are spread over the ranks' subtrees. Same figures on every
+     * rank and for any rank count. */
+    gs_field_quality qm;
+    memset(&qm, 0, sizeof qm);
+    gs_err qerr = GS_OK;
+    double tq = gs_time_now();
+    qerr = gs_field_tree_build_shard(q, (int)c->block, d->ctx.sharded ? run->size : 1, run->rank,
+                                     &d->ctx.qtree);
+    if (!qerr && d->ctx.qtree)
+        qerr = gs_field_searcher_create(d->ctx.qtree, &d->ctx.qsearcher);
+    GS_TRY(err, gs_par_agree(run->comm, qerr), fail);
+    GS_TRY(err, gs_field_quality_measure_with(d->res, q, (int)c->block, field_quality_match, &d->ctx, &qm), fail);
+    double quality_s = gs_time_now() - tq;
+    gs_err lerr = GS_OK;
+    if (run->rank == 0) {
+        double tg = gs_time_now();
+        lerr = write_geometry_rank0(run, c, &d->src, d->resf, d->ctx.prov, phase);
+        if (!lerr && field_is_heightmap_example(c)) {
+            /* Figure 7c: the synthesized height map as the example was read */
+            char hp[PATH_MAX];
+            gs_run_path(run, "heightmap.png", hp, sizeof hp);
+            lerr = gs_field_write_heightmap(d->resf, ((double)c->depth - c->height) / 2, c->height, hp);
+            if (!lerr)
+                gs_run_output(run, "image", "heightmap", "heightmap.png", NULL);
+        }
+        gs_json_f64(phase, "geometry_seconds", gs_time_now() - tg);
+        gs_json_f64(phase, "redistance_seconds", t_redist);
+        gs_run_metric_f64(run, "step_violations_synthesized", step_synth);
+        gs_run_metric_f64(run, "step_violations_redistanced", step_redist);
+        gs_log(GS_LOG_INFO, "redistanced into a level set (%.2f s): steps > 1.5 samples between "
+                            "neighbours %.4f -> %.4f", t_redist, step_synth, step_redist);
+        /* quality of the output against the source */
+        for (int i = 0; i < d->sc.iterations; i++) {
+            char k[64];
+            double mean = st->stat_count[i] ? st->stat_sum[i] / (double)st->stat_count[i] : 0;
+            snprintf(k, sizeof k, "match_mean_it%d", i);
+            gs_run_metric_f64(run, k, mean);
+            snprintf(k, sizeof k, "match_min_it%d", i);
+            gs_run_metric_f64(run, k, st->stat_count[i] ? st->stat_min[i] : 0);
+            snprintf(k, sizeof k, "match_max_it%d", i);
+            gs_run_metric_f64(run, k, st->stat_max[i]);
+            snprintf(k, sizeof k, "match_blocks_it%d", i);
+            gs_run_metric_i64(run, k, st->stat_count[i]);
+            /* search work: queue pops, and pushes (best-first, the upper
+             * bound of eq. 3 cannot save pops, only the entries it keeps out
+             * of the queue) */
+            snprintf(k, sizeof k, "match_pops_it%d", i);
+            gs_run_metric_i64(run, k, (int64_t)st->stat_pops[i]);
+            snprintf(k, sizeof k, "match_pushes_it%d", i);
+            gs_run_metric_i64(run, k, (int64_t)st->stat_pushes[i]);
+        }
+        int last = d->sc.iterations - 1;
+        gs_run_metric_f64(run, "match_mean", st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1));
+        /* coarse guidance: share of the copied samples whose sign differs
+         * from the upsampled coarse result they replace, over the share
+         * expected between two unrelated samples of the source, 2 v (1 - v)
+         * (v: its volume fraction): ~0 follows the coarse result, ~1 ignores it */
+        {
+            int64_t nq = q->nx * q->ny * q->nz, in = 0;
+            for (int64_t i = 0; i < nq; i++)
+                in += gs_qfield_value(q, q->q[i]) < 0;
+            double v = (double)in / (double)nq, unrelated = 2 * v * (1 - v), worst = 0;
+            for (int i = 1; i < d->sc.iterations; i++) {
+                char k[64];
+                double dep = st->stat_coarse_n[i] && unrelated > 0
+                                 ? (double)st->stat_coarse_flips[i] / (double)st->stat_coarse_n[i] /
+                                       unrelated
+                                 : 0;
+                snprintf(k, sizeof k, "coarse_departure_it%d", i);
+                gs_run_metric_f64(run, k, dep);
+                if (dep > worst)
+                    worst = dep;
+            }
+            gs_run_metric_f64(run, "coarse_departure", worst);
+        }
+        gs_field_geometry_report gr;
+        if (!lerr)
+            lerr = gs_field_geometry_measure(d->res, q, (int)c->block, &gr);
+        if (!lerr)
+            report_geometry(run, &gr, phase);
+        /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
+        gs_json_f64(phase, "quality_seconds", quality_s);
+        if (!lerr) {
+            gs_run_metric_f64(run, "volume_fraction_out", qm.volume_fraction_out);
+            gs_run_metric_f64(run, "volume_fraction_src", qm.volume_fraction_src);
+            gs_run_metric_f64(run, "surface_per_volume_out", qm.surface_per_volume_out);
+            gs_run_metric_f64(run, "surface_per_volume_src", qm.surface_per_volume_src);
+            gs_run_metric_f64(run, "coherence", qm.coherence);
+            gs_run_metric_i64(run, "coherence_blocks", qm.coherence_blocks);
+            gs_run_metric_f64(run, "verbatim_share", qm.verbatim);
+            gs_run_metric_i64(run, "verbatim_run", qm.longest_run);
+            gs_log(GS_LOG_INFO,
+                   "quality: volume fraction %.4f (source %.4f), surface/volume %.4f (source "
+                   "%.4f), coherence %.2f, verbatim blocks %.3f (longest copied run %lld), "
+                   "mean match %.2f (%.1f s)",
+                   qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
+                   qm.surface_per_volume_src, qm.coherence, qm.verbatim, (long long)qm.longest_run,
+                   st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1),
+                   gs_time_now() - tq);
+        }
+    }
+    err = gs_par_agree(run->comm, lerr);
+    *digest_out = digest;
+fail:
+    return err;
+}
