@@ -289,6 +289,12 @@ typedef struct gs_model_params {
                            fastest), GS_MODEL_FREE or the label the cell must
                            take; a region containing a pinned cell only keeps
                            that label there (NULL = none; not owned) */
+    const uint8_t *support_empty; /* [labels] 1 = the label is empty space: a region try
+                           is rejected when one of its non-empty cells has no 6-connected
+                           path of non-empty cells to the ground layer (z = 0) or to a
+                           non-empty cell next to the region (floating structure); NULL =
+                           no such check. Set for model.overlap3d when the example has no
+                           unsupported structure (not owned) */
     const float *shape; /* soft constraint (paper Sec. 4.2): nx*ny target values in
                            [0, 1] (x fastest), 1 = structure belongs in the column,
                            0 = none. Two parts: the constraint-weighted label choice

@@ -222,6 +222,10 @@ typedef struct gs_model_patterns3d {
     size_t npairs;
     gs_model_lattice windows; /* (nx-N+1) x (ny-N+1) x (nz-N+1): the pattern label
                                  of the example's window at each origin */
+    uint8_t *support_empty;   /* [npatterns + 1] by pattern label: 1 = its origin cell
+                                 is empty (label 0), when the example has no unsupported
+                                 structure (gs_measure_unsupported); NULL otherwise.
+                                 For gs_model_params.support_empty */
 } gs_model_patterns3d;
 
 /* Learns the patterns of ex (name for messages); more than max_patterns

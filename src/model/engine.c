@@ -693,6 +693,7 @@ static gs_err overlap3d_setup(model_engine *e)
     GS_CALL(gs_model_patterns3d_learn(&e->example, (int)c->overlap3d,
                                       MODEL_OVERLAP3D_MAX_PATTERNS, c->example, &e->p3));
     GS_CALL(gs_model_patterns3d_rules(&e->p3, &e->rules));
+    e->params.support_empty = e->p3.support_empty; /* no floating structure: the example has none */
     e->src = e->example;
     memset(&e->example, 0, sizeof e->example);
     const gs_model_lattice *w = &e->p3.windows;

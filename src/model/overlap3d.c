@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "geosynth/digest.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/model_tiles.h"
 
@@ -18,6 +19,7 @@ void gs_model_patterns3d_destroy(gs_model_patterns3d *p)
     gs_free(p->pat);
     gs_free(p->count);
     gs_free(p->pairs);
+    gs_free(p->support_empty);
     gs_model_lattice_destroy(&p->windows);
     memset(p, 0, sizeof *p);
 }
@@ -152,6 +154,20 @@ gs_err gs_model_patterns3d_learn(const gs_model_lattice *ex, int n, int max_patt
         }
     }
     P.npairs = npairs;
+    {
+        /* an example without floating structure: which patterns are empty at their origin */
+        const int dims[3] = {ex->nx, ex->ny, ex->nz};
+        uint64_t unsup = 0, nonempty = 0;
+        GS_TRY(err, gs_measure_unsupported(ex->labels, dims, &unsup, &nonempty), fail);
+        if (unsup == 0) {
+            GS_TRY(err, gs_alloc_array((void **)&P.support_empty, (size_t)P.npatterns + 1, 1,
+                                       "pattern origins"),
+                   fail);
+            P.support_empty[0] = 1;
+            for (int a = 0; a < P.npatterns; a++)
+                P.support_empty[a + 1] = P.pat[(size_t)a * (size_t)NNN] == 0;
+        }
+    }
     gs_free(table);
     gs_free(w);
     gs_free(sa);

@@ -1174,6 +1174,71 @@ done:
     return GS_OK;
 }
 
+/* 1 when every non-empty cell of the solved box reaches, through 6-connected
+ * non-empty box cells, the ground layer (global z = 0) or a non-empty cell
+ * next to the box (outside it; taken as supported): no floating structure
+ * (params.support_empty, empty[label] = 1 for empty space). -1: no memory. */
+static int box_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
+                         const overlay *ov, const gs_model_box *b, const uint8_t *empty)
+{
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const size_t n = (size_t)rx * (size_t)ry * (size_t)rz, W = (size_t)s->W;
+    uint8_t *seen = gs_calloc(n ? n : 1, 1);
+    int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
+    if (!seen || !queue) {
+        gs_free(seen);
+        gs_free(queue);
+        return -1;
+    }
+    static const int st[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    size_t head = 0, tail = 0, solid = 0;
+    int32_t c = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, c++) {
+                if (empty[first_label(s->dom + (size_t)c * W)])
+                    continue;
+                solid++;
+                int grounded = b->z0 + z == 0;
+                for (int d = 0; d < 6 && !grounded; d++) {
+                    int px = x + st[d][0], py = y + st[d][1], pz = z + st[d][2];
+                    if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz)
+                        continue;
+                    int gx = b->x0 + px, gy = b->y0 + py, gz = b->z0 + pz;
+                    if (s->periodic[0])
+                        gx = (gx % lat->nx + lat->nx) % lat->nx;
+                    if (s->periodic[1])
+                        gy = (gy % lat->ny + lat->ny) % lat->ny;
+                    if (gx < 0 || gy < 0 || gz < 0 || gx >= lat->nx || gy >= lat->ny ||
+                        gz >= lat->nz)
+                        continue;
+                    int m = overlay_label(lat, ov, gx, gy, gz);
+                    grounded = m < s->L && !empty[m];
+                }
+                if (grounded) {
+                    seen[c] = 1;
+                    queue[tail++] = c;
+                }
+            }
+    while (head < tail) {
+        int32_t u = queue[head++];
+        int x = u % rx, y = (u / rx) % ry, z = u / (rx * ry);
+        for (int d = 0; d < 6; d++) {
+            int px = x + st[d][0], py = y + st[d][1], pz = z + st[d][2];
+            if (px < 0 || py < 0 || pz < 0 || px >= rx || py >= ry || pz >= rz)
+                continue;
+            int32_t v = (int32_t)(px + rx * (py + ry * pz));
+            if (!seen[v] && !empty[first_label(s->dom + (size_t)v * W)]) {
+                seen[v] = 1;
+                queue[tail++] = v;
+            }
+        }
+    }
+    gs_free(seen);
+    gs_free(queue);
+    return tail == solid;
+}
+
 /* Runs up to p->attempts tries on box b (shell from lat overlaid with ov) and
  * on success writes b's labels into ov's buffer. The undo budget grows with
  * the attempt: x1 for the first quarter of the tries, x2, x4, then x8. */
@@ -1192,6 +1257,11 @@ static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, co
         int scale = attempt / q >= 3 ? 8 : 1 << (attempt / q);
         GS_CALL(attempt_region(s, lat, ov, b, p, scale, &rng, &res->choices, ok));
         res->attempts++;
+        if (*ok && p->support_empty) { /* a try leaving floating structure is a failed try */
+            int sup = box_supported(s, lat, ov, b, p->support_empty);
+            GS_CHECK(sup >= 0, GS_ERR_MEM, "support check: cannot allocate");
+            *ok = sup;
+        }
     }
     if (!*ok)
         return GS_OK;

@@ -104,4 +104,45 @@ run_gs 0 model -c "$C" --set model.start_block=4 -o bad
 expect_err "not supported with model.overlap3d" "overlap3d with start_block: a clear config error"
 run_gs 0 model -c "$C" --set model.fix_z_faces=true -o keptfaces
 expect_err "kept uniform faces would fix every layer" "overlap3d with fix_z_faces = true: refused (the output would be the start model)"
+
+# No floating structure where the example has none: on the generated village
+# (scripts/gen-lattice.py village 7, 24x24x8: houses with walls, doors, windows and roofs,
+# trees, roads), N = 3 with uniform weights (model.resemblance = 0) put one roof layer over the
+# whole output in seeds 1 and 2 (every 3x3x3 window of it is the eave of an example roof;
+# unsupported share 0.33 and 0.50). A region try leaving a non-empty cell without a 6-connected
+# path of non-empty cells to the ground is now a failed try (the example has none). Checks
+# from lattice.h5 and the example alone (scipy components): unsupported share <= the
+# example's; every 3x3x3 window an example window; completeness >= 0.5 x the example's half vs
+# half. Broken on purpose: params.support_empty left NULL fails the unsupported check in both
+# seeds (0.327, 0.500) and completeness in seed 2 (0.044).
+/usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" village 7 village7.txt
+printf '[model]\nexample = village7.txt\nsize = 32x32x8\noverlap3d = 3\nresemblance = 0\n' > village.ini
+for s in 1 2; do
+  run_gs 0 model -c village.ini --set run.seed=$s --set model.mesh=none -o village$s
+  expect_rc 0 "village overlap3d N 3, uniform, seed $s"
+  res=$(/usr/bin/python3 - village7.txt village$s <<'EOF'
+import os, sys
+import numpy as np
+from scipy import ndimage
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
+ex = lm.read_lattice(sys.argv[1])
+out = lm.read_lattice(sys.argv[2] + "/lattice.h5")
+def unsupported(a):  # non-empty cells with no 6-connected non-empty path to z = 0
+    lab, n = ndimage.label(a != 0)
+    grounded = np.isin(lab, np.unique(lab[0]))
+    return float(((a != 0) & ~grounded).sum()) / max(1, int((a != 0).sum()))
+f, h = lm.figures(ex, out, ks=(3,)), lm.half_figures(ex, ks=(3,))
+chk = lm.Checks()
+need = chk.need
+need(unsupported(out) <= unsupported(ex), "unsupported share %.3f <= the example's %.3f" % (unsupported(out), unsupported(ex)))
+need(f["share_3_with_empty"] == 1.0, "every 3x3x3 window an example window: %.4f" % f["share_3_with_empty"])
+need(f["completeness_3"] >= 0.5 * h["completeness_3"], "completeness %.3f >= 0.5 x example half vs half %.3f" % (f["completeness_3"], h["completeness_3"]))
+chk.result()
+EOF
+)
+  echo "$res" | sed "s/^/  village$s: /"
+  grep -q "^RESULT pass" <<<"$res" && ok "village$s: no floating structure, example windows only" \
+    || bad "village$s: $(grep '^RESULT' <<<"$res")"
+done
 finish
