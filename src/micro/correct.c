@@ -44,11 +44,11 @@
  * from there squeeze the islands into polygons facing each other across
  * straight channels with ragged coasts (planet.ini: perimeter / 2 pi r 1.08x
  * an ideal disc drawn on the same mesh, radial cv 0.067, from mesh.ply by
- * analysis/micro_outline.py). Arranged, the discs alone realize L1/n 0.043
- * (412 evaluations), so planet.ini's target 0.045 needs no greedy round:
- * 1.00x the ideal disc, cv 0.015. Greedy rounds on to 0.02 from there give
- * the rough coasts back (1.10x, islands merge), to 0.04 a little (3 rounds,
- * 1.05x). Neither a coast-length term in the move prices (weight 1: 1.23x,
+ * analysis/micro_outline.py). Arranged, the discs alone realize L1/n
+ * 0.0448 (run.seed 4; seed 2: 0.0275), so planet.ini's target 0.045 needs
+ * no greedy round: 1.00x the ideal disc, cv 0.014. Greedy rounds on to 0.02
+ * from there give the rough coasts back (1.10x, islands merge), to 0.04 a
+ * little (3 rounds, 1.05x). Neither a coast-length term in the move prices (weight 1: 1.23x,
  * islands merge, the histogram then pulls them apart unevenly) nor a
  * curvature step after every round (a triangle with two neighbours on the
  * other side joins them: 1.12x) made the greedy rounds' coasts rounder.
@@ -58,7 +58,8 @@
  * closing its result by 1 unit shortens the coast 2134 -> 1784 edges and
  * raises L1/n 0.019 -> 0.169, the sea too far from land).
  * Cost per round: one fast march over the mesh plus O(n); the arrangement:
- * one march per evaluation (24 per disc + 100 at most). Deterministic (no
+ * a march over the discs and one over the mesh per evaluation (24 per disc
+ * + 104 at most; planet.ini about 15 s of CPU here). Deterministic (no
  * random numbers; ties by vertex index, candidate centres by a hash). */
 #include <math.h>
 #include <stdlib.h>
@@ -166,7 +167,7 @@ typedef struct corr {
     const gs_micro_mesh *m;
     const gs_micro_hist *h;
     uint32_t n, nv, K;
-    double hstep;
+    double hstep, emax; /* half the mean edge, the longest edge (units) */
     gs_measure_geo_t g;
     double *dist;
     uint32_t *foot, *vt_off, *vt;
@@ -338,55 +339,72 @@ static gs_err deepen(corr *c, uint8_t *side, int s, double delta, int *done)
     return GS_OK;
 }
 
-/* L1 / n of the round discs at cen[] (clearance offsets off[] = minus
- * their radii) against the target, their distances read from one march of
- * the clearance field min_i (d(centre_i, .) - r_i): inside a disc (discs
- * apart) it is minus the depth, outside the distance to the nearest coast.
- * A triangle takes its vertices' mean (its side: mean <= 0, as disc_seed
- * labels it); beyond K units everything is in the last bin, so the march
- * stops there. */
+/* Labels side[] with the round discs at cen[] (clearance offsets off[] =
+ * minus their radii): positive where a triangle's vertices' clearance
+ * min_i (d(centre_i, .) - r_i) sums to <= 0. Clearances differ by at most
+ * an edge along an edge, so the march stops 2 edges out. */
+static gs_err disc_label(corr *c, const uint32_t *cen, const double *off, uint32_t nd, uint8_t *side)
+{
+    GS_CALL(gs_measure_geo_march(c->g, cen, off, nd, 2 * c->emax));
+    const double *vd = gs_measure_geo_vertex_dist(c->g);
+    for (uint32_t t = 0; t < c->n; t++) {
+        const uint32_t *tv = c->m->tris + 3 * (size_t)t;
+        side[t] = vd[tv[0]] + vd[tv[1]] + vd[tv[2]] <= 0;
+    }
+    return GS_OK;
+}
+
+/* Realized L1 / n of the round discs at cen[] (measure(): the true
+ * distances to their interface, as the output is measured). */
 static gs_err disc_l1(corr *c, const uint32_t *cen, const double *off, uint32_t nd, double *l1)
 {
-    uint32_t n = c->n, K = c->K;
-    GS_CALL(gs_measure_geo_march(c->g, cen, off, nd, (double)K));
-    const double *vd = gs_measure_geo_vertex_dist(c->g);
-    memset(c->e, 0, 2 * (size_t)K * sizeof *c->e);
-    for (uint32_t t = 0; t < n; t++) {
-        const uint32_t *tv = c->m->tris + 3 * (size_t)t;
-        double x = 0;
-        for (int i = 0; i < 3; i++)
-            x += isfinite(vd[tv[i]]) ? vd[tv[i]] : (double)K;
-        x /= 3;
-        c->e[x <= 0 ? bin_of(K, 1, -x) : bin_of(K, 0, x)]++;
-    }
-    int64_t sum = 0;
-    for (uint32_t i = 0; i < 2 * K; i++)
-        sum += llabs(c->e[i] - c->h->count[i]);
-    *l1 = n ? (double)sum / n : 0;
+    GS_CALL(disc_label(c, cen, off, nd, c->tmp));
+    GS_CALL(measure(c, c->tmp, l1));
     return GS_OK;
 }
 
 /* Arrangement of the discs (micro.correct_discs): farthest-point
- * centres spread the discs evenly, but a table asks for its own sea: its
+ * centres spread the discs apart, but a table asks for its own sea: its
  * shallow bins (straits between close discs) and its deep ones (open
- * ocean) at once (planet.ini: evenly spread discs hold 3861 triangles of
- * sea 11+ units deep against 1600, the pass then squeezes the islands into
- * polygons facing each other across channels). Local search: each disc in
- * turn tries candidate centres `step` units away (vertices of the ring
- * [step / 2, step] picked by a hash of vertex, disc and try: deterministic),
- * keeping a move that lowers disc_l1 and keeps every pair of discs at least
- * `gap` units apart (separate, round islands); the step halves (4, 2, 1
- * units) when a sweep finds nothing, within a budget of evaluations. */
+ * ocean) at once (planet.ini: the farthest-point discs miss by L1/n 0.12,
+ * 3861 triangles of sea 11+ units deep against 1600; the greedy rounds then
+ * squeeze the islands into polygons facing each other across channels).
+ * First one shift of every radius (-0.5 .. 0.5 units: a disc drawn on
+ * triangles fills its bins a little differently from the plane's), then a
+ * local search: each disc in turn tries candidate centres `step` units
+ * away (vertices of the ring [step / 2, step] picked by a hash of vertex,
+ * disc and try: deterministic), keeping a move that lowers the realized
+ * L1 / n of the round discs (disc_l1: measured as the output is) and keeps
+ * every pair of discs at least `gap` units apart (separate, round
+ * islands); the step halves (4, 2, 1 units) when a sweep finds nothing,
+ * within a budget of evaluations (two marches each). */
 static gs_err arrange(corr *c, uint32_t *cen, double *off, uint32_t nd)
 {
     const double gap = 2.0;
-    const uint32_t tries = 4, budget = 24 * nd + 100;
+    const uint32_t tries = 4, budget = 24 * nd + 104;
     double best;
     GS_CALL(disc_l1(c, cen, off, nd, &best));
     double rmax = 0;
     for (uint32_t i = 0; i < nd; i++)
         rmax = fmax(rmax, -off[i]);
     uint32_t evals = 1, sweep = 0;
+    /* Radii: every disc by the same shift (the triangles' staircase makes
+     * a drawn disc's bins differ a little from the plane's). */
+    static const double shifts[] = {-0.5, -0.25, 0.25, 0.5};
+    double shift = 0;
+    for (size_t si = 0; si < sizeof shifts / sizeof *shifts; si++) {
+        for (uint32_t i = 0; i < nd; i++)
+            off[i] -= shifts[si] - shift;
+        double l1;
+        GS_CALL(disc_l1(c, cen, off, nd, &l1));
+        evals++;
+        if (l1 < best) {
+            best = l1;
+            shift = shifts[si];
+        } else
+            for (uint32_t i = 0; i < nd; i++)
+                off[i] += shifts[si] - shift;
+    }
     for (double step = 4.0; step >= 1.0 && evals < budget; step /= 2) {
         int improved = 1;
         while (improved && evals < budget) {
@@ -527,13 +545,7 @@ static gs_err disc_seed(corr *c, uint8_t *side, const double *init)
     }
     if (placed > 1)
         GS_TRY(err, arrange(c, cen, off, placed), out);
-    /* The discs' clearance field (their union: clearance <= 0). */
-    GS_TRY(err, gs_measure_geo_march(c->g, cen, off, placed, INFINITY), out);
-    const double *vd = gs_measure_geo_vertex_dist(c->g);
-    for (uint32_t t = 0; t < n; t++) {
-        const uint32_t *tv = m->tris + 3 * (size_t)t;
-        side[t] = vd[tv[0]] + vd[tv[1]] + vd[tv[2]] <= 0;
-    }
+    GS_TRY(err, disc_label(c, cen, off, placed, side), out);
 out:
     gs_free(rad);
     gs_free(clear);
@@ -583,11 +595,15 @@ gs_err gs_micro_correct(const gs_micro_mesh *m, double units_per_model, const gs
     for (uint32_t v = nv; v > 0; v--)
         c->vt_off[v] = c->vt_off[v - 1];
     c->vt_off[0] = 0;
-    double elen = 0;
+    double elen = 0, emax = 0;
     for (uint32_t t = 0; t < n; t++)
-        for (int i = 0; i < 3; i++)
-            elen += micro_dist3f(m->pos + 3 * (size_t)m->tris[3 * (size_t)t + i],
-                                 m->pos + 3 * (size_t)m->tris[3 * (size_t)t + (i + 1) % 3]);
+        for (int i = 0; i < 3; i++) {
+            double l = micro_dist3f(m->pos + 3 * (size_t)m->tris[3 * (size_t)t + i],
+                                    m->pos + 3 * (size_t)m->tris[3 * (size_t)t + (i + 1) % 3]);
+            elen += l;
+            emax = fmax(emax, l);
+        }
+    c->emax = units_per_model * emax;
     c->hstep = n ? 0.5 * units_per_model * elen / (3.0 * n) : 0.5;
     c->upm = units_per_model;
     double l1_recon = -1;
@@ -596,6 +612,7 @@ gs_err gs_micro_correct(const gs_micro_mesh *m, double units_per_model, const gs
         GS_TRY(err, measure(c, side, &l1_recon), done);
         c->best_l1 = INFINITY;
         GS_TRY(err, disc_seed(c, side, o->init_value), done);
+        c->best_l1 = INFINITY; /* the arrangement's evaluations measured */
     }
 
     /* One region only (the paper as printed fills most of a planet from the
