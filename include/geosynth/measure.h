@@ -55,6 +55,21 @@ gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const
 gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, double radius,
                                    uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
 
+/* Pieces of a point cloud inside the xy box [lo, hi): the components
+ * (gs_measure_point_components, link radius) of the points inside it,
+ * except those with a point within radius of one of its four sides: a
+ * piece the box's border cuts is no piece of the cloud (an example cropped
+ * to its box and an output trimmed to its size are measured alike). Counts
+ * the inner pieces, those of fewer than small points (specks) and their
+ * points, and the pieces left out at the border. */
+typedef struct gs_measure_pieces {
+    uint32_t pieces, small, border;
+    uint64_t small_points;
+} gs_measure_pieces;
+gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, double radius,
+                               const double lo[2], const double hi[2], uint64_t small,
+                               gs_measure_pieces *out);
+
 /* ------------------------------------------ geodesics on triangle meshes -- */
 
 /* Fast-marching workspace over a triangle mesh (src/measure/geodesic.c):

@@ -131,3 +131,53 @@ done:
     gs_free(sz);
     return err;
 }
+
+gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, double radius,
+                               const double lo[2], const double hi[2], uint64_t small,
+                               gs_measure_pieces *out)
+{
+    memset(out, 0, sizeof *out);
+    GS_CHECK(lo[0] < hi[0] && lo[1] < hi[1], GS_ERR_ARG,
+             "point pieces: box (%g, %g) - (%g, %g) is empty", lo[0], lo[1], hi[0], hi[1]);
+    double *in = NULL;
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sizes = NULL;
+    uint8_t *cut = NULL;
+    size_t m = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&in, n ? n : 1, 3 * sizeof *in, "point pieces"), done);
+    for (size_t i = 0; i < n; i++) {
+        const double *p = xyz + i * stride;
+        if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1]) {
+            memcpy(in + 3 * m, p, 3 * sizeof *in);
+            m++;
+        }
+    }
+    GS_TRY(err, gs_alloc_array((void **)&label, m ? m : 1, sizeof *label, "point pieces"), done);
+    GS_TRY(err, gs_measure_point_components(in, 3, m, radius, label, &nc, &sizes), done);
+    GS_TRY(err, gs_alloc_array((void **)&cut, (size_t)nc + 1, 1, "point pieces"), done);
+    memset(cut, 0, (size_t)nc + 1);
+    for (size_t i = 0; i < m; i++) {
+        const double *p = in + 3 * i;
+        if (p[0] - lo[0] <= radius || hi[0] - p[0] <= radius || p[1] - lo[1] <= radius ||
+            hi[1] - p[1] <= radius)
+            cut[label[i]] = 1;
+    }
+    for (uint32_t c = 1; c <= nc; c++) {
+        if (cut[c]) {
+            out->border++;
+            continue;
+        }
+        out->pieces++;
+        if (sizes[c] < small) {
+            out->small++;
+            out->small_points += sizes[c];
+        }
+    }
+done:
+    gs_free(in);
+    gs_free(label);
+    gs_free(sizes);
+    gs_free(cut);
+    return err;
+}

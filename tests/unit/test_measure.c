@@ -134,6 +134,39 @@ static void test_components(void **state)
     assert_int_equal(nc, 1);
 }
 
+/* Pieces inside a box: a sheet the box cuts on every side, a speck in the
+ * middle, a speck touching the left side, a blob of 40 points inside and
+ * points outside the box (not counted, and not linking anything). */
+static void test_point_pieces(void **state)
+{
+    (void)state;
+    enum { MAXP = 2000 };
+    double *p = malloc(MAXP * 3 * sizeof *p);
+    size_t n = 0;
+    const double h = 0.1, r = 0.15, lo[2] = {0, 0}, hi[2] = {4, 4};
+#define PUT(x, y, z) (p[3 * n] = (x), p[3 * n + 1] = (y), p[3 * n + 2] = (z), n++)
+    for (int j = 0; j < 40; j++) /* the sheet z = 0 over y < 1, cut by the box */
+        for (int i = -2; i < 42; i++)
+            if (j * h < 1.0)
+                PUT(i * h, j * h, 0);
+    PUT(2.0, 2.0, 0);  /* a speck in the middle */
+    PUT(0.05, 2.0, 0); /* a speck the left side cuts */
+    for (int k = 0; k < 40; k++) /* a blob of 40 points: one piece, not small */
+        PUT(3.0 + (k % 8) * h, 3.0 + (k / 8) * h, 0.5);
+    PUT(-1.0, 3.0, 0); /* outside the box */
+    PUT(5.0, 2.0, 0);
+#undef PUT
+    gs_measure_pieces pc;
+    assert_int_equal(gs_measure_point_pieces(p, 3, n, r, lo, hi, 30, &pc), GS_OK);
+    assert_int_equal(pc.border, 2);   /* the sheet and the speck at x = 0.05 */
+    assert_int_equal(pc.pieces, 2);   /* the middle speck and the blob */
+    assert_int_equal(pc.small, 1);    /* the middle speck */
+    assert_int_equal(pc.small_points, 1);
+    double bad_hi[2] = {0, 4};
+    assert_int_equal(gs_measure_point_pieces(p, 3, n, r, lo, bad_hi, 30, &pc), GS_ERR_ARG);
+    free(p);
+}
+
 static void test_preview(void **state)
 {
     (void)state;
@@ -427,6 +460,7 @@ int main(void)
         cmocka_unit_test(test_l1),
         cmocka_unit_test(test_ks),
         cmocka_unit_test(test_components),
+        cmocka_unit_test(test_point_pieces),
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
