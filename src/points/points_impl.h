@@ -84,6 +84,9 @@ gs_err gs_points_field_range(const gs_points_grid *g, double R, double trunc, do
                              size_t first, size_t count, gs_points *scratch, float *out);
 
 /* The blend of one point q of F' onto N_k (synth.c): see there. */
+gs_err gs_points_blend_target(const gs_points_grid *out, double R, int ray, gs_points *scratch,
+                              gs_points *scratch2, const gs_opoint *q, double y[3], double n[3],
+                              int *found);
 gs_err gs_points_blend_onto(const gs_points_grid *out, double R, int ray, int blend, double t,
                             gs_points *scratch, gs_points *scratch2, gs_opoint *q,
                             double *resid, int *found, int *keep);
