@@ -487,10 +487,12 @@ int gs_points_synth_is_continuation(const gs_points_synth *s, const gs_points_pa
                                     uint64_t k, uint64_t chosen);
 
 /* Vertical lines x = x[i] and y = y[j] in the output plane (the patch
- * seams, or lines through the middle of the patches). */
+ * seams, or lines through the middle of the patches), cut into segments
+ * of length seg (one patch edge: the patch step) for the seam measure. */
 typedef struct gs_points_lines {
     double *x, *y;
     int nx, ny;
+    double seg;
 } gs_points_lines;
 void gs_points_lines_free(gs_points_lines *l);
 
@@ -507,11 +509,22 @@ gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lin
  * |(p - a).n| and normal = (1 - n_p.n) / 2, averaged over the points with
  * a frame of enough weight (the others are `unmatched`: a hole or an end
  * of the surface at the line). seam_* over the seam lines, inside_* over
- * the inside lines: a seamless output has seam_* close to inside_*. */
+ * the inside lines: a seamless output has seam_* close to inside_*.
+ *
+ * Locally, per segment (a patch edge, lines.seg long, of 10 band points
+ * or more): open_p90 is the 90th percentile of the segments' unmatched
+ * share over the inside lines, seam_open_segments the share of seam
+ * segments whose unmatched share is above it (0.1 when the seams are like
+ * the inside; a seam where rings or threads end, an arc of a ring cut by
+ * it, or a surface that does not continue, raises it). The blend pulls a
+ * patch onto N_k at the seam itself, so dist and normal stay low there
+ * even when the patches do not match; what does not continue shows as
+ * unmatched points, segment by segment. */
 typedef struct gs_points_seam_stats {
     double seam_dist, seam_normal, seam_unmatched;
     double inside_dist, inside_normal, inside_unmatched;
-    size_t seam_points, inside_points;
+    double seam_open_segments, inside_open_p90;
+    size_t seam_points, inside_points, seam_segments, inside_segments;
 } gs_points_seam_stats;
 gs_err gs_points_seam_measure(const gs_points *pts, double R, double band,
                               const gs_points_lines *seams, const gs_points_lines *inside,

@@ -1892,6 +1892,7 @@ gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lin
                     v[m++] = x;
             }
         }
+        out->seg = s->step;
         if (a) {
             out->y = v;
             out->ny = m;
