@@ -376,6 +376,14 @@ typedef struct gs_field_synth_config {
                                         the source continued by each offset of its
                                         (2*blend+1)^3 neighbourhood (overlap blending, paper
                                         5.3); 0 = off (the paper) */
+    int complete_objects;            /* 1 (needs prov): after the last iteration (and the
+                                        blend) every inside component not touching the
+                                        target's faces and smaller than the source's smallest
+                                        such component (a fragment cut at a seam) is completed
+                                        with the source object its samples were copied from
+                                        (its core component, deeper than one sample, within
+                                        block/2 of it, pasted as a union), and what is still a
+                                        fragment after that is removed; 0 = off (the paper) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's
                                         tree (gs_field_tree_build_shard, split by count; shards
@@ -430,6 +438,10 @@ typedef struct gs_field_synth_state {
      * (how closely the coarse iterations guide the finer ones) */
     uint64_t stat_coarse_flips[GS_FIELD_MAX_ITER];
     uint64_t stat_coarse_n[GS_FIELD_MAX_ITER];
+    /* complete_objects, after the last iteration (not checkpointed: counted
+     * by the process that ran it): fragments completed from the source,
+     * components still fragments and removed */
+    int64_t objects_completed, objects_removed;
 } gs_field_synth_state;
 
 typedef struct gs_field_synth *gs_field_synth_t;

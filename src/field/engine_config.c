@@ -91,6 +91,11 @@ static const gs_cfg_key field_keys[] = {
                    "between pieces copied from different source offsets fade from one piece into "
                    "the other (overlap blending); 0 = off (the paper: the pieces meet in steps); 2 "
                    "where copy_limit is set"),
+    GS_CFG_KEY_BOOL(field_config, complete_objects, "field.complete_objects", "no",
+                    "after the last iteration, inside components that touch no face and are "
+                    "smaller than the source's smallest such component (objects cut where "
+                    "pieces meet) are completed with the source object their samples were "
+                    "copied from; what stays that small is removed; no = off (the paper)"),
     GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "

@@ -33,6 +33,7 @@
 #include <string.h>
 
 #include "field_impl.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
@@ -537,12 +538,262 @@ done:
     return err;
 }
 
+/* Whole objects after the last iteration (cfg.complete_objects, cfg.prov
+ * given). Where a block's copy meets the pieces around it, an object of the
+ * source (a ball, a ring) can be cut: what is left is a small inside
+ * component that no source object resembles (balls.ini 64^3: 9 of 18
+ * interior components under half the source's smallest ball; the source: 0
+ * of 10). A fragment is an inside component that touches none of the
+ * target's faces (one that does may be cut by the box, as objects at the
+ * source's faces are) and is smaller than the source's smallest such
+ * component; with none in the source nothing is a fragment. Each fragment is
+ * completed from the source: its samples' provenance names the offset most
+ * of them were copied from; the source object there (the component of the
+ * source's core, the samples deeper than one sample, that those samples
+ * reach, within block/2 of the fragment's box) is pasted back at that
+ * offset as a union (the lower level wins: levels grow with distance): the
+ * core, the inside within 2 samples of it and the outside within 3, so the
+ * field around stays a distance field. A component still smaller than the
+ * threshold after that (no provenance inside the source, or the object is cut
+ * by the box) is removed: its samples become half a sample outside. It reads
+ * the target, prov and the source, the same on every rank. */
+typedef struct objects_scratch {
+    uint8_t *mask, *touch;        /* inside samples; per component: touches a face */
+    uint32_t *label, n;
+    uint64_t *sizes;
+} objects_scratch;
+
+static void objects_free(objects_scratch *o)
+{
+    gs_free(o->mask);
+    gs_free(o->label);
+    gs_free(o->sizes);
+    gs_free(o->touch);
+    memset(o, 0, sizeof *o);
+}
+
+/* Inside components of levels q (n samples per axis, levels of ref) and the
+ * components that touch a face. */
+static gs_err objects_label(const gs_qfield *ref, const uint8_t *q, const int64_t n[3],
+                            objects_scratch *o)
+{
+    size_t cells = (size_t)(n[0] * n[1] * n[2]);
+    uint8_t inside[256];
+    for (int i = 0; i < 256; i++)
+        inside[i] = gs_qfield_value(ref, (uint8_t)i) < 0;
+    if (!o->mask)
+        GS_CALL(gs_alloc_array((void **)&o->mask, cells, 1, "object mask"));
+    if (!o->label)
+        GS_CALL(gs_alloc_array((void **)&o->label, cells, sizeof *o->label, "object labels"));
+    for (size_t i = 0; i < cells; i++)
+        o->mask[i] = inside[q[i]];
+    gs_free(o->sizes);
+    gs_free(o->touch);
+    o->sizes = NULL, o->touch = NULL;
+    GS_CALL(gs_measure_components3(o->mask, (int)n[0], (int)n[1], (int)n[2], NULL, o->label,
+                                   &o->n, &o->sizes));
+    GS_CALL(gs_alloc_array((void **)&o->touch, (size_t)o->n + 1, 1, "object faces"));
+    memset(o->touch, 0, (size_t)o->n + 1);
+    for (int64_t z = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++) {
+            int face = z == 0 || z == n[2] - 1 || y == 0 || y == n[1] - 1;
+            for (int64_t x = 0; x < n[0]; x += face || x == n[0] - 1 ? 1 : n[0] - 1)
+                o->touch[o->label[x + n[0] * (y + n[1] * z)]] = 1;
+        }
+    return GS_OK;
+}
+
+static int is_fragment(const objects_scratch *o, uint32_t c, uint64_t smallest)
+{
+    return c && !o->touch[c] && o->sizes[c] < smallest;
+}
+
+static void coords(int64_t i, const int64_t n[3], int64_t v[3])
+{
+    v[0] = i % n[0], v[1] = i / n[0] % n[1], v[2] = i / (n[0] * n[1]);
+}
+
+/* Pastes the source object at the offset most of fragment list[0..k) was
+ * copied from (see above); returns whether it had one. */
+static int complete_fragment(struct gs_field_synth *s, const int64_t *list, int64_t k,
+                             int64_t *queue, uint8_t *seen)
+{
+    const gs_qfield *src = s->src;
+    const int64_t sn[3] = {src->nx, src->ny, src->nz}, *tn = s->st.tn;
+    int32_t *prov = s->cfg.prov;
+    int half = s->cfg.block[s->cfg.iterations - 1] / 2;
+    /* objects that touch in the source (balls.ini: 178 balls, 10 inside
+     * components) are apart one sample deeper (205 components): an object is
+     * a component of the core, the samples deeper than one sample */
+    const double core = src->spacing;
+    int64_t best[3] = {0, 0, 0}, bestn = 0;
+    for (int64_t i = 0; i < k; i++) {
+        int64_t t[3], p[3], o[3], n = 0;
+        if (prov[list[i]] < 0 || gs_qfield_value(src, src->q[prov[list[i]]]) >= 0)
+            continue;
+        coords(list[i], tn, t), coords(prov[list[i]], sn, p);
+        for (int d = 0; d < 3; d++)
+            o[d] = p[d] - t[d];
+        for (int64_t j = 0; j < k; j++) {
+            int64_t u[3], r[3];
+            if (prov[list[j]] < 0)
+                continue;
+            coords(list[j], tn, u), coords(prov[list[j]], sn, r);
+            n += r[0] - u[0] == o[0] && r[1] - u[1] == o[1] && r[2] - u[2] == o[2];
+        }
+        int less = o[2] < best[2] || (o[2] == best[2] && (o[1] < best[1] ||
+                                                          (o[1] == best[1] && o[0] < best[0])));
+        if (n > bestn || (n == bestn && less))
+            memcpy(best, o, sizeof best), bestn = n;
+    }
+    if (!bestn)
+        return 0;
+    int64_t lo[3] = {tn[0], tn[1], tn[2]}, hi[3] = {-1, -1, -1};
+    for (int64_t i = 0; i < k; i++) {
+        int64_t t[3];
+        coords(list[i], tn, t);
+        for (int d = 0; d < 3; d++) {
+            lo[d] = t[d] < lo[d] ? t[d] : lo[d];
+            hi[d] = t[d] > hi[d] ? t[d] : hi[d];
+        }
+    }
+    for (int d = 0; d < 3; d++) { /* in source samples, clipped to the target */
+        lo[d] = (lo[d] - half > 0 ? lo[d] - half : 0) + best[d];
+        hi[d] = (hi[d] + half < tn[d] - 1 ? hi[d] + half : tn[d] - 1) + best[d];
+    }
+    int64_t head = 0, tail = 0;
+    for (int64_t i = 0; i < k; i++) {
+        int64_t t[3], p[3], r = prov[list[i]];
+        if (r < 0 || seen[r] || gs_qfield_value(src, src->q[r]) >= -core)
+            continue;
+        coords(list[i], tn, t), coords(r, sn, p);
+        if (p[0] - t[0] == best[0] && p[1] - t[1] == best[1] && p[2] - t[2] == best[2])
+            seen[r] = 1, queue[tail++] = r;
+    }
+    while (head < tail) {
+        int64_t v[3];
+        coords(queue[head++], sn, v);
+        for (int d = 0; d < 6; d++) {
+            int64_t w[3] = {v[0], v[1], v[2]};
+            w[d / 2] += d % 2 ? 1 : -1;
+            if (w[d / 2] < lo[d / 2] || w[d / 2] > hi[d / 2] || w[d / 2] < 0 ||
+                w[d / 2] >= sn[d / 2])
+                continue;
+            int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
+            if (!seen[r] && gs_qfield_value(src, src->q[r]) < -core)
+                seen[r] = 1, queue[tail++] = r;
+        }
+    }
+    /* paste the core, the object's inside within 2 samples of it (its shell,
+     * not a touching neighbour's) and the outside within 3 */
+    for (int64_t i = 0; i < tail; i++) {
+        int64_t v[3];
+        coords(queue[i], sn, v);
+        for (int64_t dz = -3; dz <= 3; dz++)
+            for (int64_t dy = -3; dy <= 3; dy++)
+                for (int64_t dx = -3; dx <= 3; dx++) {
+                    int64_t e2 = dx * dx + dy * dy + dz * dz;
+                    if (e2 > 9)
+                        continue;
+                    int64_t w[3] = {v[0] + dx, v[1] + dy, v[2] + dz}, t[3];
+                    int ok = 1;
+                    for (int d = 0; d < 3 && ok; d++) {
+                        t[d] = w[d] - best[d];
+                        ok = w[d] >= 0 && w[d] < sn[d] && t[d] >= 0 && t[d] < tn[d];
+                    }
+                    if (!ok)
+                        continue;
+                    int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
+                    double val = gs_qfield_value(src, src->q[r]);
+                    if (!seen[r] && (val < -core || (val < 0 && e2 > 4)))
+                        continue; /* another object's core, or inside beyond the shell */
+                    int64_t ti = t[0] + tn[0] * (t[1] + tn[1] * t[2]);
+                    if (src->q[r] < s->st.target[ti])
+                        s->st.target[ti] = src->q[r], prov[ti] = (int32_t)r;
+                }
+    }
+    for (int64_t i = 0; i < tail; i++)
+        seen[queue[i]] = 0;
+    return 1;
+}
+
+static gs_err complete_objects(struct gs_field_synth *s)
+{
+    if (!s->cfg.complete_objects || !s->cfg.prov)
+        return GS_OK;
+    const gs_qfield *src = s->src;
+    const int64_t sn[3] = {src->nx, src->ny, src->nz}, *tn = s->st.tn;
+    const int64_t nt = tn[0] * tn[1] * tn[2], ns = sn[0] * sn[1] * sn[2];
+    objects_scratch so = {0}, to = {0};
+    int64_t *first = NULL, *list = NULL, *queue = NULL;
+    uint8_t *seen = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, objects_label(src, src->q, sn, &so), done);
+    uint64_t smallest = 0;
+    for (uint32_t c = 1; c <= so.n; c++)
+        if (!so.touch[c] && (!smallest || so.sizes[c] < smallest))
+            smallest = so.sizes[c];
+    if (!smallest)
+        goto done; /* no whole object in the source to compare with */
+    GS_TRY(err, objects_label(src, s->st.target, tn, &to), done);
+    /* the fragments' samples grouped by component: list[first[c] .. first[c + 1]) */
+    GS_TRY(err, gs_alloc_array((void **)&first, (size_t)to.n + 2, sizeof *first, "fragments"),
+           done);
+    memset(first, 0, ((size_t)to.n + 2) * sizeof *first);
+    for (int64_t i = 0; i < nt; i++)
+        if (is_fragment(&to, to.label[i], smallest))
+            first[to.label[i] + 1]++;
+    for (uint32_t c = 1; c <= to.n + 1; c++)
+        first[c] += first[c - 1];
+    int64_t nf = first[to.n + 1];
+    GS_TRY(err, gs_alloc_array((void **)&list, (size_t)(nf ? nf : 1), sizeof *list,
+                               "fragment samples"), done);
+    GS_TRY(err, gs_alloc_array((void **)&queue, (size_t)ns, sizeof *queue, "object queue"), done);
+    GS_TRY(err, gs_alloc_array((void **)&seen, (size_t)ns, 1, "object visits"), done);
+    memset(seen, 0, (size_t)ns);
+    for (int64_t i = 0; i < nt; i++)
+        if (is_fragment(&to, to.label[i], smallest))
+            list[first[to.label[i]]++] = i;
+    for (uint32_t c = to.n; c >= 1; c--) /* the cursors ran one component ahead */
+        first[c] = first[c - 1];
+    first[0] = 0;
+    for (uint32_t c = 1; c <= to.n; c++)
+        if (first[c + 1] > first[c])
+            s->st.objects_completed +=
+                complete_fragment(s, list + first[c], first[c + 1] - first[c], queue, seen);
+    /* what is still a fragment goes */
+    GS_TRY(err, objects_label(src, s->st.target, tn, &to), done);
+    uint8_t out = 255;
+    for (int l = 255; l >= 0 && gs_qfield_value(src, (uint8_t)l) >= 0.5 * src->spacing; l--)
+        out = (uint8_t)l;
+    uint8_t *gone = NULL;
+    GS_TRY(err, gs_alloc_array((void **)&gone, (size_t)to.n + 1, 1, "removed fragments"), done);
+    memset(gone, 0, (size_t)to.n + 1);
+    for (int64_t i = 0; i < nt; i++)
+        if (is_fragment(&to, to.label[i], smallest)) {
+            s->st.objects_removed += !gone[to.label[i]];
+            gone[to.label[i]] = 1;
+            if (s->st.target[i] < out)
+                s->st.target[i] = out;
+        }
+    gs_free(gone);
+done:
+    objects_free(&so);
+    objects_free(&to);
+    gs_free(first);
+    gs_free(list);
+    gs_free(queue);
+    gs_free(seen);
+    return err;
+}
+
 /* Next iteration: upsample the result by 2 as the new seed. */
 static gs_err advance_iteration(struct gs_field_synth *s)
 {
     int next = s->st.iteration + 1;
     if (next >= s->cfg.iterations) {
         GS_CALL(blend_seams(s));
+        GS_CALL(complete_objects(s));
         s->st.iteration = next;
         s->st.cursor = 0;
         return enter_iteration(s);
