@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Whole objects of a field run (#19 item 3), from field.h5 alone.
 
-usage: field_objects.py RUN_DIR [--png FILE] [--slices K] [--json]
+usage: field_objects.py RUN_DIR [--png FILE] [--slices K] [--json] [--bulk M]
 
 Reads the output's and the source's quantized levels (field/levels,
 source/levels), takes the inside region (distance < 0) of each, labels its
@@ -12,7 +12,13 @@ sphere radius (max -distance inside the component), the share of "fragments"
 (components smaller than half the source's smallest interior component) and
 the KS distance of the size distributions. With --png it writes K z-slices
 of output and source with interior components coloured, fragments in red;
-with --json it prints the figures as one JSON object instead.
+with --json it prints the figures as one JSON object instead. With --bulk M
+it also gives volume fraction and surface per volume (sign changes between
+6-neighbours per sample) of both with M samples at every face left out: an
+example made in a box (balls.ini: balls dropped into a box, centres at least
+a radius from its walls) is sparser near its walls than in its bulk (balls
+64^3: volume fraction 0.200 overall, 0.260 at depth >= 5), while the output
+has no walls.
 """
 import sys
 
@@ -43,6 +49,10 @@ def objects(dist):
     return lab, idx[keep], np.asarray(sizes)[keep], np.asarray(rad)[keep], n
 
 
+def sign_changes(ins):
+    return sum(np.count_nonzero(np.diff(ins.astype(np.int8), axis=a)) for a in range(3)) / ins.size
+
+
 def ks(a, b):
     if len(a) == 0 or len(b) == 0:
         return 1.0
@@ -62,6 +72,7 @@ def main(argv):
     ls, is_, ss, rs, ns = objects(src)
     smin = ss.min() if len(ss) else 0
     frag = 0.5 * smin
+    bulk = int(argv[argv.index("--bulk") + 1]) if "--bulk" in argv else 0
     if "--json" in argv:
         import json
         fig = {"fragment_size": float(frag), "size_ks": ks(so, ss), "radius_ks": ks(ro, rs)}
@@ -69,6 +80,10 @@ def main(argv):
             fig["interior_" + name] = int(len(s))
             fig["fragments_" + name] = float(np.mean(s < frag)) if len(s) else 0.0
             fig["vf_" + name] = float(np.mean(d < 0))
+            if bulk:
+                b = d[bulk:-bulk, bulk:-bulk, bulk:-bulk] < 0
+                fig["bulk_vf_" + name] = float(b.mean())
+                fig["bulk_spv_" + name] = float(sign_changes(b))
         print(json.dumps(fig))
         return
     for name, s, r, n, d in (("source", ss, rs, ns, src), ("output", so, ro, no, out)):
@@ -80,6 +95,11 @@ def main(argv):
               f"fragments (< {frag:.0f} samples) {np.mean(s < frag) if len(s) else 0:.3f}, "
               f"volume fraction {np.mean(d < 0):.4f}")
     print(f"size KS {ks(so, ss):.3f}, inscribed radius KS {ks(ro, rs):.3f}")
+    if bulk:
+        for name, d in (("source", src), ("output", out)):
+            b = d[bulk:-bulk, bulk:-bulk, bulk:-bulk] < 0
+            print(f"{name} bulk (depth >= {bulk}): volume fraction {b.mean():.4f}, surface per "
+                  f"volume {sign_changes(b):.4f}")
     if png:
         import matplotlib
         matplotlib.use("Agg")
