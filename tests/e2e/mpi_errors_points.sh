@@ -1,6 +1,6 @@
 # End-to-end: a failure on one rank in the middle of a points synthesis
 # never leaves the other ranks hung (STYLE.md). With the test-only hook
-# GS_FAIL_RANK=R GS_FAIL_POINTS_AT=SITE@K (src/points/engine.c, "fault
+# GS_FAIL_RANK=R GS_FAIL_POINTS_AT=SITE@K (src/points/engine_parallel.c, "fault
 # injection") rank R fails at SITE while placing patch K of quick.ini at
 # np=2. Every case must: end within the timeout, exit with the failure's
 # code, print the cause once naming the failing rank, keep the last good

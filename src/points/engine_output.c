@@ -1,0 +1,495 @@
+/* points driver, output: points.ply, patches.csv, mesh.ply / mesh.glb,
+ * preview.png, and the measures of the output against the example (seams,
+ * whole objects: heights, fragments) into summary.json. */
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "geosynth/file.h"
+#include "geosynth/log.h"
+#include "geosynth/measure.h"
+#include "geosynth/mem.h"
+#include "geosynth/pointply.h"
+#include "geosynth/preview.h"
+#include "geosynth/vdb.h"
+#include "points/engine_impl.h"
+
+static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m, size_t n)
+{
+    gs_atomic_file af;
+    GS_CALL(gs_atomic_begin(path, &af));
+    int ok = fprintf(af.f, "patch,chosen,candidates,best_dist,chosen_dist,pairs,pair_gap,"
+                           "warp_residual,warp,rank,continuations\n") > 0;
+    for (size_t k = 0; k < n && ok; k++)
+        ok = fprintf(af.f, "%zu,%llu,%u,%.9g,%.9g,%u,%.9g,%.9g,%u,%u,%u\n", k,
+                     (unsigned long long)m[k].chosen, m[k].candidates, m[k].best_dist,
+                     m[k].chosen_dist, m[k].pairs, m[k].pair_gap, m[k].warp_residual,
+                     m[k].warp, m[k].rank, m[k].continuations) > 0;
+    if (!ok) {
+        gs_atomic_abort(&af);
+        GS_RAISE(GS_ERR_IO, "%s: write failed", path);
+    }
+    GS_CALL(gs_atomic_commit(&af));
+    return GS_OK;
+}
+
+/* Mesh of the output (z-up points) written with the original axes. */
+/* A z-up triangle mesh of pts: the implicit function of the points
+ * (gs_points_implicit_grid) on a grid of `voxel`, contoured by OpenVDB, then
+ * trimmed to the points' own extent: the grid reaches 2 R past the points,
+ * where the function keeps the sign of the column above it (inside below a
+ * height field), so contouring closed the solid with vertical walls along
+ * the borders and a floor at the grid's bottom; triangles whose centroid
+ * is outside the points' xy range or more than R below the lowest point are
+ * dropped (the surface ends open at the borders, as the points do). */
+static gs_err mesh_points(const gs_points *pts, double voxel, double R, double spacing,
+                          double max_samples, gs_mesh *m)
+{
+    memset(m, 0, sizeof *m);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < pts->n; i++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], pts->v[i].p[a]);
+            hi[a] = fmax(hi[a], pts->v[i].p[a]);
+        }
+    GS_CHECK(pts->n > 0, GS_ERR_ARG, "mesh: no points");
+    double plo[3], phi[3];
+    memcpy(plo, lo, sizeof plo);
+    memcpy(phi, hi, sizeof phi);
+    size_t dim[3];
+    double samples = 1;
+    for (int a = 0; a < 3; a++) {
+        lo[a] -= 2 * R;
+        hi[a] += 2 * R;
+        dim[a] = (size_t)ceil((hi[a] - lo[a]) / voxel) + 1;
+        samples *= (double)dim[a];
+    }
+    GS_CHECK(samples <= max_samples, GS_ERR_ARG,
+             "output.mesh: the grid would have %zu x %zu x %zu = %.3g samples (%.1f GiB), above "
+             "output.mesh_max_samples = %.3g: raise output.mesh_voxel or the limit, or set "
+             "output.mesh = false", dim[0], dim[1], dim[2], samples, samples * 20 / 1073741824.0,
+             max_samples);
+    gs_log(GS_LOG_INFO, "mesh: implicit grid %zu x %zu x %zu, voxel %g (%.1f MiB)", dim[0], dim[1],
+           dim[2], voxel, samples * 20 / 1048576.0);
+    gs_vdb_dense d;
+    GS_CALL(gs_vdb_dense_alloc(&d, dim[0], dim[1], dim[2]));
+    memcpy(d.origin, lo, sizeof d.origin);
+    d.voxel = voxel;
+    d.background = (float)R;
+    gs_err err = GS_OK;
+    gs_points_grid_t g = NULL;
+    gs_points nb = {0};
+    GS_TRY(err, gs_points_implicit_grid(pts, R, lo, voxel, dim[0], dim[1], dim[2], d.v), done);
+    GS_TRY(err, gs_vdb_dense_to_mesh(&d, 0.0, 0.0, m), done);
+    /* Also dropped: triangles farther than max(2 voxels, 2 spacings) from
+     * every point. Below an open piece of surface (a flower or a ring cut
+     * at a seam) the column rule makes the solid continue down, and the
+     * contour hung curtains under it, away from any point. */
+    double near = fmax(2 * voxel, 2 * spacing);
+    GS_TRY(err, gs_points_grid_create(plo, phi, near, &g), done);
+    for (size_t i = 0; i < pts->n; i++)
+        GS_TRY(err, gs_points_grid_add(g, &pts->v[i]), done);
+    size_t kept = 0;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const uint32_t *v = m->tris + 3 * t;
+        double c[3] = {0, 0, 0};
+        for (int k = 0; k < 3; k++)
+            for (int a = 0; a < 3; a++)
+                c[a] += m->pos[3 * (size_t)v[k] + a] / 3.0;
+        if (c[0] < plo[0] || c[0] > phi[0] || c[1] < plo[1] || c[1] > phi[1] ||
+            c[2] < plo[2] - R)
+            continue;
+        nb.n = 0;
+        GS_TRY(err, gs_points_grid_query(g, c, near, &nb), done);
+        if (nb.n == 0)
+            continue;
+        memmove(m->tris + 3 * kept++, v, 3 * sizeof *v);
+    }
+    m->ntris = kept;
+done:
+    gs_points_grid_destroy(&g);
+    gs_points_free(&nb);
+    gs_vdb_dense_destroy(&d);
+    if (err != GS_OK)
+        gs_mesh_destroy(m);
+    return err;
+}
+
+static gs_err write_mesh(const points_config *c, const gs_points *pts, double spacing, double R,
+                         const char *path, size_t *ntris)
+{
+    gs_mesh m;
+    GS_CALL(mesh_points(pts, c->mesh_voxel * spacing, R, spacing, c->mesh_max_samples, &m));
+    /* trimming to the points leaves vertices no triangle uses (4,619 of
+     * 19,442 on quick.ini): readers keep them as loose points */
+    gs_err err = gs_mesh_weld(&m, 0.0f);
+    if (err) {
+        gs_mesh_destroy(&m);
+        return err;
+    }
+    /* Back to the example's axes: the inverse cyclic permutation (a rotation,
+     * so triangle orientation is kept). */
+    int up = up_axis(c);
+    for (size_t i = 0; i < m.nverts && up != 2; i++) {
+        float *v = m.pos + 3 * i, a = v[0], b = v[1], cc = v[2];
+        if (up == 0) {
+            v[0] = cc;
+            v[1] = a;
+            v[2] = b;
+        } else {
+            v[0] = b;
+            v[1] = cc;
+            v[2] = a;
+        }
+    }
+    const gs_mesh_meta meta = {"geosynth points surface", "the example's units",
+                               "surface reconstructed from the synthesized points (output.mesh)"};
+    GS_TRY(err, gs_mesh_write_meta(path, &m, NULL, NULL, &meta), done);
+    if (m.ntris) {
+        char glb[PATH_MAX];
+        gs_path_with_ext(path, "glb", glb, sizeof glb);
+        GS_TRY(err, gs_mesh_write_glb(glb, &m, NULL, &meta), done);
+    }
+    *ntris = m.ntris;
+done:
+    gs_mesh_destroy(&m);
+    return err;
+}
+
+/* RUN_DIR/preview.png: the example (inside its box) and the output
+ * cropped to twice the example's extent, meshed (mesh_points) at 1.5
+ * spacings at least and rendered side by side. *written = 0 without a
+ * renderer (a warning, the run goes on). */
+static gs_err write_preview(const points_config *c, const gs_points_texture *tex,
+                            const gs_points *zup, double R, const char *path, int *written)
+{
+    *written = 0;
+    gs_points ex = {0}, out = {0};
+    gs_mesh me, mo;
+    memset(&me, 0, sizeof me);
+    memset(&mo, 0, sizeof mo);
+    double bx = tex->box_hi[0] - tex->box_lo[0], by = tex->box_hi[1] - tex->box_lo[1];
+    gs_err err = GS_OK;
+    for (size_t i = 0; i < tex->pts.n; i++) {
+        const double *p = tex->pts.v[i].p;
+        if (p[0] >= tex->box_lo[0] && p[0] < tex->box_hi[0] && p[1] >= tex->box_lo[1] &&
+            p[1] < tex->box_hi[1])
+            GS_TRY(err, gs_points_append(&ex, &tex->pts.v[i], 1), done);
+    }
+    for (size_t i = 0; i < zup->n; i++) {
+        const double *p = zup->v[i].p;
+        if (p[0] < 2 * bx && p[1] < 2 * by)
+            GS_TRY(err, gs_points_append(&out, &zup->v[i], 1), done);
+    }
+    double voxel = fmax(c->mesh_voxel, 1.5) * tex->spacing;
+    GS_TRY(err, mesh_points(&ex, voxel, R, tex->spacing, c->mesh_max_samples, &me), done);
+    GS_TRY(err, mesh_points(&out, voxel, R, tex->spacing, c->mesh_max_samples, &mo), done);
+    gs_preview_panel panels[2] = {{&me, NULL}, {&mo, NULL}};
+    err = gs_preview_write_optional(path, panels, 2, 512, written);
+done:
+    gs_points_free(&ex);
+    gs_points_free(&out);
+    gs_mesh_destroy(&me);
+    gs_mesh_destroy(&mo);
+    return err;
+}
+
+static int u64_cmp(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Distinct input patches among the chosen ones (0 on no memory). */
+static size_t distinct_sources(const gs_points_patch_metrics *m, size_t n)
+{
+    uint64_t *v = gs_malloc(n ? n * sizeof *v : 1);
+    if (!v)
+        return 0;
+    for (size_t k = 0; k < n; k++)
+        v[k] = m[k].chosen;
+    qsort(v, n, sizeof *v, u64_cmp);
+    size_t d = 0;
+    for (size_t k = 0; k < n; k++)
+        d += k == 0 || v[k] != v[k - 1];
+    gs_free(v);
+    return d;
+}
+
+/* A component of fewer points than this is a speck (a few samples). */
+#define SMALL_FRAGMENT 30
+
+/* Components of pts (link radius r); with a box (lo/hi != NULL) only those
+ * with a point inside it in xy count. */
+static gs_err count_fragments(const gs_points *pts, double r, const double *lo, const double *hi,
+                              uint32_t *all, uint32_t *small, uint64_t *small_points)
+{
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sizes = NULL;
+    uint8_t *in = NULL;
+    gs_err err = GS_OK;
+    *all = *small = 0;
+    if (small_points)
+        *small_points = 0;
+    GS_TRY(err, gs_alloc_array((void **)&label, pts->n ? pts->n : 1, sizeof *label, "fragments"),
+           done);
+    GS_TRY(err, gs_measure_point_components((const double *)pts->v, 6, pts->n, r, label, &nc,
+                                            &sizes), done);
+    GS_TRY(err, gs_alloc_array((void **)&in, (size_t)nc + 1, 1, "fragments"), done);
+    memset(in, lo ? 0 : 1, (size_t)nc + 1);
+    for (size_t i = 0; lo && i < pts->n; i++) {
+        const double *p = pts->v[i].p;
+        if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
+            in[label[i]] = 1;
+    }
+    for (uint32_t c = 1; c <= nc; c++) {
+        if (!in[c])
+            continue;
+        (*all)++;
+        if (sizes[c] < SMALL_FRAGMENT) {
+            (*small)++;
+            if (small_points)
+                *small_points += sizes[c];
+        }
+    }
+done:
+    gs_free(label);
+    gs_free(sizes);
+    gs_free(in);
+    return err;
+}
+
+/* Heights (KS against the example's inside its box) and fragments. */
+static gs_err object_measures(run_state *rs, const gs_points *zup)
+{
+    objects_stats *o = &rs->obj;
+    memset(o, 0, sizeof *o);
+    const gs_points_texture *t = &rs->tex;
+    double *hx = NULL, *hy = NULL;
+    size_t ny = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&hx, zup->n ? zup->n : 1, sizeof *hx, "heights"), done);
+    GS_TRY(err, gs_alloc_array((void **)&hy, t->pts.n ? t->pts.n : 1, sizeof *hy, "heights"), done);
+    o->example_height_max = -INFINITY;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
+            p[1] < t->box_hi[1]) {
+            hy[ny++] = p[2];
+            o->example_height_max = fmax(o->example_height_max, p[2]);
+        }
+    }
+    o->height_max = -INFINITY;
+    for (size_t i = 0; i < zup->n; i++) {
+        hx[i] = zup->v[i].p[2];
+        o->height_max = fmax(o->height_max, hx[i]);
+        o->above_example_max += hx[i] > o->example_height_max;
+    }
+    GS_TRY(err, gs_measure_ks(hx, zup->n, hy, ny, &o->height_ks), done);
+    {
+        /* How far two pieces of the example itself differ: the scale a
+         * height KS of the output is to be read against. */
+        size_t na = 0, nb = 0;
+        double mid = 0.5 * (t->box_lo[0] + t->box_hi[0]);
+        for (size_t i = 0; i < t->pts.n; i++) {
+            const double *p = t->pts.v[i].p;
+            if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
+                p[1] < t->box_hi[1]) {
+                if (p[0] < mid)
+                    hx[na++] = p[2];
+                else
+                    hy[nb++] = p[2];
+            }
+        }
+        GS_TRY(err, gs_measure_ks(hx, na, hy, nb, &o->example_height_ks_halves), done);
+    }
+    double r = 2 * t->spacing;
+    GS_TRY(err, count_fragments(zup, r, NULL, NULL, &o->fragments, &o->small_fragments,
+                                &o->small_fragment_points), done);
+    GS_TRY(err, count_fragments(&t->pts, r, t->box_lo, t->box_hi, &o->example_fragments,
+                                &o->example_small_fragments, NULL), done);
+    o->example_area = (t->box_hi[0] - t->box_lo[0]) * (t->box_hi[1] - t->box_lo[1]);
+done:
+    gs_free(hx);
+    gs_free(hy);
+    return err;
+}
+
+/* The seam measure of the output (z-up points) and of the example. */
+static gs_err seam_measures(run_state *rs, const gs_points *zup)
+{
+    gs_points_lines seams = {0}, inside = {0}, ex = {0}, none = {0};
+    double R = rs->params.mls_radius, band = rs->tex.spacing;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 0, &seams), done);
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 1, &inside), done);
+    GS_TRY(err, gs_points_synth_lines(rs->synth, 2, &ex), done);
+    GS_TRY(err, gs_points_seam_measure(zup, R, band, &seams, &inside, &rs->seam), done);
+    GS_TRY(err, gs_points_seam_measure(&rs->tex.pts, R, band, &ex, &none, &rs->seam_ex), done);
+done:
+    gs_points_lines_free(&seams);
+    gs_points_lines_free(&inside);
+    gs_points_lines_free(&ex);
+    return err;
+}
+
+static void record_metrics(gs_run *run, const points_config *c, run_state *rs, double dens_out)
+{
+    gs_points_synth_t s = rs->synth;
+    size_t nm;
+    const gs_points_patch_metrics *m = gs_points_synth_metrics(s, &nm);
+    double sd = 0, sdmax = 0, cd = 0, res = 0, resmax = 0, gap = 0, cand = 0, pairs = 0;
+    size_t searched = 0, warped = 0, nwarp[3] = {0, 0, 0}, verbatim = 0;
+    double expect_verbatim = 0;
+    for (size_t k = 0; k < nm; k++) {
+        cand += m[k].candidates;
+        if (k == 0)
+            continue; /* the seed patch: picked at random, no search */
+        searched++;
+        sd += m[k].best_dist;
+        sdmax = fmax(sdmax, m[k].best_dist);
+        cd += m[k].chosen_dist;
+        /* The residual over every blended patch, warped or not (a mean over
+         * the warped ones alone compared different patches with and without
+         * the warp). */
+        res += m[k].warp_residual;
+        resmax = fmax(resmax, m[k].warp_residual);
+        nwarp[m[k].warp < 3 ? m[k].warp : 0]++;
+        verbatim += gs_points_synth_is_continuation(s, m, k, m[k].chosen);
+        if (m[k].candidates > 0)
+            expect_verbatim += (double)m[k].continuations / m[k].candidates;
+        if (m[k].warp > 0) {
+            warped++;
+            gap += m[k].pair_gap;
+            pairs += m[k].pairs;
+        }
+    }
+    gs_points_times tm = gs_points_synth_times(s);
+    double din = gs_points_synth_input_density(s);
+    gs_run_metric_str(run, "input_kind", c->kind);
+    gs_run_metric_i64(run, "input_points", (int64_t)rs->tex.pts.n);
+    gs_run_metric_f64(run, "input_spacing", rs->tex.spacing);
+    gs_run_metric_i64(run, "input_patches", (int64_t)gs_points_synth_input_patches(s));
+    gs_run_metric_i64(run, "patches", (int64_t)nm);
+    gs_run_metric_i64(run, "patches_searched", (int64_t)searched);
+    gs_run_metric_i64(run, "patches_warped", (int64_t)warped);
+    gs_run_metric_i64(run, "patches_warp_pairs", (int64_t)nwarp[1]);
+    gs_run_metric_i64(run, "patches_warp_normal", (int64_t)nwarp[2]);
+    gs_run_metric_i64(run, "patches_warp_none", (int64_t)nwarp[0]);
+    gs_run_metric_f64(run, "out_size_x", rs->params.out_size[0]);
+    gs_run_metric_f64(run, "out_size_y", rs->params.out_size[1]);
+    gs_run_metric_i64(run, "output_points", (int64_t)rs->out.n);
+    gs_run_metric_f64(run, "density_in", din);
+    gs_run_metric_f64(run, "density_out", dens_out);
+    gs_run_metric_f64(run, "density_ratio", din > 0 ? dens_out / din : 0);
+    gs_run_metric_f64(run, "search_distance_mean", searched ? sd / searched : 0);
+    gs_run_metric_f64(run, "search_distance_max", sdmax);
+    gs_run_metric_f64(run, "chosen_distance_mean", searched ? cd / searched : 0);
+    gs_run_metric_f64(run, "candidates_mean", nm ? cand / nm : 0);
+    /* Variety: distinct source patches, and the share of patches that
+     * continue a neighbour's source verbatim, against what a uniform pick
+     * in each Psi_k gives (the mean of continuations / candidates). */
+    gs_run_metric_i64(run, "source_patches", (int64_t)distinct_sources(m, nm));
+    gs_run_metric_f64(run, "verbatim_share", searched ? (double)verbatim / searched : 0);
+    gs_run_metric_f64(run, "verbatim_share_random", searched ? expect_verbatim / searched : 0);
+    gs_run_metric_f64(run, "pairs_mean", warped ? pairs / warped : 0);
+    gs_run_metric_f64(run, "pair_gap_mean", warped ? gap / warped : 0);
+    gs_run_metric_f64(run, "warp_residual_mean", searched ? res / searched : 0);
+    gs_run_metric_f64(run, "warp_residual_max", resmax);
+    const gs_points_seam_stats *se = &rs->seam;
+    gs_run_metric_f64(run, "seam_dist", se->seam_dist);
+    gs_run_metric_f64(run, "seam_normal", se->seam_normal);
+    gs_run_metric_f64(run, "seam_unmatched", se->seam_unmatched);
+    gs_run_metric_f64(run, "inside_dist", se->inside_dist);
+    gs_run_metric_f64(run, "inside_normal", se->inside_normal);
+    gs_run_metric_f64(run, "inside_unmatched", se->inside_unmatched);
+    gs_run_metric_f64(run, "seam_dist_ratio", se->inside_dist > 0 ? se->seam_dist / se->inside_dist : 0);
+    gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
+    gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
+    gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);
+    const objects_stats *ob = &rs->obj;
+    double area = rs->params.out_size[0] * rs->params.out_size[1];
+    gs_run_metric_f64(run, "height_ks", ob->height_ks);
+    gs_run_metric_f64(run, "example_height_ks_halves", ob->example_height_ks_halves);
+    gs_run_metric_f64(run, "height_max", ob->height_max);
+    gs_run_metric_f64(run, "example_height_max", ob->example_height_max);
+    gs_run_metric_i64(run, "points_above_example_max", (int64_t)ob->above_example_max);
+    gs_run_metric_i64(run, "fragments", ob->fragments);
+    gs_run_metric_f64(run, "fragments_per_area", ob->fragments / area);
+    gs_run_metric_f64(run, "example_fragments_per_area",
+                      ob->example_area > 0 ? ob->example_fragments / ob->example_area : 0);
+    gs_run_metric_i64(run, "small_fragments", ob->small_fragments);
+    gs_run_metric_i64(run, "small_fragment_points", (int64_t)ob->small_fragment_points);
+    gs_run_metric_f64(run, "small_fragments_per_area", ob->small_fragments / area);
+    gs_run_metric_f64(run, "example_small_fragments_per_area",
+                      ob->example_area > 0 ? ob->example_small_fragments / ob->example_area : 0);
+    gs_run_metric_f64(run, "search_seconds", tm.search);
+    gs_run_metric_f64(run, "warp_seconds", tm.warp);
+    gs_run_metric_f64(run, "blend_seconds", tm.blend);
+    gs_run_metric_f64(run, "other_seconds", tm.other);
+    gs_run_metric_f64(run, "relax_seconds", tm.relax);
+}
+
+gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest)
+{
+    run_state *rs = state;
+    const points_config *c = rs->c;
+    *digest = gs_points_digest(&rs->out);
+    gs_err local = GS_OK;
+    size_t ntris = 0;
+    if (run->rank == 0) {
+        char path[PATH_MAX];
+        gs_pointply_format fmt = strcmp(c->ply_format, "ascii") ? GS_POINTPLY_BINARY
+                                                                : GS_POINTPLY_ASCII;
+        if (c->write_points && local == GS_OK) {
+            gs_run_path(run, "points.ply", path, sizeof path);
+            local = gs_pointply_write(path, (const double *)rs->out.v, rs->out.n, 1, fmt);
+            if (local == GS_OK)
+                gs_run_output(run, "points", "points", "points.ply", NULL);
+        }
+        if (c->patch_csv && local == GS_OK) {
+            size_t nm;
+            const gs_points_patch_metrics *m = gs_points_synth_metrics(rs->synth, &nm);
+            gs_run_path(run, "patches.csv", path, sizeof path);
+            local = write_patch_csv(path, m, nm);
+            if (local == GS_OK)
+                gs_run_output(run, "csv", "patch_metrics", "patches.csv", NULL);
+        }
+        /* The measures and the mesh work on the z-up points; write_mesh
+         * restores the axes. */
+        gs_points zup = {0};
+        if (local == GS_OK)
+            local = gs_points_append(&zup, rs->out.v, rs->out.n);
+        if (local == GS_OK) {
+            gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
+            local = seam_measures(rs, &zup);
+            if (local == GS_OK)
+                local = object_measures(rs, &zup);
+        }
+        if (c->mesh && local == GS_OK) {
+            gs_run_path(run, "mesh.ply", path, sizeof path);
+            local = write_mesh(c, &zup, rs->tex.spacing, rs->params.mls_radius, path, &ntris);
+            if (local == GS_OK)
+                gs_run_output(run, "mesh", "surface", "mesh.ply", NULL);
+            if (local == GS_OK && ntris)
+                gs_run_output(run, "mesh", "surface", "mesh.glb", NULL);
+        }
+        if (c->preview && local == GS_OK) {
+            int written = 0;
+            gs_run_path(run, "preview.png", path, sizeof path);
+            local = write_preview(c, &rs->tex, &zup, rs->params.mls_radius, path, &written);
+            if (local == GS_OK && written)
+                gs_run_output(run, "preview", "preview", "preview.png", NULL);
+        }
+        gs_points_free(&zup);
+        if (local == GS_OK)
+            record_metrics(run, c, rs, rs->dens_out);
+    }
+    GS_CALL(points_agree(&rs->together, run->comm, local));
+    gs_json_u64(phase, "mesh_triangles", ntris);
+    gs_log(GS_LOG_INFO, "output: %zu points, density %.4g per unit area (example %.4g, ratio "
+           "%.3f)", rs->out.n, rs->dens_out, gs_points_synth_input_density(rs->synth),
+           rs->dens_out / gs_points_synth_input_density(rs->synth));
+    return GS_OK;
+}
