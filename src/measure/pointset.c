@@ -143,6 +143,7 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
     uint32_t *label = NULL, nc = 0;
     uint64_t *sizes = NULL;
     uint8_t *cut = NULL;
+    double *box = NULL;
     size_t m = 0;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&in, n ? n : 1, 3 * sizeof *in, "point pieces"), done);
@@ -156,9 +157,20 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
     GS_TRY(err, gs_alloc_array((void **)&label, m ? m : 1, sizeof *label, "point pieces"), done);
     GS_TRY(err, gs_measure_point_components(in, 3, m, radius, label, &nc, &sizes), done);
     GS_TRY(err, gs_alloc_array((void **)&cut, (size_t)nc + 1, 1, "point pieces"), done);
+    GS_TRY(err, gs_alloc_array((void **)&box, (size_t)nc + 1, 4 * sizeof *box, "point pieces"),
+           done);
     memset(cut, 0, (size_t)nc + 1);
+    for (uint32_t c = 0; c <= nc; c++) {
+        box[4 * c] = box[4 * c + 1] = INFINITY;
+        box[4 * c + 2] = box[4 * c + 3] = -INFINITY;
+    }
     for (size_t i = 0; i < m; i++) {
         const double *p = in + 3 * i;
+        double *b = box + 4 * label[i];
+        for (int a = 0; a < 2; a++) {
+            b[a] = fmin(b[a], p[a]);
+            b[2 + a] = fmax(b[2 + a], p[a]);
+        }
         if (p[0] - lo[0] <= radius || hi[0] - p[0] <= radius || p[1] - lo[1] <= radius ||
             hi[1] - p[1] <= radius)
             cut[label[i]] = 1;
@@ -169,9 +181,15 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
             continue;
         }
         out->pieces++;
+        const double *b = box + 4 * c;
+        double ax = hi[0] - lo[0] - (b[2] - b[0]) - 2 * radius;
+        double ay = hi[1] - lo[1] - (b[3] - b[1]) - 2 * radius;
+        double w = ax > 0 && ay > 0 ? 1.0 / (ax * ay) : 0; /* ax, ay > 0 for an inner piece */
+        out->density += w;
         if (sizes[c] < small) {
             out->small++;
             out->small_points += sizes[c];
+            out->small_density += w;
         }
     }
 done:
@@ -179,5 +197,6 @@ done:
     gs_free(label);
     gs_free(sizes);
     gs_free(cut);
+    gs_free(box);
     return err;
 }

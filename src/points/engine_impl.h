@@ -130,10 +130,10 @@ typedef struct objects_stats {
     double example_height_ks_halves; /* the example's two halves (x) against each other */
     double height_max, example_height_max;
     uint64_t above_example_max;      /* output points above the example's highest */
-    uint32_t fragments, example_fragments;     /* components (link 2 spacings) */
-    uint32_t small_fragments, example_small_fragments; /* of < SMALL_FRAGMENT points */
+    uint32_t fragments, example_fragments;     /* pieces (link 2 spacings), not border-cut */
+    uint32_t small_fragments, example_small_fragments; /* of < GS_POINTS_SPECK_POINTS points */
     uint64_t small_fragment_points;
-    double example_area;
+    double density[2], example_density[2]; /* pieces, specks per unit area (minus-sampling) */
 } objects_stats;
 
 typedef struct run_state {

@@ -162,6 +162,11 @@ static void test_point_pieces(void **state)
     assert_int_equal(pc.pieces, 2);   /* the middle speck and the blob */
     assert_int_equal(pc.small, 1);    /* the middle speck */
     assert_int_equal(pc.small_points, 1);
+    /* Minus-sampling: the speck (extent 0) over (4 - 0.3)^2, the blob
+     * (0.7 x 0.4) over (4 - 0.7 - 0.3)(4 - 0.4 - 0.3). */
+    double ws = 1.0 / (3.7 * 3.7), wb = 1.0 / (3.0 * 3.3);
+    assert_true(fabs(pc.small_density - ws) < 1e-9);
+    assert_true(fabs(pc.density - ws - wb) < 1e-9);
     double bad_hi[2] = {0, 4};
     assert_int_equal(gs_measure_point_pieces(p, 3, n, r, lo, bad_hi, 30, &pc), GS_ERR_ARG);
     free(p);
