@@ -235,6 +235,16 @@ gs_err gs_model_patterns3d_learn(const gs_model_lattice *ex, int n, int max_patt
 void gs_model_patterns3d_destroy(gs_model_patterns3d *p);
 /* Rules over the pattern labels from the overlap pairs; counts = windows. */
 gs_err gs_model_patterns3d_rules(const gs_model_patterns3d *p, gs_model_rules_t *out);
+/* The output's top-layer mask: sets in mask (words over pattern labels) every
+ * pattern whose bottom N x N slice (the slice its cell shows, the others lie
+ * above) occurs in the example's top layer (ex: the example's labels), so the
+ * output's top layer shows what the example's top layer shows. The windows
+ * whose origin is the example's last origin layer (nz - N) would put the
+ * example's layer nz - N at the output's top: structure stretched up (generated
+ * fortress: structure at z = 7, the example's top structure layer is 5).
+ * Returns the number of patterns set. */
+int gs_model_patterns3d_top_mask(const gs_model_patterns3d *p, const gs_model_lattice *ex,
+                                 uint64_t *mask);
 /* out (created here) = each cell's pattern's origin label. */
 gs_err gs_model_patterns3d_decode(const gs_model_patterns3d *p, const gs_model_lattice *plat,
                                   gs_model_lattice *out);

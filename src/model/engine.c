@@ -1903,6 +1903,10 @@ static gs_err decide_z_faces(model_engine *e)
                 m[lab[i] >> 6] |= bit;
             }
         }
+    if (o3) { /* the top: patterns showing what the example's top layer shows (overlap3d.c) */
+        memset(e->zface + W, 0, W * 8);
+        distinct[1] = gs_model_patterns3d_top_mask(&e->p3, &e->src, e->zface + W);
+    }
     /* 4D frames cannot keep fixed faces (only the lattice's lowest and
      * highest layers would stay): each frame's faces take the example's */
     /* overlap3d: one bottom pattern is a mask all the same (kept faces would

@@ -195,6 +195,31 @@ gs_err gs_model_patterns3d_rules(const gs_model_patterns3d *p, gs_model_rules_t 
     return gs_model_patterns_rules(&view, out);
 }
 
+int gs_model_patterns3d_top_mask(const gs_model_patterns3d *p, const gs_model_lattice *ex,
+                                 uint64_t *mask)
+{
+    const int n = p->n, z = ex->nz - 1;
+    const size_t NNN = (size_t)n * (size_t)n * (size_t)n;
+    int set = 0;
+    for (int a = 0; a < p->npatterns; a++) {
+        const uint16_t *q = p->pat + (size_t)a * NNN; /* layer 0: q[x + n * y] */
+        int found = 0;
+        for (int oy = 0; oy + n <= ex->ny && !found; oy++)
+            for (int ox = 0; ox + n <= ex->nx && !found; ox++) {
+                int same = 1;
+                for (int y = 0; y < n && same; y++)
+                    for (int x = 0; x < n && same; x++)
+                        same = q[x + n * y] == ex->labels[gs_model_lattice_index(ex, ox + x, oy + y, z)];
+                found = same;
+            }
+        if (found) {
+            mask[(a + 1) >> 6] |= (uint64_t)1 << ((a + 1) & 63);
+            set++;
+        }
+    }
+    return set;
+}
+
 gs_err gs_model_patterns3d_decode(const gs_model_patterns3d *p, const gs_model_lattice *plat,
                                   gs_model_lattice *out)
 {
