@@ -34,7 +34,15 @@ summary (per side): the regions of at least min_area except a side's
   over the median (merged discs show as a few regions many times the
   others'); specks: regions under min_area.
 
+roughness: the colour boundary's length over that of the same labelling
+  opened and closed at rho units (default 1.5, the gallery's smallest disc
+  radius), see roughness(); ~1.0 for unions of round discs, larger for
+  staircased or jagged coasts.
+
 usage: micro_outline.py INSTANCE_DIR [--json] [--min-area A] (default 100 units^2)
+       micro_outline.py --gallery RUN_DIR [--rho R] [--json]: per card of a
+         gallery run (RUN_DIR/gallery/candidate-NNN), the roughness and
+         candidates.json's realized L1/n; mean and max over the cards
 """
 import json
 import os
@@ -216,6 +224,41 @@ def discs(v, f, vlabel, min_area=100.0):
     return out, int(np.sum(area < min_area))
 
 
+def roughness(v, f, vlabel, rho=1.5):
+    """Outline roughness of unions of discs (issue 20 item 3, gallery cards:
+    a Boolean model's overlapping discs, so no region need be one disc):
+    the colour boundary's length (outline()) over the length of the same
+    labelling smoothed at radius rho units: opened (positive vertices
+    farther than rho from every negative one, grown back by rho) and then
+    closed (the same on the other side), distances straight-line between
+    vertices (on a displaced sphere on the sphere under it; the chord is
+    within 0.2% of the geodesic at rho <= 2 on a sphere of radius >= 10
+    units). A union of discs of radii >= rho is unchanged by the opening and
+    the closing only fills its cusps, so the ratio is near 1 for it (both
+    drawn on the same mesh, the edges' staircase cancels); spikes, notches
+    and jagged steps wider than the mesh and narrower than rho are cut, so
+    it grows with them. Returns (ratio, boundary length, smoothed length)."""
+    sph = _sphere(v)
+    P = v
+    if sph is not None:
+        o, R = sph
+        P = o + (v - o) / np.linalg.norm(v - o, axis=1)[:, None] * R
+    edges, areas = _edges(f), _areas(P, f)
+
+    def grow(s, r):  # vertices within r of a vertex of s
+        if not s.any():
+            return s.copy()
+        d, _ = cKDTree(P[s]).query(P, distance_upper_bound=r)
+        return np.isfinite(d)
+
+    pos = vlabel >= 128
+    opened = ~grow(~grow(~pos, rho), rho)          # erode pos, then dilate
+    smooth = ~grow(~grow(opened, rho), rho)        # then close: dilate, erode
+    length = float(outline(P, f, pos, edges, areas)[2].sum()) / 2
+    slen = float(outline(P, f, smooth, edges, areas)[2].sum()) / 2
+    return (length / slen if slen > 0 else float("nan")), length, slen
+
+
 def summary(regions, specks=0):
     out = {"specks": specks}
     for side, name in ((True, "positive"), (False, "negative")):
@@ -234,18 +277,49 @@ def summary(regions, specks=0):
     return out
 
 
+def gallery(run, rho):
+    cand = json.load(open(os.path.join(run, "gallery", "candidates.json")))
+    out = []
+    for c in cand:
+        d = os.path.join(run, "gallery", c["dir"])
+        v, f = gsio.read_ply(os.path.join(d, "mesh.ply"))
+        vl = gsio.read_ply_vertex_property(os.path.join(d, "mesh.ply"), "label")
+        with h5py.File(os.path.join(d, "micro.h5"), "r") as h:
+            upm = float(h["/micro"].attrs["units_per_model"])
+        ratio, length, slen = roughness(v.astype(np.float64) * upm, np.asarray(f, dtype=np.int64), vl, rho)
+        out.append({"dir": c["dir"], "roughness": ratio, "length": length, "smoothed_length": slen,
+                    "realized_l1": c["realized_l1"]})
+    return out
+
+
 def main():
+    rho = float(sys.argv[sys.argv.index("--rho") + 1]) if "--rho" in sys.argv else 1.5
+    if sys.argv[1] == "--gallery":
+        out = gallery(sys.argv[2], rho)
+        rs = [c["roughness"] for c in out]
+        if "--json" in sys.argv:
+            print(json.dumps({"cards": out, "roughness_mean": float(np.mean(rs)),
+                              "roughness_max": float(np.max(rs))}))
+            return
+        for c in out:
+            print("%s: coast %.0f units, smoothed at %.1f: %.0f, roughness %.3f, realized L1/n %.4f"
+                  % (c["dir"], c["length"], rho, c["smoothed_length"], c["roughness"], c["realized_l1"]))
+        print("roughness mean %.3f, max %.3f; L1/n max %.4f"
+              % (np.mean(rs), np.max(rs), max(c["realized_l1"] for c in out)))
+        return
     inst = sys.argv[1]
     v, f, x, vl = load(inst)
     ma = float(sys.argv[sys.argv.index("--min-area") + 1]) if "--min-area" in sys.argv else 100.0
     regions, specks = discs(v, f, vl, min_area=ma)
     res = {"metric_excess": metric_excess(v, f, x), "discs": regions}
     res["summary"] = summary(regions, specks)
+    res["roughness"] = roughness(v, f, vl, rho)[0]
     if "--json" in sys.argv:
         print(json.dumps(res))
         return
     print("metric excess (max |dx| / straight line, 3-6 units): %.3f" % res["metric_excess"])
     print("regions under the minimum area (specks): %d" % res["summary"]["specks"])
+    print("roughness (coast / coast opened and closed at %.1f units): %.3f" % (rho, res["roughness"]))
     for name in ("positive", "negative"):
         sm = res["summary"][name]
         if sm["count"]:
