@@ -344,7 +344,8 @@ typedef struct gs_micro_correct_opts {
      * point by geodesic clearance to the discs placed (the largest first;
      * the first at the largest init_value, else vertex 0), each disc the
      * triangles within its radius (fast marching). stats->l1_before stays
-     * the L1/n of the side[] given. */
+     * the L1/n of the side[] given. 2: overlapping discs instead, a Boolean
+     * model fitted to the tables (micro.correct_boolean). */
     int disc_seed;
 } gs_micro_correct_opts;
 typedef struct gs_micro_correct_stats {

@@ -93,6 +93,10 @@ static const gs_cfg_key micro_keys[] = {
                     "second differences (geodesic, farthest-point centres, then moved until the "
                     "round discs alone come closest to both tables) instead of the "
                     "reconstruction's regions (no = the reconstruction's regions)"),
+    GS_CFG_KEY_BOOL(micro_config, correct_boolean, "micro.correct_boolean", "no",
+                    "with micro.correct_discs: overlapping discs instead, a realization of a "
+                    "Boolean model whose intensity and radius (radii in [a, 2a]) are fitted to "
+                    "the tables (the random distributions' model), then moved to fit both"),
     GS_CFG_KEY_INT(micro_config, max_rejects_per_bin, "micro.max_rejects_per_bin", 0,
                    GS_CFG_INT_MAX, 0, "0", "stop a bin after this many rejected placements (0 = "
                    "no limit)"),

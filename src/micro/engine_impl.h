@@ -74,6 +74,7 @@ typedef struct micro_config {
     int64_t correct_rounds;
     double correct_target;
     int correct_discs;
+    int correct_boolean;
     int64_t max_rejects_per_bin;
     int64_t instances;
     int64_t steps_per_round;

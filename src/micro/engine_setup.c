@@ -408,7 +408,7 @@ gs_err micro_setup(micro_job *job)
     gs_micro_correct_defaults(&job->copts);
     job->copts.max_rounds = (uint32_t)cfg->correct_rounds;
     job->copts.target_l1 = cfg->correct_target;
-    job->copts.disc_seed = cfg->correct_discs;
+    job->copts.disc_seed = cfg->correct_discs ? (cfg->correct_boolean ? 2 : 1) : 0;
     job->disp = (gs_micro_displace_params){
         {micro_direction_of(cfg->pos_direction), micro_direction_of(cfg->neg_direction)},
         {cfg->pos_scale, cfg->neg_scale},
