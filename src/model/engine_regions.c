@@ -1,0 +1,300 @@
+/* model driver, the sweep: each pass's plan of regions, a region run and
+ * applied through gs_regions (one dataflow over the colours of a window),
+ * coverage, the advance by a window of colours, and the per-rank time
+ * report. See engine.c for why the result is identical at any rank count. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "geosynth/log.h"
+#include "geosynth/mem.h"
+#include "geosynth/par.h"
+#include "model/engine_impl.h"
+
+gs_err model_make_plan(model_engine *e)
+{
+    GS_FREE(e->plan);
+    GS_FREE(e->region_status);
+    GS_FREE(e->region_attempts);
+    GS_CALL(gs_model_plan(&e->params, e->lat.nx, e->lat.ny, e->lat.nz, e->pass, &e->plan,
+                          &e->nplan, &e->ncolors));
+    for (size_t i = 0; i < e->nplan; i++)
+        GS_CHECK(e->plan[i].id == i, GS_ERR_INTERNAL, "plan id %u at %zu", e->plan[i].id, i);
+    GS_CALL(gs_alloc_array((void **)&e->region_status, e->nplan, sizeof(int32_t), "region status"));
+    GS_CALL(gs_alloc_array((void **)&e->region_attempts, e->nplan, sizeof(int32_t),
+                           "region attempts"));
+    for (size_t i = 0; i < e->nplan; i++) {
+        e->region_status[i] = -1;
+        e->region_attempts[i] = 0;
+    }
+    if (!e->buf && e->nplan) {
+        const gs_model_box *b = &e->plan[0].box;
+        e->buf_cells = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+        GS_CALL(gs_alloc_array((void **)&e->buf, e->buf_cells, sizeof *e->buf, "region labels"));
+    }
+    return GS_OK;
+}
+
+static size_t box_cells(const gs_model_box *b)
+{
+    return (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+}
+
+static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
+                         gs_region_out *out)
+{
+    (void)color;
+    (void)rng; /* the core keys its own streams by (seed, region id, pass, attempt) */
+    model_engine *e = ctx;
+    GS_CHECK(id >= 0 && (size_t)id < e->nplan, GS_ERR_INTERNAL, "region id %lld", (long long)id);
+    const gs_model_region *r = &e->plan[id];
+    size_t cells = box_cells(&r->box);
+    GS_CHECK(cells <= e->buf_cells, GS_ERR_INTERNAL, "region %lld larger than the first",
+             (long long)id);
+    gs_model_region_result res;
+    GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
+                                e->buf, &res));
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
+     * 3 consistent but not accepted by the Metropolis step (kept) */
+    region_hdr h = {res.ok ? 1 : res.partial ? 2 : res.mh_rejected ? 3 : 0, res.attempts,
+                    res.choices, res.backtracks};
+    GS_CALL(gs_region_out_append(out, &h, sizeof h));
+    if (h.ok == 1 || h.ok == 2)
+        GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
+    return GS_OK;
+}
+
+static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
+{
+    model_engine *e = ctx;
+    const gs_model_region *r = &e->plan[id];
+    const gs_model_box *b = &r->box;
+    size_t cells = box_cells(b);
+    region_hdr h;
+    GS_CHECK(len >= sizeof h, GS_ERR_INTERNAL, "region %lld: %zu result bytes", (long long)id, len);
+    memcpy(&h, buf, sizeof h);
+    GS_CHECK(len == sizeof h + (h.ok == 1 || h.ok == 2 ? cells * sizeof(uint16_t) : 0),
+             GS_ERR_INTERNAL,
+             "region %lld: %zu result bytes for ok=%d", (long long)id, len, (int)h.ok);
+    e->stats.regions++;
+    e->stats.attempts += (uint64_t)h.attempts;
+    e->stats.choices += h.choices;
+    e->stats.backtracks += h.backtracks;
+    e->region_cells += cells;
+    if (e->region_status[id] < 0 && e->pass_prog_open)
+        gs_progress_update(&e->pass_prog, ++e->pass_done);
+    e->region_status[id] = h.ok == 1;
+    e->region_attempts[id] = h.attempts;
+    if (h.ok == 3) {
+        e->stats.mh_rejected++;
+        return GS_OK;
+    }
+    if (h.ok != 1) {
+        e->stats.failed++;
+        if (h.ok == 2)
+            gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
+        return GS_OK;
+    }
+    e->stats.accepted++;
+    gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
+    for (int z = b->z0; z < b->z1; z++)
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++) {
+                uint16_t *cv = &e->coverage[gs_model_lattice_index(&e->lat, x, y, z)];
+                if (*cv < UINT16_MAX)
+                    (*cv)++;
+            }
+    return GS_OK;
+}
+
+/* Fewest accepted regions over the active cells (the core driver's rule). */
+static uint64_t min_coverage(const model_engine *e)
+{
+    const gs_model_lattice *l = &e->lat;
+    int fix = e->params.fix_z_faces && l->nz >= 3;
+    uint64_t m = UINT64_MAX;
+    for (int z = fix; z < (fix ? l->nz - 1 : l->nz); z++)
+        for (int y = 0; y < l->ny; y++)
+            for (int x = 0; x < l->nx; x++) {
+                uint64_t cv = e->coverage[gs_model_lattice_index(l, x, y, z)];
+                if (cv < m)
+                    m = cv;
+            }
+    return m == UINT64_MAX ? 0 : m;
+}
+
+/* Colours run together at most this many regions at a time (one colour
+ * alone may have more): bounds the results kept, the conflict lists
+ * (gs_model_plan_conflicts, linear in the window) and how late a
+ * time-based checkpoint or a signal is seen. */
+#define MODEL_WINDOW_REGIONS 2048
+
+/* Collective: runs colours e->color.. of pass e->pass on all ranks, as many
+ * as fit a window (see MODEL_WINDOW_REGIONS) and end no later than a
+ * unit-based checkpoint or stop would after one colour, as one dataflow
+ * (gs_regions_set_conflicts): a region starts when the regions of earlier
+ * colours it touches are done, not when the whole colour is. */
+static gs_err run_window(gs_run *run, model_engine *e)
+{
+    double t0 = gs_time_now();
+    int64_t budget = 0;
+    GS_CALL(gs_run_units_until_due(run, e->units, &budget));
+    size_t first = 0;
+    while (first < e->nplan && (int)e->plan[first].color < e->color)
+        first++;
+    size_t last = first;
+    int next = e->color;
+    do {
+        size_t end = last;
+        while (end < e->nplan && (int)e->plan[end].color == next)
+            end++;
+        if (end > last && last > first && end - first > MODEL_WINDOW_REGIONS)
+            break;
+        last = end;
+        next++;
+    } while (next < e->ncolors && (int64_t)(last - first) < budget);
+    size_t n = last - first;
+    if (n == 0) {
+        e->color = next;
+        return GS_OK;
+    }
+    gs_region *list = NULL;
+    int64_t *off = NULL, *ids = NULL;
+    gs_regions_t s = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "colour regions"), done);
+    for (size_t i = first; i < last; i++) {
+        list[i - first].id = (int64_t)e->plan[i].id;
+        list[i - first].color = (int)e->plan[i].color;
+    }
+    /* conflicts: interacting regions of lower colours (the plan is sorted
+     * by colour) */
+    GS_TRY(err, gs_model_plan_conflicts(&e->params, e->lat.nx, e->lat.ny, e->lat.nz,
+                                        e->plan + first, n, &off, &ids),
+           done);
+    GS_TRY(err, gs_regions_create(run->comm, list, (int64_t)n, e->params.seed, MODEL_RNG_DOMAIN, &s),
+           done);
+    GS_TRY(err, gs_regions_set_conflicts(s, off, ids), done);
+    GS_TRY(err, gs_regions_run_pass(s, e->pass, region_run, region_apply, e), done);
+    gs_regions_stats qs = gs_regions_get_stats(s);
+    e->queue.computed += qs.computed;
+    e->queue.bytes += qs.bytes;
+    e->queue.t_compute += qs.t_compute;
+    e->queue.t_wait += qs.t_wait;
+    e->queue.t_exchange += qs.t_exchange;
+    e->queue.t_apply += qs.t_apply;
+    e->queue.t_pass += qs.t_pass;
+    e->queue.t_tail += qs.t_tail;
+    e->queue.duplicates += qs.duplicates;
+    e->units += (int64_t)n;
+    e->color = next;
+done:
+    gs_regions_destroy(&s);
+    gs_free(list);
+    gs_free(off);
+    gs_free(ids);
+    e->t_windows += gs_time_now() - t0;
+    return err;
+}
+
+/* Collective: the next batch of the synthesis (a new pass's plan, then one
+ * window of colours, run_window); *finished once the passes are done. */
+gs_err model_advance_window(gs_run *run, model_engine *e, int *finished)
+{
+    *finished = e->done;
+    if (e->done) {
+        e->stats.passes = e->pass;
+        return GS_OK;
+    }
+    if (!e->plan)
+        GS_CALL(model_make_plan(e));
+    if (e->color == 0)
+        gs_log(GS_LOG_INFO, "pass %d: %zu regions in %d colours", e->pass + 1, e->nplan,
+               e->ncolors);
+    if (!e->pass_prog_open) { /* a new pass, or the one a checkpoint stopped in */
+        char label[64];
+        snprintf(label, sizeof label, "pass %d regions", e->pass + 1);
+        gs_progress_begin(&e->pass_prog, label, (uint64_t)e->nplan);
+        e->pass_done = 0;
+        for (size_t i = 0; i < e->nplan; i++)
+            e->pass_done += e->region_status[i] >= 0;
+        gs_progress_update(&e->pass_prog, e->pass_done);
+        e->pass_prog_open = 1;
+    }
+    GS_CALL(run_window(run, e));
+    if (e->color >= e->ncolors) {
+        gs_progress_end(&e->pass_prog);
+        e->pass_prog_open = 0;
+        uint64_t acc = 0, fail = 0;
+        for (size_t i = 0; i < e->nplan; i++) {
+            acc += e->region_status[i] == 1;
+            fail += e->region_status[i] == 0;
+        }
+        e->stats.min_coverage = min_coverage(e);
+        gs_log(GS_LOG_INFO,
+               "pass %d done: %llu accepted, %llu failed; every cell in >= %llu accepted "
+               "regions (goal %d)",
+               e->pass + 1, (unsigned long long)acc, (unsigned long long)fail,
+               (unsigned long long)e->stats.min_coverage, e->params.min_changes);
+        e->pass++;
+        e->color = 0;
+        if (e->stats.min_coverage >= (uint64_t)e->params.min_changes ||
+            e->pass >= e->params.max_passes)
+            e->done = 1;
+        else
+            GS_CALL(model_make_plan(e));
+    }
+    *finished = e->done;
+    if (e->done)
+        e->stats.passes = e->pass;
+    return GS_OK;
+}
+
+static const char *const q_key[Q_N] = {
+    "regions", "region_s", "wait_s", "tail_s", "exchange_s", "apply_s", "flow_s",
+    "window_setup_s", "outside_windows_s", "cpu_s", "duplicates"};
+
+/* Collective. The ideal speed-up over one rank is the sum over the max of
+ * the region seconds: robust to a shared machine's noise, unlike wall
+ * time. Per rank: wait_s = nothing ready to run here (tail_s of it: every
+ * region was claimed, the end of a pass), flow_s = in the dataflow passes,
+ * window_setup_s = building the window's conflict lists and scheduler
+ * (every rank does it, serial), outside_windows_s = the rest of the
+ * synthesis phase (plans, coverage, checkpoints). */
+gs_err model_queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q,
+                          gs_json *j)
+{
+    double mine[Q_N] = {(double)e->queue.computed, e->queue.t_compute, e->queue.t_wait,
+                        e->queue.t_tail, e->queue.t_exchange, e->queue.t_apply, e->queue.t_pass,
+                        e->t_windows - e->queue.t_pass, e->synth_seconds - e->t_windows, cpu,
+                        (double)e->queue.duplicates};
+    double *all = run->rank == 0 ? gs_calloc((size_t)run->size * Q_N, sizeof *all) : NULL;
+    gs_err local = run->rank == 0 && !all
+                       ? gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
+                                        "cannot gather the per-rank times")
+                       : GS_OK;
+    GS_CALL(gs_par_agree(run->comm, local));
+    GS_CALL(gs_par_gather_bytes(run->comm, mine, sizeof mine, all, 0));
+    memset(q, 0, sizeof *q);
+    if (run->rank != 0)
+        return GS_OK;
+    /* "per_rank": {key: [rank 0, rank 1, ...], ...} into the open object j */
+    gs_json_begin_object(j, "per_rank");
+    for (int k = 0; k < Q_N; k++) {
+        gs_json_begin_array(j, q_key[k]);
+        for (int r = 0; r < run->size; r++) {
+            double v = all[(size_t)r * Q_N + k];
+            q->sum[k] += v;
+            q->max[k] = r == 0 || v > q->max[k] ? v : q->max[k];
+            if (k == Q_REGIONS || k == Q_DUPLICATES)
+                gs_json_i64(j, NULL, (int64_t)v);
+            else
+                gs_json_f64(j, NULL, round(v * 1e4) / 1e4);
+        }
+        gs_json_end_array(j);
+    }
+    gs_json_end_object(j);
+    gs_free(all);
+    return GS_OK;
+}
