@@ -211,7 +211,7 @@ gs_err micro_json_write(gs_json *j, const char *path);
 int micro_direction_of(const char *s);
 gs_micro_func micro_func_of(const char *s);
 
-/* engine_explore.c: the gallery run (from micro_run when micro.explore.enable). */
+/* engine_explore.c: the gallery run (from micro_whole in engine.c when micro.explore.enable). */
 gs_err micro_explore_run(gs_run *run, const micro_config *cfg);
 
 /* engine_state.c */

@@ -45,9 +45,10 @@
  * (the failing one with its message, the others with "rank N failed: ...")
  * and the run ends cleanly with one report (gs_run.failed_together). Any
  * other failure is local to one rank (an allocation, a merge, the warp's
- * solve, the paste, between two exchanges): points_run ends it with
- * gs_fatal(err, 0) at once, before any clean-up collective, so MPI_Abort
- * stops every rank wherever it waits. No extra collective per patch.
+ * solve, the paste, between two exchanges): the operation sets
+ * gs_run.failed_alone and the driver (gs_engine_drive) ends the job at once,
+ * before any clean-up collective, so MPI_Abort stops every rank wherever it
+ * waits. No extra collective per patch.
  */
 #include <stddef.h>
 

@@ -207,7 +207,7 @@ gs_err points_distributed_search(void *user, const gs_points_synth *s, const flo
         GS_TRY(err, gs_par_allgatherv_bytes(c->comm, c->local.v, more, counts, displs), done);
     }
     /* After the exchange a failure (the allocations of more and of the
-     * merge) is local: points_run aborts every rank. */
+     * merge) is local: the driver aborts every rank (gs_run.failed_alone). */
     if (points_fault_fires(c->fault, FAULT_SEARCH_MERGE)) {
         err = points_fault_raise(c->fault, FAULT_SEARCH_MERGE, GS_ERR_MEM);
         goto done;
