@@ -200,6 +200,17 @@ gs_err gs_ckpt_peek(const char *path, char *engine, size_t engine_len,
  * one read of the file. */
 gs_err gs_ckpt_verify(const char *path, const char *engine);
 
+/* Serial. The digest of what an HDF5 output holds (#25: the run digest
+ * covers every output file): every object's name, every attribute and every
+ * dataset's shape and bytes, in name order, read back from the file. Left
+ * out, as the bytes of the file are: the identity group /geosynth (config
+ * text with the run directory, creation time, program version) and the
+ * string attributes that name an input file by path ("example",
+ * "mesh_source"); the inputs' contents are recorded in start.ini instead.
+ * Equal for equal contents whatever rank count wrote the file.
+ * GS_ERR_IO / GS_ERR_FORMAT naming the file when it cannot be read. */
+gs_err gs_h5_content_digest(const char *path, uint64_t *hash);
+
 /* Identity of an open file (valid until close; never NULL). For a handle
  * being written these return what gs_ckpt_create wrote. */
 const char *gs_ckpt_path(gs_ckpt_t h);

@@ -7,7 +7,9 @@
  *                          version, rank count, seed, resolved config,
  *                          per-phase seconds (min/avg/max over ranks), peak
  *                          memory (max over ranks), quality metrics, outputs
- *                          and "digest" (hex of the output's 64-bit digest).
+ *                          and "digest" (hex of the 64-bit digest of the
+ *                          engine's result and every output file, see
+ *                          gs_run_outputs_digest).
  * Rank 0 writes the files; phase ends and finish are collective.
  */
 #ifndef GEOSYNTH_RUN_H
@@ -91,9 +93,20 @@ void gs_run_metric_str(gs_run *run, const char *key, const char *value);
  * dimensions it reads from the written file's header: vertices and faces of
  * a mesh, points of a point cloud, width and height of an image. An unknown
  * kind is an internal error reported by gs_run_finish. */
-#define GS_RUN_OUTPUT_KINDS "h5 xdmf vdb vox mesh points image preview csv json html text"
+#define GS_RUN_OUTPUT_KINDS "h5 xdmf vdb vox mesh points image preview csv json html text config"
 void gs_run_output(gs_run *run, const char *kind, const char *role, const char *path,
                    const int64_t grid[3]);
+/* Rank 0: the run digest, which covers every output file a user gets (#25):
+ * XXH3 over engine_digest (the engine's digest of its result in memory) and,
+ * for each output in the order recorded, its path and the digest of what the
+ * file holds: an HDF5 file's contents (gs_h5_content_digest: without the
+ * identity group and input paths), a .vdb file's bytes with OpenVDB's random
+ * file UUID read as zeros, any other file's bytes. Left out, saying so in
+ * summary.json ("digest_excluded"): reports ("json", "html": they hold
+ * seconds measured by the run) and configs written for the user to re-run
+ * ("config": they hold the run directory's path). Every other output
+ * records its own "digest". GS_ERR_IO / GS_ERR_FORMAT naming an output that cannot be read. */
+gs_err gs_run_outputs_digest(gs_run *run, uint64_t engine_digest, uint64_t *digest);
 /* Rank 0: the "outputs" array of summary.json into j (member key). */
 gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key);
 void gs_run_outputs_free(gs_run *run);

@@ -36,6 +36,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "geosynth/digest.h"
 #include "geosynth/file.h"
@@ -539,6 +540,24 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
         gs_run_metric_f64(run, "gallery_seconds", wall);
         gs_run_metric_f64(run, "candidates_per_minute", per_min);
         gs_run_metric_f64(run, "candidate_cpu_seconds", cpu);
+        /* every candidate's files, so that the run digest covers them (#25) */
+        for (int64_t i = 0; i < n; i++) {
+            static const struct { const char *file, *kind, *role; } files[] = {
+                {"mesh.ply", "mesh", "instance"}, {"mesh.obj", "mesh", "instance"},
+                {"mesh.glb", "mesh", "instance"}, {"micro.h5", "h5", "labels"},
+                {"thumb.png", "preview", "instance"}, {NULL, "config", "candidate"}};
+            char name[32], rel[96], full[PATH_MAX];
+            candidate_name(i, name, sizeof name);
+            for (size_t k = 0; k < sizeof files / sizeof files[0]; k++) {
+                if (files[k].file)
+                    snprintf(rel, sizeof rel, "gallery/%s/%s", name, files[k].file);
+                else
+                    snprintf(rel, sizeof rel, "gallery/%s/%s.ini", name, name);
+                gs_run_path(run, rel, full, sizeof full);
+                if (access(full, F_OK) == 0)
+                    gs_run_output(run, files[k].kind, files[k].role, rel, NULL);
+            }
+        }
         gs_run_output(run, "html", "gallery", "gallery/index.html", NULL);
         gs_run_output(run, "json", "candidates", "gallery/candidates.json", NULL);
     }

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 
@@ -16,6 +17,8 @@ struct gs_run_out {
     char *path;
     int have_grid;
     int64_t grid[3];
+    int digested;   /* gs_run_outputs_digest covered it: hash is its digest */
+    uint64_t hash;
 };
 
 void gs_run_output(gs_run *run, const char *kind, const char *role, const char *path,
@@ -168,6 +171,86 @@ static int glb_counts(FILE *f, int64_t *verts, int64_t *faces)
     return ok;
 }
 
+/* The outputs left out of the run digest, by kind, and why
+ * (docs/FORMATS.md "Digest"). NULL: covered. */
+static const char *digest_excluded(const char *kind)
+{
+    if (!strcmp(kind, "json") || !strcmp(kind, "html"))
+        return "a report: it holds seconds measured by the run, and measures of outputs the "
+               "digest covers";
+    if (!strcmp(kind, "config"))
+        return "a config to re-run from: it holds the run directory's path; what it produces "
+               "is covered";
+    return NULL;
+}
+
+/* OpenVDB writes a random UUID (36 characters after the 21-byte header:
+ * magic, file and library versions, grid-offsets flag) into every file;
+ * the digest reads it as zeros. */
+#define VDB_UUID_OFFSET 21
+#define VDB_UUID_LEN 36
+
+static gs_err vdb_digest(const char *path, uint64_t *hash)
+{
+    FILE *f = fopen(path, "rb");
+    GS_CHECK(f != NULL, GS_ERR_IO, "output %s cannot be read back for the digest", path);
+    gs_digest dg;
+    if (!gs_digest_init(&dg)) {
+        fclose(f);
+        GS_RAISE(GS_ERR_MEM, "out of memory for the digest of %s", path);
+    }
+    unsigned char buf[65536];
+    size_t n, off = 0;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0) {
+        for (size_t i = 0; i < n; i++)
+            if (off + i >= VDB_UUID_OFFSET && off + i < VDB_UUID_OFFSET + VDB_UUID_LEN)
+                buf[i] = 0;
+        gs_digest_update(&dg, buf, n);
+        off += n;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    uint64_t h = gs_digest_final(&dg);
+    GS_CHECK(!bad, GS_ERR_IO, "output %s cannot be read back for the digest", path);
+    *hash = h;
+    return GS_OK;
+}
+
+gs_err gs_run_outputs_digest(gs_run *run, uint64_t engine_digest, uint64_t *digest)
+{
+    gs_digest dg;
+    GS_CHECK(gs_digest_init(&dg), GS_ERR_MEM, "out of memory for the run digest");
+    gs_digest_update(&dg, &engine_digest, sizeof engine_digest);
+    gs_err err = GS_OK;
+    for (int i = 0; i < run->nouts && !err; i++) {
+        struct gs_run_out *o = &run->outs[i];
+        o->digested = 0;
+        if (digest_excluded(o->kind))
+            continue;
+        char full[PATH_MAX];
+        if (o->path[0] == '/')
+            snprintf(full, sizeof full, "%s", o->path);
+        else
+            gs_run_path(run, o->path, full, sizeof full);
+        uint64_t bytes;
+        if (!strcmp(o->kind, "h5"))
+            err = gs_h5_content_digest(full, &o->hash);
+        else if (!strcmp(o->kind, "vdb"))
+            err = vdb_digest(full, &o->hash);
+        else
+            err = gs_digest_file(full, &o->hash, &bytes);
+        if (err)
+            break;
+        o->digested = 1;
+        gs_digest_update(&dg, o->path, strlen(o->path) + 1);
+        gs_digest_update(&dg, &o->hash, sizeof o->hash);
+    }
+    uint64_t h = gs_digest_final(&dg);
+    if (!err)
+        *digest = h;
+    return err;
+}
+
 static int ends_with(const char *s, const char *suffix)
 {
     size_t n = strlen(s), m = strlen(suffix);
@@ -185,6 +268,14 @@ gs_err gs_run_outputs_json(const gs_run *run, gs_json *j, const char *key)
         gs_json_str(j, "kind", o->kind);
         gs_json_str(j, "role", o->role);
         gs_json_str(j, "path", o->path);
+        if (o->digested) {
+            char hex[17];
+            gs_digest_hex(o->hash, hex);
+            gs_json_str(j, "digest", hex);
+        } else {
+            const char *why = digest_excluded(o->kind);
+            gs_json_str(j, "digest_excluded", why ? why : "not read (the run failed first)");
+        }
         char full[PATH_MAX];
         if (o->path[0] == '/')
             snprintf(full, sizeof full, "%s", o->path);

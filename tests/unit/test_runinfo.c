@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "geosynth/digest.h"
 #include "geosynth/file.h"
 #include "geosynth/json.h"
 #include "geosynth/mem.h"
@@ -117,12 +118,27 @@ static void test_run_summary(void **state)
     char *text = NULL;
     snprintf(path, sizeof path, "%s/summary.json", rundir);
     assert_int_equal(gs_file_read_all(path, 1 << 20, &text, NULL), GS_OK);
-    assert_non_null(strstr(text, "\"digest\":\"000000001234abcd\""));
+    /* the run digest covers the engine's digest and every output file:
+     * XXH3 over the engine digest, then each output's path and file digest */
+    static const char objtext[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    uint64_t engine = 0x1234abcdULL, fileh = gs_digest_bytes(objtext, sizeof objtext - 1);
+    gs_digest dg;
+    assert_true(gs_digest_init(&dg));
+    gs_digest_update(&dg, &engine, sizeof engine);
+    gs_digest_update(&dg, "out.obj", 8);
+    gs_digest_update(&dg, &fileh, sizeof fileh);
+    char want[64], hex[17], fhex[17];
+    gs_digest_hex(gs_digest_final(&dg), hex);
+    gs_digest_hex(fileh, fhex);
+    snprintf(want, sizeof want, "\"digest\":\"%s\"}", hex);
+    assert_non_null(strstr(text, want));
     assert_non_null(strstr(text, "\"engine\":\"toy\""));
     assert_non_null(strstr(text, "\"coherence\":0.25"));
     assert_non_null(strstr(text, "\"config\":\"[run]\\nseed = 5\\n\""));
-    assert_non_null(strstr(text, "{\"kind\":\"mesh\",\"role\":\"surface\",\"path\":\"out.obj\","
-                                 "\"vertices\":3,\"faces\":1}"));
+    char entry[160];
+    snprintf(entry, sizeof entry, "{\"kind\":\"mesh\",\"role\":\"surface\",\"path\":\"out.obj\","
+             "\"digest\":\"%s\",\"vertices\":3,\"faces\":1}", fhex);
+    assert_non_null(strstr(text, entry));
     assert_non_null(strstr(text, "\"seed\":5,\"seed_string\":\"5\""));
     gs_free(text);
     snprintf(path, sizeof path, "%s/metrics.jsonl", rundir);
