@@ -31,6 +31,7 @@
 #ifndef GEOSYNTH_MODEL_TILES_H
 #define GEOSYNTH_MODEL_TILES_H
 
+#include <mpi.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -93,6 +94,13 @@ gs_err gs_model_tileset_load(const char *path, const char *subset, int images,
 gs_err gs_model_tileset_load_any(const char *path, const char *subset, const char *folder,
                                  int images, gs_model_tileset *out);
 void gs_model_tileset_destroy(gs_model_tileset *ts);
+/* Collective: the tile set root parsed (gs_model_tileset_load_any) reaches
+ * every rank of comm, whose *ts must be zeroed: every field but the tile
+ * images (pixels stay on root, tile_w = tile_h = 0 elsewhere, as loading
+ * without images gives). Inputs are parsed on rank 0 only (#25). Call it
+ * after the parse's status was agreed. On error the receivers' *ts is
+ * zeroed and every rank returns the same code. */
+gs_err gs_model_tileset_bcast(MPI_Comm comm, int root, gs_model_tileset *ts);
 /* Rules of the tile set; counts = weight scaled to integers (weight *
  * 10^6, at least 1). */
 gs_err gs_model_tileset_rules(const gs_model_tileset *ts, gs_model_rules_t *out);
@@ -193,6 +201,9 @@ typedef struct gs_model_patterns {
 gs_err gs_model_patterns_learn(const char *png, int n, int symmetry, int periodic_input,
                                gs_model_patterns *out);
 void gs_model_patterns_destroy(gs_model_patterns *p);
+/* Collective: the patterns root learned reach every rank of comm (whose *p
+ * must be zeroed), as gs_model_tileset_bcast. */
+gs_err gs_model_patterns_bcast(MPI_Comm comm, int root, gs_model_patterns *p);
 gs_err gs_model_patterns_rules(const gs_model_patterns *p, gs_model_rules_t *out);
 /* Output image of a pattern lattice (z = 0): pixel (x, y) = top-left pixel
  * of the pattern at cell (x, y); the last N-1 columns/rows come from the

@@ -164,12 +164,13 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
     const model_config *c = e->cfg;
     gs_err err = GS_OK;
     if (c->tileset[0] || c->sample[0]) {
-        /* Every rank parses the (small) input; only rank 0 needs tile images. */
-        err = c->tileset[0] ? gs_model_tileset_load_any(c->tileset, c->subset, c->tile_folder,
-                                                        run->rank == 0, &e->ts)
-                            : gs_model_patterns_learn(c->sample, (int)c->overlap_n,
-                                                      (int)c->symmetry, c->periodic_input,
-                                                      &e->pats);
+        /* Parsed on rank 0 and broadcast (#25); the tile images stay there. */
+        if (run->rank == 0)
+            err = c->tileset[0] ? gs_model_tileset_load_any(c->tileset, c->subset, c->tile_folder,
+                                                            1, &e->ts)
+                                : gs_model_patterns_learn(c->sample, (int)c->overlap_n,
+                                                          (int)c->symmetry, c->periodic_input,
+                                                          &e->pats);
         if (!err && c->tileset[0] && e->ts.dim == 2 && c->size[2] != 1)
             err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
                                  "model.size z = %lld: %s is a 2D tile set, expected z = 1",
@@ -189,6 +190,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
                                  e->ts.tile_w, e->ts.tile_h, (long long)c->size[0] * e->ts.tile_w,
                                  (long long)c->size[1] * e->ts.tile_h, GS_IMAGE_MAX_SIDE);
         GS_CALL(gs_par_agree(run->comm, err));
+        GS_CALL(c->tileset[0] ? gs_model_tileset_bcast(run->comm, 0, &e->ts)
+                              : gs_model_patterns_bcast(run->comm, 0, &e->pats));
         GS_CALL(c->tileset[0] ? gs_model_tileset_rules(&e->ts, &e->rules)
                               : gs_model_patterns_rules(&e->pats, &e->rules));
         GS_CALL(pseudo_example(e));
