@@ -175,20 +175,13 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
             err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
                                  "model.size z = %lld: %s is a 2D tile set, expected z = 1",
                                  (long long)c->size[2], c->tileset);
-        /* tiles.png is assembled after the synthesis: refuse a picture the
-         * PNG writer cannot take before spending the synthesis on it (tile
-         * images are loaded on rank 0 only). */
-        if (!err && c->tileset[0] && e->ts.dim == 2 && c->tile_image && e->ts.pixels &&
-            (c->size[0] * e->ts.tile_w > GS_IMAGE_MAX_SIDE ||
-             c->size[1] * e->ts.tile_h > GS_IMAGE_MAX_SIDE))
-            err = gs_error_raise(GS_ERR_ARG, __FILE__, __LINE__, __func__,
-                                 "model.tile_image: model.size = %lldx%lld tiles of %s (%dx%d "
-                                 "pixels each) make a tiles.png of %lldx%lld pixels, more than "
-                                 "%d per side; set model.tile_image = false or a smaller "
-                                 "model.size",
-                                 (long long)c->size[0], (long long)c->size[1], c->tileset,
-                                 e->ts.tile_w, e->ts.tile_h, (long long)c->size[0] * e->ts.tile_w,
-                                 (long long)c->size[1] * e->ts.tile_h, GS_IMAGE_MAX_SIDE);
+        /* pictures and voxel files written after the synthesis (rank 0 holds
+         * the tile images) */
+        if (!err && run->rank == 0)
+            err = gs_model_check_output_sizes(c->size, c->tileset[0] ? &e->ts : NULL,
+                                              c->sample[0] ? &e->pats : NULL,
+                                              c->tileset[0] ? c->tileset : c->sample,
+                                              c->tile_image);
         GS_CALL(gs_par_agree(run->comm, err));
         GS_CALL(c->tileset[0] ? gs_model_tileset_bcast(run->comm, 0, &e->ts)
                               : gs_model_patterns_bcast(run->comm, 0, &e->pats));
@@ -200,6 +193,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
             err = gs_model_load(c->example, c->format, c->dataset, &e->example, &e->pal);
         if (run->rank == 0 && !err)
             err = check_label_ids(c->example, &e->example);
+        if (run->rank == 0 && !err)
+            err = gs_model_check_output_sizes(c->size, NULL, NULL, c->example, c->tile_image);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
         GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
         if (c->overlap3d > 0)

@@ -57,6 +57,16 @@ open('bigtile/a.png', 'wb').write(sig + chunk(b'IHDR', struct.pack('>IIBBBBB', 4
                                   + chunk(b'IDAT', zlib.compress(raw, 1)) + chunk(b'IEND', b''))
 open('bigtile.xml', 'w').write('<set>\n<tiles>\n<tile name="a" symmetry="X"/>\n</tiles>\n'
                                '<neighbors>\n<neighbor left="a" right="a"/>\n</neighbors>\n</set>\n')
+# a MarkovJunior voxel tile set of one 64^3-voxel tile (one voxel set): 20^3
+# tiles make a tiles.vox of 1280^3 voxels, past the 2^28 a .vox may hold
+os.makedirs('bigvox', exist_ok=True)
+def vchunk(t, d, children=b''):
+    return t + struct.pack('<II', len(d), len(children)) + d + children
+kids = vchunk(b'SIZE', struct.pack('<3I', 64, 64, 64)) + vchunk(b'XYZI', struct.pack('<I4B', 1, 0, 0, 0, 1))
+open('bigvox/A.vox', 'wb').write(b'VOX ' + struct.pack('<I', 150) + vchunk(b'MAIN', b'', kids))
+open('bigvox.xml', 'w').write('<tileset>\n<tiles>\n<tile name="A"/>\n</tiles>\n<neighbors>\n'
+                              '<neighbor left="A" right="A"/>\n<neighbor top="A" bottom="A"/>\n'
+                              '</neighbors>\n</tileset>\n')
 PYEOF
 mkdir -p ckptdir && cp text.h5 ckptdir/checkpoint.h5
 printf '[field]\n' >ckptdir/start.ini
@@ -121,6 +131,25 @@ case_ "tile set: tiles.png past 65536 pixels a side, refused before synthesis" 2
   model -c "$MQ" -o run-out --set model.example= --set model.tileset=bigtile.xml --set model.size=17x17x1 --set model.region=17x17x1
 [[ -e run-out/lattice.h5 ]] && bad "tile set: tiles.png past 65536 pixels: lattice.h5 written, the synthesis ran before the refusal" \
   || ok "tile set: tiles.png past 65536 pixels: no lattice.h5, refused before the synthesis"
+# the other pictures and voxel files a model run writes after its synthesis,
+# refused at setup (the 2D output's lattice.png failed after the synthesis
+# with "image: image of 70000x1 pixels", naming no file)
+case_ "2D model output: lattice.png past 65536 pixels a side, refused before synthesis" 2 \
+  "model.size = 70000x1x1|lattice.png|65536" \
+  model -c "$MQ" -o run-out --set model.size=70000x1x1 --set model.region=0
+[[ -e run-out/lattice.h5 ]] && bad "2D output past 65536 pixels: lattice.h5 written, the synthesis ran before the refusal" \
+  || ok "2D output past 65536 pixels: no lattice.h5, refused before the synthesis"
+case_ "overlapping model: image.png past 65536 pixels a side, refused before synthesis" 2 \
+  "model.tile_image|disc-64.png|65538x4|65536" \
+  model -c "$MQ" -o run-out --set model.example= --set "model.sample=$GS_ROOT/configs/model/disc-64.png" \
+  --set model.size=65536x2x1 --set model.region=64x2x1 --set model.vox=false --set model.mesh=none
+[[ -e run-out/lattice.h5 ]] && bad "overlapping model past 65536 pixels: lattice.h5 written, the synthesis ran before the refusal" \
+  || ok "overlapping model past 65536 pixels: no lattice.h5, refused before the synthesis"
+case_ "voxel tile set: tiles.vox past 2^28 voxels, refused before synthesis" 2 \
+  "model.tile_image|bigvox.xml|1280x1280x1280|268435456" \
+  model -c "$MQ" -o run-out --set model.example= --set model.tileset=bigvox.xml --set model.size=20x20x20 --set model.region=10x10x10
+[[ -e run-out/lattice.h5 ]] && bad "tiles.vox past 2^28 voxels: lattice.h5 written, the synthesis ran before the refusal" \
+  || ok "tiles.vox past 2^28 voxels: no lattice.h5, refused before the synthesis"
 case_ "micro CSV: probability above 1" 2 "badtable.csv:3|1.5" \
   micro -c "$UQ" -o run-out --set micro.dist=csv --set micro.table_csv=badtable.csv
 case_ "PNG height map: truncated" 4 "cut.png" \

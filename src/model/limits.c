@@ -1,0 +1,47 @@
+/* The pictures and voxel files a model run writes after its synthesis,
+ * checked against their formats' limits before it (#25: a 4096^2 tile set
+ * ran the whole synthesis, then failed on tiles.png; a 70000x1 2D output
+ * failed on lattice.png with "image of 70000x1 pixels" naming no file). See
+ * include/geosynth/model_tiles.h. */
+#include "geosynth/image.h"
+#include "geosynth/model_tiles.h"
+#include "geosynth/vox.h"
+
+gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset *ts,
+                                   const gs_model_patterns *p, const char *input, int tile_image)
+{
+    const long long nx = size[0], ny = size[1], nz = size[2];
+    GS_CHECK(nz != 1 || (nx <= GS_IMAGE_MAX_SIDE && ny <= GS_IMAGE_MAX_SIDE), GS_ERR_ARG,
+             "model.size = %lldx%lldx%lld: a 2D output is also written as lattice.png of "
+             "%lldx%lld pixels, more than %d per side (the PNG writer's limit); reduce model.size",
+             nx, ny, nz, nx, ny, GS_IMAGE_MAX_SIDE);
+    if (!tile_image)
+        return GS_OK;
+    if (ts && ts->dim == 2 && ts->pixels) {
+        const long long w = nx * ts->tile_w, h = ny * ts->tile_h;
+        GS_CHECK(w <= GS_IMAGE_MAX_SIDE && h <= GS_IMAGE_MAX_SIDE, GS_ERR_ARG,
+                 "model.tile_image: model.size = %lldx%lld tiles of %s (%dx%d pixels each) make a "
+                 "tiles.png of %lldx%lld pixels, more than %d per side; set model.tile_image = "
+                 "false or a smaller model.size",
+                 nx, ny, input, ts->tile_w, ts->tile_h, w, h, GS_IMAGE_MAX_SIDE);
+    }
+    if (ts && ts->dim == 3) {
+        const double cells = (double)nx * ts->vx * (double)ny * ts->vy * (double)nz * ts->vz;
+        GS_CHECK(cells <= (double)GS_VOX_MAX_CELLS, GS_ERR_ARG,
+                 "model.tile_image: model.size = %lldx%lldx%lld tiles of %s (%dx%dx%d voxels "
+                 "each) make a tiles.vox of %lldx%lldx%lld = %.0f voxels, more than the %zu a .vox "
+                 "file may hold (what geosynth reads back); set model.tile_image = false or a "
+                 "smaller model.size",
+                 nx, ny, nz, input, ts->vx, ts->vy, ts->vz, nx * ts->vx, ny * ts->vy, nz * ts->vz,
+                 cells, GS_VOX_MAX_CELLS);
+    }
+    if (p && p->n > 0) {
+        const long long w = nx + p->n - 1, h = ny + p->n - 1;
+        GS_CHECK(w <= GS_IMAGE_MAX_SIDE && h <= GS_IMAGE_MAX_SIDE, GS_ERR_ARG,
+                 "model.tile_image: model.size = %lldx%lld cells of the %dx%d patterns of %s make "
+                 "an image.png of %lldx%lld pixels, more than %d per side; set model.tile_image = "
+                 "false or a smaller model.size",
+                 nx, ny, p->n, p->n, input, w, h, GS_IMAGE_MAX_SIDE);
+    }
+    return GS_OK;
+}
