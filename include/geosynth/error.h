@@ -67,6 +67,13 @@ int gs_error_agreed_origin(void);
 /* Appends a traceback frame to the current error. Use through GS_CALL. */
 void gs_error_push_frame(const char *file, int line, const char *func);
 
+/* Replaces, in place, every control byte but newline and tab (and DEL) with
+ * '?': text quoted from an input file (a terminal escape sequence in a PNG
+ * chunk name, a CR of a CRLF table, a NUL) must not drive the user's
+ * terminal (#25). Every error message, log line, config problem and
+ * `inspect` listing goes through it. */
+void gs_text_sanitize(char *s);
+
 /* Adds context to the current error's message ("while reading X"). */
 void gs_error_add_context(const char *fmt, ...)
 #if defined(__GNUC__)

@@ -332,10 +332,15 @@ static gs_err check_inputs(const gs_engine *e, const void *cfg, const char *orig
         const char *path = *(char *const *)((const char *)cfg + k->offset);
         if (!path || !*path || access(path, R_OK) == 0)
             continue;
-        char hint[3 * PATH_MAX];
-        fprintf(stderr, "error: %s: %s = %s: %s\n", origin, k->name, path, strerror(errno));
-        if (gs_data_missing_hint(path, hint, sizeof hint))
+        char hint[3 * PATH_MAX], line[3 * PATH_MAX];
+        snprintf(line, sizeof line, "error: %s: %s = %s: %s", origin, k->name, path,
+                 strerror(errno));
+        gs_text_sanitize(line);
+        fprintf(stderr, "%s\n", line);
+        if (gs_data_missing_hint(path, hint, sizeof hint)) {
+            gs_text_sanitize(hint);
             fprintf(stderr, "       %s\n", hint);
+        }
         missing++;
     }
     gs_err err = GS_OK;

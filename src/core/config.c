@@ -135,6 +135,7 @@ static void problem_add(gs_cfg_problems *p, const char *fmt, ...)
         gs_free(b.s);
         return; /* counted in n; the summary still says how many */
     }
+    gs_text_sanitize(b.s); /* problems quote config lines and --set values */
     char **msg = gs_realloc(p->msg, (p->nkept + 1) * sizeof *msg);
     if (!msg) {
         gs_free(b.s);

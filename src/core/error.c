@@ -55,7 +55,7 @@ static void push_frame(const char *file, int line, const char *func)
 /* Messages quote input files ("got 'abc'"): control bytes other than newline
  * and tab (a terminal escape sequence in a PNG chunk name, a CR from a CRLF
  * table, NULs) become '?' so a file cannot drive the user's terminal (#25). */
-static void sanitize(char *s)
+void gs_text_sanitize(char *s)
 {
     for (unsigned char *p = (unsigned char *)s; *p; p++)
         if ((*p < 32 && *p != '\n' && *p != '\t') || *p == 127)
@@ -74,7 +74,7 @@ gs_err gs_error_raise(gs_err code, const char *file, int line, const char *func,
     va_start(ap, fmt);
     vsnprintf(r->message, sizeof r->message, fmt, ap);
     va_end(ap);
-    sanitize(r->message);
+    gs_text_sanitize(r->message);
     push_frame(file, line, func);
     return r->code;
 }
@@ -92,7 +92,7 @@ void gs_error_add_context(const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(ctx, sizeof ctx, fmt, ap);
     va_end(ap);
-    sanitize(ctx);
+    gs_text_sanitize(ctx);
     size_t len = strlen(r->message);
     if (len + 2 < sizeof r->message)
         snprintf(r->message + len, sizeof r->message - len, " (%s)", ctx);

@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "geosynth/log.h"
 
+#include "geosynth/error.h"
+
 #include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
@@ -61,6 +63,7 @@ static void vlog(int all_ranks, gs_log_level level, const char *fmt, va_list ap)
         return;
     char buf[4096];
     vsnprintf(buf, sizeof buf, fmt, ap);
+    gs_text_sanitize(buf); /* log lines quote paths and names from input files */
     if (log_rank != 0 || all_ranks)
         fprintf(stderr, "[rank %d] %s%s\n", log_rank, level_tag(level), buf);
     else

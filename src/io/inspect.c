@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -313,7 +314,27 @@ static herr_t visit_cb(hid_t root, const char *name, const H5L_info_t *info, voi
     return 0;
 }
 
+static gs_err inspect_listing(hid_t f, const char *name, FILE *out, const gs_inspect_opts *opts);
+
+/* The listing quotes names, strings and the config text from the file: it
+ * is built in memory and written sanitized (gs_text_sanitize, #25). */
 static gs_err inspect_open_file(hid_t f, const char *name, FILE *out, const gs_inspect_opts *opts)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&buf, &len);
+    GS_CHECK(mem != NULL, GS_ERR_MEM, "%s: no memory for the listing", name);
+    gs_err err = inspect_listing(f, name, mem, opts);
+    fclose(mem);
+    if (buf) {
+        gs_text_sanitize(buf);
+        fwrite(buf, 1, strlen(buf), out);
+    }
+    free(buf);
+    return err;
+}
+
+static gs_err inspect_listing(hid_t f, const char *name, FILE *out, const gs_inspect_opts *opts)
 {
     gs_inspect_opts def = {40, (uint64_t)1 << 22};
     if (!opts)

@@ -150,6 +150,21 @@ case_ "voxel tile set: tiles.vox past 2^28 voxels, refused before synthesis" 2 \
   model -c "$MQ" -o run-out --set model.example= --set model.tileset=bigvox.xml --set model.size=20x20x20 --set model.region=10x10x10
 [[ -e run-out/lattice.h5 ]] && bad "tiles.vox past 2^28 voxels: lattice.h5 written, the synthesis ran before the refusal" \
   || ok "tiles.vox past 2^28 voxels: no lattice.h5, refused before the synthesis"
+# a value with a terminal escape sequence: refused, and the refusal, which
+# quotes the value, printed it raw
+case_ "--set: a value with an escape sequence" 2 "model.example=a?[31mb|control character 0x1b" \
+  model -c "$MQ" -o run-out --set $'model.example=a\e[31mb'
+# geosynth inspect lists names and strings of the file: an object name with
+# an escape sequence reached the terminal raw
+$PY -c 'import h5py; f = h5py.File("escname.h5", "w"); f["a\x1b[2Jb"] = [1, 2]; f.attrs["note"] = "x\x1b]0;title\x07y"'
+run_gs 0 inspect escname.h5
+if LC_ALL=C grep -qP '[\x00-\x08\x0b-\x1f\x7f]' <<<"$out$err"; then
+  bad "inspect: a control byte of the file reached the terminal"
+elif grep -qF 'a?[2Jb' <<<"$out$err"; then
+  ok "inspect: an object name with an escape sequence is listed as a?[2Jb (exit $rc)"
+else
+  bad "inspect: the object name is not listed (exit $rc): ${out:0:300} ${err:0:300}"
+fi
 case_ "micro CSV: probability above 1" 2 "badtable.csv:3|1.5" \
   micro -c "$UQ" -o run-out --set micro.dist=csv --set micro.table_csv=badtable.csv
 case_ "PNG height map: truncated" 4 "cut.png" \
