@@ -41,7 +41,7 @@ nf = int([l for l in h if l.startswith("element face")][0].split()[2])
 assert nv > 1000 and nf > 1000, (nv, nf)
 assert len(raw) == end + 12 * nv + 13 * nf, (len(raw), end, nv, nf)
 EOF
-run_gs 1 points -c ply.ini -o plyrun1
+run_gs 1 points -c ply.ini -o plyrun1 --set output.mesh=true
 [[ "$(digest_of plyrun1 2>/dev/null)" == "$(digest_of plyrun 2>/dev/null)" ]] &&
   ok "PLY example: same digest at np 1 and 2" || bad "PLY example digests differ"
 
