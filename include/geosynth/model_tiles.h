@@ -216,14 +216,18 @@ gs_err gs_model_patterns_check(const gs_model_patterns *p, const gs_model_lattic
                                size_t *count);
 
 /* Rank 0, before the synthesis (#25): refuses, naming the file, the key and
- * the limit, an output the run could only fail to write after it: a 2D
- * output (size z = 1) past GS_IMAGE_MAX_SIDE pixels per side (lattice.png)
- * and, with tile_image, the picture of a 2D tile set's tiles (tiles.png, ts
- * with its images), of the patterns (image.png, p) past it, or a voxel tile
- * set's tiles.vox past GS_VOX_MAX_CELLS voxels. ts, p may be NULL; input
- * names the tile set or sample. GS_ERR_ARG. */
+ * the limit, an output the run could only fail to write after it, or write
+ * unreadable: a 2D output (size z = 1) past GS_IMAGE_MAX_SIDE pixels per side
+ * (lattice.png); with vox, an output past GS_VOX_MAX_CELLS cells (lattice.vox,
+ * or each frame_NNN.vox of a 4D output, which has size's cells: a .vox
+ * geosynth could not read back); with tile_image, the picture of a 2D tile
+ * set's tiles (tiles.png, ts with its images), of the patterns (image.png, p)
+ * past GS_IMAGE_MAX_SIDE, or a voxel tile set's tiles.vox past
+ * GS_VOX_MAX_CELLS voxels. ts, p may be NULL; input names the tile set or
+ * sample. GS_ERR_ARG. */
 gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset *ts,
-                                   const gs_model_patterns *p, const char *input, int tile_image);
+                                   const gs_model_patterns *p, const char *input, int tile_image,
+                                   int vox);
 
 /* ---- 3D overlapping model (model.overlap3d = N) ---------------------------
  *

@@ -181,7 +181,7 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
             err = gs_model_check_output_sizes(c->size, c->tileset[0] ? &e->ts : NULL,
                                               c->sample[0] ? &e->pats : NULL,
                                               c->tileset[0] ? c->tileset : c->sample,
-                                              c->tile_image);
+                                              c->tile_image, c->vox);
         GS_CALL(gs_par_agree(run->comm, err));
         GS_CALL(c->tileset[0] ? gs_model_tileset_bcast(run->comm, 0, &e->ts)
                               : gs_model_patterns_bcast(run->comm, 0, &e->pats));
@@ -194,7 +194,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
         if (run->rank == 0 && !err)
             err = check_label_ids(c->example, &e->example);
         if (run->rank == 0 && !err)
-            err = gs_model_check_output_sizes(c->size, NULL, NULL, c->example, c->tile_image);
+            err = gs_model_check_output_sizes(c->size, NULL, NULL, c->example, c->tile_image,
+                                              c->vox);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
         GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
         if (c->overlap3d > 0)

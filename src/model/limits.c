@@ -1,16 +1,24 @@
 /* The pictures and voxel files a model run writes after its synthesis,
  * checked against their formats' limits before it (#25: a 4096^2 tile set
  * ran the whole synthesis, then failed on tiles.png; a 70000x1 2D output
- * failed on lattice.png with "image of 70000x1 pixels" naming no file). See
- * include/geosynth/model_tiles.h. */
+ * failed on lattice.png with "image of 70000x1 pixels" naming no file; an
+ * output past 2^28 cells was written as a lattice.vox geosynth cannot read
+ * back). See include/geosynth/model_tiles.h. */
 #include "geosynth/image.h"
 #include "geosynth/model_tiles.h"
 #include "geosynth/vox.h"
 
 gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset *ts,
-                                   const gs_model_patterns *p, const char *input, int tile_image)
+                                   const gs_model_patterns *p, const char *input, int tile_image,
+                                   int vox)
 {
     const long long nx = size[0], ny = size[1], nz = size[2];
+    const double ncells = (double)nx * (double)ny * (double)nz;
+    GS_CHECK(!vox || ncells <= (double)GS_VOX_MAX_CELLS, GS_ERR_ARG,
+             "model.vox: model.size = %lldx%lldx%lld makes a lattice.vox (with model.frames, each "
+             "frame_NNN.vox) of %.0f voxels, more than the %zu a .vox file may hold (what "
+             "geosynth reads back); set model.vox = false or a smaller model.size",
+             nx, ny, nz, ncells, GS_VOX_MAX_CELLS);
     GS_CHECK(nz != 1 || (nx <= GS_IMAGE_MAX_SIDE && ny <= GS_IMAGE_MAX_SIDE), GS_ERR_ARG,
              "model.size = %lldx%lldx%lld: a 2D output is also written as lattice.png of "
              "%lldx%lld pixels, more than %d per side (the PNG writer's limit); reduce model.size",
