@@ -135,6 +135,8 @@ typedef struct micro_result {
     double recon_realized_l1;    /* the same of the reconstruction, before the correction pass */
     double recon_unassigned_share; /* triangles the reconstruction left to the fill */
     uint64_t correct_rounds, correct_flips;
+    double outline_length;       /* the regions' coast in mesh.ply, units (gs_measure_outline) */
+    double outline_roughness;    /* coast / coast opened at MICRO_OUTLINE_RHO; NaN: no coast */
     int64_t target[2 * MICRO_RESULT_BINS];   /* signed axis, first 2K used (K <= MICRO_RESULT_BINS) */
     int64_t realized[2 * MICRO_RESULT_BINS];
 } micro_result;
@@ -196,6 +198,11 @@ void micro_result_counts_json(gs_json *j, const micro_result *r);
 
 /* The realized L1/n a target must be met within (issue 20's bound). */
 #define MICRO_REALIZED_L1_OK 0.05
+
+/* The radius (distribution units) the outline roughness of every instance
+ * is measured at: the gallery's smallest disc radius, so coasts of discs
+ * the tables ask for are not cut (analysis/micro_outline.py's default). */
+#define MICRO_OUTLINE_RHO 1.5
 
 /* A warning naming what (an instance, a candidate) when r's realized contact
  * distribution misses its target by more than MICRO_REALIZED_L1_OK: the coast

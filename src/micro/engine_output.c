@@ -224,7 +224,7 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     double t0 = gs_time_now();
     uint32_t nv = mi->m.nverts, n = mi->m.ntris;
     double *vvalue = NULL, *tdist = NULL, *cvalue = NULL;
-    uint8_t *side = NULL;
+    uint8_t *side = NULL, *vside = NULL;
     uint16_t *clabel = NULL;
     int64_t *realized = NULL;
     float *pos = NULL;
@@ -298,6 +298,14 @@ gs_err micro_output_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
     gs_digest_update(&dg, pos, (size_t)nv * 3 * sizeof *pos);
     gs_digest_update(&dg, vlabel, nv);
     res.digest = gs_digest_final(&dg);
+    /* The coasts as mesh.ply shows them (vertex labels >= 128 positive). */
+    GS_TRY(err, gs_alloc_array((void **)&vside, nv, 1, "vertex regions"), done);
+    for (uint32_t v = 0; v < nv; v++)
+        vside[v] = vlabel[v] >= 128;
+    gs_measure_outline_t ol;
+    GS_TRY(err, gs_measure_outline(pos, nv, mi->m.tris, n, mi->upm, vside, MICRO_OUTLINE_RHO, &ol), done);
+    res.outline_length = ol.length;
+    res.outline_roughness = ol.roughness;
     res.nverts = nv;
     res.ntris = n;
     res.nbins = in->hist.nbins;
@@ -345,6 +353,7 @@ done:
     gs_free(cvalue);
     gs_free(clabel);
     gs_free(side);
+    gs_free(vside);
     gs_free(pos);
     gs_free(vlabel);
     return err;
@@ -393,6 +402,8 @@ void micro_result_json(gs_json *j, const micro_result *r)
     gs_json_f64(j, "recon_unassigned_share", r->recon_unassigned_share);
     gs_json_u64(j, "correct_rounds", r->correct_rounds);
     gs_json_u64(j, "correct_flips", r->correct_flips);
+    gs_json_f64(j, "outline_length", r->outline_length);
+    gs_json_f64(j, "outline_roughness", r->outline_roughness);
     micro_result_counts_json(j, r);
 }
 

@@ -201,9 +201,18 @@ if sm["radial_cv"] >= 0.04: bad.append("radial cv %.3f >= 0.04" % sm["radial_cv"
 if sm["perimeter_ratio"] > 1.03 * sm["ideal_ratio"]:
     bad.append("perimeter / 2 pi r %.3f > 1.03 x an ideal disc's on this mesh (%.3f)"
                % (sm["perimeter_ratio"], sm["ideal_ratio"]))
+# The engine's own outline measure (src/measure/outline.c, instances.json and
+# summary.json) is the same as analysis/micro_outline.py's, from mesh.ply
+# alone: equal to 1e-9, and round coasts (<= 1.10, the gallery's bound).
+summ = json.load(open(os.path.join(run, "summary.json")))["metrics"]
+if not abs(inst["outline_roughness"] - out["roughness"]) <= 1e-9:
+    bad.append("engine outline roughness %r != analysis/micro_outline.py's %r" % (inst["outline_roughness"], out["roughness"]))
+if not summ["outline_roughness"] == inst["outline_roughness"] <= 1.10:
+    bad.append("summary outline_roughness %r (instance %r) not <= 1.10" % (summ["outline_roughness"], inst["outline_roughness"]))
 print("planet.ini: %d islands (table: %.1f discs of area %.0f), largest %.0f, radial cv %.3f, perimeter / 2 pi r %.3f "
-      "(ideal disc %.3f), L1/n %.4f" % (sm["count"], n, disc, big, sm["radial_cv"], sm["perimeter_ratio"],
-                                       sm["ideal_ratio"], inst["realized_l1"]))
+      "(ideal disc %.3f), L1/n %.4f, outline roughness %.4f (analysis %.4f)"
+      % (sm["count"], n, disc, big, sm["radial_cv"], sm["perimeter_ratio"], sm["ideal_ratio"], inst["realized_l1"],
+         inst["outline_roughness"], out["roughness"]))
 for b in bad: print("  " + b)
 sys.exit(1 if bad else 0)
 EOF2

@@ -459,6 +459,87 @@ static void test_copy_periodic(void **state)
     free(out);
 }
 
+/* A flat grid mesh of n x n quads (edge h, two triangles each) in the xy
+ * plane, and a labelling by whether the vertex lies inside radius r(theta)
+ * about the centre. */
+static void outline_grid(int n, double h, float **pos, uint32_t **tris, size_t *nv, size_t *nt)
+{
+    *nv = (size_t)(n + 1) * (n + 1);
+    *nt = 2 * (size_t)n * n;
+    *pos = malloc(3 * *nv * sizeof **pos);
+    *tris = malloc(3 * *nt * sizeof **tris);
+    assert_non_null(*pos);
+    assert_non_null(*tris);
+    for (int y = 0; y <= n; y++)
+        for (int x = 0; x <= n; x++) {
+            float *p = *pos + 3 * ((size_t)y * (n + 1) + x);
+            p[0] = (float)(x * h), p[1] = (float)(y * h), p[2] = 0;
+        }
+    size_t t = 0;
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++) {
+            uint32_t a = (uint32_t)(y * (n + 1) + x), b = a + 1, c = a + (uint32_t)(n + 1), d = c + 1;
+            uint32_t *f = *tris + 3 * t;
+            f[0] = a, f[1] = b, f[2] = d, f[3] = a, f[4] = d, f[5] = c;
+            t += 2;
+        }
+}
+
+static double outline_of(int n, double h, double r0, double amp, int teeth)
+{
+    float *pos;
+    uint32_t *tris;
+    size_t nv, nt;
+    outline_grid(n, h, &pos, &tris, &nv, &nt);
+    uint8_t *side = malloc(nv);
+    assert_non_null(side);
+    double c = 0.5 * n * h;
+    for (size_t v = 0; v < nv; v++) {
+        double dx = pos[3 * v] - c, dy = pos[3 * v + 1] - c;
+        double th = atan2(dy, dx);
+        double r = r0 + (teeth && sin(teeth * th) > 0 ? amp : 0);
+        side[v] = sqrt(dx * dx + dy * dy) <= r;
+    }
+    gs_measure_outline_t o;
+    assert_int_equal(gs_measure_outline(pos, nv, tris, nt, 1.0, side, 1.5, &o), GS_OK);
+    assert_false(o.on_sphere);
+    assert_true(o.length > 0 && o.smoothed_length > 0);
+    free(pos);
+    free(tris);
+    free(side);
+    return o.roughness;
+}
+
+/* Outline roughness (gs_measure_outline): a disc of radius 10 units on a
+ * grid of 0.25 units is as round as its smoothing (an opening at 1.5 units
+ * leaves it): within 3% of 1; a cog of the same disc with 48 teeth
+ * 1 unit high and ~1.3 units wide (narrower than 2 x 1.5) is cut back to the
+ * disc, and its coast is the circle's 63 units plus 48 x 2 tooth flanks of 1
+ * unit: about 2.5x; required > 1.3x. No boundary gives NaN; bad radius
+ * GS_ERR_ARG. */
+static void test_outline(void **state)
+{
+    (void)state;
+    double disc = outline_of(100, 0.25, 10, 0, 0);
+    double cog = outline_of(100, 0.25, 10, 1, 48);
+    print_message("outline roughness: disc %.4f, cog %.4f\n", disc, cog);
+    assert_true(disc > 0.98 && disc < 1.03);
+    assert_true(cog > 1.3);
+    float *pos;
+    uint32_t *tris;
+    size_t nv, nt;
+    outline_grid(4, 1.0, &pos, &tris, &nv, &nt);
+    uint8_t *side = calloc(nv, 1);
+    assert_non_null(side);
+    gs_measure_outline_t o;
+    assert_int_equal(gs_measure_outline(pos, nv, tris, nt, 1.0, side, 1.5, &o), GS_OK);
+    assert_true(isnan(o.roughness));
+    assert_int_equal(gs_measure_outline(pos, nv, tris, nt, 1.0, side, 0, &o), GS_ERR_ARG);
+    free(pos);
+    free(tris);
+    free(side);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -470,6 +551,7 @@ int main(void)
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
         cmocka_unit_test(test_copy_periodic),
+        cmocka_unit_test(test_outline),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
