@@ -79,7 +79,8 @@ struct gs_model_solver {
     uint16_t *support; /* AC-4: [n][6][L] support counts */
     size_t support_cap;
     /* cell order */
-    uint64_t *heap;    /* lazy min-heap of (size, tie, cell) keys */
+    uint64_t *heap;    /* min-heap of (size, tie, cell) keys (solver.c) */
+    int32_t *hpos;     /* [n] ENTROPY: heap position of the cell's key, -1 = none */
     size_t heap_len, heap_cap;
     int heap_on;
     const uint16_t *pins;  /* params of the current region run */
