@@ -236,8 +236,11 @@ gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset
  * pattern i is label i + 1. Pattern b may lie at +x (+y, +z) of pattern a
  * when a's cells at coordinate 1..N-1 along that axis equal b's at 0..N-2
  * (their (N-1)-thick overlap). The synthesized lattice of patterns decodes
- * to each cell's pattern's origin cell (offset 0, 0, 0), so every output
- * window of edge k <= N is a window of the example. */
+ * to each cell's pattern's origin cell (offset 0, 0, 0), and along a
+ * non-periodic z its last layer's patterns also give the N - 1 layers above
+ * (the lattice of patterns is N - 1 lower than the output, as the example's
+ * window origins are N - 1 fewer than its layers), so every output window
+ * of edge k <= N is a window of the example. */
 typedef struct gs_model_patterns3d {
     int n;                 /* pattern edge N */
     int npatterns;
@@ -260,19 +263,12 @@ gs_err gs_model_patterns3d_learn(const gs_model_lattice *ex, int n, int max_patt
 void gs_model_patterns3d_destroy(gs_model_patterns3d *p);
 /* Rules over the pattern labels from the overlap pairs; counts = windows. */
 gs_err gs_model_patterns3d_rules(const gs_model_patterns3d *p, gs_model_rules_t *out);
-/* The output's top-layer mask: sets in mask (words over pattern labels) every
- * pattern whose bottom N x N slice (the slice its cell shows, the others lie
- * above) occurs in the example's top layer (ex: the example's labels), so the
- * output's top layer shows what the example's top layer shows. The windows
- * whose origin is the example's last origin layer (nz - N) would put the
- * example's layer nz - N at the output's top: structure stretched up (generated
- * fortress: structure at z = 7, the example's top structure layer is 5).
- * Returns the number of patterns set. */
-int gs_model_patterns3d_top_mask(const gs_model_patterns3d *p, const gs_model_lattice *ex,
-                                 uint64_t *mask);
-/* out (created here) = each cell's pattern's origin label. */
+/* out (created here) = each cell's pattern's origin label; top = 1 (z not
+ * periodic) adds the N - 1 layers above plat's last layer, taken from that
+ * layer's patterns' upper slices (out->nz = plat->nz + N - 1): the output's
+ * top N layers show one whole window, as the example's do. */
 gs_err gs_model_patterns3d_decode(const gs_model_patterns3d *p, const gs_model_lattice *plat,
-                                  gs_model_lattice *out);
+                                  int top, gs_model_lattice *out);
 /* Independent checker: face-adjacent pattern pairs of plat (across the wrap
  * where periodic[axis], which may be NULL) whose overlaps disagree, plus
  * cells holding no pattern; compares pattern contents, not the rules. */

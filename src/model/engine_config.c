@@ -213,6 +213,12 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "through the overlaps)",
                           (long long)c->overlap3d);
     }
+    if (c->overlap3d > 0 && !strchr(c->periodic, 'z') && c->size[2] < c->overlap3d + 1)
+        gs_cfg_report(ctx, "model.size",
+                      "z = %lld: model.overlap3d = %lld needs at least %lld layers (the top "
+                      "%lld show the last layer of patterns whole)",
+                      (long long)c->size[2], (long long)c->overlap3d, (long long)c->overlap3d + 1,
+                      (long long)c->overlap3d - 1);
     if (c->start_block > 0 && (c->start[0] || c->start_column[0]))
         gs_cfg_report(ctx, "model.start_block",
                       "cannot be combined with model.start or model.start_column");
@@ -386,8 +392,9 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, overlap3d, "model.overlap3d", 0, 4, 0, "0",
                    "3D overlapping model: N > 0 makes every NxNxN window lying inside the "
                    "example a label, neighbours along x/y/z agreeing on their (N-1)-thick "
-                   "overlap; the output holds each pattern's origin cell, so its k^3 windows "
-                   "(k <= N) are example windows; z faces take the patterns of the example's "
+                   "overlap; the output holds each pattern's origin cell (and, along a "
+                   "non-periodic z, the top pattern layer's N - 1 upper slices), so its k^3 "
+                   "windows (k <= N) are example windows; z faces take the patterns of the example's "
                    "bottom / top (model.fix_z_faces = auto); at most 8192 patterns; 0 = off "
                    "(labels = the example's labels)"),
     GS_CFG_KEY_INT(model_config, start_block, "model.start_block", 0, 4096, 0, "0",

@@ -370,7 +370,7 @@ static gs_err expand_symmetry(model_engine *e)
          * labels come back for the checks, measures and preview */
         e->plat = e->lat;
         memset(&e->lat, 0, sizeof e->lat);
-        GS_TRY(err, gs_model_patterns3d_decode(&e->p3, &e->plat, &e->lat), fail);
+        GS_TRY(err, gs_model_patterns3d_decode(&e->p3, &e->plat, !e->params.periodic[2], &e->lat), fail);
         gs_model_lattice_destroy(&e->example);
         e->example = e->src;
         memset(&e->src, 0, sizeof e->src);

@@ -548,10 +548,10 @@ static gs_err decide_z_faces(model_engine *e)
                 m[lab[i] >> 6] |= bit;
             }
         }
-    if (o3) { /* the top: patterns showing what the example's top layer shows (overlap3d.c) */
-        memset(e->zface + W, 0, W * 8);
-        distinct[1] = gs_model_patterns3d_top_mask(&e->p3, &e->src, e->zface + W);
-    }
+    /* overlap3d: ex is the lattice of the example's windows, so the bottom
+     * takes the windows at the example's z = 0 and the top those whose top
+     * slice is the example's top layer (the output decodes the top patterns'
+     * upper slices too: gs_model_patterns3d_decode) */
     /* 4D frames cannot keep fixed faces (only the lattice's lowest and
      * highest layers would stay): each frame's faces take the example's */
     /* overlap3d: one bottom pattern is a mask all the same (kept faces would
@@ -665,6 +665,9 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     }
     dims[2] *= frames; /* 4D: the frames stacked along z */
     e->full[2] = dims[2];
+    if (c->overlap3d > 0 && !e->params.periodic[2])
+        dims[2] -= (int)c->overlap3d - 1; /* the top N - 1 layers: the last patterns' upper
+                                             slices (gs_model_patterns3d_decode) */
     if (!strcmp(c->rotate, "90")) { /* the lower-left quarter */
         dims[0] /= 2;
         dims[1] /= 2;

@@ -195,42 +195,24 @@ gs_err gs_model_patterns3d_rules(const gs_model_patterns3d *p, gs_model_rules_t 
     return gs_model_patterns_rules(&view, out);
 }
 
-int gs_model_patterns3d_top_mask(const gs_model_patterns3d *p, const gs_model_lattice *ex,
-                                 uint64_t *mask)
-{
-    const int n = p->n, z = ex->nz - 1;
-    const size_t NNN = (size_t)n * (size_t)n * (size_t)n;
-    int set = 0;
-    for (int a = 0; a < p->npatterns; a++) {
-        const uint16_t *q = p->pat + (size_t)a * NNN; /* layer 0: q[x + n * y] */
-        int found = 0;
-        for (int oy = 0; oy + n <= ex->ny && !found; oy++)
-            for (int ox = 0; ox + n <= ex->nx && !found; ox++) {
-                int same = 1;
-                for (int y = 0; y < n && same; y++)
-                    for (int x = 0; x < n && same; x++)
-                        same = q[x + n * y] == ex->labels[gs_model_lattice_index(ex, ox + x, oy + y, z)];
-                found = same;
-            }
-        if (found) {
-            mask[(a + 1) >> 6] |= (uint64_t)1 << ((a + 1) & 63);
-            set++;
-        }
-    }
-    return set;
-}
-
 gs_err gs_model_patterns3d_decode(const gs_model_patterns3d *p, const gs_model_lattice *plat,
-                                  gs_model_lattice *out)
+                                  int top, gs_model_lattice *out)
 {
-    GS_CALL(gs_model_lattice_create(out, plat->nx, plat->ny, plat->nz));
-    const size_t NNN = (size_t)p->n * (size_t)p->n * (size_t)p->n;
-    const size_t cells = (size_t)plat->nx * (size_t)plat->ny * (size_t)plat->nz;
-    for (size_t i = 0; i < cells; i++) {
-        int l = plat->labels[i];
-        GS_CHECK(l >= 1 && l <= p->npatterns, GS_ERR_INTERNAL, "cell %zu holds no pattern (%d)", i,
-                 l);
-        out->labels[i] = p->pat[(size_t)(l - 1) * NNN]; /* the origin cell */
+    const int n = p->n, extra = top ? n - 1 : 0;
+    GS_CALL(gs_model_lattice_create(out, plat->nx, plat->ny, plat->nz + extra));
+    const size_t NNN = (size_t)n * (size_t)n * (size_t)n;
+    for (int z = 0; z < out->nz; z++) {
+        /* above the last pattern layer: that layer's patterns' upper slices */
+        const int pz = z < plat->nz ? z : plat->nz - 1, k = z - pz;
+        for (int y = 0; y < plat->ny; y++)
+            for (int x = 0; x < plat->nx; x++) {
+                size_t i = gs_model_lattice_index(plat, x, y, pz);
+                int l = plat->labels[i];
+                GS_CHECK(l >= 1 && l <= p->npatterns, GS_ERR_INTERNAL,
+                         "cell %zu holds no pattern (%d)", i, l);
+                out->labels[gs_model_lattice_index(out, x, y, z)] =
+                    p->pat[(size_t)(l - 1) * NNN + (size_t)k * (size_t)n * (size_t)n];
+            }
     }
     return GS_OK;
 }

@@ -145,16 +145,19 @@ EOF
     || bad "village$s: $(grep '^RESULT' <<<"$res")"
 done
 
-# The top mask (model.fix_z_faces = auto), on a built-in example: the generated fortress
+# The top (model.fix_z_faces = auto), on a built-in example: the generated fortress
 # (scripts/gen-lattice.py fortress 7, 24x24x8: towers and walls up to z = 5, empty above).
-# The output's top layer takes the patterns whose bottom N x N slice (the slice its cells
-# show) occurs in the example's top layer. Before, it took the windows whose origin is the
-# example's last origin layer (z = nz - N), so the output's top layer showed the example's
-# layer nz - N: N = 3 put tower crowns at z = 7 in every seed. Checks from lattice.h5 and the
-# example: the output's top layer holds only labels of the example's top layer, and its highest
-# non-empty layer is within 1 of the example's; (a) N = 3, default settings, (b) N = 2,
-# frequency weights, no resemblance (castle-overlap3d.ini's settings). Broken on purpose: the
-# old mask fails (a) (structure at z = 7); no top mask fails (b) (structure at z = 7).
+# The lattice of patterns is N - 1 layers lower than the output; its top layer takes the
+# windows whose top slice is the example's top layer, and the output's top N - 1 layers are
+# those patterns' upper slices (gs_model_patterns3d_decode), as the example's top N layers are
+# one window. Before, every output layer held a pattern origin: the example's 6 origin layers
+# had to fill 8 output layers, so the structure was stretched up by a layer (highest
+# non-empty layer 6, the example's 5, in seeds 1-3 at N = 3). Checks from lattice.h5 and the
+# example: the output's top layer holds only labels of the example's top layer, and its
+# highest non-empty layer is the example's; (a) N = 3, default settings, (b) N = 2, frequency
+# weights, no resemblance (castle-overlap3d.ini's settings). Broken on purpose: decoding
+# origins only over a full-height lattice of patterns (the old way) fails (a) (layer 6);
+# without the top mask (b) fails (layer 7).
 /usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" fortress 7 fortress7.txt
 printf '[model]\nexample = fortress7.txt\nsize = 32x32x8\noverlap3d = 3\n' > fortress.ini
 run_gs 0 model -c fortress.ini --set model.mesh=none -o forta
@@ -173,7 +176,7 @@ top = lambda a: max([z for z in range(a.shape[0]) if a[z].any()] or [-1])
 extra = set(np.unique(out[-1]).tolist()) - set(np.unique(ex[-1]).tolist())
 chk = lm.Checks()
 chk.need(not extra, "top layer holds only the example's top-layer labels (extra: %s)" % sorted(extra))
-chk.need(abs(top(out) - top(ex)) <= 1, "highest non-empty layer %d within 1 of the example's %d" % (top(out), top(ex)))
+chk.need(top(out) == top(ex), "highest non-empty layer %d is the example's %d" % (top(out), top(ex)))
 chk.result()
 EOF
 )
