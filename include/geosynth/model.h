@@ -294,7 +294,14 @@ typedef struct gs_model_params {
                            path of non-empty cells to the ground layer (z = 0) or to a
                            non-empty cell next to the region (floating structure); NULL =
                            no such check. Set for model.overlap3d when the example has no
-                           unsupported structure (not owned) */
+                           unsupported structure (not owned). The cells next to the region
+                           may have lost their own support to the region: exact only in
+                           whole-grid mode (or with support_global); the engine repairs
+                           what regions left floating after the passes */
+    int support_global;   /* with support_empty: the try's check follows paths through
+                           the whole lattice (exact; cost linear in the lattice), not
+                           only through the box to the cells next to it (the model
+                           engine's repair of floating structure after the passes) */
     const float *shape; /* soft constraint (paper Sec. 4.2): nx*ny target values in
                            [0, 1] (x fastest), 1 = structure belongs in the column,
                            0 = none. Two parts: the constraint-weighted label choice
@@ -436,6 +443,13 @@ size_t gs_model_rules_violations_wrap(const gs_model_rules_t rules, const gs_mod
                                       const int periodic[3]);
 
 /* ---- regions and the serial driver ---------------------------------------- */
+
+/* Support of non-empty cells: st (nx*ny*nz, x fastest) holds 1 for a
+ * non-empty cell, 0 for empty; every non-empty cell with a 6-connected path
+ * of non-empty cells to the ground layer z = 0 (x / y wrapping where
+ * periodic[0] / periodic[1]) becomes 2. Returns how many became 2, SIZE_MAX
+ * when out of memory. */
+size_t gs_model_support_flood(uint8_t *st, int nx, int ny, int nz, const int periodic[2]);
 
 typedef struct gs_model_box {
     int x0, y0, z0; /* inclusive */

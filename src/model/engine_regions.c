@@ -3,6 +3,7 @@
  * coverage, the advance by a window of colours, and the per-rank time
  * report. See engine.c for why the result is identical at any rank count. */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -198,6 +199,101 @@ done:
     return err;
 }
 
+/* Cells of the lattice of patterns whose origin is non-empty and has no
+ * 6-connected path of such cells to z = 0 (gs_model_support_flood); their
+ * x / y bounding box into bb (x0, y0, x1, y1). Returns how many, SIZE_MAX
+ * when out of memory. */
+static size_t floating_cells(const model_engine *e, int bb[4])
+{
+    const gs_model_lattice *l = &e->lat;
+    const size_t n = lattice_cells(l);
+    uint8_t *st = gs_malloc(n ? n : 1);
+    if (!st)
+        return SIZE_MAX;
+    size_t solid = 0;
+    for (size_t i = 0; i < n; i++) {
+        st[i] = !e->params.support_empty[l->labels[i]];
+        solid += st[i];
+    }
+    size_t reached = gs_model_support_flood(st, l->nx, l->ny, l->nz, e->params.periodic);
+    bb[0] = l->nx, bb[1] = l->ny, bb[2] = -1, bb[3] = -1;
+    for (size_t i = 0; i < n && reached != SIZE_MAX; i++)
+        if (st[i] == 1) {
+            int x = (int)(i % (size_t)l->nx), y = (int)(i / (size_t)l->nx % (size_t)l->ny);
+            bb[0] = x < bb[0] ? x : bb[0];
+            bb[1] = y < bb[1] ? y : bb[1];
+            bb[2] = x > bb[2] ? x : bb[2];
+            bb[3] = y > bb[3] ? y : bb[3];
+        }
+    gs_free(st);
+    return reached == SIZE_MAX ? SIZE_MAX : solid - reached;
+}
+
+/* Every rank, after the last pass (model.overlap3d on an example without
+ * floating structure): a region's try checks support through the region to
+ * the non-empty cells next to it (box_supported), which need not reach the
+ * ground themselves once other regions changed, so regions (blocks) can
+ * leave floating structure where the whole grid cannot. Each floating piece
+ * is resynthesized in the box of its x / y extent grown by a margin, over
+ * every layer, with the exact whole-lattice check (params.support_global);
+ * a failing box grows (margin doubled) up to the whole grid. Serial and
+ * keyed by (seed, region id past the plans', pass): the same on every rank.
+ * Counted as regions (accepted / failed). */
+#define MODEL_REPAIR_ID 0x7f000000u
+static gs_err support_repair(model_engine *e)
+{
+    if (!e->params.support_empty)
+        return GS_OK;
+    const gs_model_lattice *l = &e->lat;
+    gs_model_params p = e->params;
+    p.support_global = 1;
+    uint16_t *buf = NULL;
+    GS_CALL(gs_alloc_array((void **)&buf, lattice_cells(l), sizeof *buf, "repair labels"));
+    gs_err err = GS_OK;
+    int margin = (int)(e->cfg->overlap3d > 0 ? e->cfg->overlap3d : 2), tries = 0;
+    for (;;) {
+        int bb[4];
+        size_t nf = floating_cells(e, bb);
+        GS_TRY_CHECK(err, nf != SIZE_MAX, GS_ERR_MEM, done, "support repair: cannot allocate");
+        if (nf == 0)
+            break;
+        gs_model_box b = {bb[0] - margin, bb[1] - margin, 0, bb[2] + 1 + margin,
+                          bb[3] + 1 + margin, l->nz};
+        b.x0 = b.x0 < 0 ? 0 : b.x0;
+        b.y0 = b.y0 < 0 ? 0 : b.y0;
+        b.x1 = b.x1 > l->nx ? l->nx : b.x1;
+        b.y1 = b.y1 > l->ny ? l->ny : b.y1;
+        const int whole = b.x0 == 0 && b.y0 == 0 && b.x1 == l->nx && b.y1 == l->ny;
+        gs_model_region_result res;
+        GS_TRY(err,
+               gs_model_region_run(e->solver, &e->lat, &b, &p, MODEL_REPAIR_ID + (uint64_t)tries,
+                                   (uint64_t)e->pass, buf, &res),
+               done);
+        gs_log(GS_LOG_INFO,
+               "support repair %d: %zu floating cells, box x %d..%d y %d..%d: %s", tries + 1, nf,
+               b.x0, b.x1 - 1, b.y0, b.y1 - 1, res.ok ? "resynthesized" : "failed");
+        e->stats.regions++;
+        e->stats.attempts += (uint64_t)res.attempts;
+        e->stats.choices += res.choices;
+        e->stats.backtracks += res.backtracks;
+        tries++;
+        if (res.ok) {
+            e->stats.accepted++;
+            gs_model_region_apply(&e->lat, &b, buf);
+            continue;
+        }
+        if (whole) { /* nothing left to grow: the floating cells stay, a failed region */
+            e->stats.failed++;
+            gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain", nf);
+            break;
+        }
+        margin *= 2;
+    }
+done:
+    gs_free(buf);
+    return err;
+}
+
 /* Collective: the next batch of the synthesis (a new pass's plan, then one
  * window of colours, run_window); *finished once the passes are done. */
 gs_err model_advance_window(gs_run *run, model_engine *e, int *finished)
@@ -240,9 +336,10 @@ gs_err model_advance_window(gs_run *run, model_engine *e, int *finished)
         e->pass++;
         e->color = 0;
         if (e->stats.min_coverage >= (uint64_t)e->params.min_changes ||
-            e->pass >= e->params.max_passes)
+            e->pass >= e->params.max_passes) {
             e->done = 1;
-        else
+            GS_CALL(support_repair(e));
+        } else
             GS_CALL(model_make_plan(e));
     }
     *finished = e->done;

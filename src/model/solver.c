@@ -1287,6 +1287,76 @@ static int box_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
     return tail == solid;
 }
 
+size_t gs_model_support_flood(uint8_t *st, int nx, int ny, int nz, const int periodic[2])
+{
+    const size_t n = (size_t)nx * (size_t)ny * (size_t)nz, layer = (size_t)nx * (size_t)ny;
+    int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
+    if (!queue)
+        return SIZE_MAX;
+    size_t head = 0, tail = 0;
+    for (size_t i = 0; i < layer && i < n; i++)
+        if (st[i] == 1) {
+            st[i] = 2;
+            queue[tail++] = (int32_t)i;
+        }
+    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    while (head < tail) {
+        int32_t u = queue[head++];
+        int x = u % nx, y = (u / nx) % ny, z = u / (nx * ny);
+        for (int d = 0; d < 6; d++) {
+            int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+            if (periodic[0])
+                px = (px % nx + nx) % nx;
+            if (periodic[1])
+                py = (py % ny + ny) % ny;
+            if (px < 0 || py < 0 || pz < 0 || px >= nx || py >= ny || pz >= nz)
+                continue;
+            size_t v = (size_t)px + (size_t)nx * ((size_t)py + (size_t)ny * (size_t)pz);
+            if (st[v] == 1) {
+                st[v] = 2;
+                queue[tail++] = (int32_t)v;
+            }
+        }
+    }
+    gs_free(queue);
+    return tail;
+}
+
+/* params.support_global: 1 when every non-empty cell of the whole lattice
+ * (box cells from the solved domains, the others from lat overlaid with ov)
+ * reaches the ground layer through 6-connected non-empty cells: exact where
+ * box_supported takes a non-empty cell next to the box as supported.
+ * -1: no memory. */
+static int lattice_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
+                             const overlay *ov, const gs_model_box *b, const uint8_t *empty)
+{
+    const int nx = lat->nx, ny = lat->ny, nz = lat->nz;
+    const size_t n = (size_t)nx * (size_t)ny * (size_t)nz, W = (size_t)s->W;
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0;
+    uint8_t *solid = gs_malloc(n ? n : 1);
+    if (!solid)
+        return -1;
+    size_t nsolid = 0;
+    for (int z = 0; z < nz; z++)
+        for (int y = 0; y < ny; y++)
+            for (int x = 0; x < nx; x++) {
+                size_t g = gs_model_lattice_index(lat, x, y, z);
+                int m;
+                if (x >= b->x0 && x < b->x1 && y >= b->y0 && y < b->y1 && z >= b->z0 && z < b->z1)
+                    m = first_label(s->dom + ((size_t)(x - b->x0) +
+                                              (size_t)rx * ((size_t)(y - b->y0) +
+                                                            (size_t)ry * (size_t)(z - b->z0))) *
+                                                 W);
+                else
+                    m = overlay_label(lat, ov, x, y, z);
+                solid[g] = m < s->L && !empty[m];
+                nsolid += solid[g];
+            }
+    size_t reached = gs_model_support_flood(solid, nx, ny, nz, s->periodic);
+    gs_free(solid);
+    return reached == SIZE_MAX ? -1 : reached == nsolid;
+}
+
 /* Runs up to p->attempts tries on box b (shell from lat overlaid with ov) and
  * on success writes b's labels into ov's buffer. The undo budget grows with
  * the attempt: x1 for the first quarter of the tries, x2, x4, then x8. */
@@ -1306,7 +1376,8 @@ static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, co
         GS_CALL(attempt_region(s, lat, ov, b, p, scale, &rng, &res->choices, ok));
         res->attempts++;
         if (*ok && p->support_empty) { /* a try leaving floating structure is a failed try */
-            int sup = box_supported(s, lat, ov, b, p->support_empty);
+            int sup = p->support_global ? lattice_supported(s, lat, ov, b, p->support_empty)
+                                        : box_supported(s, lat, ov, b, p->support_empty);
             GS_CHECK(sup >= 0, GS_ERR_MEM, "support check: cannot allocate");
             *ok = sup;
         }
