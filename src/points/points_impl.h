@@ -91,6 +91,23 @@ gs_err gs_points_blend_onto(const gs_points_grid *out, double R, int ray, int bl
                             gs_points *scratch, gs_points *scratch2, gs_opoint *q,
                             double *resid, int *found, int *keep);
 
+/* A strip point of F' for gs_points_blend_sheet: q, its own target y on N_k
+ * with normal yn (gs_points_blend_target; found = 0: none) and blend weight
+ * t > 0. */
+typedef struct gs_points_sheet_point {
+    gs_opoint q;
+    double y[3], yn[3], t;
+    int found;
+} gs_points_sheet_point;
+
+/* The blend of a patch's strip points onto N_k together (synth.c,
+ * blend_smooth): each q moves by t times the mean of the displacements
+ * y - q of the points within R that found N_k (MLS weights, normals within
+ * 60 degrees: the same sheet), its normal toward their normals; a point
+ * with no such neighbour stays. A blended normal that vanishes becomes 0
+ * (the caller drops the point). */
+gs_err gs_points_blend_sheet(gs_points_sheet_point *v, size_t n, double R);
+
 /* An index sorted by a double key, ties by index (a total order, so a sort
  * gives one result whatever the input order). */
 typedef struct keyed {

@@ -1233,7 +1233,6 @@ static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
 static gs_err blend_smooth(struct gs_points_synth *s, const double o[2], size_t n)
 {
     blend_item *b = s->blend;
-    double R = s->p.mls_radius, inv_r2 = 1.0 / (R * R);
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
     size_t m = 0, ns = 0;
     for (size_t i = 0; i < n; i++) {
@@ -1242,39 +1241,75 @@ static gs_err blend_smooth(struct gs_points_synth *s, const double o[2], size_t 
     }
     if (m == 0 || !s->p.blend)
         return GS_OK; /* nothing to pull towards, or measured only */
+    gs_points_sheet_point *v = NULL;
+    size_t *sx = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&v, ns, sizeof *v, "blend"), done);
+    GS_TRY(err, gs_alloc_array((void **)&sx, ns, sizeof *sx, "blend"), done);
+    ns = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (!b[i].keep || !(b[i].t > 0))
+            continue;
+        gs_points_sheet_point *e = &v[ns];
+        e->q = b[i].q;
+        memcpy(e->y, b[i].y, sizeof e->y);
+        memcpy(e->yn, b[i].yn, sizeof e->yn);
+        e->t = b[i].t;
+        e->found = b[i].counted;
+        sx[ns++] = i;
+    }
+    GS_TRY(err, gs_points_blend_sheet(v, ns, s->p.mls_radius), done);
+    for (size_t k = 0; k < ns; k++) {
+        blend_item *it = &b[sx[k]];
+        it->q = v[k].q;
+        if (!in_xy(it->q.p, blo, bhi))
+            it->q.n[0] = it->q.n[1] = it->q.n[2] = 0; /* dropped below */
+        it->keep = it->q.n[0] != 0 || it->q.n[1] != 0 || it->q.n[2] != 0;
+    }
+done:
+    gs_free(v);
+    gs_free(sx);
+    return err;
+}
+
+/* See points_impl.h (blend_smooth above says why). */
+gs_err gs_points_blend_sheet(gs_points_sheet_point *v, size_t n, double R)
+{
+    double inv_r2 = 1.0 / (R * R);
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        m += v[i].found != 0;
+    if (m == 0)
+        return GS_OK;
     gs_opoint *P = NULL, *nq = NULL;
-    size_t *ix = NULL, *sx = NULL;
+    size_t *ix = NULL;
     gs_points_index_grid *g = NULL;
     gs_points_indices nb = {0};
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&P, m, sizeof *P, "blend"), done);
     GS_TRY(err, gs_alloc_array((void **)&ix, m, sizeof *ix, "blend"), done);
-    GS_TRY(err, gs_alloc_array((void **)&nq, ns, sizeof *nq, "blend"), done);
-    GS_TRY(err, gs_alloc_array((void **)&sx, ns, sizeof *sx, "blend"), done);
+    GS_TRY(err, gs_alloc_array((void **)&nq, n, sizeof *nq, "blend"), done);
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    m = ns = 0;
+    m = 0;
     for (size_t i = 0; i < n; i++) {
-        if (!b[i].keep || !(b[i].t > 0))
+        if (!v[i].found)
             continue;
-        sx[ns++] = i;
-        if (!b[i].counted)
-            continue;
-        P[m] = b[i].q;
+        P[m] = v[i].q;
         ix[m++] = i;
         for (int a = 0; a < 3; a++) {
-            lo[a] = fmin(lo[a], b[i].q.p[a] - R);
-            hi[a] = fmax(hi[a], b[i].q.p[a] + R);
+            lo[a] = fmin(lo[a], v[i].q.p[a] - R);
+            hi[a] = fmax(hi[a], v[i].q.p[a] + R);
         }
     }
     GS_TRY(err, gs_points_index_grid_create(P, m, lo, hi, R, &g), done);
-    for (size_t k = 0; k < ns; k++) {
-        const blend_item *it = &b[sx[k]];
+    for (size_t k = 0; k < n; k++) {
+        const gs_points_sheet_point *it = &v[k];
         gs_opoint q = it->q;
         nb.n = 0;
         GS_TRY(err, gs_points_index_grid_query(g, q.p, R, &nb), done);
         double sw = 0, d[3] = {0, 0, 0}, yn[3] = {0, 0, 0};
         for (size_t j = 0; j < nb.n; j++) {
-            const blend_item *c = &b[ix[nb.v[j]]];
+            const gs_points_sheet_point *c = &v[ix[nb.v[j]]];
             double u = 1.0 - v3_dist2(c->q.p, q.p) * inv_r2;
             if (!(u > 0))
                 continue;
@@ -1297,23 +1332,19 @@ static gs_err blend_smooth(struct gs_points_synth *s, const double o[2], size_t 
                 q.p[a] += t * d[a] / sw;
                 q.n[a] = (1 - t) * q.n[a] + t * yn[a];
             }
-            if (v3_normalize(q.n) <= 0 || !in_xy(q.p, blo, bhi))
-                q.n[0] = q.n[1] = q.n[2] = 0; /* dropped below */
+            if (v3_normalize(q.n) <= 0)
+                q.n[0] = q.n[1] = q.n[2] = 0;
         }
         nq[k] = q;
     }
-    for (size_t k = 0; k < ns; k++) {
-        blend_item *it = &b[sx[k]];
-        it->q = nq[k];
-        it->keep = nq[k].n[0] != 0 || nq[k].n[1] != 0 || nq[k].n[2] != 0;
-    }
+    for (size_t k = 0; k < n; k++)
+        v[k].q = nq[k];
 done:
     gs_points_index_grid_destroy(&g);
     gs_free(nb.v);
     gs_free(P);
     gs_free(ix);
     gs_free(nq);
-    gs_free(sx);
     return err;
 }
 
