@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
 # What each element of the paper does, on every paper config of
 # configs/points/ (heightfield, chainmail, weave, flowers): each config runs
-# with everything on, without the warp (points.max_pair_dist = 1e-6: no
-# pair is found), with the paper's warp always applied (warp_select =
+# with everything on, without the warp (points.max_pair_dist = 1e-6: only
+# coincident pairs are found, so a spline is the identity), with the paper's warp always applied (warp_select =
 # false), without the blend (points.blend = false) and without candidate
 # randomness (points.eps = 0: always the best patch), each at SEEDS. Prints
 # one JSON object (stdout) with every run's quality figures (summary.json:
-# warp residual (the synthesis' own record), seam measure (seam_open_segments:
-# patch edges more open than 9 in 10 inside ones, 0.1 for seams like the
-# inside), variety, height KS, fragments, specks (not cut by the border), points
+# warp residual (the synthesis' own record, in the JSON only), seam measures
+# from the output points and the patch layout alone (seam_unmatched_excess:
+# share of points by a seam line with no surface across it less the same by
+# lines through the patches' middles, 0 for seams like the inside;
+# seam_dist_ratio, seam_normal_ratio: distance and normal mismatch across
+# seams over the same inside; seam_open_segments: patch edges more open than
+# 9 in 10 inside ones, 0.1 for seams like the inside), variety, height KS, fragments, specks (not cut by the border), points
 # above the example's highest: measured by the engine from the output points
 # and the example, not from the synthesis' own counters) and the mean
 # per variant, and a table on stderr.
@@ -57,6 +61,7 @@ done
 import json, sys, collections
 keys = ["warp_residual_mean", "seam_dist", "inside_dist", "seam_normal", "inside_normal",
         "seam_unmatched", "inside_unmatched", "seam_open_segments", "inside_open_p90", "source_patches", "verbatim_share",
+        "seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio",
         "height_ks", "example_height_ks_halves", "height_max", "example_height_max",
         "points_above_example_max", "fragments_per_area", "example_fragments_per_area",
         "small_fragments_per_area", "example_small_fragments_per_area", "output_points"]
@@ -66,6 +71,17 @@ for line in open(sys.argv[1]):
     m = json.load(open(d + "/summary.json"))["metrics"]
     r = {"config": cfg, "variant": v, "seed": int(seed)}
     r.update({k: m[k] for k in keys if k in m})
+    # Seam figures from the output points and the patch layout alone: the
+    # share of band points with no surface across a seam line, less the
+    # same across lines through the patches' middles (0: seams like the
+    # inside), and the seam/inside ratios of distance and normal mismatch.
+    if "seam_unmatched" in m and "inside_unmatched" in m:
+        m["seam_unmatched_excess"] = m["seam_unmatched"] - m["inside_unmatched"]
+        r["seam_unmatched_excess"] = m["seam_unmatched_excess"]
+    for a, b, k in (("seam_dist", "inside_dist", "seam_dist_ratio"),
+                    ("seam_normal", "inside_normal", "seam_normal_ratio")):
+        if m.get(b):
+            m[k] = r[k] = m[a] / m[b]
     runs.append(r)
     for k in keys:
         if k in m:
@@ -74,7 +90,7 @@ mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}
         for (c, v), a in acc.items()]
 json.dump({"benchmark": "points_elements", "runs": runs, "mean": mean}, sys.stdout, indent=1)
 print()
-cols = ["warp_residual_mean", "seam_dist", "seam_unmatched", "seam_open_segments", "inside_dist",
+cols = ["seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio", "seam_open_segments",
         "source_patches", "verbatim_share", "height_ks", "fragments_per_area",
         "small_fragments_per_area", "points_above_example_max"]
 print("%-12s %-11s " % ("config", "variant") + " ".join("%10s" % c[:10] for c in cols),
