@@ -28,6 +28,14 @@ void gs_free(void *p);
  * GS_ERR_MEM is raised (overflow or allocation failure). */
 gs_err gs_alloc_array(void **out, size_t count, size_t size, const char *what);
 
+/* Test-only failure injection: from now on every gs_alloc_array of this
+ * process whose what is exactly the given name (NULL: none) fails with
+ * GS_ERR_MEM, as out of memory would. gs_par_init sets it on rank R from
+ * GS_FAIL_RANK=R GS_FAIL_ALLOC=NAME (tests/e2e/mpi_errors_alloc.sh,
+ * tests/mpi/bcast_alloc.c: a rank that cannot allocate must not leave the
+ * others waiting in a collective). */
+void gs_mem_fail_alloc(const char *what);
+
 /* Frees *p (allocated by gs_*) and sets it to NULL. */
 #define GS_FREE(p) do { gs_free(p); (p) = NULL; } while (0)
 

@@ -75,6 +75,17 @@ int gs_par_barrier_quiet(MPI_Comm comm);
 
 /* Broadcasts bytes bytes at data from root (any length). */
 gs_err gs_par_bcast_bytes(MPI_Comm comm, void *data, size_t bytes, int root);
+/* Broadcasts n items of size bytes at *p from root, allocating them first
+ * (gs_alloc_array, what names them) on every other rank; n must be the same
+ * on every rank (broadcast it first). The ranks agree on those allocations
+ * before the broadcast (gs_par_agree), so a rank that cannot allocate makes
+ * every rank return its error (GS_ERR_MEM, "rank R failed: ...") instead of
+ * leaving root waiting in the broadcast. n = 0: nothing is allocated or
+ * sent. On error *p is unchanged off root. Use the same agreement after any
+ * allocation a broadcast then fills (never allocate on some ranks and
+ * broadcast without it). */
+gs_err gs_par_bcast_alloc(MPI_Comm comm, void **p, size_t n, size_t size, int root,
+                          const char *what);
 /* Broadcasts one object (a named header struct, a scalar, a fixed array)
  * from root: GS_PAR_BCAST_VALUE(comm, &hdr, 0). */
 #define GS_PAR_BCAST_VALUE(comm, ptr, root) gs_par_bcast_bytes((comm), (ptr), sizeof *(ptr), (root))

@@ -85,9 +85,18 @@ void gs_free(void *ptr)
     free(base);
 }
 
+static char fail_what[128]; /* gs_mem_fail_alloc; set once, before any thread */
+
+void gs_mem_fail_alloc(const char *what)
+{
+    snprintf(fail_what, sizeof fail_what, "%s", what ? what : "");
+}
+
 gs_err gs_alloc_array(void **out, size_t count, size_t size, const char *what)
 {
     size_t n;
+    GS_CHECK(!fail_what[0] || strcmp(fail_what, what), GS_ERR_MEM,
+             "%s: cannot allocate (injected failure: GS_FAIL_ALLOC)", what);
     GS_CHECK(gs_mul_size(count, size, &n), GS_ERR_MEM,
              "%s: %zu x %zu bytes overflows the address space", what, count, size);
     void *p = gs_calloc(count, size);

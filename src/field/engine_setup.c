@@ -123,8 +123,11 @@ static gs_err build_source(gs_run *run, const field_config *c, int want_mesh, fi
         memcpy(hdr.origin, q->origin, sizeof hdr.origin);
     }
     GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &hdr, 0));
+    if (run->rank != 0)
+        err = gs_qfield_create(hdr.n[0], hdr.n[1], hdr.n[2], hdr.lo, hdr.hi, &src->q);
+    /* agreed: a rank that cannot allocate must not leave rank 0 in the broadcast */
+    GS_CALL(gs_par_agree(run->comm, err));
     if (run->rank != 0) {
-        GS_CALL(gs_qfield_create(hdr.n[0], hdr.n[1], hdr.n[2], hdr.lo, hdr.hi, &src->q));
         src->q->spacing = hdr.spacing;
         memcpy(src->q->origin, hdr.origin, sizeof hdr.origin);
     }

@@ -119,8 +119,10 @@ static gs_err load_mesh_file(MPI_Comm comm, int rank, const char *path, gs_micro
     }
     GS_CALL(gs_par_agree(comm, err));
     GS_CALL(GS_PAR_BCAST_VALUE(comm, &sizes, 0));
-    if (rank != 0)
-        GS_CALL(gs_micro_mesh_alloc(m, (uint32_t)sizes[0], (uint32_t)sizes[1]));
+    /* agreed: a rank that cannot allocate must not leave rank 0 in the broadcast */
+    GS_CALL(gs_par_agree(comm, rank != 0 ? gs_micro_mesh_alloc(m, (uint32_t)sizes[0],
+                                                               (uint32_t)sizes[1])
+                                         : GS_OK));
     GS_CALL(gs_par_bcast_bytes(comm, m->pos, (size_t)sizes[0] * 3 * sizeof *m->pos, 0));
     GS_CALL(gs_par_bcast_bytes(comm, m->tris, (size_t)sizes[1] * 3 * sizeof *m->tris, 0));
     if (rank != 0) {
@@ -361,11 +363,10 @@ static gs_err setup_dist(micro_job *job, gs_micro_dist *d)
     if (job->run->rank != 0) {
         d->nbins = K;
         d->pos = d->neg = NULL;
-        GS_CALL(gs_alloc_array((void **)&d->pos, K, sizeof *d->pos, "distribution"));
-        GS_CALL(gs_alloc_array((void **)&d->neg, K, sizeof *d->neg, "distribution"));
     }
-    GS_CALL(gs_par_bcast_bytes(comm, d->pos, K * sizeof *d->pos, 0));
-    GS_CALL(gs_par_bcast_bytes(comm, d->neg, K * sizeof *d->neg, 0));
+    /* allocated off rank 0 and agreed before each broadcast */
+    GS_CALL(gs_par_bcast_alloc(comm, (void **)&d->pos, K, sizeof *d->pos, 0, "distribution"));
+    GS_CALL(gs_par_bcast_alloc(comm, (void **)&d->neg, K, sizeof *d->neg, 0, "distribution"));
     return GS_OK;
 }
 

@@ -43,8 +43,9 @@ static gs_err bcast_lattice(MPI_Comm comm, gs_model_lattice *l, gs_err loaded)
     GS_CALL(gs_par_agree(comm, loaded));
     int dims[4] = {l->nx, l->ny, l->nz, l->frames};
     GS_CALL(GS_PAR_BCAST_VALUE(comm, &dims, 0));
-    if (!l->labels)
-        GS_CALL(gs_model_lattice_create(l, dims[0], dims[1], dims[2]));
+    /* agreed: a rank that cannot allocate must not leave rank 0 in the broadcast */
+    GS_CALL(gs_par_agree(comm, l->labels ? GS_OK
+                                         : gs_model_lattice_create(l, dims[0], dims[1], dims[2])));
     l->frames = dims[3];
     GS_CALL(gs_par_bcast_bytes(comm, l->labels, lattice_cells(l) * sizeof *l->labels, 0));
     return GS_OK;

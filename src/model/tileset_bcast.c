@@ -7,21 +7,11 @@
 #include "geosynth/model_tiles.h"
 #include "geosynth/par.h"
 
-/* Allocates n items of size bytes at *p (not on root), agrees the status
- * (a receiving rank that cannot allocate is reported by every rank instead
- * of leaving the others in the broadcast) and broadcasts them from root. */
-static gs_err bcast_array(MPI_Comm comm, int root, int rank, void **p, size_t n, size_t size,
-                          const char *what)
-{
-    gs_err err = GS_OK;
-    if (n && rank != root)
-        err = gs_alloc_array(p, n, size, what);
-    GS_CALL(gs_par_agree(comm, err));
-    return n ? gs_par_bcast_bytes(comm, *p, n * size, root) : GS_OK;
-}
-
-#define BCAST_ARRAY(field, n, what)                                                           \
-    GS_TRY(err, bcast_array(comm, root, rank, (void **)&(field), (n), sizeof *(field), what), \
+/* gs_par_bcast_alloc: allocated off root, agreed, broadcast (a rank that
+ * cannot allocate is reported by every rank instead of leaving the others
+ * in the broadcast). */
+#define BCAST_ARRAY(field, n, what)                                                        \
+    GS_TRY(err, gs_par_bcast_alloc(comm, (void **)&(field), (n), sizeof *(field), root, what), \
            fail)
 
 gs_err gs_model_tileset_bcast(MPI_Comm comm, int root, gs_model_tileset *ts)

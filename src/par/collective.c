@@ -2,6 +2,8 @@
  * see include/geosynth/par.h. */
 #include "geosynth/par.h"
 
+#include "geosynth/mem.h"
+
 #include <limits.h>
 #include <stdio.h>
 #include <string.h>
@@ -45,6 +47,28 @@ gs_err gs_par_bcast_bytes(MPI_Comm comm, void *data, size_t bytes, int root)
         p += k;
         bytes -= k;
     }
+    return GS_OK;
+}
+
+gs_err gs_par_bcast_alloc(MPI_Comm comm, void **p, size_t n, size_t size, int root,
+                          const char *what)
+{
+    int rank;
+    GS_MPI(MPI_Comm_rank(comm, &rank));
+    if (!n)
+        return GS_OK;
+    void *got = NULL;
+    gs_err err = rank != root ? gs_alloc_array(&got, n, size, what) : GS_OK;
+    err = gs_par_agree(comm, err);
+    if (!err)
+        err = gs_par_bcast_bytes(comm, rank != root ? got : *p, n * size, root);
+    if (err) {
+        gs_free(got);
+        gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
+    if (rank != root)
+        *p = got;
     return GS_OK;
 }
 

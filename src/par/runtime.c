@@ -64,6 +64,15 @@ gs_err gs_par_init(int *argc, char ***argv)
     GS_MPI(MPI_Comm_rank(MPI_COMM_WORLD, &par_rank));
     GS_MPI(MPI_Comm_size(MPI_COMM_WORLD, &par_size));
     gs_log_set_rank(par_rank);
+    const char *fail = getenv("GS_FAIL_ALLOC"), *fail_rank = getenv("GS_FAIL_RANK");
+    if (fail && fail[0]) {
+        char *end = NULL;
+        long r = fail_rank ? strtol(fail_rank, &end, 10) : 0;
+        GS_CHECK(!fail_rank || (end != fail_rank && !*end && r >= 0), GS_ERR_USAGE,
+                 "GS_FAIL_RANK = '%s': expected a rank (with GS_FAIL_ALLOC)", fail_rank);
+        if (r == par_rank)
+            gs_mem_fail_alloc(fail);
+    }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
@@ -173,11 +182,7 @@ gs_err gs_par_bcast_string(MPI_Comm comm, char **s, int root)
     long long len = rank == root ? (long long)strlen(*s) : 0;
     GS_MPI(MPI_Bcast(&len, 1, MPI_LONG_LONG, root, comm));
     GS_CHECK(len >= 0 && len < (1LL << 31), GS_ERR_ARG, "string of %lld bytes is too long to broadcast", len);
-    if (rank != root) {
-        *s = gs_malloc((size_t)len + 1);
-        GS_CHECK(*s != NULL, GS_ERR_MEM, "cannot allocate %lld bytes", len + 1);
-    }
-    GS_MPI(MPI_Bcast(*s, (int)len + 1, MPI_CHAR, root, comm));
+    GS_CALL(gs_par_bcast_alloc(comm, (void **)s, (size_t)len + 1, 1, root, "broadcast text"));
     return GS_OK;
 }
 

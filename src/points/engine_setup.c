@@ -173,9 +173,11 @@ static gs_err bcast_texture(MPI_Comm comm, int rank, gs_points_texture *tex)
         memcpy(tex->box_lo, hdr.box_lo, sizeof hdr.box_lo);
         memcpy(tex->box_hi, hdr.box_hi, sizeof hdr.box_hi);
         tex->spacing = hdr.spacing;
-        GS_CALL(gs_points_reserve(&tex->pts, n));
-        tex->pts.n = n;
     }
+    /* agreed: a rank that cannot allocate must not leave rank 0 in the broadcast */
+    GS_CALL(gs_par_agree(comm, rank != 0 ? gs_points_reserve(&tex->pts, n) : GS_OK));
+    if (rank != 0)
+        tex->pts.n = n;
     GS_CALL(gs_par_bcast_bytes(comm, tex->pts.v, n * sizeof(gs_opoint), 0));
     return GS_OK;
 }
