@@ -298,6 +298,11 @@ typedef struct gs_model_params {
                            may have lost their own support to the region: exact only in
                            whole-grid mode (or with support_global); the engine repairs
                            what regions left floating after the passes */
+    const uint8_t *support_above; /* [labels] with support_empty: bit k - 1 = the cell k
+                           layers above a top-layer cell holding the label is non-empty
+                           (the N - 1 layers model.overlap3d decodes over the top pattern
+                           layer), for gs_model_support_floating; NULL = none */
+    int support_layers_above; /* how many such layers (0..7) */
     int support_global;   /* with support_empty: the try's check follows paths through
                            the whole lattice (exact; cost linear in the lattice), not
                            only through the box to the cells next to it (the model
@@ -444,13 +449,6 @@ size_t gs_model_rules_violations_wrap(const gs_model_rules_t rules, const gs_mod
 
 /* ---- regions and the serial driver ---------------------------------------- */
 
-/* Support of non-empty cells: st (nx*ny*nz, x fastest) holds 1 for a
- * non-empty cell, 0 for empty; every non-empty cell with a 6-connected path
- * of non-empty cells to the ground layer z = 0 (x / y wrapping where
- * periodic[0] / periodic[1]) becomes 2. Returns how many became 2, SIZE_MAX
- * when out of memory. */
-size_t gs_model_support_flood(uint8_t *st, int nx, int ny, int nz, const int periodic[2]);
-
 typedef struct gs_model_box {
     int x0, y0, z0; /* inclusive */
     int x1, y1, z1; /* exclusive */
@@ -492,6 +490,14 @@ gs_err gs_model_plan_conflicts(const gs_model_params *p, int nx, int ny, int nz,
 typedef struct gs_model_solver *gs_model_solver_t;
 
 /* Scratch space for region synthesis (grows on demand). One per thread. */
+/* Floating structure of a lattice of labels (nx*ny*nz, x fastest): st
+ * (nx*ny*(nz + layers above), see gs_model_params.support_above) gets 0 for
+ * empty (p->support_empty), 2 for a non-empty cell with a 6-connected path
+ * of non-empty cells to z = 0 (x / y wrapping where p->periodic), 1 for a
+ * floating one. Returns how many float, SIZE_MAX when out of memory. */
+size_t gs_model_support_floating(const uint16_t *labels, int nx, int ny, int nz,
+                                 const gs_model_params *p, uint8_t *st);
+
 gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac,
                               gs_model_solver_t *out);
 void gs_model_solver_destroy(gs_model_solver_t *s);

@@ -254,6 +254,10 @@ typedef struct gs_model_patterns3d {
                                  is empty (label 0), when the example has no unsupported
                                  structure (gs_measure_unsupported); NULL otherwise.
                                  For gs_model_params.support_empty */
+    uint8_t *support_above;   /* [npatterns + 1] with support_empty: bit k - 1 = the
+                                 pattern's cell (0, 0, k) is non-empty, k = 1..N-1 (what
+                                 gs_model_patterns3d_decode shows over the top layer).
+                                 For gs_model_params.support_above */
 } gs_model_patterns3d;
 
 /* Learns the patterns of ex (name for messages); more than max_patterns

@@ -199,25 +199,21 @@ done:
     return err;
 }
 
-/* Cells of the lattice of patterns whose origin is non-empty and has no
- * 6-connected path of such cells to z = 0 (gs_model_support_flood); their
- * x / y bounding box into bb (x0, y0, x1, y1). Returns how many, SIZE_MAX
- * when out of memory. */
+/* Floating cells of the lattice of patterns (gs_model_support_floating:
+ * origins, and the decoded layers above the top one); their x / y bounding
+ * box into bb (x0, y0, x1, y1). Returns how many, SIZE_MAX when out of
+ * memory. */
 static size_t floating_cells(const model_engine *e, int bb[4])
 {
     const gs_model_lattice *l = &e->lat;
-    const size_t n = lattice_cells(l);
+    const int above = e->params.support_above ? e->params.support_layers_above : 0;
+    const size_t layer = (size_t)l->nx * (size_t)l->ny, n = layer * (size_t)(l->nz + above);
     uint8_t *st = gs_malloc(n ? n : 1);
     if (!st)
         return SIZE_MAX;
-    size_t solid = 0;
-    for (size_t i = 0; i < n; i++) {
-        st[i] = !e->params.support_empty[l->labels[i]];
-        solid += st[i];
-    }
-    size_t reached = gs_model_support_flood(st, l->nx, l->ny, l->nz, e->params.periodic);
+    size_t nf = gs_model_support_floating(l->labels, l->nx, l->ny, l->nz, &e->params, st);
     bb[0] = l->nx, bb[1] = l->ny, bb[2] = -1, bb[3] = -1;
-    for (size_t i = 0; i < n && reached != SIZE_MAX; i++)
+    for (size_t i = 0; i < n && nf != SIZE_MAX; i++)
         if (st[i] == 1) {
             int x = (int)(i % (size_t)l->nx), y = (int)(i / (size_t)l->nx % (size_t)l->ny);
             bb[0] = x < bb[0] ? x : bb[0];
@@ -226,7 +222,7 @@ static size_t floating_cells(const model_engine *e, int bb[4])
             bb[3] = y > bb[3] ? y : bb[3];
         }
     gs_free(st);
-    return reached == SIZE_MAX ? SIZE_MAX : solid - reached;
+    return nf;
 }
 
 /* Every rank, after the last pass (model.overlap3d on an example without

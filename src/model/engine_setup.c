@@ -108,6 +108,10 @@ static gs_err overlap3d_setup(model_engine *e)
                                       MODEL_OVERLAP3D_MAX_PATTERNS, c->example, &e->p3));
     GS_CALL(gs_model_patterns3d_rules(&e->p3, &e->rules));
     e->params.support_empty = e->p3.support_empty; /* no floating structure: the example has none */
+    if (!e->params.periodic[2]) { /* the decoded layers over the top pattern layer */
+        e->params.support_above = e->p3.support_above;
+        e->params.support_layers_above = (int)c->overlap3d - 1;
+    }
     e->src = e->example;
     memset(&e->example, 0, sizeof e->example);
     const gs_model_lattice *w = &e->p3.windows;

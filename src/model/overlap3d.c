@@ -20,6 +20,7 @@ void gs_model_patterns3d_destroy(gs_model_patterns3d *p)
     gs_free(p->count);
     gs_free(p->pairs);
     gs_free(p->support_empty);
+    gs_free(p->support_above);
     gs_model_lattice_destroy(&p->windows);
     memset(p, 0, sizeof *p);
 }
@@ -163,9 +164,18 @@ gs_err gs_model_patterns3d_learn(const gs_model_lattice *ex, int n, int max_patt
             GS_TRY(err, gs_alloc_array((void **)&P.support_empty, (size_t)P.npatterns + 1, 1,
                                        "pattern origins"),
                    fail);
+            GS_TRY(err, gs_alloc_array((void **)&P.support_above, (size_t)P.npatterns + 1, 1,
+                                       "pattern columns"),
+                   fail);
             P.support_empty[0] = 1;
-            for (int a = 0; a < P.npatterns; a++)
-                P.support_empty[a + 1] = P.pat[(size_t)a * (size_t)NNN] == 0;
+            P.support_above[0] = 0;
+            for (int a = 0; a < P.npatterns; a++) {
+                const uint16_t *q = P.pat + (size_t)a * (size_t)NNN;
+                P.support_empty[a + 1] = q[0] == 0;
+                P.support_above[a + 1] = 0;
+                for (int k = 1; k < n; k++)
+                    P.support_above[a + 1] |= (uint8_t)((q[(size_t)k * (size_t)(n * n)] != 0) << (k - 1));
+            }
         }
     }
     gs_free(table);

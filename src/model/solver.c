@@ -1287,7 +1287,10 @@ static int box_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
     return tail == solid;
 }
 
-size_t gs_model_support_flood(uint8_t *st, int nx, int ny, int nz, const int periodic[2])
+/* st (x fastest) 1 = non-empty, 0 = empty: every non-empty cell with a
+ * 6-connected path of non-empty cells to z = 0 (x / y wrapping where
+ * periodic) becomes 2. Returns how many, SIZE_MAX when out of memory. */
+static size_t support_flood(uint8_t *st, int nx, int ny, int nz, const int periodic[3])
 {
     const size_t n = (size_t)nx * (size_t)ny * (size_t)nz, layer = (size_t)nx * (size_t)ny;
     int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
@@ -1322,25 +1325,47 @@ size_t gs_model_support_flood(uint8_t *st, int nx, int ny, int nz, const int per
     return tail;
 }
 
-/* params.support_global: 1 when every non-empty cell of the whole lattice
- * (box cells from the solved domains, the others from lat overlaid with ov)
- * reaches the ground layer through 6-connected non-empty cells: exact where
- * box_supported takes a non-empty cell next to the box as supported.
- * -1: no memory. */
+size_t gs_model_support_floating(const uint16_t *labels, int nx, int ny, int nz,
+                                 const gs_model_params *p, uint8_t *st)
+{
+    const size_t layer = (size_t)nx * (size_t)ny, n = layer * (size_t)nz;
+    const int above = p->support_above ? p->support_layers_above : 0;
+    size_t solid = 0;
+    for (size_t i = 0; i < n; i++) {
+        st[i] = !p->support_empty[labels[i]];
+        solid += st[i];
+    }
+    for (int k = 0; k < above && nz > 0; k++) /* the decoded layers over the top one */
+        for (size_t i = 0; i < layer; i++) {
+            uint8_t v = (p->support_above[labels[n - layer + i]] >> k) & 1;
+            st[n + (size_t)k * layer + i] = v;
+            solid += v;
+        }
+    size_t reached = support_flood(st, nx, ny, nz + above, p->periodic);
+    return reached == SIZE_MAX ? SIZE_MAX : solid - reached;
+}
+
+/* params.support_global: 1 when gs_model_support_floating finds no floating
+ * cell in the whole lattice (box cells from the solved domains, the others
+ * from lat overlaid with ov): exact where box_supported takes a non-empty
+ * cell next to the box as supported. -1: no memory. */
 static int lattice_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
-                             const overlay *ov, const gs_model_box *b, const uint8_t *empty)
+                             const overlay *ov, const gs_model_box *b, const gs_model_params *p)
 {
     const int nx = lat->nx, ny = lat->ny, nz = lat->nz;
     const size_t n = (size_t)nx * (size_t)ny * (size_t)nz, W = (size_t)s->W;
+    const size_t extra = (size_t)nx * (size_t)ny * (size_t)(p->support_above ? p->support_layers_above : 0);
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0;
-    uint8_t *solid = gs_malloc(n ? n : 1);
-    if (!solid)
+    uint16_t *view = gs_malloc((n ? n : 1) * sizeof *view);
+    uint8_t *st = gs_malloc(n + extra ? n + extra : 1);
+    if (!view || !st) {
+        gs_free(view);
+        gs_free(st);
         return -1;
-    size_t nsolid = 0;
+    }
     for (int z = 0; z < nz; z++)
         for (int y = 0; y < ny; y++)
             for (int x = 0; x < nx; x++) {
-                size_t g = gs_model_lattice_index(lat, x, y, z);
                 int m;
                 if (x >= b->x0 && x < b->x1 && y >= b->y0 && y < b->y1 && z >= b->z0 && z < b->z1)
                     m = first_label(s->dom + ((size_t)(x - b->x0) +
@@ -1349,12 +1374,12 @@ static int lattice_supported(struct gs_model_solver *s, const gs_model_lattice *
                                                  W);
                 else
                     m = overlay_label(lat, ov, x, y, z);
-                solid[g] = m < s->L && !empty[m];
-                nsolid += solid[g];
+                view[gs_model_lattice_index(lat, x, y, z)] = (uint16_t)(m < s->L ? m : 0);
             }
-    size_t reached = gs_model_support_flood(solid, nx, ny, nz, s->periodic);
-    gs_free(solid);
-    return reached == SIZE_MAX ? -1 : reached == nsolid;
+    size_t nf = gs_model_support_floating(view, nx, ny, nz, p, st);
+    gs_free(view);
+    gs_free(st);
+    return nf == SIZE_MAX ? -1 : nf == 0;
 }
 
 /* Runs up to p->attempts tries on box b (shell from lat overlaid with ov) and
@@ -1376,7 +1401,7 @@ static gs_err run_box(struct gs_model_solver *s, const gs_model_lattice *lat, co
         GS_CALL(attempt_region(s, lat, ov, b, p, scale, &rng, &res->choices, ok));
         res->attempts++;
         if (*ok && p->support_empty) { /* a try leaving floating structure is a failed try */
-            int sup = p->support_global ? lattice_supported(s, lat, ov, b, p->support_empty)
+            int sup = p->support_global ? lattice_supported(s, lat, ov, b, p)
                                         : box_supported(s, lat, ov, b, p->support_empty);
             GS_CHECK(sup >= 0, GS_ERR_MEM, "support check: cannot allocate");
             *ok = sup;

@@ -462,6 +462,30 @@ static void test_write_read_roundtrip(void **state)
     gs_model_lattice_destroy(&back);
 }
 
+/* gs_model_support_floating: the decoded layers over the top one count
+ * (model.overlap3d shows the top patterns' upper cells there). A 3x1x2
+ * lattice: label 1 non-empty, 0 and 2 empty at their origin, 2 and 3 with a
+ * non-empty cell above. With 2 on top of an empty column its upper cell
+ * floats; reached through 3's upper cell (over a supported 3) it does not. */
+static void test_support_floating_above(void **state)
+{
+    (void)state;
+    const uint8_t empty[4] = {1, 0, 1, 0}, above[4] = {0, 0, 1, 1};
+    gs_model_params p;
+    memset(&p, 0, sizeof p);
+    p.support_empty = empty;
+    uint8_t st[9];
+    uint16_t lab[6] = {1, 0, 0, 1, 0, 2}; /* z = 0: 1 0 0; z = 1: 1 0 2 */
+    assert_int_equal(gs_model_support_floating(lab, 3, 1, 2, &p, st), 0); /* no layers above */
+    p.support_above = above;
+    p.support_layers_above = 1;
+    assert_int_equal(gs_model_support_floating(lab, 3, 1, 2, &p, st), 1);
+    assert_int_equal(st[8], 1); /* (2, 0, 2): over label 2, nothing holds it */
+    lab[4] = 3;                 /* z = 1: 1 3 2: (1, 0, 2) joins it to 3, 3 to 1 */
+    assert_int_equal(gs_model_support_floating(lab, 3, 1, 2, &p, st), 0);
+    assert_int_equal(st[8], 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -476,6 +500,7 @@ int main(void)
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_region_api_matches_driver),
         cmocka_unit_test(test_write_read_roundtrip),
+        cmocka_unit_test(test_support_floating_above),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
