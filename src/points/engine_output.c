@@ -388,6 +388,9 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "inside_open_p90", se->inside_open_p90);
     gs_run_metric_i64(run, "seam_segments", (int64_t)se->seam_segments);
     gs_run_metric_f64(run, "seam_dist_ratio", se->inside_dist > 0 ? se->seam_dist / se->inside_dist : 0);
+    gs_run_metric_f64(run, "seam_normal_ratio",
+                      se->inside_normal > 0 ? se->seam_normal / se->inside_normal : 0);
+    gs_run_metric_f64(run, "seam_unmatched_excess", se->seam_unmatched - se->inside_unmatched);
     gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
     gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
     gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);

@@ -71,17 +71,6 @@ for line in open(sys.argv[1]):
     m = json.load(open(d + "/summary.json"))["metrics"]
     r = {"config": cfg, "variant": v, "seed": int(seed)}
     r.update({k: m[k] for k in keys if k in m})
-    # Seam figures from the output points and the patch layout alone: the
-    # share of band points with no surface across a seam line, less the
-    # same across lines through the patches' middles (0: seams like the
-    # inside), and the seam/inside ratios of distance and normal mismatch.
-    if "seam_unmatched" in m and "inside_unmatched" in m:
-        m["seam_unmatched_excess"] = m["seam_unmatched"] - m["inside_unmatched"]
-        r["seam_unmatched_excess"] = m["seam_unmatched_excess"]
-    for a, b, k in (("seam_dist", "inside_dist", "seam_dist_ratio"),
-                    ("seam_normal", "inside_normal", "seam_normal_ratio")):
-        if m.get(b):
-            m[k] = r[k] = m[a] / m[b]
     runs.append(r)
     for k in keys:
         if k in m:
