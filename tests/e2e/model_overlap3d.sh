@@ -153,7 +153,8 @@ done
 # passes every floating
 # piece is now resynthesized with the whole-lattice check (engine_regions.c support_repair).
 # Checks from lattice.h5 and the example (scipy components): unsupported share 0 (the
-# example's), every 2x2x2 window an example window, the same digest at np 1 and 2.
+# example's), every 2x2x2 window an example window, the same digest at np 1 and 2 and after a
+# stop + resume.
 # Broken on purpose: support_repair a no-op fails the unsupported check (seed 1: 0.0136).
 /usr/bin/python3 - <<'EOF2'
 import numpy as np
@@ -170,8 +171,13 @@ run_gs 0 model -c grove.ini --set model.mesh=none --set model.preview=false -o g
 expect_rc 0 "grove overlap3d N 2 in 10x10 blocks at np 1"
 run_gs 2 model -c grove.ini --set model.mesh=none --set model.preview=false -o grove2
 expect_rc 0 "grove overlap3d N 2 in 10x10 blocks at np 2"
-g1=$(digest_of grove1); g2=$(digest_of grove2)
-[[ -n $g1 && $g1 == "$g2" ]] && ok "grove in blocks: digest $g1 at np 1 and 2" || bad "grove in blocks: digests $g1 $g2"
+GS_STOP_AFTER_UNITS=3 run_gs 2 model -c grove.ini --set model.mesh=none --set model.preview=false -o grovestop
+expect_rc 9 "grove in blocks: stopped after three regions at np 2"
+run_gs 0 resume grovestop
+expect_rc 0 "grove in blocks: resumed at np 1 (the repair runs after the resumed passes)"
+g1=$(digest_of grove1); g2=$(digest_of grove2); gs=$(digest_of grovestop)
+[[ -n $g1 && $g1 == "$g2" && $g1 == "$gs" ]] && ok "grove in blocks: digest $g1 at np 1, 2 and after stop + resume" \
+  || bad "grove in blocks: digests $g1 $g2 $gs"
 res=$(/usr/bin/python3 - grove.csv grove1 <<'EOF2'
 import os, sys
 import numpy as np
