@@ -229,10 +229,11 @@ static size_t floating_cells(const model_engine *e, int bb[4])
  * floating structure): a region's try checks support through the region to
  * the non-empty cells next to it (box_supported), which need not reach the
  * ground themselves once other regions changed, so regions (blocks) can
- * leave floating structure where the whole grid cannot. Each floating piece
- * is resynthesized in the box of its x / y extent grown by a margin, over
- * every layer, with the exact whole-lattice check (params.support_global);
- * a failing box grows (margin doubled) up to the whole grid. Serial and
+ * leave floating structure where the whole grid cannot. The floating cells
+ * are resynthesized in the box of their x / y extent (all pieces together:
+ * the check wants none left anywhere) grown by a margin, over every layer,
+ * with the exact whole-lattice check (params.support_global); a failing box
+ * grows (margin doubled) up to the whole grid. Serial and
  * keyed by (seed, region id past the plans', pass): the same on every rank.
  * Counted as regions (accepted / failed). */
 #define MODEL_REPAIR_ID 0x7f000000u
