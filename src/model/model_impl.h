@@ -63,6 +63,8 @@ struct gs_model_resem {
     uint16_t *bg;      /* [nz] commonest label of the example's x/y faces at each layer */
 };
 
+#define GS_MODEL_UTAB_MAX_W 2 /* AC-3 union table: 128 KiB at W = 1, 512 KiB at W = 2 */
+
 struct gs_model_solver {
     const struct gs_model_rules *rules;
     gs_model_ac ac;
@@ -75,6 +77,9 @@ struct gs_model_solver {
     int32_t *queue;    /* ring of n cells */
     uint8_t *inq;      /* [n] */
     size_t qhead, qlen;
+    int ndirs;         /* directions with neighbours in the current problem (6 in 3D) */
+    uint64_t *utab;    /* AC-3 unions (W <= GS_MODEL_UTAB_MAX_W, else NULL):
+                          [8W byte positions][256 byte values][8][W] */
     uint64_t *pending; /* AC-4: [n][W] labels removed but not yet propagated */
     uint16_t *support; /* AC-4: [n][6][L] support counts */
     size_t support_cap;
