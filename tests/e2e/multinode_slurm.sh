@@ -175,7 +175,8 @@ fi
 
 # 3. node 2 dies mid-run (--no-requeue: Slurm would requeue the job, which
 # asks for two nodes, and it would wait for node 2)
-# (a checkpoint every 200 units: each takes about 10 s over the two nodes)
+# (a checkpoint every 200 blocks: the first comes after 0.5 s; over the two
+# nodes the run then slows to about 10 s per checkpoint, README)
 sets=(--set run.checkpoint_seconds=0 --set run.checkpoint_every=200)
 job=$(submit kill --nodes=2 --ntasks=3 --no-requeue)
 for ((i = 0; i < 600; i++)); do [[ -f kill/checkpoint.h5 ]] && break; sleep 0.1; done
