@@ -376,6 +376,12 @@ typedef struct gs_field_synth_config {
                                         the source continued by each offset of its
                                         (2*blend+1)^3 neighbourhood (overlap blending, paper
                                         5.3); 0 = off (the paper) */
+    int seam_cut;                    /* 1: a block takes the samples of its box that a
+                                        minimum cut between the old content and the new
+                                        block gives it, not only the unsynthesized ones
+                                        (min-error boundary cut in 3D, src/field/synth.c
+                                        cut_block); needs region_blocks 0; 0 = off (the
+                                        paper) */
     int complete_objects;            /* 1 (needs prov): after the last iteration (and the
                                         blend) every inside component not touching the
                                         target's faces and smaller than the source's smallest
@@ -551,6 +557,26 @@ typedef struct gs_field_geometry_report {
                                                       quarter of the source's median */
     double step_violations_out, step_violations_src; /* share of 6-neighbour pairs whose
                                                         values differ by > 1.5 samples */
+    /* largest inscribed spheres (objects that touch each other, as balls in a
+     * pile, or the box, as fibers, have them too): the inside samples at
+     * least one sample from the grid's faces whose distance to the nearest
+     * outside sample (exact Euclidean distance transform of the inside, not
+     * clipped by the quantization band) is a maximum over their 26
+     * neighbours (a ball's centre, a fiber's axis), in samples: quantiles
+     * and the KS distance of the two distributions */
+    int64_t inscribed_out, inscribed_src;
+    double inscribed_p10_out, inscribed_p50_out, inscribed_p90_out;
+    double inscribed_p10_src, inscribed_p50_src, inscribed_p90_src;
+    double inscribed_ks;
+    /* objects that run through (fibers): the grid cut into slabs of
+     * crossing_slab samples (half the source's smallest side) along each
+     * axis, the share of the inside samples of whole slabs in components
+     * (within their slab) that reach both of its faces along that axis; the
+     * axis with the largest share of the source, output and source measured
+     * along it. A fiber cut where pieces meet ends inside a slab. */
+    int crossing_axis;
+    int64_t crossing_slab;
+    double crossing_share_out, crossing_share_src;
     double seconds;
 } gs_field_geometry_report;
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,

@@ -91,6 +91,12 @@ static const gs_cfg_key field_keys[] = {
                    "between pieces copied from different source offsets fade from one piece into "
                    "the other (overlap blending); 0 = off (the paper: the pieces meet in steps); 2 "
                    "where copy_limit is set"),
+    GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
+                    "minimum-error boundary cut: each block takes the samples of its box that a "
+                    "minimum cut between the synthesized overlap and the matched block gives it "
+                    "(the seam follows where they agree, not the block grid); needs "
+                    "region_blocks = 0; no = off (the paper: a block fills only unsynthesized "
+                    "samples)"),
     GS_CFG_KEY_BOOL(field_config, complete_objects, "field.complete_objects", "no",
                     "after the last iteration, inside components that touch no face and are "
                     "smaller than the source's smallest such component (objects cut where "

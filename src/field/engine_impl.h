@@ -47,6 +47,7 @@ typedef struct field_config {
     int upper_bound;
     double copy_limit;
     int64_t blend;
+    int seam_cut;
     int complete_objects;
     int64_t region_blocks;
     char *tree;

@@ -237,6 +237,19 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_f64(run, "fragment_share_src", g->fragment_share_src);
     gs_run_metric_f64(run, "step_violations_out", g->step_violations_out);
     gs_run_metric_f64(run, "step_violations_src", g->step_violations_src);
+    gs_run_metric_i64(run, "inscribed_out", g->inscribed_out);
+    gs_run_metric_i64(run, "inscribed_src", g->inscribed_src);
+    gs_run_metric_f64(run, "inscribed_p10_out", g->inscribed_p10_out);
+    gs_run_metric_f64(run, "inscribed_p50_out", g->inscribed_p50_out);
+    gs_run_metric_f64(run, "inscribed_p90_out", g->inscribed_p90_out);
+    gs_run_metric_f64(run, "inscribed_p10_src", g->inscribed_p10_src);
+    gs_run_metric_f64(run, "inscribed_p50_src", g->inscribed_p50_src);
+    gs_run_metric_f64(run, "inscribed_p90_src", g->inscribed_p90_src);
+    gs_run_metric_f64(run, "inscribed_ks", g->inscribed_ks);
+    gs_run_metric_i64(run, "crossing_axis", g->crossing_axis);
+    gs_run_metric_i64(run, "crossing_slab", g->crossing_slab);
+    gs_run_metric_f64(run, "crossing_share_out", g->crossing_share_out);
+    gs_run_metric_f64(run, "crossing_share_src", g->crossing_share_src);
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
            "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
@@ -251,6 +264,14 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
            (long long)g->components_src, g->components_per_msample_src, g->component_median_out,
            g->component_median_src, g->component_size_ks, g->fragment_share_out,
            g->fragment_share_src, g->step_violations_out, g->step_violations_src, g->seconds);
+    gs_log(GS_LOG_INFO,
+           "inscribed spheres: radius p10/p50/p90 %.2f/%.2f/%.2f samples (source "
+           "%.2f/%.2f/%.2f), KS %.3f; through slabs of %lld along axis %d: %.3f of the inside "
+           "(source %.3f)",
+           g->inscribed_p10_out, g->inscribed_p50_out, g->inscribed_p90_out,
+           g->inscribed_p10_src, g->inscribed_p50_src, g->inscribed_p90_src, g->inscribed_ks,
+           (long long)g->crossing_slab, g->crossing_axis, g->crossing_share_out,
+           g->crossing_share_src);
 }
 
 /* The result, redistanced (rank 0, broadcast), field.h5, the quality

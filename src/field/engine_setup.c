@@ -177,6 +177,7 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.use_upper_bound = c->upper_bound;
     d->sc.copy_limit = c->copy_limit;
     d->sc.blend = (int)c->blend;
+    d->sc.seam_cut = c->seam_cut;
     d->sc.complete_objects = c->complete_objects;
     d->sc.region_blocks = (int)c->region_blocks;
     d->ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;

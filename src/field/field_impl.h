@@ -141,4 +141,22 @@ static inline int64_t gs_tree_block_base(const struct gs_field_tree *t, uint32_t
 gs_err gs_step_layout_init(gs_step_layout *lay, int B, int64_t nx, int64_t ny);
 void gs_step_layout_free(gs_step_layout *lay);
 
+/* Minimum-error boundary cut of one B^3 block (field.seam_cut,
+ * src/field/seamcut.c): term[i] ties sample i (x fastest) to the old content
+ * (GS_CUT_OLD), to the new block (GS_CUT_NEW) or to neither (GS_CUT_FREE);
+ * cost[i] is the disagreement of old and new at i (an edge costs the sum of
+ * its ends'). take_new[i] = 1 where the minimum cut gives the sample to the
+ * new block (always for GS_CUT_NEW, never for GS_CUT_OLD). Deterministic. */
+enum { GS_CUT_FREE = 0, GS_CUT_OLD = 1, GS_CUT_NEW = 2 };
+typedef struct gs_field_cut_scratch {
+    int B;
+    uint32_t *cap;                /* residual capacity per node and direction */
+    int32_t *level, *queue, *path;
+    uint8_t *arc;                 /* current arc per node */
+} gs_field_cut_scratch;
+gs_err gs_field_cut_scratch_init(gs_field_cut_scratch *c, int B);
+void gs_field_cut_scratch_free(gs_field_cut_scratch *c);
+gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uint32_t *cost,
+                         uint8_t *take_new);
+
 #endif

@@ -112,6 +112,187 @@ static double share_below(const uint64_t *s, int64_t n, double t)
     return n ? (double)c / (double)n : 0;
 }
 
+static int cmp_f64(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Squared Euclidean distance transform along one line of n values
+ * (Felzenszwalb and Huttenlocher 2012): f in, d out, stride st; v, z
+ * scratch of n and n + 1. */
+static void edt_line(uint16_t *g, int64_t n, int64_t st, double *f, double *d, int64_t *v,
+                     double *z)
+{
+    const double INF = 1e20;
+    for (int64_t i = 0; i < n; i++)
+        f[i] = g[i * st] == UINT16_MAX ? INF : (double)g[i * st];
+    int64_t k = 0;
+    v[0] = 0, z[0] = -INF, z[1] = INF;
+    for (int64_t q = 1; q < n; q++) {
+        double sq;
+        for (;;) {
+            int64_t p = v[k];
+            sq = ((f[q] + (double)(q * q)) - (f[p] + (double)(p * p))) / (double)(2 * q - 2 * p);
+            if (sq <= z[k] && k > 0)
+                k--;
+            else
+                break;
+        }
+        if (sq <= z[k]) { /* k == 0: q replaces the first parabola */
+            v[0] = q, z[0] = -INF, z[1] = INF;
+            continue;
+        }
+        k++;
+        v[k] = q, z[k] = sq, z[k + 1] = INF;
+    }
+    k = 0;
+    for (int64_t q = 0; q < n; q++) {
+        while (z[k + 1] < (double)q)
+            k++;
+        double dq = (double)(q - v[k]);
+        d[q] = dq * dq + f[v[k]];
+    }
+    for (int64_t i = 0; i < n; i++)
+        g[i * st] = d[i] >= (double)(UINT16_MAX - 1) ? UINT16_MAX - 1 : (uint16_t)d[i];
+}
+
+/* Radii (samples, sorted ascending) of the largest inscribed spheres: the
+ * inside samples at least one sample from every face whose distance to the
+ * nearest outside sample (an exact Euclidean distance transform of the
+ * inside, so not limited by the quantization band as the field's own depth
+ * is) is a maximum over their 26 neighbours: a ball's centre, a fiber's
+ * axis. Outside the grid counts as neither. *r owned by the caller. Memory:
+ * 2 bytes per sample. */
+static gs_err inscribed_radii(const gs_qfield *q, double **r, int64_t *n)
+{
+    int64_t nx = q->nx, ny = q->ny, nz = q->nz, nxy = nx * ny, cells = nxy * nz;
+    int64_t big = nx > ny ? nx : ny;
+    big = big > nz ? big : nz;
+    uint16_t *g = NULL;
+    double *f = NULL, *d = NULL, *z = NULL, *v = NULL;
+    int64_t *vi = NULL, cnt = 0, cap = 1024;
+    gs_err err = GS_OK;
+    uint8_t inside[256];
+    for (int i = 0; i < 256; i++)
+        inside[i] = gs_qfield_value(q, (uint8_t)i) < 0;
+    GS_TRY(err, gs_alloc_array((void **)&g, (size_t)cells, sizeof *g, "inscribed distances"), done);
+    GS_TRY(err, gs_alloc_array((void **)&f, (size_t)big, sizeof *f, "distance line"), done);
+    GS_TRY(err, gs_alloc_array((void **)&d, (size_t)big, sizeof *d, "distance line"), done);
+    GS_TRY(err, gs_alloc_array((void **)&z, (size_t)big + 1, sizeof *z, "distance line"), done);
+    GS_TRY(err, gs_alloc_array((void **)&vi, (size_t)big, sizeof *vi, "distance line"), done);
+    GS_TRY(err, gs_alloc_array((void **)&v, (size_t)cap, sizeof *v, "inscribed radii"), done);
+    for (int64_t i = 0; i < cells; i++)
+        g[i] = inside[q->q[i]] ? UINT16_MAX : 0;
+    for (int64_t zz = 0; zz < nz; zz++)
+        for (int64_t y = 0; y < ny; y++)
+            edt_line(g + nxy * zz + nx * y, nx, 1, f, d, vi, z);
+    for (int64_t zz = 0; zz < nz; zz++)
+        for (int64_t x = 0; x < nx; x++)
+            edt_line(g + nxy * zz + x, ny, nx, f, d, vi, z);
+    for (int64_t y = 0; y < ny; y++)
+        for (int64_t x = 0; x < nx; x++)
+            edt_line(g + nx * y + x, nz, nxy, f, d, vi, z);
+    for (int64_t zz = 1; zz + 1 < nz; zz++)
+        for (int64_t y = 1; y + 1 < ny; y++)
+            for (int64_t x = 1; x + 1 < nx; x++) {
+                int64_t i = x + nx * y + nxy * zz;
+                uint16_t e = g[i];
+                if (!e)
+                    continue;
+                int top = 1;
+                for (int dz = -1; dz <= 1 && top; dz++)
+                    for (int dy = -1; dy <= 1 && top; dy++)
+                        for (int dx = -1; dx <= 1 && top; dx++)
+                            top = g[i + dx + nx * dy + nxy * dz] <= e;
+                if (!top)
+                    continue;
+                if (cnt == cap) {
+                    double *w = gs_realloc(v, (size_t)cap * 2 * sizeof *v);
+                    GS_TRY_CHECK(err, w, GS_ERR_MEM, done, "out of memory for %lld inscribed radii",
+                                 (long long)cap * 2);
+                    v = w, cap *= 2;
+                }
+                v[cnt++] = sqrt((double)e);
+            }
+    qsort(v, (size_t)cnt, sizeof *v, cmp_f64);
+    *r = v, *n = cnt;
+    v = NULL;
+done:
+    gs_free(g);
+    gs_free(f);
+    gs_free(d);
+    gs_free(z);
+    gs_free(vi);
+    gs_free(v);
+    return err;
+}
+
+static double quantile(const double *s, int64_t n, double p)
+{
+    if (n == 0)
+        return 0;
+    int64_t k = (int64_t)(p * (double)(n - 1) + 0.5);
+    return s[k];
+}
+
+/* Share of the inside samples of whole slabs (L samples along axis a) in
+ * components of their slab that reach both of its faces along a. */
+static gs_err crossing_share(const gs_qfield *q, int a, int64_t L, double *share)
+{
+    int64_t n[3] = {q->nx, q->ny, q->nz}, m[3] = {q->nx, q->ny, q->nz};
+    *share = 0;
+    if (L < 2 || n[a] < L)
+        return GS_OK;
+    m[a] = L;
+    size_t cells = (size_t)(m[0] * m[1] * m[2]);
+    uint8_t inside[256], *mask = NULL, *ends = NULL;
+    for (int i = 0; i < 256; i++)
+        inside[i] = gs_qfield_value(q, (uint8_t)i) < 0;
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sz = NULL, in = 0, cross = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&mask, cells, 1, "slab mask"), done);
+    GS_TRY(err, gs_alloc_array((void **)&label, cells, sizeof *label, "slab labels"), done);
+    for (int64_t s0 = 0; s0 + L <= n[a]; s0 += L) {
+        for (int64_t z = 0; z < m[2]; z++)
+            for (int64_t y = 0; y < m[1]; y++)
+                for (int64_t x = 0; x < m[0]; x++) {
+                    int64_t c[3] = {x, y, z};
+                    c[a] += s0;
+                    uint8_t b = inside[q->q[c[0] + n[0] * (c[1] + n[1] * c[2])]];
+                    mask[x + m[0] * (y + m[1] * z)] = b;
+                    in += b;
+                }
+        gs_free(sz);
+        sz = NULL;
+        GS_TRY(err, gs_measure_components3(mask, (int)m[0], (int)m[1], (int)m[2], NULL, label,
+                                           &nc, &sz), done);
+        gs_free(ends);
+        ends = NULL;
+        GS_TRY(err, gs_alloc_array((void **)&ends, (size_t)nc + 1, 1, "slab ends"), done);
+        memset(ends, 0, (size_t)nc + 1);
+        int64_t st[3] = {1, m[0], m[0] * m[1]};
+        for (int64_t i = 0; i < (int64_t)cells; i++) {
+            int64_t c = i / st[a] % m[a];
+            if (c == 0)
+                ends[label[i]] |= 1;
+            if (c == L - 1)
+                ends[label[i]] |= 2;
+        }
+        for (uint32_t k = 1; k <= nc; k++)
+            if (ends[k] == 3)
+                cross += sz[k];
+    }
+    *share = in ? (double)cross / (double)in : 0;
+done:
+    gs_free(mask);
+    gs_free(label);
+    gs_free(sz);
+    gs_free(ends);
+    return err;
+}
+
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,
                                  gs_field_geometry_report *r)
 {
@@ -142,6 +323,33 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
     GS_TRY(err, gs_measure_ks(xo, (size_t)no, xs, (size_t)ns, &r->component_size_ks), done);
     r->step_violations_out = level_step_violations(out, 1.5);
     r->step_violations_src = level_step_violations(src, 1.5);
+    double *ro = NULL, *rs = NULL;
+    GS_TRY(err, inscribed_radii(out, &ro, &r->inscribed_out), radii);
+    GS_TRY(err, inscribed_radii(src, &rs, &r->inscribed_src), radii);
+    r->inscribed_p10_out = quantile(ro, r->inscribed_out, 0.1);
+    r->inscribed_p50_out = quantile(ro, r->inscribed_out, 0.5);
+    r->inscribed_p90_out = quantile(ro, r->inscribed_out, 0.9);
+    r->inscribed_p10_src = quantile(rs, r->inscribed_src, 0.1);
+    r->inscribed_p50_src = quantile(rs, r->inscribed_src, 0.5);
+    r->inscribed_p90_src = quantile(rs, r->inscribed_src, 0.9);
+    GS_TRY(err, gs_measure_ks(ro, (size_t)r->inscribed_out, rs, (size_t)r->inscribed_src,
+                              &r->inscribed_ks), radii);
+    r->crossing_slab = sn[0] < sn[1] ? sn[0] : sn[1];
+    r->crossing_slab = (sn[2] < r->crossing_slab ? sn[2] : r->crossing_slab) / 2;
+    r->crossing_share_src = -1;
+    for (int a = 0; a < 3; a++) {
+        double cs;
+        GS_TRY(err, crossing_share(src, a, r->crossing_slab, &cs), radii);
+        if (cs > r->crossing_share_src)
+            r->crossing_share_src = cs, r->crossing_axis = a;
+    }
+    GS_TRY(err, crossing_share(out, r->crossing_axis, r->crossing_slab, &r->crossing_share_out),
+           radii);
+radii:
+    gs_free(ro);
+    gs_free(rs);
+    if (err != GS_OK)
+        goto done;
     r->seconds = gs_time_now() - t0;
 done:
     gs_free(so);

@@ -57,9 +57,13 @@ struct gs_field_synth {
     int32_t (*rbox)[6];           /* per matched block position: bounding box (samples, lo
                                      x y z, hi x y z) of the copy it belongs to (copy_limit) */
     int64_t nreg;
+    int64_t nr[3];                /* regions per axis */
     gs_field_region *reg;
     uint8_t *scratch;             /* 2 x the largest region box: target, mask */
     size_t scratch_len;
+    gs_field_cut_scratch cut;     /* seam_cut: the max-flow graph of one block */
+    uint8_t *cut_term, *cut_new;  /* per block sample: tie, and the cut's choice */
+    uint32_t *cut_cost;           /* per block sample: old/new disagreement */
 };
 
 /* What the region path needs to replay one block (apply). */
@@ -174,6 +178,7 @@ static gs_err build_regions(struct gs_field_synth *s, int B)
             nr[a]--;
     }
     int64_t n = nr[0] * nr[1] * nr[2];
+    memcpy(s->nr, nr, sizeof s->nr);
     GS_CALL(gs_alloc_array((void **)&s->reg, (size_t)n, sizeof *s->reg, "target regions"));
     GS_CALL(gs_alloc_array((void **)&s->order, (size_t)s->st.blocks_in_iteration, sizeof *s->order,
                            "block visit order"));
@@ -252,6 +257,17 @@ static gs_err enter_iteration(struct gs_field_synth *s)
     GS_CALL(gs_alloc_array((void **)&s->rbox, (size_t)s->st.blocks_in_iteration, sizeof *s->rbox,
                            "copy boxes"));
     GS_CALL(build_regions(s, B));
+    if (s->cfg.seam_cut) {
+        size_t nb = (size_t)B * B * B;
+        GS_CALL(gs_field_cut_scratch_init(&s->cut, B));
+        gs_free(s->cut_term);
+        gs_free(s->cut_new);
+        gs_free(s->cut_cost);
+        s->cut_term = s->cut_new = NULL, s->cut_cost = NULL;
+        GS_CALL(gs_alloc_array((void **)&s->cut_term, nb, 1, "seam cut ties"));
+        GS_CALL(gs_alloc_array((void **)&s->cut_new, nb, 1, "seam cut labels"));
+        GS_CALL(gs_alloc_array((void **)&s->cut_cost, nb, sizeof *s->cut_cost, "seam cut costs"));
+    }
     gs_free(s->qval);
     gs_free(s->qknown);
     s->qval = gs_malloc((size_t)B * B * B);
@@ -392,6 +408,10 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_free(s->rbox);
     gs_free(s->reg);
     gs_free(s->scratch);
+    gs_field_cut_scratch_free(&s->cut);
+    gs_free(s->cut_term);
+    gs_free(s->cut_new);
+    gs_free(s->cut_cost);
     GS_FREE(*sp);
 }
 
@@ -1053,10 +1073,78 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     return GS_OK;
 }
 
+/* Seam cut (cfg.seam_cut) of block b at p on view v against source block
+ * bp: s->cut_new[i] = 1 for the block samples the new block takes. Without
+ * it the new block takes the unsynthesized samples only, so pieces meet on
+ * the planes of the block grid whatever they hold there (terrain.ini:
+ * straight cliffs; balls and discs cut in two). With it the seam may move
+ * into the synthesized overlap, along the samples where old and new agree
+ * best (Efros and Freeman's minimum error boundary cut, in 3D as a graph cut
+ * [Kwatra et al. 2003]; paper 5.3 names both as texture synthesis' answer).
+ * Ties: an unsynthesized sample takes the new block; a synthesized one on a
+ * face of the block (not of the target) keeps the old content, so the seam
+ * closes inside the block; with target regions, so does every synthesized
+ * sample outside the core of b's region: a region then rewrites only its
+ * own core, which no region of its colour reads, and the regions' result is
+ * the raster order's on those cores (it depends on region_blocks, never on
+ * the rank count). The rest is free. A sample's disagreement: |old - new| in
+ * levels, plus one sample's worth of levels where they differ in sign (a
+ * surface there would move); 0 where nothing is synthesized yet. Reads
+ * only the block's box, the same on a region's private copy as on the
+ * whole target. */
+static void cut_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
+                      int64_t b, const int64_t bp[3])
+{
+    int B = s->cfg.block[s->st.iteration];
+    const gs_qfield *ls = s->level_src;
+    const int64_t *tn = s->st.tn;
+    int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
+    uint8_t inside[256];
+    for (int l = 0; l < 256; l++)
+        inside[l] = gs_qfield_value(ls, (uint8_t)l) < 0;
+    uint32_t flip = (uint32_t)(255.0 * ls->spacing / (ls->hi - ls->lo) + 0.5);
+    int64_t core[6] = {0, 0, 0, tn[0], tn[1], tn[2]};
+    if (s->reg) {
+        int64_t c[3], R = s->cfg.region_blocks;
+        block_coords(s, b, c);
+        for (int a = 0; a < 3; a++) {
+            int64_t r = c[a] / R < s->nr[a] ? c[a] / R : s->nr[a] - 1;
+            int64_t f = r * R, l = r == s->nr[a] - 1 ? s->npos[a] : f + R;
+            core[a] = f == 0 ? 0 : s->pos[a][f - 1] + B;
+            core[a + 3] = l == s->npos[a] ? tn[a] : s->pos[a][l - 1] + B;
+        }
+    }
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++) {
+            int64_t o = p[0] - v->o[0] + vx * (p[1] - v->o[1] + j) + vxy * (p[2] - v->o[2] + k);
+            const uint8_t *from = ls->q + bp[0] + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k));
+            for (int i = 0; i < B; i++) {
+                int32_t n = i + B * (j + B * k);
+                int64_t t = o + i;
+                if (!v->mask[t]) {
+                    s->cut_term[n] = GS_CUT_NEW, s->cut_cost[n] = 0;
+                    continue;
+                }
+                uint8_t x = v->target[t], y = from[i];
+                s->cut_cost[n] = (uint32_t)(x > y ? x - y : y - x) +
+                                 (inside[x] != inside[y] ? flip : 0);
+                int loc[3] = {i, j, k}, old = 0;
+                for (int a = 0; a < 3 && !old; a++) {
+                    int64_t g = p[a] + loc[a];
+                    old = (loc[a] == 0 && g > 0) || (loc[a] == B - 1 && g + 1 < tn[a]) ||
+                          g < core[a] || g >= core[a + 3];
+                }
+                s->cut_term[n] = old ? GS_CUT_OLD : GS_CUT_FREE;
+            }
+        }
+    gs_field_seam_cut(&s->cut, s->cut_term, s->cut_cost, s->cut_new);
+}
+
 /* Copies source block `index` into the unsynthesized samples of the block
- * at p on view v; records provenance (last iteration, whole target only). */
+ * at p on view v (with seam_cut: into the samples the cut gives it);
+ * records provenance (last iteration, whole target only). */
 static void copy_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
-                       int64_t index, int record)
+                       int64_t b, int64_t index, int record)
 {
     int it = s->st.iteration, B = s->cfg.block[it];
     int64_t bp[3];
@@ -1065,11 +1153,20 @@ static void copy_block(struct gs_field_synth *s, const synth_view *v, const int6
     int32_t *prov = record && it == s->cfg.iterations - 1 ? s->cfg.prov : NULL;
     uint64_t csq = 0, cn = 0;
     int64_t vx = v->n[0], vxy = v->n[0] * v->n[1];
+    if (s->cfg.seam_cut)
+        cut_block(s, v, p, b, bp);
     for (int k = 0; k < B; k++)
         for (int j = 0; j < B; j++) {
             int64_t o = p[0] - v->o[0] + vx * (p[1] - v->o[1] + j) + vxy * (p[2] - v->o[2] + k);
             int64_t so = bp[0] + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k));
             const uint8_t *from = ls->q + so;
+            if (s->cfg.seam_cut)
+                for (int i = 0; i < B; i++)
+                    if (v->mask[o + i] && s->cut_new[i + B * (j + B * k)]) {
+                        v->target[o + i] = from[i];
+                        if (prov)
+                            prov[o + i] = (int32_t)(so + i);
+                    }
             for (int i = 0; i < B; i++)
                 if (!v->mask[o + i]) {
                     csq += (gs_qfield_value(ls, from[i]) < 0) !=
@@ -1114,8 +1211,9 @@ static gs_err synth_block(struct gs_field_synth *s)
     block_pos(s, s->st.cursor, p);
     synth_view v = whole_view(s);
     block_result r;
-    GS_CALL(match_block(s, &v, p, s->order ? s->order[s->st.cursor] : s->st.cursor, 1, &r));
-    copy_block(s, &v, p, r.index, 1);
+    int64_t b = s->order ? s->order[s->st.cursor] : s->st.cursor;
+    GS_CALL(match_block(s, &v, p, b, 1, &r));
+    copy_block(s, &v, p, b, r.index, 1);
     account(s, &r);
     return GS_OK;
 }
@@ -1189,7 +1287,7 @@ gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out)
         block_pos(s, g->first + i, p);
         block_result r;
         GS_CALL(match_block(s, &v, p, s->order[g->first + i], 0, &r));
-        copy_block(s, &v, p, r.index, 0);
+        copy_block(s, &v, p, s->order[g->first + i], r.index, 0);
         memcpy(&res[i], &r, sizeof r);
     }
     return GS_OK;
@@ -1220,7 +1318,7 @@ gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const voi
         block_pos(s, s->st.cursor, p);
         s->match_at[s->order[s->st.cursor]] = r.index + 1;
         note_match(s, s->order[s->st.cursor]);
-        copy_block(s, &v, p, r.index, 1);
+        copy_block(s, &v, p, s->order[s->st.cursor], r.index, 1);
         account(s, &r);
     }
     return GS_OK;

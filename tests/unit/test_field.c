@@ -14,6 +14,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/regions.h"
 #include "geosynth/rng.h"
+#include "field/field_impl.h"
 
 #define OK(expr) assert_int_equal((expr), GS_OK)
 
@@ -785,6 +786,39 @@ static void run_by_regions(gs_field_synth_t s, const gs_field_synth_config *c, i
     }
 }
 
+/* Runs c on src serially (provenance pa) and by regions (pb), checks that
+ * both give the same target, provenance and statistics, returns the digest
+ * of the target. */
+static uint64_t regions_agree(const gs_qfield *src, gs_field_synth_config *c, int32_t *pa,
+                              int32_t *pb, int64_t *colors, int64_t *regions)
+{
+    int64_t nt = c->target[0] * c->target[1] * c->target[2];
+    for (int64_t i = 0; i < nt; i++)
+        pa[i] = pb[i] = -1;
+    c->prov = pa;
+    gs_field_synth_t a = NULL, b = NULL;
+    OK(gs_field_synth_create(src, c, &a));
+    uint64_t da = run_all(src, c, a);
+    c->prov = pb;
+    OK(gs_field_synth_create(src, c, &b));
+    run_by_regions(b, c, colors, regions);
+    const gs_field_synth_state *sa = gs_field_synth_get_state(a), *sb = gs_field_synth_get_state(b);
+    int64_t n = sb->tn[0] * sb->tn[1] * sb->tn[2];
+    assert_int_equal(n, nt);
+    for (int64_t i = 0; i < n; i++)
+        assert_int_equal(sb->mask[i], 1);
+    assert_true(gs_digest_bytes(sb->target, (size_t)n) == da);
+    assert_memory_equal(pa, pb, (size_t)nt * sizeof *pa);
+    for (int i = 0; i < c->iterations; i++) {
+        assert_int_equal(sa->stat_count[i], sb->stat_count[i]);
+        assert_true(sa->stat_sum[i] == sb->stat_sum[i]);
+        assert_true(sa->stat_pops[i] == sb->stat_pops[i]);
+    }
+    gs_field_synth_destroy(&a);
+    gs_field_synth_destroy(&b);
+    return da;
+}
+
 /* Target regions: the region path (parallel on the ranks) gives exactly the
  * serial visit order's target, statistics and provenance, and that is the
  * raster order's result (R = 0), also with clamped last block positions
@@ -808,31 +842,11 @@ static void test_synthesis_regions(void **state)
     int32_t *pa = gs_malloc((size_t)nt * sizeof *pa), *pb = gs_malloc((size_t)nt * sizeof *pb);
     uint64_t raster = 0;
     for (int R = 0; R <= 4; R += R ? 3 : 1) { /* 0, 1, 4 */
-        for (int64_t i = 0; i < nt; i++)
-            pa[i] = pb[i] = -1;
         c.region_blocks = R;
-        c.prov = pa;
-        gs_field_synth_t a = NULL, b = NULL;
-        OK(gs_field_synth_create(src, &c, &a));
-        uint64_t da = run_all(src, &c, a);
-        c.prov = pb;
-        OK(gs_field_synth_create(src, &c, &b));
         int64_t colors = 0, regions = 0;
-        run_by_regions(b, &c, &colors, &regions);
-        const gs_field_synth_state *sa = gs_field_synth_get_state(a), *sb = gs_field_synth_get_state(b);
-        int64_t n = sb->tn[0] * sb->tn[1] * sb->tn[2];
-        assert_int_equal(n, nt);
-        for (int64_t i = 0; i < n; i++)
-            assert_int_equal(sb->mask[i], 1);
-        assert_true(gs_digest_bytes(sb->target, (size_t)n) == da);
-        assert_memory_equal(pa, pb, (size_t)nt * sizeof *pa);
+        uint64_t da = regions_agree(src, &c, pa, pb, &colors, &regions);
         for (int64_t i = 0; i < nt; i++)
             assert_true(pa[i] >= 0 && pa[i] < 24 * 24 * 24);
-        for (int i = 0; i < c.iterations; i++) {
-            assert_int_equal(sa->stat_count[i], sb->stat_count[i]);
-            assert_true(sa->stat_sum[i] == sb->stat_sum[i]);
-            assert_true(sa->stat_pops[i] == sb->stat_pops[i]);
-        }
         fprintf(stderr, "regions %d: %lld colors, %lld regions, digest %016llx\n", R,
                 (long long)colors, (long long)regions, (unsigned long long)da);
         if (R == 0) {
@@ -847,9 +861,30 @@ static void test_synthesis_regions(void **state)
             if (R == 1)
                 assert_true(regions >= 13 * 9 * 7 && colors >= 27);
         }
-        gs_field_synth_destroy(&a);
-        gs_field_synth_destroy(&b);
     }
+    /* with the seam cut (on a smooth source, where old and new can agree:
+     * on noise the cheapest seam is the unsynthesized octant's own border)
+     * the result depends on region_blocks (a region's cuts stay in its core)
+     * but the region path still gives the serial visit order's result,
+     * provenance included; and the cut changes the result */
+    gs_qfield *smooth = make_source(GS_FIELD_BALLS, 24, 3);
+    for (int R = 0; R <= 4; R += 4) { /* with R = 1 a core is the block's new octant: no cut */
+        uint64_t plain = 0;
+        for (int cut = 0; cut <= 1; cut++) {
+            c.seam_cut = cut;
+            c.region_blocks = R;
+            int64_t colors = 0, regions = 0;
+            uint64_t da = regions_agree(smooth, &c, pa, pb, &colors, &regions);
+            fprintf(stderr, "seam cut %d, regions %d: digest %016llx\n", cut, R,
+                    (unsigned long long)da);
+            if (!cut)
+                plain = da;
+            else
+                assert_true(da != plain);
+        }
+    }
+    gs_qfield_destroy(&smooth);
+    c.seam_cut = 0;
     c.region_blocks = -1;
     gs_field_synth_t o = NULL;
     assert_int_equal(gs_field_synth_create(src, &c, &o), GS_ERR_ARG);
@@ -858,6 +893,155 @@ static void test_synthesis_regions(void **state)
     gs_free(pa);
     gs_free(pb);
     gs_qfield_destroy(&src);
+}
+
+/* The seam cut is a minimum cut: on 2^3 blocks with random ties and costs
+ * its labels cost exactly the least of every labelling that respects the
+ * ties (brute force over the free samples), new samples take the new
+ * block, old ones keep the old content. */
+static void test_seam_cut_minimum(void **state)
+{
+    (void)state;
+    gs_field_cut_scratch cs = {0};
+    OK(gs_field_cut_scratch_init(&cs, 2));
+    gs_rng r;
+    gs_rng_init(&r, 5, 0);
+    for (int trial = 0; trial < 400; trial++) {
+        uint8_t term[8], take[8];
+        uint32_t cost[8];
+        for (int i = 0; i < 8; i++) {
+            term[i] = (uint8_t)gs_rng_below(&r, 3);
+            cost[i] = (uint32_t)gs_rng_below(&r, 50);
+        }
+        OK(gs_field_seam_cut(&cs, term, cost, take));
+        int any_old = 0;
+        for (int i = 0; i < 8; i++) {
+            any_old |= term[i] == GS_CUT_OLD;
+            if (term[i] == GS_CUT_NEW)
+                assert_int_equal(take[i], 1);
+            if (term[i] == GS_CUT_OLD)
+                assert_int_equal(take[i], 0);
+        }
+        uint64_t best = UINT64_MAX, got = 0;
+        for (int m = 0; m < 256; m++) {
+            int okm = 1;
+            for (int i = 0; i < 8 && okm; i++)
+                okm = !((term[i] == GS_CUT_NEW && !(m >> i & 1)) ||
+                        (term[i] == GS_CUT_OLD && (m >> i & 1)));
+            if (!okm)
+                continue;
+            uint64_t c = 0;
+            for (int i = 0; i < 8; i++)
+                for (int a = 0; a < 3; a++) {
+                    int j = i ^ (1 << a);
+                    if (j > i && (m >> i & 1) != (m >> j & 1))
+                        c += cost[i] + cost[j];
+                }
+            best = c < best ? c : best;
+        }
+        for (int i = 0; i < 8; i++)
+            for (int a = 0; a < 3; a++) {
+                int j = i ^ (1 << a);
+                if (j > i && take[i] != take[j])
+                    got += cost[i] + cost[j];
+            }
+        if (any_old)
+            assert_true(got == best);
+    }
+    gs_field_cut_scratch_free(&cs);
+}
+
+/* The cut follows agreement: on an 8^3 block whose x = 0 face is old and
+ * x = 7 face new, every sample costs 100 but those at x = 2 (old and new
+ * agree there); the cheapest seams run on either side of x = 2 (100 a row,
+ * elsewhere 200), and of the two the new block takes the larger share:
+ * x >= 2. */
+static void test_seam_cut_follows_agreement(void **state)
+{
+    (void)state;
+    enum { B = 8 };
+    gs_field_cut_scratch cs = {0};
+    OK(gs_field_cut_scratch_init(&cs, B));
+    uint8_t term[B * B * B], take[B * B * B];
+    uint32_t cost[B * B * B];
+    for (int i = 0; i < B * B * B; i++) {
+        int x = i % B;
+        term[i] = x == 0 ? GS_CUT_OLD : x == B - 1 ? GS_CUT_NEW : GS_CUT_FREE;
+        cost[i] = x == 2 ? 0 : 100;
+    }
+    OK(gs_field_seam_cut(&cs, term, cost, take));
+    for (int i = 0; i < B * B * B; i++)
+        assert_int_equal(take[i], i % B >= 2 ? 1 : 0);
+    gs_field_cut_scratch_free(&cs);
+}
+
+/* Object measures of gs_field_geometry_measure on known shapes: inscribed
+ * sphere radii from the inside's distance transform (balls of radius 6
+ * quantized over [-3, 3]: the field's own depth stops at 3, the radii do
+ * not), and the crossing share (tubes along x cross every slab; the same
+ * tubes cut every 8 samples cross none). */
+static uint8_t level_of(const gs_qfield *q, double d)
+{
+    double l = (d - q->lo) / (q->hi - q->lo) * 255.0;
+    return (uint8_t)(l < 0 ? 0 : l > 255 ? 255 : l + 0.5);
+}
+
+static void test_geometry_objects(void **state)
+{
+    (void)state;
+    const int64_t n = 48;
+    gs_qfield *balls = NULL, *tubes = NULL, *cut = NULL;
+    OK(gs_qfield_create(n, n, n, -3, 3, &balls));
+    OK(gs_qfield_create(n, n, n, -3, 3, &tubes));
+    OK(gs_qfield_create(n, n, n, -3, 3, &cut));
+    for (int64_t z = 0; z < n; z++)
+        for (int64_t y = 0; y < n; y++)
+            for (int64_t x = 0; x < n; x++) {
+                double db = 1e9, dt = 1e9;
+                for (int k = 0; k < 8; k++) {
+                    double c[3] = {12 + 24 * (k & 1), 12 + 24 * (k >> 1 & 1), 12 + 24 * (k >> 2)};
+                    double e = sqrt((x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]) +
+                                    (z - c[2]) * (z - c[2])) - 6.0;
+                    db = e < db ? e : db;
+                }
+                for (int k = 0; k < 4; k++) {
+                    double cy = 12 + 24 * (k & 1), cz = 12 + 24 * (k >> 1);
+                    double e = sqrt((y - cy) * (y - cy) + (z - cz) * (z - cz)) - 3.0;
+                    dt = e < dt ? e : dt;
+                }
+                double dc = x % 8 == 7 ? (dt > 0.5 ? dt : 0.5) : dt;
+                int64_t i = x + n * (y + n * z);
+                balls->q[i] = level_of(balls, db);
+                tubes->q[i] = level_of(tubes, dt);
+                cut->q[i] = level_of(cut, dc);
+            }
+    gs_field_geometry_report g;
+    OK(gs_field_geometry_measure(balls, balls, 8, &g));
+    assert_true(g.inscribed_src >= 8);
+    assert_true(g.inscribed_p50_src > 5.5 && g.inscribed_p50_src < 7.0);
+    assert_true(g.inscribed_ks == 0);
+    OK(gs_field_geometry_measure(cut, tubes, 8, &g));
+    assert_int_equal(g.crossing_axis, 0);
+    assert_int_equal(g.crossing_slab, 24);
+    assert_true(g.crossing_share_src > 0.99);
+    assert_true(g.crossing_share_out < 0.01);
+    assert_true(g.inscribed_p50_src > 2.5 && g.inscribed_p50_src < 4.0);
+    /* a plate 5 samples thick (z in [22, 26]), 20 x 20 wide: its inscribed
+     * spheres are 3 samples, whatever the width (the transform along z
+     * counts) */
+    for (int64_t z = 0; z < n; z++)
+        for (int64_t y = 0; y < n; y++)
+            for (int64_t x = 0; x < n; x++) {
+                double dz = fabs((double)z - 24.0) - 2.5, dy = fabs((double)y - 24.0) - 10.0,
+                       dx = fabs((double)x - 24.0) - 10.0;
+                double m = dz > dy ? dz : dy;
+                balls->q[x + n * (y + n * z)] = level_of(balls, m > dx ? m : dx);
+            }
+    OK(gs_field_geometry_measure(balls, balls, 8, &g));
+    assert_true(g.inscribed_p90_src >= 2.5 && g.inscribed_p90_src <= 3.5);
+    gs_qfield_destroy(&balls);
+    gs_qfield_destroy(&tubes);
+    gs_qfield_destroy(&cut);
 }
 
 int main(void)
@@ -873,6 +1057,9 @@ int main(void)
         cmocka_unit_test(test_synthesis_queries_match_brute_force),
         cmocka_unit_test(test_synthesis_resume),
         cmocka_unit_test(test_synthesis_regions),
+        cmocka_unit_test(test_seam_cut_minimum),
+        cmocka_unit_test(test_seam_cut_follows_agreement),
+        cmocka_unit_test(test_geometry_objects),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
