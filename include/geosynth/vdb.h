@@ -112,7 +112,10 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
 
 /* Redistancing into a proper level set: the exact distance to the zero
  * iso-surface of d (OpenVDB levelSetRebuild: surface mesh, then mesh to
- * distance) within half_width voxels (>= 1), grid class level set named
+ * distance) within half_width voxels (>= 1), its magnitudes then lowered
+ * where they exceed a bound of the distance to that surface (the distance
+ * to a zero crossing on an edge, |b| + voxel from a neighbour of the same
+ * sign), so no neighbour step exceeds one voxel; grid class level set named
  * `name`, background = half_width * voxel, voxel size d->voxel. d carries
  * `pad` samples of padding on every side (e.g. its edge values repeated),
  * so the surface is not closed at the box faces; they are cut off again.

@@ -44,6 +44,22 @@ for item in g.citerOnValues():
 assert n > 100 and inside == n, (n, inside)
 assert d.metadata["up_axis"] == "z", dict(d.metadata)' np1/field.vdb \
     && ok "field.vdb: level set surface, background = band, voxel = spacing, up_axis + units metadata; fog volume density inside it" || bad "field.vdb is not a proper level set with its density"
+  # a distance field: no neighbour step of the level set larger than the
+  # example's largest (/source/levels in field.h5), and field.h5 holds the same values
+  /usr/bin/python3 -c '
+import sys, h5py, numpy as np, pyopenvdb as vdb
+g = vdb.read(sys.argv[1] + "/field.vdb", "surface")
+f = h5py.File(sys.argv[1] + "/field.h5", "r")
+h = f["field/distance"][...]
+a = np.zeros(h.shape[::-1], np.float32)
+g.copyToArray(a, ijk=tuple(g.metadata["gs_dense_min"]))
+assert np.array_equal(a, h.transpose(2, 1, 0)), "field.vdb and field.h5 differ"
+s = f["source/levels"]
+src = s.attrs["lo"] + s[...].astype(np.float64) * (s.attrs["hi"] - s.attrs["lo"]) / 255
+step = lambda v: max(np.abs(np.diff(v, axis=k)).max() for k in range(3))
+print("largest neighbour step: field.vdb %.4f, example %.4f" % (step(a), step(src)))
+assert step(a) <= step(src), (step(a), step(src))' np1 \
+    && ok "field.vdb: neighbour steps within the example's, same values as field.h5" || bad "field.vdb is not a distance field (steps beyond the example's)"
 else
   echo "check skipped: field.vdb read by OpenVDB: needs python3-openvdb (scripts/install-deps.sh)"
 fi
