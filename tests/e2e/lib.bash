@@ -92,4 +92,31 @@ golden() { awk -F'\t' -v e="$1" -v c="$2" '$1 == e && $2 == c { print $5; exit }
 
 digest_of() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]))["digest"])' "$1/summary.json"; }
 
+# Two "nodes" of the multi-node rehearsals (e2e/multinode, e2e/multinode_slurm):
+# network namespace N1 (made by the caller: its failure means skip) and N2,
+# made here, joined by a veth pair VA (in N1, PREFIX.1/24) and VB (in N2,
+# PREFIX.2/24), loopback up. At exit both are removed with every process in
+# them.
+netns_pair() {
+  netns_nodes=("$1" "$2")
+  trap netns_pair_remove EXIT
+  trap 'exit 1' INT TERM
+  ip netns add "$2"
+  ip link add "$3" type veth peer name "$4"
+  ip link set "$3" netns "$1"
+  ip link set "$4" netns "$2"
+  ip -n "$1" addr add "$5.1/24" dev "$3"
+  ip -n "$2" addr add "$5.2/24" dev "$4"
+  for ns in "$1" "$2"; do ip -n "$ns" link set lo up; done
+  ip -n "$1" link set "$3" up
+  ip -n "$2" link set "$4" up
+}
+netns_pair_remove() {
+  for ns in "${netns_nodes[@]}"; do
+    pids=$(ip netns pids "$ns" 2>/dev/null)
+    [[ -n $pids ]] && kill -KILL $pids 2>/dev/null
+    ip netns del "$ns" 2>/dev/null
+  done
+}
+
 finish() { exit $e2e_failed; }

@@ -36,25 +36,7 @@ if ! why=$(ip netns add "$n1" 2>&1); then
   skipped "Slurm multi-node rehearsal: needs CAP_NET_ADMIN/ip netns (ip netns add: $why)"
   finish
 fi
-holders=()
-cleanup() {
-  for ns in "$n1" "$n2"; do
-    pids=$(ip netns pids "$ns" 2>/dev/null)
-    [[ -n $pids ]] && kill -KILL $pids 2>/dev/null
-    ip netns del "$ns" 2>/dev/null
-  done
-}
-trap cleanup EXIT
-trap 'exit 1' INT TERM
-ip netns add "$n2"
-ip link add "$va" type veth peer name "$vb"
-ip link set "$va" netns "$n1"
-ip link set "$vb" netns "$n2"
-ip -n "$n1" addr add 10.78.0.1/24 dev "$va"
-ip -n "$n2" addr add 10.78.0.2/24 dev "$vb"
-for ns in "$n1" "$n2"; do ip -n "$ns" link set lo up; done
-ip -n "$n1" link set "$va" up
-ip -n "$n2" link set "$vb" up
+netns_pair "$n1" "$n2" "$va" "$vb" 10.78.0
 
 # The node's namespaces live as long as its holder process (sleep).
 work=$PWD
