@@ -115,7 +115,8 @@ static gs_err report_results(micro_job *job, gs_json *phase)
     gs_run *run = job->run;
     uint64_t violations = 0, pairs = 0, unassigned = 0, tris = 0;
     double share_max = 0, err_share_max = 0, excess_max = -INFINITY, rl1_max = 0, rl1_sum = 0;
-    double rough_max = NAN, coast = 0, smoothed = 0;
+    micro_outline_sum outline;
+    micro_outline_init(&outline);
     int64_t bin_err_max = 0, abs_err = 0;
     for (int64_t i = 0; i < job->ninst; i++) {
         const micro_instance *in = &job->inst[i];
@@ -130,11 +131,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
         rl1_max = fmax(rl1_max, r->realized_l1);
         rl1_sum += r->realized_l1 * (double)r->ntris;
         excess_max = fmax(excess_max, r->max_excess);
-        if (isfinite(r->outline_roughness)) { /* coasts summed: their ratio is the mean */
-            rough_max = isnan(rough_max) ? r->outline_roughness : fmax(rough_max, r->outline_roughness);
-            coast += r->outline_length;
-            smoothed += r->outline_length / r->outline_roughness;
-        }
+        micro_outline_add(&outline, r);
         bin_err_max = r->max_bin_error > bin_err_max ? r->max_bin_error : bin_err_max;
         char hex[17];
         gs_digest_hex(r->digest, hex);
@@ -206,12 +203,7 @@ static gs_err report_results(micro_job *job, gs_json *phase)
      * mean and worst instance, and instance 0's histograms (signed axis). */
     gs_run_metric_f64(run, "realized_l1", tris ? rl1_sum / (double)tris : 0);
     gs_run_metric_f64(run, "realized_l1_max", rl1_max);
-    /* The regions' outlines in mesh.ply (src/measure/outline.c): coast length
-     * over the coast opened at MICRO_OUTLINE_RHO units, over all
-     * instances' coasts and the worst instance (NaN: no coast anywhere). */
-    gs_run_metric_f64(run, "outline_roughness", smoothed > 0 ? coast / smoothed : NAN);
-    gs_run_metric_f64(run, "outline_roughness_max", rough_max);
-    gs_run_metric_f64(run, "outline_rho_units", MICRO_OUTLINE_RHO);
+    micro_outline_metrics(run, &outline);
     if (job->ninst > 0 && job->inst[0].res.nbins <= MICRO_RESULT_BINS) {
         const micro_result *r = &job->inst[0].res;
         gs_json *mj = &run->metrics;

@@ -494,8 +494,11 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
     GS_TRY(err, gs_alloc_array((void **)&digests, (size_t)n, sizeof *digests, "digests"), done);
     uint64_t violations = 0, tris = 0;
     double unassigned_max = 0, cpu = 0, rl1_max = 0, rl1_sum = 0;
+    micro_outline_sum outline;
+    micro_outline_init(&outline);
     for (int64_t i = 0; i < n; i++) {
         const explore_result *r = &ej.res[i];
+        micro_outline_add(&outline, &r->res);
         rl1_max = fmax(rl1_max, r->res.realized_l1);
         rl1_sum += r->res.realized_l1 * (double)r->res.ntris;
         digests[i] = r->res.digest;
@@ -537,6 +540,7 @@ gs_err micro_explore_run(gs_run *run, const micro_config *cfg)
         gs_run_metric_f64(run, "unassigned_share_max", unassigned_max);
         gs_run_metric_f64(run, "realized_l1", tris ? rl1_sum / (double)tris : 0);
         gs_run_metric_f64(run, "realized_l1_max", rl1_max);
+        micro_outline_metrics(run, &outline);
         gs_run_metric_f64(run, "gallery_seconds", wall);
         gs_run_metric_f64(run, "candidates_per_minute", per_min);
         gs_run_metric_f64(run, "candidate_cpu_seconds", cpu);

@@ -209,6 +209,17 @@ void micro_result_counts_json(gs_json *j, const micro_result *r);
  * bins of both sides and the worst bin, so a table no partition gives is not
  * missed silently; corrected = 0 (micro.correct = no) names that cause. */
 void micro_result_warn(const micro_result *r, const char *what, int corrected);
+
+/* Outline roughness over several results (instances or gallery candidates):
+ * coasts summed, so the run figure is all coasts over all smoothed coasts,
+ * and the worst one. */
+typedef struct {
+    double coast, smoothed, max; /* max NaN until a result with a coast */
+} micro_outline_sum;
+void micro_outline_init(micro_outline_sum *s);
+void micro_outline_add(micro_outline_sum *s, const micro_result *r);
+/* Rank 0: the run metrics outline_roughness, _max and outline_rho_units. */
+void micro_outline_metrics(gs_run *run, const micro_outline_sum *s);
 /* engine_output.c: writes j's text + '\n' to path atomically and frees j. */
 gs_err micro_json_write(gs_json *j, const char *path);
 

@@ -421,6 +421,31 @@ void micro_result_counts_json(gs_json *j, const micro_result *r)
     gs_json_end_array(j);
 }
 
+void micro_outline_init(micro_outline_sum *s)
+{
+    s->coast = s->smoothed = 0;
+    s->max = NAN;
+}
+
+void micro_outline_add(micro_outline_sum *s, const micro_result *r)
+{
+    if (!isfinite(r->outline_roughness))
+        return;
+    s->max = isnan(s->max) ? r->outline_roughness : fmax(s->max, r->outline_roughness);
+    s->coast += r->outline_length;
+    s->smoothed += r->outline_length / r->outline_roughness;
+}
+
+void micro_outline_metrics(gs_run *run, const micro_outline_sum *s)
+{
+    /* The regions' outlines in mesh.ply (src/measure/outline.c): coast length
+     * over the coast opened at MICRO_OUTLINE_RHO units, over all results'
+     * coasts and the worst result (NaN: no coast anywhere). */
+    gs_run_metric_f64(run, "outline_roughness", s->smoothed > 0 ? s->coast / s->smoothed : NAN);
+    gs_run_metric_f64(run, "outline_roughness_max", s->max);
+    gs_run_metric_f64(run, "outline_rho_units", MICRO_OUTLINE_RHO);
+}
+
 void micro_result_warn(const micro_result *r, const char *what, int corrected)
 {
     if (r->realized_l1 <= MICRO_REALIZED_L1_OK)

@@ -109,6 +109,10 @@ rough=$(/usr/bin/python3 "$GS_ROOT/analysis/micro_outline.py" --gallery g1 --jso
 # candidates.json): equal to analysis/micro_outline.py's to 1e-9.
 /usr/bin/python3 -c 'import json,sys;r=json.loads(sys.argv[1]);c=json.load(open(sys.argv[2]));e=[x["outline_roughness"] for x in c];a=[x["roughness"] for x in r["cards"]];print("  engine per card: %s" % ", ".join("%.3f" % x for x in e));sys.exit(0 if len(e)==len(a) and all(abs(x-y)<=1e-9 for x,y in zip(e,a)) else 1)' "$rough" g1/gallery/candidates.json \
   && ok "engine's outline roughness per card equals analysis/micro_outline.py's" || bad "engine's outline roughness differs from analysis/micro_outline.py's"
+# summary.json aggregates the cards as the instances' run does: all coasts
+# over all smoothed coasts, and the worst card.
+/usr/bin/python3 -c 'import json,sys;c=json.load(open(sys.argv[1]));m=json.load(open(sys.argv[2]))["metrics"];r=[x for x in c if x["outline_roughness"] is not None];L=sum(x["outline_length"] for x in r);S=sum(x["outline_length"]/x["outline_roughness"] for x in r);print("  summary %.6f / max %.6f, cards %.6f / %.6f" % (m["outline_roughness"], m["outline_roughness_max"], L/S, max(x["outline_roughness"] for x in r)));sys.exit(0 if abs(m["outline_roughness"]-L/S)<=1e-9 and m["outline_roughness_max"]==max(x["outline_roughness"] for x in r) else 1)' g1/gallery/candidates.json g1/summary.json \
+  && ok "summary.json's outline_roughness aggregates the cards" || bad "summary.json's outline_roughness does not aggregate the cards"
 
 # ---- one candidate alone reproduces its mesh ----
 run_gs 1 micro -c g2/gallery/candidate-003/candidate-003.ini -o solo
