@@ -229,6 +229,13 @@ gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset
                                    const gs_model_patterns *p, const char *input, int tile_image,
                                    int vox);
 
+/* Rank 0, before the synthesis (#25): with vox, refuses an example lattice
+ * (read from input) holding more distinct non-empty labels than a .vox
+ * palette's 255: the output draws from the example's labels, and
+ * lattice.vox renumbers them 1..255 in order, so only such an example can
+ * make an output it cannot write. GS_ERR_ARG naming input and model.vox. */
+gs_err gs_model_check_vox_labels(const gs_model_lattice *example, const char *input, int vox);
+
 /* ---- 3D overlapping model (model.overlap3d = N) ---------------------------
  *
  * Every N x N x N window of an example lattice lying wholly inside it (the

@@ -201,6 +201,8 @@ static gs_err load_inputs(gs_run *run, model_engine *e)
         if (run->rank == 0 && !err)
             err = gs_model_check_output_sizes(c->size, NULL, NULL, c->example, c->tile_image,
                                               c->vox);
+        if (run->rank == 0 && !err)
+            err = gs_model_check_vox_labels(&e->example, c->example, c->vox);
         GS_CALL(bcast_lattice(run->comm, &e->example, err));
         GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &e->pal, 0));
         if (c->overlap3d > 0)

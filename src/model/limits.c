@@ -53,3 +53,24 @@ gs_err gs_model_check_output_sizes(const int64_t size[3], const gs_model_tileset
     }
     return GS_OK;
 }
+
+gs_err gs_model_check_vox_labels(const gs_model_lattice *example, const char *input, int vox)
+{
+    if (!vox)
+        return GS_OK;
+    uint64_t seen[65536 / 64] = {0};
+    int distinct = 0;
+    const size_t n = (size_t)example->nx * (size_t)example->ny * (size_t)example->nz;
+    for (size_t i = 0; i < n; i++) {
+        const unsigned l = example->labels[i];
+        if (l && !(seen[l / 64] >> (l % 64) & 1)) {
+            seen[l / 64] |= (uint64_t)1 << (l % 64);
+            distinct++;
+        }
+    }
+    GS_CHECK(distinct <= 255, GS_ERR_ARG,
+             "model.vox: %s holds %d distinct non-empty labels; the output draws from them and "
+             "lattice.vox holds at most 255; set model.vox = false (lattice.h5 keeps every label)",
+             input, distinct);
+    return GS_OK;
+}

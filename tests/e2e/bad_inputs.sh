@@ -29,6 +29,9 @@ printf '1, 2, 3\n4, 5\n' >ragged.csv
 # a 4x4x2 lattice with one label id 65534 (rows are x, columns y): its rules,
 # sized by the largest id, took 4 GB of address space
 printf 'sparse\n\nx, y, and z extents\n4 4 2\n1 1 1 1\n1 1 1 1\n1 65534 1 1\n1 1 1 1\n2 2 2 2\n2 2 2 2\n2 2 2 2\n2 2 2 2\n' >sparse.txt
+# 300 distinct labels (1..300 over a 20x20 layer, an empty layer above):
+# more than a lattice.vox palette holds
+$PY -c 'print("labels300\n\nx, y, and z extents\n20 20 2");[print(" ".join(str((y*20+x)%300+1) for x in range(20))) for y in range(20)];[print(" ".join(["0"]*20)) for y in range(20)]' >labels300.txt
 printf '<set>\n<tiles>\n<tile name="a" symmetry="Z"/>\n</tiles>\n</set>\n' >badsym.xml
 printf 'bin,positive,negative\n0,0.5,0.5\n1,1.5,0.5\n' >badtable.csv
 $PY - <<'PYEOF'
@@ -120,6 +123,11 @@ case_ "Merrell .txt: extents the file cannot hold" 4 "huge.txt:4|1024 x 1024 x 1
   model -c "$MQ" -o run-out --set model.example=huge.txt
 case_ "Merrell .txt: one label id 65534 among 3 labels" 4 "sparse.txt|label 65534 (at x 2 y 1 z 0)|renumber" \
   model -c "$MQ" -o run-out --set model.example=sparse.txt
+case_ "Merrell .txt: 300 distinct labels with model.vox on, refused before synthesis" 2 \
+  "model.vox|labels300.txt|300 distinct|255" \
+  model -c "$MQ" -o run-out --set model.example=labels300.txt --set model.vox=true
+[[ -e run-out/lattice.h5 ]] && bad "300 labels with model.vox: lattice.h5 written, the synthesis ran before the refusal" \
+  || ok "300 labels with model.vox: no lattice.h5, refused before the synthesis"
 case_ "DeBroglie .csv: ragged row" 4 "ragged.csv:2" \
   model -c "$MQ" -o run-out --set model.example=ragged.csv
 case_ "tile set XML: unknown symmetry" 4 "badsym.xml:3|symmetry" \
