@@ -235,8 +235,12 @@ static size_t floating_cells(const model_engine *e, int bb[4])
  * with the exact whole-lattice check (params.support_global); a failing box
  * grows (margin doubled) up to the whole grid. Serial and
  * keyed by (seed, region id past the plans', pass): the same on every rank.
- * Counted as regions (accepted / failed). */
+ * Counted as regions (accepted / failed). A successful box leaves no
+ * floating cell (its check is the whole lattice's), and the margin doubles to
+ * the whole grid within ~32 failures, so MODEL_REPAIR_MAX_TRIES only bounds
+ * the loop should that ever stop holding: it then ends as a failed region. */
 #define MODEL_REPAIR_ID 0x7f000000u
+#define MODEL_REPAIR_MAX_TRIES 64
 static gs_err support_repair(model_engine *e)
 {
     if (!e->params.support_empty)
@@ -254,6 +258,12 @@ static gs_err support_repair(model_engine *e)
         GS_TRY_CHECK(err, nf != SIZE_MAX, GS_ERR_MEM, done, "support repair: cannot allocate");
         if (nf == 0)
             break;
+        if (tries == MODEL_REPAIR_MAX_TRIES) {
+            e->stats.failed++;
+            gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain after %d boxes", nf,
+                   tries);
+            break;
+        }
         gs_model_box b = {bb[0] - margin, bb[1] - margin, 0, bb[2] + 1 + margin,
                           bb[3] + 1 + margin, l->nz};
         b.x0 = b.x0 < 0 ? 0 : b.x0;
