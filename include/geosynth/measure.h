@@ -76,6 +76,31 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
                                const double lo[2], const double hi[2], uint64_t small,
                                gs_measure_pieces *out);
 
+/* Seams of a point set made of patches, from a patch id per point: how well
+ * the surface of one patch continues on its neighbour's, against the same
+ * inside one patch. v[6 i .. 6 i + 5] = x y z nx ny nz of point i (unit
+ * normals, z up), id[i] its patch. A seam point has a point of another patch
+ * within band (the other patch: that of the nearest such point); its fit is
+ * the MLS frame (weights (1 - d^2/R^2)^4, R = radius, as the points engine's
+ * surface) at it of the other patch's points within R: centroid a, unit mean
+ * normal n. seam_dist = mean |(p - a).n| (distance to the other patch's
+ * surface), seam_angle = mean angle in degrees between the point's normal and
+ * n; seam_dist_p90 the 90th percentile of the distances; seam_open the share
+ * of seam points whose fit weighs less than min_weight (no surface across).
+ * The inside figures are the same with, for each point with no other patch
+ * within R, the frame of its own patch's points on one side of it (four fits:
+ * the half-discs toward +x, -x, +y, -y, where the other patch lies at a
+ * seam): the same one-sided fit at the same spacing, so a seamless output
+ * has seam_* close to inside_*. inside_fits counts those fits. Serial;
+ * O(n log n) plus the pairs within radius (src/measure/pointset.c). */
+typedef struct gs_measure_seams {
+    double seam_dist, seam_angle, seam_dist_p90, seam_open;
+    double inside_dist, inside_angle, inside_dist_p90, inside_open;
+    uint64_t seam_points, inside_fits;
+} gs_measure_seams;
+gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, double radius,
+                              double band, double min_weight, gs_measure_seams *out);
+
 /* ------------------------------------------ geodesics on triangle meshes -- */
 
 /* Fast-marching workspace over a triangle mesh (src/measure/geodesic.c):

@@ -23,15 +23,17 @@
  * require_normals != 0: GS_ERR_FORMAT "... has no normals (nx ny nz):
  * oriented points are needed".
  *
- * Writing: atomic (path.tmp + rename); binary little endian with double
- * properties (the values round-trip bit for bit) or ASCII with 17
- * significant digits (also exact). Memory: the reader holds the whole file
+ * Writing: atomic (path.tmp + rename); binary little endian or ASCII, float
+ * properties (the doubles rounded to nearest float32; ASCII with 9
+ * significant digits, which give that float back), optionally one int
+ * property per vertex after them (a patch id). Memory: the reader holds the whole file
  * plus 48 bytes per vertex.
  */
 #ifndef GEOSYNTH_POINTPLY_H
 #define GEOSYNTH_POINTPLY_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "geosynth/error.h"
 
@@ -57,5 +59,10 @@ typedef enum gs_pointply_format { GS_POINTPLY_BINARY = 0, GS_POINTPLY_ASCII = 1 
  * with_normals != 0) atomically. */
 gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_normals,
                          gs_pointply_format format);
+/* The same with an int vertex property id_name (id[i] for vertex i) after
+ * the others; id NULL: none (gs_pointply_write). Readers that do not know
+ * the property skip it (this reader does). */
+gs_err gs_pointply_write_ids(const char *path, const double *v, size_t n, int with_normals,
+                             const char *id_name, const int32_t *id, gs_pointply_format format);
 
 #endif

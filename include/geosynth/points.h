@@ -473,6 +473,12 @@ gs_err gs_points_synth_run(gs_points_synth_t s);
 /* After the last step: relaxation, border trimming (w_E), translation to
  * [0, out_size]. Appends the result to out. Does not change the state. */
 gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out);
+/* The same, and *patch (gs_malloc'ed, one entry per point appended to out,
+ * NULL to skip) receives each point's patch id: the index k (raster order)
+ * of the patch whose paste put the point in the output (its blend strip
+ * included; a whole object keeps the id of the patch that brought it);
+ * UINT32_MAX for a point of a resumed run whose checkpoint held no ids. */
+gs_err gs_points_synth_finish_labeled(gs_points_synth_t s, gs_points *out, uint32_t **patch);
 
 const gs_points_patch_metrics *gs_points_synth_metrics(const gs_points_synth *s, size_t *n);
 gs_points_times gs_points_synth_times(const gs_points_synth *s);
@@ -520,6 +526,10 @@ gs_err gs_points_synth_lines(const gs_points_synth *s, int inside, gs_points_lin
  * patch onto N_k at the seam itself, so dist and normal stay low there
  * even when the patches do not match; what does not continue shows as
  * unmatched points, segment by segment. */
+/* The weight an MLS frame of the points across a seam must reach for a
+ * point to count as matched (one point at 0.5 R weighs 0.32, at 0.6 R 0.17):
+ * the line measure below and gs_measure_point_seams. */
+#define GS_POINTS_SEAM_MIN_WEIGHT 0.15
 typedef struct gs_points_seam_stats {
     double seam_dist, seam_normal, seam_unmatched;
     double inside_dist, inside_normal, inside_unmatched;
@@ -537,6 +547,7 @@ typedef struct gs_points_synth_state {
     gs_rng_state rng;
     gs_points out;                   /* output points in bucket order */
     gs_points_patch_metrics *metrics; /* cursor entries */
+    uint32_t *patch;                  /* out.n entries: each point's patch id (NULL: none) */
 } gs_points_synth_state;
 
 gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st);

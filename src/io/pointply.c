@@ -116,6 +116,12 @@ void gs_pointply_destroy(gs_pointply *p)
 gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_normals,
                          gs_pointply_format format)
 {
+    return gs_pointply_write_ids(path, v, n, with_normals, NULL, NULL, format);
+}
+
+gs_err gs_pointply_write_ids(const char *path, const double *v, size_t n, int with_normals,
+                             const char *id_name, const int32_t *id, gs_pointply_format format)
+{
     GS_CHECK(n <= GS_POINTPLY_MAX_POINTS, GS_ERR_ARG, "%s: %zu points, at most %zu can be written",
              path, n, GS_POINTPLY_MAX_POINTS);
     gs_atomic_file af;
@@ -127,18 +133,23 @@ gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_n
                         "comment up_axis z (input.up = y: the example's y); units: the example's\n"
                         "comment ParaView: open, then Filters > Convert To Point Cloud (vertex cells)\n"
                         "element vertex %zu\nproperty float x\nproperty float y\n"
-                        "property float z\n%send_header\n",
+                        "property float z\n%s",
                      format == GS_POINTPLY_ASCII ? "ascii" : "binary_little_endian", n,
                      with_normals ? "property float nx\nproperty float ny\nproperty float nz\n"
                                   : "") > 0;
+    if (ok && id)
+        ok = fprintf(f, "property int %s\n", id_name) > 0;
+    ok = ok && fputs("end_header\n", f) >= 0;
     int nv = with_normals ? 6 : 3;
     for (size_t i = 0; i < n && ok; i++) {
         const double *o = v + 6 * i;
         if (format == GS_POINTPLY_ASCII) {
             for (int k = 0; k < nv && ok; k++)
-                ok = fprintf(f, k + 1 < nv ? "%.9g " : "%.9g\n", (double)(float)o[k]) > 0;
+                ok = fprintf(f, k + 1 < nv || id ? "%.9g " : "%.9g\n", (double)(float)o[k]) > 0;
+            if (ok && id)
+                ok = fprintf(f, "%ld\n", (long)id[i]) > 0;
         } else {
-            unsigned char b[24];
+            unsigned char b[28];
             for (int k = 0; k < nv; k++) {
                 float x = (float)o[k];
                 uint32_t u;
@@ -146,7 +157,14 @@ gs_err gs_pointply_write(const char *path, const double *v, size_t n, int with_n
                 for (int j = 0; j < 4; j++)
                     b[4 * k + j] = (unsigned char)(u >> (8 * j));
             }
-            ok = fwrite(b, 4, (size_t)nv, f) == (size_t)nv;
+            int nw = nv;
+            if (id) {
+                uint32_t u = (uint32_t)id[i];
+                for (int j = 0; j < 4; j++)
+                    b[4 * nv + j] = (unsigned char)(u >> (8 * j));
+                nw++;
+            }
+            ok = fwrite(b, 4, (size_t)nw, f) == (size_t)nw;
         }
     }
     if (!ok) {

@@ -36,6 +36,52 @@ static uint64_t cell_code(long cx, long cy, long cz)
     return ((uint64_t)(cx + off) << 42) | ((uint64_t)(cy + off) << 21) | (uint64_t)(cz + off);
 }
 
+/* The first of the sorted keys k[0 .. n) in cell code (n if none). */
+static size_t cell_first(const cell_key *k, size_t n, uint64_t code)
+{
+    size_t a = 0, b = n;
+    while (a < b) {
+        size_t m = a + (b - a) / 2;
+        if (k[m].cell < code)
+            a = m + 1;
+        else
+            b = m;
+    }
+    return a;
+}
+
+/* The points within sqrt(r2) of point i (itself left out) into *nb (grown
+ * as needed, capacity *cap), *m of them: the 27 cells around its cell. */
+static gs_err cell_neighbours(const cell_key *k, const long (*cc)[3], const double *xyz,
+                              size_t stride, size_t n, size_t i, double r2, uint32_t **nb,
+                              size_t *cap, size_t *m)
+{
+    const double *p = xyz + i * stride;
+    *m = 0;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                uint64_t code = cell_code(cc[i][0] + dx, cc[i][1] + dy, cc[i][2] + dz);
+                for (size_t j = cell_first(k, n, code); j < n && k[j].cell == code; j++) {
+                    uint32_t q = k[j].idx;
+                    const double *o = xyz + (size_t)q * stride;
+                    double d0 = p[0] - o[0], d1 = p[1] - o[1], d2 = p[2] - o[2];
+                    if (q == i || d0 * d0 + d1 * d1 + d2 * d2 > r2)
+                        continue;
+                    if (*m == *cap) {
+                        size_t c = *cap ? 2 * *cap : 64;
+                        uint32_t *t = gs_realloc(*nb, c * sizeof *t);
+                        GS_CHECK(t != NULL, GS_ERR_MEM,
+                                 "point neighbours: out of memory (%zu neighbours)", c);
+                        *nb = t;
+                        *cap = c;
+                    }
+                    (*nb)[(*m)++] = q;
+                }
+            }
+    return GS_OK;
+}
+
 gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, double radius,
                                    uint32_t *label, uint32_t *ncomp, uint64_t **sizes)
 {
@@ -57,7 +103,8 @@ gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, d
                          (xyz[i * stride + a] - lo[a]) / radius < (double)(1L << 19),
                      GS_ERR_ARG, "point components: point %zu is not finite or too far out", i);
     cell_key *k = NULL;
-    uint32_t *par = NULL, *first = NULL;
+    uint32_t *par = NULL, *first = NULL, *nb = NULL;
+    size_t nbcap = 0;
     uint64_t *sz = NULL;
     long (*cc)[3] = NULL;
     gs_err err = GS_OK;
@@ -76,32 +123,17 @@ gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, d
     /* Each point against the points of the 27 cells around it (binary
      * search for each cell's run in the sorted keys). */
     for (size_t i = 0; i < n; i++) {
-        const double *p = xyz + i * stride;
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    uint64_t code = cell_code(cc[i][0] + dx, cc[i][1] + dy, cc[i][2] + dz);
-                    size_t a = 0, b = n;
-                    while (a < b) {
-                        size_t m = a + (b - a) / 2;
-                        if (k[m].cell < code)
-                            a = m + 1;
-                        else
-                            b = m;
-                    }
-                    for (size_t j = a; j < n && k[j].cell == code; j++) {
-                        uint32_t q = k[j].idx;
-                        if (q <= i)
-                            continue;
-                        const double *o = xyz + (size_t)q * stride;
-                        double d0 = p[0] - o[0], d1 = p[1] - o[1], d2 = p[2] - o[2];
-                        if (d0 * d0 + d1 * d1 + d2 * d2 > r2)
-                            continue;
-                        uint32_t ra = uf_find(par, (uint32_t)i), rb = uf_find(par, q);
-                        if (ra != rb)
-                            par[ra > rb ? ra : rb] = ra < rb ? ra : rb;
-                    }
-                }
+        size_t m;
+        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, xyz, stride, n, i, r2, &nb, &nbcap,
+                                    &m), done);
+        for (size_t j = 0; j < m; j++) {
+            uint32_t q = nb[j];
+            if (q <= i)
+                continue;
+            uint32_t ra = uf_find(par, (uint32_t)i), rb = uf_find(par, q);
+            if (ra != rb)
+                par[ra > rb ? ra : rb] = ra < rb ? ra : rb;
+        }
     }
     /* Number components in order of their lowest point index. */
     GS_TRY(err, gs_alloc_array((void **)&first, n ? n : 1, sizeof *first, "point components"),
@@ -128,6 +160,7 @@ done:
     gs_free(k);
     gs_free(par);
     gs_free(first);
+    gs_free(nb);
     gs_free(sz);
     return err;
 }
@@ -198,5 +231,169 @@ done:
     gs_free(sizes);
     gs_free(cut);
     gs_free(box);
+    return err;
+}
+
+/* ------------------------------------------------ seams from patch ids -- */
+
+/* The MLS frame (weights (1 - d^2/R^2)^4, as the points engine's) at p of
+ * the points idx[0 .. m) that pass keep: weighted centroid a, unit mean
+ * normal n; returns the weight sum (0: nothing). */
+typedef struct seam_fit {
+    double w, a[3], n[3];
+} seam_fit;
+
+static void seam_fit_add(seam_fit *f, const double *q, const double *p, double inv_r2)
+{
+    double d0 = q[0] - p[0], d1 = q[1] - p[1], d2 = q[2] - p[2];
+    double t = 1 - (d0 * d0 + d1 * d1 + d2 * d2) * inv_r2;
+    if (!(t > 0))
+        return;
+    t *= t;
+    t *= t;
+    f->w += t;
+    for (int a = 0; a < 3; a++) {
+        f->a[a] += t * q[a];
+        f->n[a] += t * q[3 + a];
+    }
+}
+
+/* Adds the fit's distance and angle at point p to the sums s[0..3]
+ * (dist, angle, matched, unmatched) and dist to a list. */
+static void seam_fit_score(const seam_fit *f, const double *p, double min_w, double *s,
+                           double *dl, size_t *nd)
+{
+    double nn = sqrt(f->n[0] * f->n[0] + f->n[1] * f->n[1] + f->n[2] * f->n[2]);
+    if (f->w < min_w || !(nn > 0)) {
+        s[3] += 1;
+        return;
+    }
+    double d = 0, c = 0;
+    for (int a = 0; a < 3; a++) {
+        double n = f->n[a] / nn;
+        d += (p[a] - f->a[a] / f->w) * n;
+        c += p[3 + a] * n;
+    }
+    c = c > 1 ? 1 : c < -1 ? -1 : c;
+    s[0] += fabs(d);
+    s[1] += acos(c) * (180.0 / 3.14159265358979323846);
+    s[2] += 1;
+    dl[(*nd)++] = fabs(d);
+}
+
+static int seam_dbl_cmp(const void *pa, const void *pb)
+{
+    double a = *(const double *)pa, b = *(const double *)pb;
+    return (a > b) - (a < b);
+}
+
+static double seam_p90(double *v, size_t n)
+{
+    if (!n)
+        return 0;
+    qsort(v, n, sizeof *v, seam_dbl_cmp);
+    return v[(size_t)floor(0.9 * (double)(n - 1))];
+}
+
+gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, double radius,
+                              double band, double min_weight, gs_measure_seams *out)
+{
+    memset(out, 0, sizeof *out);
+    GS_CHECK(radius > 0 && isfinite(radius) && band > 0 && band <= radius, GS_ERR_ARG,
+             "point seams: radius %g, band %g: expected 0 < band <= radius", radius, band);
+    GS_CHECK(n < UINT32_MAX, GS_ERR_ARG, "point seams: %zu points, expected < 2^32", n);
+    if (n == 0)
+        return GS_OK;
+    double lo[3] = {INFINITY, INFINITY, INFINITY};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            GS_CHECK(isfinite(v[6 * i + a]), GS_ERR_ARG, "point seams: point %zu is not finite",
+                     i);
+            lo[a] = fmin(lo[a], v[6 * i + a]);
+        }
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            GS_CHECK((v[6 * i + a] - lo[a]) / radius < (double)(1L << 19), GS_ERR_ARG,
+                     "point seams: point %zu is too far out", i);
+    cell_key *k = NULL;
+    long (*cc)[3] = NULL;
+    uint32_t *nb = NULL;
+    double *dl[2] = {NULL, NULL};
+    size_t nd[2] = {0, 0}, cap = 0;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&k, n, sizeof *k, "point seams"), done);
+    GS_TRY(err, gs_alloc_array((void **)&cc, n, sizeof *cc, "point seams"), done);
+    for (int w = 0; w < 2; w++)
+        GS_TRY(err, gs_alloc_array((void **)&dl[w], n, 4 * sizeof *dl[w], "point seams"), done);
+    for (size_t i = 0; i < n; i++) {
+        for (int a = 0; a < 3; a++)
+            cc[i][a] = (long)floor((v[6 * i + a] - lo[a]) / radius);
+        k[i].cell = cell_code(cc[i][0], cc[i][1], cc[i][2]);
+        k[i].idx = (uint32_t)i;
+    }
+    qsort(k, n, sizeof *k, cell_key_cmp);
+    double r2 = radius * radius, b2 = band * band, inv_r2 = 1.0 / r2;
+    double sum[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};
+    /* Directions of the inside half-discs: +x, -x, +y, -y. */
+    static const double dir[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    for (size_t i = 0; i < n; i++) {
+        const double *p = v + 6 * i;
+        size_t m;
+        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, v, 6, n, i, r2, &nb, &cap, &m),
+               done);
+        /* The other patch across: the id of the nearest point of another
+         * patch within band; none within radius: an inside point. */
+        double best = INFINITY;
+        int32_t other = id[i];
+        int any_other = 0;
+        for (size_t j = 0; j < m; j++) {
+            if (id[nb[j]] == id[i])
+                continue;
+            any_other = 1;
+            double d2 = 0;
+            for (int a = 0; a < 3; a++)
+                d2 += (v[6 * (size_t)nb[j] + a] - p[a]) * (v[6 * (size_t)nb[j] + a] - p[a]);
+            if (d2 <= b2 && (d2 < best || (d2 == best && id[nb[j]] < other))) {
+                best = d2;
+                other = id[nb[j]];
+            }
+        }
+        if (other != id[i]) {
+            seam_fit f = {0, {0, 0, 0}, {0, 0, 0}};
+            for (size_t j = 0; j < m; j++)
+                if (id[nb[j]] == other)
+                    seam_fit_add(&f, v + 6 * (size_t)nb[j], p, inv_r2);
+            seam_fit_score(&f, p, min_weight, sum[0], dl[0], &nd[0]);
+        } else if (!any_other) {
+            for (int d = 0; d < 4; d++) {
+                seam_fit f = {0, {0, 0, 0}, {0, 0, 0}};
+                for (size_t j = 0; j < m; j++) {
+                    const double *o = v + 6 * (size_t)nb[j];
+                    if ((o[0] - p[0]) * dir[d][0] + (o[1] - p[1]) * dir[d][1] > 0)
+                        seam_fit_add(&f, o, p, inv_r2);
+                }
+                seam_fit_score(&f, p, min_weight, sum[1], dl[1], &nd[1]);
+            }
+        }
+    }
+    for (int w = 0; w < 2; w++) {
+        double *s = sum[w], tot = s[2] + s[3];
+        double *dist = w ? &out->inside_dist : &out->seam_dist;
+        double *ang = w ? &out->inside_angle : &out->seam_angle;
+        double *open = w ? &out->inside_open : &out->seam_open;
+        double *p90 = w ? &out->inside_dist_p90 : &out->seam_dist_p90;
+        *dist = s[2] > 0 ? s[0] / s[2] : 0;
+        *ang = s[2] > 0 ? s[1] / s[2] : 0;
+        *open = tot > 0 ? s[3] / tot : 0;
+        *p90 = seam_p90(dl[w], nd[w]);
+    }
+    out->seam_points = (uint64_t)(sum[0][2] + sum[0][3]);
+    out->inside_fits = (uint64_t)(sum[1][2] + sum[1][3]);
+done:
+    gs_free(k);
+    gs_free(cc);
+    gs_free(nb);
+    gs_free(dl[0]);
+    gs_free(dl[1]);
     return err;
 }

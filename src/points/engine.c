@@ -160,7 +160,8 @@ static gs_err points_save(void *state, gs_run *run)
 static gs_err points_finish(void *state, gs_run *run, gs_json *phase)
 {
     run_state *rs = state;
-    GS_CALL(op_status(run, rs, gs_points_synth_finish(rs->synth, &rs->out)));
+    GS_CALL(op_status(run, rs, gs_points_synth_finish_labeled(rs->synth, &rs->out,
+                                                                       &rs->out_patch)));
     gs_points_permute_from_z(&rs->out, kind_is_user(rs->c) ? up_axis(rs->c) : 2);
     double area = rs->params.out_size[0] * rs->params.out_size[1];
     rs->dens_out = rs->out.n / area;

@@ -19,6 +19,7 @@
 
 #include "geosynth/config.h"
 #include "geosynth/json.h"
+#include "geosynth/measure.h"
 #include "geosynth/pmap.h"
 #include "geosynth/points.h"
 #include "geosynth/run.h"
@@ -142,6 +143,8 @@ typedef struct run_state {
     search_ctx sctx;
     gs_points_synth_t synth;
     gs_points out;
+    uint32_t *out_patch;          /* out.n entries: each output point's patch id */
+    int32_t *out_id;              /* the same as points.ply stores it (-1: none; rank 0) */
     uint64_t tex_digest;
     map_state map; /* the map hook's state */
     fault_inject fault;
@@ -152,6 +155,7 @@ typedef struct run_state {
     const points_config *c;
     double dens_out;              /* output points per unit area */
     gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
+    gs_measure_seams pseam;       /* seams from the output's patch ids (rank 0) */
 } run_state;
 /* engine_config.c: the points engine's config table. */
 extern const gs_cfg_table points_cfg_table;

@@ -391,6 +391,20 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_f64(run, "seam_normal_ratio",
                       se->inside_normal > 0 ? se->seam_normal / se->inside_normal : 0);
     gs_run_metric_f64(run, "seam_unmatched_excess", se->seam_unmatched - se->inside_unmatched);
+    const gs_measure_seams *ps = &rs->pseam;
+    gs_run_metric_i64(run, "patch_seam_points", (int64_t)ps->seam_points);
+    gs_run_metric_f64(run, "patch_seam_dist", ps->seam_dist);
+    gs_run_metric_f64(run, "patch_inside_dist", ps->inside_dist);
+    gs_run_metric_f64(run, "patch_seam_dist_p90", ps->seam_dist_p90);
+    gs_run_metric_f64(run, "patch_inside_dist_p90", ps->inside_dist_p90);
+    gs_run_metric_f64(run, "patch_seam_angle", ps->seam_angle);
+    gs_run_metric_f64(run, "patch_inside_angle", ps->inside_angle);
+    gs_run_metric_f64(run, "patch_seam_open", ps->seam_open);
+    gs_run_metric_f64(run, "patch_inside_open", ps->inside_open);
+    gs_run_metric_f64(run, "patch_seam_dist_ratio",
+                      ps->inside_dist > 0 ? ps->seam_dist / ps->inside_dist : 0);
+    gs_run_metric_f64(run, "patch_seam_angle_ratio",
+                      ps->inside_angle > 0 ? ps->seam_angle / ps->inside_angle : 0);
     gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
     gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
     gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);
@@ -420,6 +434,12 @@ gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *dige
     const points_config *c = rs->c;
     *digest = gs_points_digest(&rs->out);
     gs_err local = GS_OK;
+    if (run->rank == 0) { /* patch ids as the PLY stores them: -1 for none */
+        local = gs_alloc_array((void **)&rs->out_id, rs->out.n ? rs->out.n : 1,
+                               sizeof *rs->out_id, "patch ids");
+        for (size_t i = 0; local == GS_OK && i < rs->out.n; i++)
+            rs->out_id[i] = rs->out_patch[i] == UINT32_MAX ? -1 : (int32_t)rs->out_patch[i];
+    }
     size_t ntris = 0;
     if (run->rank == 0) {
         char path[PATH_MAX];
@@ -427,7 +447,8 @@ gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *dige
                                                                 : GS_POINTPLY_ASCII;
         if (c->write_points && local == GS_OK) {
             gs_run_path(run, "points.ply", path, sizeof path);
-            local = gs_pointply_write(path, (const double *)rs->out.v, rs->out.n, 1, fmt);
+            local = gs_pointply_write_ids(path, (const double *)rs->out.v, rs->out.n, 1,
+                                          "patch", rs->out_id, fmt);
             if (local == GS_OK)
                 gs_run_output(run, "points", "points", "points.ply", NULL);
         }
@@ -447,6 +468,15 @@ gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *dige
         if (local == GS_OK) {
             gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
             local = seam_measures(rs, &zup);
+            /* Seams from the patch ids: a point of another patch within 1.5
+             * spacings, the other patch's surface within mls_radius, the
+             * unmatched weight of the line measure. */
+            if (local == GS_OK)
+                local = gs_measure_point_seams((const double *)zup.v, zup.n, rs->out_id,
+                                               rs->params.mls_radius,
+                                               fmin(1.5 * rs->tex.spacing,
+                                                    rs->params.mls_radius),
+                                               GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam);
             if (local == GS_OK)
                 local = object_measures(rs, &zup);
         }

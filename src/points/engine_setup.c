@@ -200,6 +200,8 @@ void points_run_state_free(run_state *r)
     points_search_ctx_free(&r->sctx);
     gs_points_texture_free(&r->tex);
     gs_points_free(&r->out);
+    gs_free(r->out_patch);
+    gs_free(r->out_id);
 }
 
 gs_err points_phase_setup(gs_run *run, const points_config *c, run_state *rs, int resume,

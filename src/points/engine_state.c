@@ -11,6 +11,7 @@ gs_err points_write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_di
     gs_ckpt_t h = NULL;
     double *mf = NULL;
     uint64_t *mu = NULL;
+    int64_t *pid = NULL;
     gs_err err = GS_OK;
     uint64_t nm = st.cursor ? st.cursor : 1;
     GS_TRY(err, gs_alloc_array((void **)&mf, nm, 4 * sizeof *mf, "checkpoint metrics"), done);
@@ -35,6 +36,11 @@ gs_err points_write_checkpoint(gs_run *run, gs_points_synth_t s, uint64_t tex_di
     if (st.out.n > 0) {
         gs_h5_shape sh = {GS_H5_F64, 2, {st.out.n, 6}};
         GS_TRY(err, gs_ckpt_write_whole(h, "/points/output", &sh, st.out.v, NULL), done);
+        gs_h5_shape shp = {GS_H5_I64, 1, {st.out.n}};
+        GS_TRY(err, gs_alloc_array((void **)&pid, st.out.n, sizeof *pid, "checkpoint"), done);
+        for (size_t i = 0; i < st.out.n; i++)
+            pid[i] = st.patch[i] == UINT32_MAX ? -1 : (int64_t)st.patch[i];
+        GS_TRY(err, gs_ckpt_write_whole(h, "/points/output_patch", &shp, pid, NULL), done);
     }
     if (st.cursor > 0) {
         gs_h5_shape shf = {GS_H5_F64, 2, {st.cursor, 4}};
@@ -48,6 +54,7 @@ done:
         gs_ckpt_discard(&h);
     gs_free(mf);
     gs_free(mu);
+    gs_free(pid);
     gs_points_synth_state_free(&st);
     return err;
 }
@@ -58,6 +65,7 @@ gs_err points_read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
     gs_ckpt_t h = NULL;
     GS_CALL(gs_run_checkpoint_open(run, &h));
     double *mf = NULL;
+    int64_t *pid = NULL;
     uint64_t *mu = NULL, saved_digest = 0, npts = 0;
     gs_err err = GS_OK;
     GS_TRY(err, gs_ckpt_get_u64(h, "/points", "cursor", &st->cursor), done);
@@ -82,6 +90,18 @@ gs_err points_read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
         gs_h5_shape sh = {GS_H5_F64, 2, {npts, 6}};
         GS_TRY(err, gs_ckpt_read_whole(h, "/points/output", &sh, st->out.v), done);
         st->out.n = npts;
+        gs_h5_shape shp = {GS_H5_I64, 1, {npts}};
+        GS_TRY(err, gs_alloc_array((void **)&pid, npts, sizeof *pid, "checkpoint"), done);
+        GS_TRY(err, gs_alloc_array((void **)&st->patch, npts, sizeof *st->patch, "checkpoint"),
+               done);
+        GS_TRY(err, gs_ckpt_read_whole(h, "/points/output_patch", &shp, pid), done);
+        for (uint64_t i = 0; i < npts; i++) {
+            GS_TRY_CHECK(err, pid[i] >= -1 && pid[i] < (int64_t)st->cursor, GS_ERR_FORMAT, done,
+                         "%s: /points/output_patch[%llu] = %lld, expected -1 .. %llu",
+                         gs_ckpt_path(h), (unsigned long long)i, (long long)pid[i],
+                         (unsigned long long)st->cursor);
+            st->patch[i] = pid[i] < 0 ? UINT32_MAX : (uint32_t)pid[i];
+        }
     }
     uint64_t nm = st->cursor ? st->cursor : 1;
     GS_TRY(err, gs_alloc_array((void **)&st->metrics, nm, sizeof *st->metrics, "metrics"), done);
@@ -109,6 +129,7 @@ gs_err points_read_checkpoint(gs_run *run, uint64_t tex_digest, gs_points_synth_
 done:
     gs_free(mf);
     gs_free(mu);
+    gs_free(pid);
     gs_ckpt_close(&h);
     if (err != GS_OK)
         gs_points_synth_state_free(st);

@@ -146,4 +146,21 @@ typedef struct gs_points_pairing_in {
 /* pair[i] = index in S paired with Q[i], or -1 when none. */
 gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair);
 
+/* Patch ids of output points (labels.c): the patch that pasted each point,
+ * keyed by the point's exact position (its coordinates' bits), so points
+ * that move between grids unchanged keep their id. */
+#define GS_POINTS_NO_LABEL UINT32_MAX
+typedef struct gs_points_label_slot {
+    double p[3];
+    uint32_t label, used;
+} gs_points_label_slot;
+typedef struct gs_points_labels {
+    gs_points_label_slot *slot;
+    size_t n, cap;
+} gs_points_labels;
+gs_err gs_points_labels_set(gs_points_labels *m, const double p[3], uint32_t label);
+/* GS_POINTS_NO_LABEL when p was never set. */
+uint32_t gs_points_labels_get(const gs_points_labels *m, const double p[3]);
+void gs_points_labels_free(gs_points_labels *m);
+
 #endif

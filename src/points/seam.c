@@ -8,10 +8,6 @@
 #include "geosynth/mem.h"
 #include "points/points_impl.h"
 
-/* The MLS frame of the points on the other side of a line must weigh at
- * least this much (one point at 0.5 R weighs 0.32, at 0.6 R 0.17) for a band point to
- * count as matched. */
-#define SEAM_MIN_WEIGHT 0.15
 
 /* A segment counts with at least this many band points. */
 #define SEGMENT_MIN_POINTS 10
@@ -40,7 +36,7 @@ static void seam_point(const gs_opoint *p, gs_points *nb, gs_points *other, int 
     }
     double a[3], n[3];
     acc->n++;
-    if (gs_points_mls_frame(other, R, p->p, a, n) < SEAM_MIN_WEIGHT) {
+    if (gs_points_mls_frame(other, R, p->p, a, n) < GS_POINTS_SEAM_MIN_WEIGHT) {
         acc->unmatched++;
         if (cell)
             cell[1]++;

@@ -65,6 +65,7 @@ struct gs_points_synth {
     gs_points gone;              /* the output's objects that went (paste), by object */
     uint32_t *gone_obj;
     size_t gone_cap;
+    gs_points_labels labels;     /* the patch that pasted each output point */
 };
 
 enum { COMP_SURFACE = 0, COMP_OBJECT = 1, COMP_PARTIAL = 2 };
@@ -221,6 +222,7 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->gone);
     gs_free(s->gone_obj);
     gs_free(s->obj_move);
+    gs_points_labels_free(&s->labels);
     gs_free(s);
     *sp = NULL;
 }
@@ -1411,8 +1413,10 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
     if (!s->ncomp || s->obj_ext == 0) {
         gs_points_grid_remove_xy(s->out, blo, bhi);
-        for (size_t i = 0; i < s->Fb.n; i++)
+        for (size_t i = 0; i < s->Fb.n; i++) {
             GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
+            GS_CALL(gs_points_labels_set(&s->labels, s->Fb.v[i].p, (uint32_t)s->cursor));
+        }
         return GS_OK;
     }
     double r = link_radius(s), ext = s->obj_ext + 2 * r;
@@ -1495,8 +1499,11 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
                    done);
             clash = s->scratch.n > 0;
         }
-        for (size_t j = i; j < e && !clash; j++)
+        for (size_t j = i; j < e && !clash; j++) {
             GS_TRY(err, gs_points_grid_add(s->out, &s->Fb.v[j]), done);
+            GS_TRY(err, gs_points_labels_set(&s->labels, s->Fb.v[j].p, (uint32_t)s->cursor),
+                   done);
+        }
         i = e;
     }
     /* Where a new object was left out (it touched one that stays), the old
@@ -1779,18 +1786,16 @@ static gs_err relax_points(void *vctx, size_t lo, size_t hi, void *vout)
     return GS_OK;
 }
 
-static gs_err relax_once(struct gs_points_synth *s, gs_points_grid_t g, gs_points *out)
+/* The points of cur (the points of g, in any order) relaxed against g,
+ * in cur's order, appended to out. */
+static gs_err relax_once(struct gs_points_synth *s, const gs_points_grid *g, const gs_points *cur,
+                         gs_points *out)
 {
-    gs_points all = {0};
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_points_grid_collect(g, &all), done);
-    GS_TRY(err, gs_points_reserve(out, out->n + all.n), done);
-    relax_ctx rc = {s, g, all.v};
-    GS_TRY(err, par_map(s, all.n, sizeof(gs_opoint), relax_points, &rc, out->v + out->n), done);
-    out->n += all.n;
-done:
-    gs_points_free(&all);
-    return err;
+    GS_CALL(gs_points_reserve(out, out->n + cur->n));
+    relax_ctx rc = {s, g, cur->v};
+    GS_CALL(par_map(s, cur->n, sizeof(gs_opoint), relax_points, &rc, out->v + out->n));
+    out->n += cur->n;
+    return GS_OK;
 }
 
 /* Whether p lies in an overlap strip of the output (where a patch was
@@ -1812,7 +1817,7 @@ static int in_strip(const struct gs_points_synth *s, const double p[3])
  * above or below the surface beside them). Pieces inside the patches were
  * copied from the example, its specks included, and stay. Serial, in
  * cur's order: deterministic. */
-static gs_err drop_strip_specks(struct gs_points_synth *s, gs_points *cur)
+static gs_err drop_strip_specks(struct gs_points_synth *s, gs_points *cur, uint32_t *patch)
 {
     uint32_t *label = NULL, nc = 0;
     uint64_t *sizes = NULL;
@@ -1828,8 +1833,10 @@ static gs_err drop_strip_specks(struct gs_points_synth *s, gs_points *cur)
         out[label[i]] |= !in_strip(s, cur->v[i].p);
     size_t m = 0;
     for (size_t i = 0; i < cur->n; i++)
-        if (out[label[i]] || sizes[label[i]] >= GS_POINTS_SPECK_POINTS)
+        if (out[label[i]] || sizes[label[i]] >= GS_POINTS_SPECK_POINTS) {
+            patch[m] = patch[i];
             cur->v[m++] = cur->v[i];
+        }
     cur->n = m;
 done:
     gs_free(label);
@@ -1840,16 +1847,28 @@ done:
 
 gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out)
 {
+    return gs_points_synth_finish_labeled(s, out, NULL);
+}
+
+gs_err gs_points_synth_finish_labeled(gs_points_synth_t s, gs_points *out, uint32_t **patch)
+{
     double t0 = gs_time_now();
     gs_points cur = {0};
     gs_points_grid_t g = NULL;
+    uint32_t *lab = NULL, *res = NULL;
+    size_t out0 = out->n;
     gs_err err = GS_OK;
-    if (s->p.relax_iterations == 0) {
-        GS_TRY(err, gs_points_grid_collect(s->out, &cur), done);
-    }
+    if (patch)
+        *patch = NULL;
+    GS_TRY(err, gs_points_grid_collect(s->out, &cur), done);
+    /* Each point's patch, looked up before the relaxation moves it; the
+     * relaxation keeps the order. */
+    GS_TRY(err, gs_alloc_array((void **)&lab, cur.n ? cur.n : 1, sizeof *lab, "patch ids"), done);
+    for (size_t i = 0; i < cur.n; i++)
+        lab[i] = gs_points_labels_get(&s->labels, cur.v[i].p);
     for (int it = 0; it < s->p.relax_iterations; it++) {
         gs_points next = {0};
-        err = relax_once(s, it == 0 ? s->out : g, &next);
+        err = relax_once(s, it == 0 ? s->out : g, &cur, &next);
         gs_points_free(&cur);
         cur = next;
         GS_TRY(err, err, done);
@@ -1864,8 +1883,9 @@ gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out)
                 GS_TRY(err, gs_points_grid_add(g, &cur.v[i]), done);
         }
     }
-    GS_TRY(err, drop_strip_specks(s, &cur), done);
+    GS_TRY(err, drop_strip_specks(s, &cur, lab), done);
     /* Trim w_E along every border and move the result to the origin. */
+    GS_TRY(err, gs_alloc_array((void **)&res, cur.n ? cur.n : 1, sizeof *res, "patch ids"), done);
     double lo[2] = {s->we, s->we}, hi[2] = {s->we + s->p.out_size[0], s->we + s->p.out_size[1]};
     for (size_t i = 0; i < cur.n; i++) {
         gs_opoint q = cur.v[i];
@@ -1873,11 +1893,18 @@ gs_err gs_points_synth_finish(gs_points_synth_t s, gs_points *out)
             continue;
         q.p[0] -= s->we;
         q.p[1] -= s->we;
+        res[out->n - out0] = lab[i];
         GS_TRY(err, gs_points_append(out, &q, 1), done);
+    }
+    if (patch) {
+        *patch = res;
+        res = NULL;
     }
 done:
     gs_points_free(&cur);
     gs_points_grid_destroy(&g);
+    gs_free(lab);
+    gs_free(res);
     s->times.relax += gs_time_now() - t0;
     return err;
 }
@@ -1891,10 +1918,15 @@ gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st)
     GS_CALL(gs_points_grid_collect(s->out, &t.out));
     gs_err err = gs_alloc_array((void **)&t.metrics, s->cursor ? s->cursor : 1,
                                 sizeof *t.metrics, "saved metrics");
+    if (err == GS_OK)
+        err = gs_alloc_array((void **)&t.patch, t.out.n ? t.out.n : 1, sizeof *t.patch,
+                             "saved patch ids");
     if (err != GS_OK) {
-        gs_points_free(&t.out);
+        gs_points_synth_state_free(&t);
         GS_CALL(err);
     }
+    for (size_t i = 0; i < t.out.n; i++)
+        t.patch[i] = gs_points_labels_get(&s->labels, t.out.v[i].p);
     memcpy(t.metrics, s->metrics, s->cursor * sizeof *t.metrics);
     *st = t;
     return GS_OK;
@@ -1904,6 +1936,7 @@ void gs_points_synth_state_free(gs_points_synth_state *st)
 {
     gs_points_free(&st->out);
     GS_FREE(st->metrics);
+    GS_FREE(st->patch);
 }
 
 gs_err gs_points_synth_resume(const gs_points_texture *tex, const gs_points_params *p,
@@ -1926,8 +1959,11 @@ gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_point
     GS_TRY_CHECK(err, st->rng.seed == p->seed, GS_ERR_ARG, fail,
                  "points: saved state has seed %llu, the parameters say %llu",
                  (unsigned long long)st->rng.seed, (unsigned long long)p->seed);
-    for (size_t i = 0; i < st->out.n; i++)
+    for (size_t i = 0; i < st->out.n; i++) {
         GS_TRY(err, gs_points_grid_add(s->out, &st->out.v[i]), fail);
+        if (st->patch)
+            GS_TRY(err, gs_points_labels_set(&s->labels, st->out.v[i].p, st->patch[i]), fail);
+    }
     if (st->cursor)
         memcpy(s->metrics, st->metrics, st->cursor * sizeof *s->metrics);
     s->cursor = st->cursor;

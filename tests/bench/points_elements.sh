@@ -4,10 +4,16 @@
 # with everything on, without the warp (points.max_pair_dist = 1e-6: only
 # coincident pairs are found, so a spline is the identity), with the paper's warp always applied (warp_select =
 # false), without the blend (points.blend = false) and without candidate
-# randomness (points.eps = 0: always the best patch), each at SEEDS. Prints
+# randomness (points.eps = 0: always the best patch), and without blend
+# and warp together (the warp's own effect on the seams), each at SEEDS. Prints
 # one JSON object (stdout) with every run's quality figures (summary.json:
-# warp residual (the synthesis' own record, in the JSON only), seam measures
-# from the output points and the patch layout alone (seam_unmatched_excess:
+# warp residual (the synthesis' own record, in the JSON only), the seam
+# measure from points.ply's patch ids (patch_seam_dist_ratio,
+# patch_seam_angle_ratio: distance and normal angle of each point by a
+# boundary between two patches to the other patch's surface, over the same
+# inside one patch, 1 for seams like the inside; gs_measure_point_seams),
+# the older seam measures from the output points and the patch layout
+# (seam_unmatched_excess:
 # share of points by a seam line with no surface across it less the same by
 # lines through the patches' middles, 0 for seams like the inside;
 # seam_dist_ratio, seam_normal_ratio: distance and normal mismatch across
@@ -17,6 +23,7 @@
 # and the example, not from the synthesis' own counters) and the mean
 # per variant, and a table on stderr.
 # env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four),
+# VARIANTS (default all six),
 # GS_DATA (heightfield needs textures/embark-1.jpg; skipped without it).
 set -u
 cd "$(dirname "$0")/../.."
@@ -31,6 +38,7 @@ trap 'rm -rf "$work"' EXIT
 declare -A VAR=(
   [full]=""
   [no_warp]="--set points.max_pair_dist=0.000001"
+  [no_blend_no_warp]="--set points.blend=false --set points.max_pair_dist=0.000001"
   [paper_warp]="--set points.warp_select=false"
   [no_blend]="--set points.blend=false"
   [no_random]="--set points.eps=0"
@@ -43,7 +51,7 @@ for cfg in $CONFIGS; do
     echo "skip $cfg: its inputs are missing (make data, or GS_DATA)" >&2
     continue
   fi
-  for v in full no_warp paper_warp no_blend no_random; do
+  for v in ${VARIANTS:-full no_warp paper_warp no_blend no_blend_no_warp no_random}; do
     for seed in $SEEDS; do
       d=$work/$cfg-$v-$seed
       # shellcheck disable=SC2086
@@ -59,7 +67,9 @@ for cfg in $CONFIGS; do
 done
 /usr/bin/python3 - "$list" <<'PY'
 import json, sys, collections
-keys = ["warp_residual_mean", "seam_dist", "inside_dist", "seam_normal", "inside_normal",
+keys = ["patch_seam_dist_ratio", "patch_seam_angle_ratio", "patch_seam_dist", "patch_inside_dist",
+        "patch_seam_angle", "patch_inside_angle", "patch_seam_open", "patch_inside_open",
+        "patch_seam_points", "warp_residual_mean", "seam_dist", "inside_dist", "seam_normal", "inside_normal",
         "seam_unmatched", "inside_unmatched", "seam_open_segments", "inside_open_p90", "source_patches", "verbatim_share",
         "seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio",
         "height_ks", "example_height_ks_halves", "height_max", "example_height_max",
@@ -79,12 +89,13 @@ mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}
         for (c, v), a in acc.items()]
 json.dump({"benchmark": "points_elements", "runs": runs, "mean": mean}, sys.stdout, indent=1)
 print()
-cols = ["seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio", "seam_open_segments",
+cols = ["patch_seam_dist_ratio", "patch_seam_angle_ratio", "patch_seam_open",
+        "seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio", "seam_open_segments",
         "source_patches", "verbatim_share", "height_ks", "fragments_per_area",
         "small_fragments_per_area", "points_above_example_max"]
-print("%-12s %-11s " % ("config", "variant") + " ".join("%10s" % c[:10] for c in cols),
+print("%-12s %-16s " % ("config", "variant") + " ".join("%10s" % c[:10] for c in cols),
       file=sys.stderr)
 for r in mean:
-    print("%-12s %-11s " % (r["config"], r["variant"]) +
+    print("%-12s %-16s " % (r["config"], r["variant"]) +
           " ".join("%10.4g" % r.get(c, float("nan")) for c in cols), file=sys.stderr)
 PY

@@ -6,8 +6,9 @@ source "$GS_ROOT/tests/e2e/lib.bash"
 CFG=$GS_ROOT/configs/points/quick.ini
 RANDOM=$$
 
-# check_ply DIR: points.ply is a binary PLY of float32 (#23) whose vertex count
-# equals summary's output_points, inside the output box, unit normals.
+# check_ply DIR: points.ply is a binary PLY of float32 (#23) and an int patch
+# id (#21) whose vertex count equals summary's output_points, inside the
+# output box, unit normals, ids of the run's patches.
 check_ply() {
   /usr/bin/python3 - "$1" <<'EOF'
 import json, struct, sys, math
@@ -19,16 +20,23 @@ hdr = raw[:end].decode().split("\n")
 assert hdr[1] == "format binary_little_endian 1.0", hdr[1]
 n = int([l for l in hdr if l.startswith("element vertex")][0].split()[2])
 props = [l.split()[2] for l in hdr if l.startswith("property")]
-assert props == ["x", "y", "z", "nx", "ny", "nz"], props
+assert props == ["x", "y", "z", "nx", "ny", "nz", "patch"], props
 assert n == m["output_points"], (n, m["output_points"])
-assert len(raw) == end + 24 * n, (len(raw), end + 24 * n)
-assert all(l.startswith("property float ") for l in hdr if l.startswith("property")), hdr
+assert len(raw) == end + 28 * n, (len(raw), end + 28 * n)
+types = [l.split()[1] for l in hdr if l.startswith("property")]
+assert types == ["float"] * 6 + ["int"], hdr
 sx, sy = m["out_size_x"], m["out_size_y"]
-for i in range(0, n, max(1, n // 2000)):
-    x, y, z, a, b, c = struct.unpack_from("<6f", raw, end + 24 * i)
-    assert 0 <= x < sx and 0 <= y < sy, (i, x, y)
-    assert abs(a * a + b * b + c * c - 1) < 1e-6, (i, a, b, c)
-print("ply ok", n)
+ids = set()
+for i in range(n):
+    x, y, z, a, b, c, k = struct.unpack_from("<6fi", raw, end + 28 * i)
+    ids.add(k)
+    if i % max(1, n // 2000) == 0:
+        assert 0 <= x < sx and 0 <= y < sy, (i, x, y)
+        assert abs(a * a + b * b + c * c - 1) < 1e-6, (i, a, b, c)
+# every point has its patch (0 .. patches - 1) and most patches have points
+assert min(ids) >= 0 and max(ids) < m["patches"], (min(ids), max(ids), m["patches"])
+assert len(ids) > m["patches"] // 2, (len(ids), m["patches"])
+print("ply ok", n, "points of", len(ids), "patches")
 EOF
 }
 
@@ -65,6 +73,39 @@ EOF
   [[ $pv == "PV $n $n" ]] && ok "ParaView: points.ply + Convert To Point Cloud = $n vertex cells" || bad "ParaView points: '$pv' (want PV $n $n)"
 else
   echo "check skipped: ParaView points.ply check: pvpython is not installed (apt-get install python3-paraview)"
+fi
+# Blender's PLY importer and three.js' PLYLoader open it too (the int patch
+# property after the normals is one they skip): every vertex comes in
+n=$(metric run2 output_points)
+if command -v blender >/dev/null; then
+  cat >blply.py <<'EOF'
+import bpy, sys
+p = sys.argv[sys.argv.index("--") + 1]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+if bpy.app.version >= (4, 0, 0):
+    bpy.ops.wm.ply_import(filepath=p)
+else:
+    bpy.ops.import_mesh.ply(filepath=p)
+print("BLENDER", len(bpy.context.selected_objects[0].data.vertices))
+EOF
+  bl=$(timeout 300 blender -b --factory-startup --python blply.py -- "$PWD/run2/points.ply" 2>&1 | grep '^BLENDER')
+  [[ $bl == "BLENDER $n" ]] && ok "Blender: points.ply imports with $n vertices" || bad "Blender points.ply: '$bl' (want BLENDER $n)"
+else
+  skipped "Blender points.ply check: blender is not installed"
+fi
+gltf_dir=$GS_ROOT/build/gltf
+if command -v node >/dev/null && [[ -d $gltf_dir/node_modules/three ]]; then
+  cat >threeply.mjs <<EOF
+import { PLYLoader } from "$gltf_dir/node_modules/three/examples/jsm/loaders/PLYLoader.js";
+import fs from "fs";
+const b = fs.readFileSync(process.argv[2]);
+const g = new PLYLoader().parse(b.buffer.slice(b.byteOffset, b.byteOffset + b.length));
+console.log("THREE", g.attributes.position.count, g.attributes.normal ? g.attributes.normal.count : 0);
+EOF
+  th=$(timeout 120 node threeply.mjs run2/points.ply 2>&1 | grep '^THREE')
+  [[ $th == "THREE $n $n" ]] && ok "three.js PLYLoader: $n positions and normals" || bad "three.js points.ply: '$th' (want THREE $n $n)"
+else
+  skipped "three.js points.ply check: node or build/gltf/node_modules missing (make deps)"
 fi
 [[ -s run2/patches.csv ]] && [[ $(($(wc -l <run2/patches.csv) - 1)) -eq $(metric run2 patches) ]] &&
   ok "patches.csv has one row per patch" || bad "patches.csv rows"

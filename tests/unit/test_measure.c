@@ -172,6 +172,55 @@ static void test_point_pieces(void **state)
     free(p);
 }
 
+/* Seams from patch ids: a plane z = 0 sampled on a grid, split at x = 1 into
+ * patches 0 and 1. Patch 1 raised by dz: the seam points see the other
+ * patch's surface dz away and the inside sees a plane (0); not raised, the
+ * seam is like the inside. Tilting patch 1's normals by 10 degrees gives a
+ * 10 degree seam angle. */
+static void test_point_seams(void **state)
+{
+    (void)state;
+    enum { NX = 40, NY = 20 };
+    const double h = 0.05, R = 3 * h, band = 1.5 * h, dz = 0.02;
+    double *v = malloc(NX * NY * 6 * sizeof *v);
+    int32_t *id = malloc(NX * NY * sizeof *id);
+    for (int raise = 0; raise < 3; raise++) {
+        size_t n = 0;
+        for (int j = 0; j < NY; j++)
+            for (int i = 0; i < NX; i++) {
+                double *q = v + 6 * n;
+                id[n] = i * h < 1.0 ? 0 : 1;
+                double a = raise == 2 && id[n] ? 10 * 3.14159265358979323846 / 180 : 0;
+                q[0] = i * h;
+                q[1] = j * h;
+                q[2] = raise == 1 && id[n] ? dz : 0;
+                q[3] = sin(a);
+                q[4] = 0;
+                q[5] = cos(a);
+                n++;
+            }
+        gs_measure_seams ms;
+        assert_int_equal(gs_measure_point_seams(v, n, id, R, band, 0.15, &ms), GS_OK);
+        /* One column each side lies within 1.5 h of the other patch. */
+        assert_int_equal(ms.seam_points, 2 * NY);
+        /* (tilted normals on a flat sampling are no plane: no inside check) */
+        assert_true(raise == 2 || (ms.inside_dist < 1e-12 && ms.inside_angle < 1e-5));
+        assert_true(ms.inside_fits > 0);
+        if (raise == 1) {
+            assert_true(fabs(ms.seam_dist - dz) < 1e-9);
+            assert_true(ms.seam_angle < 1e-5);
+        } else if (raise == 2) {
+            assert_true(fabs(ms.seam_angle - 10) < 1e-5);
+        } else {
+            assert_true(ms.seam_dist < 1e-12 && ms.seam_angle < 1e-5);
+        }
+    }
+    gs_measure_seams ms;
+    assert_int_equal(gs_measure_point_seams(v, 10, id, R, 2 * R, 0.15, &ms), GS_ERR_ARG);
+    free(v);
+    free(id);
+}
+
 static void test_preview(void **state)
 {
     (void)state;
@@ -547,6 +596,7 @@ int main(void)
         cmocka_unit_test(test_ks),
         cmocka_unit_test(test_components),
         cmocka_unit_test(test_point_pieces),
+        cmocka_unit_test(test_point_seams),
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),

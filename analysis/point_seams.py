@@ -1,0 +1,118 @@
+#!/usr/bin/python3
+"""Seams of a points run from points.ply alone (x y z nx ny nz and the int
+patch id of every point): the twin of gs_measure_point_seams
+(src/measure/pointset.c, include/geosynth/measure.h), to check it and to
+measure any point set with patch ids.
+
+  analysis/point_seams.py RUN_DIR [RADIUS BAND]   -> one JSON line
+
+RADIUS (default: summary.json's config mls_radius, else 3 input_spacing) and
+BAND (default 1.5 input_spacing) as the engine passes them. A seam point has
+a point of another patch within BAND (that patch: the nearest such point's);
+its fit is the MLS frame (weights (1 - d^2/R^2)^4) of the other patch's
+points within R: distance |(p - a).n| and the angle of normals. Inside: each
+point with no other patch within R against its own patch's points in the
+half-discs toward +x, -x, +y, -y. Fits weighing less than 0.15 are open.
+Agrees with summary.json's patch_seam_* / patch_inside_* to 1e-6 relative
+(the points are read back as float32: tests/e2e/points_quality.sh).
+"""
+import json
+import sys
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+MIN_WEIGHT = 0.15
+
+
+def read_points(path):
+    raw = open(path, "rb").read()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    hdr = raw[:end].decode().split("\n")
+    assert hdr[1] == "format binary_little_endian 1.0", hdr[1]
+    n = int([l for l in hdr if l.startswith("element vertex")][0].split()[2])
+    props = [(l.split()[2], "<i4" if l.split()[1] == "int" else "<f4") for l in hdr
+             if l.startswith("property")]
+    a = np.frombuffer(raw, dtype=props, count=n, offset=end)
+    v = np.stack([a[k].astype(np.float64) for k in ("x", "y", "z", "nx", "ny", "nz")], 1)
+    return v, a["patch"].astype(np.int64)
+
+
+def fit(v, p, idx, inv_r2):
+    """(weight, |distance|, angle in degrees) of the MLS frame of v[idx] at p."""
+    q = v[idx]
+    t = np.maximum(1 - ((q[:, :3] - p[:3]) ** 2).sum(1) * inv_r2, 0) ** 4
+    w = t.sum()
+    nsum = (t[:, None] * q[:, 3:]).sum(0)
+    nn = np.linalg.norm(nsum)
+    if w < MIN_WEIGHT or not nn > 0:
+        return w, None, None
+    n = nsum / nn
+    a = (t[:, None] * q[:, :3]).sum(0) / w
+    c = min(1.0, max(-1.0, float(p[3:] @ n)))
+    return w, abs(float((p[:3] - a) @ n)), np.degrees(np.arccos(c))
+
+
+def measure(v, pid, radius, band):
+    tree = cKDTree(v[:, :3])
+    nbs = tree.query_ball_point(v[:, :3], radius)
+    inv_r2 = 1.0 / radius ** 2
+    acc = {"seam": [[], 0], "inside": [[], 0]}
+    dirs = [(1, 0), (-1, 0), (0, 1), (0, -1)]
+    for i, nb in enumerate(nbs):
+        nb = np.array([j for j in nb if j != i], dtype=np.int64)
+        p = v[i]
+        if len(nb) == 0:
+            other = nb
+        else:
+            other = nb[pid[nb] != pid[i]]
+        if len(other):
+            d2 = ((v[other, :3] - p[:3]) ** 2).sum(1)
+            near = d2 <= band * band
+            if near.any():
+                best = d2[near].min()
+                k = pid[other[near][d2[near] == best]].min()
+                r = fit(v, p, nb[pid[nb] == k], inv_r2)
+                if r[1] is None:
+                    acc["seam"][1] += 1
+                else:
+                    acc["seam"][0].append(r[1:])
+            continue
+        for dx, dy in dirs:
+            side = nb[(v[nb, 0] - p[0]) * dx + (v[nb, 1] - p[1]) * dy > 0]
+            r = fit(v, p, side, inv_r2)
+            if r[1] is None:
+                acc["inside"][1] += 1
+            else:
+                acc["inside"][0].append(r[1:])
+    out = {}
+    for w in ("seam", "inside"):
+        m = np.array(acc[w][0]).reshape(-1, 2)
+        tot = len(m) + acc[w][1]
+        d = np.sort(m[:, 0])
+        out[f"patch_{w}_dist"] = float(m[:, 0].mean()) if len(m) else 0.0
+        out[f"patch_{w}_angle"] = float(m[:, 1].mean()) if len(m) else 0.0
+        out[f"patch_{w}_dist_p90"] = float(d[int(np.floor(0.9 * (len(d) - 1)))]) if len(d) else 0.0
+        out[f"patch_{w}_open"] = acc[w][1] / tot if tot else 0.0
+    out["patch_seam_points"] = len(acc["seam"][0]) + acc["seam"][1]
+    return out
+
+
+def main():
+    d = sys.argv[1]
+    s = json.load(open(d + "/summary.json"))
+    m = s["metrics"]
+    radius = float(sys.argv[2]) if len(sys.argv) > 2 else None
+    band = float(sys.argv[3]) if len(sys.argv) > 3 else 1.5 * m["input_spacing"]
+    if radius is None:
+        cfg = {l.split("=")[0].strip(): l.split("=", 1)[1].strip()
+               for l in s["config"].splitlines() if "=" in l and not l.startswith("#")}
+        r = float(cfg.get("mls_radius", "0") or 0)
+        radius = r if r > 0 else 3 * m["input_spacing"]
+    band = min(band, radius)
+    v, pid = read_points(d + "/points.ply")
+    print(json.dumps(measure(v, pid, radius, band)))
+
+
+if __name__ == "__main__":
+    main()
