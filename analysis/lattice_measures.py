@@ -99,6 +99,18 @@ def label_l1(a, b):
     return float(np.abs(ha - hb).sum())
 
 
+def stacked(a, nz):
+    """a cut or grown to nz layers, its top layer repeated (the layer each output height
+    draws from with model.resemblance_layers)."""
+    return a[[min(z, a.shape[0] - 1) for z in range(nz)]]
+
+
+def label_l1_layers(ex, out):
+    """Mean over the output's layers of the label L1 of layer z to the example's layer
+    min(z, top): the label mix at each height, which the whole-lattice L1 mixes up."""
+    return float(np.mean([label_l1(ex[min(z, ex.shape[0] - 1)], out[z]) for z in range(out.shape[0])]))
+
+
 def fill(a, nz):
     """Share of non-empty cells in each of nz layers (layers past a's top count as empty)."""
     return np.array([(a[z] != 0).mean() if z < a.shape[0] else 0.0 for z in range(nz)])
@@ -142,6 +154,10 @@ def figures(ex, out, ks=(2, 3)):
         f["share_%d_with_empty" % k] = share(ex, out, k, nonempty=False)
         f["completeness_%d" % k] = completeness(ex, out, k)
     f["label_l1"] = label_l1(ex, out)
+    # what a copy of every example layer at its height scores when the output is taller
+    # (castle.txt 8 layers, empty on top, in a 10-layer output: 0.146 with every layer exact)
+    f["label_l1_stacked_example"] = label_l1(ex, stacked(ex, out.shape[0]))
+    f["label_l1_layers"] = label_l1_layers(ex, out)
     if min(ex.shape[0], out.shape[0]) > 2:
         f["enclosed_2"], f["enclosed_2_example"] = enclosed(out), enclosed(ex)
     f["labels_used"] = int(len(np.unique(out[out != 0])))

@@ -399,6 +399,17 @@ gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack, i
  * most likely holds past them) and a mismatch otherwise. A defined equal
  * label scores a match. The default after build is 0. */
 void gs_model_resem_set_outside(gs_model_resem_t r, int weight);
+/* Label-frequency soft constraint on the choice (paper Sec. 4.2: Eq. 6 modified
+ * so that labels that fit the constraint better are likelier): every drawn
+ * neighbourhood's weight is multiplied by ((t*D + 1) / (n + 1))^beta for its
+ * centre label k, D = the decided cells of the cell's layer in the region, n =
+ * those holding k, t = k's share of the matching example layer (min(z, nz - 1),
+ * as the layers option) or, layers off, of the whole example: a label the layer
+ * so far holds less often than the example's layer does is drawn more often,
+ * one it holds too often less. The counts are refreshed every n/64 choices
+ * (decided by propagation too). beta = 0 (the build's default): off. */
+gs_err gs_model_resem_set_frequency(gs_model_resem_t r, const gs_model_lattice *example,
+                                    double beta);
 void gs_model_resem_destroy(gs_model_resem_t *r);
 /* Distinct neighbourhood patterns of the index (0 for NULL). */
 int gs_model_resem_patterns(const gs_model_resem_t r);

@@ -324,6 +324,12 @@ static const gs_cfg_key model_keys[] = {
                     "too easily, castle 3x3x3 share 0.26-0.57), or background: a match when the "
                     "output cell holds the commonest label of the example's x/y faces at its "
                     "layer, else a mismatch; configs/model/DEFAULTS.md"),
+    GS_CFG_KEY_REAL(model_config, frequency_weight, "model.frequency_weight", 0, 64, 0, "0",
+                    "resemblance: label-frequency soft constraint (paper Sec. 4.2, Eq. 6 "
+                    "modified): a drawn neighbourhood weighs ((t*D + 1) / (n + 1))^beta for its "
+                    "centre label, D = decided cells of the cell's layer in the region, n = "
+                    "those with the label, t = its share of the example's layer at that "
+                    "height; beta = this (0 = off); configs/model/DEFAULTS.md"),
     GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "true",
                     "resemblance: a cell at height z draws only from the example's "
                     "neighbourhoods at the same height (output and example share the ground)"),

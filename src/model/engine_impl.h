@@ -63,6 +63,7 @@ typedef struct model_config {
     char *weights;
     int64_t resemblance;
     int64_t resemblance_slack;
+    double frequency_weight;
     int resemblance_layers;
     char *ac;
     char *fix_z_faces;

@@ -691,6 +691,7 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
                                              : !strcmp(c->resemblance_outside, "half")   ? 1
                                              : !strcmp(c->resemblance_outside, "match")  ? 2
                                                                                          : 3);
+        GS_CALL(gs_model_resem_set_frequency(e->resem, &e->example, c->frequency_weight));
         e->params.resem = e->resem;
         gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
                gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,

@@ -61,6 +61,9 @@ struct gs_model_resem {
     int outside_bg;    /* 1: such a cell scores a match against the example's background
                           label of the decided neighbour's layer (bg), else a mismatch */
     uint16_t *bg;      /* [nz] commonest label of the example's x/y faces at each layer */
+    double freq_beta;  /* label-frequency constraint strength (0 = off) */
+    float *zshare;     /* [nz][L] share of each label in each example layer (all layers
+                          alike when layers = 0), with freq_beta */
 };
 
 #define GS_MODEL_UTAB_MAX_W 2 /* AC-3 union table: 128 KiB at W = 1, 512 KiB at W = 2 */
@@ -111,6 +114,10 @@ struct gs_model_solver {
     int box_z0, box_rz, periodic[3];
     uint64_t *rs_buf;       /* resemblance scratch: cand, mask, B counter slices */
     size_t rs_cap;
+    uint32_t *fq_cnt;       /* label-frequency constraint: [box rz][L + 1] decided cells per
+                               layer and label, then the layer's total (refreshed every
+                               fq_every choices) */
+    size_t fq_cap, fq_left, fq_every;
     uint64_t revisions; /* statistics: cells processed by propagation */
     uint64_t backtracks_done; /* statistics: decisions undone */
     /* chronological backtracking (AC-3 only): a cell's candidates are saved

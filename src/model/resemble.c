@@ -236,6 +236,7 @@ void gs_model_resem_destroy(gs_model_resem_t *pr)
     gs_free(r->zbits);
     gs_free(r->oslot);
     gs_free(r->bg);
+    gs_free(r->zshare);
     gs_free(r);
     *pr = NULL;
 }
@@ -248,4 +249,32 @@ void gs_model_resem_set_outside(gs_model_resem_t r, int weight)
         r->outside_bg = weight == 3;
         r->outside = weight == 3 ? 0 : weight < 0 ? 0 : weight > 2 ? 2 : weight;
     }
+}
+
+gs_err gs_model_resem_set_frequency(gs_model_resem_t r, const gs_model_lattice *ex, double beta)
+{
+    GS_CHECK(beta >= 0 && beta <= 64, GS_ERR_ARG, "model.frequency_weight = %g: expected 0..64",
+             beta);
+    if (!r)
+        return GS_OK;
+    r->freq_beta = beta;
+    gs_free(r->zshare);
+    r->zshare = NULL;
+    if (beta <= 0)
+        return GS_OK;
+    const size_t L = (size_t)r->L, nz = (size_t)r->nz > 0 ? (size_t)r->nz : 1;
+    GS_CALL(gs_alloc_array((void **)&r->zshare, nz * L, sizeof *r->zshare, "label shares"));
+    const size_t layer = (size_t)ex->nx * (size_t)ex->ny;
+    for (int z = 0; z < ex->nz; z++)
+        for (size_t i = 0; i < layer; i++) {
+            unsigned a = ex->labels[(size_t)z * layer + i];
+            if (a >= L)
+                continue;
+            if (r->layers && (size_t)z < nz)
+                r->zshare[(size_t)z * L + a] += 1.0f / (float)layer;
+            else
+                for (size_t k = 0; k < nz; k++)
+                    r->zshare[k * L + a] += 1.0f / (float)(layer * (size_t)ex->nz);
+        }
+    return GS_OK;
 }

@@ -145,6 +145,7 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->trail_dom);
     gs_free(s->dec);
     gs_free(s->rs_buf);
+    gs_free(s->fq_cnt);
     gs_free(s);
     *ps = NULL;
 }
@@ -883,6 +884,47 @@ static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     return last;
 }
 
+/* Label-frequency constraint (gs_model_resem_set_frequency): the decided
+ * cells per layer and label of the box, counted afresh every fq_every
+ * choices (cells decided by propagation included), each choice added at once. */
+static void freq_recount(struct gs_model_solver *s)
+{
+    const size_t L1 = (size_t)s->L + 1, W = (size_t)s->W;
+    const size_t layer = (size_t)s->box_rx * (size_t)s->box_ry;
+    memset(s->fq_cnt, 0, (size_t)s->box_rz * L1 * sizeof *s->fq_cnt);
+    for (size_t c = 0; c < s->n; c++)
+        if (s->size[c] == 1) {
+            uint32_t *row = s->fq_cnt + (c / layer) * L1;
+            row[first_label(s->dom + c * W)]++;
+            row[L1 - 1]++;
+        }
+    s->fq_left = s->fq_every;
+}
+
+/* Per candidate label of c, ((t*D + 1) / (n + 1))^beta (fq_fac, [L]). */
+static double *freq_factors(struct gs_model_solver *s, int32_t c)
+{
+    const struct gs_model_resem *R = s->resem;
+    const size_t L1 = (size_t)s->L + 1, W = (size_t)s->W;
+    if (!s->fq_left)
+        freq_recount(s);
+    s->fq_left--;
+    const int zl = s->box_z0 + c / (s->box_rx * s->box_ry);
+    const uint32_t *row = s->fq_cnt + (size_t)(c / (s->box_rx * s->box_ry)) * L1;
+    const float *t = R->zshare + (size_t)(zl < R->nz ? zl : R->nz - 1) * (size_t)R->L;
+    double *fac = (double *)(s->fq_cnt + (size_t)s->box_rz * L1 + 1);
+    fac = (double *)(((uintptr_t)fac + 7) & ~(uintptr_t)7);
+    const uint64_t *dc = s->dom + (size_t)c * W;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (a >= R->L)
+                continue;
+            fac[a] = pow(((double)t[a] * row[L1 - 1] + 1.0) / ((double)row[a] + 1.0), R->freq_beta);
+        }
+    return fac;
+}
+
 /* Resemblance (paper Eqs. 4-6, see gs_model_resem_build in model.h): match
  * counts of the candidate patterns in bit-sliced counters over the words of
  * the candidates' centre runs, then the patterns with the most matches
@@ -1115,20 +1157,23 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             }
         }
     }
-    if (s->shape) { /* Eq. 6 times the constraint weight of each centre label */
-        const double f_full = shape_factor(s, c), f_empty = 1.0 / f_full;
+    if (s->shape || R->zshare) { /* Eq. 6 times the constraint weights of each centre label */
+        const double f_full = s->shape ? shape_factor(s, c) : 1.0, f_empty = 1.0 / f_full;
+        double *fq = R->zshare ? freq_factors(s, c) : NULL;
         double dtotal = 0;
         int last = -1;
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                dtotal += mult[i] * (s->structure[R->center[i]] ? f_full : f_empty);
+                dtotal += mult[i] * (s->shape ? (s->structure[R->center[i]] ? f_full : f_empty) : 1.0) *
+                          (fq ? fq[R->center[i]] : 1.0);
             }
         double dpick = gs_rng_uniform(rng) * dtotal;
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                double wi = mult[i] * (s->structure[R->center[i]] ? f_full : f_empty);
+                double wi = mult[i] * (s->shape ? (s->structure[R->center[i]] ? f_full : f_empty) : 1.0) *
+                            (fq ? fq[R->center[i]] : 1.0);
                 if (dpick < wi)
                     return R->center[i];
                 dpick -= wi;
@@ -1229,6 +1274,18 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
                 s->order[j] = t;
             }
     }
+    if (s->resem && s->resem->zshare) { /* label counts, then L factors (doubles) */
+        const size_t need = (size_t)b->z1 - (size_t)b->z0;
+        const size_t words = need * ((size_t)s->L + 1) + 2 + 2 * (size_t)s->L;
+        if (words > s->fq_cap) {
+            uint32_t *nb = gs_realloc(s->fq_cnt, words * sizeof *nb);
+            GS_CHECK(nb != NULL, GS_ERR_MEM, "label-frequency counts: cannot allocate");
+            s->fq_cnt = nb;
+            s->fq_cap = words;
+        }
+        s->fq_every = s->n / 64 ? s->n / 64 : 1;
+        s->fq_left = 0;
+    }
     const int64_t budget64 = s->ac == GS_MODEL_AC3 ? (int64_t)p->backtracks * budget_scale : 0;
     const int budget = budget64 > 100000000 ? 100000000 : (int)budget64;
     s->trail_on = budget > 0;
@@ -1262,6 +1319,11 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
         (*choices)++;
         if (label < 0)
             break;
+        if (s->fq_cnt && s->resem && s->resem->zshare) { /* counted at once; refreshed later */
+            uint32_t *row = s->fq_cnt + (size_t)(c / (s->box_rx * s->box_ry)) * ((size_t)s->L + 1);
+            row[label]++;
+            row[s->L]++;
+        }
         if (budget) {
             if (s->ndec == s->dec_cap) {
                 size_t ncap = s->dec_cap ? 2 * s->dec_cap : 256;

@@ -127,8 +127,11 @@ d1=$(digest_of terrain)
 # scores a neighbourhood cell past the example's faces as a match only against the example's
 # face background of that layer. Checks from the example, seeds 1 and 2: near-face labels'
 # share of all cells within [0.5, 2] x the example's; completeness >= the example's half vs
-# half (the lower); non-empty 3x3x3 share >= the better half vs half; labels used >= 0.8 x.
-# Broken on purpose: resemblance_outside = half (the previous castle.ini) fails the first check.
+# half (the lower); non-empty 3x3x3 share >= the better half vs half; labels used >= 0.8 x;
+# label L1 at most 1.05 x what the example's layers copied to the output's height score
+# (castle.txt: 0.146; model.frequency_weight).
+# Broken on purpose: resemblance_outside = half (the previous castle.ini) fails the first check;
+# frequency_weight = 0 fails the label L1 (0.180, 0.184 > 0.153).
 CASTLE=model-synthesis/merrell42-model-synthesis/samples/castle.txt
 if need_data "castle: near-face features (bushes) and windows" $CASTLE; then
   for s in 1 2; do
@@ -155,6 +158,7 @@ need(0.5 * se <= so <= 2 * se, "near-face labels' share %.4f within [0.5, 2] x t
 need(f["completeness_3"] >= h["completeness_3"], "completeness %.3f >= example half vs half %.3f" % (f["completeness_3"], h["completeness_3"]))
 need(f["share_3"] >= h["share_3"], "non-empty 3x3x3 share %.3f >= example half vs half %.3f" % (f["share_3"], h["share_3"]))
 need(f["labels_used"] >= 0.8 * f["labels_example"], "labels used %d >= 0.8 x example's %d" % (f["labels_used"], f["labels_example"]))
+need(f["label_l1"] <= 1.05 * f["label_l1_stacked_example"], "label L1 %.3f <= 1.05 x the example's layers stacked to the output's height %.3f" % (f["label_l1"], f["label_l1_stacked_example"]))
 need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
 chk.result()
 EOF
