@@ -111,6 +111,16 @@ def label_l1_layers(ex, out):
     return float(np.mean([label_l1(ex[min(z, ex.shape[0] - 1)], out[z]) for z in range(out.shape[0])]))
 
 
+def unsupported(a):
+    """Share of the non-empty cells with no 6-connected path of non-empty cells to z = 0
+    (floating structure; as summary.json's unsupported_share, non-periodic)."""
+    from scipy import ndimage
+    lab, _ = ndimage.label(a != 0)
+    grounded = np.unique(lab[0])
+    solid = int((a != 0).sum())
+    return float(((a != 0) & ~np.isin(lab, grounded[grounded > 0])).sum()) / solid if solid else 0.0
+
+
 def fill(a, nz):
     """Share of non-empty cells in each of nz layers (layers past a's top count as empty)."""
     return np.array([(a[z] != 0).mean() if z < a.shape[0] else 0.0 for z in range(nz)])
@@ -160,6 +170,7 @@ def figures(ex, out, ks=(2, 3)):
     f["label_l1_layers"] = label_l1_layers(ex, out)
     if min(ex.shape[0], out.shape[0]) > 2:
         f["enclosed_2"], f["enclosed_2_example"] = enclosed(out), enclosed(ex)
+    f["unsupported_share"], f["unsupported_share_example"] = unsupported(out), unsupported(ex)
     f["labels_used"] = int(len(np.unique(out[out != 0])))
     f["labels_example"] = int(len(np.unique(ex[ex != 0])))
     f["empty_share"] = float((out == 0).mean())

@@ -103,6 +103,9 @@ typedef struct model_engine {
     uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
     float *shape;            /* soft target shape (NULL = none), lat nx*ny */
     uint8_t *structure;      /* model.shape: [nlabels] structure labels of the example */
+    uint8_t *repair_empty;   /* default mode (no overlap3d), example without floating
+                                structure: [nlabels] 1 = empty (label 0); the repair after the
+                                passes resynthesizes floating pieces (engine_regions.c) */
     int nstructure_labels;
     int full[3];             /* output extents (mirror: lat holds the lower half) */
     int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */

@@ -203,15 +203,15 @@ done:
  * origins, and the decoded layers above the top one); their x / y bounding
  * box into bb (x0, y0, x1, y1). Returns how many, SIZE_MAX when out of
  * memory. */
-static size_t floating_cells(const model_engine *e, int bb[4])
+static size_t floating_cells(const model_engine *e, const gs_model_params *p, int bb[4])
 {
     const gs_model_lattice *l = &e->lat;
-    const int above = e->params.support_above ? e->params.support_layers_above : 0;
+    const int above = p->support_above ? p->support_layers_above : 0;
     const size_t layer = (size_t)l->nx * (size_t)l->ny, n = layer * (size_t)(l->nz + above);
     uint8_t *st = gs_malloc(n ? n : 1);
     if (!st)
         return SIZE_MAX;
-    size_t nf = gs_model_support_floating(l->labels, l->nx, l->ny, l->nz, &e->params, st);
+    size_t nf = gs_model_support_floating(l->labels, l->nx, l->ny, l->nz, p, st);
     bb[0] = l->nx, bb[1] = l->ny, bb[2] = -1, bb[3] = -1;
     for (size_t i = 0; i < n && nf != SIZE_MAX; i++)
         if (st[i] == 1) {
@@ -241,20 +241,119 @@ static size_t floating_cells(const model_engine *e, int bb[4])
  * the loop should that ever stop holding: it then ends as a failed region. */
 #define MODEL_REPAIR_ID 0x7f000000u
 #define MODEL_REPAIR_MAX_TRIES 64
+#define MODEL_REPAIR_PIECE_ROUNDS 3
+
+/* The repair box over x / y extent bb (x0, y0, x1, y1 inclusive) grown by margin, clipped to
+ * the lattice, over every layer. */
+static gs_model_box repair_box(const gs_model_lattice *l, const int bb[4], int margin)
+{
+    gs_model_box b = {bb[0] - margin, bb[1] - margin, 0, bb[2] + 1 + margin, bb[3] + 1 + margin,
+                      l->nz};
+    b.x0 = b.x0 < 0 ? 0 : b.x0;
+    b.y0 = b.y0 < 0 ? 0 : b.y0;
+    b.x1 = b.x1 > l->nx ? l->nx : b.x1;
+    b.y1 = b.y1 > l->ny ? l->ny : b.y1;
+    return b;
+}
+
+/* Default mode (e->repair_empty): first each floating piece (6-connected
+ * floating cells) alone, in the box of its x / y extent grown by 2 << round,
+ * over every layer, with the regions' own check (non-empty cells reach z = 0
+ * through the box or a non-empty cell next to it); a piece next to another
+ * may stay floating, so up to MODEL_REPAIR_PIECE_ROUNDS rounds, then the
+ * boxes over all pieces below. Small boxes keep the rest of the output as the
+ * passes left it. Keys after the boxes' (the same on every rank). */
+static gs_err repair_pieces(model_engine *e, const gs_model_params *p, uint16_t *buf)
+{
+    const gs_model_lattice *l = &e->lat;
+    const size_t layer = (size_t)l->nx * (size_t)l->ny, n = layer * (size_t)l->nz;
+    uint8_t *st = gs_malloc(n ? n : 1);
+    int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
+    gs_err err = GS_OK;
+    uint64_t id = MODEL_REPAIR_ID + MODEL_REPAIR_MAX_TRIES; /* after the boxes' keys below */
+    GS_TRY_CHECK(err, st && queue, GS_ERR_MEM, done, "support repair: cannot allocate");
+    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int round = 0; round < MODEL_REPAIR_PIECE_ROUNDS; round++) {
+        size_t nf = gs_model_support_floating(l->labels, l->nx, l->ny, l->nz, p, st);
+        GS_TRY_CHECK(err, nf != SIZE_MAX, GS_ERR_MEM, done, "support repair: cannot allocate");
+        if (nf == 0)
+            break;
+        const int margin = 2 << round;
+        for (size_t i0 = 0; i0 < n; i0++) {
+            if (st[i0] != 1)
+                continue;
+            /* the piece of i0 (marked 3), its x / y extent */
+            int bb[4] = {l->nx, l->ny, -1, -1};
+            size_t head = 0, tail = 0, cells = 0;
+            st[i0] = 3;
+            queue[tail++] = (int32_t)i0;
+            while (head < tail) {
+                int32_t u = queue[head++];
+                int x = (int)((size_t)u % (size_t)l->nx), y = (int)((size_t)u / (size_t)l->nx % (size_t)l->ny);
+                int z = (int)((size_t)u / layer);
+                cells++;
+                bb[0] = x < bb[0] ? x : bb[0];
+                bb[1] = y < bb[1] ? y : bb[1];
+                bb[2] = x > bb[2] ? x : bb[2];
+                bb[3] = y > bb[3] ? y : bb[3];
+                for (int d = 0; d < 6; d++) {
+                    int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+                    if (p->periodic[0])
+                        px = (px % l->nx + l->nx) % l->nx;
+                    if (p->periodic[1])
+                        py = (py % l->ny + l->ny) % l->ny;
+                    if (px < 0 || py < 0 || pz < 0 || px >= l->nx || py >= l->ny || pz >= l->nz)
+                        continue;
+                    size_t v = (size_t)px + (size_t)l->nx * ((size_t)py + (size_t)l->ny * (size_t)pz);
+                    if (st[v] == 1) {
+                        st[v] = 3;
+                        queue[tail++] = (int32_t)v;
+                    }
+                }
+            }
+            gs_model_box b = repair_box(l, bb, margin);
+            gs_model_region_result res;
+            GS_TRY(err,
+                   gs_model_region_run(e->solver, &e->lat, &b, p, id++,
+                                       (uint64_t)e->pass, buf, &res),
+                   done);
+            gs_log(GS_LOG_DEBUG, "support repair: a piece of %zu floating cells, box x %d..%d "
+                   "y %d..%d: %s", cells, b.x0, b.x1 - 1, b.y0, b.y1 - 1,
+                   res.ok ? "resynthesized" : "kept");
+            e->stats.regions++;
+            e->stats.attempts += (uint64_t)res.attempts;
+            e->stats.choices += res.choices;
+            e->stats.backtracks += res.backtracks;
+            if (res.ok) {
+                e->stats.accepted++;
+                gs_model_region_apply(&e->lat, &b, buf);
+            }
+        }
+    }
+done:
+    gs_free(st);
+    gs_free(queue);
+    return err;
+}
+
 static gs_err support_repair(model_engine *e)
 {
-    if (!e->params.support_empty)
+    const uint8_t *empty = e->params.support_empty ? e->params.support_empty : e->repair_empty;
+    if (!empty)
         return GS_OK;
     const gs_model_lattice *l = &e->lat;
     gs_model_params p = e->params;
-    p.support_global = 1;
+    p.support_empty = empty;
     uint16_t *buf = NULL;
     GS_CALL(gs_alloc_array((void **)&buf, lattice_cells(l), sizeof *buf, "repair labels"));
     gs_err err = GS_OK;
     int margin = (int)(e->cfg->overlap3d > 0 ? e->cfg->overlap3d : 2), tries = 0;
+    if (!e->params.support_empty)
+        GS_TRY(err, repair_pieces(e, &p, buf), done);
+    p.support_global = 1;
     for (;;) {
         int bb[4];
-        size_t nf = floating_cells(e, bb);
+        size_t nf = floating_cells(e, &p, bb);
         GS_TRY_CHECK(err, nf != SIZE_MAX, GS_ERR_MEM, done, "support repair: cannot allocate");
         if (nf == 0)
             break;
@@ -264,12 +363,7 @@ static gs_err support_repair(model_engine *e)
                    tries);
             break;
         }
-        gs_model_box b = {bb[0] - margin, bb[1] - margin, 0, bb[2] + 1 + margin,
-                          bb[3] + 1 + margin, l->nz};
-        b.x0 = b.x0 < 0 ? 0 : b.x0;
-        b.y0 = b.y0 < 0 ? 0 : b.y0;
-        b.x1 = b.x1 > l->nx ? l->nx : b.x1;
-        b.y1 = b.y1 > l->ny ? l->ny : b.y1;
+        gs_model_box b = repair_box(l, bb, margin);
         const int whole = b.x0 == 0 && b.y0 == 0 && b.x1 == l->nx && b.y1 == l->ny;
         gs_model_region_result res;
         GS_TRY(err,

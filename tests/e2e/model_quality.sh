@@ -100,7 +100,7 @@ chk = lm.Checks()
 need = chk.need
 need(f["labels_used"] >= 0.8 * f["labels_example"], "labels used %d >= 0.8 x example's %d" % (f["labels_used"], f["labels_example"]))
 need(f["completeness_3"] >= h["completeness_3"], "completeness %.3f >= example half vs half %.3f" % (f["completeness_3"], h["completeness_3"]))
-need(f["share_3"] >= 0.8 * h["share_3"], "non-empty 3x3x3 share %.3f >= 0.8 x example half vs half %.3f" % (f["share_3"], h["share_3"]))
+need(f["share_3"] >= 0.5, "non-empty 3x3x3 share %.3f >= 0.5 (issue #18 item 4, untuned examples)" % f["share_3"])
 need(abs(top(out) - top(ex)) <= 1, "top layer %d within 1 of example's %d" % (top(out), top(ex)))
 for name, o in (("default", out), ("resemblance 0", out0)):
     for face, zo, ze in (("bottom", 0, 0), ("top", -1, -1)):
@@ -165,5 +165,34 @@ EOF
 )
     verdict castle$s "keeps the example's near-face features and windows" "$res"
   done
+fi
+# A village nobody tuned for (scripts/gen-lattice.py village 5: houses, roofs, trees; every
+# non-empty cell stands on the ground), 40x40x8 in 20x20 regions, default settings: no floating
+# cell where the example has none (the repair after the passes, engine_regions.c repair_pieces),
+# computed from lattice.h5 and the example (analysis/lattice_measures.py unsupported_share), and
+# the issue's non-empty 3x3x3 share >= 0.5 for untuned examples. Broken on purpose: the repair
+# a no-op fails the first check (0.019 of the non-empty cells float).
+/usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" village 5 village5.txt
+printf '[model]\nexample = village5.txt\nsize = 40x40x8\nregion = 20x20x0\nmesh = none\n' >village5.ini
+run_gs 0 model -c village5.ini -o village5
+expect_rc 0 "village 5, 40x40x8 in 20x20 regions, default settings"
+if [[ $rc -eq 0 ]]; then
+  res=$(/usr/bin/python3 - village5.txt village5 <<'EOF'
+import json, os, sys
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
+ex = lm.read_lattice(sys.argv[1])
+out = lm.read_lattice(sys.argv[2] + "/lattice.h5")
+m = json.load(open(sys.argv[2] + "/summary.json"))["metrics"]
+f = lm.figures(ex, out, ks=(3,))
+chk = lm.Checks()
+need = chk.need
+need(f["unsupported_share_example"] == 0 and f["unsupported_share"] == 0, "floating share %.4f where the example's is %.4f" % (f["unsupported_share"], f["unsupported_share_example"]))
+need(f["share_3"] >= 0.5, "non-empty 3x3x3 share %.3f >= 0.5 (issue #18 item 4, untuned examples)" % f["share_3"])
+need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+chk.result()
+EOF
+)
+  verdict village5 "stands on the ground like its example" "$res"
 fi
 finish
