@@ -35,6 +35,8 @@ typedef struct gs_run_phase {
     double start;
     double seconds;   /* this rank */
     double min, avg, max;
+    double cpu_start, cpu_seconds; /* this rank's process CPU time (all its threads) */
+    double cpu_sum, cpu_max;       /* over ranks */
 } gs_run_phase;
 
 typedef struct gs_run {

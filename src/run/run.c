@@ -190,6 +190,7 @@ void gs_run_phase_begin(gs_run *run, const char *name)
     memset(p, 0, sizeof *p);
     snprintf(p->name, sizeof p->name, "%s", name);
     p->start = gs_time_now();
+    p->cpu_start = gs_cpu_now();
     run->open_phase = run->nphases++;
     gs_log_section(name);
     gs_kill_point_phase(name);
@@ -219,12 +220,15 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
     gs_run_phase *p = &run->phases[run->open_phase];
     run->open_phase = -1;
     p->seconds = gs_time_now() - p->start;
-    double mine[2] = {p->seconds, -p->seconds}, ext[2], sum;
-    GS_CALL(gs_par_max_f64(run->comm, mine, ext, 2));
-    GS_CALL(gs_par_sum_f64(run->comm, &p->seconds, &sum, 1));
+    p->cpu_seconds = gs_cpu_now() - p->cpu_start;
+    double mine[3] = {p->seconds, -p->seconds, p->cpu_seconds}, ext[3], both[2] = {p->seconds, p->cpu_seconds}, sum[2];
+    GS_CALL(gs_par_max_f64(run->comm, mine, ext, 3));
+    GS_CALL(gs_par_sum_f64(run->comm, both, sum, 2));
     p->max = ext[0];
     p->min = -ext[1];
-    p->avg = sum / run->size;
+    p->avg = sum[0] / run->size;
+    p->cpu_max = ext[2];
+    p->cpu_sum = sum[1];
     uint64_t peak_max;
     GS_CALL(gs_par_max_u64(run->comm, (uint64_t)gs_mem_peak(), &peak_max));
     if (run->rank != 0)
@@ -239,6 +243,8 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
     gs_json_f64(&j, "avg", p->avg);
     gs_json_f64(&j, "max", p->max);
     gs_json_end_object(&j);
+    gs_json_f64(&j, "cpu_seconds", p->cpu_sum);
+    gs_json_f64(&j, "cpu_max_seconds", p->cpu_max);
     gs_json_u64(&j, "mem_peak_bytes", peak_max);
     if (extra_json)
         gs_json_merge(&j, extra_json);
@@ -248,7 +254,8 @@ gs_err gs_run_phase_end(gs_run *run, const char *extra_json)
     gs_err err = j.failed ? GS_ERR_MEM : append_line(path, j.buf);
     gs_json_free(&j);
     GS_CALL(err);
-    gs_log(GS_LOG_INFO, "%s: %.3f s (max over ranks)", p->name, p->max);
+    gs_log(GS_LOG_INFO, "%s: %.3f s (max over ranks), CPU %.3f s (all ranks)", p->name, p->max,
+           p->cpu_sum);
     return GS_OK;
 }
 
@@ -330,6 +337,8 @@ gs_err gs_run_finish(gs_run *run, uint64_t digest)
             gs_json_f64(&j, "min", p->min);
             gs_json_f64(&j, "avg", p->avg);
             gs_json_f64(&j, "max", p->max);
+            gs_json_f64(&j, "cpu_seconds", p->cpu_sum);
+            gs_json_f64(&j, "cpu_max_seconds", p->cpu_max);
             gs_json_end_object(&j);
         }
         gs_json_end_array(&j);
