@@ -12,6 +12,14 @@ neighbours across those planes / mean elsewhere (all three axes): 1 = no
 seams, a rectangular patchwork is well above 1. The example has no pieces:
 its ratio at every phase of the same period (source_ratio_max, the largest)
 shows how far from 1 chance alone goes, the threshold a test uses.
+
+plane_ratio_max: the largest mean step of one plane on the seam phase over the
+mean of all planes of its axis, over the axes along which pieces meet (longer
+than 2 PERIOD samples: a slab one block deep has no seams across z). A
+straight seam along one whole plane (target regions used to leave them:
+terrain.ini 2.6) stands out here while the mean over all planes hides it;
+source_plane_max, the largest plane of the example on the same axes (any
+phase), is the threshold.
 """
 import json
 import sys
@@ -41,6 +49,22 @@ def ratios(lv, period):
     return out
 
 
+def plane_ratios(lv, period, grid_only):
+    """largest plane step over its axis' mean, axes longer than 2 periods."""
+    lv = lv.astype(np.float64)
+    best = 0.0
+    for ax in range(3):
+        if lv.shape[ax] <= 2 * period:
+            continue
+        d = np.abs(np.diff(lv, axis=ax))
+        m = d.mean(axis=tuple(a for a in range(3) if a != ax))
+        r = m / max(m.mean(), 1e-12)
+        if grid_only:
+            r = r[period - 1::period]
+        best = max(best, float(r.max()) if r.size else 0.0)
+    return best
+
+
 def main():
     run, period = sys.argv[1], int(sys.argv[2])
     with h5py.File(run + "/field.h5", "r") as f:
@@ -49,7 +73,9 @@ def main():
     r = ratios(out, period)
     s = ratios(src, period)
     print(json.dumps({"run": run, "period": period, "seam_ratio": round(r[period - 1], 4),
-                      "source_ratio_max": round(max(s), 4), "source_ratio_min": round(min(s), 4)}))
+                      "source_ratio_max": round(max(s), 4), "source_ratio_min": round(min(s), 4),
+                      "plane_ratio_max": round(plane_ratios(out, period, True), 4),
+                      "source_plane_max": round(plane_ratios(src, period, False), 4)}))
 
 
 if __name__ == "__main__":

@@ -145,7 +145,8 @@ void gs_step_layout_free(gs_step_layout *lay);
  * src/field/seamcut.c): term[i] ties sample i (x fastest) to the old content
  * (GS_CUT_OLD), to the new block (GS_CUT_NEW) or to neither (GS_CUT_FREE);
  * cost[i] is the disagreement of old and new at i (an edge costs the sum of
- * its ends'). take_new[i] = 1 where the minimum cut gives the sample to the
+ * its ends', an edge from a GS_CUT_NEW sample to another twice the other's).
+ * take_new[i] = 1 where the minimum cut gives the sample to the
  * new block (always for GS_CUT_NEW, never for GS_CUT_OLD). Deterministic. */
 enum { GS_CUT_FREE = 0, GS_CUT_OLD = 1, GS_CUT_NEW = 2 };
 typedef struct gs_field_cut_scratch {

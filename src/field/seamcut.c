@@ -5,6 +5,10 @@
  * between neighbours s and t costs e(s) + e(t), e the disagreement of the
  * old content and the new block at a sample (Kwatra et al. 2003, "Graphcut
  * textures", the 3D form of Efros and Freeman's minimum error boundary).
+ * A sample tied to the new block has no old content to disagree with: an
+ * edge from it costs twice its other end's e, as if the disagreement went on
+ * (counted as 0, the seam next to the unsynthesized samples cost half of any
+ * other and stayed on the block grid: terrain.ini's straight seams, #19).
  * Samples tied to the old content are sources, samples that must take the
  * new block are sinks; the minimum cut between them is found with Dinic's
  * maximum flow (BFS levels, blocking flow by an iterative DFS with current
@@ -141,7 +145,10 @@ gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uin
     for (int32_t i = 0; i < n; i++)
         for (int d = 0; d < 6; d++) {
             int32_t v = nb(B, i, d);
-            c->cap[6 * (size_t)i + d] = v >= 0 ? cost[i] + cost[v] : 0;
+            c->cap[6 * (size_t)i + d] = v < 0 ? 0
+                                        : term[v] == GS_CUT_NEW && term[i] != GS_CUT_NEW ? 2 * cost[i]
+                                        : term[i] == GS_CUT_NEW && term[v] != GS_CUT_NEW ? 2 * cost[v]
+                                                                                          : cost[i] + cost[v];
         }
     while (any_new && bfs(c, term)) {
         memset(c->arc, 0, (size_t)n);

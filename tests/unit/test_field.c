@@ -895,6 +895,15 @@ static void test_synthesis_regions(void **state)
     gs_qfield_destroy(&src);
 }
 
+/* An edge's cost in the seam cut: the sum of its ends' disagreements, or
+ * twice the free or old end's next to a sample tied to the new block. */
+static uint64_t edge_cost(const uint8_t *term, const uint32_t *cost, int i, int j)
+{
+    if ((term[i] == GS_CUT_NEW) != (term[j] == GS_CUT_NEW))
+        return 2 * (uint64_t)cost[term[i] == GS_CUT_NEW ? j : i];
+    return (uint64_t)cost[i] + cost[j];
+}
+
 /* The seam cut is a minimum cut: on 2^3 blocks with random ties and costs
  * its labels cost exactly the least of every labelling that respects the
  * ties (brute force over the free samples), new samples take the new
@@ -935,7 +944,7 @@ static void test_seam_cut_minimum(void **state)
                 for (int a = 0; a < 3; a++) {
                     int j = i ^ (1 << a);
                     if (j > i && (m >> i & 1) != (m >> j & 1))
-                        c += cost[i] + cost[j];
+                        c += edge_cost(term, cost, i, j);
                 }
             best = c < best ? c : best;
         }
@@ -943,11 +952,28 @@ static void test_seam_cut_minimum(void **state)
             for (int a = 0; a < 3; a++) {
                 int j = i ^ (1 << a);
                 if (j > i && take[i] != take[j])
-                    got += cost[i] + cost[j];
+                    got += edge_cost(term, cost, i, j);
             }
         if (any_old)
             assert_true(got == best);
     }
+    gs_field_cut_scratch_free(&cs);
+}
+
+/* Runs the cut on an 8^3 block whose samples are tied and cost by their x
+ * alone (term_x, cost_x) and checks the new block takes exactly x >= from. */
+static void cut_by_x(const uint8_t term_x[8], const uint32_t cost_x[8], int from)
+{
+    enum { B = 8 };
+    gs_field_cut_scratch cs = {0};
+    OK(gs_field_cut_scratch_init(&cs, B));
+    uint8_t term[B * B * B], take[B * B * B];
+    uint32_t cost[B * B * B];
+    for (int i = 0; i < B * B * B; i++)
+        term[i] = term_x[i % B], cost[i] = cost_x[i % B];
+    OK(gs_field_seam_cut(&cs, term, cost, take));
+    for (int i = 0; i < B * B * B; i++)
+        assert_int_equal(take[i], i % B >= from ? 1 : 0);
     gs_field_cut_scratch_free(&cs);
 }
 
@@ -959,20 +985,27 @@ static void test_seam_cut_minimum(void **state)
 static void test_seam_cut_follows_agreement(void **state)
 {
     (void)state;
-    enum { B = 8 };
-    gs_field_cut_scratch cs = {0};
-    OK(gs_field_cut_scratch_init(&cs, B));
-    uint8_t term[B * B * B], take[B * B * B];
-    uint32_t cost[B * B * B];
-    for (int i = 0; i < B * B * B; i++) {
-        int x = i % B;
-        term[i] = x == 0 ? GS_CUT_OLD : x == B - 1 ? GS_CUT_NEW : GS_CUT_FREE;
-        cost[i] = x == 2 ? 0 : 100;
-    }
-    OK(gs_field_seam_cut(&cs, term, cost, take));
-    for (int i = 0; i < B * B * B; i++)
-        assert_int_equal(take[i], i % B >= 2 ? 1 : 0);
-    gs_field_cut_scratch_free(&cs);
+    enum { O = GS_CUT_OLD, F = GS_CUT_FREE, N = GS_CUT_NEW };
+    const uint8_t term[8] = {O, F, F, F, F, F, F, N};
+    const uint32_t cost[8] = {100, 100, 0, 100, 100, 100, 100, 100};
+    cut_by_x(term, cost, 2);
+}
+
+/* The cut does not hug the unsynthesized samples (#19, terrain.ini's
+ * straight seams): they have no old content, so their disagreement is 0 as
+ * the engine passes it, and with an edge costing the sum of its ends' the
+ * seam next to them cost half of any other; seams stayed on the block grid
+ * wherever the overlap did not agree twice as well. On an 8^3 block with the
+ * x = 0 face old, x >= 4 new (cost 0) and the overlap x = 1..3 costing 100,
+ * 60, 100, the cheapest seam runs next to x = 2 (160 a row against 200 next
+ * to the new samples), so the new block takes x >= 2. */
+static void test_seam_cut_leaves_grid(void **state)
+{
+    (void)state;
+    enum { O = GS_CUT_OLD, F = GS_CUT_FREE, N = GS_CUT_NEW };
+    const uint8_t term[8] = {O, F, F, F, N, N, N, N};
+    const uint32_t cost[8] = {100, 100, 60, 100, 0, 0, 0, 0};
+    cut_by_x(term, cost, 2);
 }
 
 /* Object measures of gs_field_geometry_measure on known shapes: inscribed
@@ -1059,6 +1092,7 @@ int main(void)
         cmocka_unit_test(test_synthesis_regions),
         cmocka_unit_test(test_seam_cut_minimum),
         cmocka_unit_test(test_seam_cut_follows_agreement),
+        cmocka_unit_test(test_seam_cut_leaves_grid),
         cmocka_unit_test(test_geometry_objects),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
