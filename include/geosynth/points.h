@@ -371,6 +371,12 @@ typedef struct gs_points_params {
     int blend;            /* 1: the overlap strips blend onto N_k (section 5.3); 0: pasted as
                              warped (for measuring what the blend does) */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
+    int blend_resample;   /* 1: the blend resamples the links of F' it tears (points added
+                             along them, gs_points_blend_bridge); 0: the paper's blend */
+    int drop_strip_specks; /* 1: the finish drops pieces of < GS_POINTS_SPECK_POINTS points
+                              lying wholly in the overlap strips or within the link radius
+                              outside their seam edges (a safety net after the blend; the
+                              count is gs_points_synth_strip_specks) */
     int objects;          /* 1: the example's disconnected objects (components no wider than
                              a patch core, away from its edges, of at least
                              GS_POINTS_SPECK_POINTS points) are pasted whole or not at
@@ -485,6 +491,9 @@ gs_points_times gs_points_synth_times(const gs_points_synth *s);
 /* Points per unit area (xy) of the example inside its box. */
 double gs_points_synth_input_density(const gs_points_synth *s);
 size_t gs_points_synth_input_patches(const gs_points_synth *s);
+/* Pieces and points the finish dropped as strip specks (params
+ * drop_strip_specks; 0 before gs_points_synth_finish or when off). */
+void gs_points_synth_strip_specks(const gs_points_synth *s, uint64_t *pieces, uint64_t *points);
 
 /* Whether input patch `chosen` for output patch k continues the source of
  * its left or bottom neighbour verbatim (the example's next patch along x

@@ -351,6 +351,10 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_i64(run, "input_points", (int64_t)rs->tex.pts.n);
     gs_run_metric_f64(run, "input_spacing", rs->tex.spacing);
     gs_run_metric_i64(run, "input_patches", (int64_t)gs_points_synth_input_patches(s));
+    uint64_t sp[2];
+    gs_points_synth_strip_specks(s, &sp[0], &sp[1]);
+    gs_run_metric_i64(run, "strip_specks_dropped", (int64_t)sp[0]);
+    gs_run_metric_i64(run, "strip_speck_points_dropped", (int64_t)sp[1]);
     gs_run_metric_i64(run, "patches", (int64_t)nm);
     gs_run_metric_i64(run, "patches_searched", (int64_t)searched);
     gs_run_metric_i64(run, "patches_warped", (int64_t)warped);

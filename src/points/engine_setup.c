@@ -48,6 +48,8 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->tps_lambda = c->tps_lambda;
     p->blend = c->blend;
     p->ray_blend = c->ray_blend;
+    p->blend_resample = c->blend_resample;
+    p->drop_strip_specks = c->drop_strip_specks;
     p->objects = c->objects;
     p->warp_select = c->warp_select;
     p->relax_iterations = (int)c->relax_iterations;

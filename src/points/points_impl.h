@@ -108,6 +108,17 @@ typedef struct gs_points_sheet_point {
  * (the caller drops the point). */
 gs_err gs_points_blend_sheet(gs_points_sheet_point *v, size_t n, double R);
 
+/* The links the blend tore (synth.c, blend_smooth): pre[k] is sheet point
+ * k before gs_points_blend_sheet, v[k].q after it (normal 0: dropped). Two
+ * points within `link` of each other before (normals not opposed: the same
+ * side of a thin ring or thread) that end farther apart get points along
+ * the segment between them, at most `link` apart, each moved onto the MLS
+ * surface (radius R) of the blended points and kept unless a blended or
+ * added point lies within link / 2 (the synthesis: the sampling spacing,
+ * as dart throwing sampled the example). They are appended to *out. */
+gs_err gs_points_blend_bridge(const gs_opoint *pre, const gs_points_sheet_point *v, size_t n,
+                              double link, double R, gs_points *out);
+
 /* An index sorted by a double key, ties by index (a total order, so a sort
  * gives one result whatever the input order). */
 typedef struct keyed {
