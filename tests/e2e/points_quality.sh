@@ -76,7 +76,9 @@ def body(f):
     n = {l.split()[1]: int(l.split()[2]) for l in h if l.startswith("element")}
     return raw[e:], n
 b, n = body(d + "/points.ply")
-P = np.frombuffer(b[:24 * n["vertex"]], "<f4").reshape(-1, 6).astype(np.float64)
+# x y z nx ny nz as float, then 4-byte properties (the int patch id)
+k = open(d + "/points.ply", "rb").read().split(b"end_header")[0].count(b"\nproperty ")
+P = np.frombuffer(b[:4 * k * n["vertex"]], "<f4").reshape(-1, k)[:, :6].astype(np.float64)
 b, n = body(d + "/mesh.ply")
 V = np.frombuffer(b[:12 * n["vertex"]], "<f4").reshape(-1, 3)
 F = np.frombuffer(b[12 * n["vertex"]:12 * n["vertex"] + 13 * n["face"]], np.uint8).reshape(-1, 13)
