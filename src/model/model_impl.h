@@ -33,6 +33,23 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
  * (learned, read from pairs, symmetrized, turned). */
 void gs_model_rules_rebuild_support(struct gs_model_rules *r);
 
+/* The patterns one choice counts over: the whole index, or (layers) one example layer's
+ * patterns packed into their own bit positions, in the index's order (sorted by centre),
+ * with that layer's multiplicities. The layer's slots hold only the (offset, label) pairs
+ * that occur among its patterns, so a decided neighbour whose pair never occurs there adds
+ * nothing; with 8 layers the candidates' match counts take about a quarter of the words
+ * (castle.txt: 3-4 instead of 11 of 28), with the same counts, maximum and draw. */
+struct gs_model_resem_view {
+    int P, PW;
+    const uint32_t *mult;   /* [P] */
+    const uint16_t *center; /* [P] non-decreasing */
+    const int32_t *range;   /* [L + 1] */
+    const int32_t *slot;    /* [Q][L + 1] (column L: no label, none) */
+    const uint64_t *bits;   /* [slots][PW] */
+    const int32_t *oslot;   /* [Q] */
+    void *mem;              /* the layer view's own allocation (NULL for all) */
+};
+
 /* Index of the example's neighbourhoods for resemblance (src/model/resemble.c). */
 #define GS_MODEL_RESEM_MAX_B 8 /* counter bits (solver.c keeps 8 planes): counts are in
                                  half matches, 2Q < 2^8 */
@@ -44,7 +61,7 @@ struct gs_model_resem {
     uint16_t *center;  /* [P] centre label, non-decreasing */
     int L;             /* largest label + 1 */
     int32_t *range;    /* [L + 1] patterns with centre l: [range[l], range[l+1]) */
-    int32_t *slot;     /* [Q][L] bitset of (offset, label), -1 = none */
+    int32_t *slot;     /* [Q][L + 1] bitset of (offset, label), -1 = none (column L: no label) */
     uint64_t *bits;    /* [nslots][PW] */
     size_t nslots;
     int B;             /* bits of the match counters (<= GS_MODEL_RESEM_MAX_B) */
@@ -64,7 +81,11 @@ struct gs_model_resem {
     double freq_beta;  /* label-frequency constraint strength (0 = off) */
     float *zshare;     /* [nz][L] share of each label in each example layer (all layers
                           alike when layers = 0), with freq_beta */
+    struct gs_model_resem_view all; /* every pattern (the arrays above) */
+    struct gs_model_resem_view *lv; /* [nz] (layers only, else NULL): each layer's patterns
+                                       alone, packed */
 };
+
 
 #define GS_MODEL_UTAB_MAX_W 2 /* AC-3 union table: 128 KiB at W = 1, 512 KiB at W = 2 */
 
@@ -118,6 +139,13 @@ struct gs_model_solver {
                                layer and label, then the layer's total (refreshed every
                                fq_every choices) */
     size_t fq_cap, fq_left, fq_every;
+    int rs_on;              /* rs_lab is kept (a region try with resemblance) */
+    uint16_t *rs_lab;       /* resemblance: labels of the box padded by the window radius,
+                               box cells while decided (solver.c, resem_map_build) */
+    int32_t *rs_pidx;       /* [n] a box cell's position in rs_lab */
+    int32_t *rs_dq;         /* [Q] window offsets in rs_lab */
+    int32_t *rs_bgq;        /* [rz][Q] face background a neighbour matches (outside = background) */
+    size_t rs_lab_cap, rs_pidx_cap, rs_dq_cap, rs_bgq_cap;
     uint64_t revisions; /* statistics: cells processed by propagation */
     uint64_t backtracks_done; /* statistics: decisions undone */
     /* chronological backtracking (AC-3 only): a cell's candidates are saved
@@ -158,5 +186,13 @@ int gs_model_solver_recount(struct gs_model_solver *s);
 int gs_model_ac_establish(struct gs_model_solver *s);
 /* Restricts cell c to label k and propagates. Returns 0 on a wipe-out. */
 int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k);
+/* Test hook: the resemblance choice (paper Eqs. 4-6, params.resem) for cell c
+ * of box b of lat, the cells around the box read from lat, the box cells'
+ * candidates dom ([cells][W], x fastest; one candidate = decided), drawn
+ * from rng: *label, -1 when no candidate label has a pattern. Without the
+ * label-frequency weight (its counts live in a region try). */
+gs_err gs_model_resem_choose_at(struct gs_model_solver *s, const gs_model_lattice *lat,
+                                const gs_model_box *b, const gs_model_params *p,
+                                const uint64_t *dom, int32_t c, gs_rng *rng, int *label);
 
 #endif

@@ -34,6 +34,81 @@ static int cmp_row(const void *pa, const void *pb)
     return 0;
 }
 
+/* The layer views (struct gs_model_resem_view): layer z's patterns (zbits) in the
+ * index's order, their multiplicities there (zmult), and bitsets over them of the
+ * (offset, label) pairs and the past-the-faces cells that occur among them. Left out
+ * (lv = NULL: every choice counts over all patterns, with the same result) when the
+ * slot tables would take more than 64 MiB. */
+static gs_err build_layer_views(struct gs_model_resem *r, const uint16_t *rows, size_t row)
+{
+    const size_t P = (size_t)r->P, Q = (size_t)r->Q, L = (size_t)r->L, nz = (size_t)r->nz;
+    const size_t LS = L + 1; /* slot rows: column L (no label) holds none */
+    if (Q * LS * nz * sizeof(int32_t) > ((size_t)64 << 20))
+        return GS_OK;
+    r->lv = gs_calloc(nz, sizeof *r->lv);
+    GS_CHECK(r->lv != NULL, GS_ERR_MEM, "resemblance layer index: cannot allocate");
+    uint32_t *idx = gs_malloc((P ? P : 1) * sizeof *idx);
+    int32_t *slot = gs_malloc(Q * LS * sizeof *slot);
+    int32_t *oslot = gs_malloc(Q * sizeof *oslot);
+    gs_err err = GS_OK;
+    GS_TRY_CHECK(err, idx && slot && oslot, GS_ERR_MEM, done,
+                 "resemblance layer index: cannot allocate");
+    for (size_t z = 0; z < nz; z++) {
+        const uint64_t *zb = r->zbits + z * (size_t)r->PW;
+        size_t Pz = 0;
+        for (size_t i = 0; i < P; i++)
+            if ((zb[i >> 6] >> (i & 63)) & 1)
+                idx[Pz++] = (uint32_t)i;
+        const size_t PWz = (Pz + 63) / 64;
+        for (size_t k = 0; k < Q * LS; k++)
+            slot[k] = -1;
+        size_t ns = 0;
+        for (size_t j = 0; j < Pz; j++)
+            for (size_t q = 0; q < Q; q++) {
+                uint16_t a = rows[idx[j] * row + 1 + q];
+                if (a != OUTSIDE && slot[q * LS + a] < 0)
+                    slot[q * LS + a] = (int32_t)ns++;
+            }
+        for (size_t q = 0; q < Q; q++) {
+            oslot[q] = -1;
+            for (size_t j = 0; j < Pz && oslot[q] < 0; j++)
+                if (rows[idx[j] * row + 1 + q] == OUTSIDE)
+                    oslot[q] = (int32_t)ns++;
+        }
+        /* one block: bits, slot, oslot, range, mult, center */
+        const size_t nb = (ns ? ns : 1) * PWz, bytes = nb * 8 + (Q * LS + Q + L + 1) * 4 +
+                                                       (Pz ? Pz : 1) * 4 + (Pz ? Pz : 1) * 2;
+        uint64_t *mem = gs_calloc(1, bytes);
+        GS_TRY_CHECK(err, mem != NULL, GS_ERR_MEM, done,
+                     "resemblance layer index: cannot allocate %zu bytes", bytes);
+        int32_t *vslot = (int32_t *)(mem + nb), *voslot = vslot + Q * LS, *vrange = voslot + Q;
+        uint32_t *vmult = (uint32_t *)(vrange + L + 1);
+        uint16_t *vcenter = (uint16_t *)(vmult + (Pz ? Pz : 1));
+        memcpy(vslot, slot, Q * LS * sizeof *slot);
+        memcpy(voslot, oslot, Q * sizeof *oslot);
+        for (size_t j = 0; j < Pz; j++) {
+            const size_t i = idx[j];
+            vmult[j] = r->zmult[z * P + i];
+            vcenter[j] = r->center[i];
+            vrange[vcenter[j] + 1]++;
+            for (size_t q = 0; q < Q; q++) {
+                uint16_t a = rows[i * row + 1 + q];
+                int32_t sl = a == OUTSIDE ? oslot[q] : slot[q * LS + a];
+                mem[(size_t)sl * PWz + (j >> 6)] |= (uint64_t)1 << (j & 63);
+            }
+        }
+        for (size_t l = 0; l < L; l++)
+            vrange[l + 1] += vrange[l];
+        r->lv[z] = (struct gs_model_resem_view){(int)Pz, (int)PWz, vmult, vcenter, vrange,
+                                                vslot, mem, voslot, mem};
+    }
+done:
+    gs_free(idx);
+    gs_free(slot);
+    gs_free(oslot);
+    return err;
+}
+
 gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int layers,
                             gs_model_resem_t *out)
 {
@@ -118,16 +193,16 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
     for (int l = 0; l < L; l++)
         r->range[l + 1] += r->range[l];
     /* bitsets of the (offset, label) pairs that occur */
-    GS_TRY(err, gs_alloc_array((void **)&r->slot, (size_t)Q * (size_t)L, sizeof *r->slot, "slots"),
+    GS_TRY(err, gs_alloc_array((void **)&r->slot, (size_t)Q * (size_t)(L + 1), sizeof *r->slot, "slots"),
            fail);
-    for (size_t k = 0; k < (size_t)Q * (size_t)L; k++)
+    for (size_t k = 0; k < (size_t)Q * (size_t)(L + 1); k++)
         r->slot[k] = -1;
     size_t nslots = 0;
     for (i = 0; i < P; i++)
         for (q = 0; q < Q; q++) {
             uint16_t a = rows[i * row + 1 + (size_t)q];
-            if (a != OUTSIDE && r->slot[(size_t)q * L + a] < 0)
-                r->slot[(size_t)q * L + a] = (int32_t)nslots++;
+            if (a != OUTSIDE && r->slot[(size_t)q * (L + 1) + a] < 0)
+                r->slot[(size_t)q * (L + 1) + a] = (int32_t)nslots++;
         }
     GS_TRY(err, gs_alloc_array((void **)&r->bits, nslots ? nslots : 1, (size_t)r->PW * 8, "pattern bitsets"),
            fail);
@@ -137,7 +212,7 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
             uint16_t a = rows[i * row + 1 + (size_t)q];
             if (a == OUTSIDE)
                 continue;
-            uint64_t *b = r->bits + (size_t)r->slot[(size_t)q * L + a] * (size_t)r->PW;
+            uint64_t *b = r->bits + (size_t)r->slot[(size_t)q * (L + 1) + a] * (size_t)r->PW;
             b[i >> 6] |= (uint64_t)1 << (i & 63);
         }
     /* the patterns with OUTSIDE at q: one more bitset per such offset */
@@ -204,6 +279,10 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
     gs_free(first);
     zs = NULL;
     first = NULL;
+    r->all = (struct gs_model_resem_view){(int)P, r->PW, r->mult, r->center, r->range,
+                                          r->slot, r->bits, r->oslot, NULL};
+    if (layers)
+        GS_TRY(err, build_layer_views(r, rows, row), fail);
     int B = 1; /* counts in half matches: at most 2Q */
     while ((1 << B) <= 2 * Q)
         B++;
@@ -237,6 +316,9 @@ void gs_model_resem_destroy(gs_model_resem_t *pr)
     gs_free(r->oslot);
     gs_free(r->bg);
     gs_free(r->zshare);
+    for (int z = 0; r->lv && z < r->nz; z++)
+        gs_free(r->lv[z].mem);
+    gs_free(r->lv);
     gs_free(r);
     *pr = NULL;
 }

@@ -146,6 +146,10 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->dec);
     gs_free(s->rs_buf);
     gs_free(s->fq_cnt);
+    gs_free(s->rs_lab);
+    gs_free(s->rs_pidx);
+    gs_free(s->rs_dq);
+    gs_free(s->rs_bgq);
     gs_free(s);
     *ps = NULL;
 }
@@ -190,6 +194,7 @@ static gs_err load_box_frames(struct gs_model_solver *s, int rx, int ry, int rz,
                 s->size[c] = (uint16_t)s->rules->npresent;
             }
     s->ndirs = fz > 0 ? GS_MODEL_DIRS : 6;
+    s->rs_on = 0;
     memset(s->inq, 0, n);
     memset(s->pending, 0, n * W * 8);
     memset(s->stamp, 0, n * sizeof *s->stamp);
@@ -337,6 +342,19 @@ static uint64_t heap_pop(struct gs_model_solver *s)
     return top;
 }
 
+/* ---- resemblance: decided labels ---------------------------------------------- */
+
+/* rs_lab (see resem_map_build) holds a box cell's label while it is decided
+ * (one candidate) and R->L (none) otherwise: every change of a box cell's
+ * count to or from 1 goes through here while rs_on. */
+static inline void rs_note(struct gs_model_solver *s, int32_t c)
+{
+    if (!s->rs_on)
+        return;
+    int l = s->size[c] == 1 ? first_label(s->dom + (size_t)c * (size_t)s->W) : s->resem->L;
+    s->rs_lab[s->rs_pidx[c]] = (uint16_t)(l < s->resem->L ? l : s->resem->L);
+}
+
 /* ---- trail ------------------------------------------------------------------------- */
 
 /* Saves cell c's candidates before their first change at the current level.
@@ -381,6 +399,7 @@ static int trail_restore(struct gs_model_solver *s, size_t mark)
         int32_t c = s->trail_cell[t];
         s->size[c] = s->trail_size[t];
         memcpy(s->dom + (size_t)c * W, s->trail_dom + t * W, W * 8);
+        rs_note(s, c);
         if (s->heap_on && s->size[c] > 1 && !heap_push(s, c))
             return 0;
     }
@@ -500,9 +519,12 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
                 k += popcount64(du[w]);
             }
             s->size[u] = (uint16_t)k;
-            if (k == 0) {
-                ok = 0;
-                goto out;
+            if (k <= 1) {
+                if (k == 0) {
+                    ok = 0;
+                    goto out;
+                }
+                rs_note(s, u);
             }
             enqueue(s, u);
         }
@@ -567,6 +589,8 @@ static int ac4_run(struct gs_model_solver *s)
                                     ok = 0;
                                     goto out;
                                 }
+                                if (s->size[u] == 1)
+                                    rs_note(s, u);
                                 enqueue(s, u);
                             }
                         }
@@ -633,6 +657,8 @@ int gs_model_ac_establish(struct gs_model_solver *s)
             queue_clear(s);
             return 0;
         }
+        if (k == 1)
+            rs_note(s, (int32_t)c);
         enqueue(s, (int32_t)c);
     }
     return ac4_run(s);
@@ -653,6 +679,7 @@ int gs_model_ac_assign(struct gs_model_solver *s, int32_t c, int k)
     memset(dc, 0, W * 8);
     dc[k >> 6] = (uint64_t)1 << (k & 63);
     s->size[c] = 1;
+    rs_note(s, c);
     enqueue(s, c);
     return s->ac == GS_MODEL_AC4 ? ac4_run(s) : ac3_run(s);
 }
@@ -666,6 +693,8 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
     s->dom[(size_t)c * W + (size_t)(k >> 6)] &= ~((uint64_t)1 << (k & 63));
     if (--s->size[c] == 0)
         return 0;
+    if (s->size[c] == 1)
+        rs_note(s, c);
     enqueue(s, c);
     return ac3_run(s);
 }
@@ -689,6 +718,73 @@ static inline int overlay_label(const gs_model_lattice *lat, const overlay *ov, 
                         (size_t)(o->x1 - o->x0) *
                             ((size_t)(y - o->y0) + (size_t)(o->y1 - o->y0) * (size_t)(z - o->z0))];
     return lat->labels[gs_model_lattice_index(lat, x, y, z)];
+}
+
+/* ---- resemblance neighbourhoods ---------------------------------------------- */
+
+/* rs_lab: the labels around the box, padded by the window radius w on every
+ * side (x fastest): a cell outside the box holds its fixed label (the shell,
+ * from lat overlaid with ov, wrapped along periodic axes; R->L = none outside
+ * the output), a box cell its label while decided (rs_note). rs_pidx: a box
+ * cell's position in it, rs_dq the window's offsets, rs_bgq[z][q] the face
+ * background a neighbour at q of a cell at box height z matches (outside =
+ * background; -1 = none, below the output: never equal to a label or to
+ * R->L). A neighbourhood read is one load per offset,
+ * with no bounds test or branch. */
+static gs_err resem_map_build(struct gs_model_solver *s, const gs_model_lattice *lat,
+                              const overlay *ov, const gs_model_box *b, const int periodic[3])
+{
+    const struct gs_model_resem *R = s->resem;
+    const int w = R->w, rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const int px = rx + 2 * w, py = ry + 2 * w, pz = rz + 2 * w;
+    const size_t n = (size_t)px * (size_t)py * (size_t)pz, nb = (size_t)rx * (size_t)ry * (size_t)rz;
+    const size_t nq = (size_t)R->Q * (size_t)rz;
+    if (n > s->rs_lab_cap) {
+        GS_CALL(grow((void **)&s->rs_lab, n, sizeof *s->rs_lab, "resemblance neighbourhood labels"));
+        s->rs_lab_cap = n;
+    }
+    if (nb > s->rs_pidx_cap) {
+        GS_CALL(grow((void **)&s->rs_pidx, nb, sizeof *s->rs_pidx, "resemblance cell positions"));
+        s->rs_pidx_cap = nb;
+    }
+    if ((size_t)R->Q > s->rs_dq_cap) {
+        GS_CALL(grow((void **)&s->rs_dq, (size_t)R->Q, sizeof *s->rs_dq, "resemblance offsets"));
+        s->rs_dq_cap = (size_t)R->Q;
+    }
+    if (nq > s->rs_bgq_cap) {
+        GS_CALL(grow((void **)&s->rs_bgq, nq, sizeof *s->rs_bgq, "resemblance backgrounds"));
+        s->rs_bgq_cap = nq;
+    }
+    for (int q = 0; q < R->Q; q++) {
+        const int *o = R->off + 3 * q;
+        s->rs_dq[q] = o[0] + px * (o[1] + py * o[2]);
+        for (int z = 0; z < rz; z++) {
+            /* the neighbour's layer, as the example's (its top one above it) */
+            const int zb = b->z0 + z + o[2] < R->nz ? b->z0 + z + o[2] : R->nz - 1;
+            s->rs_bgq[(size_t)z * (size_t)R->Q + (size_t)q] = zb >= 0 ? R->bg[zb] : -1;
+        }
+    }
+    const int gn[3] = {lat->nx, lat->ny, lat->nz};
+    size_t i = 0;
+    for (int z = -w; z < rz + w; z++)
+        for (int y = -w; y < ry + w; y++)
+            for (int x = -w; x < rx + w; x++, i++) {
+                if (x >= 0 && y >= 0 && z >= 0 && x < rx && y < ry && z < rz) {
+                    s->rs_pidx[x + rx * (y + ry * z)] = (int32_t)i;
+                    s->rs_lab[i] = (uint16_t)R->L;
+                    continue;
+                }
+                int g[3] = {b->x0 + x, b->y0 + y, b->z0 + z};
+                int out = 0;
+                for (int a = 0; a < 3; a++) {
+                    if (periodic[a])
+                        g[a] = (g[a] % gn[a] + gn[a]) % gn[a];
+                    out |= g[a] < 0 || g[a] >= gn[a];
+                }
+                int label = out ? R->L : overlay_label(lat, ov, g[0], g[1], g[2]);
+                s->rs_lab[i] = (uint16_t)(label < R->L ? label : R->L);
+            }
+    return GS_OK;
 }
 
 static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *lat,
@@ -788,6 +884,8 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
     s->ov = ov;
     for (int a = 0; a < 3; a++)
         s->periodic[a] = periodic[a];
+    if (s->resem)
+        GS_CALL(resem_map_build(s, lat, ov, b, periodic));
     const struct gs_model_rules *r = s->rules;
     const size_t W = (size_t)s->W;
     static const int step[GS_MODEL_DIRS][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1},
@@ -843,6 +941,12 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                 }
             }
     *ok = gs_model_solver_recount(s);
+    if (s->resem) { /* the cells decided from the start (pins, a one-label face) */
+        s->rs_on = 1;
+        for (int32_t u = 0; u < (int32_t)s->n; u++)
+            if (s->size[u] == 1)
+                rs_note(s, u);
+    }
     return GS_OK;
 }
 
@@ -925,6 +1029,48 @@ static double *freq_factors(struct gs_model_solver *s, int32_t c)
     return fac;
 }
 
+/* Candidate patterns of view V (labels below L) for the candidate labels dc:
+ * the centre runs of the labels, set in cand[*wlo, *whi) (the words they
+ * span). Returns 0 when no candidate label has a pattern. */
+static int resem_cand(const struct gs_model_resem_view *V, int L, const uint64_t *dc, size_t W,
+                      uint64_t *cand, size_t *wlo_out, size_t *whi_out)
+{
+    const int32_t *range = V->range;
+    size_t wlo = (size_t)V->PW, whi = 0;
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (a >= L || range[a] == range[a + 1])
+                continue;
+            size_t lo = (size_t)range[a] >> 6, hi = ((size_t)range[a + 1] + 63) >> 6;
+            if (lo < wlo)
+                wlo = lo;
+            if (hi > whi)
+                whi = hi;
+        }
+    if (wlo >= whi)
+        return 0;
+    memset(cand + wlo, 0, (whi - wlo) * 8);
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            int a = (int)(w * 64) + ctz64(bits);
+            if (a >= L)
+                continue;
+            /* bits [lo, hi) word by word */
+            size_t lo = (size_t)range[a], hi = (size_t)range[a + 1];
+            while (lo < hi) {
+                size_t w0 = lo >> 6, end = (w0 + 1) << 6 < hi ? (w0 + 1) << 6 : hi;
+                uint64_t bits_hi = end - (w0 << 6) == 64 ? ~(uint64_t)0
+                                                          : (((uint64_t)1 << (end - (w0 << 6))) - 1);
+                cand[w0] |= bits_hi & ~(((uint64_t)1 << (lo & 63)) - 1);
+                lo = end;
+            }
+        }
+    *wlo_out = wlo;
+    *whi_out = whi;
+    return 1;
+}
+
 /* Resemblance (paper Eqs. 4-6, see gs_model_resem_build in model.h): match
  * counts of the candidate patterns in bit-sliced counters over the words of
  * the candidates' centre runs, then the patterns with the most matches
@@ -951,43 +1097,26 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     uint64_t *nbl = cnt + (size_t)(R->B + 1) * PW;
     uint64_t *nbo = nbl + R->Q;
     size_t nact = 0, nn = 0, no = 0;
-    /* candidate patterns: the centre runs of the candidate labels */
-    size_t wlo = PW, whi = 0;
-    for (size_t w = 0; w < W; w++)
-        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
-            int a = (int)(w * 64) + ctz64(bits);
-            if (a >= R->L || R->range[a] == R->range[a + 1])
-                continue;
-            size_t lo = (size_t)R->range[a] >> 6, hi = ((size_t)R->range[a + 1] + 63) >> 6;
-            if (lo < wlo)
-                wlo = lo;
-            if (hi > whi)
-                whi = hi;
-        }
-    if (wlo >= whi)
-        return -1;
-    memset(cand + wlo, 0, (whi - wlo) * 8);
-    for (size_t w = 0; w < W; w++)
-        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
-            int a = (int)(w * 64) + ctz64(bits);
-            if (a >= R->L)
-                continue;
-            /* bits [lo, hi) word by word */
-            size_t lo = (size_t)R->range[a], hi = (size_t)R->range[a + 1];
-            while (lo < hi) {
-                size_t w0 = lo >> 6, end = (w0 + 1) << 6 < hi ? (w0 + 1) << 6 : hi;
-                uint64_t bits_hi = end - (w0 << 6) == 64 ? ~(uint64_t)0
-                                                          : (((uint64_t)1 << (end - (w0 << 6))) - 1);
-                cand[w0] |= bits_hi & ~(((uint64_t)1 << (lo & 63)) - 1);
-                lo = end;
-            }
-        }
-    /* layers: only the patterns of the cell's example layer, when any is a candidate */
+    /* candidate patterns: the centre runs of the candidate labels; with layers
+     * only the patterns of the cell's example layer, when any is a candidate
+     * (its packed view when built, else the whole index masked) */
+    const struct gs_model_resem_view *V = &R->all;
     const uint32_t *mult = R->mult;
+    size_t wlo = 0, whi = 0;
+    int zl = -1;
     if (R->layers) {
-        int zl = s->box_z0 + c / (s->box_rx * s->box_ry);
+        zl = s->box_z0 + c / (s->box_rx * s->box_ry);
         if (zl >= R->nz)
             zl = R->nz - 1;
+        if (R->lv && resem_cand(&R->lv[zl], R->L, dc, W, cand, &wlo, &whi)) {
+            V = &R->lv[zl];
+            mult = V->mult;
+            zl = -1; /* packed: every pattern of the view is the layer's */
+        }
+    }
+    if (V == &R->all && !resem_cand(V, R->L, dc, W, cand, &wlo, &whi))
+        return -1;
+    if (zl >= 0) {
         const uint64_t *zb = R->zbits + (size_t)zl * PW;
         uint64_t any = 0;
         for (size_t w = wlo; w < whi; w++)
@@ -998,53 +1127,39 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             mult = R->zmult + (size_t)zl * (size_t)R->P;
         }
     }
+    const size_t VPW = (size_t)V->PW;
     for (size_t w = wlo; w < whi; w++)
         if (cand[w])
             act[nact++] = (uint32_t)w;
     /* the bitset of every decided neighbour */
-    const int rx = s->box_rx, ry = s->box_ry, rz = s->box_rz;
-    const int x = c % rx, y = (c / rx) % ry, z = c / (rx * ry);
-    const gs_model_lattice *lat = s->lat;
-    const int gn[3] = {lat->nx, lat->ny, lat->nz};
-    for (int q = 0; q < R->Q; q++) {
-        const int *o = R->off + 3 * q;
-        int px = x + o[0], py = y + o[1], pz = z + o[2];
-        int label;
-        if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz) {
-            int32_t u = (int32_t)(px + rx * (py + ry * pz));
-            if (s->size[u] != 1)
-                continue;
-            label = first_label(s->dom + (size_t)u * W);
-        } else {
-            int g[3] = {s->box_x0 + px, s->box_y0 + py, s->box_z0 + pz};
-            int out = 0;
-            for (int a = 0; a < 3; a++) {
-                if (s->periodic[a])
-                    g[a] = (g[a] % gn[a] + gn[a]) % gn[a];
-                out |= g[a] < 0 || g[a] >= gn[a];
+    const int z = c / (s->box_rx * s->box_ry);
+    const uint16_t *lab = s->rs_lab + s->rs_pidx[c];
+    const int32_t *dq = s->rs_dq, *vslot = V->slot, *voslot = V->oslot;
+    const size_t LS = (size_t)R->L + 1; /* slot rows: label R->L (none) has none */
+    if (R->outside_bg) {
+        /* past the example's faces lies its face background of the
+         * neighbour's layer (a match), nothing else */
+        const int32_t *bgq = s->rs_bgq + (size_t)z * (size_t)R->Q;
+        for (int q = 0; q < R->Q; q++) {
+            const unsigned l = lab[dq[q]];
+            const int32_t sl = vslot[(size_t)q * LS + l], os = voslot[q];
+            nbl[nn] = (uint64_t)sl * VPW;
+            nn += sl >= 0;
+            nbl[nn] = (uint64_t)os * VPW;
+            nn += (os >= 0) & ((int32_t)l == bgq[q]);
+        }
+    } else {
+        for (int q = 0; q < R->Q; q++) {
+            const unsigned l = lab[dq[q]];
+            const int32_t sl = vslot[(size_t)q * LS + l];
+            nbl[nn] = (uint64_t)sl * VPW;
+            nn += sl >= 0;
+            if (R->outside && l < (unsigned)R->L && voslot[q] >= 0) {
+                if (R->outside == 2)
+                    nbl[nn++] = (uint64_t)voslot[q] * VPW;
+                else
+                    nbo[no++] = (uint64_t)voslot[q] * VPW;
             }
-            if (out)
-                continue;
-            label = overlay_label(lat, s->ov, g[0], g[1], g[2]);
-        }
-        if (label >= R->L)
-            continue;
-        int32_t slot = R->slot[(size_t)q * (size_t)R->L + (size_t)label];
-        if (slot >= 0)
-            nbl[nn++] = (uint64_t)slot * PW;
-        if (R->outside_bg && R->oslot[q] >= 0) {
-            /* outside = background: past the example's faces lies its face
-             * background of the neighbour's layer (a match), nothing else */
-            const int zb = s->box_z0 + pz < R->nz ? s->box_z0 + pz : R->nz - 1;
-            if (zb >= 0 && label == R->bg[zb])
-                nbl[nn++] = (uint64_t)R->oslot[q] * PW;
-            continue;
-        }
-        if (R->outside && R->oslot[q] >= 0) {
-            if (R->outside == 2)
-                nbl[nn++] = (uint64_t)R->oslot[q] * PW;
-            else
-                nbo[no++] = (uint64_t)R->oslot[q] * PW;
         }
     }
     /* match counts: the neighbours' bits added into bit-sliced counters, one
@@ -1063,7 +1178,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     } while (0)
     for (size_t j = 0; j < nact; j++) {
         const size_t w = act[j];
-        const uint64_t *bw = R->bits + w;
+        const uint64_t *bw = V->bits + w;
         /* matches: ones, twos, fours, eights, then the sixteens' count h4..h6 */
         uint64_t ones = 0, twos = 0, fours = 0, eights = 0, h4 = 0, h5 = 0, h6 = 0, t;
         size_t i = 0;
@@ -1165,19 +1280,19 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                dtotal += mult[i] * (s->shape ? (s->structure[R->center[i]] ? f_full : f_empty) : 1.0) *
-                          (fq ? fq[R->center[i]] : 1.0);
+                dtotal += mult[i] * (s->shape ? (s->structure[V->center[i]] ? f_full : f_empty) : 1.0) *
+                          (fq ? fq[V->center[i]] : 1.0);
             }
         double dpick = gs_rng_uniform(rng) * dtotal;
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                double wi = mult[i] * (s->shape ? (s->structure[R->center[i]] ? f_full : f_empty) : 1.0) *
-                            (fq ? fq[R->center[i]] : 1.0);
+                double wi = mult[i] * (s->shape ? (s->structure[V->center[i]] ? f_full : f_empty) : 1.0) *
+                            (fq ? fq[V->center[i]] : 1.0);
                 if (dpick < wi)
-                    return R->center[i];
+                    return V->center[i];
                 dpick -= wi;
-                last = R->center[i];
+                last = V->center[i];
             }
         return last;
     }
@@ -1190,7 +1305,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
         for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
             size_t i = w * 64 + (size_t)ctz64(bits);
             if (pick < mult[i])
-                return R->center[i];
+                return V->center[i];
             pick -= mult[i];
         }
     return -1;
@@ -1597,18 +1712,9 @@ static gs_err split_box(struct gs_model_solver *s, const gs_model_lattice *lat, 
     return GS_OK;
 }
 
-gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
-                           const gs_model_box *b, const gs_model_params *p,
-                           uint64_t region_id, uint64_t pass, uint16_t *out,
-                           gs_model_region_result *res)
+/* The params a region run reads, into the solver. */
+static gs_err take_params(struct gs_model_solver *s, const gs_model_params *p)
 {
-    GS_CHECK(b->x0 >= 0 && b->y0 >= 0 && b->z0 >= 0 && b->x1 <= lat->nx && b->y1 <= lat->ny &&
-                 b->z1 <= lat->nz && b->x0 < b->x1 && b->y0 < b->y1 && b->z0 < b->z1,
-             GS_ERR_ARG, "region [%d,%d)x[%d,%d)x[%d,%d) is empty or outside the %dx%dx%d lattice",
-             b->x0, b->x1, b->y0, b->y1, b->z0, b->z1, lat->nx, lat->ny, lat->nz);
-    GS_CHECK(p->attempts >= 1, GS_ERR_ARG, "model.attempts = %d: expected >= 1", p->attempts);
-    GS_CHECK(p->split_depth >= 0 && p->split_depth <= 8, GS_ERR_ARG,
-             "model.split_depth = %d: expected an integer in [0, 8]", p->split_depth);
     if (s->ac != p->ac) {
         s->ac = p->ac;
         s->support_cap = 0; /* force (re)allocation of AC-4 counts */
@@ -1633,6 +1739,40 @@ gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
     s->zface[1] = p->zface[1];
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
+    return GS_OK;
+}
+
+gs_err gs_model_resem_choose_at(struct gs_model_solver *s, const gs_model_lattice *lat,
+                                const gs_model_box *b, const gs_model_params *p,
+                                const uint64_t *dom, int32_t c, gs_rng *rng, int *label)
+{
+    GS_CHECK(p->resem != NULL && !p->resem->zshare, GS_ERR_ARG,
+             "gs_model_resem_choose_at: params.resem is not set or has a label-frequency weight");
+    GS_CALL(take_params(s, p));
+    int ok = 0;
+    GS_CALL(setup_region(s, lat, NULL, b, p->periodic, &ok));
+    GS_CHECK(c >= 0 && (size_t)c < s->n, GS_ERR_ARG, "gs_model_resem_choose_at: cell %d", (int)c);
+    memcpy(s->dom, dom, s->n * (size_t)s->W * 8);
+    GS_CHECK(gs_model_solver_recount(s), GS_ERR_ARG, "gs_model_resem_choose_at: an empty cell");
+    for (int32_t u = 0; u < (int32_t)s->n; u++)
+        rs_note(s, u);
+    *label = choose_label_resem(s, c, rng);
+    return GS_OK;
+}
+
+gs_err gs_model_region_run(gs_model_solver_t s, const gs_model_lattice *lat,
+                           const gs_model_box *b, const gs_model_params *p,
+                           uint64_t region_id, uint64_t pass, uint16_t *out,
+                           gs_model_region_result *res)
+{
+    GS_CHECK(b->x0 >= 0 && b->y0 >= 0 && b->z0 >= 0 && b->x1 <= lat->nx && b->y1 <= lat->ny &&
+                 b->z1 <= lat->nz && b->x0 < b->x1 && b->y0 < b->y1 && b->z0 < b->z1,
+             GS_ERR_ARG, "region [%d,%d)x[%d,%d)x[%d,%d) is empty or outside the %dx%dx%d lattice",
+             b->x0, b->x1, b->y0, b->y1, b->z0, b->z1, lat->nx, lat->ny, lat->nz);
+    GS_CHECK(p->attempts >= 1, GS_ERR_ARG, "model.attempts = %d: expected >= 1", p->attempts);
+    GS_CHECK(p->split_depth >= 0 && p->split_depth <= 8, GS_ERR_ARG,
+             "model.split_depth = %d: expected an integer in [0, 8]", p->split_depth);
+    GS_CALL(take_params(s, p));
     memset(res, 0, sizeof *res);
     const uint64_t bt0 = s->backtracks_done;
     size_t c = 0;

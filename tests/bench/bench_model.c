@@ -3,13 +3,15 @@
  * per (case, setting) on stdout: cells/s, accepted/failed regions, retries,
  * adjacency violations (independent checker), run-length ratio vs example.
  *
- *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME]
+ *   build/tests/bench/bench_model [--data DIR] [--seeds N] [--only NAME] [--nx NX]
  *       [--order config|scan|random|entropy|entropy_log|all] [--ac 3|4|both] [--weights uniform|frequency]
  *       [--scale 1|10|all] [--attempts K] [--tile T] [--resemblance 0|1|2] [--layers 0|1]
+ *       [--outside mismatch|half|match|background]
  *
  * --resemblance W (default 2) and --layers (default 1) as the engine's
  * model.resemblance / model.resemblance_layers defaults (0 = the adjacency-only
- * method); each line also gives the quality figures of gs_model_quality
+ * method), --outside as model.resemblance_outside (default mismatch; castle.ini
+ * sets background); each line also gives the quality figures of gs_model_quality
  * averaged over the seeds (non-empty 3x3x3 resemblance, the same with empty
  * windows, label L1).
  *
@@ -64,7 +66,7 @@ static const bench_case cases[] = {
     {"gadgets.txt", 126, 126, 6, 20, 20, 10, 0, GS_MODEL_ORDER_ENTROPY},
 };
 
-static int g_tile = 0, g_tiled_seeds = 0, g_resem = 2, g_layers = 1;
+static int g_tile = 0, g_tiled_seeds = 0, g_resem = 2, g_layers = 1, g_outside = 0;
 
 /* Process CPU seconds: on a shared machine wall time swings 2-3x with the
  * load, CPU time of this single-threaded process much less. */
@@ -103,6 +105,7 @@ static gs_err run_case(const char *dir, const bench_case *bc, gs_model_order ord
     GS_TRY(err, gs_model_rules_learn(&ex, &rules), done);
     if (g_resem > 0)
         GS_TRY(err, gs_model_resem_build(&ex, g_resem, 0, g_layers, &resem), done);
+    gs_model_resem_set_outside(resem, g_outside);
     GS_TRY(err, gs_model_lattice_create(&out, bc->nx, bc->ny, bc->nz), done);
     double exrun[3];
     gs_model_run_lengths(&ex, exrun);
@@ -191,6 +194,7 @@ int main(int argc, char **argv)
     int seeds = 5, attempts = 20, backtracks = 1000, scale = 1, order_sel = -2, ac_sel = 3;
     gs_model_weights weights = GS_MODEL_WEIGHTS_UNIFORM;
     const char *only = NULL;
+    int only_nx = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!v) {
@@ -214,6 +218,9 @@ int main(int argc, char **argv)
                 return 1;
         } else if (!strcmp(a, "--only")) {
             only = v;
+        } else if (!strcmp(a, "--nx")) {
+            if (!parse_int(v, 1, 100000, &only_nx))
+                return 1;
         } else if (!strcmp(a, "--scale")) {
             scale = !strcmp(v, "all") ? 0 : (!strcmp(v, "10") ? 10 : 1);
         } else if (!strcmp(a, "--order")) {
@@ -228,6 +235,11 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--resemblance")) {
             if (!parse_int(v, 0, 2, &g_resem))
                 return 1;
+        } else if (!strcmp(a, "--outside")) {
+            g_outside = !strcmp(v, "half")         ? 1
+                        : !strcmp(v, "match")      ? 2
+                        : !strcmp(v, "background") ? 3
+                                                   : 0;
         } else if (!strcmp(a, "--layers")) {
             if (!parse_int(v, 0, 1, &g_layers))
                 return 1;
@@ -242,6 +254,8 @@ int main(int argc, char **argv)
         if (scale && cases[c].scale != scale)
             continue;
         if (only && !strstr(cases[c].file, only))
+            continue;
+        if (only_nx && cases[c].nx != only_nx)
             continue;
         for (int o = 0; o < 4; o++) {
             if (order_sel >= 0 ? o != order_sel : order_sel == -2 && o != cases[c].order)

@@ -1,4 +1,5 @@
-/* Unit tests for src/model: reader, transition learning, AC-3 == AC-4,
+/* Unit tests for src/model: reader, transition learning, AC-3 == AC-4, the
+ * resemblance choice against a plain count,
  * start model, plans, region API, synthesis of the author's samples (checked
  * by the independent checker), determinism. Runs from tests/. The author's
  * .txt lattices come from `make data` (tests needing them skip without);
@@ -155,6 +156,274 @@ static void test_checker_finds_violations(void **state)
     gs_model_rules_destroy(&r);
     gs_model_lattice_destroy(&ex);
     gs_model_lattice_destroy(&out);
+}
+
+/* The resemblance choice (paper Sec. 3.3, Eqs. 4-6) counted the plain way,
+ * from the example itself (not the index): for every example location whose
+ * centre label is a candidate of the cell (with layers, only those of the
+ * cell's example layer when there are any), the half matches of its
+ * (2w+1)^3 window against the decided neighbours (an equal label 2; past the
+ * example's faces `outside` 0 / 1 / 2, or 3 = 2 when the neighbour holds the
+ * example's face background of its layer); the locations scoring at least
+ * the best minus 2 slack; their centre labels drawn by count. */
+static int plain_resem_choice(const gs_model_lattice *ex, const gs_model_lattice *lat,
+                              const gs_model_box *b, const uint64_t *dom, size_t W, int32_t c,
+                              int w, int layers, int slack, int outside, const int periodic[3],
+                              gs_rng *rng)
+{
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const int x = c % rx, y = (c / rx) % ry, z = c / (rx * ry);
+    int L = 0;
+    for (size_t i = 0; i < (size_t)ex->nx * ex->ny * ex->nz; i++)
+        if (ex->labels[i] + 1 > L)
+            L = ex->labels[i] + 1;
+    int bg[64];
+    for (int ez = 0; ez < ex->nz; ez++) { /* commonest label on the x/y faces, lowest on ties */
+        int best = 0, bestn = -1;
+        for (int l = 0; l < L; l++) {
+            int k = 0;
+            for (int ey = 0; ey < ex->ny; ey++)
+                for (int exx = 0; exx < ex->nx; exx++)
+                    if ((exx == 0 || ey == 0 || exx == ex->nx - 1 || ey == ex->ny - 1) &&
+                        ex->labels[gs_model_lattice_index(ex, exx, ey, ez)] == l)
+                        k++;
+            if (k > bestn) {
+                best = l;
+                bestn = k;
+            }
+        }
+        bg[ez] = best;
+    }
+    /* the decided neighbours' labels, -1 = none */
+    enum { MAXQ = 125 };
+    int nl[MAXQ], off[MAXQ][3], Q = 0;
+    for (int dz = -w; dz <= w; dz++)
+        for (int dy = -w; dy <= w; dy++)
+            for (int dx = -w; dx <= w; dx++) {
+                if (!dx && !dy && !dz)
+                    continue;
+                int px = x + dx, py = y + dy, pz = z + dz, l = -1;
+                if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz) {
+                    const uint64_t *d = dom + (size_t)(px + rx * (py + ry * pz)) * W;
+                    int k = 0;
+                    for (size_t i = 0; i < W; i++)
+                        k += __builtin_popcountll(d[i]);
+                    if (k == 1)
+                        for (size_t i = 0; i < W; i++)
+                            if (d[i])
+                                l = (int)(i * 64) + __builtin_ctzll(d[i]);
+                } else {
+                    int g[3] = {b->x0 + px, b->y0 + py, b->z0 + pz}, n[3] = {lat->nx, lat->ny, lat->nz};
+                    int out = 0;
+                    for (int a = 0; a < 3; a++) {
+                        if (periodic[a])
+                            g[a] = (g[a] % n[a] + n[a]) % n[a];
+                        out |= g[a] < 0 || g[a] >= n[a];
+                    }
+                    if (!out)
+                        l = lat->labels[gs_model_lattice_index(lat, g[0], g[1], g[2])];
+                }
+                nl[Q] = l < L ? l : -1;
+                off[Q][0] = dx;
+                off[Q][1] = dy;
+                off[Q][2] = dz;
+                Q++;
+            }
+    const uint64_t *dc = dom + (size_t)c * W;
+    const int zl = b->z0 + z < ex->nz ? b->z0 + z : ex->nz - 1;
+    int any_layer = 0;
+    for (int pass = 0; pass < 2; pass++) /* any candidate location at the cell's layer? */
+        for (int ey = 0; ey < ex->ny && !pass; ey++)
+            for (int exx = 0; exx < ex->nx; exx++) {
+                int a = ex->labels[gs_model_lattice_index(ex, exx, ey, zl)];
+                any_layer |= (int)((dc[a >> 6] >> (a & 63)) & 1);
+            }
+    const int use_layer = layers && any_layer;
+    int best = -1;
+    uint64_t weight[256] = {0};
+    for (int pass = 0; pass < 2; pass++)
+        for (int ez = 0; ez < ex->nz; ez++)
+            for (int ey = 0; ey < ex->ny; ey++)
+                for (int exx = 0; exx < ex->nx; exx++) {
+                    int a = ex->labels[gs_model_lattice_index(ex, exx, ey, ez)];
+                    if (!((dc[a >> 6] >> (a & 63)) & 1))
+                        continue;
+                    int score = 0;
+                    for (int q = 0; q < Q; q++) {
+                        if (nl[q] < 0)
+                            continue;
+                        int qx = exx + off[q][0], qy = ey + off[q][1], qz = ez + off[q][2];
+                        if (qx >= 0 && qy >= 0 && qz >= 0 && qx < ex->nx && qy < ex->ny && qz < ex->nz) {
+                            score += ex->labels[gs_model_lattice_index(ex, qx, qy, qz)] == nl[q] ? 2 : 0;
+                        } else if (outside == 3) {
+                            int zb = b->z0 + z + off[q][2] < ex->nz ? b->z0 + z + off[q][2] : ex->nz - 1;
+                            score += zb >= 0 && nl[q] == bg[zb] ? 2 : 0;
+                        } else {
+                            score += outside;
+                        }
+                    }
+                    if (use_layer && ez != zl)
+                        continue;
+                    if (pass == 0 && score > best)
+                        best = score;
+                    if (pass == 1 && score >= best - 2 * slack)
+                        weight[a]++;
+                }
+    uint64_t total = 0;
+    for (int a = 0; a < 256; a++)
+        total += weight[a];
+    if (!total)
+        return -1;
+    uint64_t pick = gs_rng_below(rng, total);
+    for (int a = 0; a < 256; a++) {
+        if (pick < weight[a])
+            return a;
+        pick -= weight[a];
+    }
+    return -1;
+}
+
+/* The engine's resemblance choice (index, layer views, neighbourhood labels,
+ * bit-sliced counts) equals the plain count above on random states: random
+ * layered examples (labels below and above 64), random output lattices and
+ * boxes (inside and at the output's faces, periodic and not), random
+ * candidate sets with a half or a tenth of the box cells decided (few
+ * decided neighbours: many windows tie, and the draw by count decides); window radius 1
+ * and 2, layers on and off, slack 0 and 1, every `outside` rule. Then, after
+ * propagation and decisions (AC-3 and AC-4), the decided labels the chooser
+ * reads (rs_lab) are every box cell's. */
+static void test_resemblance_choice_plain(void **state)
+{
+    (void)state;
+    gs_rng rng;
+    gs_rng_init(&rng, 11, 3);
+    int compared = 0, differ_from_first = 0;
+    size_t decided_checked = 0;
+    for (int trial = 0; trial < 48; trial++) {
+        const int w = 1 + trial % 2, layers = (trial / 2) % 2, slack = (trial / 4) % 2,
+                  outside = (trial / 8) % 4, wide = trial >= 32;
+        /* labels 1-5 (with wide, 2 and 4 become 66 and 68), by layer; layers
+         * 2-5 equal, so every window of layer 3 is one of layer 4 too (its
+         * count at a layer is half its total) */
+        enum { EZ = 7 };
+        static const int base[EZ][5] = {{1, 1, 1, 2, 1}, {2, 3, 3, 4, 1}, {5, 5, 3, 4, 5},
+                                        {5, 5, 3, 4, 5}, {5, 5, 3, 4, 5}, {5, 5, 3, 4, 5},
+                                        {5, 5, 5, 4, 3}};
+        gs_model_lattice ex = {0}, lat = {0};
+        assert_int_equal(gs_model_lattice_create(&ex, 8, 7, EZ), GS_OK);
+        for (int z = 0; z < EZ; z++)
+            for (int y = 0; y < 7; y++)
+                for (int x = 0; x < 8; x++) {
+                    int l = base[z][gs_rng_below(&rng, 5)];
+                    if (x > 0 && gs_rng_below(&rng, 2)) /* runs along x: repeated windows */
+                        l = ex.labels[gs_model_lattice_index(&ex, x - 1, y, z)];
+                    if (z >= 3 && z <= 5) /* layers 2-5 alike */
+                        l = ex.labels[gs_model_lattice_index(&ex, x, y, 2)];
+                    ex.labels[gs_model_lattice_index(&ex, x, y, z)] = (uint16_t)l;
+                }
+        for (size_t i = 0; wide && i < (size_t)8 * 7 * EZ; i++)
+            if (!(ex.labels[i] & 1))
+                ex.labels[i] = (uint16_t)(ex.labels[i] + 64);
+        gs_model_rules_t r = NULL;
+        gs_model_resem_t R = NULL;
+        assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+        assert_int_equal(gs_model_resem_build(&ex, w, slack, layers, &R), GS_OK);
+        gs_model_resem_set_outside(R, outside);
+        const int nx = 13, ny = 11, nz = EZ + 2;
+        assert_int_equal(gs_model_lattice_create(&lat, nx, ny, nz), GS_OK);
+        for (int z = 0; z < nz; z++) /* the example's labels of the same layer */
+            for (int y = 0; y < ny; y++)
+                for (int x = 0; x < nx; x++)
+                    lat.labels[gs_model_lattice_index(&lat, x, y, z)] = ex.labels[gs_model_lattice_index(
+                        &ex, (int)gs_rng_below(&rng, 8), (int)gs_rng_below(&rng, 7), z < EZ ? z : EZ - 1)];
+        gs_model_params p;
+        gs_model_params_default(&p);
+        p.resem = R;
+        p.periodic[0] = trial % 3 == 0;
+        p.ac = trial % 5 == 1 ? GS_MODEL_AC4 : GS_MODEL_AC3;
+        gs_model_box b;
+        b.x0 = (int)gs_rng_below(&rng, 8);
+        b.x1 = b.x0 + 1 + (int)gs_rng_below(&rng, (uint64_t)(nx - b.x0));
+        b.y0 = (int)gs_rng_below(&rng, 7);
+        b.y1 = b.y0 + 1 + (int)gs_rng_below(&rng, (uint64_t)(ny - b.y0));
+        b.z0 = trial % 4 < 2 ? 0 : (int)gs_rng_below(&rng, EZ); /* often on the output's floor */
+        b.z1 = b.z0 + 1 + (int)gs_rng_below(&rng, (uint64_t)(nz - b.z0));
+        gs_model_solver_t s = NULL;
+        assert_int_equal(gs_model_solver_create(r, GS_MODEL_AC3, &s), GS_OK);
+        const size_t W = (size_t)s->W, n = (size_t)(b.x1 - b.x0) * (b.y1 - b.y0) * (b.z1 - b.z0);
+        uint64_t *dom = calloc(n * W, 8);
+        assert_non_null(dom);
+        for (int rep = 0; rep < 24; rep++) {
+            for (size_t c = 0; c < n; c++) {
+                uint64_t *d = dom + c * W;
+                const int zc = b.z0 + (int)(c / (size_t)((b.x1 - b.x0) * (b.y1 - b.y0)));
+                memset(d, 0, W * 8);
+                if (gs_rng_below(&rng, rep % 3 ? 2 : 10) == 0) { /* decided: a label of the example's layer */
+                    int l = ex.labels[gs_model_lattice_index(&ex, (int)gs_rng_below(&rng, 8),
+                                                             (int)gs_rng_below(&rng, 7), zc < EZ ? zc : EZ - 1)];
+                    d[l >> 6] = (uint64_t)1 << (l & 63);
+                    continue;
+                }
+                while (!d[0] && !(W > 1 && d[1]))
+                    for (int l = 1; l <= 69; l++)
+                        if ((l <= 5 || (wide && (l == 66 || l == 68))) && gs_rng_below(&rng, 2) &&
+                            (size_t)(l >> 6) < W)
+                            d[l >> 6] |= (uint64_t)1 << (l & 63);
+            }
+            const int32_t c = (int32_t)gs_rng_below(&rng, n);
+            const uint64_t seed = gs_rng_u64(&rng);
+            gs_rng r1, r2;
+            gs_rng_init(&r1, seed, 1);
+            gs_rng_init(&r2, seed, 1);
+            int got = -2;
+            assert_int_equal(gs_model_resem_choose_at(s, &lat, &b, &p, dom, c, &r1, &got), GS_OK);
+            const int want = plain_resem_choice(&ex, &lat, &b, dom, W, c, w, layers, slack, outside,
+                                                p.periodic, &r2);
+            if (got != want)
+                fprintf(stderr, "trial %d rep %d (w %d layers %d slack %d outside %d) cell %d: "
+                                "index %d, plain count %d\n",
+                        trial, rep, w, layers, slack, outside, (int)c, got, want);
+            assert_int_equal(got, want);
+            compared++;
+            /* the decided labels the chooser reads stay right through
+             * propagation (AC-3 or AC-4) and decisions */
+            int ok = gs_model_ac_establish(s);
+            for (int k = 0; ok && k < 4; k++) {
+                int32_t u = (int32_t)gs_rng_below(&rng, n);
+                const uint64_t *du = s->dom + (size_t)u * W;
+                int l = 0;
+                while (!((du[l >> 6] >> (l & 63)) & 1))
+                    l++;
+                ok = gs_model_ac_assign(s, u, l);
+            }
+            for (size_t u = 0; ok && u < n; u++) {
+                int l = R->L;
+                for (int a = 0; s->size[u] == 1 && a < s->L; a++)
+                    if ((s->dom[u * W + (size_t)(a >> 6)] >> (a & 63)) & 1)
+                        l = a < R->L ? a : R->L;
+                assert_int_equal(s->rs_lab[s->rs_pidx[u]], l);
+                decided_checked += s->size[u] == 1;
+            }
+            /* the choice depends on the state: not always the first candidate */
+            const uint64_t *dc = dom + (size_t)c * W;
+            int first = -1;
+            for (int l = 0; l < 128 && first < 0; l++)
+                if ((size_t)(l >> 6) < W && ((dc[l >> 6] >> (l & 63)) & 1))
+                    first = l;
+            differ_from_first += want != first;
+        }
+        free(dom);
+        gs_model_solver_destroy(&s);
+        gs_model_resem_destroy(&R);
+        gs_model_rules_destroy(&r);
+        gs_model_lattice_destroy(&ex);
+        gs_model_lattice_destroy(&lat);
+    }
+    fprintf(stderr, "# %d choices, %d not the first candidate, %zu decided labels checked\n",
+            compared, differ_from_first, decided_checked);
+    assert_int_equal(compared, 48 * 24);
+    assert_true(differ_from_first > compared / 4);
+    assert_true(decided_checked > 1000);
 }
 
 /* Random example -> rules; random region with random narrowed candidates;
@@ -493,6 +762,7 @@ int main(void)
         cmocka_unit_test(test_transition_learning),
         cmocka_unit_test(test_checker_finds_violations),
         cmocka_unit_test(test_ac3_equals_ac4),
+        cmocka_unit_test(test_resemblance_choice_plain),
         cmocka_unit_test(test_initial_model_city),
         cmocka_unit_test(test_plan_colours),
         cmocka_unit_test(test_author_samples_consistent),
