@@ -80,7 +80,9 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
  * the surface of one patch continues on its neighbour's, against the same
  * inside one patch. v[6 i .. 6 i + 5] = x y z nx ny nz of point i (unit
  * normals, z up), id[i] its patch. A seam point has a point of another patch
- * within band (the other patch: that of the nearest such point); its fit is
+ * within band in x y, at any height (the other patch: that of the nearest
+ * such point; a surface that ends at the seam with none across it is a seam
+ * point, and open); its fit is
  * the MLS frame (weights (1 - d^2/R^2)^4, R = radius, as the points engine's
  * surface) at it of the other patch's points within R: centroid a, unit mean
  * normal n. seam_dist = mean |(p - a).n| (distance to the other patch's

@@ -51,21 +51,23 @@ static size_t cell_first(const cell_key *k, size_t n, uint64_t code)
 }
 
 /* The points within sqrt(r2) of point i (itself left out) into *nb (grown
- * as needed, capacity *cap), *m of them: the 27 cells around its cell. */
+ * as needed, capacity *cap), *m of them: the 27 cells around its cell; with
+ * flat != 0 the distance in x y alone over the 9 cells of keys whose cells
+ * have z 0. */
 static gs_err cell_neighbours(const cell_key *k, const long (*cc)[3], const double *xyz,
-                              size_t stride, size_t n, size_t i, double r2, uint32_t **nb,
-                              size_t *cap, size_t *m)
+                              size_t stride, size_t n, size_t i, double r2, int flat,
+                              uint32_t **nb, size_t *cap, size_t *m)
 {
     const double *p = xyz + i * stride;
     *m = 0;
-    for (int dz = -1; dz <= 1; dz++)
+    for (int dz = flat ? 0 : -1; dz <= (flat ? 0 : 1); dz++)
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
                 uint64_t code = cell_code(cc[i][0] + dx, cc[i][1] + dy, cc[i][2] + dz);
                 for (size_t j = cell_first(k, n, code); j < n && k[j].cell == code; j++) {
                     uint32_t q = k[j].idx;
                     const double *o = xyz + (size_t)q * stride;
-                    double d0 = p[0] - o[0], d1 = p[1] - o[1], d2 = p[2] - o[2];
+                    double d0 = p[0] - o[0], d1 = p[1] - o[1], d2 = flat ? 0 : p[2] - o[2];
                     if (q == i || d0 * d0 + d1 * d1 + d2 * d2 > r2)
                         continue;
                     if (*m == *cap) {
@@ -124,8 +126,8 @@ gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, d
      * search for each cell's run in the sorted keys). */
     for (size_t i = 0; i < n; i++) {
         size_t m;
-        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, xyz, stride, n, i, r2, &nb, &nbcap,
-                                    &m), done);
+        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, xyz, stride, n, i, r2, 0, &nb,
+                                    &nbcap, &m), done);
         for (size_t j = 0; j < m; j++) {
             uint32_t q = nb[j];
             if (q <= i)
@@ -315,14 +317,17 @@ gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, doub
         for (int a = 0; a < 3; a++)
             GS_CHECK((v[6 * i + a] - lo[a]) / radius < (double)(1L << 19), GS_ERR_ARG,
                      "point seams: point %zu is too far out", i);
-    cell_key *k = NULL;
-    long (*cc)[3] = NULL;
-    uint32_t *nb = NULL;
+    cell_key *k = NULL, *k2 = NULL;
+    long (*cc)[3] = NULL, (*cc2)[3] = NULL;
+    uint32_t *nb = NULL, *nb2 = NULL;
+    size_t cap2 = 0;
     double *dl[2] = {NULL, NULL};
     size_t nd[2] = {0, 0}, cap = 0;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&k, n, sizeof *k, "point seams"), done);
     GS_TRY(err, gs_alloc_array((void **)&cc, n, sizeof *cc, "point seams"), done);
+    GS_TRY(err, gs_alloc_array((void **)&k2, n, sizeof *k2, "point seams"), done);
+    GS_TRY(err, gs_alloc_array((void **)&cc2, n, sizeof *cc2, "point seams"), done);
     for (int w = 0; w < 2; w++)
         GS_TRY(err, gs_alloc_array((void **)&dl[w], n, 4 * sizeof *dl[w], "point seams"), done);
     for (size_t i = 0; i < n; i++) {
@@ -332,6 +337,14 @@ gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, doub
         k[i].idx = (uint32_t)i;
     }
     qsort(k, n, sizeof *k, cell_key_cmp);
+    for (size_t i = 0; i < n; i++) { /* the same cells flattened: the x y neighbours */
+        cc2[i][0] = cc[i][0];
+        cc2[i][1] = cc[i][1];
+        cc2[i][2] = 0;
+        k2[i].cell = cell_code(cc[i][0], cc[i][1], 0);
+        k2[i].idx = (uint32_t)i;
+    }
+    qsort(k2, n, sizeof *k2, cell_key_cmp);
     double r2 = radius * radius, b2 = band * band, inv_r2 = 1.0 / r2;
     double sum[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};
     /* Directions of the inside half-discs: +x, -x, +y, -y. */
@@ -339,23 +352,28 @@ gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, doub
     for (size_t i = 0; i < n; i++) {
         const double *p = v + 6 * i;
         size_t m;
-        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, v, 6, n, i, r2, &nb, &cap, &m),
+        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, v, 6, n, i, r2, 0, &nb, &cap, &m),
                done);
+        size_t m2;
+        GS_TRY(err, cell_neighbours(k2, (const long (*)[3])cc2, v, 6, n, i, b2, 1, &nb2, &cap2,
+                                    &m2), done);
         /* The other patch across: the id of the nearest point of another
-         * patch within band; none within radius: an inside point. */
+         * patch within band in the plane (at any height, so a surface that
+         * ends at the seam with nothing across is a seam point too); none
+         * within radius in space either: an inside point. */
         double best = INFINITY;
         int32_t other = id[i];
         int any_other = 0;
-        for (size_t j = 0; j < m; j++) {
-            if (id[nb[j]] == id[i])
+        for (size_t j = 0; j < m; j++)
+            any_other |= id[nb[j]] != id[i];
+        for (size_t j = 0; j < m2; j++) {
+            if (id[nb2[j]] == id[i])
                 continue;
-            any_other = 1;
-            double d2 = 0;
-            for (int a = 0; a < 3; a++)
-                d2 += (v[6 * (size_t)nb[j] + a] - p[a]) * (v[6 * (size_t)nb[j] + a] - p[a]);
-            if (d2 <= b2 && (d2 < best || (d2 == best && id[nb[j]] < other))) {
+            const double *o = v + 6 * (size_t)nb2[j];
+            double d2 = (o[0] - p[0]) * (o[0] - p[0]) + (o[1] - p[1]) * (o[1] - p[1]);
+            if (d2 < best || (d2 == best && id[nb2[j]] < other)) {
                 best = d2;
-                other = id[nb[j]];
+                other = id[nb2[j]];
             }
         }
         if (other != id[i]) {
@@ -393,6 +411,9 @@ done:
     gs_free(k);
     gs_free(cc);
     gs_free(nb);
+    gs_free(k2);
+    gs_free(cc2);
+    gs_free(nb2);
     gs_free(dl[0]);
     gs_free(dl[1]);
     return err;

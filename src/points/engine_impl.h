@@ -156,6 +156,7 @@ typedef struct run_state {
     double dens_out;              /* output points per unit area */
     gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
     gs_measure_seams pseam;       /* seams from the output's patch ids (rank 0) */
+    gs_measure_seams pseam_ex;    /* the same of the example cut into patch-sized cells */
 } run_state;
 /* engine_config.c: the points engine's config table. */
 extern const gs_cfg_table points_cfg_table;

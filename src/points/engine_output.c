@@ -157,6 +157,13 @@ done:
     return err;
 }
 
+/* Whether p lies over the example's box B_Tin (x y). */
+static int in_example_box(const gs_points_texture *t, const double *p)
+{
+    return p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
+           p[1] < t->box_hi[1];
+}
+
 /* RUN_DIR/preview.png: the example (inside its box) and the output
  * cropped to twice the example's extent, meshed (mesh_points) at 1.5
  * spacings at least and rendered side by side. *written = 0 without a
@@ -173,8 +180,7 @@ static gs_err write_preview(const points_config *c, const gs_points_texture *tex
     gs_err err = GS_OK;
     for (size_t i = 0; i < tex->pts.n; i++) {
         const double *p = tex->pts.v[i].p;
-        if (p[0] >= tex->box_lo[0] && p[0] < tex->box_hi[0] && p[1] >= tex->box_lo[1] &&
-            p[1] < tex->box_hi[1])
+        if (in_example_box(tex, p))
             GS_TRY(err, gs_points_append(&ex, &tex->pts.v[i], 1), done);
     }
     for (size_t i = 0; i < zup->n; i++) {
@@ -254,8 +260,7 @@ static gs_err object_measures(run_state *rs, const gs_points *zup)
     o->example_height_max = -INFINITY;
     for (size_t i = 0; i < t->pts.n; i++) {
         const double *p = t->pts.v[i].p;
-        if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
-            p[1] < t->box_hi[1]) {
+        if (in_example_box(t, p)) {
             hy[ny++] = p[2];
             o->example_height_max = fmax(o->example_height_max, p[2]);
         }
@@ -274,8 +279,7 @@ static gs_err object_measures(run_state *rs, const gs_points *zup)
         double mid = 0.5 * (t->box_lo[0] + t->box_hi[0]);
         for (size_t i = 0; i < t->pts.n; i++) {
             const double *p = t->pts.v[i].p;
-            if (p[0] >= t->box_lo[0] && p[0] < t->box_hi[0] && p[1] >= t->box_lo[1] &&
-                p[1] < t->box_hi[1]) {
+            if (in_example_box(t, p)) {
                 if (p[0] < mid)
                     hx[na++] = p[2];
                 else
@@ -297,16 +301,54 @@ done:
 }
 
 /* The seam measure of the output (z-up points) and of the example. */
+/* The patch-id seam measure of the example's points inside its box, cut
+ * into cells by the lines ex (as far apart as the output's seams): what
+ * the measure gives where no seam is, its own chance level. */
+static gs_err example_patch_seams(run_state *rs, const gs_points_lines *ex, double band)
+{
+    const gs_points_texture *t = &rs->tex;
+    gs_points in = {0};
+    int32_t *id = NULL;
+    gs_err err = GS_OK;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        if (in_example_box(t, p))
+            GS_TRY(err, gs_points_append(&in, &t->pts.v[i], 1), done);
+    }
+    GS_TRY(err, gs_alloc_array((void **)&id, in.n ? in.n : 1, sizeof *id, "example cells"), done);
+    for (size_t i = 0; i < in.n; i++) {
+        int cx = 0, cy = 0;
+        while (cx < ex->nx && in.v[i].p[0] >= ex->x[cx])
+            cx++;
+        while (cy < ex->ny && in.v[i].p[1] >= ex->y[cy])
+            cy++;
+        id[i] = cx + (ex->nx + 1) * cy;
+    }
+    GS_TRY(err, gs_measure_point_seams((const double *)in.v, in.n, id, rs->params.mls_radius, band,
+                                       GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam_ex), done);
+done:
+    gs_points_free(&in);
+    gs_free(id);
+    return err;
+}
+
 static gs_err seam_measures(run_state *rs, const gs_points *zup)
 {
     gs_points_lines seams = {0}, inside = {0}, ex = {0}, none = {0};
     double R = rs->params.mls_radius, band = rs->tex.spacing;
+    /* Seams from the patch ids: a point of another patch within 1.5
+     * spacings, the other patch's surface within mls_radius, the
+     * unmatched weight of the line measure. */
+    double pband = fmin(1.5 * rs->tex.spacing, R);
     gs_err err = GS_OK;
     GS_TRY(err, gs_points_synth_lines(rs->synth, 0, &seams), done);
     GS_TRY(err, gs_points_synth_lines(rs->synth, 1, &inside), done);
     GS_TRY(err, gs_points_synth_lines(rs->synth, 2, &ex), done);
     GS_TRY(err, gs_points_seam_measure(zup, R, band, &seams, &inside, &rs->seam), done);
     GS_TRY(err, gs_points_seam_measure(&rs->tex.pts, R, band, &ex, &none, &rs->seam_ex), done);
+    GS_TRY(err, gs_measure_point_seams((const double *)zup->v, zup->n, rs->out_id, R, pband,
+                                       GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam), done);
+    GS_TRY(err, example_patch_seams(rs, &ex, pband), done);
 done:
     gs_points_lines_free(&seams);
     gs_points_lines_free(&inside);
@@ -409,6 +451,13 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
                       ps->inside_dist > 0 ? ps->seam_dist / ps->inside_dist : 0);
     gs_run_metric_f64(run, "patch_seam_angle_ratio",
                       ps->inside_angle > 0 ? ps->seam_angle / ps->inside_angle : 0);
+    const gs_measure_seams *pe = &rs->pseam_ex;
+    gs_run_metric_f64(run, "example_patch_seam_dist_ratio",
+                      pe->inside_dist > 0 ? pe->seam_dist / pe->inside_dist : 0);
+    gs_run_metric_f64(run, "example_patch_seam_angle_ratio",
+                      pe->inside_angle > 0 ? pe->seam_angle / pe->inside_angle : 0);
+    gs_run_metric_f64(run, "example_patch_seam_open", pe->seam_open);
+    gs_run_metric_f64(run, "example_patch_inside_open", pe->inside_open);
     gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);
     gs_run_metric_f64(run, "example_line_normal", rs->seam_ex.seam_normal);
     gs_run_metric_f64(run, "example_line_unmatched", rs->seam_ex.seam_unmatched);
@@ -472,15 +521,6 @@ gs_err points_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *dige
         if (local == GS_OK) {
             gs_points_permute_to_z(&zup, kind_is_user(c) ? up_axis(c) : 2);
             local = seam_measures(rs, &zup);
-            /* Seams from the patch ids: a point of another patch within 1.5
-             * spacings, the other patch's surface within mls_radius, the
-             * unmatched weight of the line measure. */
-            if (local == GS_OK)
-                local = gs_measure_point_seams((const double *)zup.v, zup.n, rs->out_id,
-                                               rs->params.mls_radius,
-                                               fmin(1.5 * rs->tex.spacing,
-                                                    rs->params.mls_radius),
-                                               GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam);
             if (local == GS_OK)
                 local = object_measures(rs, &zup);
         }

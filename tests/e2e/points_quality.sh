@@ -2,6 +2,11 @@
 # flowers.ini on a smaller output; non-periodic examples, as the paper's).
 # Each check compares runs of the same example, so its threshold comes from
 # the example, not from a pinned run:
+# - warp, from points.ply's patch ids: on chainmail.ini (8 x 8) the share of
+#   points at a patch boundary with no surface of the other patch across it
+#   is within 1.25 x the share the same measure gives on the example cut
+#   into cells as far apart (no seams: its chance level), and beyond it
+#   without the warp;
 # - warp, from the output points alone: on chainmail.ini (8 x 8) the share
 #   of patch edges where the surface is more often open across the seam
 #   than on 9 in 10 edges inside the patches (seam_open_segments, 0.1 when
@@ -54,6 +59,15 @@ o1=$(metric cwarp seam_open_segments) o0=$(metric cnowarp seam_open_segments)
 lt "$o1" 0.2 1 && ! lt "$o0" 0.2 1 &&
   ok "warp: patch edges open across the seam $o1 with the warp, $o0 without (seams like the inside: 0.1)" ||
   bad "warp: patch edges open across the seam $o1 with the warp, $o0 without (expected < 0.2 with, >= 0.2 without)"
+# The same from points.ply's patch ids (gs_measure_point_seams): the share of
+# points by a patch boundary with no surface of the other patch across
+# (patch_seam_open) within 1.25 x what the measure gives on the example cut
+# into cells as far apart (example_patch_seam_open: no seam there, its chance
+# level) with the warp, and beyond it without.
+p1=$(metric cwarp patch_seam_open) p0=$(metric cnowarp patch_seam_open) pe=$(metric cwarp example_patch_seam_open)
+lt "$p1" "$pe" 1.25 && ! lt "$p0" "$pe" 1.25 &&
+  ok "warp: points at patch boundaries with no surface across $p1 with the warp, $p0 without (the example cut alike: $pe)" ||
+  bad "warp: points at patch boundaries with no surface across $p1 with the warp, $p0 without (expected < 1.25 x the example's $pe with, not without)"
 u1=$(metric warp seam_unmatched) u0=$(metric nowarp seam_unmatched)
 lt "$u1" "$u0" 1 && ok "warp: fewer seam points without a surface across the seam ($u1 with, $u0 without)" ||
   bad "warp: seam points without a surface across the seam $u1 with warp, $u0 without"

@@ -176,7 +176,9 @@ static void test_point_pieces(void **state)
  * patches 0 and 1. Patch 1 raised by dz: the seam points see the other
  * patch's surface dz away and the inside sees a plane (0); not raised, the
  * seam is like the inside. Tilting patch 1's normals by 10 degrees gives a
- * 10 degree seam angle. */
+ * 10 degree seam angle. Patch 1 lifted far above (more than the radius):
+ * patch 0's surface ends at the seam with none across, every seam point is
+ * open (the seam is found in the plane, at any height). */
 static void test_point_seams(void **state)
 {
     (void)state;
@@ -184,7 +186,7 @@ static void test_point_seams(void **state)
     const double h = 0.05, R = 3 * h, band = 1.5 * h, dz = 0.02;
     double *v = malloc(NX * NY * 6 * sizeof *v);
     int32_t *id = malloc(NX * NY * sizeof *id);
-    for (int raise = 0; raise < 3; raise++) {
+    for (int raise = 0; raise < 4; raise++) {
         size_t n = 0;
         for (int j = 0; j < NY; j++)
             for (int i = 0; i < NX; i++) {
@@ -193,7 +195,7 @@ static void test_point_seams(void **state)
                 double a = raise == 2 && id[n] ? 10 * 3.14159265358979323846 / 180 : 0;
                 q[0] = i * h;
                 q[1] = j * h;
-                q[2] = raise == 1 && id[n] ? dz : 0;
+                q[2] = raise == 1 && id[n] ? dz : raise == 3 && id[n] ? 1.0 : 0;
                 q[3] = sin(a);
                 q[4] = 0;
                 q[5] = cos(a);
@@ -206,6 +208,7 @@ static void test_point_seams(void **state)
         /* (tilted normals on a flat sampling are no plane: no inside check) */
         assert_true(raise == 2 || (ms.inside_dist < 1e-12 && ms.inside_angle < 1e-5));
         assert_true(ms.inside_fits > 0);
+        assert_true(raise == 3 ? ms.seam_open == 1 : ms.seam_open == 0);
         if (raise == 1) {
             assert_true(fabs(ms.seam_dist - dz) < 1e-9);
             assert_true(ms.seam_angle < 1e-5);
