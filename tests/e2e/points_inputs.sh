@@ -96,8 +96,8 @@ expect_rc 0 "mesh example with input.up = y"
 import struct, sys
 def load(p):
     raw = open(p, "rb").read(); end = raw.index(b"end_header\n") + 11
-    n = (len(raw) - end) // 24
-    return [struct.unpack_from("<6f", raw, end + 24 * i) for i in range(n)]
+    n = (len(raw) - end) // 28  # x y z nx ny nz (float), patch (int)
+    return [struct.unpack_from("<6f", raw, end + 28 * i) for i in range(n)]
 a, b = load(sys.argv[1]), load(sys.argv[2])
 assert abs(len(b) / len(a) - 1) < 0.05, (len(a), len(b))
 # y-up file coords are (y0, z0, x0) of the z-up texture: plane axes z and x
