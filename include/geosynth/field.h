@@ -383,13 +383,13 @@ typedef struct gs_field_synth_config {
                                         cut_block); needs region_blocks 0; 0 = off (the
                                         paper) */
     int complete_objects;            /* 1 (needs prov): after the last iteration (and the
-                                        blend) every inside component not touching the
-                                        target's faces and smaller than the source's smallest
-                                        such component (a fragment cut at a seam) is completed
-                                        with the source object its samples were copied from
-                                        (its core component, deeper than one sample, within
-                                        block/2 of it, pasted as a union), and what is still a
-                                        fragment after that is removed; 0 = off (the paper) */
+                                        blend), when most of the source's core (samples deeper
+                                        than one sample) is in whole objects (core components
+                                        touching none of its faces), the output is rebuilt
+                                        from them: each core component of the target is
+                                        replaced by the whole source object its samples were
+                                        mostly copied from, at that offset (see synth.c);
+                                        0 = off (the paper) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's
                                         tree (gs_field_tree_build_shard, split by count; shards
@@ -445,8 +445,8 @@ typedef struct gs_field_synth_state {
     uint64_t stat_coarse_flips[GS_FIELD_MAX_ITER];
     uint64_t stat_coarse_n[GS_FIELD_MAX_ITER];
     /* complete_objects, after the last iteration (not checkpointed: counted
-     * by the process that ran it): fragments completed from the source,
-     * components still fragments and removed */
+     * by the process that ran it): source objects pasted, target objects
+     * left out (no whole source object, or on an object already pasted) */
     int64_t objects_completed, objects_removed;
 } gs_field_synth_state;
 

@@ -181,7 +181,7 @@ static gs_err field_synthesis_report(void *state, gs_run *run, gs_json *phase)
                (double)tree_peak_max / 1048576.0, d->ctx.sharded ? "sharded" : "whole");
         gs_run_metric_i64(run, "tree_bytes_rank_max", (int64_t)tree_peak_max);
         if (d->sc.complete_objects) {
-            gs_log(GS_LOG_INFO, "objects: %lld fragments completed from the source, %lld removed "
+            gs_log(GS_LOG_INFO, "objects: %lld source objects pasted whole, %lld left out "
                    "(field.complete_objects)", (long long)st->objects_completed,
                    (long long)st->objects_removed);
             gs_run_metric_i64(run, "objects_completed", st->objects_completed);

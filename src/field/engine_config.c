@@ -98,10 +98,10 @@ static const gs_cfg_key field_keys[] = {
                     "region_blocks = 0; no = off (the paper: a block fills only unsynthesized "
                     "samples)"),
     GS_CFG_KEY_BOOL(field_config, complete_objects, "field.complete_objects", "no",
-                    "after the last iteration, inside components that touch no face and are "
-                    "smaller than the source's smallest such component (objects cut where "
-                    "pieces meet) are completed with the source object their samples were "
-                    "copied from; what stays that small is removed; no = off (the paper)"),
+                    "after the last iteration, for an example of separate objects, every "
+                    "object of the output (core component, deeper than one sample) is replaced "
+                    "by the whole source object its samples were copied from, at that offset "
+                    "(objects glued from pieces of several become whole); no = off (the paper)"),
     GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "
