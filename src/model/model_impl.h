@@ -87,6 +87,7 @@ struct gs_model_resem {
 };
 
 
+#define GS_MODEL_UCACHE_BITS 10 /* 1024 cached AC-3 unions (castle.txt: 90% of lookups hit) */
 #define GS_MODEL_UTAB_MAX_W 2 /* AC-3 union table: 128 KiB at W = 1, 512 KiB at W = 2 */
 
 struct gs_model_solver {
@@ -104,6 +105,12 @@ struct gs_model_solver {
     int ndirs;         /* directions with neighbours in the current problem (6 in 3D) */
     uint64_t *utab;    /* AC-3 unions (W <= GS_MODEL_UTAB_MAX_W, else NULL):
                           [8W byte positions][256 byte values][8][W] */
+    uint64_t *ucache;  /* AC-3 unions of recent candidate sets (with utab): direct-mapped,
+                          [1 << GS_MODEL_UCACHE_BITS][W key words, then [8][W] union], 72 KiB
+                          at W = 1; a key of zeros is an empty entry (only sets of 2 or more
+                          candidates are looked up) */
+    int ucache_bits;   /* index bits in use, 1..GS_MODEL_UCACHE_BITS (tests use 1 to force
+                          collisions) */
     uint64_t *pending; /* AC-4: [n][W] labels removed but not yet propagated */
     uint16_t *support; /* AC-4: [n][6][L] support counts */
     size_t support_cap;
