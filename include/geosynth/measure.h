@@ -233,8 +233,13 @@ gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_
  * content occurs exactly once in src (windows that occur more than once, e.g.
  * constant empty space, say nothing about where a sample came from) is
  * "copied" from that source position; it has the offset source position -
- * output position. A copied region is a set of window positions connected
- * through face neighbours with the same offset (a piece moved verbatim).
+ * output position. A window that occurs more than once in src (not constant)
+ * takes the offset of a lower face neighbour (x, then y, then z) when the
+ * source window one step on from that neighbour's equals it (verified), else
+ * its first occurrence: so a verbatim copy of a repetitive source (grid.ini:
+ * most windows repeat) stays one region. A copied region is a set of window
+ * positions connected through face neighbours with the same offset (a piece
+ * moved verbatim: every window in it equals the source's at that offset).
  * Sizes count window positions (the k-1 samples at a region's upper faces
  * are not counted). large: a region of more than `large` positions counts
  * as large (e.g. one synthesis block, B^3: bigger regions were copied by
@@ -243,12 +248,14 @@ gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_
  * window: the share of them whose windows occur in out at least once.
  * A periodic source (periods below) is measured modulo its periods:
  * uniqueness, offsets and completeness. k in 2..8. Memory: 4 bytes per output position (union-find) + 12 bytes
- * per source position (hash table); cost O(k^2) per position. */
+ * per source position (hash table); cost O(k^2) per position (up to four window
+ * comparisons for a repeated window). */
 typedef struct gs_measure_copy {
     int window;                     /* k */
     int64_t positions;              /* output window positions */
     double matched_share;           /* share of them with a unique exact source match */
-    int64_t regions;                /* copied regions (of >= 1 position) */
+    int64_t regions;                /* copied regions (of >= 1 position; windows that
+                                       occur more than once in src included) */
     int64_t largest_region;         /* positions of the largest region */
     double largest_region_of_source; /* largest_region / source window positions */
     double large_share;             /* share of output positions in regions > large */

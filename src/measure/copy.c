@@ -5,7 +5,9 @@
  * uint64, the k^2 rows are combined with fixed random odd multipliers and a
  * final mix, and every hit is verified byte by byte, so the measure never
  * mistakes a collision for a copy. Regions are joined with a union-find over
- * the output positions (parent array, path halving). */
+ * the output positions (parent array, path halving). A window the source
+ * repeats continues a lower neighbour's offset when the source agrees there
+ * (checked byte by byte), so a copy of a repetitive source is seen whole. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -330,26 +332,56 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                 uint32_t id = (uint32_t)(pi + (int64_t)plane * z);
                 parent[id] = id;
                 cur[pi] = -1;
-                int flat;
+                int flat, via = 0;
                 uint64_t h = win_hash(out, on, base, k, mul, &flat);
-                for (size_t i = (size_t)h & (cap - 1); tab[i].count; i = (i + 1) & (cap - 1)) {
-                    if (flat)
+                const win_entry *e = NULL;
+                for (size_t i = (size_t)h & (cap - 1); !flat && tab[i].count; i = (i + 1) & (cap - 1))
+                    if (tab[i].h == h && win_equal(src, sn, tab[i].pos, out, on, base, k)) {
+                        e = &tab[i];
                         break;
-                    const win_entry *e = &tab[i];
-                    if (e->h == h && win_equal(src, sn, e->pos, out, on, base, k)) {
-                        if (e->count == 1) {
-                            int64_t b = e->pos, sx = b % sn[0], sy = b / sn[0] % sn[1],
-                                    sz = b / (sn[0] * sn[1]);
-                            cur[pi] = sx + sp[0] * (sy + sp[1] * sz);
-                            used[cur[pi]] = 1;
-                        }
-                        break;
+                    }
+                if (e && e->count == 1) {
+                    int64_t b = e->pos, sx = b % sn[0], sy = b / sn[0] % sn[1], sz = b / (sn[0] * sn[1]);
+                    cur[pi] = sx + sp[0] * (sy + sp[1] * sz);
+                    used[cur[pi]] = 1;
+                    matched++;
+                } else if (e) {
+                    /* a window that occurs more than once in the source (most
+                     * of a repetitive one's, grid.ini's): it continues the
+                     * offset of a lower neighbour whose source position one
+                     * step on holds it too (verified), else it starts at its
+                     * first occurrence. So a verbatim copy of a repetitive
+                     * source stays one region wherever its windows are
+                     * ambiguous, and an offset chain is still exact */
+                    int64_t nbs[3] = {x > 0 ? cur[pi - 1] : -1, y > 0 ? cur[pi - op[0]] : -1,
+                                      z > 0 ? prev[pi] : -1};
+                    for (int a = 0; a < 3 && cur[pi] < 0; a++) {
+                        if (nbs[a] < 0)
+                            continue;
+                        int64_t t[3] = {nbs[a] % sp[0], nbs[a] / sp[0] % sp[1], nbs[a] / (sp[0] * sp[1])};
+                        t[a]++;
+                        int64_t ti = P.n ? reduce(&P, t)
+                                         : outside(&P, t) ? -2 : t[0] + sp[0] * (t[1] + sp[1] * t[2]);
+                        if (ti < 0)
+                            continue;
+                        int64_t tb = ti % sp[0] + sn[0] * (ti / sp[0] % sp[1] + sn[1] * (ti / (sp[0] * sp[1])));
+                        if (win_equal(src, sn, tb, out, on, base, k))
+                            cur[pi] = ti, via = 1 << a;
+                    }
+                    if (cur[pi] < 0) {
+                        int64_t b = e->pos, sx = b % sn[0], sy = b / sn[0] % sn[1], sz = b / (sn[0] * sn[1]);
+                        cur[pi] = sx + sp[0] * (sy + sp[1] * sz);
                     }
                 }
                 int64_t s = cur[pi];
                 if (s < 0)
                     continue;
-                matched++;
+                if (via & 1)
+                    uf_union(parent, id, id - 1);
+                if (via & 2)
+                    uf_union(parent, id, id - (uint32_t)op[0]);
+                if (via & 4)
+                    uf_union(parent, id, id - (uint32_t)plane);
                 /* same offset as a lower neighbour (modulo the periods): the
                  * same piece */
                 if (!P.n) {

@@ -511,6 +511,61 @@ static void test_copy_periodic(void **state)
     free(out);
 }
 
+/* Copy measure on a repetitive source that is not periodic (grid.ini's
+ * kind): a random 8^3 cell repeated, with a few samples changed, so most
+ * windows occur several times and only those around the changes are unique.
+ * A verbatim tiling of a 24^3 piece of it is one copied region per tile
+ * (windows joined through consistent offsets, not only unique ones: #19);
+ * an output of 8^3 blocks copied from offsets that differ modulo the cell
+ * copies only pieces of one block. */
+static void test_copy_repetitive(void **state)
+{
+    (void)state;
+    enum { S = 32, O = 48, T = 24 };
+    uint8_t cell[8 * 8 * 8], *src = malloc(S * S * S), *out = malloc(O * O * O);
+    assert_non_null(src);
+    assert_non_null(out);
+    uint64_t r = 11;
+    for (int i = 0; i < 8 * 8 * 8; i++) {
+        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+        cell[i] = (uint8_t)(r >> 56);
+    }
+    for (int64_t z = 0; z < S; z++)
+        for (int64_t y = 0; y < S; y++)
+            for (int64_t x = 0; x < S; x++)
+                src[x + S * (y + S * z)] = cell[x % 8 + 8 * (y % 8 + 8 * (z % 8))];
+    const int64_t defects[6][3] = {{5, 9, 3}, {20, 4, 17}, {12, 25, 8}, {27, 14, 26}, {3, 28, 21}, {17, 17, 12}};
+    for (int i = 0; i < 6; i++) {
+        uint8_t *d = &src[defects[i][0] + S * (defects[i][1] + S * defects[i][2])];
+        *d = (uint8_t)(*d + 101);
+    }
+    for (int64_t z = 0; z < O; z++)
+        for (int64_t y = 0; y < O; y++)
+            for (int64_t x = 0; x < O; x++)
+                out[x + O * (y + O * z)] = src[2 + x % T + S * (3 + y % T + S * (4 + z % T))];
+    const int64_t sn[3] = {S, S, S}, on[3] = {O, O, O};
+    gs_measure_copy m;
+    assert_int_equal(gs_measure_copy3(out, on, src, sn, 4, 64, 4, &m), GS_OK);
+    assert_int_equal(m.periods, 0);
+    assert_true(m.source_unique_share < 0.1);
+    printf("tiling: largest %lld (%.3f of the source), regions %lld\n", (long long)m.largest_region,
+           m.largest_region_of_source, (long long)m.regions);
+    /* a tile's windows: (T - 3)^3 */
+    assert_true(m.largest_region >= (T - 3) * (T - 3) * (T - 3));
+    /* 8^3 blocks from offsets differing modulo the cell: at most one block's windows */
+    for (int64_t z = 0; z < O; z++)
+        for (int64_t y = 0; y < O; y++)
+            for (int64_t x = 0; x < O; x++) {
+                int64_t b = x / 8 + 6 * (y / 8 + 6 * (z / 8)), o = b % 7 + 1;
+                out[x + O * (y + O * z)] = src[o + x % 8 + S * (2 * o % 8 + y % 8 + S * (3 * o % 8 + z % 8))];
+            }
+    assert_int_equal(gs_measure_copy3(out, on, src, sn, 4, 64, 4, &m), GS_OK);
+    printf("blocks: largest %lld, regions %lld\n", (long long)m.largest_region, (long long)m.regions);
+    assert_true(m.largest_region <= 5 * 5 * 5);
+    free(src);
+    free(out);
+}
+
 /* A flat grid mesh of n x n quads (edge h, two triangles each) in the xy
  * plane, and a labelling by whether the vertex lies inside radius r(theta)
  * about the centre. */
@@ -604,6 +659,7 @@ int main(void)
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
         cmocka_unit_test(test_copy_periodic),
+        cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_outline),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
