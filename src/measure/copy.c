@@ -385,9 +385,11 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                 /* same offset as a lower neighbour (modulo the periods): the
                  * same piece */
                 if (!P.n) {
-                    if (x > 0 && cur[pi - 1] == s - 1)
+                    /* (not across a source row or plane: s - 1 at x = 0 is
+                     * the previous row's end, another offset) */
+                    if (x > 0 && s % sp[0] > 0 && cur[pi - 1] == s - 1)
                         uf_union(parent, id, id - 1);
-                    if (y > 0 && cur[pi - op[0]] == s - sp[0])
+                    if (y > 0 && s / sp[0] % sp[1] > 0 && cur[pi - op[0]] == s - sp[0])
                         uf_union(parent, id, id - (uint32_t)op[0]);
                     if (z > 0 && prev[pi] == s - sp[0] * sp[1])
                         uf_union(parent, id, id - (uint32_t)plane);
