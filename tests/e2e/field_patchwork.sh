@@ -18,7 +18,12 @@
 #   blend_seams returning at once: seam ratio 2.5.
 source "$GS_ROOT/tests/e2e/lib.bash"
 B=$GS_ROOT/configs/field/balls.ini
-SMALL=(--set example.size=32 --set field.target=64 --set output.geometry=none --set output.vdb=no)
+# balls.ini's field.complete_objects rebuilds the output from whole source
+# balls after the synthesis (4e3fc40; e2e/field_objects checks it), which
+# also hides what the copy limit and the blend do: with it on, the unlimited
+# unblended run scored largest copy 0.216 and seam ratio 1.070, passing for
+# a limited one. This test is about those two, so both runs leave it off.
+SMALL=(--set example.size=32 --set field.target=64 --set output.geometry=none --set output.vdb=no --set field.complete_objects=no)
 
 figures() { /usr/bin/python3 - "$1" "$GS_ROOT" <<'PY'
 import json, subprocess, sys
