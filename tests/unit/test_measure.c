@@ -445,6 +445,15 @@ static void test_lattice_measures(void **state)
     gs_measure_profile_free(&p);
 }
 
+/* n pseudo-random bytes (a 64-bit LCG's top byte), *r the state carried on. */
+static void lcg_bytes(uint8_t *a, size_t n, uint64_t *r)
+{
+    for (size_t i = 0; i < n; i++) {
+        *r = *r * 6364136223846793005ULL + 1442695040888963407ULL;
+        a[i] = (uint8_t)(*r >> 56);
+    }
+}
+
 /* Copy measure on a periodic source: a face-centred pattern (periods
  * (8,8,0), (8,0,8), (0,8,8): every window repeats, none is unique in the
  * plain sense) tiled into the output is one copied region larger than the
@@ -459,10 +468,7 @@ static void test_copy_periodic(void **state)
     assert_non_null(src);
     assert_non_null(out);
     uint64_t r = 7;
-    for (int i = 0; i < 16 * 16 * 16; i++) {
-        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
-        cell[i] = (uint8_t)(r >> 56);
-    }
+    lcg_bytes(cell, 16 * 16 * 16, &r);
     /* make the cell itself face-centred: value at p = value at p reduced */
     for (int64_t z = 0; z < 16; z++)
         for (int64_t y = 0; y < 16; y++)
@@ -499,10 +505,7 @@ static void test_copy_periodic(void **state)
     assert_true(m.largest_region_of_source > 1);
     assert_true(m.completeness > 0.99);
     /* a source without periods: none found, the same output copies nothing */
-    for (int64_t i = 0; i < S * S * S; i++) {
-        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
-        src[i] = (uint8_t)(r >> 56);
-    }
+    lcg_bytes(src, S * S * S, &r);
     assert_int_equal(gs_measure_copy3(out, on, src, sn, 4, 64, 4, &m), GS_OK);
     assert_int_equal(m.periods, 0);
     assert_true(m.matched_share < 0.01);
@@ -526,10 +529,7 @@ static void test_copy_repetitive(void **state)
     assert_non_null(src);
     assert_non_null(out);
     uint64_t r = 11;
-    for (int i = 0; i < 8 * 8 * 8; i++) {
-        r = r * 6364136223846793005ULL + 1442695040888963407ULL;
-        cell[i] = (uint8_t)(r >> 56);
-    }
+    lcg_bytes(cell, 8 * 8 * 8, &r);
     for (int64_t z = 0; z < S; z++)
         for (int64_t y = 0; y < S; y++)
             for (int64_t x = 0; x < S; x++)
