@@ -448,8 +448,14 @@ static void upsample2(const uint8_t *c, const int64_t n[3], uint8_t *f)
  * the source's 0.8-1.3: a rectangular patchwork). Texture synthesis blends
  * the overlap of neighbouring patches [Liang et al. 2001]; here each sample
  * within w of a seam becomes the mean, over the (2w+1)^3 samples around it,
- * of the source continued at it by each one's offset (where that lies in the
- * source). Inside a piece every offset is the same and nothing changes; across
+ * of the source continued at it by each one's offset, held at the source's
+ * face where the continuation leaves the source. Skipping such offsets (as
+ * it did) left the ramp one-sided wherever a piece ended at the source's face:
+ * terrain.ini, 17% of the seams across x on the seam phase, their step after
+ * the blend 19 levels against 7.5 for the others (2.2 times the mean step
+ * off seams); with the face held, the seam ratio (analysis/field_seams.py,
+ * x and y) 1.140 -> 1.054, the example's phases 0.950-1.050. Inside a piece
+ * every offset is the same and nothing changes; across
  * a seam the pieces fade into each other over 2w+1 samples. It reads only
  * prov and the source, so it is the same on every rank; levels are linear in
  * distance, so it averages distances. */
@@ -540,11 +546,11 @@ static gs_err blend_seams(struct gs_field_synth *s)
                     continue; /* inside one piece: unchanged */
                 uint64_t acc = 0, n = 0;
                 for (int f = 0; f < nd; f++) {
-                    int64_t c0 = x + (d[f] >> 42) - H, c1 = y + ((d[f] >> 21) & (2 * H - 1)) - H,
-                            c2 = z + (d[f] & (2 * H - 1)) - H;
-                    if (c0 < 0 || c0 >= sn[0] || c1 < 0 || c1 >= sn[1] || c2 < 0 || c2 >= sn[2])
-                        continue;
-                    acc += (uint64_t)cnt[f] * src->q[c0 + sn[0] * (c1 + sn[1] * c2)];
+                    int64_t c[3] = {x + (d[f] >> 42) - H, y + ((d[f] >> 21) & (2 * H - 1)) - H,
+                                    z + (d[f] & (2 * H - 1)) - H};
+                    for (int a = 0; a < 3; a++) /* held at the source's face past it */
+                        c[a] = c[a] < 0 ? 0 : c[a] >= sn[a] ? sn[a] - 1 : c[a];
+                    acc += (uint64_t)cnt[f] * src->q[c[0] + sn[0] * (c[1] + sn[1] * c[2])];
                     n += (uint64_t)cnt[f];
                 }
                 if (n)
