@@ -146,6 +146,15 @@ struct gs_model_solver {
                                layer and label, then the layer's total (refreshed every
                                fq_every choices) */
     size_t fq_cap, fq_left, fq_every;
+    int fq_on;              /* fq_exact is kept (with rs_on, a label-frequency weight) */
+    uint32_t *fq_exact;     /* [box rz][L + 1]: fq_cnt's figures kept exact at every change
+                               of a cell's count to or from 1 (rs_note), so a refresh is a
+                               copy instead of a pass over the box */
+    uint16_t *fq_state;     /* [n] the label fq_exact counts a box cell under, 0xffff = none */
+    size_t fq_exact_cap, fq_state_cap;
+    uint32_t *fq_stamp;     /* [L] choice at which freq_factors last computed a label's factor */
+    uint32_t fq_gen;        /* choices with a label-frequency weight so far (fq_stamp's clock) */
+    size_t fq_stamp_cap;
     int rs_on;              /* rs_lab is kept (a region try with resemblance) */
     uint16_t *rs_lab;       /* resemblance: labels of the box padded by the window radius,
                                box cells while decided (solver.c, resem_map_build) */

@@ -152,6 +152,9 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->dec);
     gs_free(s->rs_buf);
     gs_free(s->fq_cnt);
+    gs_free(s->fq_exact);
+    gs_free(s->fq_state);
+    gs_free(s->fq_stamp);
     gs_free(s->rs_lab);
     gs_free(s->rs_pidx);
     gs_free(s->rs_dq);
@@ -201,6 +204,7 @@ static gs_err load_box_frames(struct gs_model_solver *s, int rx, int ry, int rz,
             }
     s->ndirs = fz > 0 ? GS_MODEL_DIRS : 6;
     s->rs_on = 0;
+    s->fq_on = 0;
     memset(s->inq, 0, n);
     memset(s->pending, 0, n * W * 8);
     memset(s->stamp, 0, n * sizeof *s->stamp);
@@ -367,6 +371,22 @@ static inline void rs_note(struct gs_model_solver *s, int32_t c)
         return;
     int l = s->size[c] == 1 ? first_label(s->dom + (size_t)c * (size_t)s->W) : s->resem->L;
     s->rs_lab[s->rs_pidx[c]] = (uint16_t)(l < s->resem->L ? l : s->resem->L);
+    if (s->fq_on) { /* the decided cells per layer and label, exact */
+        const uint16_t now = s->size[c] == 1 ? (uint16_t)l : 0xffffu, was = s->fq_state[c];
+        if (now != was) {
+            const size_t L1 = (size_t)s->L + 1;
+            uint32_t *row = s->fq_exact + (size_t)(c / (s->box_rx * s->box_ry)) * L1;
+            if (was != 0xffffu) {
+                row[was]--;
+                row[L1 - 1]--;
+            }
+            if (now != 0xffffu) {
+                row[now]++;
+                row[L1 - 1]++;
+            }
+            s->fq_state[c] = now;
+        }
+    }
 }
 
 /* ---- trail ------------------------------------------------------------------------- */
@@ -970,6 +990,27 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                 }
             }
     *ok = gs_model_solver_recount(s);
+    if (s->resem && s->resem->zshare) { /* exact label counts, from no cell decided */
+        const size_t rows = (size_t)rz * ((size_t)s->L + 1);
+        if (rows > s->fq_exact_cap) {
+            GS_CALL(grow((void **)&s->fq_exact, rows, sizeof *s->fq_exact, "label-frequency counts"));
+            s->fq_exact_cap = rows;
+        }
+        if (s->n > s->fq_state_cap) {
+            GS_CALL(grow((void **)&s->fq_state, s->n, sizeof *s->fq_state, "label-frequency states"));
+            s->fq_state_cap = s->n;
+        }
+        if ((size_t)s->L > s->fq_stamp_cap) {
+            GS_CALL(grow((void **)&s->fq_stamp, (size_t)s->L, sizeof *s->fq_stamp,
+                         "label-frequency stamps"));
+            memset(s->fq_stamp, 0, (size_t)s->L * sizeof *s->fq_stamp);
+            s->fq_stamp_cap = (size_t)s->L;
+            s->fq_gen = 0;
+        }
+        memset(s->fq_exact, 0, rows * sizeof *s->fq_exact);
+        memset(s->fq_state, 0xff, s->n * sizeof *s->fq_state);
+        s->fq_on = 1;
+    }
     if (s->resem) { /* the cells decided from the start (pins, a one-label face) */
         s->rs_on = 1;
         for (int32_t u = 0; u < (int32_t)s->n; u++)
@@ -1019,43 +1060,55 @@ static int choose_label_shape(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 
 /* Label-frequency constraint (gs_model_resem_set_frequency): the decided
  * cells per layer and label of the box, counted afresh every fq_every
- * choices (cells decided by propagation included), each choice added at once. */
+ * choices (cells decided by propagation included: fq_exact, kept by
+ * rs_note), each choice added at once. */
 static void freq_recount(struct gs_model_solver *s)
 {
-    const size_t L1 = (size_t)s->L + 1, W = (size_t)s->W;
-    const size_t layer = (size_t)s->box_rx * (size_t)s->box_ry;
-    memset(s->fq_cnt, 0, (size_t)s->box_rz * L1 * sizeof *s->fq_cnt);
-    for (size_t c = 0; c < s->n; c++)
-        if (s->size[c] == 1) {
-            uint32_t *row = s->fq_cnt + (c / layer) * L1;
-            row[first_label(s->dom + c * W)]++;
-            row[L1 - 1]++;
-        }
+    const size_t L1 = (size_t)s->L + 1;
+    memcpy(s->fq_cnt, s->fq_exact, (size_t)s->box_rz * L1 * sizeof *s->fq_cnt);
     s->fq_left = s->fq_every;
 }
 
-/* Per candidate label of c, ((t*D + 1) / (n + 1))^beta (fq_fac, [L]). */
-static double *freq_factors(struct gs_model_solver *s, int32_t c)
+/* The label-frequency factors of a choice at cell c: ((t*D + 1) / (n + 1))^beta
+ * of a candidate label a, computed by freq_factor when first asked for at
+ * this choice (the counts do not change within a choice). */
+typedef struct freq_ctx {
+    const uint32_t *row; /* the counts of c's layer, its total last */
+    const float *t;      /* the example's shares at c's layer */
+    double *fac;         /* [L] */
+    uint32_t gen;        /* this choice's fq_stamp value */
+} freq_ctx;
+
+static freq_ctx freq_begin(struct gs_model_solver *s, int32_t c)
 {
     const struct gs_model_resem *R = s->resem;
-    const size_t L1 = (size_t)s->L + 1, W = (size_t)s->W;
+    const size_t L1 = (size_t)s->L + 1;
     if (!s->fq_left)
         freq_recount(s);
     s->fq_left--;
+    if (++s->fq_gen == 0) { /* the clock wrapped: no factor is current */
+        memset(s->fq_stamp, 0, (size_t)s->L * sizeof *s->fq_stamp);
+        s->fq_gen = 1;
+    }
     const int zl = s->box_z0 + c / (s->box_rx * s->box_ry);
-    const uint32_t *row = s->fq_cnt + (size_t)(c / (s->box_rx * s->box_ry)) * L1;
-    const float *t = R->zshare + (size_t)(zl < R->nz ? zl : R->nz - 1) * (size_t)R->L;
+    freq_ctx f;
+    f.row = s->fq_cnt + (size_t)(c / (s->box_rx * s->box_ry)) * L1;
+    f.t = R->zshare + (size_t)(zl < R->nz ? zl : R->nz - 1) * (size_t)R->L;
     double *fac = (double *)(s->fq_cnt + (size_t)s->box_rz * L1 + 1);
-    fac = (double *)(((uintptr_t)fac + 7) & ~(uintptr_t)7);
-    const uint64_t *dc = s->dom + (size_t)c * W;
-    for (size_t w = 0; w < W; w++)
-        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
-            int a = (int)(w * 64) + ctz64(bits);
-            if (a >= R->L)
-                continue;
-            fac[a] = pow(((double)t[a] * row[L1 - 1] + 1.0) / ((double)row[a] + 1.0), R->freq_beta);
-        }
-    return fac;
+    f.fac = (double *)(((uintptr_t)fac + 7) & ~(uintptr_t)7);
+    f.gen = s->fq_gen;
+    return f;
+}
+
+static inline double freq_factor(struct gs_model_solver *s, const freq_ctx *f, int a)
+{
+    if (s->fq_stamp[a] != f->gen) {
+        const size_t L1 = (size_t)s->L + 1;
+        f->fac[a] = pow(((double)f->t[a] * f->row[L1 - 1] + 1.0) / ((double)f->row[a] + 1.0),
+                        s->resem->freq_beta);
+        s->fq_stamp[a] = f->gen;
+    }
+    return f->fac[a];
 }
 
 /* Candidate patterns of view V (labels below L) for the candidate labels dc:
@@ -1100,6 +1153,86 @@ static int resem_cand(const struct gs_model_resem_view *V, int L, const uint64_t
     return 1;
 }
 
+/* Match counting of choose_label_resem on 1, 2 or 4 consecutive pattern
+ * words at once (T: a word, or GCC/Clang vector extensions: 2 words are one
+ * SSE2 register, 4 one AVX2 register or two SSE2 ones; the same operations
+ * lane by lane): the bit-sliced planes (B of them, into cnt, PW words apart)
+ * of the counts of the matches (nbl[0..nn), each a word offset into bits:
+ * plus 2 half matches) and half matches (nbo[0..no): plus 1). */
+typedef uint64_t rs_v2 __attribute__((vector_size(16)));
+typedef uint64_t rs_v4 __attribute__((vector_size(32)));
+#define RS_CSA(h, l, a, b, c)                                                                    \
+    do {                                                                                         \
+        const __typeof__(a) u_ = (a) ^ (b);                                                      \
+        h = ((a) & (b)) | (u_ & (c));                                                            \
+        l = u_ ^ (c);                                                                            \
+    } while (0)
+/* four more neighbours into ones and twos, their fours carried out to fo */
+#define RS_QUAD(fo, a, b, c, d)                                                                  \
+    do {                                                                                         \
+        RS_CSA(twosA, ones, ones, a, b);                                                         \
+        RS_CSA(twosB, ones, ones, c, d);                                                         \
+        RS_CSA(fo, twos, twos, twosA, twosB);                                                    \
+    } while (0)
+#define RS_COUNT_KERNEL(NAME, T)                                                                 \
+    static inline __attribute__((always_inline)) void NAME(                                     \
+        const uint64_t *bits, const uint64_t *nbl, size_t nn, const uint64_t *nbo, size_t no,    \
+        int B, uint64_t *cnt, size_t PW)                                                         \
+    {                                                                                            \
+        T zero;                                                                                  \
+        memset(&zero, 0, sizeof zero);                                                           \
+        T ones = zero, twos = zero, fours = zero, eights = zero, h4 = zero, h5 = zero, h6 = zero, t; \
+        size_t i = 0;                                                                            \
+        T v[16];                                                                                 \
+        for (; i + 16 <= nn; i += 16) {                                                          \
+            for (int k = 0; k < 16; k++)                                                         \
+                memcpy(&v[k], bits + nbl[i + (size_t)k], sizeof(T));                             \
+            T twosA, twosB, foursA, foursB, eightsA, eightsB, sixteens;                          \
+            RS_QUAD(foursA, v[0], v[1], v[2], v[3]);                                             \
+            RS_QUAD(foursB, v[4], v[5], v[6], v[7]);                                             \
+            RS_CSA(eightsA, fours, fours, foursA, foursB);                                       \
+            RS_QUAD(foursA, v[8], v[9], v[10], v[11]);                                           \
+            RS_QUAD(foursB, v[12], v[13], v[14], v[15]);                                         \
+            RS_CSA(eightsB, fours, fours, foursA, foursB);                                       \
+            RS_CSA(sixteens, eights, eights, eightsA, eightsB);                                  \
+            t = h4 & sixteens;                                                                   \
+            h4 ^= sixteens;                                                                      \
+            T carry = t;                                                                         \
+            t = h5 & carry;                                                                      \
+            h5 ^= carry;                                                                         \
+            h6 ^= t;                                                                             \
+        }                                                                                        \
+        for (; i < nn; i++) {                                                                    \
+            T carry;                                                                             \
+            memcpy(&carry, bits + nbl[i], sizeof(T));                                            \
+            t = ones & carry; ones ^= carry; carry = t;                                          \
+            t = twos & carry; twos ^= carry; carry = t;                                          \
+            t = fours & carry; fours ^= carry; carry = t;                                        \
+            t = eights & carry; eights ^= carry; carry = t;                                      \
+            t = h4 & carry; h4 ^= carry; carry = t;                                              \
+            t = h5 & carry; h5 ^= carry; carry = t;                                              \
+            h6 ^= carry;                                                                         \
+        }                                                                                        \
+        T p[8] = {zero, ones, twos, fours, eights, h4, h5, h6};                                  \
+        for (i = 0; i < no; i++) {                                                               \
+            T carry;                                                                             \
+            memcpy(&carry, bits + nbo[i], sizeof(T));                                            \
+            for (int b = 0; b < 8; b++) {                                                        \
+                t = p[b] & carry;                                                                \
+                p[b] ^= carry;                                                                   \
+                carry = t;                                                                       \
+            }                                                                                    \
+        }                                                                                        \
+        for (int b = 0; b < B; b++)                                                              \
+            memcpy(cnt + (size_t)b * PW, &p[b], sizeof(T));                                      \
+    }
+RS_COUNT_KERNEL(rs_count_v1, uint64_t)
+RS_COUNT_KERNEL(rs_count_v2, rs_v2)
+RS_COUNT_KERNEL(rs_count_v4, rs_v4)
+#undef RS_COUNT_KERNEL
+#undef RS_QUAD
+#undef RS_CSA
+
 /* Resemblance (paper Eqs. 4-6, see gs_model_resem_build in model.h): match
  * counts of the candidate patterns in bit-sliced counters over the words of
  * the candidates' centre runs, then the patterns with the most matches
@@ -1110,7 +1243,7 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     const struct gs_model_resem *R = s->resem;
     const size_t W = (size_t)s->W, PW = (size_t)R->PW;
     const uint64_t *dc = s->dom + (size_t)c * W;
-    const size_t need = PW * (size_t)(R->B + 4) + 2 * (size_t)R->Q;
+    const size_t need = PW * (size_t)(R->B + 4) + 2 * (size_t)R->Q + 64 * PW; /* + weights */
     if (need > s->rs_cap) {
         uint64_t *nb = gs_realloc(s->rs_buf, need * 8);
         if (!nb)
@@ -1191,77 +1324,30 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
             }
         }
     }
-    /* match counts: the neighbours' bits added into bit-sliced counters, one
-     * candidate word at a time with the counter planes in registers (counts
-     * in half matches <= 2Q < 2^B, B <= 8 for w <= 2: a match adds from
-     * plane 1, a half match from plane 0). The matches are counted 16
-     * neighbours at a time by a carry-save adder tree (Harley-Seal: 15 full
-     * adders of 5 operations instead of 16 ripple adds of 14), the sixteens
-     * rippled into planes 5-7. Bits of non-candidate patterns are counted
-     * too and never read (every use below masks with the candidates). */
-#define CSA(h, l, a, b, c)                                                                       \
-    do {                                                                                         \
-        const uint64_t u_ = (a) ^ (b);                                                           \
-        h = ((a) & (b)) | (u_ & (c));                                                            \
-        l = u_ ^ (c);                                                                            \
-    } while (0)
-    for (size_t j = 0; j < nact; j++) {
-        const size_t w = act[j];
-        const uint64_t *bw = V->bits + w;
-        /* matches: ones, twos, fours, eights, then the sixteens' count h4..h6 */
-        uint64_t ones = 0, twos = 0, fours = 0, eights = 0, h4 = 0, h5 = 0, h6 = 0, t;
-        size_t i = 0;
-        for (; i + 16 <= nn; i += 16) {
-            const uint64_t *nb = nbl + i;
-            uint64_t twosA, twosB, foursA, foursB, eightsA, eightsB, sixteens;
-            CSA(twosA, ones, ones, bw[nb[0]], bw[nb[1]]);
-            CSA(twosB, ones, ones, bw[nb[2]], bw[nb[3]]);
-            CSA(foursA, twos, twos, twosA, twosB);
-            CSA(twosA, ones, ones, bw[nb[4]], bw[nb[5]]);
-            CSA(twosB, ones, ones, bw[nb[6]], bw[nb[7]]);
-            CSA(foursB, twos, twos, twosA, twosB);
-            CSA(eightsA, fours, fours, foursA, foursB);
-            CSA(twosA, ones, ones, bw[nb[8]], bw[nb[9]]);
-            CSA(twosB, ones, ones, bw[nb[10]], bw[nb[11]]);
-            CSA(foursA, twos, twos, twosA, twosB);
-            CSA(twosA, ones, ones, bw[nb[12]], bw[nb[13]]);
-            CSA(twosB, ones, ones, bw[nb[14]], bw[nb[15]]);
-            CSA(foursB, twos, twos, twosA, twosB);
-            CSA(eightsB, fours, fours, foursA, foursB);
-            CSA(sixteens, eights, eights, eightsA, eightsB);
-            t = h4 & sixteens; h4 ^= sixteens;
-            uint64_t carry = t;
-            t = h5 & carry; h5 ^= carry;
-            h6 ^= t;
-        }
-        for (; i < nn; i++) { /* the rest one by one */
-            uint64_t carry = bw[nbl[i]];
-            t = ones & carry; ones ^= carry; carry = t;
-            t = twos & carry; twos ^= carry; carry = t;
-            t = fours & carry; fours ^= carry; carry = t;
-            t = eights & carry; eights ^= carry; carry = t;
-            t = h4 & carry; h4 ^= carry; carry = t;
-            t = h5 & carry; h5 ^= carry; carry = t;
-            h6 ^= carry;
-        }
-        /* in half matches: twice the matches, plus the half matches from plane 0 */
-        uint64_t p0 = 0, p1 = ones, p2 = twos, p3 = fours, p4 = eights, p5 = h4, p6 = h5, p7 = h6;
-        for (i = 0; i < no; i++) {
-            uint64_t carry = bw[nbo[i]];
-            t = p0 & carry; p0 ^= carry; carry = t;
-            t = p1 & carry; p1 ^= carry; carry = t;
-            t = p2 & carry; p2 ^= carry; carry = t;
-            t = p3 & carry; p3 ^= carry; carry = t;
-            t = p4 & carry; p4 ^= carry; carry = t;
-            t = p5 & carry; p5 ^= carry; carry = t;
-            t = p6 & carry; p6 ^= carry; carry = t;
-            p7 ^= carry;
-        }
-        const uint64_t planes[8] = {p0, p1, p2, p3, p4, p5, p6, p7};
-        for (int b = 0; b < R->B; b++)
-            cnt[(size_t)b * PW + w] = planes[b];
+    /* match counts: the neighbours' bits added into bit-sliced counters
+     * (counts in half matches <= 2Q < 2^B, B <= 8 for w <= 2: a match adds
+     * from plane 1, a half match from plane 0), CW candidate words at a time
+     * where the view has that many, with the counter planes in registers.
+     * The matches are counted 16 neighbours at a time by a carry-save adder
+     * tree (Harley-Seal: 15 full adders of 5 operations instead of 16 ripple
+     * adds of 14), the sixteens rippled into planes 5-7. Bits of
+     * non-candidate patterns are counted too and never read (every use below
+     * masks with the candidates); a chunk ending past the view's last word
+     * starts earlier (a word counted twice gets the same planes). */
+    const size_t CW = VPW >= 4 ? 4 : VPW >= 2 ? 2 : 1;
+    for (size_t j = 0; j < nact;) {
+        size_t w0 = act[j];
+        if (w0 + CW > VPW)
+            w0 = VPW - CW;
+        if (CW == 4)
+            rs_count_v4(V->bits + w0, nbl, nn, nbo, no, R->B, cnt + w0, PW);
+        else if (CW == 2)
+            rs_count_v2(V->bits + w0, nbl, nn, nbo, no, R->B, cnt + w0, PW);
+        else
+            rs_count_v1(V->bits + w0, nbl, nn, nbo, no, R->B, cnt + w0, PW);
+        while (j < nact && act[j] < w0 + CW)
+            j++;
     }
-#undef CSA
     /* the highest count among the candidates: top bit down */
     memcpy(mask + wlo, cand + wlo, (whi - wlo) * 8);
     int best = 0;
@@ -1303,21 +1389,35 @@ static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     }
     if (s->shape || R->zshare) { /* Eq. 6 times the constraint weights of each centre label */
         const double f_full = s->shape ? shape_factor(s, c) : 1.0, f_empty = 1.0 / f_full;
-        double *fq = R->zshare ? freq_factors(s, c) : NULL;
-        double dtotal = 0;
-        int last = -1;
+        freq_ctx fq = {0};
+        if (R->zshare)
+            fq = freq_begin(s, c);
+        /* each pattern's weight once, kept for the draw (patterns of one centre
+         * label are one run: its factors are looked up once per run) */
+        double *wts = (double *)(nbl + 2 * (size_t)R->Q); /* [64 PW] */
+        double dtotal = 0, fw = 1.0;
+        int la = -1;
+        size_t nw = 0;
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                dtotal += mult[i] * (s->shape ? (s->structure[V->center[i]] ? f_full : f_empty) : 1.0) *
-                          (fq ? fq[V->center[i]] : 1.0);
+                const int a = V->center[i];
+                if (a != la) {
+                    la = a;
+                    fw = R->zshare ? freq_factor(s, &fq, a) : 1.0;
+                }
+                const double wi =
+                    mult[i] * (s->shape ? (s->structure[a] ? f_full : f_empty) : 1.0) * fw;
+                wts[nw++] = wi;
+                dtotal += wi;
             }
         double dpick = gs_rng_uniform(rng) * dtotal;
+        int last = -1;
+        nw = 0;
         for (size_t w = wlo; w < whi; w++)
             for (uint64_t bits = mask[w]; bits; bits &= bits - 1) {
                 size_t i = w * 64 + (size_t)ctz64(bits);
-                double wi = mult[i] * (s->shape ? (s->structure[V->center[i]] ? f_full : f_empty) : 1.0) *
-                            (fq ? fq[V->center[i]] : 1.0);
+                double wi = wts[nw++];
                 if (dpick < wi)
                     return V->center[i];
                 dpick -= wi;
