@@ -3,7 +3,7 @@
 how much larger the field's steps are across the planes where the last
 iteration's pieces meet than elsewhere.
 
-  analysis/field_seams.py RUN_DIR PERIOD   -> one JSON line
+  analysis/field_seams.py RUN_DIR PERIOD [--dataset NAME]   -> one JSON line
 
 The last iteration copies blocks at a stride of PERIOD = block/2 samples, so
 neighbouring pieces meet between samples i and i+1 with i % PERIOD ==
@@ -26,6 +26,12 @@ straight seam along one whole plane (target regions used to leave them:
 terrain.ini 2.6) stands out here while the mean over all planes hides it;
 source_plane_max, the largest plane of the example on the same axes (any
 phase), is the threshold.
+
+--dataset NAME measures NAME instead of /field/levels: /synthesis/levels is
+the synthesized field before field.complete_objects rebuilt it from whole
+source objects (what the synthesis itself made). summary.json holds the same
+seam_ratio as seam_ratio_out and synthesis_seam_ratio, the source's
+largest phase as seam_ratio_src_max (src/field/report.c).
 """
 import json
 import sys
@@ -78,8 +84,9 @@ def plane_ratios(lv, period, grid_only):
 
 def main():
     run, period = sys.argv[1], int(sys.argv[2])
+    name = sys.argv[sys.argv.index("--dataset") + 1] if "--dataset" in sys.argv else "/field/levels"
     with h5py.File(run + "/field.h5", "r") as f:
-        out = f["/field/levels"][...]
+        out = f[name][...]
         src = f["/source/levels"][...]
     axes = seam_axes(out.shape, period)
     r = ratios(out, period, axes)

@@ -444,8 +444,8 @@ typedef struct gs_field_synth_state {
      * (how closely the coarse iterations guide the finer ones) */
     uint64_t stat_coarse_flips[GS_FIELD_MAX_ITER];
     uint64_t stat_coarse_n[GS_FIELD_MAX_ITER];
-    /* complete_objects, after the last iteration (not checkpointed: counted
-     * by the process that ran it): source objects pasted, target objects
+    /* gs_field_synth_complete_objects (run by the output phase, after the
+     * synthesis, so not checkpointed): source objects pasted, target objects
      * left out (no whole source object, or on an object already pasted) */
     int64_t objects_completed, objects_removed;
 } gs_field_synth_state;
@@ -469,6 +469,15 @@ const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s);
 /* Copy of the final (or current) target as a quantized field with the
  * source's range, spacing and origin 0. */
 gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out);
+/* field.complete_objects (cfg.complete_objects and cfg.prov given) once the
+ * synthesis is finished: rebuilds the target from the source's whole objects
+ * (src/field/synth.c), the same on every rank. *before receives the
+ * synthesized target as it was (gs_field_synth_result's form), so that what
+ * the synthesis itself did can still be measured; NULL when nothing was
+ * rebuilt (the option off, an example not of separate objects, or called
+ * before). Not part of the checkpointed state: a run resumed after the
+ * synthesis rebuilds in its output phase as one that was not stopped. */
+gs_err gs_field_synth_complete_objects(gs_field_synth_t s, gs_qfield **before);
 
 /* Target regions (DESIGN.md). With region_blocks = R > 0 an iteration's block
  * positions (a grid of npos[0] x npos[1] x npos[2], stride B/2) are cut into
@@ -577,10 +586,30 @@ typedef struct gs_field_geometry_report {
     int crossing_axis;
     int64_t crossing_slab;
     double crossing_share_out, crossing_share_src;
+    /* seams (analysis/field_seams.py's seam_ratio, the same figure): the
+     * last iteration copies blocks at a stride of seam_period = B/2 samples,
+     * so its pieces meet between samples i and i + 1 with i % seam_period ==
+     * seam_period - 1 along each axis; the mean |level step| of neighbours
+     * across those planes over the mean across all others (1: no seams, a
+     * rectangular patchwork well above 1), over the axes of the output
+     * longer than 2 seam_period samples (seam_axes, bit a = axis a: a slab
+     * one block deep has no seams across it). The source has no pieces: its
+     * largest ratio over the seam_period phases, on the same axes, is how
+     * far chance goes. */
+    int seam_period, seam_axes;
+    double seam_ratio_out, seam_ratio_src_max;
     double seconds;
 } gs_field_geometry_report;
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,
                                  gs_field_geometry_report *r);
+/* ratio[p] for p < period (<= GS_FIELD_SEAM_PERIOD_MAX): the mean |level
+ * step| between 6-neighbours i, i + 1 with i % period == p along the axes
+ * in the bit mask axes (bit a: axis a) over the mean of the other steps
+ * along them (gs_field_geometry_report's seams); the axes where pieces
+ * meet: those longer than 2 periods (gs_field_seam_axes). */
+#define GS_FIELD_SEAM_PERIOD_MAX 32
+int gs_field_seam_axes(const gs_qfield *q, int period);
+void gs_field_seam_ratios(const gs_qfield *q, int period, int axes, double *ratio);
 /* The step share of a float field in units of spacing (any field). */
 double gs_field_step_violations(const float *v, const int64_t n[3], double spacing, double limit);
 

@@ -180,13 +180,6 @@ static gs_err field_synthesis_report(void *state, gs_run *run, gs_json *phase)
         gs_log(GS_LOG_INFO, "search tree + pyramid per rank: %.1f MiB (largest rank), %s",
                (double)tree_peak_max / 1048576.0, d->ctx.sharded ? "sharded" : "whole");
         gs_run_metric_i64(run, "tree_bytes_rank_max", (int64_t)tree_peak_max);
-        if (d->sc.complete_objects) {
-            gs_log(GS_LOG_INFO, "objects: %lld source objects pasted whole, %lld left out "
-                   "(field.complete_objects)", (long long)st->objects_completed,
-                   (long long)st->objects_removed);
-            gs_run_metric_i64(run, "objects_completed", st->objects_completed);
-            gs_run_metric_i64(run, "objects_removed", st->objects_removed);
-        }
     }
     const int64_t u = field_units_done(st), here = u - (d->started ? d->start_units : u);
     gs_json_str(phase, "tree", d->ctx.sharded ? "sharded" : "whole");

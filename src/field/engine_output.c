@@ -17,7 +17,7 @@
 #include "field/engine_impl.h"
 
 static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f,
-                             const gs_qfield *src)
+                             const gs_qfield *src, const gs_qfield *synthesized)
 {
     char path[PATH_MAX];
     gs_run_path(run, "field.h5", path, sizeof path);
@@ -55,6 +55,19 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
     GS_TRY(err, gs_ckpt_set_str(h, "/source/levels", "units",
                                 "quantized distance of the cropped example: lo + q * (hi - lo) / 255"),
            fail);
+    if (synthesized) {
+        /* field.complete_objects: the synthesized field before the rebuild,
+         * so the synthesis' own copying and seams can be measured from this
+         * file too (analysis/field_seams.py --dataset /synthesis/levels) */
+        GS_TRY(err, field_write_slabs(h, run, "/synthesis/levels", n, GS_H5_U8, synthesized->q), fail);
+        GS_TRY(err, gs_ckpt_set_f64(h, "/synthesis/levels", "lo", synthesized->lo), fail);
+        GS_TRY(err, gs_ckpt_set_f64(h, "/synthesis/levels", "hi", synthesized->hi), fail);
+        GS_TRY(err, gs_ckpt_set_str(h, "/synthesis/levels", "index_order", order), fail);
+        GS_TRY(err, gs_ckpt_set_str(h, "/synthesis/levels", "units",
+                                    "quantized distance of the synthesized field before "
+                                    "field.complete_objects rebuilt it: lo + q * (hi - lo) / 255"),
+               fail);
+    }
     GS_CALL(gs_ckpt_commit(&h));
     err = GS_OK;
     if (run->rank == 0) {
@@ -212,6 +225,41 @@ done:
     return err;
 }
 
+/* The synthesis' own copying and seams (synthesis_*): measured on the
+ * field before field.complete_objects rebuilt it from whole source objects
+ * (syn), else the output's figures, as that is what the synthesis made. */
+static gs_err report_synthesized(gs_run *run, const gs_qfield *syn, const gs_qfield *src, int B,
+                                 const gs_field_geometry_report *g, gs_json *pm)
+{
+    gs_measure_copy cp = g->copy;
+    double seam = g->seam_ratio_out;
+    if (syn) {
+        const int64_t on[3] = {syn->nx, syn->ny, syn->nz}, sn[3] = {src->nx, src->ny, src->nz};
+        GS_CALL(gs_measure_copy3(syn->q, on, src->q, sn, GS_FIELD_COPY_WINDOW, (int64_t)B * B * B,
+                                 B, &cp));
+        double ph[GS_FIELD_SEAM_PERIOD_MAX];
+        gs_field_seam_ratios(syn, g->seam_period, g->seam_axes, ph);
+        seam = ph[g->seam_period - 1];
+    }
+    gs_run_metric_i64(run, "objects_rebuilt", syn != NULL);
+    gs_run_metric_f64(run, "synthesis_copy_matched_share", cp.matched_share);
+    gs_run_metric_f64(run, "synthesis_copy_large_share", cp.large_share);
+    gs_run_metric_f64(run, "synthesis_copy_largest_region_of_source", cp.largest_region_of_source);
+    gs_run_metric_i64(run, "synthesis_copy_regions", cp.regions);
+    gs_run_metric_f64(run, "synthesis_copy_completeness", cp.completeness);
+    gs_run_metric_f64(run, "synthesis_seam_ratio", seam);
+    gs_json_i64(pm, "objects_rebuilt", syn != NULL);
+    if (syn)
+        gs_log(GS_LOG_INFO,
+               "the synthesis before the whole-object rebuild: %.3f in regions of one offset "
+               "larger than a block, largest region %.3f of the source, completeness %.3f, seam "
+               "ratio %.3f (the output: %.3f, %.3f, %.3f, %.3f; source up to %.3f)",
+               cp.large_share, cp.largest_region_of_source, cp.completeness, seam,
+               g->copy.large_share, g->copy.largest_region_of_source, g->copy.completeness,
+               g->seam_ratio_out, g->seam_ratio_src_max);
+    return GS_OK;
+}
+
 /* Copying, whole objects and distance steps (gs_field_geometry_measure) as
  * run metrics and in the output phase record. */
 static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_json *pm)
@@ -250,6 +298,10 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_i64(run, "crossing_slab", g->crossing_slab);
     gs_run_metric_f64(run, "crossing_share_out", g->crossing_share_out);
     gs_run_metric_f64(run, "crossing_share_src", g->crossing_share_src);
+    gs_run_metric_i64(run, "seam_period", g->seam_period);
+    gs_run_metric_i64(run, "seam_axes", g->seam_axes);
+    gs_run_metric_f64(run, "seam_ratio_out", g->seam_ratio_out);
+    gs_run_metric_f64(run, "seam_ratio_src_max", g->seam_ratio_src_max);
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
            "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
@@ -283,6 +335,16 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     const gs_qfield *q = d->src.q;
     const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
     gs_err err = GS_OK;
+    gs_qfield *synthesized = NULL;
+    /* whole objects (field.complete_objects): every rank rebuilds alike */
+    GS_TRY(err, gs_field_synth_complete_objects(d->synth, &synthesized), fail);
+    if (run->rank == 0 && d->sc.complete_objects) {
+        gs_log(GS_LOG_INFO, "objects: %lld source objects pasted whole, %lld left out "
+               "(field.complete_objects)", (long long)st->objects_completed,
+               (long long)st->objects_removed);
+        gs_run_metric_i64(run, "objects_completed", st->objects_completed);
+        gs_run_metric_i64(run, "objects_removed", st->objects_removed);
+    }
     GS_TRY(err, gs_field_synth_result(d->synth, &d->res), fail);
     d->res->spacing = q->spacing;
     GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
@@ -300,7 +362,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
            fail);
     t_redist = gs_time_now() - t_redist;
     c_redist = gs_cpu_now() - c_redist;
-    GS_TRY(err, write_field_h5(run, d->res, d->resf, q), fail);
+    GS_TRY(err, write_field_h5(run, d->res, d->resf, q, synthesized), fail);
     /* quality: coherence needs the nearest source block of every output
      * block; every rank runs the measure with the distributed matcher of
      * the synthesis (field_match_block): sharded, each rank searches its slab of
@@ -389,6 +451,8 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         gs_json_f64(phase, "geometry_measure_cpu_seconds", gs_cpu_now() - cm);
         if (!lerr)
             report_geometry(run, &gr, phase);
+        if (!lerr)
+            lerr = report_synthesized(run, synthesized, q, (int)c->block, &gr, phase);
         /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
         gs_json_f64(phase, "quality_seconds", quality_s);
         gs_json_f64(phase, "quality_cpu_seconds", quality_cpu);
@@ -414,5 +478,6 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     err = gs_par_agree(run->comm, lerr);
     *digest_out = digest;
 fail:
+    gs_qfield_destroy(&synthesized);
     return err;
 }

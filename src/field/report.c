@@ -298,6 +298,49 @@ done:
     return err;
 }
 
+int gs_field_seam_axes(const gs_qfield *q, int period)
+{
+    return (q->nx > 2 * period) | (q->ny > 2 * period) << 1 | (q->nz > 2 * period) << 2;
+}
+
+void gs_field_seam_ratios(const gs_qfield *q, int period, int axes, double *ratio)
+{
+    double on[GS_FIELD_SEAM_PERIOD_MAX] = {0}, non[GS_FIELD_SEAM_PERIOD_MAX] = {0}, all = 0,
+           nall = 0;
+    const int64_t n[3] = {q->nx, q->ny, q->nz}, st[3] = {1, q->nx, q->nx * q->ny};
+    for (int p = 0; p < period; p++)
+        ratio[p] = 0;
+    if (period < 1 || period > GS_FIELD_SEAM_PERIOD_MAX)
+        return;
+    for (int a = 0; a < 3; a++)
+        for (int64_t z = 0; z < n[2] - (a == 2) && (axes >> a & 1); z++)
+            for (int64_t y = 0; y < n[1] - (a == 1); y++) {
+                const uint8_t *v = q->q + st[1] * y + st[2] * z;
+                uint64_t sum = 0;
+                if (a == 0) { /* along the row: step i is between x = i and i + 1 */
+                    uint64_t ph[GS_FIELD_SEAM_PERIOD_MAX] = {0};
+                    for (int64_t x = 0; x + 1 < n[0]; x++)
+                        ph[x % period] += (uint64_t)abs(v[x + 1] - v[x]);
+                    for (int p = 0; p < period; p++) {
+                        on[p] += (double)ph[p];
+                        non[p] += (double)((n[0] - 1 - p + period - 1) / period);
+                        sum += ph[p];
+                    }
+                    all += (double)sum, nall += (double)(n[0] - 1);
+                    continue;
+                }
+                for (int64_t x = 0; x < n[0]; x++)
+                    sum += (uint64_t)abs(v[x + st[a]] - v[x]);
+                int p = (int)((a == 1 ? y : z) % period);
+                on[p] += (double)sum, non[p] += (double)n[0];
+                all += (double)sum, nall += (double)n[0];
+            }
+    for (int p = 0; p < period; p++) {
+        double off = nall - non[p] > 0 ? (all - on[p]) / (nall - non[p]) : 0;
+        ratio[p] = non[p] > 0 && off > 0 ? on[p] / non[p] / off : 0;
+    }
+}
+
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,
                                  gs_field_geometry_report *r)
 {
@@ -350,6 +393,17 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
     }
     GS_TRY(err, crossing_share(out, r->crossing_axis, r->crossing_slab, &r->crossing_share_out),
            radii);
+    r->seam_period = B / 2 < 1 ? 1 : B / 2 > GS_FIELD_SEAM_PERIOD_MAX ? GS_FIELD_SEAM_PERIOD_MAX : B / 2;
+    {
+        double ph[GS_FIELD_SEAM_PERIOD_MAX];
+        r->seam_axes = gs_field_seam_axes(out, r->seam_period);
+        gs_field_seam_ratios(out, r->seam_period, r->seam_axes, ph);
+        r->seam_ratio_out = ph[r->seam_period - 1];
+        gs_field_seam_ratios(src, r->seam_period, r->seam_axes, ph);
+        r->seam_ratio_src_max = 0;
+        for (int p = 0; p < r->seam_period; p++)
+            r->seam_ratio_src_max = ph[p] > r->seam_ratio_src_max ? ph[p] : r->seam_ratio_src_max;
+    }
 radii:
     gs_free(ro);
     gs_free(rs);
