@@ -252,9 +252,14 @@ typedef enum gs_model_order {
     GS_MODEL_ORDER_SCAN = 0,    /* author's scan: z fastest, then y, then x */
     GS_MODEL_ORDER_RANDOM = 1,  /* a random permutation of the region's cells */
     GS_MODEL_ORDER_ENTROPY = 2, /* fewest candidates first, random tie-break */
-    GS_MODEL_ORDER_ENTROPY_LOG = 3 /* fewest candidates by binary order of magnitude
-                                      (2-3, 4-7, ...), fresh random tie-break per
-                                      update: less front growth along one axis */
+    GS_MODEL_ORDER_ENTROPY_LOG = 3, /* fewest candidates by binary order of magnitude
+                                       (2-3, 4-7, ...), fresh random tie-break per
+                                       update: less front growth along one axis */
+    GS_MODEL_ORDER_ENTROPY_LAYERS = 4 /* fewest candidates first; ties go to the
+                                         lowest layer, then to the cell nearest a
+                                         region face with output beyond it, then at
+                                         random (the output grows up from the ground
+                                         and in from the decided shell) */
 } gs_model_order;
 
 typedef enum gs_model_weights {

@@ -26,7 +26,9 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->order = !strcmp(c->order, "scan")          ? GS_MODEL_ORDER_SCAN
                : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
                : !strcmp(c->order, "entropy_log") ? GS_MODEL_ORDER_ENTROPY_LOG
-                                                  : GS_MODEL_ORDER_ENTROPY;
+               : !strcmp(c->order, "entropy_layers") ? GS_MODEL_ORDER_ENTROPY_LAYERS
+                                                  : GS_MODEL_ORDER_ENTROPY; /* auto:
+                                                  model_setup, after decide_z_faces */
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
                                                   : GS_MODEL_WEIGHTS_UNIFORM;
     p->ac = !strcmp(c->ac, "ac4") ? GS_MODEL_AC4 : GS_MODEL_AC3;
@@ -645,6 +647,13 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     if (!e->rules)
         GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
     GS_CALL(decide_z_faces(e));
+    if (!strcmp(c->order, "auto") && !e->params.fix_z_faces && frames == 1 && c->overlap3d == 0 &&
+        !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') && c->resemblance > 0) {
+        /* synthesized z faces: grow the output from the ground up and from the
+         * regions' shells in (configs/model/DEFAULTS.md, `order = auto`) */
+        e->params.order = GS_MODEL_ORDER_ENTROPY_LAYERS;
+        gs_log(GS_LOG_INFO, "cell order: entropy_layers (model.order = auto, z faces synthesized)");
+    }
     int L = gs_model_rules_nlabels(e->rules), present = 0;
     for (int l = 0; l < L; l++)
         present += gs_model_rules_count(e->rules, l) > 0;

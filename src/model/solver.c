@@ -1478,6 +1478,57 @@ static int choose_label(struct gs_model_solver *s, int32_t c, gs_rng *rng)
     return -1;
 }
 
+/* x/y distance of box column (x, y) to the nearest face in shell (x-, x+,
+ * y-, y+: output beyond it); 0 when no face has. */
+static inline int shell_dist(int x, int y, int rx, int ry, const int shell[4])
+{
+    const int df[4] = {x, rx - 1 - x, y, ry - 1 - y};
+    int d = -1;
+    for (int f = 0; f < 4; f++)
+        if (shell[f] && (d < 0 || df[f] < d))
+            d = df[f];
+    return d < 0 ? 0 : d;
+}
+
+/* ENTROPY_LAYERS: the tie key of every box cell (24 bits, smaller first)
+ * becomes (its layer, its x/y distance to the nearest box face with output
+ * beyond it, the random key's low bits): among cells with as many candidates
+ * the lowest layer is decided first, and in a layer the cells next to the
+ * decided shell. With synthesized z faces and the entropy order's random
+ * ties, structure started at every height and place at once: roofs decided
+ * before the walls under them, hill tops before their flanks (gen-lattice
+ * villages: roof sheets over walls that never close; #18 untuned examples). */
+static void layer_ties(struct gs_model_solver *s, const gs_model_lattice *lat, const gs_model_box *b,
+                       const int periodic[3])
+{
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const int shell[4] = {b->x0 > 0 || periodic[0], b->x1 < lat->nx || periodic[0],
+                          b->y0 > 0 || periodic[1], b->y1 < lat->ny || periodic[1]};
+    int dmax = 0;
+    for (int y = 0; y < ry; y++)
+        for (int x = 0; x < rx; x++) {
+            const int d = shell_dist(x, y, rx, ry, shell);
+            dmax = d > dmax ? d : dmax;
+        }
+    int zb = 0, db = 0; /* bits of the layer and the distance */
+    while ((1 << zb) < rz)
+        zb++;
+    while ((1 << db) < dmax + 1)
+        db++;
+    const int zs = zb > 12 ? zb - 12 : 0, ds = db > 8 ? db - 8 : 0; /* at most 20 bits */
+    zb -= zs;
+    db -= ds;
+    const int rb = 24 - zb - db; /* random bits below */
+    int32_t c = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, c++) {
+                const uint32_t key = ((uint32_t)(z >> zs) << db) |
+                                     (uint32_t)(shell_dist(x, y, rx, ry, shell) >> ds);
+                s->tie[c] = (key << rb) | (s->tie[c] & ((1u << rb) - 1u));
+            }
+}
+
 /* One attempt: returns 1 when every cell ended with exactly one label. */
 static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *lat,
                              const overlay *ov, const gs_model_box *b, const gs_model_params *p,
@@ -1490,12 +1541,15 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
     if (!*ok)
         return GS_OK;
     const int32_t n = (int32_t)s->n;
-    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG;
+    const int entropy = p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG ||
+                        p->order == GS_MODEL_ORDER_ENTROPY_LAYERS;
     s->order_log = p->order == GS_MODEL_ORDER_ENTROPY_LOG;
     s->push_counter = 0;
     if (entropy) {
         for (int32_t c = 0; c < n; c++)
             s->tie[c] = gs_rng_u32(rng);
+        if (p->order == GS_MODEL_ORDER_ENTROPY_LAYERS)
+            layer_ties(s, lat, b, p->periodic);
         s->heap_len = 0;
         for (int32_t c = 0; c < n; c++)
             s->hpos[c] = -1;

@@ -195,4 +195,41 @@ EOF
 )
   verdict village5 "stands on the ground like its example" "$res"
 fi
+
+# Examples nobody tuned for whose z faces are synthesized (their bottom layer holds several
+# labels), default settings (model.order = auto: entropy_layers, ties to the lowest layer, then
+# to the cells nearest a region's decided shell): scripts/gen-lattice.py village 7 and fortress
+# 1, 40x40x8 in 20x20 regions, the issue's non-empty 3x3x3 share >= 0.5 (item 4, untuned
+# examples) with the top layer within 1 of the example's, from lattice.h5 and the example.
+# Broken on purpose: layer_ties (solver.c) a no-op, i.e. random ties as with model.order =
+# entropy, fails both (village 7 0.408: roof sheets over walls that never close; fortress 1
+# 0.485: towers scattered).
+for ex in village:7 fortress:1; do
+  kind=${ex%%:*} s=${ex##*:}
+  /usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" $kind $s $kind$s.txt
+  printf '[model]\nexample = %s\nsize = 40x40x8\nregion = 20x20x0\nmesh = none\n' $kind$s.txt >$kind$s.ini
+  run_gs 0 model -c $kind$s.ini -o $kind$s
+  expect_rc 0 "$kind $s, 40x40x8 in 20x20 regions, default settings"
+  [[ $rc -eq 0 ]] || continue
+  expect_err "cell order: entropy_layers" "$kind $s: the log names the cell order model.order = auto chose"
+  res=$(/usr/bin/python3 - $kind$s.txt $kind$s <<'EOF'
+import json, os, sys
+sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
+import lattice_measures as lm
+ex = lm.read_lattice(sys.argv[1])
+out = lm.read_lattice(sys.argv[2] + "/lattice.h5")
+m = json.load(open(sys.argv[2] + "/summary.json"))["metrics"]
+f = lm.figures(ex, out, ks=(3,))
+top = lambda a: max([z for z in range(a.shape[0]) if a[z].any()] or [-1])
+chk = lm.Checks()
+need = chk.need
+need(f["share_3"] >= 0.5, "non-empty 3x3x3 share %.3f >= 0.5 (issue #18 item 4, untuned examples)" % f["share_3"])
+need(abs(top(out) - top(ex)) <= 1, "top layer %d within 1 of example's %d" % (top(out), top(ex)))
+need(f["unsupported_share_example"] > 0 or f["unsupported_share"] == 0, "floating share %.4f where the example's is %.4f" % (f["unsupported_share"], f["unsupported_share_example"]))
+need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+chk.result()
+EOF
+)
+  verdict $kind$s "resembles its example" "$res"
+done
 finish
