@@ -370,6 +370,8 @@ typedef struct gs_field_synth_config {
                                         iteration's resolution): the continuation of such a
                                         neighbour's offset (+- block/4 positions) is excluded
                                         from the match (src/field/synth.c); 0 = the paper (off) */
+    int copy_limit_reach;            /* >= 1: the continuation excluded by copy_limit is
+                                        +- this many positions instead of +- block/4 */
     int blend;                       /* > 0 (needs prov): after the last iteration every
                                         sample within `blend` samples of a seam (a neighbour
                                         copied from another source offset) becomes the mean of

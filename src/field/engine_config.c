@@ -86,6 +86,10 @@ static const gs_cfg_key field_keys[] = {
                     "the source (its bounding box): the search then excludes that offset's "
                     "continuation; 0 = off (the paper: large verbatim copies); 0.25 in terrain, texture, "
                     "balls and fibers.ini"),
+    GS_CFG_KEY_INT(field_config, copy_limit_reach, "field.copy_limit_reach", 0, 8, 0, "0",
+                   "copy_limit excludes the outgrown copy's continuation and the source blocks "
+                   "within this many positions of it (each axis); 0 = block/4 (a copy shifted by "
+                   "up to block/4 samples counts as the same copy); 1 in terrain.ini"),
     GS_CFG_KEY_INT(field_config, blend, "field.blend", 0, 4, 0, "0",
                    "seam blending after the last iteration: samples within this many of a seam "
                    "between pieces copied from different source offsets fade from one piece into "

@@ -46,6 +46,7 @@ typedef struct field_config {
     int seed_blocks;
     int upper_bound;
     double copy_limit;
+    int64_t copy_limit_reach;
     int64_t blend;
     int seam_cut;
     int complete_objects;

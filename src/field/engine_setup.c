@@ -176,6 +176,7 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.seed_blocks = c->seed_blocks;
     d->sc.use_upper_bound = c->upper_bound;
     d->sc.copy_limit = c->copy_limit;
+    d->sc.copy_limit_reach = (int)c->copy_limit_reach;
     d->sc.blend = (int)c->blend;
     d->sc.seam_cut = c->seam_cut;
     d->sc.complete_objects = c->complete_objects;
