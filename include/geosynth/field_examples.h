@@ -25,8 +25,8 @@
 
 #define GS_EXAMPLE_BAND 8.0
 
-/* "grid|chainmail|balls|fibers|spheres": the generator names, in --help order. */
-#define GS_EXAMPLE_KINDS "grid|chainmail|balls|fibers|spheres"
+/* The generator names, in --help order. */
+#define GS_EXAMPLE_KINDS "grid|chainmail|balls|fibers|spheres|chainmail_jittered"
 
 /* n^3 signed distance field of a built-in example; n in [8, 1024].
  *  grid:      cylinders along x, y, z on a jittered lattice, balls at the crossings (period 16)
@@ -37,6 +37,9 @@
  *  fibers:    long fibers along x on a jittered (y, z) lattice (period 9), each
  *             with its own radius 1.4..2.4, thickness variation and wobble
  *  spheres:   a few random large spheres
+ *  chainmail_jittered: chainmail's rings, each with its own centre (moved
+ *             up to 0.6 samples along each axis), major radius (x 0.88..1.12)
+ *             and minor radius (1.15..1.45): not periodic
  * Unknown kinds are GS_ERR_ARG naming the kind and the choices. On error
  * *out is unchanged; caller frees with gs_field_destroy(). */
 gs_err gs_field_example_make(const char *kind, int64_t n, uint64_t seed, gs_field **out);

@@ -2,7 +2,8 @@
  * include/geosynth/field_examples.h. grid, chainmail and spheres come from
  * the core's analytic shapes (src/field/shapes.c); balls and fibers are
  * built here because the paper's versions differ from the core's test
- * shapes (dropped balls never overlap; fibers are long perturbed tubes). */
+ * shapes (dropped balls never overlap; fibers are long perturbed tubes);
+ * chainmail_jittered is chainmail with every ring its own (not periodic). */
 #include <math.h>
 #include <string.h>
 
@@ -10,6 +11,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/rng.h"
 #include "geosynth/vdb.h"
+#include "field/field_impl.h"
 
 #define EXAMPLE_STREAM 0x455841u /* gs_rng domain "EXA" */
 
@@ -120,6 +122,52 @@ static gs_err make_fibers(gs_field *f, gs_rng *r)
     return GS_OK;
 }
 
+/* chainmail (src/field/shapes.c: period 12, rings R 4.5 r 1.3 with axes
+ * alternating between x and y, linking rings R 3.6 about z half a period on
+ * along x) with every ring jittered: centre +-0.6 along each axis, major
+ * radius x 0.88..1.12, minor radius 1.15..1.45, drawn per ring. */
+static gs_err make_chainmail_jittered(gs_field *f, gs_rng *r)
+{
+    const double P = 12.0, R = 4.5, R2 = 3.6;
+    int64_t n = f->nx, m = n / 12 + 3; /* ring cells -1 .. n / 12 + 1 per axis */
+    size_t rings = (size_t)(m * m * m) * 2;
+    double(*jit)[5] = NULL; /* per ring: centre shift x y z, major scale, minor radius */
+    GS_CALL(gs_alloc_array((void **)&jit, rings, sizeof *jit, "ring jitter"));
+    for (size_t i = 0; i < rings; i++) {
+        for (int a = 0; a < 3; a++)
+            jit[i][a] = 1.2 * (gs_rng_uniform(r) - 0.5);
+        jit[i][3] = 0.88 + 0.24 * gs_rng_uniform(r);
+        jit[i][4] = 1.15 + 0.30 * gs_rng_uniform(r);
+    }
+    for (int64_t z = 0; z < n; z++)
+        for (int64_t y = 0; y < n; y++)
+            for (int64_t x = 0; x < n; x++) {
+                double p[3] = {(double)x, (double)y, (double)z}, d = GS_EXAMPLE_BAND;
+                int64_t i0 = (int64_t)floor(p[0] / P), j0 = (int64_t)floor(p[1] / P),
+                        k0 = (int64_t)floor(p[2] / P);
+                for (int64_t k = k0 - 1; k <= k0 + 1; k++)
+                    for (int64_t j = j0 - 1; j <= j0 + 1; j++)
+                        for (int64_t i = i0 - 1; i <= i0 + 1; i++) {
+                            if (i < -1 || j < -1 || k < -1 || i > m - 2 || j > m - 2 || k > m - 2)
+                                continue;
+                            size_t id = (size_t)((i + 1) + m * ((j + 1) + m * (k + 1))) * 2;
+                            int axis = (int)(((i + j + k) % 2 + 2) % 2);
+                            const double *a = jit[id], *b = jit[id + 1];
+                            double c[3] = {(double)i * P + P / 2 + a[0], (double)j * P + P / 2 + a[1],
+                                           (double)k * P + P / 2 + a[2]};
+                            double c2[3] = {(double)i * P + P + b[0], (double)j * P + P / 2 + b[1],
+                                            (double)k * P + P / 2 + b[2]};
+                            double e = gs_field_dist_torus(p, c, axis, R * a[3], a[4]);
+                            double e2 = gs_field_dist_torus(p, c2, 2, R2 * b[3], b[4]);
+                            e = e2 < e ? e2 : e;
+                            d = e < d ? e : d;
+                        }
+                f->v[x + n * (y + n * z)] = (float)d;
+            }
+    gs_free(jit);
+    return GS_OK;
+}
+
 gs_err gs_field_example_make(const char *kind, int64_t n, uint64_t seed, gs_field **out)
 {
     GS_CHECK(n >= 8 && n <= 1024, GS_ERR_ARG, "example size %lld: expected 8..1024 samples",
@@ -131,7 +179,8 @@ gs_err gs_field_example_make(const char *kind, int64_t n, uint64_t seed, gs_fiel
         shape = GS_FIELD_CHAINMAIL;
     else if (!strcmp(kind, "spheres"))
         shape = GS_FIELD_SPHERES;
-    else if (!strcmp(kind, "balls") || !strcmp(kind, "fibers"))
+    else if (!strcmp(kind, "balls") || !strcmp(kind, "fibers") ||
+             !strcmp(kind, "chainmail_jittered"))
         shape = (gs_field_shape)-1;
     else
         GS_RAISE(GS_ERR_ARG, "example kind '%s': expected one of %s", kind, GS_EXAMPLE_KINDS);
@@ -149,8 +198,10 @@ gs_err gs_field_example_make(const char *kind, int64_t n, uint64_t seed, gs_fiel
     for (int64_t i = 0; i < n * n * n; i++)
         f->v[i] = (float)GS_EXAMPLE_BAND;
     gs_rng r;
-    gs_rng_init(&r, seed, gs_rng_stream_id(EXAMPLE_STREAM, kind[0] == 'b' ? 1 : 2, (uint64_t)n, 0));
-    gs_err err = kind[0] == 'b' ? make_balls(f, &r) : make_fibers(f, &r);
+    uint64_t which = kind[0] == 'b' ? 1 : kind[0] == 'f' ? 2 : 3;
+    gs_rng_init(&r, seed, gs_rng_stream_id(EXAMPLE_STREAM, which, (uint64_t)n, 0));
+    gs_err err = which == 1 ? make_balls(f, &r) : which == 2 ? make_fibers(f, &r)
+                                                             : make_chainmail_jittered(f, &r);
     if (err) {
         gs_field_destroy(&f);
         GS_CALL(err);

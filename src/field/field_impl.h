@@ -160,4 +160,8 @@ void gs_field_cut_scratch_free(gs_field_cut_scratch *c);
 gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uint32_t *cost,
                          uint8_t *take_new);
 
+/* Distance to a torus with major radius R, minor r, centre c, axis a (0..2):
+ * the chain mail rings of src/field/shapes.c and src/field/examples.c. */
+double gs_field_dist_torus(const double p[3], const double c[3], int axis, double R, double r);
+
 #endif

@@ -4,6 +4,7 @@
 
 #include "geosynth/field.h"
 #include "geosynth/mem.h"
+#include "field/field_impl.h"
 
 #define SHAPE_STREAM 0x5348u /* gs_rng domain tag "SH" */
 
@@ -100,8 +101,9 @@ static double dist_balls_grid(const ball_grid *bg, const ball *b, const double p
     return d;
 }
 
-/* Distance to a torus with major radius R, minor r, centre c, axis a (0..2). */
-static double dist_torus(const double p[3], const double c[3], int axis, double R, double r)
+/* Distance to a torus with major radius R, minor r, centre c, axis a (0..2)
+ * (src/field/field_impl.h). */
+double gs_field_dist_torus(const double p[3], const double c[3], int axis, double R, double r)
 {
     double q[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
     double h = q[axis];
@@ -192,10 +194,10 @@ gs_err gs_field_make_shape(gs_field_shape kind, int64_t n, uint64_t seed, gs_fie
                             for (int64_t i = i0 - 1; i <= i0 + 1; i++) {
                                 double c[3] = {i * P + P / 2, j * P + P / 2, k * P + P / 2};
                                 int axis = (int)(((i + j + k) % 2 + 2) % 2); /* 0 or 1 */
-                                double e = dist_torus(p, c, axis, R, r);
+                                double e = gs_field_dist_torus(p, c, axis, R, r);
                                 /* linking tori between neighbours along x */
                                 double c2[3] = {c[0] + P / 2, c[1], c[2]};
-                                double e2 = dist_torus(p, c2, 2, R * 0.8, r);
+                                double e2 = gs_field_dist_torus(p, c2, 2, R * 0.8, r);
                                 if (e2 < e)
                                     e = e2;
                                 if (e < d)
