@@ -173,6 +173,11 @@ struct gs_model_solver {
     uint16_t *trail_size;
     uint64_t *trail_dom;  /* [trail_cap][W] */
     size_t trail_len, trail_cap;
+    size_t trail_base;    /* entries dropped from the trail's front: a decision's mark
+                             counts them, position mark - trail_base holds its entry */
+    size_t trail_undo_left; /* undos left in the try's budget: decisions deeper than this
+                               below the top are never undone, their entries are dropped
+                               when the trail is full (solver.c, trail_compact) */
     struct gs_model_decision *dec;
     size_t ndec, dec_cap;
 };
@@ -180,7 +185,7 @@ struct gs_model_solver {
 struct gs_model_decision {
     int32_t cell;
     int label;
-    size_t mark;     /* trail length before the decision */
+    size_t mark;     /* trail length before the decision (with trail_base) */
     uint32_t level;  /* level id of the decision */
     size_t pos;      /* position in the visit order (scan/random) */
 };

@@ -34,6 +34,17 @@ static inline int popcount64(uint64_t v)
 }
 static inline int ctz64(uint64_t v) { return __builtin_ctzll(v); }
 
+/* The two hot loops (AC-3, the resemblance counts) also built for AVX2
+ * machines, chosen at load time (GCC/Clang function multi-versioning on
+ * x86-64 ELF): the popcount above becomes one instruction there and the
+ * 4-word match counts one register wide. Integer code only: the same
+ * results either way. */
+#if defined(__x86_64__) && defined(__ELF__) && defined(__GNUC__) && !defined(__POPCNT__)
+#define GS_HOT_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define GS_HOT_CLONES
+#endif
+
 /* The lowest label of a non-empty domain (the label of a decided cell). */
 static inline int first_label(const uint64_t *dc)
 {
@@ -211,6 +222,7 @@ static gs_err load_box_frames(struct gs_model_solver *s, int rx, int ry, int rz,
     s->trail_on = 0;
     s->level = s->level_counter = 1;
     s->trail_len = 0;
+    s->trail_base = 0;
     s->ndec = 0;
     s->qhead = s->qlen = 0;
     s->heap_on = 0;
@@ -391,6 +403,32 @@ static inline void rs_note(struct gs_model_solver *s, int32_t c)
 
 /* ---- trail ------------------------------------------------------------------------- */
 
+/* A full trail first drops the entries no undo can reach: with u undos
+ * left in the budget, only the top u decisions can be undone (each undo
+ * takes the top one), so the entries before the mark of decision ndec - u
+ * are never read. Dropped when they are at least half the trail (castle.ini:
+ * ~22 entries per decision, 1000 undos: the trail stays at ~32k entries
+ * instead of growing to 128k, with the page faults and copies of the
+ * growth). Returns 1 when room was made. */
+static int trail_compact(struct gs_model_solver *s)
+{
+    const size_t left = s->trail_undo_left;
+    if (s->ndec <= left)
+        return 0;
+    const size_t imin = s->ndec - left;
+    const size_t keep = (imin < s->ndec ? s->dec[imin].mark : s->trail_base + s->trail_len) -
+                        s->trail_base;
+    if (keep < s->trail_len / 2)
+        return 0;
+    const size_t W = (size_t)s->W, rest = s->trail_len - keep;
+    memmove(s->trail_cell, s->trail_cell + keep, rest * sizeof *s->trail_cell);
+    memmove(s->trail_size, s->trail_size + keep, rest * sizeof *s->trail_size);
+    memmove(s->trail_dom, s->trail_dom + keep * W, rest * W * 8);
+    s->trail_len = rest;
+    s->trail_base += keep;
+    return 1;
+}
+
 /* Saves cell c's candidates before their first change at the current level.
  * Returns 0 when the trail cannot grow. */
 static int trail_save(struct gs_model_solver *s, int32_t c)
@@ -398,7 +436,7 @@ static int trail_save(struct gs_model_solver *s, int32_t c)
     if (!s->trail_on || s->stamp[c] == s->level)
         return 1;
     const size_t W = (size_t)s->W;
-    if (s->trail_len == s->trail_cap) {
+    if (s->trail_len == s->trail_cap && !trail_compact(s)) {
         size_t ncap = s->trail_cap ? 2 * s->trail_cap : 4096;
         int32_t *tc = gs_realloc(s->trail_cell, ncap * sizeof *tc);
         if (!tc)
@@ -428,6 +466,9 @@ static int heap_push(struct gs_model_solver *s, int32_t c);
 static int trail_restore(struct gs_model_solver *s, size_t mark)
 {
     const size_t W = (size_t)s->W;
+    if (mark < s->trail_base)
+        return 0; /* dropped by trail_compact: cannot happen within the budget */
+    mark -= s->trail_base;
     while (s->trail_len > mark) {
         size_t t = --s->trail_len;
         int32_t c = s->trail_cell[t];
@@ -585,7 +626,7 @@ out:
     return ok;
 }
 
-static int ac3_run(struct gs_model_solver *s)
+GS_HOT_CLONES static int ac3_run(struct gs_model_solver *s)
 {
     switch (s->W) {
     case 1: return ac3_run_words(s, 1);
@@ -1238,7 +1279,7 @@ RS_COUNT_KERNEL(rs_count_v4, rs_v4)
  * the candidates' centre runs, then the patterns with the most matches
  * (minus the slack), then one of them by multiplicity; its centre is the
  * label. Returns -1 when scratch space cannot grow. */
-static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
+GS_HOT_CLONES static int choose_label_resem(struct gs_model_solver *s, int32_t c, gs_rng *rng)
 {
     const struct gs_model_resem *R = s->resem;
     const size_t W = (size_t)s->W, PW = (size_t)R->PW;
@@ -1587,6 +1628,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
     const int64_t budget64 = s->ac == GS_MODEL_AC3 ? (int64_t)p->backtracks * budget_scale : 0;
     const int budget = budget64 > 100000000 ? 100000000 : (int)budget64;
     s->trail_on = budget > 0;
+    s->trail_undo_left = (size_t)budget;
     int backtracks = 0;
     size_t pos = 0;
     *ok = 0;
@@ -1633,7 +1675,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
             struct gs_model_decision *d = &s->dec[s->ndec++];
             d->cell = c;
             d->label = label;
-            d->mark = s->trail_len;
+            d->mark = s->trail_base + s->trail_len;
             d->level = ++s->level_counter;
             d->pos = pos;
             s->level = d->level;
@@ -1644,7 +1686,9 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
                 goto done;
             struct gs_model_decision d = s->dec[--s->ndec];
             backtracks++;
-            GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM, "region heap: cannot allocate");
+            s->trail_undo_left = (size_t)(budget - backtracks);
+            GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM,
+                     "undo: cannot allocate the region heap, or the trail entries are gone");
             s->level = s->ndec ? s->dec[s->ndec - 1].level : 1;
             pos = d.pos;
             good = ac_refute(s, d.cell, d.label);
