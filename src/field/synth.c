@@ -602,8 +602,12 @@ done:
  * they are. Measured on balls.ini 64^3 -> 64^3 (analysis/field_objects.py,
  * summary.json): inscribed radii p10/p50/p90 1.00/2.24/3.32 -> 2.83/3.16/4.12
  * (source 2.83/3.16/4.12), their KS 0.58 -> 0.08, volume fraction 0.190 ->
- * 0.196 (0.200). It reads the target, prov and the source, the same on every
- * rank. */
+ * 0.196 (0.200); with the shifts (analysis/field_contacts.py), 64^3 and
+ * 128^3 seeds 1-3: no overlapping pair (before 0.069, 0.093), balls
+ * touching another 0.94-0.97 (before 0.87; source 0.98), volume fraction
+ * 0.186-0.214 (before 0.196, 0.224; source 0.200, its bulk at least 5
+ * samples from the box's walls 0.260). It reads the target, prov and the
+ * source, the same on every rank. */
 typedef struct objects_scratch {
     uint8_t *mask, *touch;        /* core samples; per component: touches a face */
     uint32_t *label, n;
