@@ -373,6 +373,9 @@ typedef struct gs_points_params {
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */
     int blend_resample;   /* 1: the blend resamples the links of F' it tears (points added
                              along them, gs_points_blend_bridge); 0: the paper's blend */
+    int blend_keep_outer; /* 1: the outer half of each active strip keeps N_k's own points
+                             (F' dropped there) and F' blends over the inner half with weight
+                             2 t; 0: the paper's blend over the whole strip */
     int drop_strip_specks; /* 1: the finish drops pieces of < GS_POINTS_SPECK_POINTS points
                               lying wholly in the overlap strips or within the link radius
                               outside their seam edges (a safety net after the blend; the

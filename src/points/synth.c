@@ -1177,6 +1177,15 @@ static gs_err blend_point(struct gs_points_synth *s, int mode, const double o[2]
         return GS_OK;
     it->keep = 1;
     it->t = mode ? blend_weight(s, mode, o, it->q.p) : 0;
+    if (s->p.blend_keep_outer && it->t > 0) {
+        /* The outer half of the strip keeps N_k's own points (paste_patch):
+         * F' gives way there and blends over the inner half. */
+        if (it->t >= 0.5) {
+            it->keep = 0;
+            return GS_OK;
+        }
+        it->t *= 2;
+    }
     if (it->t > 0) {
         int found;
         GS_CALL(gs_points_blend_target(s->out, s->p.mls_radius, s->p.ray_blend, &s->scratch,
@@ -1527,7 +1536,17 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
 {
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
     if (!s->ncomp || s->obj_ext == 0) {
+        s->keep_in.n = 0;
+        if (mode && s->p.blend_keep_outer) { /* N_k's own points on the strips' outer half */
+            s->Qall.n = 0;
+            GS_CALL(gs_points_grid_query_xy(s->out, blo, bhi, &s->Qall));
+            for (size_t i = 0; i < s->Qall.n; i++)
+                if (blend_weight(s, mode, o, s->Qall.v[i].p) >= 0.5)
+                    GS_CALL(gs_points_append(&s->keep_in, &s->Qall.v[i], 1));
+        }
         gs_points_grid_remove_xy(s->out, blo, bhi);
+        for (size_t i = 0; i < s->keep_in.n; i++)
+            GS_CALL(gs_points_grid_add(s->out, &s->keep_in.v[i]));
         for (size_t i = 0; i < s->Fb.n; i++) {
             GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
             GS_CALL(gs_points_labels_set(&s->labels, s->Fb.v[i].p, (uint32_t)s->cursor));
@@ -1580,7 +1599,8 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
     for (size_t i = 0; i < Q->n; i++) {
         double v = box[6 * label[i] + 4];
         int in = in_xy(Q->v[i].p, blo, bhi);
-        if (v == 1 && in)
+        if (in && (v == 1 || (v == 0 && mode && s->p.blend_keep_outer &&
+                              blend_weight(s, mode, o, Q->v[i].p) >= 0.5)))
             GS_TRY(err, gs_points_append(&s->keep_in, &Q->v[i], 1), done);
         else if (v == 2 && !in)
             GS_TRY(err, gs_points_append(&s->drop_out, &Q->v[i], 1), done);
