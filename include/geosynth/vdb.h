@@ -110,24 +110,30 @@ gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
 gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
                             gs_mesh *out);
 
-/* Redistancing into a proper level set: the exact distance to the zero
- * iso-surface of d (OpenVDB levelSetRebuild: surface mesh, then mesh to
- * distance) within half_width voxels (>= 1), its magnitudes then lowered
- * where they exceed a bound of the distance to that surface (the distance
- * to a zero crossing on an edge, |b| + voxel from a neighbour of the same
- * sign), so no neighbour step exceeds one voxel; grid class level set named
- * `name`, background = half_width * voxel, voxel size d->voxel. d carries
- * `pad` samples of padding on every side (e.g. its edge values repeated),
- * so the surface is not closed at the box faces; they are cut off again.
- * path != NULL: writes the grid (clipped to the unpadded box, index space
- * starting at sample 0 of the padded box) as a .vdb file, with a fog volume
- * "density" beside it (OpenVDB sdfToFogVolume: 0 outside, 1 inside, a ramp
- * across the band; what renderers' default volume shaders read) and grid
- * metadata up_axis = "z" and units on both; out != NULL: the
- * redistanced values over the unpadded box (background = +-background
- * beyond the band). */
-gs_err gs_vdb_level_set(const gs_vdb_dense *d, int pad, double half_width, const char *name,
-                        const char *path, gs_vdb_dense *out);
+/* Redistancing (OpenVDB levelSetRebuild: surface mesh of the zero
+ * iso-surface, then the exact distance to it within half_width voxels,
+ * >= 1), its magnitudes then lowered where they exceed a bound of the
+ * distance to that surface (the distance to a zero crossing on an edge,
+ * |b| + voxel from a neighbour of the same sign), so no neighbour step
+ * exceeds one voxel; values beyond the band are +-half_width * voxel.
+ * d is the whole field, unpadded; it is padded with `pad` copies of its edge
+ * values on every side, so the surface is not closed at the box faces.
+ * gs_vdb_redistance writes the redistanced planes [z0, z1) of d into out
+ * (nx * ny * (z1 - z0) values), rebuilding only those planes plus a margin
+ * (the bound's reach, ceil(half_width) + 1, and pad more): memory and time
+ * grow with z1 - z0, and any split of the planes gives the same values as
+ * one call over [0, nz) (tests/unit/test_vdb.c checks it).
+ * gs_vdb_level_set_write writes d (already redistanced) as a .vdb file: a
+ * level set grid named `name` (class level set, background = half_width *
+ * voxel, voxel size d->voxel, samples at +-background inactive, index space
+ * starting at sample -pad) with a fog volume "density" beside it (OpenVDB
+ * sdfToFogVolume: 0 outside, 1 inside, a ramp across the band; what
+ * renderers' default volume shaders read) and grid metadata up_axis = "z"
+ * and units on both. */
+gs_err gs_vdb_redistance(const gs_vdb_dense *d, int pad, double half_width, size_t z0, size_t z1,
+                         float *out);
+gs_err gs_vdb_level_set_write(const gs_vdb_dense *d, int pad, double half_width, const char *name,
+                              const char *path);
 
 #ifdef __cplusplus
 }

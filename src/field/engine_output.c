@@ -12,6 +12,7 @@
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
+#include "geosynth/partition.h"
 #include "geosynth/preview.h"
 #include "geosynth/vdb.h"
 #include "field/engine_impl.h"
@@ -86,42 +87,70 @@ fail:
     return err;
 }
 
-/* Rank 0: the synthesized field redistanced into a proper level set (the
- * exact distance to its zero surface within field.range samples, OpenVDB
- * levelSetRebuild on a copy padded with its edge values so the surface stays
- * open at the box faces), written as field.vdb (grid `surface`, class level
- * set, background = band width, voxel size = sample spacing) when
- * output.vdb = yes; f->v receives the redistanced values. */
-static gs_err redistance_rank0(gs_run *run, const field_config *c, gs_field *f)
+/* The synthesized field f redistanced into a distance field (the exact
+ * distance to its zero surface within field.range samples, OpenVDB
+ * levelSetRebuild on the field padded with its edge values so the surface
+ * stays open at the box faces, then bounded so no neighbour step exceeds a
+ * sample; gs_vdb_redistance), in place on every rank. Each rank rebuilds the
+ * z-planes it writes into field.h5 (field_write_slabs' partition), in pieces
+ * of at most FIELD_REDIST_SAMPLES samples, so memory is bounded by a piece
+ * and the ranks share the work; any split gives the same values. The pieces
+ * meet once, gathered in place (every rank holds the field for the file and
+ * rank 0 for the meshes). Then rank 0 writes field.vdb (grid `surface`,
+ * class level set, background = band width, voxel size = sample spacing)
+ * when output.vdb = yes. */
+#define FIELD_REDIST_SAMPLES ((int64_t)16 << 20)
+static gs_err redistance(gs_run *run, const field_config *c, gs_field *f)
 {
-    int pad = (int)ceil(c->range) + 1;
-    gs_vdb_dense d, out;
-    size_t n[3] = {(size_t)f->nx + 2 * (size_t)pad, (size_t)f->ny + 2 * (size_t)pad,
-                   (size_t)f->nz + 2 * (size_t)pad};
-    GS_CALL(gs_vdb_dense_alloc(&d, n[0], n[1], n[2]));
-    d.voxel = f->spacing;
-    for (int a = 0; a < 3; a++)
-        d.origin[a] = -pad * f->spacing;
-    d.background = (float)(c->range * f->spacing);
-    for (size_t z = 0; z < n[2]; z++)
-        for (size_t y = 0; y < n[1]; y++)
-            for (size_t x = 0; x < n[0]; x++) {
-                int64_t sx = (int64_t)x - pad, sy = (int64_t)y - pad, sz = (int64_t)z - pad;
-                sx = sx < 0 ? 0 : sx >= f->nx ? f->nx - 1 : sx;
-                sy = sy < 0 ? 0 : sy >= f->ny ? f->ny - 1 : sy;
-                sz = sz < 0 ? 0 : sz >= f->nz ? f->nz - 1 : sz;
-                d.v[x + n[0] * (y + n[1] * z)] = f->v[sx + f->nx * (sy + f->ny * sz)];
-            }
-    char path[PATH_MAX];
-    gs_run_path(run, "field.vdb", path, sizeof path);
-    gs_err err = gs_vdb_level_set(&d, pad, c->range, "surface", c->vdb ? path : NULL, &out);
-    gs_vdb_dense_destroy(&d);
-    GS_CALL(err);
-    memcpy(f->v, out.v, (size_t)(f->nx * f->ny * f->nz) * sizeof *f->v);
-    gs_vdb_dense_destroy(&out);
-    if (c->vdb)
-        gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
-    return GS_OK;
+    const int pad = (int)ceil(c->range) + 1;
+    const int64_t plane = f->nx * f->ny;
+    int64_t z0, z1;
+    GS_CALL(gs_partition(f->nz, run->size, run->rank, &z0, &z1));
+    gs_vdb_dense d = {(size_t)f->nx, (size_t)f->ny, (size_t)f->nz,
+                      {f->origin[0], f->origin[1], f->origin[2]}, f->spacing,
+                      (float)(c->range * f->spacing), f->v};
+    float *mine = NULL;
+    gs_err err = GS_OK;
+    if (z1 > z0)
+        err = gs_alloc_array((void **)&mine, (size_t)((z1 - z0) * plane), sizeof *mine,
+                             "redistanced planes");
+    int64_t step = FIELD_REDIST_SAMPLES / plane;
+    step = step < 1 ? 1 : step;
+    for (int64_t z = z0; !err && z < z1; z += step) {
+        int64_t e = z + step < z1 ? z + step : z1;
+        err = gs_vdb_redistance(&d, pad, c->range, (size_t)z, (size_t)e, mine + (z - z0) * plane);
+    }
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    /* every rank has read the synthesized values it needs: its planes replace them */
+    if (z1 > z0)
+        memcpy(f->v + z0 * plane, mine, (size_t)((z1 - z0) * plane) * sizeof *mine);
+    gs_free(mine);
+    mine = NULL;
+    if (run->size > 1) {
+        int *counts = NULL, *displs = NULL;
+        GS_TRY(err, gs_alloc_array((void **)&counts, 2 * (size_t)run->size, sizeof *counts,
+                                   "gather counts"), done);
+        displs = counts + run->size;
+        for (int r = 0; r < run->size; r++) {
+            int64_t a, b;
+            gs_partition(f->nz, run->size, r, &a, &b);
+            counts[r] = (int)(b - a), displs[r] = (int)a;
+        }
+        err = gs_par_allgatherv_items(run->comm, f->v, (size_t)plane * sizeof *f->v, counts, displs);
+        gs_free(counts);
+        GS_TRY(err, gs_par_agree(run->comm, err), done);
+    }
+    if (run->rank == 0 && c->vdb) {
+        char path[PATH_MAX];
+        gs_run_path(run, "field.vdb", path, sizeof path);
+        err = gs_vdb_level_set_write(&d, pad, c->range, "surface", path);
+        if (!err)
+            gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
+    }
+    GS_TRY(err, gs_par_agree(run->comm, err), done);
+done:
+    gs_free(mine);
+    return err;
 }
 
 /* Writes m (target sample units) in the world units of f, and the same as
@@ -326,7 +355,7 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
            g->crossing_share_src);
 }
 
-/* The result, redistanced (rank 0, broadcast), field.h5, the quality
+/* The result, redistanced (each rank its planes, gathered once), field.h5, the quality
  * measures with the distributed matcher, the meshes and pictures (rank 0). */
 gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *digest_out)
 {
@@ -350,16 +379,12 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
     uint64_t digest = gs_digest_bytes(d->res->q, (size_t)(d->res->nx * d->res->ny * d->res->nz));
     double step_synth = 0, step_redist = 0, t_redist = gs_time_now(), c_redist = gs_cpu_now();
-    if (run->rank == 0) {
-        int64_t rn[3] = {d->resf->nx, d->resf->ny, d->resf->nz};
+    int64_t rn[3] = {d->resf->nx, d->resf->ny, d->resf->nz};
+    if (run->rank == 0)
         step_synth = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
-        err = redistance_rank0(run, c, d->resf);
+    GS_TRY(err, redistance(run, c, d->resf), fail);
+    if (run->rank == 0)
         step_redist = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
-    }
-    GS_TRY(err, gs_par_agree(run->comm, err), fail);
-    GS_TRY(err, gs_par_bcast_bytes(run->comm, d->resf->v,
-                                   (size_t)(d->resf->nx * d->resf->ny * d->resf->nz) * sizeof *d->resf->v, 0),
-           fail);
     t_redist = gs_time_now() - t_redist;
     c_redist = gs_cpu_now() - c_redist;
     GS_TRY(err, write_field_h5(run, d->res, d->resf, q, synthesized), fail);

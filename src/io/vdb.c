@@ -500,10 +500,18 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
     return GS_OK;
 }
 
-gs_err gs_vdb_level_set(const gs_vdb_dense *d, int pad, double half_width, const char *name,
-                        const char *path, gs_vdb_dense *out)
+gs_err gs_vdb_redistance(const gs_vdb_dense *d, int pad, double half_width, size_t z0, size_t z1,
+                         float *out)
 {
-    VDB_FN(f, level_set);
-    GS_CALL(f(d, pad, half_width, name, path, out));
+    VDB_FN(f, redistance);
+    GS_CALL(f(d, pad, half_width, z0, z1, out));
+    return GS_OK;
+}
+
+gs_err gs_vdb_level_set_write(const gs_vdb_dense *d, int pad, double half_width, const char *name,
+                              const char *path)
+{
+    VDB_FN(f, level_set_write);
+    GS_CALL(f(d, pad, half_width, name, path));
     return GS_OK;
 }

@@ -32,8 +32,10 @@ typedef gs_err gs_vdbp_mesh_to_distance_fn(const gs_mesh *m, const char *what,
                                            const gs_vdb_distance_opts *opts, gs_vdb_dense *out);
 typedef gs_err gs_vdbp_dense_to_mesh_fn(const gs_vdb_dense *d, double isovalue, double adaptivity,
                                         gs_mesh *out);
-typedef gs_err gs_vdbp_level_set_fn(const gs_vdb_dense *d, int pad, double half_width,
-                                    const char *name, const char *path, gs_vdb_dense *out);
+typedef gs_err gs_vdbp_redistance_fn(const gs_vdb_dense *d, int pad, double half_width, size_t z0,
+                                     size_t z1, float *out);
+typedef gs_err gs_vdbp_level_set_write_fn(const gs_vdb_dense *d, int pad, double half_width,
+                                          const char *name, const char *path);
 /* Renders m (normals per vertex) through cam into rgba (W x H x 4, row 0 at
  * the bottom). */
 typedef gs_err gs_renderp_draw_fn(const gs_mesh *m, const float *normals,
@@ -52,7 +54,8 @@ gs_vdbp_write_dense_fn gs_vdbp_write_dense;
 gs_vdbp_read_dense_fn gs_vdbp_read_dense;
 gs_vdbp_mesh_to_distance_fn gs_vdbp_mesh_to_distance;
 gs_vdbp_dense_to_mesh_fn gs_vdbp_dense_to_mesh;
-gs_vdbp_level_set_fn gs_vdbp_level_set;
+gs_vdbp_redistance_fn gs_vdbp_redistance;
+gs_vdbp_level_set_write_fn gs_vdbp_level_set_write;
 gs_renderp_draw_fn gs_renderp_draw;
 
 #ifdef __cplusplus

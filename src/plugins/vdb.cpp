@@ -24,6 +24,7 @@
 #include <openvdb/tools/LevelSetRebuild.h>
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/Prune.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
 
@@ -501,9 +502,12 @@ extern "C" gs_err gs_vdbp_dense_to_mesh(const gs_vdb_dense *d, double isovalue, 
 // between neighbours of one sign (forward and backward raster sweeps until
 // nothing changes). Signs and crossings on the edges that set the bound stay;
 // afterwards no axis step exceeds h. v: x fastest, n[0] x n[1] x n[2].
+// Reach: a magnitude is lowered only by values within ceil(max |v| / h) + 1
+// samples of it (every step of a chain adds h), which is what lets
+// gs_vdbp_redistance run it on a window of the field.
 static void lipschitz_bound(float *v, const size_t n[3], float h)
 {
-    const size_t sx = 1, sy = n[0], sz = n[0] * n[1], slab = sz;
+    const size_t sy = n[0], sz = n[0] * n[1], slab = sz;
     std::vector<float> orig(3 * slab); // original values of slices z-1, z, z+1
     auto copy_slice = [&](size_t z, size_t k) {
         std::memcpy(&orig[(k % 3) * slab], v + z * sz, slab * sizeof(float));
@@ -536,94 +540,172 @@ static void lipschitz_bound(float *v, const size_t n[3], float h)
                     v[z * sz + i] = a < 0 ? -cap : cap;
             }
     }
-    const size_t step[3] = {sx, sy, sz};
+    // the sweeps: forward (neighbours at -x, -y, -z) then backward (+x, +y,
+    // +z), each in raster order, as nested loops (no index arithmetic per voxel)
     for (bool changed = true; changed;) {
         changed = false;
-        for (int pass = 0; pass < 2; pass++)
-            for (size_t k = 0; k < n[0] * n[1] * n[2]; k++) {
-                size_t i = pass ? n[0] * n[1] * n[2] - 1 - k : k;
-                size_t c[3] = {i % n[0], (i / n[0]) % n[1], i / sz};
-                float a = v[i], m = std::fabs(a), lim = m;
-                for (int ax = 0; ax < 3; ax++) {
-                    bool ok = pass ? c[ax] + 1 < n[ax] : c[ax] > 0;
-                    if (!ok)
-                        continue;
-                    float b = v[pass ? i + step[ax] : i - step[ax]];
-                    if ((a < 0) == (b < 0))
-                        lim = std::min(lim, std::fabs(b) + h);
+        for (size_t z = 0; z < n[2]; z++)
+            for (size_t y = 0; y < n[1]; y++) {
+                float *row = v + z * sz + y * sy;
+                for (size_t x = 0; x < n[0]; x++) {
+                    float a = row[x], m = std::fabs(a), lim = m;
+                    if (x > 0 && (a < 0) == (row[x - 1] < 0))
+                        lim = std::min(lim, std::fabs(row[x - 1]) + h);
+                    if (y > 0 && (a < 0) == (row[x - sy] < 0))
+                        lim = std::min(lim, std::fabs(row[x - sy]) + h);
+                    if (z > 0 && (a < 0) == (row[x - sz] < 0))
+                        lim = std::min(lim, std::fabs(row[x - sz]) + h);
+                    if (lim < m) {
+                        row[x] = a < 0 ? -lim : lim;
+                        changed = true;
+                    }
                 }
-                if (lim < m) {
-                    v[i] = a < 0 ? -lim : lim;
-                    changed = true;
+            }
+        for (size_t z = n[2]; z-- > 0;)
+            for (size_t y = n[1]; y-- > 0;) {
+                float *row = v + z * sz + y * sy;
+                for (size_t x = n[0]; x-- > 0;) {
+                    float a = row[x], m = std::fabs(a), lim = m;
+                    if (x + 1 < n[0] && (a < 0) == (row[x + 1] < 0))
+                        lim = std::min(lim, std::fabs(row[x + 1]) + h);
+                    if (y + 1 < n[1] && (a < 0) == (row[x + sy] < 0))
+                        lim = std::min(lim, std::fabs(row[x + sy]) + h);
+                    if (z + 1 < n[2] && (a < 0) == (row[x + sz] < 0))
+                        lim = std::min(lim, std::fabs(row[x + sz]) + h);
+                    if (lim < m) {
+                        row[x] = a < 0 ? -lim : lim;
+                        changed = true;
+                    }
                 }
             }
     }
 }
 
-extern "C" gs_err gs_vdbp_level_set(const gs_vdb_dense *d, int pad, double half_width,
-                                   const char *name, const char *path, gs_vdb_dense *out)
+namespace {
+
+gs_err check_redistance(const gs_vdb_dense *d, int pad, double half_width, const char *what)
 {
-    if (out)
-        std::memset(out, 0, sizeof *out);
-    GS_CALL(check_dense(d, name ? name : "level set"));
-    GS_CHECK(pad >= 0 && 2 * (size_t)pad < d->nx && 2 * (size_t)pad < d->ny &&
-                 2 * (size_t)pad < d->nz && std::isfinite(half_width) && half_width >= 1,
-             GS_ERR_ARG, "level set: padding %d of a %zux%zux%zu field, half width %g: expected "
-             "a padding below half of every size and a half width >= 1 voxel", pad, d->nx, d->ny,
-             d->nz, half_width);
-    GS_VDB_GUARD(name ? name : "level set", {
-        auto grid = grid_from_dense(d, -1.0f); // every sample active
-        // exact distance to the iso-surface, in a band of half_width voxels
-        auto ls = openvdb::tools::levelSetRebuild(*grid, 0.0f, (float)half_width);
+    GS_CALL(check_dense(d, what));
+    GS_CHECK(pad >= 1 && pad <= 64 && std::isfinite(half_width) && half_width >= 1 &&
+                 half_width <= 64 && d->nx + 2 * (size_t)pad < INT32_MAX &&
+                 d->ny + 2 * (size_t)pad < INT32_MAX && d->nz + 2 * (size_t)pad < INT32_MAX,
+             GS_ERR_ARG, "%s: padding %d, half width %g of a %zux%zux%zu field: expected a "
+             "padding in [1, 64] and a half width in [1, 64] voxels", what, pad, half_width,
+             d->nx, d->ny, d->nz);
+    return GS_OK;
+}
+
+// Index space of both entry points below: sample (x, y, z) of d is voxel
+// (x + pad, y + pad, z + pad); world = d->origin + (index - pad) * voxel.
+openvdb::math::Transform::Ptr padded_transform(const gs_vdb_dense *d, int pad)
+{
+    double o[3];
+    for (int k = 0; k < 3; k++)
+        o[k] = d->origin[k] - pad * d->voxel;
+    return make_transform(d->voxel, o);
+}
+
+} // namespace
+
+extern "C" gs_err gs_vdbp_redistance(const gs_vdb_dense *d, int pad, double half_width,
+                                    size_t z0, size_t z1, float *out)
+{
+    GS_CALL(check_redistance(d, pad, half_width, "redistance"));
+    GS_CHECK(z0 < z1 && z1 <= d->nz && out, GS_ERR_ARG,
+             "redistance: planes [%zu, %zu) of a field of %zu: expected 0 <= z0 < z1 <= nz", z0,
+             z1, d->nz);
+    GS_VDB_GUARD("redistance", {
+        const int64_t nx = (int64_t)d->nx, ny = (int64_t)d->ny, nz = (int64_t)d->nz;
+        // the window the bound needs (its reach), and the box the rebuild
+        // needs around it (pad more planes, as the field's own padding)
+        const int64_t reach = (int64_t)std::ceil(half_width) + 1;
+        const int64_t w0 = std::max<int64_t>(0, (int64_t)z0 - reach),
+                      w1 = std::min<int64_t>(nz, (int64_t)z1 + reach);
+        const int64_t b0 = std::max<int64_t>(-pad, w0 - pad), b1 = std::min<int64_t>(nz + pad, w1 + pad);
+        // the box, padded with the field's edge values (x, y and beyond its
+        // z ends) so the surface stays open at the box faces
+        const size_t px = (size_t)(nx + 2 * pad), py = (size_t)(ny + 2 * pad), pz = (size_t)(b1 - b0);
+        openvdb::FloatGrid::Ptr ls;
+        {
+            std::vector<float> box(px * py * pz);
+            for (size_t z = 0; z < pz; z++) {
+                int64_t sz = std::min<int64_t>(std::max<int64_t>(b0 + (int64_t)z, 0), nz - 1);
+                for (size_t y = 0; y < py; y++) {
+                    int64_t sy = std::min<int64_t>(std::max<int64_t>((int64_t)y - pad, 0), ny - 1);
+                    const float *src = d->v + (size_t)nx * ((size_t)sy + (size_t)ny * (size_t)sz);
+                    float *dst = &box[px * (y + py * z)];
+                    for (int x = 0; x < pad; x++)
+                        dst[x] = src[0], dst[px - 1 - x] = src[nx - 1];
+                    std::memcpy(dst + pad, src, (size_t)nx * sizeof(float));
+                }
+            }
+            auto grid = openvdb::FloatGrid::create(d->background);
+            grid->setTransform(padded_transform(d, pad));
+            openvdb::CoordBBox bb(openvdb::Coord(0, 0, (int)(b0 + pad)),
+                                  openvdb::Coord((int)px - 1, (int)py - 1, (int)(b1 + pad) - 1));
+            DenseXYZ dense(bb, box.data());
+            openvdb::tools::copyFromDense(dense, *grid, -1.0f); // every sample active
+            std::vector<float>().swap(box);
+            // exact distance to the iso-surface, in a band of half_width voxels
+            ls = openvdb::tools::levelSetRebuild(*grid, 0.0f, (float)half_width);
+        }
+        // the window's values, bounded, then its planes [z0, z1)
+        std::vector<float> win((size_t)nx * (size_t)ny * (size_t)(w1 - w0));
+        {
+            openvdb::CoordBBox wb(openvdb::Coord(pad, pad, (int)(w0 + pad)),
+                                  openvdb::Coord((int)nx - 1 + pad, (int)ny - 1 + pad,
+                                                 (int)(w1 + pad) - 1));
+            DenseXYZ dense(wb, win.data());
+            openvdb::tools::copyToDense(*ls, dense);
+        }
+        ls.reset();
+        const size_t wn[3] = {(size_t)nx, (size_t)ny, (size_t)(w1 - w0)};
+        lipschitz_bound(win.data(), wn, (float)d->voxel);
+        std::memcpy(out, &win[(size_t)nx * (size_t)ny * (z0 - (size_t)w0)],
+                    (size_t)nx * (size_t)ny * (z1 - z0) * sizeof(float));
+        return GS_OK;
+    });
+}
+
+extern "C" gs_err gs_vdbp_level_set_write(const gs_vdb_dense *d, int pad, double half_width,
+                                         const char *name, const char *path)
+{
+    GS_CALL(check_redistance(d, pad, half_width, path ? path : "level set"));
+    GS_CHECK(path && path[0], GS_ERR_ARG, "level set: output path is empty");
+    GS_VDB_GUARD(path, {
+        const float bg = (float)(half_width * d->voxel);
+        auto ls = openvdb::FloatGrid::create(bg);
+        ls->setTransform(padded_transform(d, pad));
+        openvdb::CoordBBox box(openvdb::Coord(pad, pad, pad),
+                               openvdb::Coord((int)d->nx - 1 + pad, (int)d->ny - 1 + pad,
+                                              (int)d->nz - 1 + pad));
+        {
+            // samples at the background's magnitude are inactive (-bg inside,
+            // made so below), the band active, as a level set's tree
+            DenseXYZ dense(box, d->v);
+            openvdb::tools::copyFromDense(dense, *ls, 0.0f);
+            for (auto leaf = ls->tree().beginLeaf(); leaf; ++leaf)
+                for (auto it = leaf->beginValueOn(); it; ++it)
+                    if (*it <= -bg)
+                        it.setValueOff();
+            openvdb::tools::pruneLevelSet(ls->tree());
+        }
         ls->setName(name ? name : "surface");
         ls->setGridClass(openvdb::GRID_LEVEL_SET);
-        // the box without its padding (sample index space of d)
-        openvdb::CoordBBox box(openvdb::Coord(pad, pad, pad),
-                               openvdb::Coord((int)d->nx - 1 - pad, (int)d->ny - 1 - pad,
-                                              (int)d->nz - 1 - pad));
-        // the redistanced values over the box, bounded (lipschitz_bound) and
-        // written back into the grid, so field.vdb and out agree
-        gs_vdb_dense tmp, *o = out ? out : &tmp;
-        GS_CALL(gs_vdb_dense_alloc(o, d->nx - 2 * (size_t)pad, d->ny - 2 * (size_t)pad,
-                                   d->nz - 2 * (size_t)pad));
-        o->voxel = d->voxel;
-        for (int k = 0; k < 3; k++)
-            o->origin[k] = d->origin[k] + pad * d->voxel;
-        o->background = ls->background();
-        {
-            DenseXYZ dense(box, o->v);
-            openvdb::tools::copyToDense(*ls, dense);
-            const size_t on[3] = {o->nx, o->ny, o->nz};
-            lipschitz_bound(o->v, on, (float)d->voxel);
-            auto acc = ls->getAccessor();
-            size_t i = 0;
-            for (size_t z = 0; z < o->nz; z++)
-                for (size_t y = 0; y < o->ny; y++)
-                    for (size_t x = 0; x < o->nx; x++, i++) {
-                        openvdb::Coord ijk(pad + (int)x, pad + (int)y, pad + (int)z);
-                        if (acc.getValue(ijk) != o->v[i])
-                            acc.setValueOn(ijk, o->v[i]);
-                    }
-        }
-        if (!out)
-            gs_vdb_dense_destroy(&tmp);
-        if (path) {
-            ls->clip(box); // index (pad, pad, pad) is world d->origin + pad * voxel
-            ls->insertMeta("gs_dense_min", openvdb::Vec3IMetadata(openvdb::Vec3i(pad, pad, pad)));
-            ls->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
-                                               (int)d->nx - 1 - pad, (int)d->ny - 1 - pad,
-                                               (int)d->nz - 1 - pad)));
-            axis_meta(*ls);
-            // a fog volume "density" beside it (0 outside, rising to 1 across the band inside,
-            // 1 in the interior): what Blender's and most renderers' default volume shader
-            // reads, so the file renders without a shader of one's own (docs/FORMATS.md)
-            openvdb::FloatGrid::Ptr fog = ls->deepCopy();
-            openvdb::tools::sdfToFogVolume(*fog);
-            fog->setName("density");
-            gs_vdb_grid w[2] = {{ls, ls->getName()}, {fog, fog->getName()}};
-            gs_vdb_grid *wp[2] = {&w[0], &w[1]};
-            GS_CALL(gs_vdbp_write(path, wp, 2));
-        }
+        ls->insertMeta("gs_dense_min", openvdb::Vec3IMetadata(openvdb::Vec3i(pad, pad, pad)));
+        ls->insertMeta("gs_dense_max", openvdb::Vec3IMetadata(openvdb::Vec3i(
+                                           (int)d->nx - 1 + pad, (int)d->ny - 1 + pad,
+                                           (int)d->nz - 1 + pad)));
+        axis_meta(*ls);
+        // a fog volume "density" beside it (0 outside, rising to 1 across the band inside,
+        // 1 in the interior): what Blender's and most renderers' default volume shader
+        // reads, so the file renders without a shader of one's own (docs/FORMATS.md)
+        openvdb::FloatGrid::Ptr fog = ls->deepCopy();
+        openvdb::tools::sdfToFogVolume(*fog);
+        fog->setName("density");
+        gs_vdb_grid w[2] = {{ls, ls->getName()}, {fog, fog->getName()}};
+        gs_vdb_grid *wp[2] = {&w[0], &w[1]};
+        GS_CALL(gs_vdbp_write(path, wp, 2));
         return GS_OK;
     });
 }
