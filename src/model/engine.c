@@ -9,7 +9,8 @@
  * by a window of colours, save, the synthesis report, destroy. The rest of
  * the driver: engine_config.c (keys, `geosynth model --help`, validation),
  * engine_setup.c (inputs, rules, symmetries, start model), engine_regions.c
- * (the sweep: plans, regions, windows), engine_state.c (checkpoints),
+ * (the sweep: plans, regions, windows), engine_sched.c (schedule figures
+ * in region CPU seconds), engine_state.c (checkpoints),
  * engine_output.c (files, measures, metrics); shared declarations in
  * engine_impl.h.
  *

@@ -427,6 +427,10 @@ static const gs_cfg_key model_keys[] = {
                     "also write lattice.txt in Merrell's format (his editor scripts read it)"),
     GS_CFG_KEY_REAL(model_config, voxel_size, "model.voxel_size", 0, 1e9, GS_CFG_OPEN_LO, "1",
                     "edge of one cell in the mesh"),
+    GS_CFG_KEY_BOOL(model_config, schedule_log, "model.schedule_log", "false",
+                    "write schedule.jsonl: per region run, the rank that ran it, its place in that "
+                    "rank's order, its CPU seconds and the regions it waited for (the records "
+                    "behind the schedule_* metrics; analysis/model_schedule.py recomputes them)"),
     GS_CFG_RUN_KEYS(model_config, run, "model"),
 };
 

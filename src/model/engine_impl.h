@@ -50,6 +50,7 @@ typedef struct model_config {
     int tile_image;
     int preview;
     int64_t preview_size;
+    int schedule_log;
     char *format;
     char *dataset;
     gs_cfg_int3 size;
@@ -92,10 +93,30 @@ typedef struct model_config {
     gs_run_config run;
 } model_config;
 
+/* A region's record, then its labels. rank, seq and cpu_s are
+ * bookkeeping for the schedule figures (model_sched): who ran it, as its
+ * how-manyth region of the window, and the process CPU seconds of the run;
+ * they never reach the lattice, so a region run twice (two ranks claimed it
+ * at once) may differ there and the first record kept is used. */
 typedef struct region_hdr {
     int32_t ok, attempts;
     uint64_t choices, backtracks;
+    int32_t rank, seq;
+    double cpu_s;
 } region_hdr;
+
+/* Load-independent figures of the sweep's schedule (engine_sched.c), summed
+ * over windows (a window ends with every rank done): every figure divides
+ * the regions' CPU seconds by a makespan in the same CPU seconds, so a
+ * shared machine's waits for a core do not move it. */
+typedef struct model_sched {
+    double cpu;      /* the regions' CPU seconds (records kept on this rank) */
+    double crit;     /* longest chain of dependent regions (conflicts) */
+    double bound2;   /* max(crit, cpu / 2): no 2-rank schedule is shorter */
+    double policy2;  /* the dataflow's pick rule simulated on 2 ranks */
+    double replay;   /* this run's assignment and order, each rank on a core of its own */
+    uint64_t windows;
+} model_sched;
 
 typedef struct model_engine {
     const model_config *cfg;
@@ -143,6 +164,11 @@ typedef struct model_engine {
     double synth_seconds;  /* synthesis wall time, summed over resumes */
     gs_regions_stats queue; /* this rank's region runs and waits, this process only */
     double t_windows;       /* this rank's seconds in run_window (set-up + dataflow) */
+    int rank;               /* this process's rank (region records say who ran them) */
+    int32_t window_seq;     /* regions this rank ran in the window in progress */
+    region_hdr *rec;        /* [nplan] the pass in progress: each region's record here */
+    model_sched sched;
+    uint64_t windows_run;   /* windows run by this process (schedule.jsonl numbers them) */
     uint64_t example_digest;
 } model_engine;
 
@@ -198,6 +224,18 @@ gs_err model_make_plan(model_engine *e);
 /* Collective: the next batch of the synthesis (a new pass's plan, then one
  * window of colours); *finished once the passes are done. */
 gs_err model_advance_window(gs_run *run, model_engine *e, int *finished);
+/* engine_sched.c: adds the schedule figures of the window of regions
+ * plan[first, first + n) (conflict CSR off / ids as gs_model_plan_conflicts
+ * gives them, ids = plan ids) from their records e->rec. Local, the same
+ * on every rank up to which duplicate record was kept. */
+void model_sched_window(model_engine *e, size_t first, size_t n, const int64_t *off,
+                        const int64_t *ids);
+/* model.schedule_log, rank 0: appends the window's records to
+ * RUN_DIR/schedule.jsonl, one JSON object per region (window = the count of
+ * windows this process ran before; the first one starts the file). */
+gs_err model_sched_log(gs_run *run, const model_engine *e, uint64_t window, size_t first,
+                       size_t n, const int64_t *off, const int64_t *ids);
+
 /* Collective: each rank's synthesis times gathered on rank 0, into q and the
  * open object j ("per_rank"). */
 gs_err model_queue_report(gs_run *run, const model_engine *e, double cpu, queue_report_t *q,

@@ -250,6 +250,8 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
     GS_CALL(write_lattice_h5(run, e, path));
     gs_run_output(run, "h5", "lattice", "lattice.h5", dims);
     gs_run_output(run, "xdmf", "lattice", "lattice.xmf", dims);
+    if (c->schedule_log && e->windows_run > 0) /* written during synthesis (engine_sched.c) */
+        gs_run_output(run, "json", "schedule", "schedule.jsonl", NULL);
     if (c->vox && e->lat.frames > 1) { /* 4D: one .vox per frame */
         gs_model_lattice fr = {0};
         int64_t fdims[3] = {e->lat.nx, e->lat.ny, gs_model_frame_nz(&e->lat)};
@@ -490,6 +492,21 @@ static void report_metrics(gs_run *run, model_drive *d)
         gs_run_metric_f64(run, "outside_windows_seconds_max_rank", qm[Q_OUTSIDE]);
         gs_run_metric_i64(run, "duplicate_regions", (int64_t)qs[Q_DUPLICATES]);
         gs_run_metric_f64(run, "synthesis_cpu_seconds_max_rank", qm[Q_CPU]);
+        /* engine_sched.c: the schedule in CPU seconds, no waits for a core */
+        const model_sched *sc = &e->sched;
+        if (sc->windows > 0 && sc->cpu > 0) {
+            gs_run_metric_f64(run, "schedule_region_cpu_seconds", sc->cpu);
+            gs_run_metric_f64(run, "schedule_critical_path_seconds", sc->crit);
+            gs_run_metric_f64(run, "schedule_speedup_bound_2ranks", sc->cpu / sc->bound2);
+            gs_run_metric_f64(run, "schedule_speedup_policy_2ranks", sc->cpu / sc->policy2);
+            gs_run_metric_f64(run, "schedule_speedup_replay", sc->cpu / sc->replay);
+            gs_log(GS_LOG_INFO,
+                   "schedule (region CPU %.3f s, no waits for a core): 2 ranks at best %.3fx "
+                   "(longest chain %.3f s), the dataflow's rule on 2 ranks %.3fx, this run's "
+                   "schedule on %d rank%s %.3fx",
+                   sc->cpu, sc->cpu / sc->bound2, sc->crit, sc->cpu / sc->policy2, run->size,
+                   run->size == 1 ? "" : "s", sc->cpu / sc->replay);
+        }
         gs_log(GS_LOG_INFO,
                "regions: %.3f s of region runs over %d ranks (%.3f s on the busiest: ideal "
                "speed-up %.2f); per rank at most %.3f s waiting, %.3f s exchanging, %.3f s "

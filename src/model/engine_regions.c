@@ -17,6 +17,7 @@ gs_err model_make_plan(model_engine *e)
     GS_FREE(e->plan);
     GS_FREE(e->region_status);
     GS_FREE(e->region_attempts);
+    GS_FREE(e->rec);
     GS_CALL(gs_model_plan(&e->params, e->lat.nx, e->lat.ny, e->lat.nz, e->pass, &e->plan,
                           &e->nplan, &e->ncolors));
     for (size_t i = 0; i < e->nplan; i++)
@@ -24,6 +25,8 @@ gs_err model_make_plan(model_engine *e)
     GS_CALL(gs_alloc_array((void **)&e->region_status, e->nplan, sizeof(int32_t), "region status"));
     GS_CALL(gs_alloc_array((void **)&e->region_attempts, e->nplan, sizeof(int32_t),
                            "region attempts"));
+    e->rec = gs_calloc(e->nplan ? e->nplan : 1, sizeof *e->rec);
+    GS_CHECK(e->rec != NULL, GS_ERR_MEM, "out of memory for %zu region records", e->nplan);
     for (size_t i = 0; i < e->nplan; i++) {
         e->region_status[i] = -1;
         e->region_attempts[i] = 0;
@@ -53,13 +56,15 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     GS_CHECK(cells <= e->buf_cells, GS_ERR_INTERNAL, "region %lld larger than the first",
              (long long)id);
     gs_model_region_result res;
+    double cpu0 = gs_cpu_now();
     GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
                                 e->buf, &res));
+    double cpu_s = gs_cpu_now() - cpu0;
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
      * 3 consistent but not accepted by the Metropolis step (kept) */
     region_hdr h = {res.ok ? 1 : res.partial ? 2 : res.mh_rejected ? 3 : 0, res.attempts,
-                    res.choices, res.backtracks};
+                    res.choices, res.backtracks, e->rank, e->window_seq++, cpu_s};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));
     if (h.ok == 1 || h.ok == 2)
         GS_CALL(gs_region_out_append(out, e->buf, cells * sizeof *e->buf));
@@ -75,6 +80,8 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     region_hdr h;
     GS_CHECK(len >= sizeof h, GS_ERR_INTERNAL, "region %lld: %zu result bytes", (long long)id, len);
     memcpy(&h, buf, sizeof h);
+    if (e->rec)
+        e->rec[id] = h;
     GS_CHECK(len == sizeof h + (h.ok == 1 || h.ok == 2 ? cells * sizeof(uint16_t) : 0),
              GS_ERR_INTERNAL,
              "region %lld: %zu result bytes for ok=%d", (long long)id, len, (int)h.ok);
@@ -177,7 +184,13 @@ static gs_err run_window(gs_run *run, model_engine *e)
     GS_TRY(err, gs_regions_create(run->comm, list, (int64_t)n, e->params.seed, MODEL_RNG_DOMAIN, &s),
            done);
     GS_TRY(err, gs_regions_set_conflicts(s, off, ids), done);
+    e->rank = run->rank;
+    e->window_seq = 0;
     GS_TRY(err, gs_regions_run_pass(s, e->pass, region_run, region_apply, e), done);
+    model_sched_window(e, first, n, off, ids);
+    if (e->cfg->schedule_log && run->rank == 0)
+        GS_TRY(err, model_sched_log(run, e, e->windows_run, first, n, off, ids), done);
+    e->windows_run++;
     gs_regions_stats qs = gs_regions_get_stats(s);
     e->queue.computed += qs.computed;
     e->queue.bytes += qs.bytes;

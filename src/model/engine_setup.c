@@ -382,6 +382,7 @@ void model_engine_free(model_engine *e)
     gs_model_lattice_destroy(&e->plat);
     gs_model_solver_destroy(&e->solver);
     gs_free(e->coverage);
+    gs_free(e->rec);
     gs_free(e->pins);
     gs_free(e->shape);
     gs_free(e->structure);

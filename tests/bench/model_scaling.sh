@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The model engine's 2-rank target (issue 4: 2 ranks give 1.8x the cells/s
+# The model engine's 2-rank target (issue 18: 2 ranks give 1.8x the cells/s
 # of one) on the author's examples at 10x his sizes and castle 100x100x10 in
 # 20x20 regions. The measure is the synthesis phase (cells/s, from
 # summary.json); wall seconds are reported beside it.
@@ -12,16 +12,28 @@
 # does not decide. JSON on stdout, per config and rank count: cells/s best
 # and median, synthesis and wall seconds best and median, and the ratios
 # cells_per_second_ratio_best (best over best), _median (median over
-# median) and _pairs_median (median of each adjacent pair's ratio), with
-# ideal_speedup (region seconds summed over ranks / the busiest rank's: the
-# load balance, which noise does not move), region_seconds_total_ratio_2_over_1
-# (the same regions' compute seconds summed over 2 ranks over 1 rank's: what
-# sharing the machine between 2 busy ranks costs) and the machine's load: the
-# 1-minute load average and the runnable processes of other jobs before
-# each run (min/median/max). On 2 cores a third busy process caps 2 ranks
-# near 4/3 of one: read the ratios next to the load.
+# median) and _pairs_median (median of each adjacent pair's ratio),
+# synthesis_wall_ratio_median (1-rank median synthesis seconds over 2-rank),
+# with the figures a loaded machine does not move:
+#  - cpu_ratio_median: 1 rank's median synthesis CPU over 2 ranks' median
+#    synthesis CPU of the busier rank (polling and replicated work
+#    included): the wall ratio a machine with 2 free cores would show;
+#  - schedule_speedup_{bound,policy}_2ranks, schedule_speedup_replay
+#    (medians; summary.json, src/model/engine_sched.c): in the regions' own
+#    CPU seconds, the best 2-rank schedule, the dataflow's pick rule on 2
+#    ranks, and this run's own schedule (at 2 ranks: shaped by which rank
+#    got a core);
+#  - ideal_speedup (region seconds summed over ranks / the busiest rank's),
+#    region_seconds_total_ratio_2_over_1 (the same regions' compute seconds
+#    summed over 2 ranks over 1 rank's: what sharing the machine costs);
+# and the machine's load: the 1-minute load average and the runnable
+# processes of other jobs before each run (min/median/max), uptime at the
+# start and the end. On 2 cores a third busy process caps 2 ranks near 4/3
+# of one: read the wall ratios next to the load, and the CPU figures beside.
 #
 #   tests/bench/model_scaling.sh [CONFIG.ini ...]   (default: the four below)
+#   MODEL_SCALING_PAIRS=8 nice tests/bench/model_scaling.sh configs/model/castle-10x.ini
+#   (or: make bench T=model_scaling, JSON in bench-results/model_scaling.json)
 set -u
 cd "$(dirname "$0")/../.."
 GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
@@ -29,6 +41,9 @@ PAIRS=${MODEL_SCALING_PAIRS:-5}
 MIN_SECONDS=${MODEL_SCALING_SECONDS:-3}
 MAX_PAIRS=${MODEL_SCALING_MAX_PAIRS:-40}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+# one machine: the ob1 PML over shared memory, as tests/bench/run.sh
+export OMPI_MCA_btl=${OMPI_MCA_btl:-self,vader,tcp} OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
+uptime_start=$(uptime)
 PY=/usr/bin/python3
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -55,7 +70,7 @@ for cfg in "${configs[@]}"; do
     for np in 1 2; do
       dir=$work/$(basename "$cfg" .ini)-$pair-np$np
       load=$(cut -d' ' -f1 /proc/loadavg) busy=$(others)
-      if mpirun -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none \
+      if mpirun -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none --set model.preview=false \
           --set model.vox=false >"$dir.log" 2>&1; then
         echo "$name $np $pair $load $busy $dir/summary.json" >>"$records"
       else
@@ -85,8 +100,9 @@ EOF
   echo "model_scaling: $name $pair pairs" >&2
 done
 
-"$PY" - "$records" <<'EOF'
+"$PY" - "$records" "$uptime_start" "$(uptime)" <<'EOF'
 import json, statistics, sys
+SCHED = ("bound_2ranks", "policy_2ranks", "replay")
 def med(v):
     return statistics.median(v) if v else None
 def r(x, nd=3):
@@ -104,7 +120,10 @@ for line in open(sys.argv[1]):
         run = {"cps": m["cells_per_second"], "synth": m["synthesis_seconds"],
                "wall": s["wall_seconds"], "ideal": m.get("ideal_speedup"),
                "regions_s": m.get("region_seconds_total"),
+               "cpu": m.get("synthesis_cpu_seconds_max_rank"),
                "digest": s["digest"], "cells": m.get("cells")}
+        for k in SCHED:
+            run[k] = m.get("schedule_speedup_" + k)
     cases[name].setdefault(int(np_), []).append(
         {"pair": int(pair), "load": float(load), "busy": int(busy), "run": run})
 out, ok = [], True
@@ -128,6 +147,8 @@ for name in order:
             "wall_seconds_median": r(med([g["wall"] for g in good])),
             "ideal_speedup_median": r(med([g["ideal"] for g in good if g["ideal"]])),
             "region_seconds_total_median": r(med([g["regions_s"] for g in good if g["regions_s"]]), 4),
+            "synthesis_cpu_seconds_max_rank_median": r(med([g["cpu"] for g in good if g["cpu"]]), 4),
+            **{"schedule_speedup_" + k + "_median": r(med([g[k] for g in good if g[k]])) for k in SCHED},
             "load_1min": [min(loads), r(med(loads), 2), max(loads)],
             "other_runnable": [min(busy), med(busy), max(busy)],
         }
@@ -151,11 +172,16 @@ for name in order:
         case["region_seconds_total_ratio_2_over_1"] = r(b / a, 3) if a and b else None
         wl, wh = lo["wall_seconds_median"], hi["wall_seconds_median"]
         case["wall_speedup_median"] = r(wl / wh, 2) if wl and wh else None
+        sl, sh = lo["synthesis_seconds_median"], hi["synthesis_seconds_median"]
+        case["synthesis_wall_ratio_median"] = r(sl / sh, 3) if sl and sh else None
+        cl, ch = lo["synthesis_cpu_seconds_max_rank_median"], hi["synthesis_cpu_seconds_max_rank_median"]
+        case["cpu_ratio_median"] = r(cl / ch, 3) if cl and ch else None
     case["digests_agree"] = len(digests) == 1
     case["digest"] = sorted(digests)[0] if len(digests) == 1 else sorted(digests)
     ok &= case["digests_agree"]
     out.append(case)
 print(json.dumps({"bench": "model_scaling", "measure": "synthesis phase cells/s",
-                  "cores": __import__("os").cpu_count(), "cases": out, "ok": ok}, indent=1))
+                  "cores": __import__("os").cpu_count(), "uptime_start": sys.argv[2],
+                  "uptime_end": sys.argv[3], "cases": out, "ok": ok}, indent=1))
 sys.exit(0 if ok else 1)
 EOF

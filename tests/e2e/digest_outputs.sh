@@ -53,7 +53,7 @@ runs=(
   "micro configs/micro/quick.ini -"
   "micro configs/micro/gallery.ini micro.explore.count=2"
   "model configs/model/demo.ini model.txt=true"
-  "model configs/model/wfc-knots.ini -"
+  "model configs/model/wfc-knots.ini model.schedule_log=true"
   "model configs/model/wfc-overlap-simpleknot.ini -"
 )
 for r in "${runs[@]}"; do
