@@ -26,6 +26,13 @@
 #  - ideal_speedup (region seconds summed over ranks / the busiest rank's),
 #    region_seconds_total_ratio_2_over_1 (the same regions' compute seconds
 #    summed over 2 ranks over 1 rank's: what sharing the machine costs);
+#  - pair_over_np2_ratio_median (and _pairs_median, _pairs_range): each pair
+#    also runs a control, two 1-rank runs at once (MODEL_SCALING_CONTROL=0
+#    skips it). They get the share of the machine the 2 ranks get, and do
+#    twice the 2 ranks' work each, so the slower one's synthesis seconds
+#    over the 2-rank run's is 2 for code that splits the work perfectly,
+#    whatever the load (control_slowdown_vs_1rank: what 2 busy processes
+#    cost each other here);
 # and the machine's load: the 1-minute load average and the runnable
 # processes of other jobs before each run (min/median/max), uptime at the
 # start and the end. On 2 cores a third busy process caps 2 ranks near 4/3
@@ -40,6 +47,7 @@ GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
 PAIRS=${MODEL_SCALING_PAIRS:-5}
 MIN_SECONDS=${MODEL_SCALING_SECONDS:-3}
 MAX_PAIRS=${MODEL_SCALING_MAX_PAIRS:-40}
+CONTROL=${MODEL_SCALING_CONTROL:-1}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 # one machine: the ob1 PML over shared memory, as tests/bench/run.sh
 export OMPI_MCA_btl=${OMPI_MCA_btl:-self,vader,tcp} OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
@@ -62,21 +70,40 @@ others() { awk '/^procs_running/ {print $2 - 1}' /proc/stat; }
 
 records=$work/records.txt
 : >"$records"
+one_run() { # NP DIR
+  mpirun -np "$1" "$GS_BIN" model -c "$cfg" -o "$2" --set model.mesh=none --set model.preview=false \
+    --set model.vox=false >"$2.log" 2>&1
+}
+record() { # NAME KIND PAIR LOAD BUSY DIR RC
+  if [[ $7 -eq 0 ]]; then
+    echo "$1 $2 $3 $4 $5 $6/summary.json" >>"$records"
+  else
+    echo "model_scaling: $1 np=$2 failed, log:" >&2
+    tail -5 "$6.log" >&2
+    echo "$1 $2 $3 $4 $5 FAILED" >>"$records"
+  fi
+}
 for cfg in "${configs[@]}"; do
   name=model/$(basename "$cfg" .ini)
   pair=0
   while :; do
     pair=$((pair + 1))
-    for np in 1 2; do
+    kinds="1 2"
+    [[ $CONTROL == 1 ]] && kinds="1 2 pa"
+    for np in $kinds; do
       dir=$work/$(basename "$cfg" .ini)-$pair-np$np
       load=$(cut -d' ' -f1 /proc/loadavg) busy=$(others)
-      if mpirun -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none --set model.preview=false \
-          --set model.vox=false >"$dir.log" 2>&1; then
-        echo "$name $np $pair $load $busy $dir/summary.json" >>"$records"
+      if [[ $np == pa ]]; then # the control: two 1-rank runs at once
+        dirb=$work/$(basename "$cfg" .ini)-$pair-nppb
+        one_run 1 "$dirb" &
+        pb=$!
+        one_run 1 "$dir"; ra=$?
+        wait $pb; rb=$?
+        record "$name" pa "$pair" "$load" "$busy" "$dir" $ra
+        record "$name" pb "$pair" "$load" "$busy" "$dirb" $rb
       else
-        echo "model_scaling: $name np=$np failed, log:" >&2
-        tail -5 "$dir.log" >&2
-        echo "$name $np $pair $load $busy FAILED" >>"$records"
+        one_run "$np" "$dir"
+        record "$name" "$np" "$pair" "$load" "$busy" "$dir" $?
       fi
     done
     # enough: PAIRS pairs and MIN_SECONDS of synthesis at each rank count
@@ -108,8 +135,16 @@ def med(v):
 def r(x, nd=3):
     return None if x is None else round(x, nd)
 cases, order = {}, []
+ctrl = {}  # name -> pair -> [synthesis seconds of the two 1-rank runs at once]
 for line in open(sys.argv[1]):
     name, np_, pair, load, busy, path = line.split()
+    if np_ in ("pa", "pb"):
+        if path != "FAILED":
+            ctrl.setdefault(name, {}).setdefault(int(pair), []).append(
+                json.load(open(path))["metrics"]["synthesis_seconds"])
+        else:
+            ctrl.setdefault(name, {}).setdefault(int(pair), []).append(None)
+        continue
     if name not in cases:
         cases[name] = {}
         order.append(name)
@@ -176,6 +211,23 @@ for name in order:
         case["synthesis_wall_ratio_median"] = r(sl / sh, 3) if sl and sh else None
         cl, ch = lo["synthesis_cpu_seconds_max_rank_median"], hi["synthesis_cpu_seconds_max_rank_median"]
         case["cpu_ratio_median"] = r(cl / ch, 3) if cl and ch else None
+    # the control: two 1-rank runs at once get the machine's share that the
+    # 2 ranks get; each has a rank's work twice over, so code that splits the
+    # work perfectly gives 2 ranks half their time whatever the load:
+    # pair_over_np2 = slower of the two / 2 ranks' synthesis seconds (ideal 2)
+    cp = [max(v) for v in ctrl.get(name, {}).values() if len(v) == 2 and None not in v]
+    if cp and hi and hi["synthesis_seconds_median"]:
+        case["control_two_1rank_runs_synthesis_seconds_median"] = r(med(cp), 4)
+        case["pair_over_np2_ratio_median"] = r(med(cp) / hi["synthesis_seconds_median"], 3)
+        two = {x["pair"]: x["run"]["synth"] for x in by_np.get(2, []) if x["run"]}
+        pr2 = sorted(max(v) / two[p] for p, v in ctrl[name].items()
+                     if len(v) == 2 and None not in v and p in two)
+        case["pair_over_np2_ratio_pairs_median"] = r(med(pr2), 3)
+        case["pair_over_np2_ratio_pairs_range"] = [r(pr2[0], 3), r(pr2[-1], 3)] if pr2 else None
+        if lo and lo["synthesis_seconds_median"]:
+            # what 2 processes cost each other on this machine at this load
+            case["control_slowdown_vs_1rank"] = r(med(cp) / lo["synthesis_seconds_median"], 3)
+    ok &= all(len(v) == 2 and None not in v for v in ctrl.get(name, {}).values())
     case["digests_agree"] = len(digests) == 1
     case["digest"] = sorted(digests)[0] if len(digests) == 1 else sorted(digests)
     ok &= case["digests_agree"]
