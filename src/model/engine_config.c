@@ -320,20 +320,22 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
                    "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
     GS_CFG_KEY_ENUM(model_config, resemblance_outside, "model.resemblance_outside",
-                    "mismatch|half|match|background", "mismatch",
+                    "mismatch|half|match|background|auto", "auto",
                     "resemblance: what a neighbourhood cell past the example's faces scores "
                     "against a decided output cell: a mismatch (before #18 item 2: features near "
                     "the faces, like castle.txt's bushes, never win), half a match, a match "
                     "(the paper's distance over defined cells only: such neighbourhoods then win "
                     "too easily, castle 3x3x3 share 0.26-0.57), or background: a match when the "
                     "output cell holds the commonest label of the example's x/y faces at its "
-                    "layer, else a mismatch; configs/model/DEFAULTS.md"),
-    GS_CFG_KEY_REAL(model_config, frequency_weight, "model.frequency_weight", 0, 64, 0, "0",
+                    "layer, else a mismatch; auto = half when the z faces are synthesized (model.fix_z_faces), else "
+                    "mismatch; configs/model/DEFAULTS.md"),
+    GS_CFG_KEY_REAL(model_config, frequency_weight, "model.frequency_weight", -1, 64, 0, "-1",
                     "resemblance: label-frequency soft constraint (paper Sec. 4.2, Eq. 6 "
                     "modified): a drawn neighbourhood weighs ((t*D + 1) / (n + 1))^beta for its "
                     "centre label, D = decided cells of the cell's layer in the region, n = "
                     "those with the label, t = its share of the example's layer at that "
-                    "height; beta = this (0 = off); configs/model/DEFAULTS.md"),
+                    "height; beta = this (0 = off); -1 = auto: 2 when the z faces are "
+                    "synthesized (model.fix_z_faces), else 0; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_BOOL(model_config, resemblance_layers, "model.resemblance_layers", "true",
                     "resemblance: a cell at height z draws only from the example's "
                     "neighbourhoods at the same height (output and example share the ground)"),

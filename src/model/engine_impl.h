@@ -132,6 +132,9 @@ typedef struct model_engine {
     int *mirror_map[2];      /* label symmetry S of the x and y mirrors (NULL = none) */
     int *rotate_map;         /* model.rotate: R, the label turned by 90 degrees (NULL = none) */
     uint64_t *ground;        /* model.ground: [2][W] ground labels, labels only there */
+    int outside;             /* model.resemblance_outside as decided (auto resolved): 0 mismatch,
+                                1 half, 2 match, 3 background */
+    double freq_beta;        /* model.frequency_weight as decided (auto resolved) */
     uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
                                 the example's bottom and top layers */
     gs_model_lattice example, lat, start;

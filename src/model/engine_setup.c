@@ -648,13 +648,34 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     if (!e->rules)
         GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
     GS_CALL(decide_z_faces(e));
-    if (!strcmp(c->order, "auto") && !e->params.fix_z_faces && frames == 1 && c->overlap3d == 0 &&
-        !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') && c->resemblance > 0) {
+    const int zsynth = !e->params.fix_z_faces && frames == 1 && c->overlap3d == 0 &&
+                       !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') &&
+                       c->resemblance > 0;
+    if (!strcmp(c->order, "auto") && zsynth) {
         /* synthesized z faces: grow the output from the ground up and from the
          * regions' shells in (configs/model/DEFAULTS.md, `order = auto`) */
         e->params.order = GS_MODEL_ORDER_ENTROPY_LAYERS;
         gs_log(GS_LOG_INFO, "cell order: entropy_layers (model.order = auto, z faces synthesized)");
     }
+    /* model.resemblance_outside = auto: half a match with synthesized z faces
+     * (examples whose relief reaches their x/y faces: configs/model/DEFAULTS.md,
+     * `resemblance_outside = auto`), else a mismatch (every Merrell lattice) */
+    e->outside = !strcmp(c->resemblance_outside, "mismatch") ? 0
+                 : !strcmp(c->resemblance_outside, "half")   ? 1
+                 : !strcmp(c->resemblance_outside, "match")  ? 2
+                 : !strcmp(c->resemblance_outside, "background") ? 3
+                 : zsynth ? 1 : 0;
+    /* model.frequency_weight = -1 (auto): 2 with synthesized z faces (the
+     * layers' label shares keep the relief: configs/model/DEFAULTS.md), else 0 */
+    e->freq_beta = c->frequency_weight >= 0 ? c->frequency_weight : zsynth ? 2.0 : 0.0;
+    if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0] &&
+        (!strcmp(c->resemblance_outside, "auto") || c->frequency_weight < 0))
+        gs_log(GS_LOG_INFO, "%s: resemblance outside the example's faces %s%s, "
+               "frequency weight %g%s",
+               zsynth ? "3D output, z faces synthesized" : "z faces fixed or not a 3D output",
+               e->outside == 0 ? "mismatch" : e->outside == 1 ? "half" : e->outside == 2 ? "match" : "background",
+               strcmp(c->resemblance_outside, "auto") ? "" : " (model.resemblance_outside = auto)",
+               e->freq_beta, c->frequency_weight < 0 ? " (model.frequency_weight = auto)" : "");
     int L = gs_model_rules_nlabels(e->rules), present = 0;
     for (int l = 0; l < L; l++)
         present += gs_model_rules_count(e->rules, l) > 0;
@@ -725,11 +746,8 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
         GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
                                      c->resemblance_layers, &e->resem));
-        gs_model_resem_set_outside(e->resem, !strcmp(c->resemblance_outside, "mismatch") ? 0
-                                             : !strcmp(c->resemblance_outside, "half")   ? 1
-                                             : !strcmp(c->resemblance_outside, "match")  ? 2
-                                                                                         : 3);
-        GS_CALL(gs_model_resem_set_frequency(e->resem, &e->example, c->frequency_weight));
+        gs_model_resem_set_outside(e->resem, e->outside);
+        GS_CALL(gs_model_resem_set_frequency(e->resem, &e->example, e->freq_beta));
         e->params.resem = e->resem;
         gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
                gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,

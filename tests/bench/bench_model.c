@@ -10,7 +10,8 @@
  *
  * --resemblance W (default 2) and --layers (default 1) as the engine's
  * model.resemblance / model.resemblance_layers defaults (0 = the adjacency-only
- * method), --outside as model.resemblance_outside (default mismatch; castle.ini
+ * method), --outside as model.resemblance_outside (default mismatch: what auto
+ * gives these lattices, whose z faces are fixed; castle.ini
  * sets background); each line also gives the quality figures of gs_model_quality
  * averaged over the seeds (non-empty 3x3x3 resemblance, the same with empty
  * windows, label L1).

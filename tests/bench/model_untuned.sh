@@ -2,8 +2,9 @@
 # The model engine on example lattices nobody tuned for (issue 18, item 3):
 # scripts/gen-lattice.py makes a village, a fortress and a terrain with caves
 # from each seed in MODEL_UNTUNED_SEEDS (default 3 4 5; model.order = auto's
-# entropy_layers was chosen on seeds 1-20 and reported on 21-40 as well,
-# configs/model/DEFAULTS.md: seeds from 41 on are fresh); each
+# entropy_layers was chosen on seeds 1-20 and reported on 21-40 as well;
+# resemblance_outside / frequency_weight = auto chosen on 1-40, reported on
+# 41-60, configs/model/DEFAULTS.md: seeds from 61 on are fresh); each
 # is synthesized at 40x40x8 in 20x20 regions with the default settings, one
 # rank, synthesis seed 1. JSON on stdout: per example, the quality figures of
 # summary.json (non-empty 3x3x3 resemblance, completeness, label L1, labels

@@ -203,8 +203,12 @@ fi
 # examples) with the top layer within 1 of the example's, from lattice.h5 and the example.
 # Broken on purpose: layer_ties (solver.c) a no-op, i.e. random ties as with model.order =
 # entropy, fails both (village 7 0.408: roof sheets over walls that never close; fortress 1
-# 0.485: towers scattered).
-for ex in village:7 fortress:1; do
+# 0.485: towers scattered). With synthesized z faces model.resemblance_outside = auto is half a
+# match past the example's faces and model.frequency_weight = auto is 2 (configs/model/DEFAULTS.md):
+# broken on purpose, both auto choices resolved to the rule before (mismatch, 0) fail terrain 4
+# (top layer 3, the example's 5: the hills never rise past z = 3); mismatch alone fails fortress 1
+# (share 0.488); frequency weight 0 alone fails terrain 15 (top layer 3 of 5).
+for ex in village:7 fortress:1 terrain:4 terrain:15; do
   kind=${ex%%:*} s=${ex##*:}
   /usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" $kind $s $kind$s.txt
   printf '[model]\nexample = %s\nsize = 40x40x8\nregion = 20x20x0\nmesh = none\n' $kind$s.txt >$kind$s.ini
@@ -212,6 +216,7 @@ for ex in village:7 fortress:1; do
   expect_rc 0 "$kind $s, 40x40x8 in 20x20 regions, default settings"
   [[ $rc -eq 0 ]] || continue
   expect_err "cell order: entropy_layers" "$kind $s: the log names the cell order model.order = auto chose"
+  expect_err "z faces synthesized: resemblance outside the example's faces half (model.resemblance_outside = auto), frequency weight 2 (model.frequency_weight = auto)" "$kind $s: the log names the settings auto chose"
   res=$(/usr/bin/python3 - $kind$s.txt $kind$s <<'EOF'
 import json, os, sys
 sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
