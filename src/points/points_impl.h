@@ -17,6 +17,8 @@ struct gs_points_grid {
     int dim[3];
     gs_points *cells; /* dim[0]*dim[1]*dim[2], x fastest */
     size_t count;
+    uint32_t **lab;   /* NULL, or per cell a label per point (gs_points_grid_labels_on),
+                         as many slots as the cell's capacity, kept in step with it */
 };
 
 /* Cell coordinate of x along axis a, clamped to the grid. */
@@ -157,21 +159,27 @@ typedef struct gs_points_pairing_in {
 /* pair[i] = index in S paired with Q[i], or -1 when none. */
 gs_err gs_points_pairing(const gs_points_pairing_in *in, long *pair);
 
-/* Patch ids of output points (labels.c): the patch that pasted each point,
- * keyed by the point's exact position (its coordinates' bits), so points
- * that move between grids unchanged keep their id. */
+/* Per-point labels carried beside a bucket grid's points (pointset.c): the
+ * synthesis' output grid keeps the patch that pasted each point this way.
+ * Every change of the grid keeps them in step: gs_points_grid_add gives a
+ * point GS_POINTS_NO_LABEL, the removals drop a point's label with it, the
+ * labelled query and collect hand them out in the points' order. */
 #define GS_POINTS_NO_LABEL UINT32_MAX
-typedef struct gs_points_label_slot {
-    double p[3];
-    uint32_t label, used;
-} gs_points_label_slot;
+/* Gives g a label lane (every point it holds: GS_POINTS_NO_LABEL). */
+gs_err gs_points_grid_labels_on(gs_points_grid *g);
+gs_err gs_points_grid_add_labeled(gs_points_grid *g, const gs_opoint *pt, uint32_t label);
+/* A growable array of labels (zero-initialize; free with gs_free(v)). */
 typedef struct gs_points_labels {
-    gs_points_label_slot *slot;
+    uint32_t *v;
     size_t n, cap;
 } gs_points_labels;
-gs_err gs_points_labels_set(gs_points_labels *m, const double p[3], uint32_t label);
-/* GS_POINTS_NO_LABEL when p was never set. */
-uint32_t gs_points_labels_get(const gs_points_labels *m, const double p[3]);
-void gs_points_labels_free(gs_points_labels *m);
+gs_err gs_points_labels_push(gs_points_labels *l, uint32_t label);
+/* gs_points_grid_query_xy that appends each point's label to lab as well
+ * (GS_POINTS_NO_LABEL when g has no lane). */
+gs_err gs_points_grid_query_xy_labeled(const gs_points_grid *g, const double lo[2],
+                                       const double hi[2], gs_points *out, gs_points_labels *lab);
+/* gs_points_grid_collect that appends each point's label to lab as well. */
+gs_err gs_points_grid_collect_labeled(const gs_points_grid *g, gs_points *out,
+                                      gs_points_labels *lab);
 
 #endif

@@ -108,6 +108,10 @@ void gs_points_grid_destroy(gs_points_grid_t *gp)
     for (size_t i = 0; i < total; i++)
         gs_points_free(&g->cells[i]);
     gs_free(g->cells);
+    if (g->lab)
+        for (size_t i = 0; i < total; i++)
+            gs_free(g->lab[i]);
+    gs_free(g->lab);
     gs_free(g);
     *gp = NULL;
 }
@@ -208,8 +212,58 @@ gs_err gs_points_index_grid_query(const gs_points_index_grid *g, const double c[
 
 gs_err gs_points_grid_add(gs_points_grid_t g, const gs_opoint *pt)
 {
-    GS_CALL(gs_points_append(&g->cells[cell_index(g, pt->p)], pt, 1));
+    return gs_points_grid_add_labeled(g, pt, GS_POINTS_NO_LABEL);
+}
+
+/* Label slots of cell c as many as its points' capacity (old slots kept;
+ * new ones GS_POINTS_NO_LABEL). */
+static gs_err lane_fit(struct gs_points_grid *g, size_t c, size_t had)
+{
+    size_t cap = g->cells[c].cap;
+    if (cap == had)
+        return GS_OK;
+    uint32_t *v = gs_realloc(g->lab[c], cap * sizeof *v);
+    GS_CHECK(v != NULL, GS_ERR_MEM, "bucket grid: out of memory (labels of %zu points)", cap);
+    for (size_t i = had; i < cap; i++)
+        v[i] = GS_POINTS_NO_LABEL;
+    g->lab[c] = v;
+    return GS_OK;
+}
+
+gs_err gs_points_grid_labels_on(gs_points_grid *g)
+{
+    if (g->lab)
+        return GS_OK;
+    size_t total = (size_t)g->dim[0] * g->dim[1] * g->dim[2];
+    g->lab = gs_calloc(total, sizeof *g->lab);
+    GS_CHECK(g->lab != NULL, GS_ERR_MEM, "bucket grid: out of memory (label lanes)");
+    for (size_t c = 0; c < total; c++)
+        GS_CALL(lane_fit(g, c, 0));
+    return GS_OK;
+}
+
+gs_err gs_points_grid_add_labeled(gs_points_grid *g, const gs_opoint *pt, uint32_t label)
+{
+    size_t c = cell_index(g, pt->p), had = g->cells[c].cap;
+    GS_CALL(gs_points_append(&g->cells[c], pt, 1));
+    if (g->lab) {
+        GS_CALL(lane_fit(g, c, had));
+        g->lab[c][g->cells[c].n - 1] = label;
+    }
     g->count++;
+    return GS_OK;
+}
+
+gs_err gs_points_labels_push(gs_points_labels *l, uint32_t label)
+{
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 256;
+        uint32_t *v = gs_realloc(l->v, cap * sizeof *v);
+        GS_CHECK(v != NULL, GS_ERR_MEM, "out of memory (%zu point labels)", cap);
+        l->v = v;
+        l->cap = cap;
+    }
+    l->v[l->n++] = label;
     return GS_OK;
 }
 
@@ -217,10 +271,14 @@ size_t gs_points_grid_remove_points(gs_points_grid_t g, const gs_opoint *pts, si
 {
     size_t removed = 0;
     for (size_t i = 0; i < n; i++) {
-        gs_points *c = &g->cells[cell_index(g, pts[i].p)];
+        size_t ci = cell_index(g, pts[i].p);
+        gs_points *c = &g->cells[ci];
         for (size_t r = 0; r < c->n; r++)
             if (memcmp(&c->v[r], &pts[i], sizeof pts[i]) == 0) {
                 memmove(&c->v[r], &c->v[r + 1], (c->n - r - 1) * sizeof c->v[0]);
+                if (g->lab)
+                    memmove(&g->lab[ci][r], &g->lab[ci][r + 1],
+                            (c->n - r - 1) * sizeof g->lab[ci][0]);
                 c->n--;
                 removed++;
                 break;
@@ -238,12 +296,16 @@ size_t gs_points_grid_remove_xy(gs_points_grid_t g, const double lo[2], const do
     for (int k = 0; k < g->dim[2]; k++)
         for (int j = j0; j <= j1; j++)
             for (int i = i0; i <= i1; i++) {
-                gs_points *c = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                size_t ci = ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
+                gs_points *c = &g->cells[ci];
+                uint32_t *lab = g->lab ? g->lab[ci] : NULL;
                 size_t w = 0;
                 for (size_t r = 0; r < c->n; r++) {
                     const double *p = c->v[r].p;
                     if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
                         continue;
+                    if (lab)
+                        lab[w] = lab[r];
                     c->v[w++] = c->v[r];
                 }
                 removed += c->n - w;
@@ -340,16 +402,27 @@ gs_err gs_points_grid_query(const gs_points_grid *g, const double c[3], double r
 gs_err gs_points_grid_query_xy(const gs_points_grid *g, const double lo[2], const double hi[2],
                                gs_points *out)
 {
+    return gs_points_grid_query_xy_labeled(g, lo, hi, out, NULL);
+}
+
+gs_err gs_points_grid_query_xy_labeled(const gs_points_grid *g, const double lo[2],
+                                       const double hi[2], gs_points *out, gs_points_labels *lab)
+{
     int i0 = grid_coord(g, 0, lo[0]), i1 = grid_coord(g, 0, hi[0]);
     int j0 = grid_coord(g, 1, lo[1]), j1 = grid_coord(g, 1, hi[1]);
     for (int k = 0; k < g->dim[2]; k++)
         for (int j = j0; j <= j1; j++)
             for (int i = i0; i <= i1; i++) {
-                const gs_points *c = &g->cells[((size_t)k * g->dim[1] + j) * g->dim[0] + i];
+                size_t ci = ((size_t)k * g->dim[1] + j) * g->dim[0] + i;
+                const gs_points *c = &g->cells[ci];
                 for (size_t r = 0; r < c->n; r++) {
                     const double *p = c->v[r].p;
-                    if (p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1])
-                        GS_CALL(gs_points_append(out, &c->v[r], 1));
+                    if (!(p[0] >= lo[0] && p[0] < hi[0] && p[1] >= lo[1] && p[1] < hi[1]))
+                        continue;
+                    GS_CALL(gs_points_append(out, &c->v[r], 1));
+                    if (lab)
+                        GS_CALL(gs_points_labels_push(lab, g->lab ? g->lab[ci][r]
+                                                                  : GS_POINTS_NO_LABEL));
                 }
             }
     return GS_OK;
@@ -366,6 +439,17 @@ gs_err gs_points_grid_collect(const gs_points_grid *g, gs_points *out)
     GS_CALL(gs_points_reserve(out, out->n + g->count));
     for (size_t i = 0; i < total; i++)
         GS_CALL(gs_points_append(out, g->cells[i].v, g->cells[i].n));
+    return GS_OK;
+}
+
+gs_err gs_points_grid_collect_labeled(const gs_points_grid *g, gs_points *out,
+                                      gs_points_labels *lab)
+{
+    size_t total = (size_t)g->dim[0] * g->dim[1] * g->dim[2];
+    GS_CALL(gs_points_grid_collect(g, out));
+    for (size_t i = 0; i < total; i++)
+        for (size_t r = 0; r < g->cells[i].n; r++)
+            GS_CALL(gs_points_labels_push(lab, g->lab ? g->lab[i][r] : GS_POINTS_NO_LABEL));
     return GS_OK;
 }
 

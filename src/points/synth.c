@@ -67,7 +67,8 @@ struct gs_points_synth {
     gs_points gone;              /* the output's objects that went (paste), by object */
     uint32_t *gone_obj;
     size_t gone_cap;
-    gs_points_labels labels;     /* the patch that pasted each output point */
+    gs_points_labels gone_lab;   /* their patch ids */
+    gs_points_labels q_lab, keep_lab; /* patch ids of Qall's and keep_in's points */
 };
 
 enum { COMP_SURFACE = 0, COMP_OBJECT = 1, COMP_PARTIAL = 2 };
@@ -226,7 +227,9 @@ void gs_points_synth_destroy(gs_points_synth_t *sp)
     gs_points_free(&s->gone);
     gs_free(s->gone_obj);
     gs_free(s->obj_move);
-    gs_points_labels_free(&s->labels);
+    gs_free(s->gone_lab.v);
+    gs_free(s->q_lab.v);
+    gs_free(s->keep_lab.v);
     gs_free(s);
     *sp = NULL;
 }
@@ -543,6 +546,9 @@ static gs_err synth_setup(struct gs_points_synth *s, const gs_points_texture *te
     double ohi[3] = {(s->cols - 1) * s->step + s->ps + s->we + s->m + R,
                      (s->rows - 1) * s->step + s->ps + s->we + s->m + R, s->box_hi[2] + 2 * R};
     GS_CALL(gs_points_grid_create(olo, ohi, GRID_CELL_R * R, &s->out));
+    /* Each output point carries the patch that pasted it (points.ply's patch
+     * ids, the seam measure). */
+    GS_CALL(gs_points_grid_labels_on(s->out));
     GS_CALL(gs_alloc_array((void **)&s->metrics, s->total, sizeof *s->metrics, "patch metrics"));
     gs_rng_init(&s->rng, p->seed, gs_rng_stream_id(RNG_DOMAIN_SYNTH, 0, 0, 0));
     return objects_setup(s);
@@ -1513,7 +1519,8 @@ static gs_err restore_gone(struct gs_points_synth *s, double r)
             clash = s->scratch.n > 0;
         }
         for (size_t j = a; j < e && !clash; j++)
-            GS_TRY(err, gs_points_grid_add(s->out, &s->gone.v[k[j].i]), done);
+            GS_TRY(err, gs_points_grid_add_labeled(s->out, &s->gone.v[k[j].i],
+                                                   s->gone_lab.v[k[j].i]), done);
         a = e;
     }
 done:
@@ -1535,34 +1542,35 @@ done:
 static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2])
 {
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
+    uint32_t here = (uint32_t)s->cursor;
     if (!s->ncomp || s->obj_ext == 0) {
-        s->keep_in.n = 0;
+        s->keep_in.n = s->keep_lab.n = 0;
         if (mode && s->p.blend_keep_outer) { /* N_k's own points on the strips' outer half */
-            s->Qall.n = 0;
-            GS_CALL(gs_points_grid_query_xy(s->out, blo, bhi, &s->Qall));
+            s->Qall.n = s->q_lab.n = 0;
+            GS_CALL(gs_points_grid_query_xy_labeled(s->out, blo, bhi, &s->Qall, &s->q_lab));
             for (size_t i = 0; i < s->Qall.n; i++)
-                if (blend_weight(s, mode, o, s->Qall.v[i].p) >= 0.5)
+                if (blend_weight(s, mode, o, s->Qall.v[i].p) >= 0.5) {
                     GS_CALL(gs_points_append(&s->keep_in, &s->Qall.v[i], 1));
+                    GS_CALL(gs_points_labels_push(&s->keep_lab, s->q_lab.v[i]));
+                }
         }
         gs_points_grid_remove_xy(s->out, blo, bhi);
         for (size_t i = 0; i < s->keep_in.n; i++)
-            GS_CALL(gs_points_grid_add(s->out, &s->keep_in.v[i]));
-        for (size_t i = 0; i < s->Fb.n; i++) {
-            GS_CALL(gs_points_grid_add(s->out, &s->Fb.v[i]));
-            GS_CALL(gs_points_labels_set(&s->labels, s->Fb.v[i].p, (uint32_t)s->cursor));
-        }
+            GS_CALL(gs_points_grid_add_labeled(s->out, &s->keep_in.v[i], s->keep_lab.v[i]));
+        for (size_t i = 0; i < s->Fb.n; i++)
+            GS_CALL(gs_points_grid_add_labeled(s->out, &s->Fb.v[i], here));
         return GS_OK;
     }
     double r = link_radius(s), ext = s->obj_ext + 2 * r;
     double elo[2] = {blo[0] - ext, blo[1] - ext}, ehi[2] = {bhi[0] + ext, bhi[1] + ext};
     gs_points *Q = &s->Qall;
-    Q->n = 0;
-    GS_CALL(gs_points_grid_query_xy(s->out, elo, ehi, Q));
+    Q->n = s->q_lab.n = 0;
+    GS_CALL(gs_points_grid_query_xy_labeled(s->out, elo, ehi, Q, &s->q_lab));
     uint32_t *label = NULL, nc = 0;
     uint64_t *sizes = NULL;
     double *box = NULL;
     gs_err err = GS_OK;
-    s->keep_in.n = s->drop_out.n = 0;
+    s->keep_in.n = s->drop_out.n = s->keep_lab.n = 0;
     GS_TRY(err, gs_alloc_array((void **)&label, Q->n ? Q->n : 1, sizeof *label, "paste"), done);
     GS_TRY(err, gs_measure_point_components((const double *)Q->v, 6, Q->n, r, label, &nc, &sizes),
            done);
@@ -1595,14 +1603,15 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
                : in_xy(ct, blo, bhi) && (!mode || blend_weight(s, mode, o, ct) < 0.5) ? 2
                                                                                           : 1;
     }
-    s->gone.n = 0;
+    s->gone.n = s->gone_lab.n = 0;
     for (size_t i = 0; i < Q->n; i++) {
         double v = box[6 * label[i] + 4];
         int in = in_xy(Q->v[i].p, blo, bhi);
         if (in && (v == 1 || (v == 0 && mode && s->p.blend_keep_outer &&
-                              blend_weight(s, mode, o, Q->v[i].p) >= 0.5)))
+                              blend_weight(s, mode, o, Q->v[i].p) >= 0.5))) {
             GS_TRY(err, gs_points_append(&s->keep_in, &Q->v[i], 1), done);
-        else if (v == 2 && !in)
+            GS_TRY(err, gs_points_labels_push(&s->keep_lab, s->q_lab.v[i]), done);
+        } else if (v == 2 && !in)
             GS_TRY(err, gs_points_append(&s->drop_out, &Q->v[i], 1), done);
         if (v == 2) {
             if (s->gone.n + 1 > s->gone_cap) {
@@ -1615,12 +1624,13 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
             }
             s->gone_obj[s->gone.n] = label[i];
             GS_TRY(err, gs_points_append(&s->gone, &Q->v[i], 1), done);
+            GS_TRY(err, gs_points_labels_push(&s->gone_lab, s->q_lab.v[i]), done);
         }
     }
     gs_points_grid_remove_xy(s->out, blo, bhi);
     gs_points_grid_remove_points(s->out, s->drop_out.v, s->drop_out.n);
     for (size_t i = 0; i < s->keep_in.n; i++)
-        GS_TRY(err, gs_points_grid_add(s->out, &s->keep_in.v[i]), done);
+        GS_TRY(err, gs_points_grid_add_labeled(s->out, &s->keep_in.v[i], s->keep_lab.v[i]), done);
     /* Fb's objects come in runs (gather_patch appends each whole). */
     for (size_t i = 0; i < s->Fb.n;) {
         uint32_t ob = s->Fbobj[i];
@@ -1634,11 +1644,8 @@ static gs_err paste_patch(struct gs_points_synth *s, int mode, const double o[2]
                    done);
             clash = s->scratch.n > 0;
         }
-        for (size_t j = i; j < e && !clash; j++) {
-            GS_TRY(err, gs_points_grid_add(s->out, &s->Fb.v[j]), done);
-            GS_TRY(err, gs_points_labels_set(&s->labels, s->Fb.v[j].p, (uint32_t)s->cursor),
-                   done);
-        }
+        for (size_t j = i; j < e && !clash; j++)
+            GS_TRY(err, gs_points_grid_add_labeled(s->out, &s->Fb.v[j], here), done);
         i = e;
     }
     /* Where a new object was left out (it touched one that stays), the old
@@ -2018,17 +2025,15 @@ gs_err gs_points_synth_finish_labeled(gs_points_synth_t s, gs_points *out, uint3
     double t0 = gs_time_now();
     gs_points cur = {0};
     gs_points_grid_t g = NULL;
+    gs_points_labels labs = {0};
     uint32_t *lab = NULL, *res = NULL;
     size_t out0 = out->n;
     gs_err err = GS_OK;
     if (patch)
         *patch = NULL;
-    GS_TRY(err, gs_points_grid_collect(s->out, &cur), done);
-    /* Each point's patch, looked up before the relaxation moves it; the
-     * relaxation keeps the order. */
-    GS_TRY(err, gs_alloc_array((void **)&lab, cur.n ? cur.n : 1, sizeof *lab, "patch ids"), done);
-    for (size_t i = 0; i < cur.n; i++)
-        lab[i] = gs_points_labels_get(&s->labels, cur.v[i].p);
+    /* Each point's patch beside it; the relaxation keeps the order. */
+    GS_TRY(err, gs_points_grid_collect_labeled(s->out, &cur, &labs), done);
+    lab = labs.v;
     for (int it = 0; it < s->p.relax_iterations; it++) {
         gs_points next = {0};
         err = relax_once(s, it == 0 ? s->out : g, &cur, &next);
@@ -2079,18 +2084,18 @@ gs_err gs_points_synth_save(const gs_points_synth *s, gs_points_synth_state *st)
     memset(&t, 0, sizeof t);
     t.cursor = s->cursor;
     t.rng = gs_rng_save(&s->rng);
-    GS_CALL(gs_points_grid_collect(s->out, &t.out));
-    gs_err err = gs_alloc_array((void **)&t.metrics, s->cursor ? s->cursor : 1,
-                                sizeof *t.metrics, "saved metrics");
+    gs_points_labels lab = {0};
+    gs_err err = gs_points_grid_collect_labeled(s->out, &t.out, &lab);
+    t.patch = lab.v;
+    if (err == GS_OK && !t.patch) /* no points: one slot, as before */
+        err = gs_alloc_array((void **)&t.patch, 1, sizeof *t.patch, "saved patch ids");
     if (err == GS_OK)
-        err = gs_alloc_array((void **)&t.patch, t.out.n ? t.out.n : 1, sizeof *t.patch,
-                             "saved patch ids");
+        err = gs_alloc_array((void **)&t.metrics, s->cursor ? s->cursor : 1,
+                             sizeof *t.metrics, "saved metrics");
     if (err != GS_OK) {
         gs_points_synth_state_free(&t);
         GS_CALL(err);
     }
-    for (size_t i = 0; i < t.out.n; i++)
-        t.patch[i] = gs_points_labels_get(&s->labels, t.out.v[i].p);
     memcpy(t.metrics, s->metrics, s->cursor * sizeof *t.metrics);
     *st = t;
     return GS_OK;
@@ -2124,9 +2129,9 @@ gs_err gs_points_synth_resume_share(const gs_points_texture *tex, const gs_point
                  "points: saved state has seed %llu, the parameters say %llu",
                  (unsigned long long)st->rng.seed, (unsigned long long)p->seed);
     for (size_t i = 0; i < st->out.n; i++) {
-        GS_TRY(err, gs_points_grid_add(s->out, &st->out.v[i]), fail);
-        if (st->patch)
-            GS_TRY(err, gs_points_labels_set(&s->labels, st->out.v[i].p, st->patch[i]), fail);
+        GS_TRY(err, gs_points_grid_add_labeled(s->out, &st->out.v[i],
+                                               st->patch ? st->patch[i] : GS_POINTS_NO_LABEL),
+               fail);
     }
     if (st->cursor)
         memcpy(s->metrics, st->metrics, st->cursor * sizeof *s->metrics);
