@@ -32,7 +32,8 @@
 #    twice the 2 ranks' work each, so the slower one's synthesis seconds
 #    over the 2-rank run's is 2 for code that splits the work perfectly,
 #    whatever the load (control_slowdown_vs_1rank: what 2 busy processes
-#    cost each other here);
+#    cost each other here). Open MPI binds rank r to core r, so the control
+#    runs on cores 0 and 1 like the 2 ranks (the second with --cpu-set 1);
 # and the machine's load: the 1-minute load average and the runnable
 # processes of other jobs before each run (min/median/max), uptime at the
 # start and the end. On 2 cores a third busy process caps 2 ranks near 4/3
@@ -70,9 +71,11 @@ others() { awk '/^procs_running/ {print $2 - 1}' /proc/stat; }
 
 records=$work/records.txt
 : >"$records"
-one_run() { # NP DIR
-  mpirun -np "$1" "$GS_BIN" model -c "$cfg" -o "$2" --set model.mesh=none --set model.preview=false \
-    --set model.vox=false >"$2.log" 2>&1
+one_run() { # NP DIR [mpirun options]
+  local np=$1 dir=$2
+  shift 2
+  mpirun "$@" -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none \
+    --set model.preview=false --set model.vox=false >"$dir.log" 2>&1
 }
 record() { # NAME KIND PAIR LOAD BUSY DIR RC
   if [[ $7 -eq 0 ]]; then
@@ -95,7 +98,10 @@ for cfg in "${configs[@]}"; do
       load=$(cut -d' ' -f1 /proc/loadavg) busy=$(others)
       if [[ $np == pa ]]; then # the control: two 1-rank runs at once
         dirb=$work/$(basename "$cfg" .ini)-$pair-nppb
-        one_run 1 "$dirb" &
+        # Open MPI binds rank r to core r: a 1-rank run to core 0, the 2
+        # ranks to cores 0 and 1, so the second control run goes to core 1
+        # (two runs bound to core 0 would share one core)
+        one_run 1 "$dirb" --cpu-set 1 &
         pb=$!
         one_run 1 "$dir"; ra=$?
         wait $pb; rb=$?
