@@ -348,7 +348,9 @@ typedef struct gs_field_synth_config {
     int iterations;                  /* 1..GS_FIELD_MAX_ITER (paper: 3) */
     int64_t target[3];               /* final target size; each divisible by 2^(iterations-1) */
     int block[GS_FIELD_MAX_ITER];    /* block size per iteration, coarse to fine (paper: last 16) */
-    uint64_t seed;                   /* seeds the random source samples of iteration 0 */
+    uint64_t seed;                   /* seeds the random source samples of iteration 0 and, with
+                                        mask_unsynthesized, the random source block a block
+                                        with nothing synthesized around it takes */
     int mask_unsynthesized;          /* 0 (paper): match whole blocks, the random seeds of
                                         iteration 0 at weight GS_FIELD_PAPER_SEED_WEIGHT
                                         (src/field/field_impl.h), later the coarse result fully;

@@ -1,0 +1,48 @@
+# End-to-end: the field seed varies the output (#19). In the default matching
+# mode (field.mask_unsynthesized = yes, seed_weight = 0) a block with nothing
+# synthesized around it used to be matched against iteration 0's random
+# samples, and the one source block closest to noise won whatever the noise:
+# configs/field/terrain.ini seeds 2, 3 and 4 gave bit-identical outputs (6
+# and 7 too). Such a block now takes a source block uniformly at random
+# (random_block, src/field/synth.c). Checks, from summary.json's digest of
+# every output:
+# - terrain.ini (full size, about 0.5 s a run) seeds 1-4 give four different
+#   outputs, and quick.ini seeds 1, 2 two different ones;
+# - the same seed gives bit-identical outputs at 1 and 2 ranks (terrain seed
+#   3, quick seed 2).
+# Broken on purpose (watched): random_block's branch skipped in match_block:
+# terrain seeds 2, 3, 4 share one digest and the first check fails.
+source "$GS_ROOT/tests/e2e/lib.bash"
+T=$GS_ROOT/configs/field/terrain.ini Q=$GS_ROOT/configs/field/quick.ini
+NOOUT=(--set output.geometry=none --set output.vdb=no --set output.preview=no)
+
+declare -A dig
+for s in 1 2 3 4; do
+  run_gs 1 field -c "$T" -o "terrain-$s" "${NOOUT[@]}" --set run.seed=$s
+  expect_rc 0 "terrain.ini seed $s"
+  dig[t$s]=$(digest_of "terrain-$s")
+done
+for s in 1 2; do
+  run_gs 1 field -c "$Q" -o "quick-$s" "${NOOUT[@]}" --set run.seed=$s
+  expect_rc 0 "quick.ini seed $s"
+  dig[q$s]=$(digest_of "quick-$s")
+done
+echo "digests: terrain ${dig[t1]} ${dig[t2]} ${dig[t3]} ${dig[t4]}, quick ${dig[q1]} ${dig[q2]}"
+
+n=$(printf '%s\n' "${dig[t1]}" "${dig[t2]}" "${dig[t3]}" "${dig[t4]}" | sort -u | wc -l)
+[[ $n -eq 4 ]] && ok "terrain.ini seeds 1-4: 4 different outputs" ||
+  bad "terrain.ini seeds 1-4: only $n different outputs (the seed is ignored)"
+[[ ${dig[q1]} != "${dig[q2]}" ]] && ok "quick.ini seeds 1, 2: different outputs" ||
+  bad "quick.ini seeds 1, 2: the same output ${dig[q1]}"
+
+run_gs 2 field -c "$T" -o terrain-3-np2 "${NOOUT[@]}" --set run.seed=3
+expect_rc 0 "terrain.ini seed 3, 2 ranks"
+d=$(digest_of terrain-3-np2)
+[[ $d == "${dig[t3]}" ]] && ok "terrain.ini seed 3: np 2 = np 1 ($d)" ||
+  bad "terrain.ini seed 3: np 2 gives $d, np 1 ${dig[t3]}"
+run_gs 2 field -c "$Q" -o quick-2-np2 "${NOOUT[@]}" --set run.seed=2
+expect_rc 0 "quick.ini seed 2, 2 ranks"
+d=$(digest_of quick-2-np2)
+[[ $d == "${dig[q2]}" ]] && ok "quick.ini seed 2: np 2 = np 1 ($d)" ||
+  bad "quick.ini seed 2: np 2 gives $d, np 1 ${dig[q2]}"
+finish
