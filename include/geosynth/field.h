@@ -392,7 +392,10 @@ typedef struct gs_field_synth_config {
                                         touching none of its faces), the output is rebuilt
                                         from them: each core component of the target is
                                         replaced by the whole source object its samples were
-                                        mostly copied from, at that offset (see synth.c);
+                                        mostly copied from, at that offset; an example of long
+                                        objects (fibers: most of the inside runs through along
+                                        one axis) is rebuilt from parts of source objects, slab
+                                        by slab along that axis (see synth.c complete_parts);
                                         0 = off (the paper) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's

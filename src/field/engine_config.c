@@ -105,7 +105,9 @@ static const gs_cfg_key field_keys[] = {
                     "after the last iteration, for an example of separate objects, every "
                     "object of the output (core component, deeper than one sample) is replaced "
                     "by the whole source object its samples were copied from, at that offset "
-                    "(objects glued from pieces of several become whole); no = off (the paper)"),
+                    "(objects glued from pieces of several become whole); for long objects "
+                    "(fibers) each fiber is rebuilt from whole source cross-sections, slab by "
+                    "slab along it; no = off (the paper)"),
     GS_CFG_KEY_INT(field_config, region_blocks, "field.region_blocks", 0, 4096, 0, "4",
                    "target regions run in parallel on the ranks: block positions (stride "
                    "block/2) per region along each axis; 0 = one region; any value gives the "

@@ -1,0 +1,94 @@
+# End-to-end: the field engine's fibers keep their thickness (#19 item 3,
+# whole objects), on configs/field/fibers.ini at 32^3 -> 64^3 (about 15 s on
+# one core). The pieces' fibers meet misaligned by about a sample and the
+# seams along the fibers slice them lengthwise, so the synthesized field's
+# fibers are thinner than the source's (largest inscribed spheres, radii
+# p50 1.41 against the source's 1.73; 42% of the sphere centres 1-sample
+# slivers, the source's 10%). field.complete_objects rebuilds each fiber from
+# whole cross-sections of source fibers (src/field/synth.c complete_parts;
+# off in fibers.ini: at its 128^3 the rebuilt fibers overshoot the source's
+# thickness and break, see there).
+# From field.h5 and summary.json alone (the output's figures are
+# src/field/report.c's; the synthesis' own field, /synthesis/levels, is
+# measured here the same way: maxima of an exact Euclidean distance transform
+# of the inside over their 26 neighbours, at least one sample from every
+# face). Thresholds from the source:
+# - inscribed radius p50 within 10% of the source's;
+# - share of sphere centres with a radius at least the source's p50: at
+#   least 0.8 of the source's share;
+# - volume fraction within 10% of the source's;
+# - the inside crossing slabs along the fibers (crossing_share): at least
+#   0.8 of the source's (the rebuilt fibers are broken where no part could be
+#   pasted: 0.79 against 0.88).
+# The unrebuilt synthesis (/synthesis/levels) must fail the p50 check.
+# Broken on purpose (watched, see notes of #19): complete_parts returning at
+# once (no rebuild) fails objects_rebuilt, p50 (1.41), the share (0.21 against
+# 0.53) and the volume fraction (0.120 against 0.140); PART_ENDS 0 (parts
+# meeting end to end, stepping where misaligned) fails p50 (1.41) and the share
+# (0.36); no refusal of overlapping parts fails the volume fraction (0.165).
+source "$GS_ROOT/tests/e2e/lib.bash"
+F=$GS_ROOT/configs/field/fibers.ini
+run_gs 1 field -c "$F" -o fib --set example.size=32 --set field.target=64 --set output.geometry=none \
+  --set output.vdb=no --set output.preview=no --set field.complete_objects=yes
+expect_rc 0 "fibers.ini 32^3 -> 64^3"
+
+fig=$(/usr/bin/python3 - fib <<'PY'
+import json, sys
+import h5py
+import numpy as np
+from scipy import ndimage
+run = sys.argv[1]
+m = json.load(open(run + "/summary.json"))["metrics"]
+
+def radii(name):
+    with h5py.File(run + "/field.h5", "r") as f:
+        d = f[name]
+        lo, hi = float(d.attrs["lo"]), float(d.attrs["hi"])
+        ins = lo + d[()].astype(np.float64) * (hi - lo) / 255.0 < 0
+    e2 = np.round(ndimage.distance_transform_edt(ins) ** 2)
+    top = ins & (e2 >= ndimage.maximum_filter(e2, size=3, mode="constant", cval=0))
+    top[0] = top[-1] = top[:, 0] = top[:, -1] = top[:, :, 0] = top[:, :, -1] = False
+    return np.sort(np.sqrt(e2[top]))
+
+def p50(r):  # src/field/report.c quantile()
+    return float(r[int(0.5 * (len(r) - 1) + 0.5)])
+
+with h5py.File(run + "/field.h5", "r") as f:
+    rebuilt = "synthesis" in f  # absent when nothing was rebuilt: the output is the synthesis'
+src, out = radii("source/levels"), radii("field/levels")
+syn = radii("synthesis/levels") if rebuilt else out
+ps = p50(src)
+print(json.dumps({
+    "rebuilt": m["objects_rebuilt"],
+    "p50_out": m["inscribed_p50_out"], "p50_src": m["inscribed_p50_src"],
+    "p50_py_out": p50(out), "p50_py_src": ps, "p50_syn": p50(syn),
+    "share_out": float(np.mean(out >= ps - 1e-9)), "share_src": float(np.mean(src >= ps - 1e-9)),
+    "share_syn": float(np.mean(syn >= ps - 1e-9)),
+    "vf_out": m["volume_fraction_out"], "vf_src": m["volume_fraction_src"],
+    "cross_out": m["crossing_share_out"], "cross_src": m["crossing_share_src"]}))
+PY
+)
+echo "fibers: $fig"
+get() { /usr/bin/python3 -c 'import json,sys;print(json.loads(sys.argv[1])[sys.argv[2]])' "$fig" "$1"; }
+t() { /usr/bin/python3 -c "import sys; sys.exit(0 if $1 else 1)"; }
+
+[ "$(get rebuilt)" = 1 ] && ok "fibers.ini: objects_rebuilt 1" || bad "fibers.ini: objects_rebuilt $(get rebuilt)"
+t "abs($(get p50_py_src) - $(get p50_src)) < 1e-6 and abs($(get p50_py_out) - $(get p50_out)) < 1e-6" &&
+  ok "inscribed p50 as report.c's: output $(get p50_out), source $(get p50_src)" ||
+  bad "inscribed p50 here $(get p50_py_out)/$(get p50_py_src), report.c's $(get p50_out)/$(get p50_src)"
+t "abs($(get p50_out) - $(get p50_src)) <= 0.1 * $(get p50_src)" &&
+  ok "inscribed radius p50 $(get p50_out) within 10% of the source's $(get p50_src)" ||
+  bad "inscribed radius p50 $(get p50_out), not within 10% of the source's $(get p50_src)"
+t "$(get share_out) >= 0.8 * $(get share_src)" &&
+  ok "centres with radius >= the source's p50: $(get share_out) (source $(get share_src))" ||
+  bad "centres with radius >= the source's p50: $(get share_out), under 0.8 of the source's $(get share_src)"
+t "abs($(get vf_out) - $(get vf_src)) <= 0.1 * $(get vf_src)" &&
+  ok "volume fraction $(get vf_out) within 10% of the source's $(get vf_src)" ||
+  bad "volume fraction $(get vf_out), not within 10% of the source's $(get vf_src)"
+t "$(get cross_out) >= 0.8 * $(get cross_src)" &&
+  ok "crossing share $(get cross_out) (source $(get cross_src))" ||
+  bad "crossing share $(get cross_out), under 0.8 of the source's $(get cross_src)"
+t "abs($(get p50_syn) - $(get p50_src)) <= 0.1 * $(get p50_src)" &&
+  bad "thin synthesized fibers not flagged: /synthesis/levels p50 $(get p50_syn)" ||
+  ok "thin synthesized fibers flagged: /synthesis/levels p50 $(get p50_syn), share $(get share_syn)"
+finish
