@@ -120,6 +120,12 @@ static const gs_cfg_key points_keys[] = {
                     "points.ply encoding (both exact: doubles / 17 digits)"),
     GS_CFG_KEY_BOOL(PC, patch_csv, "output.patch_metrics", "true",
                     "write RUN_DIR/patches.csv (per-patch search distance, warp residual, ...)"),
+    GS_CFG_KEY_INT(PC, example_seam_shifts, "output.example_seam_shifts", 0, 1024, 0, "1",
+                   "the example's seam measure (summary.json example_patch_seam_*): 1 = the "
+                   "example cut once by lines as far apart as the output's seams; N > 1 also "
+                   "pools N cuts shifted by even steps within a patch step, 0 every field step "
+                   "(example_patch_seam_*_shifted: the measure's level with no seam wherever "
+                   "the output's seams fall; N times the cost)"),
     GS_CFG_KEY_BOOL(PC, mesh, "output.mesh", "false",
                     "also write RUN_DIR/mesh.ply (points -> implicit grid -> OpenVDB mesh)"),
     GS_CFG_KEY_BOOL(PC, preview, "output.preview", "true",

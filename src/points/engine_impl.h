@@ -54,6 +54,7 @@ typedef struct points_config {
     int write_points;
     char *ply_format;
     int patch_csv;
+    int64_t example_seam_shifts;
     int mesh;
     double mesh_voxel;
     int preview;
@@ -157,6 +158,7 @@ typedef struct run_state {
     gs_points_seam_stats seam_ex; /* of the example, lines as far apart (seam_* only) */
     gs_measure_seams pseam;       /* seams from the output's patch ids (rank 0) */
     gs_measure_seams pseam_ex;    /* the same of the example cut into patch-sized cells */
+    gs_measure_seams pseam_ex_all; /* the same pooled over shifted cuts (output.example_seam_shifts) */
 } run_state;
 /* engine_config.c: the points engine's config table. */
 extern const gs_cfg_table points_cfg_table;

@@ -23,6 +23,9 @@
 # - mesh (output.mesh): no triangle below the lowest point (less 3 spacings)
 #   or outside the points' xy range (the border walls and floor are gone);
 #   preview.png is written;
+# - the example's seam measure pooled over cuts shifted within a patch
+#   step (output.example_seam_shifts) differs from the single cut's (the
+#   weave: more than it);
 # - whole objects (weave): the heights' KS distance to the example below 1.5
 #   x the distance between the example's two halves, and specks (pieces of
 #   < 30 points not cut by the border) per unit area at most the example's;
@@ -46,7 +49,8 @@ run_gs 2 points -c "$W" -o warp "${small[@]}" --set output.mesh=true
 expect_rc 0 "weave (small) with warp and blend"
 run_gs 2 points -c "$W" -o nowarp "${small[@]}" --set points.max_pair_dist=0.000001
 expect_rc 0 "weave (small) without warp"
-run_gs 2 points -c "$W" -o noblend "${small[@]}" --set points.blend=false
+run_gs 2 points -c "$W" -o noblend "${small[@]}" --set points.blend=false \
+  --set output.example_seam_shifts=3
 expect_rc 0 "weave (small) without blend"
 
 # The warp, measured on the output points (not the synthesis' record).
@@ -120,6 +124,17 @@ done
   bad "seams do not continue: seam_dist $sd_warp vs inside $id_warp (expected < 1.3 x)"
 [[ ${res[noblend]} == fail ]] && ok "without the blend the seams show (seam $sd_noblend, inside $id_noblend)" ||
   bad "the seam measure does not see a missing blend (seam $sd_noblend, inside $id_noblend)"
+
+# The example's seam measure over shifted cuts (output.example_seam_shifts):
+# the weave's threads lie where a single cut by lines as far apart as the
+# seams finds the surface more continuous than a cut elsewhere does (angle
+# ratio 0.81; 0.81-1.66 over every field-step shift), so the cuts shifted
+# by 0, 4 and 8 field steps pooled give more than the single cut. With the
+# shift a no-op the three cuts are one and the figures equal.
+ea=$(metric noblend example_patch_seam_angle_ratio) es=$(metric noblend example_patch_seam_angle_ratio_shifted)
+/usr/bin/python3 -c "import sys; sys.exit(not $es > 1.05 * $ea)" &&
+  ok "example seam angle ratio over 3 shifted cuts $es, the single cut $ea" ||
+  bad "example seam angle ratio over 3 shifted cuts $es, the single cut $ea (expected > 1.05 x)"
 
 # Whole objects (flowers): with points.objects every flower is pasted whole
 # or not at all, so the output has no more pieces per unit area than the
