@@ -376,6 +376,9 @@ typedef struct gs_points_params {
     int blend_keep_outer; /* 1: the outer half of each active strip keeps N_k's own points
                              (F' dropped there) and F' blends over the inner half with weight
                              2 t; 0: the paper's blend over the whole strip */
+    int blend_fill;       /* 1: N_k's own points in the active strips fill the holes the
+                             blend tore in the pasted sheet (synth.c fill_strip_holes); 0:
+                             the paper's blend */
     int drop_strip_specks; /* 1: the finish drops pieces of < GS_POINTS_SPECK_POINTS points
                               lying wholly in the overlap strips or within the link radius
                               outside their seam edges (a safety net after the blend; the

@@ -105,6 +105,12 @@ static const gs_cfg_key points_keys[] = {
                     "(open 0.095 -> 0.111); weave.ini seam dist ratio 1.58 -> 1.36, angle ratio "
                     "1.50 -> 1.26, open 0.145 -> 0.172; false = the paper's blend over the whole "
                     "strip"),
+    GS_CFG_KEY_BOOL(PC, blend_fill, "points.blend_fill", "true",
+                    "the output's own points in the overlap strips fill the holes the blend tore "
+                    "in the pasted patch (each moved onto the pasted surface, kept a spacing from "
+                    "every point and within 2 spacings of one): heightfield.ini seeds 1-3 specks "
+                    "per unit area without the clean-up below 1.53, 1.26, 1.41 -> 1.14, 0.85, "
+                    "0.83 (the example 0.99); false = the paper's blend"),
     GS_CFG_KEY_BOOL(PC, drop_strip_specks, "points.drop_strip_specks", "true",
                     "drop pieces of fewer than 30 points lying wholly in the overlap strips "
                     "(or within 2 spacings outside their seam edge) after the synthesis (a safety "
