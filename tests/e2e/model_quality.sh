@@ -16,7 +16,7 @@
 # - height profile: mean |fill(z) - example fill(z)| at most half the example's
 #   mean fill (the old default hung walls from the fixed empty top: 0.24-0.41);
 # - no unsupported (floating) cells where the example has none.
-# Broken on purpose (notes/model.md): region synthesis replaced by a no-op
+# Broken on purpose: region synthesis replaced by a no-op
 # fails labels and completeness (parliament also empty share and profile); resemblance removed fails the
 # window share, L1, empty share and profile. About 5 s.
 source "$GS_ROOT/tests/e2e/lib.bash"
