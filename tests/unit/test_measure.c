@@ -224,6 +224,57 @@ static void test_point_seams(void **state)
     free(id);
 }
 
+/* A curved surface (a sphere of radius 2.5 seen from above, jittered
+ * samples, one in each grid cell so evenly dense, exact normals: the same
+ * curvature everywhere and in every direction) split at x = 1 into two patch ids with nothing changed: the
+ * seam scores as the inside (ratios within 10% of 1: the inside reference
+ * has the seam's one-sided geometry at its distances); patch 1 raised by a
+ * third of the spacing scores clearly above. */
+static void test_point_seams_curved(void **state)
+{
+    (void)state;
+    enum { NX = 80, NY = 60 };
+    const double h = 0.025, R = 3 * h, band = 1.5 * h, S = 2.5;
+    double *v = malloc(NX * NY * 6 * sizeof *v);
+    int32_t *id = malloc(NX * NY * sizeof *id);
+    for (int raise = 0; raise < 2; raise++) {
+        uint64_t r = 12345;
+        size_t n = 0;
+        for (int j = 0; j < NY; j++)
+            for (int i = 0; i < NX; i++) {
+                double jit[2];
+                for (int a = 0; a < 2; a++) {
+                    r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+                    jit[a] = ((double)(r >> 11) / 9007199254740992.0 - 0.5) * h;
+                }
+                double x = i * h + jit[0], y = j * h + jit[1], *q = v + 6 * n;
+                double dx = x - 1.0, dy = y - 0.75, z = sqrt(S * S - dx * dx - dy * dy);
+                id[n] = x < 1.0 ? 0 : 1;
+                q[0] = x;
+                q[1] = y;
+                q[2] = z + (raise && id[n] ? h / 3 : 0);
+                q[3] = dx / S;
+                q[4] = dy / S;
+                q[5] = z / S;
+                n++;
+            }
+        gs_measure_seams ms;
+        assert_int_equal(gs_measure_point_seams(v, n, id, R, band, 0.15, &ms), GS_OK);
+        double dr = ms.seam_dist / ms.inside_dist, ar = ms.seam_angle / ms.inside_angle;
+        print_message("curved seam, raise %d: dist %g / %g = %.3f, angle %g / %g = %.3f\n", raise,
+                      ms.seam_dist, ms.inside_dist, dr, ms.seam_angle, ms.inside_angle, ar);
+        assert_true(ms.seam_points > 0 && ms.inside_fits > 0);
+        if (raise) {
+            assert_true(dr > 2);
+        } else {
+            assert_true(fabs(dr - 1) < 0.1);
+            assert_true(fabs(ar - 1) < 0.1);
+        }
+    }
+    free(v);
+    free(id);
+}
+
 static void test_preview(void **state)
 {
     (void)state;
@@ -655,6 +706,7 @@ int main(void)
         cmocka_unit_test(test_components),
         cmocka_unit_test(test_point_pieces),
         cmocka_unit_test(test_point_seams),
+        cmocka_unit_test(test_point_seams_curved),
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
