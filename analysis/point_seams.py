@@ -12,8 +12,11 @@ a point of another patch within BAND in x y, at any height (that patch: the
 nearest such point's);
 its fit is the MLS frame (weights (1 - d^2/R^2)^4) of the other patch's
 points within R: distance |(p - a).n| and the angle of normals. Inside: each
-point with no other patch within R against its own patch's points in the
-half-discs toward +x, -x, +y, -y. Fits weighing less than 0.15 are open.
+point with no other patch within R against its own patch's points beyond a
+virtual seam: a line across +x, -x, +y, -y at u = band x frac((4 i + d) x
+0.618...) from it, kept when a point beyond lies within BAND in x y (the
+seam's one-sided geometry at its distances). Fits weighing less than 0.15
+are open.
 Agrees with summary.json's patch_seam_* / patch_inside_* to 1e-5 relative
 (the points are read back as float32): counts and open shares exactly
 (chainmail.ini 8 x 8 seed 1: 6836 seam points, open 0.0806), distances and
@@ -80,8 +83,12 @@ def measure(v, pid, radius, band):
             continue
         if len(nb) and (pid[nb] != pid[i]).any():
             continue
-        for dx, dy in dirs:
-            side = nb[(v[nb, 0] - p[0]) * dx + (v[nb, 1] - p[1]) * dy > 0]
+        for d, (dx, dy) in enumerate(dirs):
+            x = float(4 * i + d) * 0.6180339887498949
+            u = band * (x - np.floor(x))
+            if not len(nb2) or not ((v[nb2, 0] - p[0]) * dx + (v[nb2, 1] - p[1]) * dy > u).any():
+                continue
+            side = nb[(v[nb, 0] - p[0]) * dx + (v[nb, 1] - p[1]) * dy > u]
             r = fit(v, p, side, inv_r2)
             if r[1] is None:
                 acc["inside"][1] += 1

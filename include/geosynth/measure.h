@@ -90,10 +90,12 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
  * n; seam_dist_p90 the 90th percentile of the distances; seam_open the share
  * of seam points whose fit weighs less than min_weight (no surface across).
  * The inside figures are the same with, for each point with no other patch
- * within R, the frame of its own patch's points on one side of it (four fits:
- * the half-discs toward +x, -x, +y, -y, where the other patch lies at a
- * seam): the same one-sided fit at the same spacing, so a seamless output
- * has seam_* close to inside_*. inside_fits counts those fits. Serial;
+ * within R, the frame of its own patch's points beyond a virtual seam (four
+ * fits: a line across +x, -x, +y, -y at a distance u from the point, u spread
+ * evenly over [0, band), a fit kept when a point beyond the line lies within
+ * band in x y, as a seam point is found): the seam's one-sided geometry at
+ * its distances, so a seamless output has seam_* close to inside_* also on a
+ * curved surface. inside_fits counts those fits. Serial;
  * O(n log n) plus the pairs within radius (src/measure/pointset.c). */
 typedef struct gs_measure_seams {
     double seam_dist, seam_angle, seam_dist_p90, seam_open;
