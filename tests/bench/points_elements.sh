@@ -55,6 +55,19 @@
 # continuation seam on weave (no mismatch at all, seed 1 patches 0-1) scores
 # an angle of 9.9 degrees against inside points' 5.8: the one-sided fit across
 # a seam on the threads' curvature, not the warp, sets most of the figure.
+# Since then (points15) the inside reference has the seam's one-sided
+# geometry at its distances (a virtual seam at 0..band from each inside
+# point, gs_measure_point_seams): the example with no seam, pooled over every
+# shift, gives dist / angle ratio 1.00 / 1.00 on all four (heightfield 1.014
+# / 1.021, chainmail 1.004 / 0.997, weave 0.997 / 1.001, flowers 0.999 /
+# 1.002), and the figures above, all from the former reference, read high.
+# The same runs (np 2, seeds 1-3), full / no_warp, open (unchanged) / dist
+# ratio / angle ratio: chainmail 0.062 / 0.076, 1.16 / 1.18, 1.02 / 1.05;
+# weave 0.144 / 0.148, 1.23 / 1.26, 1.17 / 1.15 (per seed 1.22 1.24 1.06 /
+# 1.20 1.18 1.08); heightfield 0.077 / 0.094, 0.89 / 0.94, 0.67 / 0.68
+# (seams smoother than the inside: the blend); flowers_cut 0.063 / 0.068,
+# 1.07 / 1.05, 0.94 / 0.95. Only weave's seams stand out from the inside
+# (~1.2 in both); the warp's differences are within the seeds' spread.
 # Seeds 4-6 (fresh), warp / no warp: weave open 0.173 / 0.152, dist 1.46 /
 # 1.49, angle 1.30 / 1.23; chainmail 0.089 / 0.096, 1.41 / 1.37, 1.37 / 1.34.
 # Tried on weave seeds 1-3 (angle ratio; warp 1.50, none 1.45), none kept:
