@@ -29,6 +29,7 @@
  * The paper reuses one tree for all iterations by dropping leaves; with
  * every overlapping block position in the tree, the subsampled source has
  * different block positions, so each iteration builds its (small) tree. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -1482,8 +1483,11 @@ static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const
     return d ? d : 1;
 }
 
-/* A uniformly random source block outside the exclusions for block b (at
- * most 64 draws); 0 when every draw was excluded. */
+/* A uniformly random source block outside the exclusions for block b that
+ * holds the surface (samples inside and outside; at most 64 draws); 0 when
+ * every draw was refused. A block all inside or all outside gives the blocks
+ * that continue it nothing to follow: quick.ini seed 3 took an empty one and
+ * its volume fraction fell to 0.068 (source 0.163; with this 0.143). */
 static int random_block(const struct gs_field_synth *s, int64_t b, int B, const int64_t ex[][6],
                         int nex, gs_field_match *m)
 {
@@ -1491,6 +1495,7 @@ static int random_block(const struct gs_field_synth *s, int64_t b, int B, const 
     gs_rng r;
     gs_rng_init(&r, s->cfg.seed, gs_rng_stream_id(FIRST_BLOCK_DOMAIN, (uint64_t)b, 0, 0));
     const uint64_t M = (uint64_t)gs_field_block_count(ls, B);
+    const int q0 = (int)floor(-ls->lo / (ls->hi - ls->lo) * 255.0 + 0.5); /* the zero level */
     for (int t = 0; t < 64; t++) {
         int64_t idx = (int64_t)gs_rng_below(&r, M), bp[3];
         gs_field_block_position(ls, B, idx, bp);
@@ -1498,6 +1503,16 @@ static int random_block(const struct gs_field_synth *s, int64_t b, int B, const 
         for (int i = 0; i < nex && !hit; i++)
             hit = bp[0] >= ex[i][0] && bp[0] <= ex[i][3] && bp[1] >= ex[i][1] &&
                   bp[1] <= ex[i][4] && bp[2] >= ex[i][2] && bp[2] <= ex[i][5];
+        if (!hit) { /* the block holds the surface: inside and outside samples */
+            int in = 0, out = 0;
+            for (int k = 0; k < B; k++)
+                for (int j = 0; j < B; j++)
+                    for (int i = 0; i < B; i++) {
+                        int v = ls->q[bp[0] + i + ls->nx * (bp[1] + j + ls->ny * (bp[2] + k))];
+                        in += v < q0, out += v > q0;
+                    }
+            hit = !(in && out);
+        }
         if (!hit) {
             memset(m, 0, sizeof *m);
             m->index = idx;
