@@ -10,8 +10,8 @@
 # Broken on purpose, each fails here (watched, see notes of #19):
 #   checkerboard instead of the trilinear upsampling (synth.c upsample2):
 #     coarse_departure 1.84, volume fraction 0.354 vs 0.163;
-#   the coarse term dropped (field.coarse_weight = 0, checked below too):
-#     coarse_departure 0.29 (default 0.11).
+#   the coarse term dropped (field.coarse_weight = 0, checked below too,
+#     seeds 1-3): mean coarse_departure 0.25 (default seed 1 0.11).
 source "$GS_ROOT/tests/e2e/lib.bash"
 Q=$GS_ROOT/configs/field/quick.ini
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
@@ -36,13 +36,21 @@ echo "$res" | head -1
 [[ "$(echo "$res" | tail -1)" == "failed: " ]] && ok "quick.ini: statistics within 10% of the source's, coarse result followed" ||
   bad "quick.ini out of tolerance: $(echo "$res" | tail -1)"
 
-# the measure sees a synthesis that ignores the coarse result
-run_gs 1 field -c "$Q" -o unguided --set field.coarse_weight=0 --set output.geometry=none --set output.vdb=no
-expect_rc 0 "quick.ini with field.coarse_weight = 0"
-res=$(quality unguided)
-echo "$res" | head -1
-[[ "$(echo "$res" | tail -1)" == *"coarse guidance"* ]] && ok "coarse result ignored: coarse_departure flags it" ||
-  bad "coarse_weight = 0 not flagged: $(echo "$res" | tail -1)"
+# the measure sees a synthesis that ignores the coarse result, by the mean
+# over seeds 1-3: since the seed picks the first block (#19), one seed's
+# unguided output can follow the coarse result by chance (seed 1 0.174,
+# seeds 2, 3 0.27, 0.31; guided 0.107, 0.091, 0.123)
+deps=()
+for s in 1 2 3; do
+  run_gs 1 field -c "$Q" -o unguided$s --set run.seed=$s --set field.coarse_weight=0 \
+    --set output.geometry=none --set output.vdb=no --set output.preview=no
+  expect_rc 0 "quick.ini with field.coarse_weight = 0, seed $s"
+  deps+=("$(metric unguided$s coarse_departure)")
+done
+mean=$(/usr/bin/python3 -c 'import sys; v=[float(x) for x in sys.argv[1:]]; print(sum(v)/len(v))' "${deps[@]}")
+/usr/bin/python3 -c 'import sys; sys.exit(0 if float(sys.argv[1]) >= 0.2 else 1)' "$mean" &&
+  ok "coarse result ignored: mean coarse_departure $mean over seeds 1-3 (${deps[*]}) flags it (>= 0.2)" ||
+  bad "coarse_weight = 0 not flagged: mean coarse_departure $mean over seeds 1-3 (${deps[*]}) < 0.2"
 
 # the paper's whole-block matching (field.mask_unsynthesized = no) keeps the
 # source's volume fraction within 15%: with its random seeds at full weight
