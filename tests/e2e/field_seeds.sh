@@ -10,8 +10,13 @@
 #   outputs, and quick.ini seeds 1, 2 two different ones;
 # - the same seed gives bit-identical outputs at 1 and 2 ranks (terrain seed
 #   3, quick seed 2).
+# - quick.ini seeds 1-6: no output collapses (volume fraction at least half
+#   the source's): a random first block all outside left quick.ini seed 3 at
+#   0.068 (source 0.163) before random_block drew only blocks holding the
+#   surface (then 0.133-0.176).
 # Broken on purpose (watched): random_block's branch skipped in match_block:
-# terrain seeds 2, 3, 4 share one digest and the first check fails.
+# terrain seeds 2, 3, 4 share one digest and the first check fails; its
+# surface test dropped: quick seed 3 at 0.068 fails the collapse check.
 source "$GS_ROOT/tests/e2e/lib.bash"
 T=$GS_ROOT/configs/field/terrain.ini Q=$GS_ROOT/configs/field/quick.ini
 NOOUT=(--set output.geometry=none --set output.vdb=no --set output.preview=no)
@@ -22,10 +27,13 @@ for s in 1 2 3 4; do
   expect_rc 0 "terrain.ini seed $s"
   dig[t$s]=$(digest_of "terrain-$s")
 done
-for s in 1 2; do
+for s in 1 2 3 4 5 6; do
   run_gs 1 field -c "$Q" -o "quick-$s" "${NOOUT[@]}" --set run.seed=$s
   expect_rc 0 "quick.ini seed $s"
   dig[q$s]=$(digest_of "quick-$s")
+  r=$(/usr/bin/python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["metrics"]; o,s=m["volume_fraction_out"],m["volume_fraction_src"]; print(f"{o:.3f} (source {s:.3f})", int(o >= 0.5*s))' "quick-$s/summary.json")
+  [[ ${r##* } == 1 ]] && ok "quick.ini seed $s: volume fraction ${r% *}, no collapse" ||
+    bad "quick.ini seed $s: volume fraction ${r% *} below half the source's (collapsed)"
 done
 echo "digests: terrain ${dig[t1]} ${dig[t2]} ${dig[t3]} ${dig[t4]}, quick ${dig[q1]} ${dig[q2]}"
 
