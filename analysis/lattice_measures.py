@@ -142,11 +142,52 @@ def enclosed(a, z=2):
     """Share of layer z's cells that are empty and enclosed: not 4-connected through empty
     cells of the layer to its border (a courtyard inside closed walls). castle.txt: 0.156 at
     z = 2 (its courtyard ring); walls that run out through the output's faces enclose nothing."""
+    return enclosure(a, z)["share"]
+
+
+def ground_layer(a):
+    """The lowest layer holding an empty cell (the first layer above the ground), -1 if none."""
+    for z in range(a.shape[0]):
+        if (a[z] == 0).any():
+            return z
+    return -1
+
+
+def enclosure(a, z, min_large=1):
+    """Yards of layer z (as gs_measure_enclosure): the empty cells not 4-connected through
+    empty cells of the layer to its border. share = enclosed cells / layer cells, yards =
+    their components, yard_max = the largest one's cells, large_share = cells in yards of
+    >= min_large cells / layer cells."""
     from scipy import ndimage
     e = a[z] == 0
-    lab, _ = ndimage.label(e)
-    border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
-    return float((e & ~np.isin(lab, border[border > 0])).sum()) / e.size
+    lab, n = ndimage.label(e)
+    border = set(np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]])).tolist())
+    sizes = np.bincount(lab.ravel(), minlength=n + 1)
+    yards = [int(sizes[i]) for i in range(1, n + 1) if i not in border]
+    return {"share": sum(yards) / e.size, "yards": len(yards),
+            "yard_max": max(yards, default=0),
+            "large_share": sum(y for y in yards if y >= min_large) / e.size}
+
+
+def enclosure_figures(ex, out):
+    """summary.json's enclosed_* figures: both lattices at the example's ground layer (its
+    lowest layer holding an empty cell); "large" yards hold >= half the example's largest
+    yard (at least 1 cell); yards_per_kcell = yards per 1000 cells of the layer."""
+    z = ground_layer(ex)
+    if z < 0 or z >= out.shape[0]:
+        return {"enclosed_layer": -1}
+    fe = enclosure(ex, z)
+    big = max(1, (fe["yard_max"] + 1) // 2)
+    fe = enclosure(ex, z, big)
+    fo = enclosure(out, z, big)
+    f = {"enclosed_layer": z}
+    for name, g, a in (("", fo, out), ("_example", fe, ex)):
+        f["enclosed_share" + name] = g["share"]
+        f["enclosed_yards" + name] = g["yards"]
+        f["enclosed_yards_per_kcell" + name] = 1000.0 * g["yards"] / (a.shape[1] * a.shape[2])
+        f["enclosed_yard_max" + name] = g["yard_max"]
+        f["enclosed_large_share" + name] = g["large_share"]
+    return f
 
 
 def shuffled(ex, seed=0):
@@ -170,6 +211,7 @@ def figures(ex, out, ks=(2, 3)):
     f["label_l1_layers"] = label_l1_layers(ex, out)
     if min(ex.shape[0], out.shape[0]) > 2:
         f["enclosed_2"], f["enclosed_2_example"] = enclosed(out), enclosed(ex)
+    f.update(enclosure_figures(ex, out))
     f["unsupported_share"], f["unsupported_share_example"] = unsupported(out), unsupported(ex)
     f["labels_used"] = int(len(np.unique(out[out != 0])))
     f["labels_example"] = int(len(np.unique(ex[ex != 0])))

@@ -230,6 +230,26 @@ void gs_measure_profile_free(gs_measure_profile *p);
 gs_err gs_measure_unsupported(const uint16_t *labels, const int dims[3], uint64_t *unsupported,
                               uint64_t *nonempty);
 
+/* Enclosure of one layer (courtyards inside closed walls): the empty cells
+ * (label 0) of layer z that are not 4-connected through empty cells of that
+ * layer to the layer's border. Those cells form the yards (their 4-connected
+ * components). min_large: a yard of at least this many cells is "large"
+ * (quality figures use half the example's largest yard). Cost O(layer cells). */
+typedef struct gs_measure_enclosure {
+    int layer;              /* z measured */
+    uint64_t cells;         /* cells of the layer (nx * ny) */
+    uint64_t enclosed;      /* enclosed empty cells */
+    uint64_t yards;         /* their 4-connected components */
+    uint64_t yard_max;      /* cells of the largest yard, 0 when none */
+    uint64_t large;         /* enclosed cells in yards of >= min_large cells */
+} gs_measure_enclosure;
+gs_err gs_measure_enclosure_layer(const uint16_t *labels, const int dims[3], int z,
+                                  uint64_t min_large, gs_measure_enclosure *out);
+
+/* The lowest layer holding an empty cell (label 0): the first layer above the
+ * ground, where yards are measured; -1 when no layer has one. */
+int gs_measure_ground_layer(const uint16_t *labels, const int dims[3]);
+
 /* Copying in a synthesized 3D grid of bytes (x fastest), measured from the
  * output and its example alone. Every window of k^3 samples of out whose
  * content occurs exactly once in src (windows that occur more than once, e.g.

@@ -174,6 +174,10 @@ typedef struct gs_model_quality_figures {
     int labels_used, labels_example; /* distinct non-empty labels */
     gs_measure_profile profile;  /* owned: gs_measure_profile_free */
     double unsupported_share, unsupported_share_example; /* of the non-empty cells */
+    /* yards: both lattices at the example's ground layer (its lowest layer holding
+     * an empty cell; enclosure.layer = -1 when it has none or the output is lower),
+     * large = yards of >= half the example's largest (gs_measure_enclosure_layer) */
+    gs_measure_enclosure enclosure, enclosure_example;
 } gs_model_quality_figures;
 
 gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice *output,

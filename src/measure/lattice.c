@@ -231,3 +231,58 @@ done:
     gs_free(grounded);
     return err;
 }
+
+int gs_measure_ground_layer(const uint16_t *labels, const int dims[3])
+{
+    const size_t layer = (size_t)dims[0] * (size_t)dims[1];
+    for (int z = 0; z < dims[2]; z++)
+        for (size_t i = 0; i < layer; i++)
+            if (labels[layer * (size_t)z + i] == 0)
+                return z;
+    return -1;
+}
+
+gs_err gs_measure_enclosure_layer(const uint16_t *labels, const int dims[3], int z,
+                                  uint64_t min_large, gs_measure_enclosure *out)
+{
+    GS_CHECK(z >= 0 && z < dims[2], GS_ERR_ARG, "enclosure: layer %d of %d", z, dims[2]);
+    const int nx = dims[0], ny = dims[1];
+    const size_t layer = (size_t)nx * (size_t)ny;
+    memset(out, 0, sizeof *out);
+    out->layer = z;
+    out->cells = layer;
+    uint8_t *mask = NULL, *open = NULL;
+    uint32_t *comp = NULL, ncomp = 0;
+    uint64_t *sizes = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&mask, layer, 1, "enclosure mask"), done);
+    GS_TRY(err, gs_alloc_array((void **)&comp, layer, sizeof *comp, "enclosure components"),
+           done);
+    const uint16_t *l = labels + layer * (size_t)z;
+    for (size_t i = 0; i < layer; i++)
+        mask[i] = l[i] == 0;
+    static const int flat[3] = {0, 0, 0};
+    GS_TRY(err, gs_measure_components3(mask, nx, ny, 1, flat, comp, &ncomp, &sizes), done);
+    GS_TRY(err, gs_alloc_array((void **)&open, (size_t)ncomp + 1, 1, "open components"), done);
+    memset(open, 0, (size_t)ncomp + 1);
+    for (int x = 0; x < nx; x++)
+        open[comp[x]] = open[comp[(size_t)nx * (size_t)(ny - 1) + (size_t)x]] = 1;
+    for (int y = 0; y < ny; y++)
+        open[comp[(size_t)nx * (size_t)y]] = open[comp[(size_t)nx * (size_t)y + (size_t)(nx - 1)]] = 1;
+    for (uint32_t c = 1; c <= ncomp; c++) {
+        if (open[c])
+            continue;
+        out->yards++;
+        out->enclosed += sizes[c];
+        if (sizes[c] > out->yard_max)
+            out->yard_max = sizes[c];
+        if (sizes[c] >= min_large)
+            out->large += sizes[c];
+    }
+done:
+    gs_free(mask);
+    gs_free(comp);
+    gs_free(open);
+    gs_free(sizes);
+    return err;
+}

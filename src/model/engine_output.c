@@ -349,6 +349,24 @@ static void write_figures(gs_run *run, const gs_model_quality_figures *f)
     gs_run_metric_f64(run, "empty_share_example", f->empty_share_example);
     gs_run_metric_f64(run, "unsupported_share", f->unsupported_share);
     gs_run_metric_f64(run, "unsupported_share_example", f->unsupported_share_example);
+    gs_run_metric_i64(run, "enclosed_layer", f->enclosure.layer);
+    if (f->enclosure.layer >= 0) {
+        const gs_measure_enclosure *en[2] = {&f->enclosure, &f->enclosure_example};
+        static const char *ekey[2][5] = {
+            {"enclosed_share", "enclosed_yards", "enclosed_yards_per_kcell", "enclosed_yard_max",
+             "enclosed_large_share"},
+            {"enclosed_share_example", "enclosed_yards_example",
+             "enclosed_yards_per_kcell_example", "enclosed_yard_max_example",
+             "enclosed_large_share_example"}};
+        for (int k = 0; k < 2; k++) {
+            const double cells = en[k]->cells ? (double)en[k]->cells : 1;
+            gs_run_metric_f64(run, ekey[k][0], (double)en[k]->enclosed / cells);
+            gs_run_metric_i64(run, ekey[k][1], (int64_t)en[k]->yards);
+            gs_run_metric_f64(run, ekey[k][2], 1000.0 * (double)en[k]->yards / cells);
+            gs_run_metric_i64(run, ekey[k][3], (int64_t)en[k]->yard_max);
+            gs_run_metric_f64(run, ekey[k][4], (double)en[k]->large / cells);
+        }
+    }
     gs_run_metric_f64(run, "height_fill_mean_abs", f->profile.fill_mean_abs);
     gs_run_metric_f64(run, "height_label_l1_mean", f->profile.label_l1_mean);
     gs_run_metric_i64(run, "top_layer", f->profile.top_output);

@@ -53,6 +53,18 @@ gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice 
         err = gs_measure_unsupported(example->labels, ed, &u, &n);
         q->unsupported_share_example = n ? (double)u / (double)n : 0;
     }
+    q->enclosure.layer = q->enclosure_example.layer = -1;
+    const int zg = gs_measure_ground_layer(example->labels, ed);
+    if (err == GS_OK && zg >= 0 && zg < od[2]) {
+        err = gs_measure_enclosure_layer(example->labels, ed, zg, 1, &q->enclosure_example);
+        const uint64_t large = q->enclosure_example.yard_max > 1
+                                   ? (q->enclosure_example.yard_max + 1) / 2 : 1;
+        if (err == GS_OK)
+            err = gs_measure_enclosure_layer(example->labels, ed, zg, large,
+                                             &q->enclosure_example);
+        if (err == GS_OK)
+            err = gs_measure_enclosure_layer(output->labels, od, zg, large, &q->enclosure);
+    }
     if (err)
         gs_measure_profile_free(&q->profile);
     return err;

@@ -190,6 +190,10 @@ need = chk.need
 need(f["unsupported_share_example"] == 0 and f["unsupported_share"] == 0, "floating share %.4f where the example's is %.4f" % (f["unsupported_share"], f["unsupported_share_example"]))
 need(f["share_3"] >= 0.5, "non-empty 3x3x3 share %.3f >= 0.5 (issue #18 item 4, untuned examples)" % f["share_3"])
 need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+# the yards (enclosed empty cells of the layer above the ground) of summary.json are the files'
+e = lm.enclosure_figures(ex, out)
+need(e["enclosed_layer"] == 1 and all(abs(e[k] - m[k]) < 1e-12 for k in e),
+     "summary.json's enclosed_* = analysis/lattice_measures.py's (%s)" % e)
 chk.result()
 EOF
 )

@@ -496,6 +496,57 @@ static void test_lattice_measures(void **state)
     gs_measure_profile_free(&p);
 }
 
+/* Enclosure: a closed 6x6 wall ring on a 12x12 layer (z = 1 over a ground
+ * layer) encloses its 4x4 yard; the same ring with one wall cell gone
+ * encloses nothing; a second, 1-cell ring is a small yard (not large). */
+static void test_enclosure(void **state)
+{
+    (void)state;
+    enum { N = 12 };
+    uint16_t a[N * N * 3];
+    const int d[3] = {N, N, 3};
+    memset(a, 0, sizeof a);
+    for (int i = 0; i < N * N; i++)
+        a[i] = 1; /* ground */
+    for (int y = 2; y <= 7; y++)
+        for (int x = 2; x <= 7; x++)
+            if (x == 2 || x == 7 || y == 2 || y == 7)
+                a[N * N + N * y + x] = 9; /* the ring at z = 1 */
+    assert_int_equal(gs_measure_ground_layer(a, d), 1);
+    gs_measure_enclosure e;
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 1, 8, &e), GS_OK);
+    assert_int_equal((int)e.cells, N * N);
+    assert_int_equal((int)e.enclosed, 16);
+    assert_int_equal((int)e.yards, 1);
+    assert_int_equal((int)e.yard_max, 16);
+    assert_int_equal((int)e.large, 16);
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 2, 1, &e), GS_OK); /* no walls up there */
+    assert_int_equal((int)e.enclosed, 0);
+    /* a 1-cell yard in the corner ring (9..11 x 9..11): small */
+    for (int y = 9; y <= 11; y++)
+        for (int x = 9; x <= 11; x++)
+            if (x != 10 || y != 10)
+                a[N * N + N * y + x] = 9;
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 1, 8, &e), GS_OK);
+    assert_int_equal((int)e.enclosed, 17);
+    assert_int_equal((int)e.yards, 2);
+    assert_int_equal((int)e.large, 16);
+    /* a gap in the big ring: its yard joins the outside */
+    a[N * N + N * 2 + 4] = 0;
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 1, 8, &e), GS_OK);
+    assert_int_equal((int)e.enclosed, 1);
+    assert_int_equal((int)e.yards, 1);
+    assert_int_equal((int)e.large, 0);
+    /* an empty cell on the layer's border is outside even when walled in */
+    a[N * N + N * 10 + 10] = 9;
+    a[N * N + N * 10 + 11] = 0;
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 1, 1, &e), GS_OK);
+    assert_int_equal((int)e.enclosed, 0);
+    assert_int_equal(gs_measure_enclosure_layer(a, d, 3, 1, &e), GS_ERR_ARG);
+    memset(a, 1, sizeof a);
+    assert_int_equal(gs_measure_ground_layer(a, d), -1);
+}
+
 /* n pseudo-random bytes (a 64-bit LCG's top byte), *r the state carried on. */
 static void lcg_bytes(uint8_t *a, size_t n, uint64_t *r)
 {
@@ -710,6 +761,7 @@ int main(void)
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
+        cmocka_unit_test(test_enclosure),
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_outline),
