@@ -359,6 +359,10 @@ typedef struct gs_model_params {
                            bottom (z = 0) and top (z = nz - 1) layers are limited to
                            (the labels of the example's own bottom and top layers);
                            NULL = none. Not owned */
+    const uint64_t *xyface[4]; /* label bitsets the cells of the output's x = 0,
+                           x = nx - 1, y = 0, y = ny - 1 faces are limited to (the
+                           engine's model.fix_xy_faces: the example's own face labels);
+                           NULL = none. Not owned */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */

@@ -148,6 +148,11 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                           "must be smaller than the region edge %lld along %c (model.region)",
                           (long long)edge, "xyz"[a]);
     }
+    if (c->fix_xy_faces && (strchr(c->periodic, 'x') || strchr(c->periodic, 'y') ||
+                            c->tileset[0] || c->sample[0]))
+        gs_cfg_report(ctx, "model.fix_xy_faces",
+                      "needs a lattice example (model.example) and no periodic x or y "
+                      "(model.periodic = %s)", c->periodic);
     if (strchr(c->periodic, 'z') && !strcmp(c->fix_z_faces, "true"))
         gs_cfg_report(ctx, "model.periodic",
                       "= %s wraps z: needs model.fix_z_faces = false", c->periodic);
@@ -341,6 +346,12 @@ static const gs_cfg_key model_keys[] = {
                     "neighbourhoods at the same height (output and example share the ground)"),
     GS_CFG_KEY_ENUM(model_config, ac, "model.ac", "ac3|ac4", "ac3",
                     "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
+    GS_CFG_KEY_BOOL(model_config, fix_xy_faces, "model.fix_xy_faces", "false",
+                    "true: each cell on the output's x = 0, x = max, y = 0, y = max faces takes "
+                    "only labels found on the same face of the example (overlap3d: windows at "
+                    "that face), so structure the example keeps off its sides (a fortress wall "
+                    "ring) cannot run out through the output's sides and must close inside; "
+                    "not with periodic x/y, tile sets or samples (configs/model/DEFAULTS.md)"),
     GS_CFG_KEY_ENUM(model_config, fix_z_faces, "model.fix_z_faces", "auto|true|false", "auto",
                     "true: keep the bottom (ground) and top (empty) layers of the start model "
                     "(nz >= 3); false: synthesize them too; auto: true when the example's bottom "

@@ -48,6 +48,7 @@ typedef struct model_config {
     int periodic_input;
     int ground;
     int tile_image;
+    int fix_xy_faces;
     int preview;
     int64_t preview_size;
     int schedule_log;
@@ -137,6 +138,8 @@ typedef struct model_engine {
     double freq_beta;        /* model.frequency_weight as decided (auto resolved) */
     uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
                                 the example's bottom and top layers */
+    uint64_t *xyface;        /* model.fix_xy_faces: [4][W] the labels (overlap3d: patterns)
+                                on the example's x = 0, x = nx-1, y = 0, y = ny-1 faces */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */

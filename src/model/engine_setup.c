@@ -392,6 +392,7 @@ void model_engine_free(model_engine *e)
     gs_free(e->mirror_map[1]);
     gs_free(e->ground);
     gs_free(e->zface);
+    gs_free(e->xyface);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -609,6 +610,48 @@ static gs_err decide_z_faces(model_engine *e)
     return GS_OK;
 }
 
+/* model.fix_xy_faces: the labels on each x/y face of the example (overlap3d:
+ * of its window lattice, so the windows lying at that face), one mask per
+ * face (x = 0, x = nx - 1, y = 0, y = ny - 1); the solver limits the output's
+ * face cells to them. Merrell's start model is ground and empty up to the
+ * output's sides; with free sides the choice never sees that a wall run must
+ * turn before it reaches them, so walls cross the sides and no ring closes
+ * (the fortress of scripts/gen-lattice.py: configs/model/DEFAULTS.md). */
+static gs_err decide_xy_faces(model_engine *e)
+{
+    const model_config *c = e->cfg;
+    if (!c->fix_xy_faces)
+        return GS_OK;
+    const gs_model_lattice *ex = &e->example;
+    const int L = gs_model_rules_nlabels(e->rules);
+    const size_t W = ((size_t)L + 63) / 64;
+    GS_CALL(gs_alloc_array((void **)&e->xyface, 4 * W, 8, "x/y face labels"));
+    memset(e->xyface, 0, 4 * W * 8);
+    int distinct[4] = {0, 0, 0, 0};
+    for (int z = 0; z < ex->nz * (ex->frames > 1 ? ex->frames : 1); z++)
+        for (int y = 0; y < ex->ny; y++)
+            for (int x = 0; x < ex->nx; x++) {
+                const int on[4] = {x == 0, x == ex->nx - 1, y == 0, y == ex->ny - 1};
+                const uint16_t l = ex->labels[(size_t)x + (size_t)ex->nx * ((size_t)y +
+                                              (size_t)ex->ny * (size_t)z)];
+                for (int f = 0; f < 4; f++) {
+                    uint64_t *m = e->xyface + (size_t)f * W, bit = (uint64_t)1 << (l & 63);
+                    if (on[f] && (size_t)(l >> 6) < W && !(m[l >> 6] & bit)) {
+                        m[l >> 6] |= bit;
+                        distinct[f]++;
+                    }
+                }
+            }
+    for (int f = 0; f < 4; f++)
+        e->params.xyface[f] = e->xyface + (size_t)f * W;
+    gs_log(GS_LOG_INFO,
+           "x/y faces limited to the example's own (model.fix_xy_faces): %d / %d / %d / %d %s "
+           "on its x = 0 / x = max / y = 0 / y = max faces",
+           distinct[0], distinct[1], distinct[2], distinct[3],
+           c->overlap3d > 0 ? "windows" : "labels");
+    return GS_OK;
+}
+
 /* The start model must already keep to the face labels decide_z_faces allows. */
 static gs_err check_z_faces(const model_engine *e)
 {
@@ -648,6 +691,7 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     if (!e->rules)
         GS_CALL(gs_model_rules_learn(&e->example, &e->rules));
     GS_CALL(decide_z_faces(e));
+    GS_CALL(decide_xy_faces(e));
     const int zsynth = !e->params.fix_z_faces && frames == 1 && c->overlap3d == 0 &&
                        !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') &&
                        c->resemblance > 0;

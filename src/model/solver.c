@@ -962,6 +962,17 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                     s->dom[(size_t)c * (size_t)s->W + (size_t)w] &= s->zface[f][w];
         }
     }
+    if (s->xyface[0])
+        /* model.fix_xy_faces: the output's x/y face cells keep to the example's own
+         * face labels (each cell: every face it lies on) */
+        for (int32_t c = 0; c < (int32_t)s->n; c++) {
+            const int gx = b->x0 + c % rx, gy = b->y0 + (c / rx) % ry;
+            const int on[4] = {gx == 0, gx == lat->nx - 1, gy == 0, gy == lat->ny - 1};
+            uint64_t *dc = s->dom + (size_t)c * (size_t)s->W;
+            for (int f = 0; f < 4; f++)
+                for (int w = 0; on[f] && w < s->W; w++)
+                    dc[w] &= s->xyface[f][w];
+        }
     const uint16_t *pins = s->pins;
     s->box_x0 = b->x0;
     s->box_y0 = b->y0;
@@ -1964,6 +1975,8 @@ static gs_err take_params(struct gs_model_solver *s, const gs_model_params *p)
     s->rotate_map = p->rotate_map;
     s->zface[0] = p->zface[0];
     s->zface[1] = p->zface[1];
+    for (int f = 0; f < 4; f++)
+        s->xyface[f] = p->xyface[f];
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     return GS_OK;
