@@ -5,7 +5,7 @@
 # 30x30x10 in 10x10 blocks), synthesis seeds MODEL_TARGET_SEEDS (default
 # 1..20), one rank. JSON on stdout: per run the figures of summary.json
 # (non-empty 3x3x3 resemblance, label L1, labels used, empty share,
-# violations, failed regions, synthesis CPU seconds) and per config their
+# violations, failed regions, synthesis CPU seconds, the yards: enclosed_*) and per config their
 # ranges, with the author's figures from the issue (his public implementation
 # on this machine, seeds 1-3) and how many seeds meet the target: non-empty
 # 3x3x3 resemblance >= his best, label L1 <= his best, 0 violations, 0 failed
@@ -28,7 +28,8 @@ done
 /usr/bin/python3 - "${rows[@]}" <<'PY'
 import json, sys
 keys = ["resemblance_3x3x3", "label_l1", "labels_used", "labels_example", "empty_share",
-        "empty_share_example", "violations", "failed_regions", "synthesis_cpu_seconds_max_rank"]
+        "empty_share_example", "violations", "failed_regions", "synthesis_cpu_seconds_max_rank",
+        "enclosed_share", "enclosed_share_example", "enclosed_large_share", "enclosed_yards"]
 # the issue's table: the author's code, seeds 1-3 (3x3x3 share counted over every window)
 author = {"castle": {"resemblance_3x3x3": [0.51, 0.59], "label_l1": [0.15, 0.16]},
           "parliament": {"resemblance_3x3x3": [0.72, 0.75], "label_l1": [0.32, 0.35]}}
