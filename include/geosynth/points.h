@@ -478,6 +478,11 @@ const gs_points_bank *gs_points_synth_bank(const gs_points_synth *s);
 void gs_points_synth_destroy(gs_points_synth_t *s);
 uint64_t gs_points_synth_total(const gs_points_synth *s);  /* patches to place */
 uint64_t gs_points_synth_cursor(const gs_points_synth *s); /* patches placed */
+/* Patch k (k < n) takes source patch chosen[k] in place of its own pick
+ * (points.choices): the search and the pick's draw still run, so all else
+ * is as without. chosen must outlive s; n must equal gs_points_synth_total
+ * and each entry be below the bank's patch count (GS_ERR_ARG otherwise). */
+gs_err gs_points_synth_set_choices(gs_points_synth_t s, const uint64_t *chosen, size_t n);
 /* Places the next patch (search, warp, blend, paste). */
 gs_err gs_points_synth_step(gs_points_synth_t s);
 /* Steps until cursor == total. */

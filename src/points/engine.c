@@ -125,6 +125,8 @@ static gs_err points_restore(void *state, gs_run *run)
     if (err == GS_OK) {
         err = gs_points_synth_resume_share(&rs->tex, &rs->params, &rs->share, &st, &rs->synth);
         gs_points_synth_state_free(&st);
+        if (err == GS_OK)
+            err = points_apply_choices(rs);
     }
     GS_CALL(op_status(run, rs, err));
     run->ckpt_last_units = (int64_t)gs_points_synth_cursor(rs->synth);

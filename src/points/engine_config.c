@@ -87,6 +87,11 @@ static const gs_cfg_key points_keys[] = {
                     "each patch takes the spline of the pairs, the spline of their normal parts, "
                     "or no warp, whichever leaves it closest to the output in the overlap "
                     "(false = always the pairs' spline, the paper's)"),
+    GS_CFG_KEY_PATH(PC, choices, "points.choices", "",
+                    "patches.csv of an earlier run (output.patch_metrics) with the same example "
+                    "and sizes: each patch takes the source patch that run chose (the search "
+                    "still runs); with the warp or blend switched off it shows what they do on "
+                    "the same patches (tests/bench/points_elements.sh); empty = search and pick"),
     GS_CFG_KEY_BOOL(PC, blend, "points.blend", "true",
                     "blend the overlap strips onto the output (paper section 5.3); false pastes "
                     "the warped patch as it is (to measure what the blend does)"),

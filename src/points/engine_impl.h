@@ -49,6 +49,7 @@ typedef struct points_config {
     double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
     double tps_lambda;
+    char *choices; /* points.choices: a patches.csv, "" = none */
     int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, drop_strip_specks, warp_select, objects;
     /* [output] */
     int write_points;
@@ -159,6 +160,8 @@ typedef struct run_state {
     gs_measure_seams pseam;       /* seams from the output's patch ids (rank 0) */
     gs_measure_seams pseam_ex;    /* the same of the example cut into patch-sized cells */
     gs_measure_seams pseam_ex_all; /* the same pooled over shifted cuts (output.example_seam_shifts) */
+    uint64_t *choices;            /* points.choices: each patch's source patch (every rank) */
+    size_t nchoices;
 } run_state;
 /* engine_config.c: the points engine's config table. */
 extern const gs_cfg_table points_cfg_table;
@@ -175,6 +178,11 @@ void points_run_state_free(run_state *r);
 gs_err points_fault_init(fault_inject *f, int rank);
 int points_fault_fires(fault_inject *f, int site);
 gs_err points_fault_raise(const fault_inject *f, int site, gs_err code);
+/* points.choices (engine_setup.c): rank 0 reads the file, every rank gets
+ * the list (collective); apply hands it to rs->synth (after create or
+ * resume). */
+gs_err points_load_choices(gs_run *run, const points_config *c, run_state *rs);
+gs_err points_apply_choices(run_state *rs);
 /* gs_par_agree that remembers a collective failure in *together (every rank
  * returned it from the same collective: the run may end without MPI_Abort). */
 gs_err points_agree(int *together, MPI_Comm comm, gs_err local);

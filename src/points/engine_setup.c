@@ -3,6 +3,8 @@
  * flowers), broadcast, its digest, the core's parameters from the config,
  * and the synthesis created (or left to the restore). See engine_impl.h. */
 #include <math.h>
+#include <stdio.h>
+#include <string.h>
 
 #include "geosynth/digest.h"
 #include "geosynth/image.h"
@@ -206,6 +208,83 @@ void points_run_state_free(run_state *r)
     gs_points_free(&r->out);
     gs_free(r->out_patch);
     gs_free(r->out_id);
+    gs_free(r->choices);
+}
+
+/* points.choices: rank 0 reads the patches.csv (header "patch,chosen,...",
+ * then rows k, source patch, ... for k = 0, 1, ...), every rank gets the
+ * list. Collective; errors name the file and line. */
+static gs_err read_choices(const char *path, uint64_t **out, size_t *n)
+{
+    FILE *f = fopen(path, "r");
+    GS_CHECK(f != NULL, GS_ERR_IO, "points.choices: cannot open %s", path);
+    char line[1024];
+    uint64_t *v = NULL;
+    size_t cap = 0, k = 0;
+    long ln = 1;
+    gs_err err = GS_OK;
+    GS_TRY_CHECK(err, fgets(line, sizeof line, f) && !strncmp(line, "patch,chosen,", 13),
+                 GS_ERR_FORMAT, done,
+                 "points.choices: %s line 1: expected the header \"patch,chosen,...\" of a "
+                 "patches.csv (output.patch_metrics)", path);
+    while (fgets(line, sizeof line, f)) {
+        ln++;
+        unsigned long long a, b;
+        char c;
+        GS_TRY_CHECK(err, sscanf(line, "%llu,%llu%c", &a, &b, &c) == 3 && c == ',' && a == k,
+                     GS_ERR_FORMAT, done,
+                     "points.choices: %s line %ld: expected \"%zu,SOURCE_PATCH,...\"", path, ln,
+                     k);
+        if (k == cap) {
+            cap = cap ? 2 * cap : 256;
+            uint64_t *nv = gs_realloc(v, cap * sizeof *nv);
+            GS_TRY_CHECK(err, nv != NULL, GS_ERR_MEM, done, "points.choices: out of memory");
+            v = nv;
+        }
+        v[k++] = b;
+    }
+    GS_TRY_CHECK(err, k > 0, GS_ERR_FORMAT, done, "points.choices: %s has no patch", path);
+done:
+    fclose(f);
+    if (err != GS_OK) {
+        gs_free(v);
+        return err;
+    }
+    *out = v;
+    *n = k;
+    return GS_OK;
+}
+
+gs_err points_load_choices(gs_run *run, const points_config *c, run_state *rs)
+{
+    if (!c->choices[0])
+        return GS_OK;
+    uint64_t *v = NULL, n = 0;
+    size_t nl = 0;
+    gs_err err = GS_OK;
+    if (run->rank == 0) {
+        err = read_choices(c->choices, &v, &nl);
+        n = nl;
+    }
+    GS_CALL(points_agree(&rs->together, run->comm, err));
+    GS_CALL(GS_PAR_BCAST_VALUE(run->comm, &n, 0));
+    GS_CALL(gs_par_bcast_alloc(run->comm, (void **)&v, (size_t)n, sizeof *v, 0,
+                               "points.choices"));
+    rs->choices = v;
+    rs->nchoices = (size_t)n;
+    return GS_OK;
+}
+
+gs_err points_apply_choices(run_state *rs)
+{
+    if (!rs->choices)
+        return GS_OK;
+    gs_err err = gs_points_synth_set_choices(rs->synth, rs->choices, rs->nchoices);
+    if (err != GS_OK) { /* the same list and run on every rank: the same error */
+        rs->together = 1;
+        gs_error_add_context("points.choices = %s", rs->c->choices);
+    }
+    return err;
 }
 
 gs_err points_phase_setup(gs_run *run, const points_config *c, run_state *rs, int resume,
@@ -320,8 +399,11 @@ gs_err points_phase_setup(gs_run *run, const points_config *c, run_state *rs, in
         rs->share.first = 0;
         rs->share.count = 0;
     }
-    if (!resume) /* a resumed run's synthesis comes from the checkpoint (points_restore) */
+    GS_CALL(points_load_choices(run, c, rs));
+    if (!resume) { /* a resumed run's synthesis comes from the checkpoint (points_restore) */
         GS_CALL(gs_points_synth_create_share(t, p, &rs->share, &rs->synth));
+        GS_CALL(points_apply_choices(rs));
+    }
     gs_json_u64(phase, "input_points", t->pts.n);
     gs_json_u64(phase, "input_points_in_box", inside);
     gs_json_u64(phase, "input_patches", npatch);

@@ -14,6 +14,7 @@
 
 struct gs_points_synth {
     gs_points_params p;
+    const uint64_t *choices; /* gs_points_synth_set_choices (NULL: each patch its pick) */
     double spacing;
     double box_lo[3], box_hi[3];
     gs_points in;
@@ -577,6 +578,18 @@ gs_err gs_points_synth_create_share(const gs_points_texture *tex, const gs_point
         GS_CALL(err);
     }
     *out = s;
+    return GS_OK;
+}
+
+gs_err gs_points_synth_set_choices(gs_points_synth_t s, const uint64_t *chosen, size_t n)
+{
+    GS_CHECK(n == s->total, GS_ERR_ARG, "points.choices: %zu patches given, this run places %llu",
+             n, (unsigned long long)s->total);
+    for (size_t k = 0; k < n; k++)
+        GS_CHECK(chosen[k] < s->npatch, GS_ERR_ARG,
+                 "points.choices: patch %zu takes source patch %llu, the example has %llu", k,
+                 (unsigned long long)chosen[k], (unsigned long long)s->npatch);
+    s->choices = chosen;
     return GS_OK;
 }
 
@@ -1909,6 +1922,8 @@ gs_err gs_points_synth_step(gs_points_synth_t s)
         gs_points_cands_free(&all);
         GS_CALL(err);
     }
+    if (s->choices)
+        chosen = s->choices[k];
     met.chosen = chosen;
     double t1 = gs_time_now();
     /* F_k = tr(P_k U E_k), extended by the warp margin. */

@@ -99,6 +99,7 @@ trap 'rm -rf "$work"' EXIT
 declare -A VAR=(
   [full]=""
   [no_warp]="--set points.max_pair_dist=0.000001"
+  [no_warp_same]="--set points.max_pair_dist=0.000001 --set points.choices=CHOICES"
   [no_blend_no_warp]="--set points.blend=false --set points.max_pair_dist=0.000001"
   [paper_warp]="--set points.warp_select=false"
   [no_blend]="--set points.blend=false"
@@ -121,10 +122,16 @@ for cfg in $CONFIGS; do
       # every run of a config): once per config
       shifts=1
       ((first)) && shifts=0 first=0
+      # *_same: the patches the full run at this seed chose (points.choices)
+      extra=${VAR[$v]//CHOICES/$work/$cfg-full-$seed/patches.csv}
+      if [[ $extra == *points.choices* && ! -s $work/$cfg-full-$seed/patches.csv ]]; then
+        echo "$cfg $v seed $seed: needs the full variant first (VARIANTS=\"full $v\")" >&2
+        exit 1
+      fi
       # shellcheck disable=SC2086
       if nice -n 10 mpirun -np "$NP" "$GS_BIN" -q points -c "$f" -o "$d" --set run.seed="$seed" \
-           --set output.patch_metrics=false --set output.example_seam_shifts=$shifts "${cut[@]}" \
-           ${VAR[$v]} >"$d.log" 2>&1; then
+           --set output.patch_metrics=true --set output.example_seam_shifts=$shifts "${cut[@]}" \
+           $extra >"$d.log" 2>&1; then
         printf '%s\t%s\t%s\t%s\n' "$cfg" "$v" "$seed" "$d" >>"$list"
       else
         echo "FAILED $cfg $v seed $seed: $(tail -3 "$d.log")" >&2

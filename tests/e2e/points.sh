@@ -55,6 +55,29 @@ done
   bad "quick.ini digests differ: np1 ${dig[1]} np2 ${dig[2]} np3 ${dig[3]}"
 ref=${dig[1]}
 
+# points.choices (a run's patches.csv): each patch takes that run's source
+# patch; with the same settings the output is the same, and another seed
+# without the warp places the same patches (what the benchmark's ablations
+# on the same patches rely on)
+run_gs 2 points -c "$CFG" -o chosen --set points.choices="$PWD/run2/patches.csv"
+expect_rc 0 "quick.ini with points.choices = its own patches.csv"
+[[ $(digest_of chosen 2>/dev/null) == "$ref" ]] && ok "points.choices: the same output ($ref)" ||
+  bad "points.choices: digest $(digest_of chosen 2>/dev/null), expected $ref"
+run_gs 1 points -c "$CFG" -o chosen2 --set points.choices="$PWD/run2/patches.csv" \
+  --set run.seed=2 --set points.max_pair_dist=0.000001
+expect_rc 0 "quick.ini seed 2, no warp, points.choices = seed 1's patches.csv"
+run_gs 1 points -c "$CFG" -o seed2 --set run.seed=2
+expect_rc 0 "quick.ini seed 2"
+c1=$(cut -d, -f1,2 run2/patches.csv | md5sum) c2=$(cut -d, -f1,2 chosen2/patches.csv | md5sum)
+c3=$(cut -d, -f1,2 seed2/patches.csv | md5sum)
+[[ $c1 == "$c2" && $c1 != "$c3" ]] &&
+  ok "points.choices: seed 2 places seed 1's source patches (its own picks differ)" ||
+  bad "points.choices: seed 2 with seed 1's choices places other patches (or seed 2 picks the same)"
+printf 'patch,chosen,x\n0,1,0\n2,1,0\n' >bad_choices.csv
+run_gs 0 points -c "$CFG" -o badc --set points.choices="$PWD/bad_choices.csv"
+expect_rc 4 "points.choices: a row out of order"
+expect_err "bad_choices.csv line 3" "points.choices: the error names the file and line"
+
 out=$(check_ply run2 2>&1) && ok "points.ply valid ($out)" || bad "points.ply: $out"
 # ParaView as FORMATS.md says to read it (#23 item 4): the PLY has no cells,
 # Convert To Point Cloud gives one vertex cell per point
