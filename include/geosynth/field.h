@@ -83,8 +83,12 @@
  * octant bounds, against the best distance found so far: whole-level bounds
  * (levels 2 .. L-2), then the exact distance, given up as soon as a partial
  * sum passes the best. The search ends when the front's bound passes the
- * best (or equals it with a higher lowest index): the best is then the
- * exact best match with the lowest index among equals (src/field/search.c).
+ * best (or equals it with a higher lowest index, in the lowest-index tie
+ * order): the best is then the exact best match, the lowest index or the
+ * lowest tie rank (gs_field_search_opts.tie_key) among equals
+ * (src/field/search.c). With a tie key a node whose bound equals the best
+ * is still opened (its blocks' ranks are not known before), and a leaf at
+ * that bound is dropped when its lowest member rank is above the best's.
  *
  * Costs: pyramid 1 + 8*L bytes per source sample (sums and spreads); tree build O(M log M)
  * block comparisons (M = number of blocks) plus O(n) hashing; tree memory
@@ -203,7 +207,8 @@ uint64_t gs_field_block_distance(const gs_qfield *src, int64_t index, const gs_f
 
 typedef struct gs_field_match {
     int found;          /* 0: nothing within the bound */
-    int64_t index;      /* best source block index (lowest among equals) */
+    int64_t index;      /* best source block index (among equals: the lowest, or the
+                           lowest tie rank of opts->tie_key) */
     uint64_t dist;      /* its distance (weighted sum of squared differences, see top) */
     int64_t known;      /* number of known query samples */
     uint64_t pops;      /* queue entries popped and leaves evaluated (tree) / blocks scanned (brute) */
@@ -215,8 +220,9 @@ typedef struct gs_field_match {
 } gs_field_match;
 
 /* Reference: linear scan over blocks [begin, end) of src in index order,
- * keeping the first block with the smallest distance. Blocks whose distance
- * exceeds *bound are ignored; on return *bound = min(*bound, best). */
+ * keeping the first block with the smallest distance (the lowest index
+ * among equals). Blocks whose distance exceeds *bound are ignored; on
+ * return *bound = min(*bound, best). */
 gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int64_t begin,
                              int64_t end, uint64_t *bound, gs_field_match *out);
 /* The same, skipping the blocks whose position lies in one of nexclude
@@ -225,6 +231,12 @@ gs_err gs_field_brute_search(const gs_qfield *src, const gs_field_query *q, int6
 gs_err gs_field_brute_search_excluding(const gs_qfield *src, const gs_field_query *q,
                                        const int64_t (*exclude)[6], int nexclude, int64_t begin,
                                        int64_t end, uint64_t *bound, gs_field_match *out);
+/* The same with ties in the order of tie_key (gs_field_tie_rank): the
+ * reference for gs_field_search_opts.tie_key. */
+gs_err gs_field_brute_search_keyed(const gs_qfield *src, const gs_field_query *q,
+                                   const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
+                                   int64_t begin, int64_t end, uint64_t *bound,
+                                   gs_field_match *out);
 
 typedef struct gs_field_tree *gs_field_tree_t;
 
@@ -299,8 +311,8 @@ typedef struct gs_field_search_opts {
     /* > 0: an upper bound on the best distance known before the search (the
      * exact distance of a candidate block in the tree, e.g. the continuation
      * of the neighbouring block's match): subtrees whose lower bound passes
-     * it are dropped from the start. The answer is the same (ties still go to
-     * the lowest index: blocks at exactly this distance are kept); a search
+     * it are dropped from the start. The answer is the same (ties still go by
+     * tie_key: blocks at exactly this distance are kept); a search
      * over part of the tree that holds no block within it finds nothing. */
     uint64_t start_bound;
     /* Called every poll_every pops (when poll != NULL) with the shared bound;
@@ -316,21 +328,43 @@ typedef struct gs_field_search_opts {
     /* Source block positions no match may take: nexclude boxes {lo x, lo y,
      * lo z, hi x, hi y, hi z} (inclusive, block positions of the searched
      * source). The cost there is infinite, nothing else changes: the answer is
-     * the exact best of the other blocks, ties to the lowest index, as
-     * gs_field_brute_search_excluding finds it. start_bound must then be the
+     * the exact best of the other blocks, ties by tie_key, as
+     * gs_field_brute_search_keyed finds it. start_bound must then be the
      * distance of a block that is not excluded. The synthesis uses it to end
      * a copy that has grown too large (field.copy_limit, src/field/synth.c). */
     const int64_t (*exclude)[6];
     int nexclude;
+    /* Tie order among blocks at the same distance (gs_field_tie_rank): 0 =
+     * the lowest index (the quality measure); otherwise the lowest rank of
+     * a hash of (tie_key, index), so that exact ties (a periodic source,
+     * flat or empty regions, blocks that differ only where the query is
+     * unknown) go to a block chosen at random per key, not to the one
+     * nearest the source's start. The synthesis keys it by the seed, the
+     * iteration and the target block (src/field/synth.c match_block). The
+     * answer is still an exact best: only which of the equals differs. */
+    uint64_t tie_key;
 } gs_field_search_opts;
+
+/* Rank of block `index` (< 2^32) in the tie order of tie_key: the index
+ * itself for tie_key 0, else a 31-bit hash of (tie_key, index) above the
+ * index (bits 32-62), so ranks are distinct, below 2^63 (they reduce as
+ * int64 across ranks) and gs_field_tie_index gives the index back. A match
+ * is the lowest (dist, rank) pair: a total order, so disjoint parts of the
+ * tree reduced in it give the whole tree's answer. */
+uint64_t gs_field_tie_rank(uint64_t tie_key, int64_t index);
+static inline int64_t gs_field_tie_index(uint64_t rank)
+{
+    return (int64_t)(rank & 0xffffffffu);
+}
 
 /* Exact best match of q among the blocks under top-level subtrees
  * [top_begin, top_end), considering only distances <= *bound (pass
  * UINT64_MAX for none). Pruning is strictly "lower bound > *bound", so
  * candidates tied with the bound survive; on return *bound = min(*bound,
  * best found, upper bounds met). out->found = 0 when no block is within the
- * bound. Reducing the (dist, index) pairs of disjoint ranges in
- * lexicographic order gives exactly the answer of the whole range, for any
+ * bound. Reducing the (dist, gs_field_tie_rank(opts->tie_key, index)) pairs
+ * of disjoint ranges in lexicographic order gives exactly the answer of the
+ * whole range, for any
  * split and any exchange of bounds between ranges: this is the contract the
  * MPI layer builds on. opts may be NULL. */
 gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t top_end,

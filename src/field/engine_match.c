@@ -97,14 +97,17 @@ gs_err field_match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t s
         gs_psearch_hit hit;
         GS_CALL(gs_psearch_best(ctx->ps, search_share, ctx, &hit));
         GS_CHECK(hit.index >= 0, GS_ERR_INTERNAL, "distributed block search found no block");
-        /* psearch orders ties by subtree; the serial answer is the lowest block index */
-        int64_t key = ctx->local.found && (double)ctx->local.dist == hit.dist ? ctx->local.index
-                                                                              : INT64_MAX, best;
+        /* psearch orders ties by subtree; the serial answer is the lowest
+         * tie rank (the lowest index without a tie key, see
+         * gs_field_tie_rank) among the ranks' bests at the best distance */
+        int64_t key = ctx->local.found && (double)ctx->local.dist == hit.dist
+                      ? (int64_t)gs_field_tie_rank(ctx->opts.tie_key, ctx->local.index)
+                      : INT64_MAX, best;
         GS_CALL(gs_par_min_i64(run->comm, key, &best));
         GS_CHECK(best != INT64_MAX, GS_ERR_INTERNAL, "distributed block search lost its best block");
         *out = ctx->local;
         out->found = 1;
-        out->index = best;
+        out->index = gs_field_tie_index((uint64_t)best);
         out->dist = (uint64_t)hit.dist;
         out->pops = ctx->local.pops; /* this rank's work */
         /* the same on every rank, also on one whose slab found nothing */

@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "field_impl.h"
+#include "geosynth/digest.h"
 #include "geosynth/mem.h"
 
 /* Leaves are not queued: when a node is expanded, its leaf children are
@@ -433,20 +434,42 @@ static int in_boxes(const int64_t (*box)[6], int n, const int64_t p[3])
     return 0;
 }
 
-/* The block of leaf node nd a match may take: its lowest member outside
- * opts->exclude (members share their content, so their distance), or -1. */
-static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_opts *o,
-                         const gs_tree_node *nd)
+uint64_t gs_field_tie_rank(uint64_t tie_key, int64_t index)
 {
-    if (!o->nexclude)
+    if (!tie_key)
+        return (uint64_t)index;
+    uint64_t h = gs_hash_mix64(tie_key ^ gs_hash_mix64((uint64_t)index + 0x9e3779b97f4a7c15ULL));
+    return (h >> 33) << 32 | (uint64_t)(uint32_t)index;
+}
+
+/* The block of leaf node nd a match may take: of its members outside
+ * opts->exclude (members share their content, so their distance), the
+ * lowest in the tie order of opts->tie_key (global indices), or -1; *rank
+ * its tie rank. */
+static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_opts *o,
+                         const gs_tree_node *nd, uint64_t *rank)
+{
+    if (!o->nexclude && !o->tie_key) {
+        *rank = (uint64_t)((int64_t)nd->rep + t->index_offset);
         return nd->rep;
+    }
+    int64_t pick = -1;
     for (uint32_t i = 0; i < nd->count; i++) {
         int64_t g = (int64_t)t->members[nd->first + i] + t->index_offset;
-        int64_t p[3] = {g % t->bx, g / t->bx % t->by, g / (t->bx * t->by)};
-        if (!in_boxes(o->exclude, o->nexclude, p))
-            return t->members[nd->first + i];
+        if (o->nexclude) {
+            int64_t p[3] = {g % t->bx, g / t->bx % t->by, g / (t->bx * t->by)};
+            if (in_boxes(o->exclude, o->nexclude, p))
+                continue;
+        }
+        uint64_t r = gs_field_tie_rank(o->tie_key, g);
+        if (pick < 0 || r < *rank) {
+            pick = t->members[nd->first + i];
+            *rank = r;
+            if (!o->tie_key)
+                break; /* members ascend: the first is the lowest */
+        }
     }
-    return -1;
+    return pick;
 }
 
 /* Exact distance of the leaf whose block is at base, from a state after
@@ -513,14 +536,16 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
     uint64_t steps_total = (uint64_t)lay->steps;
     int smax = leaf_stage_max(L);
     int have = 0;
-    uint64_t best_d = 0;
+    uint64_t best_d = 0, best_rank = 0;
     uint32_t best_rep = 0;
-#define CONSIDER(d, rep)                                                                           \
+    const int keyed = opts->tie_key != 0;
+#define CONSIDER(d, rep, rank)                                                                     \
     do {                                                                                           \
-        if (!have || (d) < best_d || ((d) == best_d && (rep) < best_rep)) {                        \
+        if (!have || (d) < best_d || ((d) == best_d && (rank) < best_rank)) {                      \
             have = 1;                                                                              \
             best_d = (d);                                                                          \
             best_rep = (rep);                                                                      \
+            best_rank = (rank);                                                                    \
             if (best_d < bnd) {                                                                    \
                 bnd = best_d;                                                                      \
                 bnd_scaled = SCALED(bnd);                                                          \
@@ -528,9 +553,13 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         }                                                                                          \
     } while (0)
     /* nothing below an entry of bound lb and lowest index rep can beat the
-     * best so far (ties go to the lowest index) */
+     * best so far (lowest-index ties: rep is the lowest index below; with a
+     * tie key the ranks below are unknown, so an entry at the bound stays) */
 #define WORSE(lb, rep)                                                                             \
-    ((lb) > bnd_scaled || ((lb) == bnd_scaled && have && best_d == bnd && (rep) > best_rep))
+    ((lb) > bnd_scaled ||                                                                          \
+     (!keyed && (lb) == bnd_scaled && have && best_d == bnd && (rep) > best_rep))
+    /* a leaf at the bound whose pick ranks above the best's cannot win */
+#define TIE_LOSES(lb, rank) ((lb) == bnd_scaled && have && best_d == bnd && (rank) > best_rank)
     /* out->pops counts queue pops and leaves evaluated at once: the units of
      * work that polling and the pop budget are measured in */
     uint64_t next_poll = opts->poll_every;
@@ -554,9 +583,11 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
         int64_t base = gs_tree_block_base(t, nd->rep);
         uint64_t d;
         if (nd->end == steps_total) {
-            int64_t pick = leaf_pick(t, opts, nd);
-            if (pick >= 0 && leaf_eval(s, base, e.step, bnd, bnd_scaled, smax, out, &d))
-                CONSIDER(d, (uint32_t)pick);
+            uint64_t rank = 0;
+            int64_t pick = leaf_pick(t, opts, nd, &rank);
+            if (pick >= 0 && !TIE_LOSES(e.lb, rank) &&
+                leaf_eval(s, base, e.step, bnd, bnd_scaled, smax, out, &d))
+                CONSIDER(d, (uint32_t)pick, rank);
             continue;
         }
         int requeued = 0, dropped = 0;
@@ -625,14 +656,16 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
                 break;
             }
             out->pops++;
-            int64_t pick = leaf_pick(t, opts, &t->nodes[cd->node]);
-            if (pick >= 0 &&
+            uint64_t rank = 0;
+            int64_t pick = leaf_pick(t, opts, &t->nodes[cd->node], &rank);
+            if (pick >= 0 && !TIE_LOSES(cd->lb, rank) &&
                 leaf_eval(s, gs_tree_block_base(t, cd->rep), cd->step, bnd, bnd_scaled, smax, out, &d))
-                CONSIDER(d, (uint32_t)pick);
+                CONSIDER(d, (uint32_t)pick, rank);
         }
         if (out->truncated)
             break;
     }
+#undef TIE_LOSES
 #undef WORSE
 #undef CONSIDER
 #undef SCALED
@@ -727,6 +760,14 @@ gs_err gs_field_brute_search_excluding(const gs_qfield *src, const gs_field_quer
                                        const int64_t (*exclude)[6], int nexclude, int64_t begin,
                                        int64_t end, uint64_t *bound, gs_field_match *out)
 {
+    return gs_field_brute_search_keyed(src, q, exclude, nexclude, 0, begin, end, bound, out);
+}
+
+gs_err gs_field_brute_search_keyed(const gs_qfield *src, const gs_field_query *q,
+                                   const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
+                                   int64_t begin, int64_t end, uint64_t *bound,
+                                   gs_field_match *out)
+{
     int B = q->block;
     int64_t M = gs_field_block_count(src, B);
     GS_CHECK(M > 0, GS_ERR_ARG, "query block %d does not fit the source", B);
@@ -739,18 +780,22 @@ gs_err gs_field_brute_search_excluding(const gs_qfield *src, const gs_field_quer
     uint64_t wk, wu;
     gs_field_query_weights(q, &wk, &wu);
     int64_t bx = src->nx - B + 1, by = src->ny - B + 1, nxy = src->nx * src->ny;
-    uint64_t best = *bound;
+    uint64_t best = *bound, best_rank = 0;
     for (int64_t idx = begin; idx < end; idx++) {
         int64_t p[3] = {idx % bx, idx / bx % by, idx / (bx * by)};
         if (in_boxes(exclude, nexclude, p))
             continue;
         uint64_t d = ssd(src->q + gs_block_base(bx, by, src->nx, src->ny, idx), src->nx, nxy,
                          q->values, q->known, wk, wu, B, 0, B);
-        if (d <= best && (!out->found || d < out->dist)) {
+        if (d > best)
+            continue;
+        uint64_t rank = gs_field_tie_rank(tie_key, idx);
+        if (!out->found || d < out->dist || rank < best_rank) {
             out->found = 1;
             out->index = idx;
             out->dist = d;
             best = d;
+            best_rank = rank;
         }
     }
     out->pops = (uint64_t)(end - begin);

@@ -34,11 +34,13 @@
 #include <string.h>
 
 #include "field_impl.h"
+#include "geosynth/digest.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 #define FIRST_BLOCK_DOMAIN 0x465242u /* "FRB" */
+#define TIE_DOMAIN 0x464954u         /* "FIT": the matcher's tie order per block */
 
 struct gs_field_synth {
     const gs_qfield *src;
@@ -1556,6 +1558,14 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     opts.nexclude = copy_exclusions(s, b, B, ex);
     opts.exclude = (const int64_t(*)[6])ex;
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
+    /* Exact ties (equal distance: a periodic source, flat or empty regions,
+     * blocks that differ only where the query is unknown) go to a block
+     * drawn by a hash of (seed, iteration, target block), not to the lowest
+     * index: that biased every tie to the start of the source (patchwork,
+     * chain mail tiled from its first rings). Stateless: the same at any
+     * rank count and across resume. */
+    uint64_t tie = gs_hash_mix64(s->cfg.seed ^ gs_rng_stream_id(TIE_DOMAIN, (uint64_t)b, (uint64_t)it, 0));
+    opts.tie_key = tie ? tie : 1;
     if (opts.use_upper_bound && s->cfg.tree_shards <= 1)
         opts.start_bound = candidate_bound(s, b, &q, (const int64_t(*)[6])ex, opts.nexclude);
     gs_field_match m;

@@ -154,7 +154,7 @@ static void make_query(gs_rng *r, const gs_qfield *src, const gs_qfield *other, 
     }
 }
 
-static int excluded_queries;
+static int excluded_queries, keyed_moved;
 
 static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int queries,
                                      uint64_t seed, int *done)
@@ -191,6 +191,9 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
         gs_field_match mt, mb;
         gs_field_search_opts opts = {0};
         opts.use_upper_bound = t % 2;
+        /* half the queries break ties by a random key (the synthesis' order) */
+        if (t % 4 >= 2)
+            opts.tie_key = gs_rng_u64(&r) | 1;
         /* every third query excludes 1-3 boxes of source blocks (the copy
          * limit's), the first around the best unexcluded match so far */
         int64_t ex[3][6];
@@ -223,16 +226,24 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
             if (mt.found) {
                 uint64_t b2 = UINT64_MAX;
                 gs_field_match m2;
-                OK(gs_field_brute_search_excluding(src, &q, opts.exclude, opts.nexclude, 0,
-                                                   info.blocks, &b2, &m2));
+                OK(gs_field_brute_search_keyed(src, &q, opts.exclude, opts.nexclude,
+                                               opts.tie_key, 0, info.blocks, &b2, &m2));
                 assert_int_equal(mt.index, m2.index);
                 assert_int_equal(mt.dist, m2.dist);
             }
         }
         OK(gs_field_tree_best_match(s, &q, &opts, &mt));
         uint64_t bound = UINT64_MAX;
-        OK(gs_field_brute_search_excluding(src, &q, opts.exclude, opts.nexclude, 0, info.blocks,
-                                           &bound, &mb));
+        OK(gs_field_brute_search_keyed(src, &q, opts.exclude, opts.nexclude, opts.tie_key, 0,
+                                       info.blocks, &bound, &mb));
+        if (opts.tie_key) { /* did the key move the answer off the lowest index? */
+            uint64_t b3 = UINT64_MAX;
+            gs_field_match m3;
+            OK(gs_field_brute_search_excluding(src, &q, opts.exclude, opts.nexclude, 0,
+                                               info.blocks, &b3, &m3));
+            assert_int_equal(m3.dist, mb.dist);
+            keyed_moved += m3.index != mb.index;
+        }
         if (mt.index != mb.index || mt.dist != mb.dist)
             fprintf(stderr, "MISMATCH %s n=%lld B=%d query %d kind %d: tree (%lld, %llu) brute (%lld, %llu)\n",
                     gs_field_shape_name(kind), (long long)n, B, t, qk, (long long)mt.index,
@@ -275,6 +286,9 @@ static void test_tree_matches_brute_force(void **state)
     check_tree_against_brute(GS_FIELD_BALLS, 64, 8, 30, 18, &done);
     assert_true(done >= 1000);
     assert_true(excluded_queries >= 300);
+    /* exact ties where the tie key picked another block than the lowest */
+    fprintf(stderr, "%d keyed queries answered off the lowest index\n", keyed_moved);
+    assert_true(keyed_moved >= 50);
 }
 
 /* Every query of real syntheses (not made up): a 3-iteration synthesis of
@@ -288,6 +302,7 @@ typedef struct synth_check {
     gs_qfield *level[3];  /* source of each iteration */
     int64_t queries, mismatches, exact_zero, far, large;
     int64_t excluding;    /* queries with the copy limit's exclusions */
+    int64_t keyed;        /* queries with a tie key (every synthesis query) */
 } synth_check;
 
 static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s, int iteration,
@@ -299,9 +314,10 @@ static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s,
     const gs_qfield *src = c->level[iteration];
     uint64_t bound = UINT64_MAX;
     gs_field_match mb;
-    GS_CALL(gs_field_brute_search_excluding(src, q, opts ? opts->exclude : NULL,
-                                            opts ? opts->nexclude : 0, 0,
-                                            gs_field_block_count(src, q->block), &bound, &mb));
+    GS_CALL(gs_field_brute_search_keyed(src, q, opts ? opts->exclude : NULL,
+                                        opts ? opts->nexclude : 0, opts ? opts->tie_key : 0, 0,
+                                        gs_field_block_count(src, q->block), &bound, &mb));
+    c->keyed += opts && opts->tie_key;
     c->excluding += opts && opts->nexclude > 0;
     if (mb.index != out->index || mb.dist != out->dist) {
         fprintf(stderr, "MISMATCH iteration %d query %lld: tree (%lld, %llu) brute (%lld, %llu)\n",
@@ -335,7 +351,7 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 if (sz > 0 && kind % 2) /* brute force of large blocks is slow: two shapes */
                     continue;
                 gs_qfield *src = make_source((gs_field_shape)kind, sizes[sz].side, 5 + (uint64_t)kind);
-                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0, 0};
+                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0, 0, 0};
                 OK(gs_qfield_downsample(src, 4, &c.level[0]));
                 OK(gs_qfield_downsample(src, 2, &c.level[1]));
                 c.level[2] = src;
@@ -360,6 +376,7 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 gs_field_synth_destroy(&syn);
                 assert_int_equal(c.mismatches, 0);
                 assert_true(c.queries > (sz == 0 ? 200 : 20));
+                assert_int_equal(c.keyed, c.queries);
                 total += c.queries;
                 excluding += c.excluding;
                 far += c.far;
@@ -424,7 +441,10 @@ static void test_split_search(void **state)
         make_query(&r, src, src, 8, t % Q_KINDS, val, known, &use_mask);
         gs_field_query q = {8, val, use_mask ? known : NULL, (t / Q_KINDS) % 2 ? 37 : 0};
         gs_field_match serial, part;
-        OK(gs_field_tree_best_match(s, &q, NULL, &serial));
+        /* odd queries: ties by a random key, reduced in (dist, tie rank) */
+        gs_field_search_opts o = {0};
+        o.tie_key = t % 2 ? gs_rng_u64(&r) | 1 : 0;
+        OK(gs_field_tree_best_match(s, &q, &o, &serial));
         for (int ranks = 2; ranks <= 4; ranks++) {
             uint64_t shared = UINT64_MAX;
             int found = 0;
@@ -433,8 +453,11 @@ static void test_split_search(void **state)
             /* ranks in reverse order so a later range can hold the lower index */
             for (int rk = ranks - 1; rk >= 0; rk--) {
                 int64_t b = top * rk / ranks, e = top * (rk + 1) / ranks;
-                OK(gs_field_tree_search(s, b, e, &q, NULL, &shared, &part));
-                if (part.found && (!found || part.dist < bd || (part.dist == bd && part.index < bi))) {
+                OK(gs_field_tree_search(s, b, e, &q, &o, &shared, &part));
+                if (part.found &&
+                    (!found || part.dist < bd ||
+                     (part.dist == bd && gs_field_tie_rank(o.tie_key, part.index) <
+                                             gs_field_tie_rank(o.tie_key, bi)))) {
                     found = 1, bd = part.dist, bi = part.index;
                 }
             }
@@ -445,11 +468,11 @@ static void test_split_search(void **state)
         }
         /* a bound tied with the answer keeps it; one below loses it */
         uint64_t b = serial.dist;
-        OK(gs_field_tree_search(s, 0, top, &q, NULL, &b, &part));
+        OK(gs_field_tree_search(s, 0, top, &q, &o, &b, &part));
         assert_true(part.found && part.index == serial.index);
         if (serial.dist > 0) {
             b = serial.dist - 1;
-            OK(gs_field_tree_search(s, 0, top, &q, NULL, &b, &part));
+            OK(gs_field_tree_search(s, 0, top, &q, &o, &b, &part));
             assert_false(part.found);
         }
     }
@@ -501,20 +524,24 @@ static void check_slabs(gs_field_shape kind, int64_t n, int B, int queries, uint
             static const int weights[3] = {0, 37, 256};
             gs_field_query q = {B, val, use_mask ? known : NULL, weights[(qn / Q_KINDS) % 3]};
             gs_field_match serial, part, brute;
-            OK(gs_field_tree_best_match(ws, &q, NULL, &serial));
+            gs_field_search_opts o = {0};
+            o.tie_key = qn % 2 ? gs_rng_u64(&r) | 1 : 0; /* odd queries: random tie order */
+            OK(gs_field_tree_best_match(ws, &q, &o, &serial));
             uint64_t shared = UINT64_MAX, bb = UINT64_MAX, bd = 0;
             int64_t bi = -1;
             for (int k = P - 1; k >= 0; k--) { /* reverse: a later slab holds higher indices */
-                OK(gs_field_tree_search(ss[k], 0, gs_field_tree_top_count(t[k]), &q, NULL, &shared,
+                OK(gs_field_tree_search(ss[k], 0, gs_field_tree_top_count(t[k]), &q, &o, &shared,
                                         &part));
                 if (!part.found)
                     continue;
                 assert_true(part.index >= plane * z0[k] && part.index < plane * z1[k]);
                 assert_int_equal(part.dist, gs_field_block_distance(src, part.index, &q));
-                if (bi < 0 || part.dist < bd || (part.dist == bd && part.index < bi))
+                if (bi < 0 || part.dist < bd ||
+                    (part.dist == bd &&
+                     gs_field_tie_rank(o.tie_key, part.index) < gs_field_tie_rank(o.tie_key, bi)))
                     bd = part.dist, bi = part.index;
             }
-            OK(gs_field_brute_search(src, &q, 0, wi.blocks, &bb, &brute));
+            OK(gs_field_brute_search_keyed(src, &q, NULL, 0, o.tie_key, 0, wi.blocks, &bb, &brute));
             assert_int_equal(bi, serial.index);
             assert_int_equal(bd, serial.dist);
             assert_int_equal(bi, brute.index);
@@ -576,6 +603,97 @@ static void test_identical_blocks(void **state)
     gs_field_tree_destroy(&tree);
     assert_int_equal(gs_field_tree_build(src, 3, &tree), GS_ERR_ARG);
     assert_int_equal(gs_field_tree_build(src, 32, &tree), GS_ERR_ARG);
+    gs_qfield_destroy(&src);
+}
+
+/* Exact ties go by the tie key (#19): on a source with many blocks at the
+ * best distance -- identical blocks in one leaf (a constant source) and
+ * distinct blocks that agree where the query is known (empty space of
+ * balls, the rest unknown) -- every key gives an exact best (brute force's
+ * distance, the keyed brute force's block), different keys pick different
+ * blocks, spread over the tie set rather than at its start, and key 0 gives
+ * the lowest index. With the lowest index for every key (the old order),
+ * the picks are one block and this fails. */
+static void check_ties(const gs_qfield *src, int B, const uint8_t *val, const uint8_t *known,
+                       int64_t min_ties)
+{
+    gs_field_tree_t tree = NULL;
+    OK(gs_field_tree_build(src, B, &tree));
+    gs_field_searcher_t s = NULL;
+    OK(gs_field_searcher_create(tree, &s));
+    gs_field_query q = {B, val, known, 0};
+    int64_t M = gs_field_block_count(src, B);
+    uint64_t bound = UINT64_MAX;
+    gs_field_match low;
+    OK(gs_field_brute_search(src, &q, 0, M, &bound, &low));
+    int64_t *tie = gs_malloc((size_t)M * sizeof *tie), nt = 0; /* ascending */
+    for (int64_t i = 0; i < M; i++)
+        if (gs_field_block_distance(src, i, &q) == low.dist)
+            tie[nt++] = i;
+    assert_true(nt >= min_ties);
+    gs_field_match m;
+    OK(gs_field_tree_best_match(s, &q, NULL, &m));
+    assert_int_equal(m.index, tie[0]); /* key 0: the lowest index */
+    enum { KEYS = 64 };
+    int64_t pick[KEYS];
+    double mean_pos = 0;
+    for (int k = 0; k < KEYS; k++) {
+        gs_field_search_opts o = {0};
+        o.tie_key = gs_rng_stream_id(5, (uint64_t)k, 0, 0) | 1; /* "seeds" */
+        OK(gs_field_tree_best_match(s, &q, &o, &m));
+        gs_field_match b;
+        bound = UINT64_MAX;
+        OK(gs_field_brute_search_keyed(src, &q, NULL, 0, o.tie_key, 0, M, &bound, &b));
+        assert_int_equal(m.dist, low.dist); /* exact */
+        assert_int_equal(m.index, b.index);
+        assert_int_equal(gs_field_block_distance(src, m.index, &q), low.dist);
+        pick[k] = m.index;
+        int64_t at = 0;
+        while (tie[at] != m.index)
+            at++;
+        mean_pos += (double)at / (double)(nt - 1) / KEYS;
+    }
+    int distinct = 0;
+    for (int k = 0; k < KEYS; k++) {
+        int seen = 0;
+        for (int j = 0; j < k && !seen; j++)
+            seen = pick[j] == pick[k];
+        distinct += !seen;
+    }
+    fprintf(stderr, "%lld tied blocks: %d distinct picks of %d keys, mean position %.3f\n",
+            (long long)nt, distinct, KEYS, mean_pos);
+    assert_int_not_equal(pick[0], pick[1]); /* two seeds, two blocks, both exact */
+    /* uniform picks: about KEYS * (1 - e^(-KEYS/nt)) distinct, mean position
+     * 1/2 with a spread of 1/sqrt(12 KEYS) = 0.036 */
+    assert_true(distinct >= KEYS / 3);
+    assert_true(mean_pos > 0.3 && mean_pos < 0.7);
+    gs_free(tie);
+    gs_field_searcher_destroy(&s);
+    gs_field_tree_destroy(&tree);
+}
+
+static void test_tie_order(void **state)
+{
+    (void)state;
+    /* identical blocks: a constant source but for one corner sample */
+    gs_qfield *src = NULL;
+    OK(gs_qfield_create(20, 20, 20, -1, 1, &src));
+    memset(src->q, 255, 8000);
+    src->q[19 + 20 * (19 + 20 * 19)] = 0;
+    uint8_t val[512], known[512];
+    memset(val, 255, 64);
+    check_ties(src, 4, val, NULL, 1000);
+    gs_qfield_destroy(&src);
+    /* distinct blocks tied on the known octant: balls, the query's first
+     * octant far outside, the rest unknown */
+    src = make_source(GS_FIELD_BALLS, 32, 11);
+    memset(known, 0, sizeof known);
+    for (int z = 0; z < 4; z++)
+        for (int y = 0; y < 4; y++)
+            for (int x = 0; x < 4; x++)
+                known[x + 8 * (y + 8 * z)] = 1;
+    memset(val, 255, sizeof val);
+    check_ties(src, 8, val, known, 100);
     gs_qfield_destroy(&src);
 }
 
@@ -1084,6 +1202,7 @@ int main(void)
         cmocka_unit_test(test_pyramid_sums),
         cmocka_unit_test(test_level_bounds),
         cmocka_unit_test(test_identical_blocks),
+        cmocka_unit_test(test_tie_order),
         cmocka_unit_test(test_split_search),
         cmocka_unit_test(test_slab_trees),
         cmocka_unit_test(test_tree_matches_brute_force),
