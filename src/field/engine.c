@@ -43,7 +43,10 @@
  *             with the bound shared between ranks (the tree search polls
  *             gs_psearch_bound), and the result is made exact: psearch gives
  *             the smallest distance, one MPI_Allreduce(MIN) gives the lowest
- *             block index among the ranks whose best has that distance. So
+ *             tie rank (gs_field_tie_rank of the query's tie key: a seeded
+ *             hash above the block index, so exact ties do not all go to
+ *             the source's start) among the ranks whose best has that
+ *             distance. So
  *             each block gets exactly the serial answer of
  *             gs_field_tree_best_match and the output is bit-identical for any
  *             rank count (and to the core's serial synthesis).
@@ -59,7 +62,9 @@
  *             cursor, match statistics and the provenance map; the only
  *             randomness (the seeds of iteration 0) is drawn from gs_rng keyed
  *             by run.seed when the synthesis is created, so it is part of the
- *             stored target, not a running RNG.
+ *             stored target, not a running RNG; the random first blocks and
+ *             the matcher's tie order are streams and hashes keyed by
+ *             (run.seed, block), stateless.
  *  output     field.h5 (+ field.xmf) with the float distance and the quantized
  *             levels, field.vdb, the contoured mesh (OpenVDB) and, with
  *             output.geometry = copy|both, the paper's copied geometry: the
