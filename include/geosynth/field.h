@@ -414,6 +414,14 @@ typedef struct gs_field_synth_config {
                                         the source continued by each offset of its
                                         (2*blend+1)^3 neighbourhood (overlap blending, paper
                                         5.3); 0 = off (the paper) */
+    int repeat_reach;                /* > 0: in the last iteration a block may not take a
+                                        source block within this many positions (each axis)
+                                        of one a lower neighbour took (the same source block
+                                        again a stride on); < block/2; 0 = off (the paper) */
+    int seam_gradient;               /* 1 (needs prov): after the blend, a screened Poisson
+                                        correction makes the steps across seams the mean of
+                                        the two pieces' own steps there (src/field/synth.c
+                                        seam_gradient); 0 = off (the paper) */
     int seam_cut;                    /* 1: a block takes the samples of its box that a
                                         minimum cut between the old content and the new
                                         block gives it, not only the unsynthesized ones

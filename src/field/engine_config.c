@@ -95,6 +95,17 @@ static const gs_cfg_key field_keys[] = {
                    "between pieces copied from different source offsets fade from one piece into "
                    "the other (overlap blending); 0 = off (the paper: the pieces meet in steps); 2 "
                    "where copy_limit is set"),
+    GS_CFG_KEY_BOOL(field_config, seam_gradient, "field.seam_gradient", "no",
+                    "after the blend, a gradient-domain (screened Poisson) correction spreads "
+                    "what two pieces still disagree by across a seam over both pieces (decaying "
+                    "over about a block), so the step across the seam is the pieces' own; no = "
+                    "off (the paper)"),
+    GS_CFG_KEY_INT(field_config, repeat_reach, "field.repeat_reach", 0, 15, 0, "0",
+                   "in the last iteration a block may not take a source block within this many "
+                   "positions (each axis) of the one a lower neighbour took (no source block "
+                   "copied again a block stride on, e.g. a flat summit down a column); below "
+                   "block/2, so a continuation stays allowed; 0 = off (the paper); 6 in "
+                   "terrain.ini"),
     GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
                     "minimum-error boundary cut: each block takes the samples of its box that a "
                     "minimum cut between the synthesized overlap and the matched block gives it "

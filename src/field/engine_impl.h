@@ -48,6 +48,8 @@ typedef struct field_config {
     double copy_limit;
     int64_t copy_limit_reach;
     int64_t blend;
+    int64_t repeat_reach;
+    int seam_gradient;
     int seam_cut;
     int complete_objects;
     int64_t region_blocks;

@@ -65,26 +65,24 @@ for k in vf spv; do
 done
 # --- terrain.ini (#19 item 2: no straight seams on the height field) ---
 # Full size (64^2 -> 128x128x16), seeds 1-6 (the seed varies the output since
-# the random first block, e2e/field_seeds; before it, seeds 2-4 gave one output
-# and this check ran seed 1 alone). Every seed: largest copy at most a quarter
-# of the source, vf within 10% of the source's. The seams (analysis/field_seams.py
-# over x and y; z is one block deep, no seams across it), with thresholds
-# from the example: the seam ratio within the example's range over phases
-# (at most its largest, 1.050), and no plane of the seam phase (every 8
-# samples) stepping more against its axis' mean than the example's largest
-# plane (1.878). The target of #19 is every seed within both; it is NOT met
-# (field14): terrain.ini seeds 1-6 seam ratio 1.073, 1.031, 1.058, 1.006,
-# 1.015, 0.996 (1 and 3 above 1.050), plane 1.32, 1.72, 1.61, 1.46, 2.21,
-# 1.56 (seed 5: a strip of the source's flat crater floor copied down a
-# column of blocks, straight-edged). Each seed's figures are printed with
-# "target not met" where they miss; the checks are on the mean over the seeds:
-# seam ratio 1.030, plane 1.65. They fail with the pieces unblended
-# (field.blend = 0: seam ratio 1.63, 1.65 on seeds 1, 6) and with target
-# regions confined to their cores (plane 2.59; the core rule restored in
-# cut_block, src/field/synth.c). Env TERRAIN_SEEDS, TERRAIN_SET (extra --set):
-# other seeds, or a setting to break it on purpose.
+# the random first block, e2e/field_seeds), about 2-6 s a seed. Every seed:
+# largest copy at most a quarter of the source, vf within 10% of the source's,
+# and the seams (analysis/field_seams.py over x and y; z is one block deep, no
+# seams across it) within thresholds from the example: the seam ratio within
+# the example's range over phases (at most its largest, 1.050), and no plane
+# of the seam phase (every 8 samples) stepping more against its axis' mean
+# than the example's largest plane (1.878). Per seed, not by the mean: the
+# mean hid seeds 1 and 3 above 1.050 and seed 5's straight flat strip (plane
+# 2.21) before field.seam_gradient and field.repeat_reach (field16): seeds 1-6
+# seam ratio 0.982, 1.008, 1.008, 0.983, 1.017, 0.962, plane 1.38-1.67.
+# Broken on purpose, each fails here (field16, watched): field.blend = 0 (seam
+# ratio 1.073-1.121 on all six); field.copy_limit_reach = 0 (block/4: seed 4's
+# vf 24% off); field.seam_gradient = no (seeds 1, 2, 3, 5 at 1.057-1.072);
+# field.repeat_reach = 0 (seed 5's plane 2.18); seam_gradient in
+# src/field/synth.c returning at once (as seam_gradient = no). Env
+# TERRAIN_SEEDS, TERRAIN_SET (extra --set): other seeds, or a setting to
+# break it on purpose.
 T=$GS_ROOT/configs/field/terrain.ini
-ratios=() planes=()
 for seed in ${TERRAIN_SEEDS:-1 2 3 4 5 6}; do
   run_gs 1 field -c "$T" -o "terrain-$seed" --set run.seed=$seed --set output.geometry=none \
     --set output.vdb=no --set output.preview=no ${TERRAIN_SET:-}
@@ -93,9 +91,10 @@ for seed in ${TERRAIN_SEEDS:-1 2 3 4 5 6}; do
   echo "terrain seed $seed: $ts"
   tp=$(get "$ts" plane_ratio_max) tsp=$(get "$ts" source_plane_max)
   tr=$(get "$ts" seam_ratio) tmax=$(get "$ts" source_ratio_max) tmin=$(get "$ts" source_ratio_min)
-  ratios+=("$tr") planes+=("$tp")
-  le "$tp" "$tsp" || echo "terrain seed $seed: a seam plane steps $tp times its axis' mean, the example's largest plane $tsp (target not met)"
-  le "$tr" "$tmax" || echo "terrain seed $seed: seam ratio $tr above the example's phases $tmin-$tmax (target not met)"
+  le "$tp" "$tsp" && ok "terrain seed $seed: steepest seam plane $tp times its axis' mean (the example's largest plane $tsp)" ||
+    bad "terrain seed $seed: a seam plane steps $tp times its axis' mean, the example's largest plane $tsp"
+  le "$tr" "$tmax" && ok "terrain seed $seed: seam ratio $tr within the example's phases ($tmin-$tmax)" ||
+    bad "terrain seed $seed: seam ratio $tr above the example's phases $tmin-$tmax"
   /usr/bin/python3 - "terrain-$seed/summary.json" <<'EOF3' && ok "terrain seed $seed: largest copy <= 0.25, vf within 10%" || bad "terrain seed $seed: largest copy or vf out of bounds"
 import json, sys
 m = json.load(open(sys.argv[1]))["metrics"]
@@ -104,10 +103,4 @@ assert m["copy_largest_region_of_source"] <= 0.25
 assert abs(m["volume_fraction_out"] / m["volume_fraction_src"] - 1) <= 0.10
 EOF3
 done
-mean() { /usr/bin/python3 -c 'import sys; v = [float(x) for x in sys.argv[1:]]; print(round(sum(v) / len(v), 4))' "$@"; }
-mr=$(mean "${ratios[@]}") mp=$(mean "${planes[@]}")
-le "$mr" "$tmax" && ok "terrain: mean seam ratio $mr (${ratios[*]}) within the example's phases (<= $tmax)" ||
-  bad "terrain: mean seam ratio $mr (${ratios[*]}) above the example's largest phase $tmax"
-le "$mp" "$tsp" && ok "terrain: mean largest seam plane $mp (${planes[*]}) within the example's largest plane $tsp" ||
-  bad "terrain: mean largest seam plane $mp (${planes[*]}) above the example's largest plane $tsp"
 finish
