@@ -101,9 +101,14 @@ expect_rc 0 "sharded run resumed at np=2"
 
 # --- quality: GRID statistics of the output within tolerance of the source --
 # Masked matching (the default, see configs/field/grid.ini). Tolerances:
-# volume fraction and surface per volume within 25% of the source's, mean
-# nearest-source-block distance (coherence) below 40 squared levels per
-# sample (the paper's whole-block matching measures ~700 here).
+# volume fraction and surface per volume within 25% of the source's. No
+# bound on the coherence (mean nearest-source-block distance): it rewards
+# copying (a tiled copy of the source scores 0, #19). Its old bound, 40, was
+# one run's figure: quick.ini seeds 1-12 measured 0.3-85 with ties to the
+# lowest source index, and seed 1 went 31.7 -> 49.5 when exact ties were
+# broken by a seeded hash (more of the source used: copy completeness 0.80
+# -> 0.88); the paper's whole-block mode now measures 56, not ~700. The
+# copying checks below (largest region of one offset) take its place.
 /usr/bin/python3 - np1/summary.json <<'EOF' && ok "quality within tolerance" || bad "quality out of tolerance"
 import json, sys
 m = json.load(open(sys.argv[1]))["metrics"]
@@ -112,7 +117,6 @@ vf = abs(m["volume_fraction_out"] - m["volume_fraction_src"]) / m["volume_fracti
 sv = abs(m["surface_per_volume_out"] - m["surface_per_volume_src"]) / m["surface_per_volume_src"]
 assert vf < 0.25, vf
 assert sv < 0.25, sv
-assert m["coherence"] < 40, m["coherence"]
 # (no bound on match_mean: it was one run's figure; tests/e2e/field_guided.sh
 # checks the statistics and the coarse guidance against the source)
 assert m["coherence_blocks"] == 6 * 5 * 4
