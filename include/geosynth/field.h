@@ -436,8 +436,8 @@ typedef struct gs_field_synth_config {
                                         replaced by the whole source object its samples were
                                         mostly copied from, at that offset; an example of long
                                         objects (fibers: most of the inside runs through along
-                                        one axis) is rebuilt from parts of source objects, slab
-                                        by slab along that axis (see synth.c complete_parts);
+                                        one axis) is rebuilt as tracks of whole source fibers,
+                                        slab by slab along that axis (see src/field/fibers.c);
                                         0 = off (the paper) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's

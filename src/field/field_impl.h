@@ -164,4 +164,49 @@ gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uin
  * the chain mail rings of src/field/shapes.c and src/field/examples.c. */
 double gs_field_dist_torus(const double p[3], const double c[3], int axis, double R, double r);
 
+/* Whole objects (synth.c, fibers.c): sample i of an n grid (x fastest) as
+ * coordinates; source offsets packed 21 bits an axis; source sample r of an
+ * sn grid moved by -o into a tn grid: its index there (t its coordinates),
+ * -1 outside. */
+static inline void gs_field_coords(int64_t i, const int64_t n[3], int64_t v[3])
+{
+    v[0] = i % n[0], v[1] = i / n[0] % n[1], v[2] = i / (n[0] * n[1]);
+}
+
+#define GS_FIELD_OFF_H ((int64_t)1 << 20)
+static inline int64_t gs_field_pack_offset(const int64_t o[3])
+{
+    return ((o[0] + GS_FIELD_OFF_H) << 42) | ((o[1] + GS_FIELD_OFF_H) << 21) |
+           (o[2] + GS_FIELD_OFF_H);
+}
+
+static inline void gs_field_unpack_offset(int64_t p, int64_t o[3])
+{
+    o[0] = (p >> 42) - GS_FIELD_OFF_H;
+    o[1] = ((p >> 21) & (2 * GS_FIELD_OFF_H - 1)) - GS_FIELD_OFF_H;
+    o[2] = (p & (2 * GS_FIELD_OFF_H - 1)) - GS_FIELD_OFF_H;
+}
+
+static inline int64_t gs_field_offset_target(const int64_t sn[3], const int64_t tn[3], int64_t r,
+                                             const int64_t o[3], int64_t t[3])
+{
+    int64_t v[3];
+    gs_field_coords(r, sn, v);
+    for (int d = 0; d < 3; d++) {
+        t[d] = v[d] - o[d];
+        if (t[d] < 0 || t[d] >= tn[d])
+            return -1;
+    }
+    return t[0] + tn[0] * (t[1] + tn[1] * t[2]);
+}
+
+/* field.complete_objects on long objects (src/field/fibers.c): rebuilds
+ * target (levels of src, tn samples) from whole fibers of src running along
+ * axis, chained slab by slab (slabs S samples thick), guided by prov (the
+ * source sample each target sample was copied from; updated where pasted).
+ * *completed: parts pasted, *removed: fibers that end inside the output. */
+gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_t *target,
+                               int32_t *prov, int axis, int64_t S, int64_t *completed,
+                               int64_t *removed);
+
 #endif

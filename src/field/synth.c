@@ -697,7 +697,7 @@ done:
  * components but 205 cores); the source's whole objects are its cores that
  * touch none of its faces. When they hold most of the source's core (an
  * example of objects, not of a structure that runs through: fibers are
- * rebuilt from parts, complete_parts; a grid or a terrain is left as it
+ * rebuilt as tracks of source fibers, complete_parts; a grid or a terrain is left as it
  * is), the output is rebuilt from them: each
  * core component of the synthesized field names the (source object, source
  * offset) most of its samples were copied from (provenance), and that whole
@@ -775,11 +775,6 @@ static gs_err objects_label(const gs_qfield *ref, const uint8_t *q, const int64_
     return GS_OK;
 }
 
-static void coords(int64_t i, const int64_t n[3], int64_t v[3])
-{
-    v[0] = i % n[0], v[1] = i / n[0] % n[1], v[2] = i / (n[0] * n[1]);
-}
-
 /* One vote: a core sample of target component comp copied from source
  * object obj at offset off (packed 21 bits an axis). */
 typedef struct object_vote {
@@ -824,18 +819,6 @@ static int cmp_place(const void *a_, const void *b_)
     return cmp_paste(a_, b_);
 }
 
-#define OBJ_H ((int64_t)1 << 20)
-static int64_t pack_offset(const int64_t o[3])
-{
-    return ((o[0] + OBJ_H) << 42) | ((o[1] + OBJ_H) << 21) | (o[2] + OBJ_H);
-}
-
-static void unpack_offset(int64_t p, int64_t o[3])
-{
-    o[0] = (p >> 42) - OBJ_H, o[1] = ((p >> 21) & (2 * OBJ_H - 1)) - OBJ_H;
-    o[2] = (p & (2 * OBJ_H - 1)) - OBJ_H;
-}
-
 /* The footprint of source object obj: the samples within 3 of its core
  * (cores[first[obj] .. first[obj + 1])) that are outside or inside it
  * (owner), not a touching object's inside, each once (stamp marks them with
@@ -848,7 +831,7 @@ static int64_t object_footprint(const gs_qfield *src, const uint32_t *owner, uin
     int64_t n = 0;
     for (int64_t i = first[obj]; i < first[obj + 1]; i++) {
         int64_t v[3];
-        coords(cores[i], sn, v);
+        gs_field_coords(cores[i], sn, v);
         for (int64_t dz = -3; dz <= 3; dz++)
             for (int64_t dy = -3; dy <= 3; dy++)
                 for (int64_t dx = -3; dx <= 3; dx++) {
@@ -869,21 +852,6 @@ static int64_t object_footprint(const gs_qfield *src, const uint32_t *owner, uin
     return n;
 }
 
-/* Source sample r at offset o: its target sample t and index, -1 when
- * outside the target. */
-static int64_t object_target(const int64_t sn[3], const int64_t tn[3], int64_t r,
-                             const int64_t o[3], int64_t t[3])
-{
-    int64_t v[3];
-    coords(r, sn, v);
-    for (int d = 0; d < 3; d++) {
-        t[d] = v[d] - o[d];
-        if (t[d] < 0 || t[d] >= tn[d])
-            return -1;
-    }
-    return t[0] + tn[0] * (t[1] + tn[1] * t[2]);
-}
-
 /* Object footprint fp (n samples) at offset o against the objects already
  * in out: *overlap = some inside sample of it lands on an inside sample of
  * out, *touch = some inside sample of it has a 6-neighbour inside out. */
@@ -895,7 +863,7 @@ static void object_probe(const gs_qfield *src, const int64_t *tn, const int64_t 
     *overlap = *touch = 0;
     for (int64_t i = 0; i < n; i++) {
         int64_t t[3], ti;
-        if (!inside[src->q[fp[i]]] || (ti = object_target(sn, tn, fp[i], o, t)) < 0)
+        if (!inside[src->q[fp[i]]] || (ti = gs_field_offset_target(sn, tn, fp[i], o, t)) < 0)
             continue;
         if (inside[out[ti]]) {
             *overlap = 1;
@@ -917,7 +885,7 @@ static void paste_footprint(struct gs_field_synth *s, const int64_t *fp, int64_t
     const gs_qfield *src = s->src;
     const int64_t sn[3] = {src->nx, src->ny, src->nz}, *tn = s->st.tn;
     for (int64_t i = 0; i < n; i++) {
-        int64_t t[3], ti = object_target(sn, tn, fp[i], o, t);
+        int64_t t[3], ti = gs_field_offset_target(sn, tn, fp[i], o, t);
         if (ti >= 0 && src->q[fp[i]] < out[ti]) {
             out[ti] = src->q[fp[i]];
             s->cfg.prov[ti] = (int32_t)fp[i];
@@ -966,233 +934,16 @@ static int paste_object(struct gs_field_synth *s, const int64_t *fp, int64_t n,
     return 1;
 }
 
-/* Long objects (cfg.complete_objects on an example whose inside mostly runs
- * through the source along one axis, such as fibers): the pieces' fibers
- * meet misaligned by about a sample, and the seams along the fibers (across
- * the other axes) cut them lengthwise: fibers.ini 128^3 before the blend,
- * 73% of the inscribed-sphere centres were 1-sample slivers, most within 2
- * samples of such a seam; the blend then averaged each fiber with a
- * neighbour's continuation that has its fiber elsewhere (inscribed radius
- * p50 1.41, the source's 1.73; volume fraction 0.125, 0.139). A whole fiber
- * cannot come from one place (it is longer than the source), but its cross-
- * section can: the output is rebuilt from parts, a part being a component
- * of the source's inside within a slab along the axis. The slabs are half
- * the last block thick (where the last iteration's pieces meet along the
- * axis). Every inside sample of the synthesized field votes for the part
- * its provenance names: target slab, offset, and the component of the
- * source's inside within the slab moved by that offset (PART_ENDS longer at
- * each end) holding the source sample. Parts are pasted most votes first,
- * PART_ENDS samples longer at each end over the parts before and after them
- * (a union: where the parts of a fiber meet misaligned, the joint overlaps
- * instead of stepping), when
- * - their votes are at least an eighth of their inside (not a sliver's),
- * - they touch no face of the source across the axis (cut by the source's
- *   box, they would paste half a fiber),
- * - at most a third of their inside within the slab lands on parts pasted
- *   before (not the same fiber again, from a neighbouring piece).
- * A paste is the part's inside and the outside within 3 samples of it; every
- * other sample is as far outside as the levels go (the redistancing makes it
- * a distance field). Measured on fibers 32^3 -> 64^3 (example seeds 1-3;
- * see configs/field/fibers.ini). */
-#define PART_ENDS 2
-
-typedef struct part_vote {
-    int64_t slab, off, src; /* target slab, packed offset, the source sample copied */
-} part_vote;
-
-static int cmp_part_vote(const void *a_, const void *b_)
-{
-    const part_vote *a = a_, *b = b_;
-    if (a->slab != b->slab)
-        return a->slab < b->slab ? -1 : 1;
-    if (a->off != b->off)
-        return a->off < b->off ? -1 : 1;
-    return a->src < b->src ? -1 : a->src > b->src;
-}
-
-typedef struct part_paste {
-    int64_t votes, inside, slab, off, seed; /* seed: a source sample of the part */
-} part_paste;
-
-/* Most votes first, then slab, offset, seed. */
-static int cmp_part_paste(const void *a_, const void *b_)
-{
-    const part_paste *a = a_, *b = b_;
-    if (a->votes != b->votes)
-        return a->votes > b->votes ? -1 : 1;
-    if (a->slab != b->slab)
-        return a->slab < b->slab ? -1 : 1;
-    if (a->off != b->off)
-        return a->off < b->off ? -1 : 1;
-    return a->seed < b->seed ? -1 : a->seed > b->seed;
-}
-
-/* The component of the source's inside within [lo, hi) along axis holding
- * seed (6-neighbours, breadth first; stamp marks it with mark) into list;
- * returns its size; *cut: it reaches a face of the source across axis. */
-static int64_t part_grow(const gs_qfield *src, const uint8_t *inside, int axis, int64_t lo,
-                         int64_t hi, int64_t seed, uint32_t *stamp, uint32_t mark, int64_t *list,
-                         int *cut)
-{
-    const int64_t sn[3] = {src->nx, src->ny, src->nz}, st[3] = {1, sn[0], sn[0] * sn[1]};
-    int64_t n = 0;
-    *cut = 0;
-    stamp[seed] = mark;
-    list[n++] = seed;
-    for (int64_t h = 0; h < n; h++) {
-        int64_t v[3];
-        coords(list[h], sn, v);
-        for (int a = 0; a < 3; a++)
-            if (a != axis && (v[a] == 0 || v[a] == sn[a] - 1))
-                *cut = 1;
-        for (int d = 0; d < 6; d++) {
-            int a = d / 2;
-            int64_t w = v[a] + (d % 2 ? 1 : -1);
-            if (w < 0 || w >= sn[a] || (a == axis && (w < lo || w >= hi)))
-                continue;
-            int64_t r = list[h] + (d % 2 ? 1 : -1) * st[a];
-            if (stamp[r] != mark && inside[src->q[r]])
-                stamp[r] = mark, list[n++] = r;
-        }
-    }
-    return n;
-}
-
-/* Adds to part list (n inside samples, marked mark) the outside samples
- * within 3 of it within [lo, hi) along axis; returns the new count. */
-static int64_t part_band(const gs_qfield *src, const uint8_t *inside, int axis, int64_t lo,
-                         int64_t hi, uint32_t *stamp, uint32_t mark, int64_t *list, int64_t n)
-{
-    const int64_t sn[3] = {src->nx, src->ny, src->nz};
-    int64_t m = n;
-    for (int64_t i = 0; i < n; i++) {
-        int64_t v[3];
-        coords(list[i], sn, v);
-        for (int64_t dz = -3; dz <= 3; dz++)
-            for (int64_t dy = -3; dy <= 3; dy++)
-                for (int64_t dx = -3; dx <= 3; dx++) {
-                    if (dx * dx + dy * dy + dz * dz > 9)
-                        continue;
-                    int64_t w[3] = {v[0] + dx, v[1] + dy, v[2] + dz};
-                    if (w[0] < 0 || w[0] >= sn[0] || w[1] < 0 || w[1] >= sn[1] || w[2] < 0 ||
-                        w[2] >= sn[2] || w[axis] < lo || w[axis] >= hi)
-                        continue;
-                    int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
-                    if (stamp[r] == mark || inside[src->q[r]])
-                        continue; /* listed, or inside (another part's) */
-                    stamp[r] = mark;
-                    list[m++] = r;
-                }
-    }
-    return m;
-}
-
+/* Long objects (fibers): rebuilt whole from the source's fibers, chained
+ * slab by slab along the axis (src/field/fibers.c). The slabs are half the
+ * last block thick. */
 static gs_err complete_parts(struct gs_field_synth *s, int axis, int *rebuilt)
 {
-    const gs_qfield *src = s->src;
-    const int64_t sn[3] = {src->nx, src->ny, src->nz}, *tn = s->st.tn;
-    const int64_t nt = tn[0] * tn[1] * tn[2], ns = sn[0] * sn[1] * sn[2];
-    const int64_t S = s->cfg.block[s->cfg.iterations - 1] / 2;
-    const int32_t *prov = s->cfg.prov;
-    uint8_t inside[256];
-    for (int l = 0; l < 256; l++)
-        inside[l] = gs_qfield_value(src, (uint8_t)l) < 0;
-    part_vote *votes = NULL;
-    part_paste *parts = NULL;
-    int64_t *list = NULL;
-    uint32_t *stamp = NULL;
-    uint8_t *out = NULL;
-    gs_err err = GS_OK;
-    int64_t nv = 0;
-    for (int64_t i = 0; i < nt; i++)
-        nv += inside[s->st.target[i]] && prov[i] >= 0 && inside[src->q[prov[i]]];
-    GS_TRY(err, gs_alloc_array((void **)&votes, (size_t)(nv ? nv : 1), sizeof *votes, "votes"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&parts, (size_t)(nv ? nv : 1), sizeof *parts, "parts"),
-           done);
-    GS_TRY(err, gs_alloc_array((void **)&list, (size_t)ns, sizeof *list, "part samples"), done);
-    GS_TRY(err, gs_alloc_array((void **)&stamp, (size_t)ns, sizeof *stamp, "part marks"), done);
-    memset(stamp, 0, (size_t)ns * sizeof *stamp);
-    nv = 0;
-    for (int64_t i = 0; i < nt; i++) {
-        if (!inside[s->st.target[i]] || prov[i] < 0 || !inside[src->q[prov[i]]])
-            continue;
-        int64_t t[3], p[3], o[3];
-        coords(i, tn, t), coords(prov[i], sn, p);
-        for (int d = 0; d < 3; d++)
-            o[d] = p[d] - t[d];
-        votes[nv++] = (part_vote){t[axis] / S, pack_offset(o), prov[i]};
-    }
-    qsort(votes, (size_t)nv, sizeof *votes, cmp_part_vote);
-    /* the parts the votes name: per (slab, offset) the components of the
-     * source's inside in its span holding the voted samples */
-    uint32_t mark = 0;
-    int64_t np = 0;
-    for (int64_t i = 0; i < nv;) {
-        int64_t j = i, o[3];
-        while (j < nv && votes[j].slab == votes[i].slab && votes[j].off == votes[i].off)
-            j++;
-        unpack_offset(votes[i].off, o);
-        int64_t lo = votes[i].slab * S + o[axis] - PART_ENDS, hi = lo + S + 2 * PART_ENDS;
-        uint32_t first = mark + 1;
-        int64_t first_part = np;
-        for (int64_t k = i; k < j; k++) {
-            int64_t r = votes[k].src;
-            if (stamp[r] >= first) { /* a part of this group: one more vote */
-                if (stamp[r] - first < (uint32_t)(np - first_part))
-                    parts[first_part + (stamp[r] - first)].votes++;
-                continue;
-            }
-            int cut;
-            int64_t n = part_grow(src, inside, axis, lo, hi, r, stamp, ++mark, list, &cut);
-            /* a cut part is kept with no votes (-1) so its samples' votes stay its own */
-            parts[np++] = (part_paste){cut ? INT64_MIN / 2 : 1, n, votes[i].slab, votes[i].off, r};
-        }
-        i = j;
-    }
-    qsort(parts, (size_t)np, sizeof *parts, cmp_part_paste);
-    GS_TRY(err, gs_alloc_array((void **)&out, (size_t)nt, 1, "rebuilt parts"), done);
-    memset(out, 255, (size_t)nt);
-    memset(stamp, 0, (size_t)ns * sizeof *stamp);
-    mark = 0;
-    for (int64_t i = 0; i < np; i++) {
-        part_paste *q = &parts[i];
-        if (q->votes < 0 || 8 * q->votes < q->inside) {
-            s->st.objects_removed++;
-            continue;
-        }
-        int64_t o[3], t[3];
-        unpack_offset(q->off, o);
-        int64_t lo = q->slab * S + o[axis], hi = lo + S;
-        int cut;
-        int64_t n = part_grow(src, inside, axis, lo - PART_ENDS, hi + PART_ENDS, q->seed, stamp,
-                              ++mark, list, &cut);
-        /* at most a third of its inside within the slab on parts pasted before */
-        int64_t in = 0, on = 0;
-        for (int64_t k = 0; k < n; k++) {
-            int64_t ti = object_target(sn, tn, list[k], o, t);
-            if (ti < 0 || t[axis] + o[axis] < lo || t[axis] + o[axis] >= hi)
-                continue;
-            in++;
-            on += inside[out[ti]];
-        }
-        if (3 * on > in) {
-            s->st.objects_removed++;
-            continue;
-        }
-        n = part_band(src, inside, axis, lo - PART_ENDS, hi + PART_ENDS, stamp, mark, list, n);
-        paste_footprint(s, list, n, o, out);
-        s->st.objects_completed++;
-    }
-    memcpy(s->st.target, out, (size_t)nt);
+    GS_CALL(gs_field_fibers_rebuild(s->src, s->st.tn, s->st.target, s->cfg.prov, axis,
+                                    s->cfg.block[s->cfg.iterations - 1] / 2,
+                                    &s->st.objects_completed, &s->st.objects_removed));
     *rebuilt = 1;
-done:
-    gs_free(votes);
-    gs_free(parts);
-    gs_free(list);
-    gs_free(stamp);
-    gs_free(out);
-    return err;
+    return GS_OK;
 }
 
 static gs_err complete_objects(struct gs_field_synth *s, int *rebuilt)
@@ -1264,7 +1015,7 @@ static gs_err complete_objects(struct gs_field_synth *s, int *rebuilt)
     }
     while (head < tail) {
         int64_t v[3], i = queue[head++];
-        coords(i, sn, v);
+        gs_field_coords(i, sn, v);
         for (int d = 0; d < 6; d++) {
             int64_t w[3] = {v[0], v[1], v[2]};
             w[d / 2] += d % 2 ? 1 : -1;
@@ -1287,10 +1038,10 @@ static gs_err complete_objects(struct gs_field_synth *s, int *rebuilt)
         if (!to.label[i] || prov[i] < 0 || !so.label[prov[i]] || so.touch[so.label[prov[i]]])
             continue;
         int64_t t[3], p[3], o[3];
-        coords(i, tn, t), coords(prov[i], sn, p);
+        gs_field_coords(i, tn, t), gs_field_coords(prov[i], sn, p);
         for (int d = 0; d < 3; d++)
             o[d] = p[d] - t[d];
-        votes[nv++] = (object_vote){to.label[i], so.label[prov[i]], pack_offset(o)};
+        votes[nv++] = (object_vote){to.label[i], so.label[prov[i]], gs_field_pack_offset(o)};
     }
     qsort(votes, (size_t)nv, sizeof *votes, cmp_vote);
     /* per target component its most voted (object, offset), the first in
@@ -1331,7 +1082,7 @@ static gs_err complete_objects(struct gs_field_synth *s, int *rebuilt)
         inside[l] = gs_qfield_value(src, (uint8_t)l) < 0;
     for (int64_t i = 0; i < nu; i++) {
         int64_t o[3];
-        unpack_offset(paste[i].off, o);
+        gs_field_unpack_offset(paste[i].off, o);
         int64_t n = object_footprint(src, owner, paste[i].obj, cores, first, stamp,
                                      (uint32_t)i + 1, fp);
         if (paste_object(s, fp, n, o, inside, out))
