@@ -379,6 +379,9 @@ typedef struct gs_points_params {
     int blend_fill;       /* 1: N_k's own points in the active strips fill the holes the
                              blend tore in the pasted sheet (synth.c fill_strip_holes); 0:
                              the paper's blend */
+    int blend_implicit;   /* 1: the strips blend as the zero set of (1 - t) f_F + t f_N,
+                             continuous signed distances to F' and N_k (blend.c); 0: each
+                             point by its neighbours' nearest-point targets (the paper's) */
     int drop_strip_specks; /* 1: the finish drops pieces of < GS_POINTS_SPECK_POINTS points
                               lying wholly in the overlap strips or within the link radius
                               outside their seam edges (a safety net after the blend; the

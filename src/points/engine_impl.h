@@ -50,7 +50,8 @@ typedef struct points_config {
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
     double tps_lambda;
     char *choices; /* points.choices: a patches.csv, "" = none */
-    int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, drop_strip_specks, warp_select, objects;
+    int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, blend_implicit,
+        drop_strip_specks, warp_select, objects;
     /* [output] */
     int write_points;
     char *ply_format;

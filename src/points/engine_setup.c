@@ -53,6 +53,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->blend_resample = c->blend_resample;
     p->blend_keep_outer = c->blend_keep_outer;
     p->blend_fill = c->blend_fill;
+    p->blend_implicit = c->blend_implicit;
     p->drop_strip_specks = c->drop_strip_specks;
     p->objects = c->objects;
     p->warp_select = c->warp_select;

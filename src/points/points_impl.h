@@ -110,6 +110,16 @@ typedef struct gs_points_sheet_point {
  * (the caller drops the point). */
 gs_err gs_points_blend_sheet(gs_points_sheet_point *v, size_t n, double R);
 
+/* The blend as the zero set of (1 - t) f_F + t f_N (blend.c,
+ * points.blend_implicit): f_F, f_N continuous signed distances to F' (the
+ * points of F) and N_k (N), each v[k] with found != 0 moved from q by Newton
+ * steps along (1 - t) n_F + t n_N onto it, its normal that blend of normals;
+ * found = 2 marks those that got there (*done_n of them), the others are
+ * left as they were (for gs_points_blend_sheet). reach: how far f_F, f_N
+ * look for a point. Serial, in v's order. */
+gs_err gs_points_blend_implicit(gs_points_sheet_point *v, size_t n, const gs_points_grid *F,
+                                const gs_points_grid *N, double R, double reach, size_t *done_n);
+
 /* The links the blend tore (synth.c, blend_smooth): pre[k] is sheet point
  * k before gs_points_blend_sheet, v[k].q after it (normal 0: dropped). Two
  * points within `link` of each other before (normals not opposed: the same
