@@ -163,32 +163,19 @@ static int64_t fib_grow(fib_ctx *c, int64_t lo, int64_t hi, int64_t seed, int *c
     return n;
 }
 
+/* Outside (not another part's inside). */
+static int fib_band_keeps(int64_t r, const void *u)
+{
+    const fib_ctx *c = u;
+    return !c->inside[c->src->q[r]];
+}
+
 /* Adds to c->list (n inside samples, the current mark) the outside samples
  * within 3 of them within [lo, hi) along the axis; returns the new count. */
 static int64_t fib_band(fib_ctx *c, int64_t lo, int64_t hi, int64_t n)
 {
-    const int64_t *sn = c->sn;
-    int64_t m = n;
-    for (int64_t i = 0; i < n; i++) {
-        int64_t v[3];
-        gs_field_coords(c->list[i], sn, v);
-        for (int64_t dz = -3; dz <= 3; dz++)
-            for (int64_t dy = -3; dy <= 3; dy++)
-                for (int64_t dx = -3; dx <= 3; dx++) {
-                    if (dx * dx + dy * dy + dz * dz > 9)
-                        continue;
-                    int64_t w[3] = {v[0] + dx, v[1] + dy, v[2] + dz};
-                    if (w[0] < 0 || w[0] >= sn[0] || w[1] < 0 || w[1] >= sn[1] || w[2] < 0 ||
-                        w[2] >= sn[2] || w[c->axis] < lo || w[c->axis] >= hi)
-                        continue;
-                    int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
-                    if (c->stamp[r] == c->mark || c->inside[c->src->q[r]])
-                        continue; /* listed, or inside (another part's) */
-                    c->stamp[r] = c->mark;
-                    c->list[m++] = r;
-                }
-    }
-    return m;
+    return gs_field_near3(c->sn, c->list, n, c->axis, lo, hi, c->stamp, c->mark, fib_band_keeps,
+                          c, c->list, n);
 }
 
 /* The samples of c->list[0 .. n) at source slice sx along the axis, their

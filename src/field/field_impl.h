@@ -200,6 +200,15 @@ static inline int64_t gs_field_offset_target(const int64_t sn[3], const int64_t 
     return t[0] + tn[0] * (t[1] + tn[1] * t[2]);
 }
 
+/* Whole objects (synth.c, fibers.c): the samples of an sn grid within 3
+ * (Euclidean) of seeds[0 .. ns), with coordinate along axis in [lo, hi) (axis
+ * -1: no such bound), not yet stamped with mark and that keep(r, u) accepts:
+ * stamped and appended to out[m ..]; returns the new count. */
+int64_t gs_field_near3(const int64_t sn[3], const int64_t *seeds, int64_t ns, int axis,
+                       int64_t lo, int64_t hi, uint32_t *stamp, uint32_t mark,
+                       int (*keep)(int64_t r, const void *u), const void *u, int64_t *out,
+                       int64_t m);
+
 /* field.complete_objects on long objects (src/field/fibers.c): rebuilds
  * target (levels of src, tn samples) from whole fibers of src running along
  * axis, chained slab by slab (slabs S samples thick), guided by prov (the

@@ -819,6 +819,46 @@ static int cmp_place(const void *a_, const void *b_)
     return cmp_paste(a_, b_);
 }
 
+int64_t gs_field_near3(const int64_t sn[3], const int64_t *seeds, int64_t ns, int axis,
+                       int64_t lo, int64_t hi, uint32_t *stamp, uint32_t mark,
+                       int (*keep)(int64_t r, const void *u), const void *u, int64_t *out,
+                       int64_t m)
+{
+    for (int64_t i = 0; i < ns; i++) {
+        int64_t v[3];
+        gs_field_coords(seeds[i], sn, v);
+        for (int64_t dz = -3; dz <= 3; dz++)
+            for (int64_t dy = -3; dy <= 3; dy++)
+                for (int64_t dx = -3; dx <= 3; dx++) {
+                    if (dx * dx + dy * dy + dz * dz > 9)
+                        continue;
+                    int64_t w[3] = {v[0] + dx, v[1] + dy, v[2] + dz};
+                    if (w[0] < 0 || w[0] >= sn[0] || w[1] < 0 || w[1] >= sn[1] || w[2] < 0 ||
+                        w[2] >= sn[2] || (axis >= 0 && (w[axis] < lo || w[axis] >= hi)))
+                        continue;
+                    int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
+                    if (stamp[r] == mark || !keep(r, u))
+                        continue;
+                    stamp[r] = mark;
+                    out[m++] = r;
+                }
+    }
+    return m;
+}
+
+typedef struct footprint_keep {
+    const gs_qfield *src;
+    const uint32_t *owner;
+    uint32_t obj;
+} footprint_keep;
+
+/* Not another object's inside (a touching one's shell). */
+static int footprint_keeps(int64_t r, const void *u_)
+{
+    const footprint_keep *u = u_;
+    return u->owner[r] == u->obj || gs_qfield_value(u->src, u->src->q[r]) >= 0;
+}
+
 /* The footprint of source object obj: the samples within 3 of its core
  * (cores[first[obj] .. first[obj + 1])) that are outside or inside it
  * (owner), not a touching object's inside, each once (stamp marks them with
@@ -828,28 +868,9 @@ static int64_t object_footprint(const gs_qfield *src, const uint32_t *owner, uin
                                 uint32_t mark, int64_t *fp)
 {
     const int64_t sn[3] = {src->nx, src->ny, src->nz};
-    int64_t n = 0;
-    for (int64_t i = first[obj]; i < first[obj + 1]; i++) {
-        int64_t v[3];
-        gs_field_coords(cores[i], sn, v);
-        for (int64_t dz = -3; dz <= 3; dz++)
-            for (int64_t dy = -3; dy <= 3; dy++)
-                for (int64_t dx = -3; dx <= 3; dx++) {
-                    if (dx * dx + dy * dy + dz * dz > 9)
-                        continue;
-                    int64_t w[3] = {v[0] + dx, v[1] + dy, v[2] + dz};
-                    if (w[0] < 0 || w[0] >= sn[0] || w[1] < 0 || w[1] >= sn[1] || w[2] < 0 ||
-                        w[2] >= sn[2])
-                        continue;
-                    int64_t r = w[0] + sn[0] * (w[1] + sn[1] * w[2]);
-                    if (stamp[r] == mark ||
-                        (owner[r] != obj && gs_qfield_value(src, src->q[r]) < 0))
-                        continue; /* listed, or another object's inside (a touching one's shell) */
-                    stamp[r] = mark;
-                    fp[n++] = r;
-                }
-    }
-    return n;
+    const footprint_keep u = {src, owner, obj};
+    return gs_field_near3(sn, cores + first[obj], first[obj + 1] - first[obj], -1, 0, 0, stamp,
+                          mark, footprint_keeps, &u, fp, 0);
 }
 
 /* Object footprint fp (n samples) at offset o against the objects already
