@@ -190,6 +190,57 @@ def enclosure_figures(ex, out):
     return f
 
 
+def layout(a, ground, large_min=0):
+    """Large-scale layout of the layers z >= ground (as gs_measure_layout_lattice): open
+    columns (nothing non-empty at z >= ground), clear columns (open with their 8 column
+    neighbours inside the lattice open), structures = 6-connected components of the
+    non-empty cells at z >= ground holding a cell above the ground layer (their cell
+    counts, largest first), size_median = cell-weighted median (half the structure cells
+    are in structures of at least this size), large_cells = cells in structures of more
+    than large_min cells (0: none counted)."""
+    from scipy import ndimage
+    above = a[ground:] != 0
+    openc = ~above.any(axis=0)
+    clear = ndimage.binary_erosion(openc, structure=np.ones((3, 3), bool), border_value=1)
+    lab, n = ndimage.label(above)
+    sizes = np.bincount(lab.ravel(), minlength=n + 1)
+    tall = np.unique(lab[1:])
+    st = sorted((int(sizes[c]) for c in tall if c > 0), reverse=True)
+    cells = sum(st)
+    median, cum = 0, 0
+    for v in st:
+        cum += v
+        if 2 * cum >= cells:
+            median = v
+            break
+    return {"columns": int(openc.size), "open": int(openc.sum()), "clear": int(clear.sum()),
+            "sizes": st, "structure_cells": cells, "largest": st[0] if st else 0,
+            "size_median": median,
+            "large_cells": sum(v for v in st if large_min and v > large_min)}
+
+
+def layout_figures(ex, out):
+    """summary.json's layout figures (docs/FORMATS.md): both lattices above the example's
+    ground layer; "large" structures hold more than twice the example's largest."""
+    z = ground_layer(ex)
+    if z < 0 or z >= out.shape[0] or out.shape[0] < 2:
+        return {}
+    le = layout(ex, z)
+    big = 2 * le["largest"]
+    f = {"layout_ground_layer": z}
+    for name, g in (("", layout(out, z, big)), ("_example", layout(ex, z, big))):
+        cols = g["columns"] or 1
+        f["open_ground_share" + name] = g["open"] / cols
+        f["open_ground_clear_share" + name] = g["clear"] / cols
+        f["structures_per_kcell" + name] = 1000.0 * len(g["sizes"]) / cols
+        f["structure_max" + name] = g["largest"]
+        f["structure_size_median" + name] = g["size_median"]
+        f["structure_large_share" + name] = g["large_cells"] / (g["structure_cells"] or 1)
+        f["structures" + name] = len(g["sizes"])
+    f["structure_max_ratio"] = f["structure_max"] / le["largest"] if le["largest"] else 0.0
+    return f
+
+
 def shuffled(ex, seed=0):
     """The example's cells in a random order: the same label mix, no structure."""
     flat = ex.ravel().copy()
@@ -212,6 +263,7 @@ def figures(ex, out, ks=(2, 3)):
     if min(ex.shape[0], out.shape[0]) > 2:
         f["enclosed_2"], f["enclosed_2_example"] = enclosed(out), enclosed(ex)
     f.update(enclosure_figures(ex, out))
+    f.update(layout_figures(ex, out))
     f["unsupported_share"], f["unsupported_share_example"] = unsupported(out), unsupported(ex)
     f["labels_used"] = int(len(np.unique(out[out != 0])))
     f["labels_example"] = int(len(np.unique(ex[ex != 0])))

@@ -250,6 +250,31 @@ gs_err gs_measure_enclosure_layer(const uint16_t *labels, const int dims[3], int
  * ground, where yards are measured; -1 when no layer has one. */
 int gs_measure_ground_layer(const uint16_t *labels, const int dims[3]);
 
+/* Large-scale layout above the ground (issue #18: castles on open ground, not
+ * a labyrinth), of the layers z >= ground (pass the example's
+ * gs_measure_ground_layer for both lattices). A column (x, y) is open when it
+ * holds no non-empty cell at z >= ground; clear when it and its 8 column
+ * neighbours inside the lattice are open (room to stand, not a one-cell gap
+ * between walls). Structures are the 6-connected components of the non-empty
+ * cells at z >= ground that hold a cell above the ground layer (built more
+ * than one cell high: walls, keeps, houses; not flat cover such as bushes
+ * alone). size_median is cell-weighted: half the structure cells are in
+ * structures of at least this many cells. large_cells: structure cells in
+ * structures of more than large_min cells (0 = none counted). Non-periodic.
+ * Cost O(cells) (src/measure/lattice.c; analysis/lattice_measures.py layout). */
+typedef struct gs_measure_layout {
+    int ground;                /* lowest layer measured */
+    uint64_t columns;          /* nx * ny */
+    uint64_t open, clear;      /* open and clear columns */
+    uint64_t structures;       /* their count */
+    uint64_t structure_cells;  /* cells in structures */
+    uint64_t largest;          /* cells of the largest structure, 0 when none */
+    uint64_t size_median;      /* cell-weighted median structure size, 0 when none */
+    uint64_t large_cells;      /* cells in structures of more than large_min cells */
+} gs_measure_layout;
+gs_err gs_measure_layout_lattice(const uint16_t *labels, const int dims[3], int ground,
+                                 uint64_t large_min, gs_measure_layout *out);
+
 /* Copying in a synthesized 3D grid of bytes (x fastest), measured from the
  * output and its example alone. Every window of k^3 samples of out whose
  * content occurs exactly once in src (windows that occur more than once, e.g.

@@ -178,6 +178,10 @@ typedef struct gs_model_quality_figures {
      * an empty cell; enclosure.layer = -1 when it has none or the output is lower),
      * large = yards of >= half the example's largest (gs_measure_enclosure_layer) */
     gs_measure_enclosure enclosure, enclosure_example;
+    /* layout above the example's ground layer (gs_measure_layout_lattice; layout.ground
+     * = -1 when not measured, as enclosure.layer); large = structures of more than
+     * twice the example's largest */
+    gs_measure_layout layout, layout_example;
 } gs_model_quality_figures;
 
 gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice *output,

@@ -286,3 +286,87 @@ done:
     gs_free(sizes);
     return err;
 }
+
+static int cmp_u64_desc(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? 1 : x > y ? -1 : 0;
+}
+
+gs_err gs_measure_layout_lattice(const uint16_t *labels, const int dims[3], int ground,
+                                 uint64_t large_min, gs_measure_layout *out)
+{
+    GS_CHECK(ground >= 0 && ground < dims[2], GS_ERR_ARG, "layout: ground layer %d of %d", ground,
+             dims[2]);
+    const int nx = dims[0], ny = dims[1], nz = dims[2] - ground;
+    const size_t layer = (size_t)nx * (size_t)ny, n = layer * (size_t)nz;
+    memset(out, 0, sizeof *out);
+    out->ground = ground;
+    out->columns = layer;
+    uint8_t *mask = NULL, *open = NULL, *tall = NULL;
+    uint32_t *comp = NULL, ncomp = 0;
+    uint64_t *sizes = NULL, *tall_sizes = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&mask, n, 1, "layout mask"), done);
+    GS_TRY(err, gs_alloc_array((void **)&open, layer, 1, "open columns"), done);
+    GS_TRY(err, gs_alloc_array((void **)&comp, n, sizeof *comp, "layout components"), done);
+    memset(open, 1, layer);
+    const uint16_t *above = labels + layer * (size_t)ground;
+    for (size_t i = 0; i < n; i++) {
+        mask[i] = above[i] != 0;
+        if (mask[i])
+            open[i % layer] = 0;
+    }
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            if (!open[(size_t)x + (size_t)nx * (size_t)y])
+                continue;
+            out->open++;
+            int clear = 1;
+            for (int dy = -1; dy <= 1 && clear; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const int u = x + dx, v = y + dy;
+                    if (u >= 0 && u < nx && v >= 0 && v < ny &&
+                        !open[(size_t)u + (size_t)nx * (size_t)v]) {
+                        clear = 0;
+                        break;
+                    }
+                }
+            out->clear += (uint64_t)clear;
+        }
+    static const int flat[3] = {0, 0, 0};
+    GS_TRY(err, gs_measure_components3(mask, nx, ny, nz, flat, comp, &ncomp, &sizes), done);
+    GS_TRY(err, gs_alloc_array((void **)&tall, (size_t)ncomp + 1, 1, "structures"), done);
+    memset(tall, 0, (size_t)ncomp + 1);
+    for (size_t i = layer; i < n; i++)
+        tall[comp[i]] = 1;
+    GS_TRY(err, gs_alloc_array((void **)&tall_sizes, (size_t)ncomp + 1, sizeof *tall_sizes,
+                               "structure sizes"),
+           done);
+    for (uint32_t c = 1; c <= ncomp; c++) {
+        if (!tall[c])
+            continue;
+        tall_sizes[out->structures++] = sizes[c];
+        out->structure_cells += sizes[c];
+        if (large_min && sizes[c] > large_min)
+            out->large_cells += sizes[c];
+    }
+    qsort(tall_sizes, out->structures, sizeof *tall_sizes, cmp_u64_desc);
+    if (out->structures)
+        out->largest = tall_sizes[0];
+    for (uint64_t i = 0, cum = 0; i < out->structures; i++) {
+        cum += tall_sizes[i];
+        if (2 * cum >= out->structure_cells) {
+            out->size_median = tall_sizes[i];
+            break;
+        }
+    }
+done:
+    gs_free(mask);
+    gs_free(open);
+    gs_free(comp);
+    gs_free(sizes);
+    gs_free(tall);
+    gs_free(tall_sizes);
+    return err;
+}

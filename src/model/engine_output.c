@@ -367,6 +367,32 @@ static void write_figures(gs_run *run, const gs_model_quality_figures *f)
             gs_run_metric_f64(run, ekey[k][4], (double)en[k]->large / cells);
         }
     }
+    if (f->layout.ground >= 0) {
+        gs_run_metric_i64(run, "layout_ground_layer", f->layout.ground);
+        const gs_measure_layout *la[2] = {&f->layout, &f->layout_example};
+        static const char *lkey[2][7] = {
+            {"open_ground_share", "open_ground_clear_share", "structures_per_kcell",
+             "structure_max", "structure_size_median", "structure_large_share", "structures"},
+            {"open_ground_share_example", "open_ground_clear_share_example",
+             "structures_per_kcell_example", "structure_max_example",
+             "structure_size_median_example", "structure_large_share_example",
+             "structures_example"}};
+        for (int k = 0; k < 2; k++) {
+            const double cols = la[k]->columns ? (double)la[k]->columns : 1;
+            const double sc = la[k]->structure_cells ? (double)la[k]->structure_cells : 1;
+            gs_run_metric_f64(run, lkey[k][0], (double)la[k]->open / cols);
+            gs_run_metric_f64(run, lkey[k][1], (double)la[k]->clear / cols);
+            gs_run_metric_f64(run, lkey[k][2], 1000.0 * (double)la[k]->structures / cols);
+            gs_run_metric_i64(run, lkey[k][3], (int64_t)la[k]->largest);
+            gs_run_metric_i64(run, lkey[k][4], (int64_t)la[k]->size_median);
+            gs_run_metric_f64(run, lkey[k][5], (double)la[k]->large_cells / sc);
+            gs_run_metric_i64(run, lkey[k][6], (int64_t)la[k]->structures);
+        }
+        gs_run_metric_f64(run, "structure_max_ratio",
+                          f->layout_example.largest
+                              ? (double)f->layout.largest / (double)f->layout_example.largest
+                              : 0);
+    }
     gs_run_metric_f64(run, "height_fill_mean_abs", f->profile.fill_mean_abs);
     gs_run_metric_f64(run, "height_label_l1_mean", f->profile.label_l1_mean);
     gs_run_metric_i64(run, "top_layer", f->profile.top_output);

@@ -65,6 +65,15 @@ gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice 
         if (err == GS_OK)
             err = gs_measure_enclosure_layer(output->labels, od, zg, large, &q->enclosure);
     }
+    q->layout.ground = q->layout_example.ground = -1;
+    if (err == GS_OK && zg >= 0 && zg < od[2] && od[2] > 1) {
+        err = gs_measure_layout_lattice(example->labels, ed, zg, 0, &q->layout_example);
+        const uint64_t big = 2 * q->layout_example.largest;
+        if (err == GS_OK)
+            err = gs_measure_layout_lattice(example->labels, ed, zg, big, &q->layout_example);
+        if (err == GS_OK)
+            err = gs_measure_layout_lattice(output->labels, od, zg, big, &q->layout);
+    }
     if (err)
         gs_measure_profile_free(&q->profile);
     return err;

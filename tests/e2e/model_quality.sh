@@ -232,6 +232,10 @@ need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed 
 e = lm.enclosure_figures(ex, out)
 need(e["enclosed_layer"] == 1 and all(abs(e[k] - m[k]) < 1e-12 for k in e),
      "summary.json's enclosed_* = analysis/lattice_measures.py's (%s)" % e)
+# the layout above the ground (open columns, structures) of summary.json is the files' too
+lf = lm.layout_figures(ex, out)
+need(lf.get("layout_ground_layer") == 1 and all(abs(lf[k] - m[k]) < 1e-12 for k in lf),
+     "summary.json's layout figures = analysis/lattice_measures.py's (%s)" % lf)
 chk.result()
 EOF
 )

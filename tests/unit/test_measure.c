@@ -561,6 +561,49 @@ static void lcg_bytes(uint8_t *a, size_t n, uint64_t *r)
  * plain sense) tiled into the output is one copied region larger than the
  * source, while a random source has no period and a shuffled output copies
  * only pieces. */
+/* Layout above the ground (gs_measure_layout_lattice), 5x5x4, ground z = 0
+ * full, measured from z = 1: a wall column 2 high at (1, 1) with a 1-cell
+ * spur at (2, 1) z = 1 (one structure of 3 cells), a bush (1 high) at (3, 3):
+ * no structure. Open: 25 - 3 columns; clear: the columns at Chebyshev
+ * distance >= 2 from (1, 1), (2, 1) and (3, 3): x = 4 with y <= 1 (2) and
+ * y = 3..4 with x <= 1 (4): 6. A second wall of 5 cells at (0, 4)
+ * z = 1..3 plus (1, 4) z = 1, (2, 4) z = 1: then 2 structures, cell-weighted
+ * median 5, large (more than 4 cells) 5 of 8. */
+static void test_layout(void **state)
+{
+    (void)state;
+    enum { NX = 5, NY = 5, NZ = 4 };
+    uint16_t lab[NX * NY * NZ] = {0};
+    for (int i = 0; i < NX * NY; i++)
+        lab[i] = 1;
+#define AT(x, y, z) lab[(x) + NX * ((y) + NY * (z))]
+    AT(1, 1, 1) = AT(1, 1, 2) = 2;
+    AT(2, 1, 1) = 2;
+    AT(3, 3, 1) = 3;
+    const int dims[3] = {NX, NY, NZ};
+    gs_measure_layout L;
+    assert_int_equal(gs_measure_layout_lattice(lab, dims, 1, 0, &L), GS_OK);
+    assert_int_equal(L.columns, 25);
+    assert_int_equal(L.open, 22);
+    assert_int_equal(L.clear, 6);
+    assert_int_equal(L.structures, 1);
+    assert_int_equal(L.structure_cells, 3);
+    assert_int_equal(L.largest, 3);
+    assert_int_equal(L.size_median, 3);
+    assert_int_equal(L.large_cells, 0);
+    AT(0, 4, 1) = AT(0, 4, 2) = AT(0, 4, 3) = 2;
+    AT(1, 4, 1) = AT(2, 4, 1) = 2;
+    assert_int_equal(gs_measure_layout_lattice(lab, dims, 1, 4, &L), GS_OK);
+    assert_int_equal(L.open, 19);
+    assert_int_equal(L.structures, 2);
+    assert_int_equal(L.structure_cells, 8);
+    assert_int_equal(L.largest, 5);
+    assert_int_equal(L.size_median, 5);
+    assert_int_equal(L.large_cells, 5);
+#undef AT
+    assert_int_equal(gs_measure_layout_lattice(lab, dims, 4, 0, &L), GS_ERR_ARG);
+}
+
 static void test_copy_periodic(void **state)
 {
     (void)state;
@@ -762,6 +805,7 @@ int main(void)
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
         cmocka_unit_test(test_enclosure),
+        cmocka_unit_test(test_layout),
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_outline),
