@@ -116,9 +116,12 @@ gs_err gs_points_blend_sheet(gs_points_sheet_point *v, size_t n, double R);
  * steps along (1 - t) n_F + t n_N onto it, its normal that blend of normals;
  * found = 2 marks those that got there (*done_n of them), the others are
  * left as they were (for gs_points_blend_sheet). reach: how far f_F, f_N
- * look for a point. Serial, in v's order. */
+ * look for a point. The per-point solves go through the map hook map
+ * (NULL: here; collective if it is): each point's answer depends on its
+ * own inputs only, so v ends the same for any split. */
 gs_err gs_points_blend_implicit(gs_points_sheet_point *v, size_t n, const gs_points_grid *F,
-                                const gs_points_grid *N, double R, double reach, size_t *done_n);
+                                const gs_points_grid *N, double R, double reach,
+                                gs_points_map_fn map, void *map_user, size_t *done_n);
 
 /* The links the blend tore (synth.c, blend_smooth): pre[k] is sheet point
  * k before gs_points_blend_sheet, v[k].q after it (normal 0: dropped). Two

@@ -1296,7 +1296,8 @@ static gs_err blend_implicit(struct gs_points_synth *s, const blend_item *b, siz
         if (!b[i].obj)
             GS_TRY(err, gs_points_grid_add(gF, &b[i].q), done);
     size_t got;
-    GS_TRY(err, gs_points_blend_implicit(v, ns, gF, s->out, R, 4 * R, &got), done);
+    GS_TRY(err, gs_points_blend_implicit(v, ns, gF, s->out, R, 4 * R, s->map_fn, s->map_user,
+                                         &got), done);
     for (size_t k = 0; k < ns; k++)
         if (v[k].found != 2)
             v[k].q = v2[k].q;
