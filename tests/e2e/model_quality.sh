@@ -167,7 +167,7 @@ EOF
   done
 fi
 
-# castle-10x.ini (castle.txt at 126x126x10 in 20x20 regions; #18 "a field of towers"): the
+# castle-10x.ini (castle.txt at 126x126x10 in 16x16 regions, no overlap; #18 "a field of towers"): the
 # keep is what rises above the walls. Keep layers, from the example alone: its non-empty
 # layers filled less than half as much as its fullest partly filled layer (castle.txt: z = 5, 6,
 # fill 0.062 / 0.031; the walls fill 0.25-0.33). Checks from lattice.h5 and the example, seeds 1
@@ -175,6 +175,13 @@ fi
 # the author's lower figure for castle (issue #18: 0.51).
 # Broken on purpose: castle-10x.ini's settings before (frequency_weight 0, resemblance_slack 0)
 # fail the keep layers (seed 1: 0.016 / 0.007, seed 2: 0.012 / 0.005 against 0.062 / 0.031).
+# Castles on open ground (model19): the share of clear columns (open, with their 8 column
+# neighbours open: room between structures) within [0.8, 1.25] x the example's (castle.txt
+# 0.238) and the largest structure (6-connected non-empty cells above the ground layer) at most
+# 4 x the example's (castle.txt 120 cells; analysis/lattice_measures.py layout_figures), label
+# L1 <= 0.16 (the author's castle figure). Broken on purpose: model.overlap = -1 (half-region
+# overlap, castle-10x.ini's layout before, region 16 or 20) fails both layout checks (region 20:
+# seed 1 clear 0.168, largest 12.3 x; seed 2 0.173, 20.0 x).
 if need_config "castle-10x: keeps at the example's rate" "$GS_ROOT/configs/model/castle-10x.ini"; then
   for s in 1 2; do
     run_gs 0 model -c "$GS_ROOT/configs/model/castle-10x.ini" --set run.seed=$s --set model.mesh=none -o castle10x$s
@@ -198,6 +205,12 @@ for z in keep:
     need(0.5 * fe[z] <= fo[z] <= 2 * fe[z], "keep layer z = %d: fill %.4f within [0.5, 2] x the example's %.4f" % (z, fo[z], fe[z]))
 need(lm.share(ex, out, 3) >= 0.51, "non-empty 3x3x3 share %.3f >= 0.51 (the author's lower castle figure, issue #18)" % lm.share(ex, out, 3))
 need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+# layout above the ground (#18, model19): castles on open ground, not a labyrinth of walls
+lf = lm.layout_figures(ex, out)
+rc = lf["open_ground_clear_share"] / lf["open_ground_clear_share_example"]
+need(0.8 <= rc <= 1.25, "open ground with room (clear columns) %.3f within [0.8, 1.25] x the example's %.3f" % (lf["open_ground_clear_share"], lf["open_ground_clear_share_example"]))
+need(lf["structure_max_ratio"] <= 4, "largest structure %d cells <= 4 x the example's %d" % (lf["structure_max"], lf["structure_max_example"]))
+need(lm.label_l1(ex, out) <= 0.16, "label L1 %.3f <= 0.16 (the author's castle figure, issue #18)" % lm.label_l1(ex, out))
 chk.result()
 EOF
 )
