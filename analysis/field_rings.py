@@ -1,23 +1,26 @@
 #!/usr/bin/python3
-"""Rings of a field run (chainmail.ini), from field.h5 alone: are the
-output's rings whole, as the source's are?
+"""Rings of a field run (chainmail*.ini), from field.h5 alone: are the
+output's rings whole, as the source's are? (#19 item 3)
 
-usage: field_rings.py RUN_DIR_or_field.h5 [--json]
+usage: field_rings.py RUN_DIR_or_field.h5 [--json] [--check]
 
 An object is an inside component (distance < 0, 6-connected) that touches
-no face of the grid; its class is (Euler characteristic, sample count): the
-Euler characteristic of the union of its samples' unit cubes is 0 for one
-ring (a solid torus), 1 for a piece without a hole, 1 - k for k + 1 rings
-joined (chainmail.ini's rings touch the rings that link them where they are
-sampled: the source has rings alone, 152 samples, and chains of a ring with
-its two linking rings, about 400 samples, Euler -2). Printed for output and
-source: objects, the share of each class (most common first, of the
-source), `known`: the share of the output's objects whose class the
-source has (1: every output object is one of the source's whole shapes;
-cut rings and fragments lower it; a source whose rings all differ, as
-chainmail_jittered's, has few classes to share), and loops per 1000 inside
-samples of the objects (objects - their Euler characteristics: the rings'
-holes; a ring cut open has none, so cut rings lower it).
+no face of the grid. Its handles are 1 - its Euler characteristic, that of
+the cubical complex 6-connectivity describes (cells - face-adjacent pairs +
+2x2 squares - 2x2x2 cubes): a whole ring has one, an arc, a stub or a ball
+none, g rings that touch (chainmail's rings touch the rings that link them
+where they are sampled) g or more. Printed for output and source, as
+summary.json has them (src/field/report.c, gs_field_geometry_report):
+genus{k}: objects with k handles (4: 4 or more), ring_share: the share of
+objects with a handle, open_per_msample: objects without one per 10^6
+samples of the grid, handles_per_kinside: handles per 1000 inside samples of
+the objects (a ring cut open loses its handle, an arc grown onto a ring adds
+samples and no handle), handles_all_per_kinside: the same over every inside
+component (those at the faces too); and the class table (Euler
+characteristic, sample count) with `known`: the share of the output's
+objects whose class the source has. --check compares the figures with the
+run's summary.json and exits 1 when one differs (the C measure and this one
+are the same).
 """
 import json
 import sys
@@ -33,61 +36,78 @@ def levels(f, name):
     return lo + d[()].astype(np.float64) * (hi - lo) / 255.0
 
 
-def euler(mask):
-    """Euler characteristic of the union of closed unit cubes at the mask's
-    samples (a solid ball 1, a solid torus 0): vertices - edges + faces - cubes,
-    an element present when a cube holding it is."""
-    a = np.pad(mask, 1).astype(bool)
-    cubes = int(a.sum())
-    v = int((a[:-1, :-1, :-1] | a[1:, :-1, :-1] | a[:-1, 1:, :-1] | a[1:, 1:, :-1] |
-             a[:-1, :-1, 1:] | a[1:, :-1, 1:] | a[:-1, 1:, 1:] | a[1:, 1:, 1:]).sum())
-    e = f = 0
-    for ax in range(3):
-        o = [k for k in range(3) if k != ax]
-
-        def sl(i, j):
-            return tuple(slice(i, i + a.shape[k] - 1) if k == o[0] else
-                         slice(j, j + a.shape[k] - 1) if k == o[1] else slice(None)
-                         for k in range(3))
-        e += int((a[sl(0, 0)] | a[sl(1, 0)] | a[sl(0, 1)] | a[sl(1, 1)]).sum())
-        t0 = tuple(slice(0, a.shape[k] - 1) if k == ax else slice(None) for k in range(3))
-        t1 = tuple(slice(1, a.shape[k]) if k == ax else slice(None) for k in range(3))
-        f += int((a[t0] | a[t1]).sum())
-    return v - e + f - cubes
+def euler6(lab, n):
+    """Euler characteristic of each 6-connected component of lab (1..n):
+    cells - face-adjacent pairs + 2x2 squares - 2x2x2 cubes."""
+    a = np.pad(lab, ((0, 1), (0, 1), (0, 1)))
+    s = a != 0
+    core = (slice(0, -1),) * 3
+    sh = lambda dz, dy, dx: s[dz:dz + lab.shape[0], dy:dy + lab.shape[1], dx:dx + lab.shape[2]]
+    x, y, z = sh(0, 0, 1), sh(0, 1, 0), sh(1, 0, 0)
+    sxy, sxz, syz = x & y & sh(0, 1, 1), x & z & sh(1, 0, 1), y & z & sh(1, 1, 0)
+    cube = sxy & sxz & syz & sh(1, 1, 1)
+    w = (1 - x.astype(np.int64) - y - z + sxy + sxz + syz - cube)
+    e = np.bincount(a[core].ravel(), weights=w.ravel(), minlength=n + 1)
+    return np.rint(e).astype(np.int64)
 
 
-def classes(dist):
+def components(dist):
+    """(interior: [(euler, samples)], handles and inside samples of every component)"""
     lab, n = ndimage.label(dist < 0)
     border = set()
     for sl in (lab[0], lab[-1], lab[:, 0], lab[:, -1], lab[:, :, 0], lab[:, :, -1]):
         border.update(np.unique(sl).tolist())
-    objs = ndimage.find_objects(lab)
-    out = []
-    for c in range(1, n + 1):
-        if c not in border:
-            me = lab[objs[c - 1]] == c
-            out.append((euler(me), int(me.sum())))
-    return out
+    eu = euler6(lab, n)
+    size = np.bincount(lab.ravel(), minlength=n + 1)
+    out = [(int(eu[c]), int(size[c])) for c in range(1, n + 1) if c not in border]
+    return out, int(n - eu[1:].sum()), int(size[1:].sum())
+
+
+def classes(dist):
+    return components(dist)[0]
+
+
+def figures(dist, tag, res):
+    cl, h_all, s_all = components(dist)
+    g = [0] * 5
+    for e, _ in cl:
+        g[min(max(1 - e, 0), 4)] += 1
+    for k in range(5):
+        res["genus%d_%s" % (k, tag)] = g[k]
+    res["ring_share_" + tag] = (len(cl) - g[0]) / len(cl) if cl else 0.0
+    res["open_per_msample_" + tag] = 1e6 * g[0] / dist.size
+    s = sum(c[1] for c in cl)
+    res["handles_per_kinside_" + tag] = 1e3 * sum(1 - c[0] for c in cl) / s if s else 0.0
+    res["handles_all_per_kinside_" + tag] = 1e3 * h_all / s_all if s_all else 0.0
+    return cl
 
 
 def main(argv):
     run = argv[1]
     h5 = run if run.endswith(".h5") else run + "/field.h5"
+    res = {}
     with h5py.File(h5, "r") as f:
-        out, src = classes(levels(f, "field/levels")), classes(levels(f, "source/levels"))
+        out = figures(levels(f, "field/levels"), "out", res)
+        src = figures(levels(f, "source/levels"), "src", res)
     known = set(src)
-    # loops: components - Euler characteristic = independent loops (tunnels)
-    # less cavities (none here); per 1000 inside samples of the objects
-    loops = lambda cl: round(1000.0 * sum(1 - c[0] for c in cl) / max(sum(c[1] for c in cl), 1), 3)
     share = lambda cl, k: round(sum(1 for c in cl if c == k) / max(len(cl), 1), 4)
     top = sorted(known, key=lambda k: -share(src, k))[:4]
-    res = {"objects_out": len(out), "objects_src": len(src),
-           "known_out": round(sum(1 for c in out if c in known) / max(len(out), 1), 4),
-           "loops_per_1000_out": loops(out), "loops_per_1000_src": loops(src),
-           "classes": [{"euler": k[0], "samples": k[1], "share_out": share(out, k),
-                        "share_src": share(src, k)} for k in top]}
+    res.update({"objects_out": len(out), "objects_src": len(src),
+                "known_out": round(sum(1 for c in out if c in known) / max(len(out), 1), 4),
+                "classes": [{"euler": k[0], "samples": k[1], "share_out": share(out, k),
+                             "share_src": share(src, k)} for k in top]})
+    bad = []
+    if "--check" in argv:
+        with open(h5[:-len("field.h5")] + "summary.json") as f:
+            m = json.load(f)["metrics"]
+        for k, v in res.items():
+            if k.startswith(("genus", "ring_share", "open_per", "handles")):
+                if k not in m or abs(m[k] - v) > 1e-6 * max(1.0, abs(v)):
+                    bad.append((k, m.get(k), v))
+        res["check"] = "differs: %s" % bad if bad else "summary.json agrees"
     print(json.dumps(res) if "--json" in argv else json.dumps(res, indent=1))
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":
-    main(sys.argv)
+    sys.exit(main(sys.argv))

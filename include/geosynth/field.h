@@ -613,6 +613,21 @@ typedef struct gs_field_geometry_report {
     double component_size_ks;        /* KS distance of the two size distributions */
     double fragment_share_out, fragment_share_src; /* share of components smaller than a
                                                       quarter of the source's median */
+    /* topology of the same interior components (rings: #19 item 3): handles
+     * = 1 - Euler characteristic (gs_measure_component_euler3; a whole ring
+     * 1, an arc or a ball 0, g rings that touch g or more). genus_*[k]:
+     * components with k handles (k = 0..3), [4]: 4 or more; ring_share: the
+     * share of components with a handle (whole rings, alone or touching);
+     * open_per_msample: components without one (arcs, stubs; balls) per
+     * 10^6 samples; handles_per_kinside: their handles per 1000 of their
+     * inside samples (a ring cut into arcs loses its handle, an arc grown on
+     * a ring adds samples, not handles); handles_all_per_kinside: the same
+     * over every inside component, those at the faces too */
+    int64_t genus_out[5], genus_src[5];
+    double ring_share_out, ring_share_src;
+    double open_per_msample_out, open_per_msample_src;
+    double handles_per_kinside_out, handles_per_kinside_src;
+    double handles_all_per_kinside_out, handles_all_per_kinside_src;
     double step_violations_out, step_violations_src; /* share of 6-neighbour pairs whose
                                                         values differ by > 1.5 samples */
     /* largest inscribed spheres (objects that touch each other, as balls in a

@@ -45,6 +45,16 @@ gs_err gs_measure_ks(const double *x, size_t nx, const double *y, size_t ny, dou
 gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const int periodic[3],
                               uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
 
+/* Euler characteristic of each 6-connected component of label (as
+ * gs_measure_components3 fills it, not periodic; ncomp components): euler[c]
+ * (c = 1 .. ncomp, [0] unused, ncomp + 1 entries) = cells - face-adjacent
+ * pairs + 2x2 squares - 2x2x2 cubes of the component, the Euler
+ * characteristic of the cubical complex that 6-connectivity describes:
+ * 1 for a solid ball, 0 for a solid ring (one handle), 1 - g for g handles
+ * (a component without cavities: handles = 1 - euler). Cost: O(cells). */
+void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
+                                 int64_t *euler);
+
 /* Connected components of a point cloud: points i and j are linked when
  * |p_i - p_j| <= radius; point i is xyz[i * stride .. + 3) (stride >= 3
  * doubles, e.g. 6 for x y z nx ny nz). label[i] (n entries) receives the

@@ -312,6 +312,21 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_f64(run, "component_size_ks", g->component_size_ks);
     gs_run_metric_f64(run, "fragment_share_out", g->fragment_share_out);
     gs_run_metric_f64(run, "fragment_share_src", g->fragment_share_src);
+    for (int k = 0; k < 5; k++) { /* interior components by handles: 0..3, 4 or more */
+        char name[32];
+        snprintf(name, sizeof name, "genus%d_out", k);
+        gs_run_metric_i64(run, name, g->genus_out[k]);
+        snprintf(name, sizeof name, "genus%d_src", k);
+        gs_run_metric_i64(run, name, g->genus_src[k]);
+    }
+    gs_run_metric_f64(run, "ring_share_out", g->ring_share_out);
+    gs_run_metric_f64(run, "ring_share_src", g->ring_share_src);
+    gs_run_metric_f64(run, "open_per_msample_out", g->open_per_msample_out);
+    gs_run_metric_f64(run, "open_per_msample_src", g->open_per_msample_src);
+    gs_run_metric_f64(run, "handles_per_kinside_out", g->handles_per_kinside_out);
+    gs_run_metric_f64(run, "handles_per_kinside_src", g->handles_per_kinside_src);
+    gs_run_metric_f64(run, "handles_all_per_kinside_out", g->handles_all_per_kinside_out);
+    gs_run_metric_f64(run, "handles_all_per_kinside_src", g->handles_all_per_kinside_src);
     gs_run_metric_f64(run, "step_violations_out", g->step_violations_out);
     gs_run_metric_f64(run, "step_violations_src", g->step_violations_src);
     gs_run_metric_i64(run, "inscribed_out", g->inscribed_out);
@@ -345,6 +360,18 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
            (long long)g->components_src, g->components_per_msample_src, g->component_median_out,
            g->component_median_src, g->component_size_ks, g->fragment_share_out,
            g->fragment_share_src, g->step_violations_out, g->step_violations_src, g->seconds);
+    gs_log(GS_LOG_INFO,
+           "topology: interior components with 0/1/2/3/4+ handles %lld/%lld/%lld/%lld/%lld "
+           "(source %lld/%lld/%lld/%lld/%lld), with a handle %.3f (source %.3f), without one "
+           "%.1f per 10^6 samples (source %.1f); handles per 1000 inside samples %.2f (source "
+           "%.2f), of every component %.2f (source %.2f)",
+           (long long)g->genus_out[0], (long long)g->genus_out[1], (long long)g->genus_out[2],
+           (long long)g->genus_out[3], (long long)g->genus_out[4], (long long)g->genus_src[0],
+           (long long)g->genus_src[1], (long long)g->genus_src[2], (long long)g->genus_src[3],
+           (long long)g->genus_src[4], g->ring_share_out, g->ring_share_src,
+           g->open_per_msample_out, g->open_per_msample_src, g->handles_per_kinside_out,
+           g->handles_per_kinside_src, g->handles_all_per_kinside_out,
+           g->handles_all_per_kinside_src);
     gs_log(GS_LOG_INFO,
            "inscribed spheres: radius p10/p50/p90 %.2f/%.2f/%.2f samples (source "
            "%.2f/%.2f/%.2f), KS %.3f; through slabs of %lld along axis %d: %.3f of the inside "

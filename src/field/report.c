@@ -55,12 +55,22 @@ static int cmp_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Topology of the inside components (gs_field_geometry_report's genus_*,
+ * ring_share, open_per_msample, handles_*). */
+typedef struct inside_topology {
+    int64_t genus[5], handles, handles_all;
+    uint64_t samples, samples_all;
+} inside_topology;
+
 /* Inside components of q that touch none of its faces (one that does may be
  * cut by the box: the output's at its faces are, and the source's would be):
  * count and sizes (sorted ascending, *sizes owned by the caller, *n
- * entries). */
-static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n)
+ * entries), and their topology *t. */
+static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n,
+                                inside_topology *t)
 {
+    int64_t *euler = NULL;
+    memset(t, 0, sizeof *t);
     int64_t cells = q->nx * q->ny * q->nz;
     uint8_t inside[256];
     for (int i = 0; i < 256; i++)
@@ -75,6 +85,11 @@ static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n
         mask[i] = inside[q->q[i]];
     GS_TRY(err, gs_measure_components3(mask, (int)q->nx, (int)q->ny, (int)q->nz, NULL, label, &nc,
                                        &sz), done);
+    GS_TRY(err, gs_alloc_array((void **)&euler, (size_t)nc + 1, sizeof *euler, "component Euler"),
+           done);
+    gs_measure_component_euler3(label, (int)q->nx, (int)q->ny, (int)q->nz, nc, euler);
+    for (uint32_t c = 1; c <= nc; c++)
+        t->handles_all += 1 - euler[c], t->samples_all += sz[c];
     /* components touching a face: size 0, dropped */
     for (int64_t z = 0; z < q->nz; z++)
         for (int64_t y = 0; y < q->ny; y++) {
@@ -84,8 +99,12 @@ static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n
         }
     uint32_t keep = 0;
     for (uint32_t c = 1; c <= nc; c++)
-        if (sz[c])
+        if (sz[c]) {
+            int64_t h = 1 - euler[c]; /* a cavity (never in rings) counts as -1 */
+            t->genus[h < 0 ? 0 : h > 4 ? 4 : h]++;
+            t->handles += h, t->samples += sz[c];
             sz[keep++] = sz[c];
+        }
     qsort(sz, keep, sizeof *sz, cmp_u64);
     *sizes = sz;
     *n = keep;
@@ -94,7 +113,22 @@ done:
     gs_free(mask);
     gs_free(label);
     gs_free(sz);
+    gs_free(euler);
     return err;
+}
+
+/* The topology figures of the report from t (n interior components, cells
+ * samples in the grid). */
+static void topology_figures(const inside_topology *t, int64_t n, int64_t cells, int64_t *genus,
+                             double *ring_share, double *open_per_msample,
+                             double *handles_per_kinside, double *handles_all_per_kinside)
+{
+    memcpy(genus, t->genus, sizeof t->genus);
+    *ring_share = n ? (double)(n - t->genus[0]) / (double)n : 0;
+    *open_per_msample = 1e6 * (double)t->genus[0] / (double)cells;
+    *handles_per_kinside = t->samples ? 1e3 * (double)t->handles / (double)t->samples : 0;
+    *handles_all_per_kinside =
+        t->samples_all ? 1e3 * (double)t->handles_all / (double)t->samples_all : 0;
 }
 
 static double median_u64(const uint64_t *s, int64_t n)
@@ -353,8 +387,15 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
     double *xo = NULL, *xs = NULL;
     int64_t no = 0, ns = 0;
     gs_err err = GS_OK;
-    GS_TRY(err, inside_components(out, &so, &no), done);
-    GS_TRY(err, inside_components(src, &ss, &ns), done);
+    inside_topology to, ts;
+    GS_TRY(err, inside_components(out, &so, &no, &to), done);
+    GS_TRY(err, inside_components(src, &ss, &ns, &ts), done);
+    topology_figures(&to, no, on[0] * on[1] * on[2], r->genus_out, &r->ring_share_out,
+                     &r->open_per_msample_out, &r->handles_per_kinside_out,
+                     &r->handles_all_per_kinside_out);
+    topology_figures(&ts, ns, sn[0] * sn[1] * sn[2], r->genus_src, &r->ring_share_src,
+                     &r->open_per_msample_src, &r->handles_per_kinside_src,
+                     &r->handles_all_per_kinside_src);
     r->components_out = no, r->components_src = ns;
     r->components_per_msample_out = 1e6 * (double)no / (double)(on[0] * on[1] * on[2]);
     r->components_per_msample_src = 1e6 * (double)ns / (double)(sn[0] * sn[1] * sn[2]);

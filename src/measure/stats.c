@@ -140,3 +140,25 @@ done:
     gs_free(sz);
     return err;
 }
+
+void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
+                                 int64_t *euler)
+{
+    const int64_t sy = nx, sz = (int64_t)nx * ny;
+    memset(euler, 0, ((size_t)ncomp + 1) * sizeof *euler);
+    for (int64_t z = 0; z < nz; z++)
+        for (int64_t y = 0; y < ny; y++)
+            for (int64_t x = 0; x < nx; x++) {
+                int64_t i = x + sy * y + sz * z;
+                uint32_t c = label[i];
+                if (!c)
+                    continue;
+                /* 6-adjacent set cells are one component: a test of "set" suffices */
+                int bx = x + 1 < nx && label[i + 1], by = y + 1 < ny && label[i + sy],
+                    bz = z + 1 < nz && label[i + sz];
+                int sxy = bx && by && label[i + 1 + sy], sxz = bx && bz && label[i + 1 + sz],
+                    syz = by && bz && label[i + sy + sz];
+                int cube = sxy && sxz && syz && label[i + 1 + sy + sz];
+                euler[c] += 1 - (bx + by + bz) + (sxy + sxz + syz) - cube;
+            }
+}

@@ -134,6 +134,57 @@ static void test_components(void **state)
     assert_int_equal(nc, 1);
 }
 
+/* Euler characteristics of 6-connected components: a solid block 1, a
+ * square ring 0 (one handle), a block with a tunnel through 0, a ring cut
+ * open (an arc) 1, two rings sharing a side -1, a hollow box (a cavity) 2,
+ * two cells touching only at an edge are two components of 1. */
+static void test_component_euler(void **state)
+{
+    (void)state;
+    enum { N = 24 };
+    uint8_t *m = calloc(N * N * N, 1);
+    uint32_t *lab = malloc(N * N * N * sizeof *lab), nc;
+#define SET(x, y, z) (m[(x) + N * ((y) + N * (z))] = 1)
+    for (int z = 1; z < 4; z++) /* a 3x3x3 block */
+        for (int y = 1; y < 4; y++)
+            for (int x = 1; x < 4; x++)
+                SET(x, y, z);
+    for (int y = 6; y < 11; y++) /* a square ring in z = 2, 5x5, hole 3x3 */
+        for (int x = 1; x < 6; x++)
+            if (x == 1 || x == 5 || y == 6 || y == 10)
+                SET(x, y, 2);
+    for (int y = 13; y < 18; y++) /* an arc: the same ring with one cell left out */
+        for (int x = 1; x < 6; x++)
+            if ((x == 1 || x == 5 || y == 13 || y == 17) && !(x == 3 && y == 17))
+                SET(x, y, 2);
+    for (int y = 1; y < 6; y++) /* two rings sharing the side x = 12 (a theta: 2 handles) */
+        for (int x = 8; x < 17; x++)
+            if (x == 8 || x == 12 || x == 16 || y == 1 || y == 5)
+                SET(x, y, 8);
+    for (int z = 12; z < 17; z++) /* a hollow 5^3 box (a cavity) */
+        for (int y = 12; y < 17; y++)
+            for (int x = 12; x < 17; x++)
+                if (x == 12 || x == 16 || y == 12 || y == 16 || z == 12 || z == 16)
+                    SET(x, y, z);
+    for (int z = 1; z < 4; z++) /* a 3x3 slab pierced by a tunnel along z */
+        for (int y = 19; y < 22; y++)
+            for (int x = 1; x < 4; x++)
+                if (!(x == 2 && y == 20))
+                    SET(x, y, z);
+    SET(20, 2, 2), SET(21, 3, 2); /* edge contact only: two components */
+#undef SET
+    assert_int_equal(gs_measure_components3(m, N, N, N, NULL, lab, &nc, NULL), GS_OK);
+    assert_int_equal(nc, 8);
+    int64_t e[9];
+    gs_measure_component_euler3(lab, N, N, N, nc, e);
+    const int at[8][3] = {{1, 1, 1}, {1, 6, 2}, {1, 13, 2}, {8, 1, 8}, {12, 12, 12}, {1, 19, 1},
+                          {20, 2, 2}, {21, 3, 2}};
+    const int64_t want[8] = {1, 0, 1, -1, 2, 0, 1, 1};
+    for (int k = 0; k < 8; k++)
+        assert_int_equal(e[lab[at[k][0] + N * (at[k][1] + N * at[k][2])]], want[k]);
+    free(m), free(lab);
+}
+
 /* Pieces inside a box: a sheet the box cuts on every side, a speck in the
  * middle, a speck touching the left side, a blob of 40 points inside and
  * points outside the box (not counted, and not linking anything). */
@@ -798,6 +849,7 @@ int main(void)
         cmocka_unit_test(test_l1),
         cmocka_unit_test(test_ks),
         cmocka_unit_test(test_components),
+        cmocka_unit_test(test_component_euler),
         cmocka_unit_test(test_point_pieces),
         cmocka_unit_test(test_point_seams),
         cmocka_unit_test(test_point_seams_curved),
