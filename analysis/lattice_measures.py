@@ -213,10 +213,22 @@ def layout(a, ground, large_min=0):
         if 2 * cum >= cells:
             median = v
             break
+    # nested: no column of the structure on the border or next to an outside column (no
+    # structure cell, 4-connected through such columns to the border)
+    talls = np.isin(lab, [c for c in tall if c > 0])
+    scol = talls.any(axis=0)
+    fl, _ = ndimage.label(~scol)
+    border = np.unique(np.concatenate([fl[0], fl[-1], fl[:, 0], fl[:, -1]]))
+    outside = np.isin(fl, border[border > 0])
+    pad = np.pad(outside, 1, constant_values=True)
+    meets = pad[:-2, 1:-1] | pad[2:, 1:-1] | pad[1:-1, :-2] | pad[1:-1, 2:]
+    out_comps = set(np.unique(lab[:, meets]).tolist())
+    nested = sum(int(sizes[c]) for c in tall if c > 0 and c not in out_comps)
     return {"columns": int(openc.size), "open": int(openc.sum()), "clear": int(clear.sum()),
             "sizes": st, "structure_cells": cells, "largest": st[0] if st else 0,
             "size_median": median,
-            "large_cells": sum(v for v in st if large_min and v > large_min)}
+            "large_cells": sum(v for v in st if large_min and v > large_min),
+            "nested_cells": nested}
 
 
 def layout_figures(ex, out):
@@ -237,6 +249,7 @@ def layout_figures(ex, out):
         f["structure_size_median" + name] = g["size_median"]
         f["structure_large_share" + name] = g["large_cells"] / (g["structure_cells"] or 1)
         f["structures" + name] = len(g["sizes"])
+        f["structure_nested_share" + name] = g["nested_cells"] / (g["structure_cells"] or 1)
     f["structure_max_ratio"] = f["structure_max"] / le["largest"] if le["largest"] else 0.0
     return f
 

@@ -270,7 +270,11 @@ int gs_measure_ground_layer(const uint16_t *labels, const int dims[3]);
  * than one cell high: walls, keeps, houses; not flat cover such as bushes
  * alone). size_median is cell-weighted: half the structure cells are in
  * structures of at least this many cells. large_cells: structure cells in
- * structures of more than large_min cells (0 = none counted). Non-periodic.
+ * structures of more than large_min cells (0 = none counted). A structure is
+ * nested when none of its columns is on the lattice's border or next to a
+ * column of the outside (the columns holding no structure cell that are
+ * 4-connected through such columns to the border): a keep inside a ring wall
+ * (castle.txt: the keep, 96 of 216 structure cells). Non-periodic.
  * Cost O(cells) (src/measure/lattice.c; analysis/lattice_measures.py layout). */
 typedef struct gs_measure_layout {
     int ground;                /* lowest layer measured */
@@ -281,6 +285,7 @@ typedef struct gs_measure_layout {
     uint64_t largest;          /* cells of the largest structure, 0 when none */
     uint64_t size_median;      /* cell-weighted median structure size, 0 when none */
     uint64_t large_cells;      /* cells in structures of more than large_min cells */
+    uint64_t nested_cells;     /* cells in nested structures (a keep inside a ring wall) */
 } gs_measure_layout;
 gs_err gs_measure_layout_lattice(const uint16_t *labels, const int dims[3], int ground,
                                  uint64_t large_min, gs_measure_layout *out);

@@ -351,6 +351,52 @@ gs_err gs_measure_layout_lattice(const uint16_t *labels, const int dims[3], int 
         if (large_min && sizes[c] > large_min)
             out->large_cells += sizes[c];
     }
+    /* nested: structures none of whose columns is on the lattice's border or
+     * next to a column of the outside (the columns without structure cells
+     * 4-connected through such columns to the border); open[] is reused as
+     * 1 = structure column, 2 = outside */
+    memset(open, 0, layer);
+    for (size_t i = 0; i < n; i++)
+        if (comp[i] && tall[comp[i]])
+            open[i % layer] = 1;
+    uint32_t *queue = NULL;
+    GS_TRY(err, gs_alloc_array((void **)&queue, layer, sizeof *queue, "outside columns"), done);
+    size_t qt = 0;
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            const size_t c = (size_t)x + (size_t)nx * (size_t)y;
+            if ((x == 0 || y == 0 || x == nx - 1 || y == ny - 1) && open[c] == 0) {
+                open[c] = 2;
+                queue[qt++] = (uint32_t)c;
+            }
+        }
+    for (size_t qh = 0; qh < qt; qh++) {
+        const int x = (int)(queue[qh] % (uint32_t)nx), y = (int)(queue[qh] / (uint32_t)nx);
+        const int nb[4][2] = {{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}};
+        for (int k = 0; k < 4; k++) {
+            if (nb[k][0] < 0 || nb[k][0] >= nx || nb[k][1] < 0 || nb[k][1] >= ny)
+                continue;
+            const size_t c = (size_t)nb[k][0] + (size_t)nx * (size_t)nb[k][1];
+            if (open[c] == 0) {
+                open[c] = 2;
+                queue[qt++] = (uint32_t)c;
+            }
+        }
+    }
+    gs_free(queue);
+    for (size_t i = 0; i < n; i++) { /* tall[c] = 2: the structure meets the outside */
+        const uint32_t c = comp[i];
+        if (!c || tall[c] != 1)
+            continue;
+        const size_t col = i % layer;
+        const int x = (int)(col % (size_t)nx), y = (int)(col / (size_t)nx);
+        if (x == 0 || y == 0 || x == nx - 1 || y == ny - 1 || open[col - 1] == 2 ||
+            open[col + 1] == 2 || open[col - (size_t)nx] == 2 || open[col + (size_t)nx] == 2)
+            tall[c] = 2;
+    }
+    for (uint32_t c = 1; c <= ncomp; c++)
+        if (tall[c] == 1)
+            out->nested_cells += sizes[c];
     qsort(tall_sizes, out->structures, sizeof *tall_sizes, cmp_u64_desc);
     if (out->structures)
         out->largest = tall_sizes[0];

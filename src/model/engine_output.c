@@ -370,13 +370,14 @@ static void write_figures(gs_run *run, const gs_model_quality_figures *f)
     if (f->layout.ground >= 0) {
         gs_run_metric_i64(run, "layout_ground_layer", f->layout.ground);
         const gs_measure_layout *la[2] = {&f->layout, &f->layout_example};
-        static const char *lkey[2][7] = {
+        static const char *lkey[2][8] = {
             {"open_ground_share", "open_ground_clear_share", "structures_per_kcell",
-             "structure_max", "structure_size_median", "structure_large_share", "structures"},
+             "structure_max", "structure_size_median", "structure_large_share", "structures",
+             "structure_nested_share"},
             {"open_ground_share_example", "open_ground_clear_share_example",
              "structures_per_kcell_example", "structure_max_example",
              "structure_size_median_example", "structure_large_share_example",
-             "structures_example"}};
+             "structures_example", "structure_nested_share_example"}};
         for (int k = 0; k < 2; k++) {
             const double cols = la[k]->columns ? (double)la[k]->columns : 1;
             const double sc = la[k]->structure_cells ? (double)la[k]->structure_cells : 1;
@@ -387,6 +388,7 @@ static void write_figures(gs_run *run, const gs_model_quality_figures *f)
             gs_run_metric_i64(run, lkey[k][4], (int64_t)la[k]->size_median);
             gs_run_metric_f64(run, lkey[k][5], (double)la[k]->large_cells / sc);
             gs_run_metric_i64(run, lkey[k][6], (int64_t)la[k]->structures);
+            gs_run_metric_f64(run, lkey[k][7], (double)la[k]->nested_cells / sc);
         }
         gs_run_metric_f64(run, "structure_max_ratio",
                           f->layout_example.largest

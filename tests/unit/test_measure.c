@@ -653,6 +653,31 @@ static void test_layout(void **state)
     assert_int_equal(L.large_cells, 5);
 #undef AT
     assert_int_equal(gs_measure_layout_lattice(lab, dims, 4, 0, &L), GS_ERR_ARG);
+    assert_int_equal(L.nested_cells, 0); /* both structures reach the outside */
+    /* nested: 7x7x3, a ring wall 2 high round the columns x, y = 2..4 (16
+     * columns, 32 cells) and a keep 2 high at (3, 3) inside it: the keep (2
+     * cells) is nested, the ring is not; with a gap in the ring at (3, 1) the
+     * yard joins the outside and nothing is nested. */
+    enum { RN = 7 };
+    uint16_t ring[RN * RN * 3] = {0};
+    for (int i = 0; i < RN * RN; i++)
+        ring[i] = 1;
+#define RAT(x, y, z) ring[(x) + RN * ((y) + RN * (z))]
+    for (int z = 1; z < 3; z++) {
+        for (int k = 1; k <= 5; k++)
+            RAT(k, 1, z) = RAT(k, 5, z) = RAT(1, k, z) = RAT(5, k, z) = 2;
+        RAT(3, 3, z) = 3;
+    }
+    const int rdims[3] = {RN, RN, 3};
+    assert_int_equal(gs_measure_layout_lattice(ring, rdims, 1, 0, &L), GS_OK);
+    assert_int_equal(L.structures, 2);
+    assert_int_equal(L.structure_cells, 34);
+    assert_int_equal(L.nested_cells, 2);
+    RAT(3, 1, 1) = RAT(3, 1, 2) = 0;
+    assert_int_equal(gs_measure_layout_lattice(ring, rdims, 1, 0, &L), GS_OK);
+    assert_int_equal(L.structures, 2);
+    assert_int_equal(L.nested_cells, 0);
+#undef RAT
 }
 
 static void test_copy_periodic(void **state)
