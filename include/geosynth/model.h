@@ -446,6 +446,15 @@ gs_err gs_model_initial(const gs_model_rules_t rules, const gs_model_lattice *ex
 gs_err gs_model_initial_faces(const gs_model_rules_t rules, const gs_model_lattice *example,
                               const uint16_t *column, const uint64_t *bottom,
                               const uint64_t *top, gs_model_lattice *out);
+/* Same, the inferred column preferring prefer (the example's nz labels, bottom
+ * first; NULL = its corner column) over the corner column. */
+gs_err gs_model_initial_prefer(const gs_model_rules_t rules, const gs_model_lattice *example,
+                               const uint16_t *column, const uint16_t *prefer,
+                               const uint64_t *bottom, const uint64_t *top,
+                               gs_model_lattice *out);
+/* The example's commonest column (nz labels, bottom first, into col; ties: the
+ * lowest labels from the bottom up): model.start_column_from = commonest. */
+gs_err gs_model_commonest_column(const gs_model_lattice *example, int faces, uint16_t *col);
 
 /* Tiled start with real variety: synthesizes a tile*tile*nz block that is
  * periodic in x and y (whole block, start = the trivial column model, fixed z

@@ -364,6 +364,13 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_STRING(model_config, start_column, "model.start_column", "",
                       "start model as one column of labels, bottom first, repeated over x and "
                       "y; \"\" = inferred"),
+    GS_CFG_KEY_ENUM(model_config, start_column_from, "model.start_column_from",
+                    "corner|commonest|faces|auto", "auto",
+                    "the inferred start column (no model.start / start_column / start_block / "
+                    "ground / overlap3d) prefers the example's corner column (the author's), "
+                    "its commonest column, or its commonest column on its x/y faces (faces); "
+                    "auto = faces when the z faces are synthesized (model.fix_z_faces), else "
+                    "corner; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_INT(model_config, split_depth, "model.split_depth", 0, 8, 0, "2",
                    "a region whose tries all fail is split into 2x2 sub-boxes and retried, up "
                    "to this many levels; 0 = keep the old content (as before)"),

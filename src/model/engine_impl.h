@@ -71,6 +71,7 @@ typedef struct model_config {
     char *fix_z_faces;
     char *start;
     char *start_column;
+    char *start_column_from;
     int64_t start_block;
     int64_t frames;
     int64_t overlap3d;
@@ -136,6 +137,7 @@ typedef struct model_engine {
     int outside;             /* model.resemblance_outside as decided (auto resolved): 0 mismatch,
                                 1 half, 2 match, 3 background */
     double freq_beta;        /* model.frequency_weight as decided (auto resolved) */
+    int start_commonest;     /* model.start_column_from as decided (auto resolved) */
     uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
                                 the example's bottom and top layers */
     uint64_t *xyface;        /* model.fix_xy_faces: [4][W] the labels (overlap3d: patterns)

@@ -365,6 +365,28 @@ static gs_err build_start(model_engine *e)
                  (long long)c->start_block);
         return GS_OK;
     }
+    if (e->start_commonest) {
+        uint16_t *col = NULL;
+        GS_CALL(gs_alloc_array((void **)&col, (size_t)gs_model_frame_nz(&e->example), sizeof *col,
+                               "commonest column"));
+        gs_err err = gs_model_commonest_column(&e->example, e->start_commonest == 2, col);
+        if (!err)
+            err = gs_model_initial_prefer(e->rules, &e->example, NULL, col, NULL, NULL, &e->lat);
+        if (!err) {
+            char txt[256];
+            size_t n = 0;
+            for (int z = 0; z < e->lat.nz && n + 8 < sizeof txt; z++)
+                n += (size_t)snprintf(txt + n, sizeof txt - n, "%s%u", z ? " " : "",
+                                      (unsigned)e->lat.labels[gs_model_lattice_index(&e->lat, 0, 0, z)]);
+            gs_log(GS_LOG_INFO, "start model: column %s (preferring the example's commonest "
+                   "column%s, model.start_column_from)", txt,
+                   e->start_commonest == 2 ? " on its x/y faces" : "");
+        }
+        gs_free(col);
+        if (err)
+            gs_error_push_frame(__FILE__, __LINE__, __func__);
+        return err;
+    }
     return gs_model_initial(e->rules, &e->example, NULL, &e->lat);
 }
 
@@ -712,6 +734,14 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     /* model.frequency_weight = -1 (auto): 2 with synthesized z faces (the
      * layers' label shares keep the relief: configs/model/DEFAULTS.md), else 0 */
     e->freq_beta = c->frequency_weight >= 0 ? c->frequency_weight : zsynth ? 2.0 : 0.0;
+    /* model.start_column_from = auto: the example's commonest column with
+     * synthesized z faces (a corner hill would leave a plateau that the
+     * regions only wear down: configs/model/DEFAULTS.md), else its corner */
+    e->start_commonest = !strcmp(c->start_column_from, "commonest") ? 1
+                         : !strcmp(c->start_column_from, "faces") ||
+                                 (!strcmp(c->start_column_from, "auto") && zsynth)
+                             ? 2
+                             : 0;
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0] &&
         (!strcmp(c->resemblance_outside, "auto") || c->frequency_weight < 0))
         gs_log(GS_LOG_INFO, "%s: resemblance outside the example's faces %s%s, "

@@ -2,6 +2,7 @@
  * See include/geosynth/model.h. */
 #include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/file.h"
@@ -10,6 +11,23 @@
 #include "geosynth/mem.h"
 #include "geosynth/parse.h"
 #include "model/model_impl.h"
+
+/* qsort context of gs_model_sort_rows: rows of g_row labels */
+static size_t g_row;
+static int cmp_row(const void *pa, const void *pb)
+{
+    const uint16_t *a = pa, *b = pb;
+    for (size_t i = 0; i < g_row; i++)
+        if (a[i] != b[i])
+            return a[i] < b[i] ? -1 : 1;
+    return 0;
+}
+
+void gs_model_sort_rows(uint16_t *rows, size_t n, size_t row)
+{
+    g_row = row;
+    qsort(rows, n, row * sizeof *rows, cmp_row);
+}
 
 #define GS_MODEL_MAX_DIM (1 << 20)
 #define GS_MODEL_MAX_CELLS ((size_t)1 << 31)

@@ -32,6 +32,9 @@ static inline const uint64_t *gs_model_allow(const struct gs_model_rules *r, int
 /* Recompute full_support from allow and count, after the rules changed
  * (learned, read from pairs, symmetrized, turned). */
 void gs_model_rules_rebuild_support(struct gs_model_rules *r);
+/* Sorts n rows of `row` uint16 labels lexicographically (qsort; not reentrant):
+ * the resemblance patterns (resemble.c) and the example's columns (rules.c). */
+void gs_model_sort_rows(uint16_t *rows, size_t n, size_t row);
 
 /* The patterns one choice counts over: the whole index, or (layers) one example layer's
  * patterns packed into their own bit positions, in the index's order (sorted by centre),

@@ -23,17 +23,6 @@
 
 #define OUTSIDE 0xffffu
 
-/* qsort context: patterns are rows of `row` uint16 (centre first) */
-static size_t g_row;
-static int cmp_row(const void *pa, const void *pb)
-{
-    const uint16_t *a = pa, *b = pb;
-    for (size_t i = 0; i < g_row; i++)
-        if (a[i] != b[i])
-            return a[i] < b[i] ? -1 : 1;
-    return 0;
-}
-
 /* The layer views (struct gs_model_resem_view): layer z's patterns (zbits) in the
  * index's order, their multiplicities there (zmult), and bitsets over them of the
  * (offset, label) pairs and the past-the-faces cells that occur among them. Left out
@@ -159,8 +148,7 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
                                     : ex->labels[gs_model_lattice_index(ex, px, py, pz)];
                 }
             }
-    g_row = row;
-    qsort(rows, ne, row * sizeof *rows, cmp_row);
+    gs_model_sort_rows(rows, ne, row); /* patterns: rows of `row` labels, centre first */
     /* merge equal rows */
     size_t P = 0;
     GS_TRY(err, gs_alloc_array((void **)&r->mult, ne, sizeof *r->mult, "pattern counts"), fail);

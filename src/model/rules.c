@@ -179,6 +179,47 @@ gs_err gs_model_initial_faces(const gs_model_rules_t r, const gs_model_lattice *
                               const uint16_t *column, const uint64_t *bottom, const uint64_t *top,
                               gs_model_lattice *out)
 {
+    return gs_model_initial_prefer(r, ex, column, NULL, bottom, top, out);
+}
+
+gs_err gs_model_commonest_column(const gs_model_lattice *ex, int faces, uint16_t *col)
+{
+    const int nz = gs_model_frame_nz(ex);
+    size_t ncol = 0;
+    uint16_t *cols = NULL;
+    GS_CALL(gs_alloc_array((void **)&cols, (size_t)ex->nx * (size_t)ex->ny * (size_t)nz,
+                           sizeof *cols, "example columns"));
+    for (int y = 0; y < ex->ny; y++)
+        for (int x = 0; x < ex->nx; x++) {
+            if (faces && x && y && x < ex->nx - 1 && y < ex->ny - 1)
+                continue;
+            for (int z = 0; z < nz; z++)
+                cols[ncol * (size_t)nz + (size_t)z] = ex->labels[gs_model_lattice_index(ex, x, y, z)];
+            ncol++;
+        }
+    gs_model_sort_rows(cols, ncol, (size_t)nz);
+    /* the longest run of equal columns; ties: the first in sorted order */
+    size_t best = 0, best_n = 0;
+    for (size_t i = 0; i < ncol;) {
+        size_t j = i + 1;
+        while (j < ncol && !memcmp(cols + j * (size_t)nz, cols + i * (size_t)nz,
+                                   (size_t)nz * sizeof *cols))
+            j++;
+        if (j - i > best_n) {
+            best_n = j - i;
+            best = i;
+        }
+        i = j;
+    }
+    memcpy(col, cols + best * (size_t)nz, (size_t)nz * sizeof *col);
+    gs_free(cols);
+    return GS_OK;
+}
+
+gs_err gs_model_initial_prefer(const gs_model_rules_t r, const gs_model_lattice *ex,
+                               const uint16_t *column, const uint16_t *prefer,
+                               const uint64_t *bottom, const uint64_t *top, gs_model_lattice *out)
+{
     /* 4D: one column per frame, the same in every frame */
     const int nz = gs_model_frame_nz(out), L = r->nlabels, exnz = gs_model_frame_nz(ex);
     uint16_t *col = NULL;
@@ -206,8 +247,8 @@ gs_err gs_model_initial_faces(const gs_model_rules_t r, const gs_model_lattice *
     } else {
         /* Dynamic programming over z: best-scoring path through horizontally
          * self-tileable labels with valid vertical transitions. Preference:
-         * the example's corner column (empty above its top), then labels
-         * frequent in the corresponding example layer. */
+         * the example's corner column (or the column prefer), empty above its
+         * top, then labels frequent in the corresponding example layer. */
         GS_TRY(err, gs_alloc_array((void **)&score, (size_t)nz * (size_t)L, sizeof *score, "column DP"),
                done);
         GS_TRY(err, gs_alloc_array((void **)&from, (size_t)nz * (size_t)L, sizeof *from, "column DP"),
@@ -216,7 +257,9 @@ gs_err gs_model_initial_faces(const gs_model_rules_t r, const gs_model_lattice *
         size_t layer = (size_t)ex->nx * (size_t)ex->ny;
         for (int z = 0; z < nz; z++) {
             int ez = z < exnz ? z : exnz - 1;
-            int preferred = z < exnz ? ex->labels[gs_model_lattice_index(ex, 0, 0, z)] : 0;
+            int preferred = z >= exnz ? 0
+                            : prefer  ? prefer[z]
+                                      : ex->labels[gs_model_lattice_index(ex, 0, 0, z)];
             for (int l = 0; l < L; l++) {
                 double *s = &score[(size_t)z * L + l];
                 *s = NONE;

@@ -4,7 +4,8 @@
 # from each seed in MODEL_UNTUNED_SEEDS (default 3 4 5; model.order = auto's
 # entropy_layers was chosen on seeds 1-20 and reported on 21-40 as well;
 # resemblance_outside / frequency_weight = auto chosen on 1-40, reported on
-# 41-60, configs/model/DEFAULTS.md: seeds from 61 on are fresh); each
+# 41-60; start_column_from = auto chosen on terrains 7 and 44, reported on
+# 1-100, configs/model/DEFAULTS.md: seeds from 101 on are fresh); each
 # is synthesized at 40x40x8 in 20x20 regions with the default settings, one
 # rank, synthesis seed 1. JSON on stdout: per example, the quality figures of
 # summary.json (non-empty 3x3x3 resemblance, completeness, label L1, labels

@@ -528,6 +528,49 @@ static void test_initial_model_city(void **state)
     gs_model_lattice_destroy(&out);
 }
 
+/* model.start_column_from: a 6x6x3 example whose corner column is a hill (1, 2, 0: along
+ * the y = 0 face and x = 0 up to y = 2), the rest of its faces flat ground (1, 0, 0) and its
+ * interior a yard (3, 0, 0): the corner, the commonest column overall (the yard) and the
+ * commonest column on the x/y faces (the flat ground) each give their own start model. */
+static void test_initial_model_preferred_column(void **state)
+{
+    (void)state;
+    gs_model_lattice ex = {0}, out = {0};
+    assert_int_equal(gs_model_lattice_create(&ex, 6, 6, 3), GS_OK);
+    for (int y = 0; y < 6; y++)
+        for (int x = 0; x < 6; x++) {
+            int face = !x || !y || x == 5 || y == 5, hill = !y || (!x && y <= 2);
+            ex.labels[gs_model_lattice_index(&ex, x, y, 0)] = face ? 1 : 3;
+            ex.labels[gs_model_lattice_index(&ex, x, y, 1)] = hill ? 2 : 0;
+            ex.labels[gs_model_lattice_index(&ex, x, y, 2)] = 0;
+        }
+    gs_model_rules_t r = NULL;
+    assert_int_equal(gs_model_rules_learn(&ex, &r), GS_OK);
+    assert_int_equal(gs_model_lattice_create(&out, 8, 8, 3), GS_OK);
+    uint16_t col[3];
+    const uint16_t flat[3] = {1, 0, 0}, yard[3] = {3, 0, 0};
+    assert_int_equal(gs_model_commonest_column(&ex, 1, col), GS_OK);
+    assert_memory_equal(col, flat, sizeof flat);
+    assert_int_equal(gs_model_commonest_column(&ex, 0, col), GS_OK);
+    assert_memory_equal(col, yard, sizeof yard);
+    /* the author's corner column: the hill */
+    assert_int_equal(gs_model_initial(r, &ex, NULL, &out), GS_OK);
+    assert_int_equal(out.labels[gs_model_lattice_index(&out, 3, 4, 0)], 1);
+    assert_int_equal(out.labels[gs_model_lattice_index(&out, 3, 4, 1)], 2);
+    const uint16_t *want[2] = {flat, yard};
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(gs_model_initial_prefer(r, &ex, NULL, want[k], NULL, NULL, &out), GS_OK);
+        for (int z = 0; z < 3; z++)
+            assert_int_equal(out.labels[gs_model_lattice_index(&out, 7, 2, z)], want[k][z]);
+        size_t nv = 99;
+        assert_int_equal(gs_model_check(&ex, &out, NULL, 0, &nv), GS_OK);
+        assert_int_equal(nv, 0);
+    }
+    gs_model_rules_destroy(&r);
+    gs_model_lattice_destroy(&ex);
+    gs_model_lattice_destroy(&out);
+}
+
 static int boxes_touch(const gs_model_box *a, const gs_model_box *b)
 {
     /* separated by a gap of >= 1 cell along some axis? */
@@ -774,6 +817,7 @@ int main(void)
         cmocka_unit_test(test_ac3_equals_ac4),
         cmocka_unit_test(test_resemblance_choice_plain),
         cmocka_unit_test(test_initial_model_city),
+        cmocka_unit_test(test_initial_model_preferred_column),
         cmocka_unit_test(test_plan_colours),
         cmocka_unit_test(test_author_samples_consistent),
         cmocka_unit_test(test_csv_samples_consistent),
