@@ -254,6 +254,32 @@ def layout_figures(ex, out):
     return f
 
 
+def grid_crossing(a, ground, period):
+    """Structure columns across a regular grid's lines (as gs_measure_grid_crossing_lattice,
+    issue #18: one castle per region, open streets along the region lines). A structure
+    column holds a non-empty cell at z >= ground; of the x- (y-) neighbouring column pairs,
+    those across a line x = k * period[0] (0 < x < nx; y likewise) and the rest; rates = the
+    shares of pairs that are both structure columns; ratio = rate on the lines / rate off
+    them (1: structures ignore the grid; near 0: they never cross its lines; 0 when
+    undefined). period <= 0 or >= the extent: no line along that axis."""
+    col = (a[ground:] != 0).any(axis=0)  # (y, x)
+    ny, nx = col.shape
+    px = period[0] if 0 < period[0] < nx else 0
+    py = period[1] if 0 < period[1] < ny else 0
+    bx = col[:, 1:] & col[:, :-1]  # pair (x - 1, x), x = 1 .. nx - 1
+    by = col[1:, :] & col[:-1, :]
+    lx = (np.arange(1, nx) % px == 0) if px else np.zeros(nx - 1, bool)
+    ly = (np.arange(1, ny) % py == 0) if py else np.zeros(ny - 1, bool)
+    on_pairs = int(lx.sum()) * ny + int(ly.sum()) * nx
+    off_pairs = int((~lx).sum()) * ny + int((~ly).sum()) * nx
+    on_both = int(bx[:, lx].sum() + by[ly, :].sum())
+    off_both = int(bx[:, ~lx].sum() + by[~ly, :].sum())
+    ratio = (on_both / on_pairs) / (off_both / off_pairs) if on_pairs and off_pairs and off_both else 0.0
+    return {"region_grid_crossing": on_both / on_pairs if on_pairs else 0.0,
+            "region_grid_crossing_other": off_both / off_pairs if off_pairs else 0.0,
+            "region_grid_crossing_ratio": ratio}
+
+
 def shuffled(ex, seed=0):
     """The example's cells in a random order: the same label mix, no structure."""
     flat = ex.ravel().copy()

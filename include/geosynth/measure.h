@@ -290,6 +290,22 @@ typedef struct gs_measure_layout {
 gs_err gs_measure_layout_lattice(const uint16_t *labels, const int dims[3], int ground,
                                  uint64_t large_min, gs_measure_layout *out);
 
+/* A layout on a regular grid (issue #18: one castle per region, open streets
+ * along the region lines). A column is a structure column when it holds a
+ * non-empty cell at z >= ground. Of the pairs of x- (y-) neighbouring columns,
+ * those across a grid line (x = k * period[0], 0 < x < nx; y likewise) and
+ * those across any other line; both_* count the pairs that are both
+ * structure columns. ratio = (on_both / on_pairs) / (off_both / off_pairs):
+ * 1 when structures ignore the grid, near 0 when they never cross its lines.
+ * period <= 0 or >= the extent: no line along that axis. Cost O(cells)
+ * (analysis/lattice_measures.py grid_crossing). */
+typedef struct gs_measure_grid_crossing {
+    uint64_t on_pairs, on_both, off_pairs, off_both;
+    double ratio; /* 0 when a rate is undefined (no pairs, or no structure pair off the lines) */
+} gs_measure_grid_crossing;
+gs_err gs_measure_grid_crossing_lattice(const uint16_t *labels, const int dims[3], int ground,
+                                        const int period[2], gs_measure_grid_crossing *out);
+
 /* Copying in a synthesized 3D grid of bytes (x fastest), measured from the
  * output and its example alone. Every window of k^3 samples of out whose
  * content occurs exactly once in src (windows that occur more than once, e.g.

@@ -278,6 +278,10 @@ typedef struct gs_model_params {
     int overlap;        /* cells shared by neighbouring regions along an axis
                            (stride = edge - overlap, at least 1); -1 = half
                            the edge (default) */
+    int region_jitter;  /* > 0 (with overlap 0): x and y region edges drawn per
+                           region from [edge - J, edge + J] (a height per row of
+                           regions, a width per region within its row: staggered
+                           like bricks), keyed by (seed, pass): no regular grid */
     int attempts;       /* tries per region before keeping the old content */
     int min_changes;    /* accepted regions each active cell must be part of */
     int max_passes;     /* sweeps at most */
@@ -494,6 +498,8 @@ typedef struct gs_model_region {
  * gs_free(). */
 gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
                      gs_model_region **regions, size_t *nregions, int *ncolors);
+/* Cells of the plan's largest box (0 for an empty plan). */
+size_t gs_model_plan_max_cells(const gs_model_region *plan, size_t n);
 
 /* 1 when regions a and b of an nx*ny*nz output interact: one writes a cell
  * the other reads (its box and the face neighbours around it, across

@@ -182,6 +182,11 @@ typedef struct gs_model_quality_figures {
      * = -1 when not measured, as enclosure.layer); large = structures of more than
      * twice the example's largest */
     gs_measure_layout layout, layout_example;
+    /* the output's structure columns across the region grid's lines (issue #18;
+     * gs_measure_grid_crossing_lattice at layout.ground, period = model.region
+     * along x and y; grid_period[0] = grid_period[1] = 0: not measured) */
+    int grid_period[2];
+    gs_measure_grid_crossing grid;
 } gs_model_quality_figures;
 
 gs_err gs_model_quality(const gs_model_lattice *example, const gs_model_lattice *output,

@@ -416,3 +416,44 @@ done:
     gs_free(tall_sizes);
     return err;
 }
+
+gs_err gs_measure_grid_crossing_lattice(const uint16_t *labels, const int dims[3], int ground,
+                                        const int period[2], gs_measure_grid_crossing *out)
+{
+    GS_CHECK(ground >= 0 && ground < dims[2], GS_ERR_ARG, "grid crossing: ground layer %d of %d",
+             ground, dims[2]);
+    const int nx = dims[0], ny = dims[1];
+    const size_t layer = (size_t)nx * (size_t)ny;
+    memset(out, 0, sizeof *out);
+    uint8_t *col = NULL;
+    GS_CALL(gs_alloc_array((void **)&col, layer ? layer : 1, 1, "structure columns"));
+    memset(col, 0, layer);
+    for (int z = ground; z < dims[2]; z++)
+        for (size_t i = 0; i < layer; i++)
+            col[i] |= labels[layer * (size_t)z + i] != 0;
+    const int px = period[0] > 0 && period[0] < nx ? period[0] : 0;
+    const int py = period[1] > 0 && period[1] < ny ? period[1] : 0;
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            const size_t c = (size_t)x + (size_t)nx * (size_t)y;
+            if (x > 0) { /* the pair (x - 1, x) across the line at x */
+                const int both = col[c] && col[c - 1], on = px && x % px == 0;
+                out->on_pairs += (uint64_t)on;
+                out->on_both += (uint64_t)(on && both);
+                out->off_pairs += (uint64_t)!on;
+                out->off_both += (uint64_t)(!on && both);
+            }
+            if (y > 0) {
+                const int both = col[c] && col[c - (size_t)nx], on = py && y % py == 0;
+                out->on_pairs += (uint64_t)on;
+                out->on_both += (uint64_t)(on && both);
+                out->off_pairs += (uint64_t)!on;
+                out->off_both += (uint64_t)(!on && both);
+            }
+        }
+    gs_free(col);
+    if (out->on_pairs && out->off_pairs && out->off_both)
+        out->ratio = ((double)out->on_both / (double)out->on_pairs) /
+                     ((double)out->off_both / (double)out->off_pairs);
+    return GS_OK;
+}

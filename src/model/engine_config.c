@@ -141,6 +141,17 @@ static void model_validate(const void *cfgp, gs_cfg_ctx *ctx)
                       "= %s cannot be combined with pins, border, start_block, start, periodic "
                       "or shape",
                       c->mirror);
+    if (c->region_jitter > 0 && c->overlap != 0)
+        gs_cfg_report(ctx, "model.region_jitter", "needs model.overlap = 0 (got %lld)",
+                      (long long)c->overlap);
+    if (c->region_jitter > 0 && (strchr(c->periodic, 'x') || strchr(c->periodic, 'y')))
+        gs_cfg_report(ctx, "model.region_jitter", "not supported with a periodic x or y axis");
+    for (int a = 0; a < 2 && c->region_jitter > 0; a++)
+        if (c->region[a] > 0 && c->region[a] < c->size[a] &&
+            c->region_jitter * 2 >= c->region[a])
+            gs_cfg_report(ctx, "model.region_jitter",
+                          "must be less than half the region edge %lld along %c",
+                          (long long)c->region[a], "xy"[a]);
     for (int a = 0; a < 3; a++) {
         int64_t edge = c->region[a];
         if (edge > 0 && edge < c->size[a] && c->overlap >= edge)
@@ -299,6 +310,10 @@ static const gs_cfg_key model_keys[] = {
                     "(\"0\" = whole-grid mode)"),
     GS_CFG_KEY_INT(model_config, overlap, "model.overlap", -1, MODEL_MAX_EXTENT, 0, "-1",
                    "cells shared by neighbouring regions; -1 = half the region edge"),
+    GS_CFG_KEY_INT(model_config, region_jitter, "model.region_jitter", 0, MODEL_MAX_EXTENT, 0, "0",
+                   "with model.overlap = 0: x and y region edges drawn per region from "
+                   "[edge - J, edge + J] (a height per row, a width per region in its row, "
+                   "staggered like bricks): no regular grid of regions; 0 = a regular grid"),
     GS_CFG_KEY_INT(model_config, passes, "model.passes", 0, 1000, 0, "1",
                    "keep sweeping until every cell was in this many accepted regions"),
     GS_CFG_KEY_INT(model_config, max_passes, "model.max_passes", 1, 100000, 0, "4",

@@ -57,6 +57,7 @@ typedef struct model_config {
     gs_cfg_int3 size;
     gs_cfg_int3 region;
     int64_t overlap;
+    int64_t region_jitter;
     int64_t passes;
     int64_t max_passes;
     int64_t attempts;

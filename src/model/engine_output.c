@@ -229,6 +229,16 @@ static gs_err write_outputs(gs_run *run, const model_engine *e, model_quality *q
                              : gs_model_rules_violations_wrap(e->rules, &e->lat, e->params.periodic);
     if (!c->tileset[0] && !c->sample[0]) { /* no example lattice to compare with */
         GS_CALL(gs_model_quality(&e->example, &e->lat, &q->fig));
+        for (int a = 0; a < 2; a++) /* lines only where regions split the axis */
+            q->fig.grid_period[a] = c->region[a] > 0 && c->region[a] < c->size[a]
+                                        ? (int)c->region[a] : 0;
+        if (q->fig.layout.ground >= 0 && (q->fig.grid_period[0] || q->fig.grid_period[1])) {
+            const int od[3] = {e->lat.nx, e->lat.ny, e->lat.nz};
+            GS_CALL(gs_measure_grid_crossing_lattice(e->lat.labels, od, q->fig.layout.ground,
+                                                     q->fig.grid_period, &q->fig.grid));
+        } else {
+            q->fig.grid_period[0] = q->fig.grid_period[1] = 0;
+        }
         q->has_figures = 1;
         q->resemblance3 = q->fig.w3.found_share;
         q->resemblance2 = q->fig.w2.found_share;
@@ -389,6 +399,16 @@ static void write_figures(gs_run *run, const gs_model_quality_figures *f)
             gs_run_metric_f64(run, lkey[k][5], (double)la[k]->large_cells / sc);
             gs_run_metric_i64(run, lkey[k][6], (int64_t)la[k]->structures);
             gs_run_metric_f64(run, lkey[k][7], (double)la[k]->nested_cells / sc);
+        }
+        if (f->grid_period[0] || f->grid_period[1]) {
+            const gs_measure_grid_crossing *g = &f->grid;
+            gs_run_metric_i64(run, "region_grid_period_x", f->grid_period[0]);
+            gs_run_metric_i64(run, "region_grid_period_y", f->grid_period[1]);
+            gs_run_metric_f64(run, "region_grid_crossing",
+                              g->on_pairs ? (double)g->on_both / (double)g->on_pairs : 0);
+            gs_run_metric_f64(run, "region_grid_crossing_other",
+                              g->off_pairs ? (double)g->off_both / (double)g->off_pairs : 0);
+            gs_run_metric_f64(run, "region_grid_crossing_ratio", g->ratio);
         }
         gs_run_metric_f64(run, "structure_max_ratio",
                           f->layout_example.largest

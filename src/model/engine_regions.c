@@ -31,9 +31,10 @@ gs_err model_make_plan(model_engine *e)
         e->region_status[i] = -1;
         e->region_attempts[i] = 0;
     }
-    if (!e->buf && e->nplan) {
-        const gs_model_box *b = &e->plan[0].box;
-        e->buf_cells = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+    /* the plan's largest box (model.region_jitter: edges vary per pass) */
+    if (e->nplan && gs_model_plan_max_cells(e->plan, e->nplan) > e->buf_cells) {
+        GS_FREE(e->buf);
+        e->buf_cells = gs_model_plan_max_cells(e->plan, e->nplan);
         GS_CALL(gs_alloc_array((void **)&e->buf, e->buf_cells, sizeof *e->buf, "region labels"));
     }
     return GS_OK;
@@ -53,7 +54,7 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     GS_CHECK(id >= 0 && (size_t)id < e->nplan, GS_ERR_INTERNAL, "region id %lld", (long long)id);
     const gs_model_region *r = &e->plan[id];
     size_t cells = box_cells(&r->box);
-    GS_CHECK(cells <= e->buf_cells, GS_ERR_INTERNAL, "region %lld larger than the first",
+    GS_CHECK(cells <= e->buf_cells, GS_ERR_INTERNAL, "region %lld larger than the plan's largest",
              (long long)id);
     gs_model_region_result res;
     double cpu0 = gs_cpu_now();

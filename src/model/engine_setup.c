@@ -18,6 +18,7 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     for (int a = 0; a < 3; a++)
         p->region[a] = (int)c->region[a];
     p->overlap = (int)c->overlap;
+    p->region_jitter = (int)c->region_jitter;
     p->attempts = (int)c->attempts;
     p->min_changes = (int)c->passes;
     p->max_passes = (int)c->max_passes;
@@ -758,6 +759,8 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     for (int a = 0; a < 3; a++) {
         int64_t ext = c->size[a];
         int64_t edge = c->region[a] <= 0 || c->region[a] >= ext ? ext : c->region[a];
+        if (a < 2 && edge < ext) /* model.region_jitter: edges up to edge + J */
+            edge = edge + c->region_jitter < ext ? edge + c->region_jitter : ext;
         rcells *= (size_t)edge;
     }
     size_t W = ((size_t)L + 63) / 64;

@@ -5,6 +5,7 @@
 
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
+#include "geosynth/rng.h"
 #include "model/model_impl.h"
 
 void gs_model_params_default(gs_model_params *p)
@@ -112,6 +113,104 @@ static int axis_starts(int n, int b, int overlap, int pass, int periodic, int ga
     return k;
 }
 
+/* model.region_jitter (issue #18, the region grid): cuts of an axis of
+ * extent n into pieces of b - J .. b + J cells drawn from r, the last piece
+ * taking what is left (a remainder too short for a piece of its own is
+ * shared with the one before). cut[0] = 0, piece k = [cut[k], cut[k + 1]).
+ * Returns the count. */
+static int jitter_cuts(int n, int b, int J, gs_rng *r, int *cut)
+{
+    int k = 0, pos = 0;
+    cut[0] = 0;
+    while (pos < n) {
+        const int rem = n - pos;
+        int w = b - J + (int)gs_rng_below(r, (uint64_t)(2 * J + 1));
+        if (rem <= b + J && (rem <= w || rem - w < b - J))
+            w = rem;
+        else if (rem - w < b - J)
+            w = rem / 2;
+        pos += w;
+        cut[++k] = pos;
+    }
+    return k;
+}
+
+/* Colours along a cut axis: the smallest m such that pieces k and k + m are
+ * >= gap cells apart. */
+static int cut_colors(const int *cut, int k, int gap)
+{
+    int m = 1;
+    for (int i = 0; i + m < k; i++)
+        if (cut[i + m] < cut[i + 1] + gap) {
+            m++;
+            i = -1;
+        }
+    return m;
+}
+
+#define GS_MODEL_PLAN_DOMAIN 0x4d4f504cu /* "MOPL": jittered region edges */
+
+/* The jittered plan (model.region_jitter > 0, overlap 0, x and y not
+ * periodic): a height per row of regions, then a width per region within its
+ * row (rows staggered like bricks), drawn from streams keyed by (seed, pass,
+ * row): the same plan on every rank. z as the regular plan. */
+static gs_err jitter_plan(const gs_model_params *p, const int ext[3], const int edge[3],
+                          int zlo, const int *zstarts, int zcnt, int zm, int pass, int gap,
+                          gs_model_region **out, size_t *nout, int *ncolors)
+{
+    int *ycut = NULL, *xcut = NULL, *xk = NULL;
+    gs_model_region *list = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&ycut, (size_t)ext[1] + 2, sizeof(int), "plan"), done);
+    gs_rng r;
+    gs_rng_init(&r, p->seed, gs_rng_stream_id(GS_MODEL_PLAN_DOMAIN, (uint64_t)pass, 0, 0));
+    const int J = p->region_jitter;
+    int ny = edge[1] >= ext[1] ? (ycut[0] = 0, ycut[1] = ext[1], 1)
+                               : jitter_cuts(ext[1], edge[1], J, &r, ycut);
+    const int my = cut_colors(ycut, ny, gap);
+    GS_TRY(err, gs_alloc_array((void **)&xcut, (size_t)ny * ((size_t)ext[0] + 2), sizeof(int),
+                               "plan"), done);
+    GS_TRY(err, gs_alloc_array((void **)&xk, (size_t)ny, sizeof(int), "plan"), done);
+    int mx = 1;
+    size_t n = 0;
+    for (int ky = 0; ky < ny; ky++) {
+        int *c = xcut + (size_t)ky * ((size_t)ext[0] + 2);
+        gs_rng_init(&r, p->seed,
+                    gs_rng_stream_id(GS_MODEL_PLAN_DOMAIN, (uint64_t)pass, 1 + (uint64_t)ky, 0));
+        xk[ky] = edge[0] >= ext[0] ? (c[0] = 0, c[1] = ext[0], 1)
+                                   : jitter_cuts(ext[0], edge[0], J, &r, c);
+        const int m = cut_colors(c, xk[ky], gap);
+        mx = m > mx ? m : mx;
+        n += (size_t)xk[ky] * (size_t)zcnt;
+    }
+    GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "region plan"), done);
+    size_t i = 0;
+    for (int kz = 0; kz < zcnt; kz++)
+        for (int ky = 0; ky < ny; ky++)
+            for (int kx = 0; kx < xk[ky]; kx++, i++) {
+                const int *c = xcut + (size_t)ky * ((size_t)ext[0] + 2);
+                gs_model_region *g = &list[i];
+                g->box.x0 = c[kx];
+                g->box.x1 = c[kx + 1];
+                g->box.y0 = ycut[ky];
+                g->box.y1 = ycut[ky + 1];
+                g->box.z0 = zlo + zstarts[kz];
+                g->box.z1 = g->box.z0 + edge[2];
+                g->color = (uint32_t)((kx % mx) + mx * ((ky % my) + my * (kz % zm)));
+                g->id = (uint32_t)i;
+            }
+    *out = list;
+    *nout = n;
+    *ncolors = mx * my * zm;
+    list = NULL;
+done:
+    gs_free(ycut);
+    gs_free(xcut);
+    gs_free(xk);
+    gs_free(list);
+    return err;
+}
+
 static int cmp_color(const void *pa, const void *pb)
 {
     const gs_model_region *a = pa, *b = pb;
@@ -142,6 +241,22 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
     }
     size_t n = (size_t)cnt[0] * (size_t)cnt[1] * (size_t)cnt[2];
     gs_model_region *list = NULL;
+    if (p->region_jitter > 0) {
+        GS_TRY_CHECK(err, p->overlap == 0 && !p->periodic[0] && !p->periodic[1], GS_ERR_ARG,
+                     done, "model.region_jitter needs model.overlap = 0 and x, y not periodic");
+        GS_TRY_CHECK(err, 2 * p->region_jitter < (edge[0] < edge[1] ? edge[0] : edge[1]),
+                     GS_ERR_ARG, done, "model.region_jitter %d: less than half the region edge",
+                     p->region_jitter);
+        GS_TRY(err, jitter_plan(p, ext, edge, zlo, starts[2], cnt[2], m[2], pass, gap, &list, &n,
+                                ncolors),
+               done);
+        qsort(list, n, sizeof *list, cmp_color);
+        for (size_t i = 0; i < n; i++)
+            list[i].id = (uint32_t)i;
+        *regions = list;
+        *nregions = n;
+        goto done;
+    }
     GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "region plan"), done);
     size_t i = 0;
     for (int kz = 0; kz < cnt[2]; kz++)
@@ -167,6 +282,17 @@ done:
     for (int a = 0; a < 3; a++)
         gs_free(starts[a]);
     return err;
+}
+
+size_t gs_model_plan_max_cells(const gs_model_region *plan, size_t n)
+{
+    size_t best = 0;
+    for (size_t i = 0; i < n; i++) {
+        const gs_model_box *b = &plan[i].box;
+        size_t c = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
+        best = c > best ? c : best;
+    }
+    return best;
 }
 
 /* Does [lo, hi), grown by `grow` cells (the shell, 0 or 1), meet [blo, bhi)
@@ -343,6 +469,7 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
     active_z(p, lat->nz, &zlo, &zhi);
     const size_t ncell = (size_t)lat->nx * (size_t)lat->ny * (size_t)lat->nz;
     uint16_t *coverage = NULL, *buf = NULL;
+    size_t bufcells = 0;
     gs_model_region *plan = NULL;
     gs_model_solver_t solver = NULL;
     gs_err err = GS_OK;
@@ -354,10 +481,11 @@ gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *
         int ncolors = 0;
         GS_TRY(err, gs_model_plan(p, lat->nx, lat->ny, lat->nz, pass, &plan, &nplan, &ncolors),
                done);
-        if (!buf) {
-            const gs_model_box *b = &plan[0].box;
-            size_t cells = (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
-            GS_TRY(err, gs_alloc_array((void **)&buf, cells, sizeof *buf, "region labels"), done);
+        if (gs_model_plan_max_cells(plan, nplan) > bufcells) { /* region_jitter: per pass */
+            gs_free(buf);
+            buf = NULL;
+            bufcells = gs_model_plan_max_cells(plan, nplan);
+            GS_TRY(err, gs_alloc_array((void **)&buf, bufcells, sizeof *buf, "region labels"), done);
         }
         for (size_t i = 0; i < nplan; i++) {
             const gs_model_box *b = &plan[i].box;

@@ -617,6 +617,55 @@ static void test_plan_colours(void **state)
     }
 }
 
+/* model.region_jitter (issue #18): regions of no overlap whose x and y edges
+ * vary within edge +- J (rows staggered like bricks) still cover every active
+ * cell exactly once, same colours never interact, the plan depends on the seed
+ * and pass only (the same on every rank), and the region lines leave the
+ * regular grid: some x start is not a multiple of the edge. */
+static void test_plan_jitter(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    p.region[0] = p.region[1] = 16;
+    p.overlap = 0;
+    p.region_jitter = 4;
+    const int nx = 126, ny = 126, nz = 10;
+    for (int pass = 0; pass < 2; pass++) {
+        gs_model_region *reg = NULL, *again = NULL;
+        size_t n = 0, n2 = 0;
+        int ncol = 0, ncol2 = 0, off_grid = 0;
+        assert_int_equal(gs_model_plan(&p, nx, ny, nz, pass, &reg, &n, &ncol), GS_OK);
+        assert_int_equal(gs_model_plan(&p, nx, ny, nz, pass, &again, &n2, &ncol2), GS_OK);
+        assert_int_equal(n, n2);
+        assert_int_equal(ncol, ncol2);
+        assert_memory_equal(reg, again, n * sizeof *reg);
+        uint8_t *cover = calloc((size_t)nx * ny * nz, 1);
+        for (size_t i = 0; i < n; i++) {
+            const gs_model_box *b = &reg[i].box;
+            assert_int_equal(reg[i].id, i);
+            assert_true(b->x1 - b->x0 >= 16 - 4 - 4 && b->x1 - b->x0 <= 16 + 4);
+            assert_true(b->y1 - b->y0 >= 16 - 4 - 4 && b->y1 - b->y0 <= 16 + 4);
+            off_grid += b->x0 % 16 != 0;
+            for (size_t j = 0; j < i; j++)
+                if (reg[i].color == reg[j].color)
+                    assert_false(gs_model_regions_interact(&p, nx, ny, nz, b, &reg[j].box));
+            for (int z = b->z0; z < b->z1; z++)
+                for (int y = b->y0; y < b->y1; y++)
+                    for (int x = b->x0; x < b->x1; x++)
+                        cover[x + nx * (y + ny * z)]++;
+        }
+        for (int z = 1; z < nz - 1; z++)
+            for (int y = 0; y < ny; y++)
+                for (int x = 0; x < nx; x++)
+                    assert_int_equal(cover[x + nx * (y + ny * z)], 1);
+        assert_true(off_grid > (int)n / 2);
+        free(cover);
+        gs_free(reg);
+        gs_free(again);
+    }
+}
+
 typedef struct sample_case {
     const char *file;
     int nx, ny, nz, bx, by;
@@ -819,6 +868,7 @@ int main(void)
         cmocka_unit_test(test_initial_model_city),
         cmocka_unit_test(test_initial_model_preferred_column),
         cmocka_unit_test(test_plan_colours),
+        cmocka_unit_test(test_plan_jitter),
         cmocka_unit_test(test_author_samples_consistent),
         cmocka_unit_test(test_csv_samples_consistent),
         cmocka_unit_test(test_determinism),
