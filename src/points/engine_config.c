@@ -123,8 +123,9 @@ static const gs_cfg_key points_keys[] = {
                     "without the clean-up below, heightfield.ini seeds 1-6 1.14, 0.85, 0.83, "
                     "0.92, 0.88, 0.85 -> 0.69, 0.63, 0.68, 0.72, 0.69, 0.61 (the example 0.99); "
                     "seams' normal mismatch up (angle ratio 0.67-0.73 -> 0.69-0.80); chainmail.ini "
-                    "seed 1 worse (0.03 -> 0.17, the example 0); the blend about 40 x slower "
-                    "(heightfield.ini 0.9 s -> 35-40 s, serial); "
+                    "seed 1 worse (0.03 -> 0.17, the example 0); the blend about 5 x the "
+                    "sheet blend's time at np 1 (heightfield.ini seed 1: 1.1-1.4 s -> 6.5 s), "
+                    "its per-point solves spread over the ranks; "
                     "false = each point by its neighbours' targets on the output (the paper's)"),
     GS_CFG_KEY_BOOL(PC, drop_strip_specks, "points.drop_strip_specks", "true",
                     "drop pieces of fewer than 30 points lying wholly in the overlap strips "
