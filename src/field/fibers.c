@@ -19,26 +19,39 @@
  * - a track continues its source fiber at the same offset into the next
  *   slab (the same source samples: no joint at all) while the source has
  *   that slab and the fiber stays off the source's faces across the axis;
- * - else it switches to the first voted part of the slab (order below)
- *   whose first cross-section, moved by up to FIB_SHIFT samples across the
- *   axis, covers the track's last cross-section (intersection over union at
- *   least FIB_IOU), moved there; with none, to the best such cross-section
- *   of any source fiber (aligned by centroids, then up to 1 sample); with
- *   none the track ends (a fiber end inside the output);
- * - the voted parts no track took start new tracks, in order of the share
- *   of their inside voted (a part the synthesis copied whole before one it
- *   copied a sliver of; the most votes favoured thick fibers), each then
- *   continued back towards the low face the same way (a fiber the synthesis
- *   starts mid-box is made whole backwards too).
+ * - else it switches to a part whose first cross-section covers the
+ *   track's last one (intersection over union at least FIB_IOU), moved
+ *   there: per source fiber, the voted part of the slab (moved by up to
+ *   FIB_SHIFT samples across; the first in the order below) or else its
+ *   best such cross-section anywhere in the source (aligned by centroids,
+ *   then up to 1 sample); the least used source fiber first (samples
+ *   pasted per sample of it), voted parts first among equals; with none
+ *   the track ends (a fiber end inside the output);
+ * - the voted parts no track took start new tracks where they may go, in
+ *   order of the share of their inside voted (a part the synthesis copied
+ *   whole before one it copied a sliver of), each as the least used source
+ *   fiber that may go there too (its part at the source slice nearest the
+ *   voted one's, centred on it; the voted fiber first among equals), then
+ *   continued back towards the low face the same way (a fiber the
+ *   synthesis starts mid-box is made whole backwards too).
+ * The least used fiber first: the synthesis copies some source fibers far
+ * more often than others (FIBERS 48^3 example seed 2: the two thinnest long
+ * fibers 28 times their volume, the thickest 4, six fibers never), and
+ * tracks that followed the votes alone were thinner than the source
+ * (48^3 -> 96^3 seed 2: inscribed radii KS 0.208 against the source,
+ * share of centres at least the source's p50 0.314 against 0.522; with it
+ * KS 0.012, share 0.512).
  * A part is refused where more than FIB_OVER of its core (its samples within
  * the slab) lands on another track's core (a continuation), more than
  * FIB_NEAR on or next to one across (a switch), or, for a new fiber, more
  * than FIB_NEAR within FIB_GAP samples of one across (the source's fibers
  * are at least 2 samples apart in a cross-section, 4 at the 10th percentile,
  * 5 at the median; fibers.ini 32^3: with a gap of 1, 48^3 -> 96^3 had 14%
- * more fibers per cross-section than the source, with 3 3%). Parts are
- * pasted FIB_ENDS longer at each end (1: volume fraction 0.148 against the
- * source's 0.135 at 48^3 -> 96^3; 2: 0.151).
+ * more fibers per cross-section than the source, with 3 3%; with the least
+ * used fibers a gap of 3 gave volume fractions 0.148, 0.142, 0.145 against
+ * the sources' 0.135, 0.124, 0.133 (seeds 1-3), 4 (the 10th percentile)
+ * 0.126, 0.131, 0.131). Parts are pasted FIB_ENDS longer at each end (0:
+ * crossing share 0.930, 0.957, 0.957 against 0.941, 0.957, 0.968 with 1).
  * Before (8708428), parts were pasted most votes first wherever at most a
  * third of them lay on earlier parts: the same fiber came twice side by side
  * from neighbouring offsets (double blobs) and half the parts were refused
@@ -53,6 +66,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "field_impl.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 
 #define FIB_ENDS 1      /* a part's samples beyond its slab at each end */
@@ -62,7 +76,7 @@
 #define FIB_IOU 0.5     /* least overlap (intersection over union) of a switch */
 #define FIB_NEAR 0.05   /* share of a new part's core allowed next to another core */
 #define FIB_OVER 0.1    /* share of a continuation allowed on another core */
-#define FIB_GAP 3       /* a new fiber's core stays farther than this from other cores */
+#define FIB_GAP 4       /* a new fiber's core stays farther than this from other cores */
 
 typedef struct fib_vote {
     int64_t slab, off, src; /* target slab, packed offset, the source sample copied */
@@ -92,6 +106,15 @@ typedef struct fib_start {
     fib_xs xs;                    /* source coordinates across */
 } fib_start;
 
+/* A part a track may switch to. */
+typedef struct fib_cand {
+    int64_t o[3], seed, i;
+    uint64_t use, vol;            /* its fiber's samples pasted, its samples */
+    uint32_t f;
+    int voted;
+    double iou;
+} fib_cand;
+
 typedef struct fib_ctx {
     const gs_qfield *src;
     int64_t sn[3], tn[3], nt, ns, S, nslab;
@@ -102,6 +125,9 @@ typedef struct fib_ctx {
     uint8_t *target, *out, *occ;  /* occ bit 0: a core, bit 1: within a sample across of one */
     int32_t *prov;
     int64_t pasted;
+    uint32_t *fid, nf;            /* the source fiber (inside component) of each source sample */
+    uint64_t *fvol, *fuse;        /* its samples, its samples pasted */
+    int64_t *pick;                /* per fiber: a candidate start (fib_new) */
 } fib_ctx;
 
 static int cmp_fib_vote(const void *a_, const void *b_)
@@ -248,7 +274,7 @@ static double fib_align(const uint8_t *win, const int32_t w[2], int32_t na, cons
  * around); gap > 1, at most FIB_NEAR of it within gap of one across.
  * Returns whether it pasted. With tr, the track takes it: offset,
  * continuation seed, last cross-section. */
-static int fib_place(fib_ctx *c, int64_t k, const int64_t o[3], int64_t seed, int gap,
+static int fib_place(fib_ctx *c, int64_t k, const int64_t o[3], int64_t seed, int gap, int dry,
                      fib_track *tr)
 {
     const int ax = c->axis;
@@ -286,6 +312,9 @@ static int fib_place(fib_ctx *c, int64_t k, const int64_t o[3], int64_t seed, in
     }
     if (!in || (double)on > (gap ? FIB_NEAR : FIB_OVER) * (double)in)
         return 0;
+    if (dry)
+        return 1;
+    c->fuse[c->fid[seed]] += (uint64_t)in;
     if (tr) {
         memcpy(tr->o, o, sizeof tr->o);
         tr->seed = last;
@@ -318,15 +347,13 @@ static int fib_place(fib_ctx *c, int64_t k, const int64_t o[3], int64_t seed, in
     return 1;
 }
 
-/* A new track of part p continued back towards the low face: the same
- * source fiber at the same offset while it may go there. */
-static void fib_back(fib_ctx *c, const fib_part *p)
+/* A new track (its part of slab `slab` at offset o, holding source sample
+ * seed) continued back towards the low face: the same source fiber at the
+ * same offset while it may go there. */
+static void fib_back(fib_ctx *c, int64_t slab, const int64_t o[3], int64_t seed)
 {
     const int ax = c->axis;
-    int64_t o[3];
-    gs_field_unpack_offset(p->off, o);
-    int64_t seed = p->seed;
-    for (int64_t k = p->slab - 1; k >= 0; k--) {
+    for (int64_t k = slab - 1; k >= 0; k--) {
         /* a sample of the part of slab k + 1 at its first core slice */
         int cut;
         int64_t lo = (k + 1) * c->S + o[ax];
@@ -335,7 +362,7 @@ static void fib_back(fib_ctx *c, const fib_part *p)
             if (c->list[i] / (ax == 0 ? 1 : ax == 1 ? c->sn[0] : c->sn[0] * c->sn[1]) %
                     c->sn[ax] == lo)
                 first = c->list[i];
-        if (first < 0 || !fib_place(c, k, o, first, FIB_GAP, NULL))
+        if (first < 0 || !fib_place(c, k, o, first, FIB_GAP, 0, NULL))
             return;
         seed = first;
     }
@@ -368,6 +395,77 @@ static int64_t fib_starts(fib_ctx *c, fib_start *starts)
     return m;
 }
 
+/* Whether source fiber a is less used than b (samples pasted per sample). */
+static int fib_less_used(const fib_ctx *c, uint32_t a, uint32_t b)
+{
+    return c->fuse[a] * c->fvol[b] < c->fuse[b] * c->fvol[a];
+}
+
+/* The least used fiber first (samples pasted per sample), then voted
+ * parts, the larger overlap, the order found. */
+static int cmp_fib_cand(const void *a_, const void *b_)
+{
+    const fib_cand *a = a_, *b = b_;
+    if (a->use * b->vol != b->use * a->vol)
+        return a->use * b->vol < b->use * a->vol ? -1 : 1;
+    if (a->voted != b->voted)
+        return a->voted ? -1 : 1;
+    if (a->iou != b->iou)
+        return a->iou > b->iou ? -1 : 1;
+    return a->i < b->i ? -1 : a->i > b->i;
+}
+
+/* A new track where the voted part of slab k at offset o (holding seed,
+ * first cross-section h in target coordinates) may start: the least used
+ * source fiber (samples pasted per source sample; the voted one first among
+ * equals) whose part at the source slice nearest the voted part's, centred
+ * on h, may go there too. The synthesis copies some source fibers far more
+ * than others (FIBERS 48^3 seed 2: the two thinnest long fibers 28 times
+ * their volume, the thickest 4, six fibers never), so new tracks following
+ * the votes alone were thinner than the source. Returns whether it pasted. */
+static int fib_new(fib_ctx *c, int64_t k, const int64_t o[3], int64_t seed, const fib_xs *h,
+                   const fib_start *starts, int64_t nstart, fib_track *tr, int64_t *placed)
+{
+    *placed = seed;
+    if (!fib_place(c, k, o, seed, FIB_GAP, 1, NULL))
+        return 0;
+    const int ax = c->axis;
+    int64_t s0 = k * c->S + o[ax];
+    uint32_t nf = c->nf, voted = c->fid[seed];
+    int64_t *pick = c->pick;
+    for (uint32_t f = 0; f <= nf; f++)
+        pick[f] = -1;
+    for (int64_t i = 0; i < nstart; i++) {
+        uint32_t f = c->fid[starts[i].seed];
+        int64_t j = pick[f];
+        if (f == voted || !starts[i].xs.n)
+            continue;
+        if (j < 0 || llabs(starts[i].sx - s0) < llabs(starts[j].sx - s0))
+            pick[f] = i;
+    }
+    for (;;) {
+        int64_t best = -1;
+        uint32_t bf = 0;
+        for (uint32_t f = 1; f <= nf; f++)
+            if (pick[f] >= 0 && (best < 0 || fib_less_used(c, f, bf)))
+                best = pick[f], bf = f;
+        if (best < 0 || !fib_less_used(c, bf, voted))
+            return fib_place(c, k, o, seed, FIB_GAP, 0, tr);
+        pick[bf] = -1;
+        const fib_xs *x = &starts[best].xs;
+        int64_t p[3];
+        p[ax] = starts[best].sx - k * c->S;
+        for (int q = 0; q < 2; q++) {
+            double d = h->c[q] - x->c[q];
+            p[c->b[q]] = -(int64_t)(d + (d > 0 ? 0.5 : -0.5));
+        }
+        if (fib_place(c, k, p, starts[best].seed, FIB_GAP, 0, tr)) {
+            *placed = starts[best].seed;
+            return 1;
+        }
+    }
+}
+
 gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_t *target,
                                int32_t *prov, int axis, int64_t S, int64_t *completed,
                                int64_t *removed)
@@ -387,6 +485,7 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
     fib_track *tracks = NULL;
     fib_start *starts = NULL;
     fib_xs *heads = NULL;
+    fib_cand *cands = NULL;
     int64_t *first = NULL, ntr = 0, nstart = 0;
     uint8_t win[FIB_WIN * FIB_WIN];
     gs_err err = GS_OK;
@@ -402,6 +501,20 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
     GS_TRY(err, gs_alloc_array((void **)&c.stamp, (size_t)c.ns, sizeof *c.stamp, "part marks"),
            done);
     memset(c.stamp, 0, (size_t)c.ns * sizeof *c.stamp);
+    /* the source's fibers */
+    GS_TRY(err, gs_alloc_array((void **)&c.fid, (size_t)c.ns, sizeof *c.fid, "fiber ids"), done);
+    {
+        uint8_t *mask = (uint8_t *)c.list; /* scratch, as large */
+        for (int64_t i = 0; i < c.ns; i++)
+            mask[i] = c.inside[src->q[i]];
+        GS_TRY(err, gs_measure_components3(mask, (int)c.sn[0], (int)c.sn[1], (int)c.sn[2], NULL,
+                                           c.fid, &c.nf, &c.fvol), done);
+    }
+    GS_TRY(err, gs_alloc_array((void **)&c.fuse, (size_t)c.nf + 1, sizeof *c.fuse, "fiber use"),
+           done);
+    memset(c.fuse, 0, ((size_t)c.nf + 1) * sizeof *c.fuse);
+    GS_TRY(err, gs_alloc_array((void **)&c.pick, (size_t)c.nf + 1, sizeof *c.pick, "fiber picks"),
+           done);
     nv = 0;
     for (int64_t i = 0; i < c.nt; i++) {
         if (!c.inside[target[i]] || prov[i] < 0 || !c.inside[src->q[prov[i]]])
@@ -455,6 +568,8 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
            done);
     GS_TRY(err, gs_alloc_array((void **)&heads, (size_t)(np ? np : 1), sizeof *heads, "heads"),
            done);
+    GS_TRY(err, gs_alloc_array((void **)&cands, (size_t)c.nf + 1, sizeof *cands, "switches"),
+           done);
     GS_TRY(err, gs_alloc_array((void **)&c.out, (size_t)c.nt, 1, "rebuilt fibers"), done);
     GS_TRY(err, gs_alloc_array((void **)&c.occ, (size_t)c.nt, 1, "fiber cores"), done);
     memset(c.out, 255, (size_t)c.nt);
@@ -481,50 +596,58 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
             if (!tr->alive)
                 continue;
             fib_track next = *tr;
-            if (fib_place(&c, k, tr->o, tr->seed, 0, &next)) {
+            if (fib_place(&c, k, tr->o, tr->seed, 0, 0, &next)) {
                 *tr = next;
                 continue;
             }
+            /* a switch: per source fiber the voted part of the slab covering
+             * the track's end (the most votes first), else its best covering
+             * cross-section; the least used fiber first */
             int32_t w[2], d[2] = {0, 0}, z[2] = {0, 0};
             fib_draw(&tr->end, win, w);
-            int64_t best = -1;
-            int32_t bd[2] = {0, 0};
+            int64_t nc = 0;
+            for (uint32_t f = 0; f <= c.nf; f++)
+                c.pick[f] = -1;
             for (int64_t i = lo; i < hi; i++) {
                 const fib_xs *h = &heads[i - lo];
-                if (!h->n || (h->c[0] - tr->end.c[0]) * (h->c[0] - tr->end.c[0]) +
-                                     (h->c[1] - tr->end.c[1]) * (h->c[1] - tr->end.c[1]) > 36)
+                uint32_t f = c.fid[parts[i].seed];
+                if (!h->n || c.pick[f] >= 0 ||
+                    (h->c[0] - tr->end.c[0]) * (h->c[0] - tr->end.c[0]) +
+                            (h->c[1] - tr->end.c[1]) * (h->c[1] - tr->end.c[1]) > 36)
                     continue;
-                if (fib_align(win, w, tr->end.n, h, z, FIB_SHIFT, d) >= FIB_IOU) {
-                    best = i, bd[0] = d[0], bd[1] = d[1];
-                    break; /* the most votes first */
-                }
+                double v = fib_align(win, w, tr->end.n, h, z, FIB_SHIFT, d);
+                if (v < FIB_IOU)
+                    continue;
+                fib_cand *q = &cands[nc];
+                gs_field_unpack_offset(parts[i].off, q->o);
+                q->o[c.b[0]] -= d[0], q->o[c.b[1]] -= d[1];
+                q->seed = parts[i].seed, q->f = f, q->voted = 1, q->iou = v, q->i = nc;
+                c.pick[f] = nc++;
             }
+            for (int64_t i = 0; i < nstart; i++) {
+                const fib_xs *h = &starts[i].xs;
+                uint32_t f = c.fid[starts[i].seed];
+                if (10 * h->n < 6 * tr->end.n || 10 * h->n > 16 * tr->end.n ||
+                    (c.pick[f] >= 0 && cands[c.pick[f]].voted))
+                    continue;
+                int32_t d0[2] = {(int32_t)(tr->end.c[0] - h->c[0] + (tr->end.c[0] > h->c[0] ? 0.5 : -0.5)),
+                                 (int32_t)(tr->end.c[1] - h->c[1] + (tr->end.c[1] > h->c[1] ? 0.5 : -0.5))};
+                double v = fib_align(win, w, tr->end.n, h, d0, 1, d);
+                if (v < FIB_IOU - 1e-9 || (c.pick[f] >= 0 && v <= cands[c.pick[f]].iou))
+                    continue;
+                int64_t at = c.pick[f] >= 0 ? c.pick[f] : nc++;
+                fib_cand *q = &cands[at];
+                q->o[axis] = starts[i].sx - k * S;
+                q->o[c.b[0]] = -d[0], q->o[c.b[1]] = -d[1];
+                q->seed = starts[i].seed, q->f = f, q->voted = 0, q->iou = v, q->i = at;
+                c.pick[f] = at;
+            }
+            for (int64_t i = 0; i < nc; i++)
+                cands[i].use = c.fuse[cands[i].f], cands[i].vol = c.fvol[cands[i].f];
+            qsort(cands, (size_t)nc, sizeof *cands, cmp_fib_cand);
             int placed = 0;
-            if (best >= 0) {
-                int64_t o[3];
-                gs_field_unpack_offset(parts[best].off, o);
-                o[c.b[0]] -= bd[0], o[c.b[1]] -= bd[1];
-                placed = fib_place(&c, k, o, parts[best].seed, 1, &next);
-            }
-            if (!placed) { /* the best cross-section of any source fiber */
-                double bv = FIB_IOU - 1e-9;
-                int64_t bi = -1;
-                for (int64_t i = 0; i < nstart; i++) {
-                    const fib_xs *h = &starts[i].xs;
-                    if (10 * h->n < 6 * tr->end.n || 10 * h->n > 16 * tr->end.n)
-                        continue;
-                    int32_t d0[2] = {(int32_t)(tr->end.c[0] - h->c[0] + (tr->end.c[0] > h->c[0] ? 0.5 : -0.5)),
-                                     (int32_t)(tr->end.c[1] - h->c[1] + (tr->end.c[1] > h->c[1] ? 0.5 : -0.5))};
-                    double v = fib_align(win, w, tr->end.n, h, d0, 1, d);
-                    if (v > bv)
-                        bv = v, bi = i, bd[0] = d[0], bd[1] = d[1];
-                }
-                if (bi >= 0) {
-                    int64_t o[3];
-                    o[axis] = starts[bi].sx - k * S;
-                    o[c.b[0]] = -bd[0], o[c.b[1]] = -bd[1];
-                    placed = fib_place(&c, k, o, starts[bi].seed, 1, &next);
-                }
+            for (int64_t i = 0; i < nc && !placed; i++) {
+                placed = fib_place(&c, k, cands[i].o, cands[i].seed, 1, 0, &next);
             }
             if (placed)
                 *tr = next;
@@ -538,10 +661,12 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
             int64_t o[3];
             gs_field_unpack_offset(parts[i].off, o);
             fib_track next = {0};
-            if (!fib_place(&c, k, o, parts[i].seed, FIB_GAP, &next))
+            int64_t placed_seed;
+            if (!fib_new(&c, k, o, parts[i].seed, &heads[i - lo], starts, nstart, &next,
+                         &placed_seed))
                 continue;
             tracks[ntr++] = next;
-            fib_back(&c, &parts[i]);
+            fib_back(&c, k, next.o, placed_seed);
         }
     }
     memcpy(target, c.out, (size_t)c.nt);
@@ -553,10 +678,15 @@ done:
     gs_free(tracks);
     gs_free(starts);
     gs_free(heads);
+    gs_free(cands);
     gs_free(first);
     gs_free(c.list);
     gs_free(c.stamp);
     gs_free(c.out);
     gs_free(c.occ);
+    gs_free(c.fid);
+    gs_free(c.fvol);
+    gs_free(c.fuse);
+    gs_free(c.pick);
     return err;
 }
