@@ -280,6 +280,17 @@ def grid_crossing(a, ground, period):
             "region_grid_crossing_ratio": ratio}
 
 
+def straight_streets(a, ground):
+    """Straight open streets: the lines x = const (y = const) between neighbouring columns
+    across which no pair of structure columns (a non-empty cell at z >= ground) meets over
+    the whole extent; returns (along x, along y). A layout tiled on a region grid has one per
+    region line; structures placed at random almost none."""
+    col = (a[ground:] != 0).any(axis=0)  # (y, x)
+    bx = (col[:, 1:] & col[:, :-1]).any(axis=0)
+    by = (col[1:, :] & col[:-1, :]).any(axis=1)
+    return int((~bx).sum()), int((~by).sum())
+
+
 def shuffled(ex, seed=0):
     """The example's cells in a random order: the same label mix, no structure."""
     flat = ex.ravel().copy()

@@ -279,9 +279,10 @@ typedef struct gs_model_params {
                            (stride = edge - overlap, at least 1); -1 = half
                            the edge (default) */
     int region_jitter;  /* > 0 (with overlap 0): x and y region edges drawn per
-                           region from [edge - J, edge + J] (a height per row of
-                           regions, a width per region within its row: staggered
-                           like bricks), keyed by (seed, pass): no regular grid */
+                           region around edge (+-J; rows of regions whose x cuts
+                           are staggered, staircase lines between rows: no line
+                           crosses the output), keyed by (seed, pass): no regular
+                           grid (synth.c jitter_plan) */
     int attempts;       /* tries per region before keeping the old content */
     int min_changes;    /* accepted regions each active cell must be part of */
     int max_passes;     /* sweeps at most */

@@ -311,9 +311,9 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, overlap, "model.overlap", -1, MODEL_MAX_EXTENT, 0, "-1",
                    "cells shared by neighbouring regions; -1 = half the region edge"),
     GS_CFG_KEY_INT(model_config, region_jitter, "model.region_jitter", 0, MODEL_MAX_EXTENT, 0, "0",
-                   "with model.overlap = 0: x and y region edges drawn per region from "
-                   "[edge - J, edge + J] (a height per row, a width per region in its row, "
-                   "staggered like bricks): no regular grid of regions; 0 = a regular grid"),
+                   "with model.overlap = 0: x and y region edges drawn per region around "
+                   "the edge (+-J; staggered x cuts, staircase lines between rows of "
+                   "regions: no region line crosses the output); 0 = a regular grid"),
     GS_CFG_KEY_INT(model_config, passes, "model.passes", 0, 1000, 0, "1",
                    "keep sweeping until every cell was in this many accepted regions"),
     GS_CFG_KEY_INT(model_config, max_passes, "model.max_passes", 1, 100000, 0, "4",

@@ -150,50 +150,113 @@ static int cut_colors(const int *cut, int k, int gap)
 
 #define GS_MODEL_PLAN_DOMAIN 0x4d4f504cu /* "MOPL": jittered region edges */
 
-/* The jittered plan (model.region_jitter > 0, overlap 0, x and y not
- * periodic): a height per row of regions, then a width per region within its
- * row (rows staggered like bricks), drawn from streams keyed by (seed, pass,
- * row): the same plan on every rank. z as the regular plan. */
+/* The jittered plan (model.region_jitter = J > 0, overlap 0, x and y not
+ * periodic), drawn from streams keyed by (seed, pass): the same plan on every
+ * rank; z as the regular plan. Rows of regions along y; row 0's x cuts are
+ * pieces of edge +- J; every second one of them is an anchor, kept by row 1,
+ * which splits each span between anchors (and the faces) into about edge-wide
+ * pieces at jittered places: those new cuts are row 1's anchors, kept by row
+ * 2, and so on. A vertical region line thus runs through two rows at most.
+ * The line between rows r and r + 1 is a staircase: its base height (pieces
+ * of edge +- J/2 along y) moves by a drawn +-J/2 between consecutive anchors
+ * of row r (the cuts rows r and r + 1 share), so no line crosses the output.
+ * Region edges stay >= edge - 3J/2 > edge/4. */
 static gs_err jitter_plan(const gs_model_params *p, const int ext[3], const int edge[3],
                           int zlo, const int *zstarts, int zcnt, int zm, int pass, int gap,
                           gs_model_region **out, size_t *nout, int *ncolors)
 {
-    int *ycut = NULL, *xcut = NULL, *xk = NULL;
+    const int nx = ext[0], ny = ext[1], bx = edge[0], by = edge[1], J = p->region_jitter;
+    const size_t W = (size_t)nx + 2;
+    int *ycut = NULL, *xcut = NULL, *xk = NULL, *anc = NULL, *na = NULL, *dy = NULL;
     gs_model_region *list = NULL;
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&ycut, (size_t)ext[1] + 2, sizeof(int), "plan"), done);
     gs_rng r;
     gs_rng_init(&r, p->seed, gs_rng_stream_id(GS_MODEL_PLAN_DOMAIN, (uint64_t)pass, 0, 0));
-    const int J = p->region_jitter;
-    int ny = edge[1] >= ext[1] ? (ycut[0] = 0, ycut[1] = ext[1], 1)
-                               : jitter_cuts(ext[1], edge[1], J, &r, ycut);
-    const int my = cut_colors(ycut, ny, gap);
-    GS_TRY(err, gs_alloc_array((void **)&xcut, (size_t)ny * ((size_t)ext[0] + 2), sizeof(int),
-                               "plan"), done);
-    GS_TRY(err, gs_alloc_array((void **)&xk, (size_t)ny, sizeof(int), "plan"), done);
-    int mx = 1;
+    GS_TRY(err, gs_alloc_array((void **)&ycut, (size_t)ny + 2, sizeof(int), "plan"), done);
+    const int rows = by >= ny ? (ycut[0] = 0, ycut[1] = ny, 1)
+                              : jitter_cuts(ny, by, J / 2 > 0 ? J / 2 : 1, &r, ycut);
+    GS_TRY(err, gs_alloc_array((void **)&xcut, (size_t)rows * W, sizeof(int), "plan"), done);
+    GS_TRY(err, gs_alloc_array((void **)&anc, (size_t)rows * W, sizeof(int), "plan"), done);
+    GS_TRY(err, gs_alloc_array((void **)&dy, (size_t)rows * W, sizeof(int), "plan"), done);
+    GS_TRY(err, gs_alloc_array((void **)&xk, (size_t)rows, sizeof(int), "plan"), done);
+    GS_TRY(err, gs_alloc_array((void **)&na, (size_t)rows, sizeof(int), "plan"), done);
+    for (int ky = 0; ky < rows; ky++) {
+        int *c = xcut + (size_t)ky * W, *a = anc + (size_t)ky * W;
+        if (bx >= nx) {
+            c[0] = 0, c[1] = nx, xk[ky] = 1, na[ky] = 0;
+        } else if (ky == 0) {
+            xk[0] = jitter_cuts(nx, bx, J, &r, c);
+            const int first = 1 + (int)gs_rng_below(&r, 2);
+            na[0] = 0;
+            for (int i = first; i < xk[0]; i += 2)
+                a[na[0]++] = c[i];
+        } else { /* the anchors of the row below, and new cuts between them */
+            const int *pa = anc + (size_t)(ky - 1) * W;
+            int k = 0, m = 0;
+            c[0] = 0;
+            for (int s = 0; s <= na[ky - 1]; s++) {
+                const int u = s ? pa[s - 1] : 0, v = s < na[ky - 1] ? pa[s] : nx;
+                int pieces = (v - u + bx / 2) / bx;
+                pieces = pieces < 1 ? 1 : pieces;
+                int prev = u;
+                for (int i = 1; i < pieces; i++) {
+                    int t = u + (int)((int64_t)(v - u) * i / pieces) - J / 2 +
+                            (int)gs_rng_below(&r, (uint64_t)(J / 2 * 2 + 1));
+                    const int lo = prev + bx - J, hi = v - (pieces - i) * (bx - J);
+                    t = t < lo ? lo : t > hi ? hi : t;
+                    if (t <= prev || t >= v)
+                        continue;
+                    c[++k] = t;
+                    a[m++] = t;
+                    prev = t;
+                }
+                if (v < nx)
+                    c[++k] = v;
+            }
+            c[++k] = nx;
+            xk[ky] = k;
+            na[ky] = m;
+        }
+        /* the staircase above row ky: one step per span between its anchors */
+        for (int s = 0; s <= na[ky]; s++)
+            dy[(size_t)ky * W + (size_t)s] =
+                ky + 1 < rows ? (int)gs_rng_below(&r, (uint64_t)(J / 2 * 2 + 1)) - J / 2 : 0;
+    }
     size_t n = 0;
-    for (int ky = 0; ky < ny; ky++) {
-        int *c = xcut + (size_t)ky * ((size_t)ext[0] + 2);
-        gs_rng_init(&r, p->seed,
-                    gs_rng_stream_id(GS_MODEL_PLAN_DOMAIN, (uint64_t)pass, 1 + (uint64_t)ky, 0));
-        xk[ky] = edge[0] >= ext[0] ? (c[0] = 0, c[1] = ext[0], 1)
-                                   : jitter_cuts(ext[0], edge[0], J, &r, c);
-        const int m = cut_colors(c, xk[ky], gap);
+    int mx = 1;
+    for (int ky = 0; ky < rows; ky++) {
+        const int m = cut_colors(xcut + (size_t)ky * W, xk[ky], gap);
         mx = m > mx ? m : mx;
         n += (size_t)xk[ky] * (size_t)zcnt;
     }
+    const int my = rows > 2 ? 2 : rows;
     GS_TRY(err, gs_alloc_array((void **)&list, n, sizeof *list, "region plan"), done);
     size_t i = 0;
     for (int kz = 0; kz < zcnt; kz++)
-        for (int ky = 0; ky < ny; ky++)
+        for (int ky = 0; ky < rows; ky++)
             for (int kx = 0; kx < xk[ky]; kx++, i++) {
-                const int *c = xcut + (size_t)ky * ((size_t)ext[0] + 2);
+                const int *c = xcut + (size_t)ky * W;
                 gs_model_region *g = &list[i];
                 g->box.x0 = c[kx];
                 g->box.x1 = c[kx + 1];
-                g->box.y0 = ycut[ky];
-                g->box.y1 = ycut[ky + 1];
+                /* the staircase step holding x0: anchors of that row at or below x0 */
+                int y[2];
+                for (int e = 0; e < 2; e++) {
+                    const int row = ky - 1 + e;
+                    if (row < 0 || row + 1 >= rows) {
+                        y[e] = e ? ny : 0;
+                        continue;
+                    }
+                    int s = 0;
+                    while (s < na[row] && anc[(size_t)row * W + (size_t)s] <= c[kx])
+                        s++;
+                    y[e] = ycut[row + 1] + dy[(size_t)row * W + (size_t)s];
+                }
+                g->box.y0 = y[0];
+                g->box.y1 = y[1];
+                GS_TRY_CHECK(err, g->box.x1 - g->box.x0 >= gap && g->box.y1 - g->box.y0 >= gap,
+                             GS_ERR_INTERNAL, done, "jittered region %zu: %dx%d", i,
+                             g->box.x1 - g->box.x0, g->box.y1 - g->box.y0);
                 g->box.z0 = zlo + zstarts[kz];
                 g->box.z1 = g->box.z0 + edge[2];
                 g->color = (uint32_t)((kx % mx) + mx * ((ky % my) + my * (kz % zm)));
@@ -207,6 +270,9 @@ done:
     gs_free(ycut);
     gs_free(xcut);
     gs_free(xk);
+    gs_free(anc);
+    gs_free(na);
+    gs_free(dy);
     gs_free(list);
     return err;
 }

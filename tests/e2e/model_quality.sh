@@ -185,6 +185,13 @@ fi
 # structure cells in nested structures (none of whose columns meets the outside ground) at least
 # half the example's (castle.txt 0.444: its keep). Broken on purpose: order = entropy with
 # resemblance_slack = 1 (castle-10x.ini before) fails it (seeds 1, 2: 0.006, 0.006).
+# No region grid (model20): the share of neighbouring structure column pairs across the lines
+# x, y = k * 16 (the region edge) at least half that across all other lines (1 = structures
+# ignore the grid; summary.json region_grid_crossing_ratio equal to lattice_measures.py's), and
+# straight open streets through the whole output (lattice_measures.py straight_streets) at most
+# a quarter of the region lines. Broken on purpose: model.region_jitter = 0 (the regular grid,
+# castle-10x.ini before: one castle per region) fails both (seeds 1, 2: ratio 0.08, 0.09;
+# 11 + 12, 12 + 12 streets); staggered rows with straight row lines (tried) fail the streets check (seeds 1-3: 11-14).
 if need_config "castle-10x: keeps at the example's rate" "$GS_ROOT/configs/model/castle-10x.ini"; then
   for s in 1 2; do
     run_gs 0 model -c "$GS_ROOT/configs/model/castle-10x.ini" --set run.seed=$s --set model.mesh=none -o castle10x$s
@@ -215,6 +222,15 @@ need(0.8 <= rc <= 1.25, "open ground with room (clear columns) %.3f within [0.8,
 need(lf["structure_max_ratio"] <= 4, "largest structure %d cells <= 4 x the example's %d" % (lf["structure_max"], lf["structure_max_example"]))
 need(lm.label_l1(ex, out) <= 0.16, "label L1 %.3f <= 0.16 (the author's castle figure, issue #18)" % lm.label_l1(ex, out))
 need(lf["structure_nested_share"] >= 0.5 * lf["structure_nested_share_example"], "structure cells in nested structures (keeps inside rings) %.3f >= half the example's %.3f" % (lf["structure_nested_share"], lf["structure_nested_share_example"]))
+# no region grid (model20): structures cross the lines x, y = k * 16 (model.region) about as
+# often as any other line, and no straight open street crosses the output
+per = (m["region_grid_period_x"], m["region_grid_period_y"])
+g = lm.grid_crossing(out, lf["layout_ground_layer"], per)
+need(per == (16, 16) and all(abs(g[k] - m[k]) < 1e-12 for k in g), "summary.json's region_grid_* = analysis/lattice_measures.py's (%s, period %s)" % (g, per))
+need(g["region_grid_crossing_ratio"] >= 0.5, "structures across the region grid's lines %.3f >= 0.5 x across other lines %.3f (ratio %.2f; 1 = no grid)" % (g["region_grid_crossing"], g["region_grid_crossing_other"], g["region_grid_crossing_ratio"]))
+sx, sy = lm.straight_streets(out, lf["layout_ground_layer"])
+lines = (out.shape[2] - 1) // per[0] + (out.shape[1] - 1) // per[1]
+need(sx + sy <= lines // 4, "straight open streets across the output %d + %d <= a quarter of the %d region lines" % (sx, sy, lines))
 chk.result()
 EOF
 )

@@ -621,7 +621,8 @@ static void test_plan_colours(void **state)
  * vary within edge +- J (rows staggered like bricks) still cover every active
  * cell exactly once, same colours never interact, the plan depends on the seed
  * and pass only (the same on every rank), and the region lines leave the
- * regular grid: some x start is not a multiple of the edge. */
+ * regular grid: most x starts are not multiples of the edge, and no line
+ * x = const or y = const crosses the output along region faces only. */
 static void test_plan_jitter(void **state)
 {
     (void)state;
@@ -644,8 +645,8 @@ static void test_plan_jitter(void **state)
         for (size_t i = 0; i < n; i++) {
             const gs_model_box *b = &reg[i].box;
             assert_int_equal(reg[i].id, i);
-            assert_true(b->x1 - b->x0 >= 16 - 4 - 4 && b->x1 - b->x0 <= 16 + 4);
-            assert_true(b->y1 - b->y0 >= 16 - 4 - 4 && b->y1 - b->y0 <= 16 + 4);
+            assert_true(b->x1 - b->x0 >= 16 / 4 && b->x1 - b->x0 <= 3 * 16);
+            assert_true(b->y1 - b->y0 >= 16 / 4 && b->y1 - b->y0 <= 3 * 16);
             off_grid += b->x0 % 16 != 0;
             for (size_t j = 0; j < i; j++)
                 if (reg[i].color == reg[j].color)
@@ -660,6 +661,14 @@ static void test_plan_jitter(void **state)
                 for (int x = 0; x < nx; x++)
                     assert_int_equal(cover[x + nx * (y + ny * z)], 1);
         assert_true(off_grid > (int)n / 2);
+        for (int t = 1; t < 126; t++) { /* a region straddles every line */
+            int sx = 0, sy = 0;
+            for (size_t i = 0; i < n; i++) {
+                sx |= reg[i].box.x0 < t && t < reg[i].box.x1;
+                sy |= reg[i].box.y0 < t && t < reg[i].box.y1;
+            }
+            assert_true(sx && sy);
+        }
         free(cover);
         gs_free(reg);
         gs_free(again);
