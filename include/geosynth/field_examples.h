@@ -121,5 +121,8 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
  * with the base and relief gs_field_from_heightmap used (base = (depth -
  * height) / 2) the inverse of reading a height map. */
 gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, const char *path);
+/* The surface heights of gs_field_write_heightmap, in samples: h[x + nx * y]
+ * (row 0 = y 0), nx * ny doubles. */
+void gs_field_surface_heights(const gs_field *f, double *h);
 
 #endif

@@ -349,6 +349,38 @@ typedef struct gs_measure_copy {
 gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                         const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m);
 
+/* Large-scale repetition of a height map out (onx x ony, x fastest)
+ * against its example src (snx x sny): "the same mountain twice", which
+ * the exact copy measure above misses when each repeat was copied at
+ * another offset or blended. Windows of w x w samples, w = the first lag at
+ * which the example's autocorrelation falls below 1/e (its feature size),
+ * each reduced to its residual after the least squares plane; NCC = the
+ * normalized cross-correlation of two residuals. Windows whose residual RMS
+ * is below the median of the example's (relief) are left out (flat plains
+ * are alike everywhere). Example windows at every position, output windows
+ * every `stride` = max(1, w/5) samples; two windows overlap when their
+ * origins are less than w apart along both axes.
+ * ncc_src: the highest NCC between two example windows that do not overlap
+ * (how alike two places of the example are); ncc_out: the same over output
+ * windows whose origins are at most reach = the example's larger side apart
+ * along each axis (a tiling of the example: 1). recur_out: the largest
+ * number of output windows, none overlapping another, that match one
+ * example window with an NCC >= ncc_src (closer than any other place of the
+ * example comes to it): how many times one example feature recurs (the
+ * example's own figure is 1; a 2x2 tiling 4). Cost O(windows^2 w^2):
+ * about 0.3 s for 64^2 -> 128^2. analysis/field_repeats.py computes the
+ * same from field.h5. */
+typedef struct gs_measure_repeats {
+    int window, stride;
+    int64_t reach;
+    double relief;                     /* the floor: median residual RMS of the example's windows */
+    int64_t windows_src, windows_out;  /* windows at or above the floor */
+    double ncc_src, ncc_out;
+    int recur_out;
+} gs_measure_repeats;
+gs_err gs_measure_repeats2(const double *out, int64_t onx, int64_t ony, const double *src,
+                           int64_t snx, int64_t sny, gs_measure_repeats *m);
+
 /* Outline roughness of a two-sided labelling of a triangle mesh's vertices
  * (side[v] != 0: one side), e.g. micro's regions as mesh.ply shows them.
  * Positions pos (3 floats per vertex) times scale give distances in the

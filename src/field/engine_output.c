@@ -289,6 +289,42 @@ static gs_err report_synthesized(gs_run *run, const gs_qfield *syn, const gs_qfi
     return GS_OK;
 }
 
+/* Large-scale repetition of a height-field run (#19: "the same mountain
+ * twice", which the copy measure misses when each repeat was copied at
+ * another offset or blended): gs_measure_repeats2 on the surface heights of
+ * the output's levels and the example's (analysis/field_repeats.py: the
+ * same from field.h5's /field/levels and /source/levels). */
+static gs_err report_repeats(gs_run *run, const gs_qfield *out, const gs_qfield *src, gs_json *pm)
+{
+    gs_field *fo = NULL, *fs = NULL;
+    double *ho = NULL, *hs = NULL, t0 = gs_cpu_now();
+    gs_measure_repeats m;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_qfield_dequantize(out, &fo), done);
+    GS_TRY(err, gs_qfield_dequantize(src, &fs), done);
+    GS_TRY(err, gs_alloc_array((void **)&ho, (size_t)(out->nx * out->ny), sizeof *ho, "heights"), done);
+    GS_TRY(err, gs_alloc_array((void **)&hs, (size_t)(src->nx * src->ny), sizeof *hs, "heights"), done);
+    gs_field_surface_heights(fo, ho);
+    gs_field_surface_heights(fs, hs);
+    GS_TRY(err, gs_measure_repeats2(ho, out->nx, out->ny, hs, src->nx, src->ny, &m), done);
+    gs_run_metric_i64(run, "repeat_window", m.window);
+    gs_run_metric_f64(run, "repeat_relief", m.relief);
+    gs_run_metric_f64(run, "repeat_ncc_out", m.ncc_out);
+    gs_run_metric_f64(run, "repeat_ncc_src", m.ncc_src);
+    gs_run_metric_i64(run, "repeat_recur_out", m.recur_out);
+    gs_json_f64(pm, "repeat_measure_cpu_seconds", gs_cpu_now() - t0);
+    gs_log(GS_LOG_INFO,
+           "repetition (%dx%d windows, feature size): two places of the output alike to NCC "
+           "%.3f (the example's most alike two %.3f); one example feature recurs %d times "
+           "(%.2f s)", m.window, m.window, m.ncc_out, m.ncc_src, m.recur_out, gs_cpu_now() - t0);
+done:
+    gs_field_destroy(&fo);
+    gs_field_destroy(&fs);
+    gs_free(ho);
+    gs_free(hs);
+    return err;
+}
+
 /* Copying, whole objects and distance steps (gs_field_geometry_measure) as
  * run metrics and in the output phase record. */
 static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_json *pm)
@@ -505,6 +541,8 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
             report_geometry(run, &gr, phase);
         if (!lerr)
             lerr = report_synthesized(run, synthesized, q, (int)c->block, &gr, phase);
+        if (!lerr && field_is_heightmap_example(c))
+            lerr = report_repeats(run, d->res, q, phase);
         /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
         gs_json_f64(phase, "quality_seconds", quality_s);
         gs_json_f64(phase, "quality_cpu_seconds", quality_cpu);

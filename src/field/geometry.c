@@ -633,19 +633,14 @@ done:
 
 /* ------------------------------------------------------ height map out */
 
-gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, const char *path)
+void gs_field_surface_heights(const gs_field *f, double *h)
 {
-    GS_CHECK(height > 0 && f->nx <= 65535 && f->ny <= 65535, GS_ERR_ARG,
-             "%s: height map of %lldx%lld columns, relief %g: expected relief > 0", path,
-             (long long)f->nx, (long long)f->ny, height);
     int64_t nx = f->nx, ny = f->ny, nz = f->nz;
-    float *grey = NULL;
-    GS_CALL(gs_alloc_array((void **)&grey, (size_t)(nx * ny), sizeof *grey, "height map"));
+    size_t st = (size_t)(nx * ny);
     for (int64_t y = 0; y < ny; y++)
         for (int64_t x = 0; x < nx; x++) {
             /* the highest sign change from inside (< 0) below to outside above */
             const float *col = f->v + x + nx * y;
-            size_t st = (size_t)(nx * ny);
             double z = col[(size_t)(nz - 1) * st] < 0 ? (double)(nz - 1) : 0;
             for (int64_t k = nz - 2; k >= 0; k--) {
                 double lo = col[(size_t)k * st], hi = col[(size_t)(k + 1) * st];
@@ -654,14 +649,32 @@ gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, c
                     break;
                 }
             }
-            /* image row 0 is the top: largest y (as gs_field_from_heightmap reads it) */
-            grey[x + nx * (ny - 1 - y)] = (float)((z - base) / height);
+            h[x + nx * y] = z;
         }
+}
+
+gs_err gs_field_write_heightmap(const gs_field *f, double base, double height, const char *path)
+{
+    GS_CHECK(height > 0 && f->nx <= 65535 && f->ny <= 65535, GS_ERR_ARG,
+             "%s: height map of %lldx%lld columns, relief %g: expected relief > 0", path,
+             (long long)f->nx, (long long)f->ny, height);
+    int64_t nx = f->nx, ny = f->ny;
+    float *grey = NULL;
+    double *h = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&grey, (size_t)(nx * ny), sizeof *grey, "height map"), done);
+    GS_TRY(err, gs_alloc_array((void **)&h, (size_t)(nx * ny), sizeof *h, "height map"), done);
+    gs_field_surface_heights(f, h);
+    /* image row 0 is the top: largest y (as gs_field_from_heightmap reads it) */
+    for (int64_t y = 0; y < ny; y++)
+        for (int64_t x = 0; x < nx; x++)
+            grey[x + nx * (ny - 1 - y)] = (float)((h[x + nx * y] - base) / height);
     gs_image img;
-    gs_err err = gs_image_from_gray((int)nx, (int)ny, grey, 0.0f, 1.0f, 16, &img);
-    gs_free(grey);
-    GS_CALL(err);
+    GS_TRY(err, gs_image_from_gray((int)nx, (int)ny, grey, 0.0f, 1.0f, 16, &img), done);
     err = gs_image_write_png(path, &img);
     gs_image_destroy(&img);
+done:
+    gs_free(grey);
+    gs_free(h);
     return err;
 }

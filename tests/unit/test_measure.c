@@ -868,6 +868,49 @@ static void test_outline(void **state)
     free(side);
 }
 
+/* gs_measure_repeats2: a 2x2 tiling of a height map (a relief of random
+ * bumps) repeats it: two places alike to NCC 1 (the example's own most alike
+ * two less), one feature recurring at least 4 times. */
+static void smooth_relief(uint64_t seed, int n, double *h)
+{
+    gs_rng r;
+    gs_rng_init(&r, seed, 3);
+    double bump[24][3];
+    for (int k = 0; k < 24; k++)
+        for (int a = 0; a < 3; a++)
+            bump[k][a] = (double)gs_rng_below(&r, 1000) / 1000.0;
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++) {
+            double v = 0;
+            for (int k = 0; k < 24; k++) {
+                double dx = x - bump[k][0] * n, dy = y - bump[k][1] * n, s = 2 + 4 * bump[k][2];
+                v += exp(-(dx * dx + dy * dy) / (2 * s * s));
+            }
+            h[x + n * y] = v;
+        }
+}
+
+static void test_repeats(void **state)
+{
+    (void)state;
+    enum { N = 48 };
+    double *src = malloc(sizeof(double) * N * N), *tile = malloc(sizeof(double) * 4 * N * N);
+    assert_non_null(src);
+    assert_non_null(tile);
+    smooth_relief(1, N, src);
+    for (int y = 0; y < 2 * N; y++)
+        for (int x = 0; x < 2 * N; x++)
+            tile[x + 2 * N * y] = src[x % N + N * (y % N)];
+    gs_measure_repeats m;
+    assert_int_equal(gs_measure_repeats2(tile, 2 * N, 2 * N, src, N, N, &m), GS_OK);
+    assert_true(m.window >= 3 && m.window <= N / 2);
+    assert_true(m.ncc_src < 0.999);
+    assert_true(m.ncc_out > 0.999);
+    assert_true(m.recur_out >= 4);
+    free(src);
+    free(tile);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -886,6 +929,7 @@ int main(void)
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_outline),
+        cmocka_unit_test(test_repeats),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
