@@ -418,6 +418,14 @@ typedef struct gs_field_synth_config {
                                         source block within this many positions (each axis)
                                         of one a lower neighbour took (the same source block
                                         again a stride on); < block/2; 0 = off (the paper) */
+    int repeat_span;                 /* > 0 (with repeat_reach): in every iteration a block
+                                        may not take a source block within the level's reach
+                                        (repeat_reach halved per coarser level) of a feature
+                                        block (relief at or above the median) taken by a
+                                        matched block b - d, d in [0, repeat_span]^3 beyond
+                                        the lower neighbours, while half the source stays
+                                        free (src/field/synth.c repeat_span_exclusions);
+                                        0 = off */
     int seam_gradient;               /* 1 (needs prov): after the blend, a screened Poisson
                                         correction makes the steps across seams the mean of
                                         the two pieces' own steps there (src/field/synth.c

@@ -106,6 +106,14 @@ static const gs_cfg_key field_keys[] = {
                    "copied again a block stride on, e.g. a flat summit down a column); below "
                    "block/2, so a continuation stays allowed; 0 = off (the paper); 6 in "
                    "terrain.ini"),
+    GS_CFG_KEY_INT(field_config, repeat_span, "field.repeat_span", 0, 16, 0, "0",
+                   "with repeat_reach, in every iteration a block may not take a source block "
+                   "within the level's reach (repeat_reach, halved per coarser level) of a "
+                   "feature block (relief at or above the example's median, not a plain) taken "
+                   "by the matched blocks up to this many positions below it along each "
+                   "axis (beyond the lower neighbours), while half the source stays free: no "
+                   "source feature copied again a few blocks on (a chain of blocks falling "
+                   "into a cycle, stacked summits); 0 = off"),
     GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
                     "minimum-error boundary cut: each block takes the samples of its box that a "
                     "minimum cut between the synthesized overlap and the matched block gives it "
