@@ -366,6 +366,8 @@ typedef struct gs_points_params {
     int max_pairs;        /* clusters grow so |Q| stays near this (spline size) */
     double variation_radius;
     double tps_lambda;
+    int warp_height_bound; /* 1: a warped point stays within the example's height range
+                              (or where it was, when it was already beyond) */
     int warp_select;      /* 1: each patch takes the spline (pairs as they are, or their
                              normal parts) or no warp, whichever leaves it closest to N_k */
     int blend;            /* 1: the overlap strips blend onto N_k (section 5.3); 0: pasted as

@@ -83,6 +83,11 @@ static const gs_cfg_key points_keys[] = {
                    "relaxation passes over the output at the end"),
     GS_CFG_KEY_REAL(PC, tps_lambda, "points.tps_lambda", 0, 1e6, 0, "0",
                     "thin-plate spline smoothing (0 = interpolate)"),
+    GS_CFG_KEY_BOOL(PC, warp_height_bound, "points.warp_height_bound", "true",
+                    "the warp lifts or lowers no point beyond the example's height range (a "
+                    "point already beyond it keeps its own height as the bound); false = the "
+                    "spline as it is (it put up to 190 points above the example's top per "
+                    "chainmail run)"),
     GS_CFG_KEY_BOOL(PC, warp_select, "points.warp_select", "true",
                     "each patch takes the spline of the pairs, the spline of their normal parts, "
                     "or no warp, whichever leaves it closest to the output in the overlap "

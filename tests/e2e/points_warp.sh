@@ -1,0 +1,43 @@
+# End-to-end: the warp (paper section 5.2) on the same patches. A run
+# without the warp places the source patches the warped run chose
+# (points.choices = its patches.csv), so the two outputs differ by the warp
+# alone, not by the layout the search draws after the first patch. On
+# chainmail.ini (8 x 8; the blend's hole fill off, as in points_quality, so
+# the fill does not close what the warp should):
+# - fewer points by a patch boundary find no surface of the other patch
+#   across it (patch_seam_open, from points.ply's patch ids) with the warp
+#   than without it; the warp disabled in the code gives the same patches
+#   the same seams and fails this;
+# - the warp lifts no point above the example's top beyond the ones the
+#   same patches put there without it (points_above_example_max; the
+#   spline's swing between pairs put ~130 per run there before
+#   points.warp_height_bound), and the same run with the bound off puts
+#   more there than with it.
+source "$GS_ROOT/tests/e2e/lib.bash"
+C=$GS_ROOT/configs/points/chainmail.ini
+metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
+lt() { /usr/bin/python3 -c 'import sys; sys.exit(0 if float(sys.argv[1]) < float(sys.argv[2]) else 1)' "$@"; }
+small=(--set points.out_points=0 --set points.out_size=8,8 --set output.preview=false
+       --set points.blend_fill=false --set output.patch_metrics=true)
+
+run_gs 2 points -c "$C" -o warp "${small[@]}"
+expect_rc 0 "chainmail (8 x 8) with the warp"
+run_gs 2 points -c "$C" -o same "${small[@]}" --set points.max_pair_dist=0.000001 \
+  --set points.choices="$PWD/warp/patches.csv"
+expect_rc 0 "chainmail (8 x 8) without the warp, on the warped run's patches"
+run_gs 2 points -c "$C" -o unbound "${small[@]}" --set points.warp_height_bound=false \
+  --set points.choices="$PWD/warp/patches.csv"
+expect_rc 0 "chainmail (8 x 8) with the warp unbounded in height, on the same patches"
+
+w=$(metric warp patches_warped)
+[[ $w -gt 0 ]] && ok "$w patches warped" || bad "no patch warped"
+o1=$(metric warp patch_seam_open) o0=$(metric same patch_seam_open)
+lt "$o1" "$o0" && ok "warp: points at patch boundaries with no surface across $o1 with the warp, $o0 without (same patches)" ||
+  bad "warp: points at patch boundaries with no surface across $o1 with the warp, $o0 without on the same patches (expected fewer with)"
+a1=$(metric warp points_above_example_max) a0=$(metric same points_above_example_max)
+au=$(metric unbound points_above_example_max)
+[[ $a1 -le $a0 ]] && ok "warp: $a1 points above the example's top with the warp, $a0 without (same patches)" ||
+  bad "warp: $a1 points above the example's top with the warp, $a0 without on the same patches (expected no more)"
+[[ $au -gt $a1 ]] && ok "height bound: $au points above the example's top without it, $a1 with it" ||
+  bad "height bound: $au points above the example's top without it, $a1 with it (expected more without)"
+finish
