@@ -237,6 +237,12 @@ gs_err gs_field_brute_search_keyed(const gs_qfield *src, const gs_field_query *q
                                    const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
                                    int64_t begin, int64_t end, uint64_t *bound,
                                    gs_field_match *out);
+/* The same with ties in the order of tie_class, then tie_key
+ * (gs_field_tie_rank_of; tie_class NULL: as _keyed). */
+gs_err gs_field_brute_search_classed(const gs_qfield *src, const gs_field_query *q,
+                                     const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
+                                     const uint8_t *tie_class, int64_t begin, int64_t end,
+                                     uint64_t *bound, gs_field_match *out);
 
 typedef struct gs_field_tree *gs_field_tree_t;
 
@@ -343,6 +349,13 @@ typedef struct gs_field_search_opts {
      * iteration and the target block (src/field/synth.c match_block). The
      * answer is still an exact best: only which of the equals differs. */
     uint64_t tie_key;
+    /* Optional, one per block index (global): a class that goes before the
+     * tie_key order among blocks at the same distance (the lowest class
+     * first; gs_field_tie_rank_of). Blocks of equal content must share a
+     * class. The synthesis' field.keep_volume gives exact ties to the blocks
+     * that bring the volume fraction toward the source's (src/field/synth.c).
+     * NULL: the tie_key order alone. */
+    const uint8_t *tie_class;
 } gs_field_search_opts;
 
 /* Rank of block `index` (< 2^32) in the tie order of tie_key: the index
@@ -352,6 +365,10 @@ typedef struct gs_field_search_opts {
  * is the lowest (dist, rank) pair: a total order, so disjoint parts of the
  * tree reduced in it give the whole tree's answer. */
 uint64_t gs_field_tie_rank(uint64_t tie_key, int64_t index);
+/* The tie rank under o: gs_field_tie_rank(o->tie_key, index) without
+ * o->tie_class, else the class (bits 55-62) above 23 bits of the tie_key
+ * hash (bits 32-54) above the index. */
+uint64_t gs_field_tie_rank_of(const gs_field_search_opts *o, int64_t index);
 static inline int64_t gs_field_tie_index(uint64_t rank)
 {
     return (int64_t)(rank & 0xffffffffu);
@@ -447,6 +464,17 @@ typedef struct gs_field_synth_config {
                                         one axis) is rebuilt as tracks of whole source fibers,
                                         slab by slab along that axis (see src/field/fibers.c);
                                         0 = off (the paper) */
+    int keep_volume;                 /* 1: exact ties of a match go to the blocks that bring
+                                        the synthesized samples' volume fraction toward the
+                                        level source's (the most inside first while the
+                                        target is short of it, else the fewest; then the
+                                        tie_key order); needs region_blocks 0. 0 = off */
+    int wrap;                        /* bit a set: the source is periodic along axis a (a
+                                        tile): each iteration's source is continued by
+                                        block - 1 samples of itself past its high face, so
+                                        source blocks wrap around and every source sample
+                                        lies in as many blocks; prov stays within the
+                                        source. 0 = off (the paper: blocks inside it) */
     int tree_shards, tree_shard;     /* > 1: this synthesis holds only slab tree_shard
                                         (0-based) of tree_shards z-slabs of each iteration's
                                         tree (gs_field_tree_build_shard, split by count; shards

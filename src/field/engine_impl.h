@@ -53,6 +53,8 @@ typedef struct field_config {
     int seam_gradient;
     int seam_cut;
     int complete_objects;
+    char *wrap;
+    int keep_volume;
     int64_t region_blocks;
     char *tree;
     char *geometry;

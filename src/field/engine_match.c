@@ -101,7 +101,7 @@ gs_err field_match_block(void *ctx_, gs_field_tree_t tree, gs_field_searcher_t s
          * tie rank (the lowest index without a tie key, see
          * gs_field_tie_rank) among the ranks' bests at the best distance */
         int64_t key = ctx->local.found && (double)ctx->local.dist == hit.dist
-                      ? (int64_t)gs_field_tie_rank(ctx->opts.tie_key, ctx->local.index)
+                      ? (int64_t)gs_field_tie_rank_of(&ctx->opts, ctx->local.index)
                       : INT64_MAX, best;
         GS_CALL(gs_par_min_i64(run->comm, key, &best));
         GS_CHECK(best != INT64_MAX, GS_ERR_INTERNAL, "distributed block search lost its best block");

@@ -442,6 +442,14 @@ uint64_t gs_field_tie_rank(uint64_t tie_key, int64_t index)
     return (h >> 33) << 32 | (uint64_t)(uint32_t)index;
 }
 
+uint64_t gs_field_tie_rank_of(const gs_field_search_opts *o, int64_t index)
+{
+    if (!o->tie_class)
+        return gs_field_tie_rank(o->tie_key, index);
+    uint64_t h = o->tie_key ? gs_field_tie_rank(o->tie_key, index) >> 40 : 0; /* 23 bits */
+    return (uint64_t)o->tie_class[index] << 55 | h << 32 | (uint64_t)(uint32_t)index;
+}
+
 /* The block of leaf node nd a match may take: of its members outside
  * opts->exclude (members share their content, so their distance), the
  * lowest in the tie order of opts->tie_key (global indices), or -1; *rank
@@ -449,7 +457,7 @@ uint64_t gs_field_tie_rank(uint64_t tie_key, int64_t index)
 static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_opts *o,
                          const gs_tree_node *nd, uint64_t *rank)
 {
-    if (!o->nexclude && !o->tie_key) {
+    if (!o->nexclude && !o->tie_key && !o->tie_class) {
         *rank = (uint64_t)((int64_t)nd->rep + t->index_offset);
         return nd->rep;
     }
@@ -461,12 +469,12 @@ static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_op
             if (in_boxes(o->exclude, o->nexclude, p))
                 continue;
         }
-        uint64_t r = gs_field_tie_rank(o->tie_key, g);
+        uint64_t r = gs_field_tie_rank_of(o, g);
         if (pick < 0 || r < *rank) {
             pick = t->members[nd->first + i];
             *rank = r;
             if (!o->tie_key)
-                break; /* members ascend: the first is the lowest */
+                break; /* members ascend (and share a class): the first is the lowest */
         }
     }
     return pick;
@@ -538,7 +546,7 @@ gs_err gs_field_tree_search(gs_field_searcher_t s, int64_t top_begin, int64_t to
     int have = 0;
     uint64_t best_d = 0, best_rank = 0;
     uint32_t best_rep = 0;
-    const int keyed = opts->tie_key != 0;
+    const int keyed = opts->tie_key != 0 || opts->tie_class;
 #define CONSIDER(d, rep, rank)                                                                     \
     do {                                                                                           \
         if (!have || (d) < best_d || ((d) == best_d && (rank) < best_rank)) {                      \
@@ -768,6 +776,17 @@ gs_err gs_field_brute_search_keyed(const gs_qfield *src, const gs_field_query *q
                                    int64_t begin, int64_t end, uint64_t *bound,
                                    gs_field_match *out)
 {
+    return gs_field_brute_search_classed(src, q, exclude, nexclude, tie_key, NULL, begin, end,
+                                         bound, out);
+}
+
+gs_err gs_field_brute_search_classed(const gs_qfield *src, const gs_field_query *q,
+                                     const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
+                                     const uint8_t *tie_class, int64_t begin, int64_t end,
+                                     uint64_t *bound, gs_field_match *out)
+{
+    gs_field_search_opts o = {0};
+    o.tie_key = tie_key, o.tie_class = tie_class;
     int B = q->block;
     int64_t M = gs_field_block_count(src, B);
     GS_CHECK(M > 0, GS_ERR_ARG, "query block %d does not fit the source", B);
@@ -789,7 +808,7 @@ gs_err gs_field_brute_search_keyed(const gs_qfield *src, const gs_field_query *q
                          q->values, q->known, wk, wu, B, 0, B);
         if (d > best)
             continue;
-        uint64_t rank = gs_field_tie_rank(tie_key, idx);
+        uint64_t rank = gs_field_tie_rank_of(&o, idx);
         if (!out->found || d < out->dist || rank < best_rank) {
             out->found = 1;
             out->index = idx;

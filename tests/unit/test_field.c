@@ -154,7 +154,7 @@ static void make_query(gs_rng *r, const gs_qfield *src, const gs_qfield *other, 
     }
 }
 
-static int excluded_queries, keyed_moved;
+static int excluded_queries, keyed_moved, classed_queries;
 
 static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int queries,
                                      uint64_t seed, int *done)
@@ -181,6 +181,19 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
     gs_rng_init(&r, seed, gs_rng_stream_id(77, (uint64_t)kind, (uint64_t)B, (uint64_t)n));
     int64_t nb = (int64_t)B * B * B;
     uint8_t *val = gs_malloc((size_t)nb), *known = gs_malloc((size_t)nb);
+    /* tie classes (field.keep_volume's), a function of each block's content
+     * as the option requires: its level sum, hashed to 0..255 */
+    uint8_t *cls = gs_malloc((size_t)info.blocks);
+    for (int64_t g = 0; g < info.blocks; g++) {
+        int64_t p[3];
+        uint64_t sum = 0;
+        gs_field_block_position(src, B, g, p);
+        for (int k = 0; k < B; k++)
+            for (int j = 0; j < B; j++)
+                for (int i = 0; i < B; i++)
+                    sum += src->q[p[0] + i + src->nx * (p[1] + j + src->ny * (p[2] + k))];
+        cls[g] = (uint8_t)(gs_hash_mix64(sum) >> 56);
+    }
     for (int t = 0; t < queries; t++) {
         int qk = t % Q_KINDS, use_mask;
         make_query(&r, src, other, B, qk, val, known, &use_mask);
@@ -194,6 +207,9 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
         /* half the queries break ties by a random key (the synthesis' order) */
         if (t % 4 >= 2)
             opts.tie_key = gs_rng_u64(&r) | 1;
+        /* and a third of them by a tie class first, keyed or not */
+        if (t % 3 == 2)
+            opts.tie_class = cls;
         /* every third query excludes 1-3 boxes of source blocks (the copy
          * limit's), the first around the best unexcluded match so far */
         int64_t ex[3][6];
@@ -226,16 +242,18 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
             if (mt.found) {
                 uint64_t b2 = UINT64_MAX;
                 gs_field_match m2;
-                OK(gs_field_brute_search_keyed(src, &q, opts.exclude, opts.nexclude,
-                                               opts.tie_key, 0, info.blocks, &b2, &m2));
+                OK(gs_field_brute_search_classed(src, &q, opts.exclude, opts.nexclude,
+                                                 opts.tie_key, opts.tie_class, 0, info.blocks,
+                                                 &b2, &m2));
                 assert_int_equal(mt.index, m2.index);
                 assert_int_equal(mt.dist, m2.dist);
             }
         }
         OK(gs_field_tree_best_match(s, &q, &opts, &mt));
         uint64_t bound = UINT64_MAX;
-        OK(gs_field_brute_search_keyed(src, &q, opts.exclude, opts.nexclude, opts.tie_key, 0,
-                                       info.blocks, &bound, &mb));
+        OK(gs_field_brute_search_classed(src, &q, opts.exclude, opts.nexclude, opts.tie_key,
+                                         opts.tie_class, 0, info.blocks, &bound, &mb));
+        classed_queries += opts.tie_class != NULL;
         if (opts.tie_key) { /* did the key move the answer off the lowest index? */
             uint64_t b3 = UINT64_MAX;
             gs_field_match m3;
@@ -266,6 +284,7 @@ static void check_tree_against_brute(gs_field_shape kind, int64_t n, int B, int 
     }
     gs_free(val);
     gs_free(known);
+    gs_free(cls);
     gs_field_searcher_destroy(&s);
     gs_field_tree_destroy(&tree);
     gs_qfield_destroy(&other);
@@ -289,6 +308,7 @@ static void test_tree_matches_brute_force(void **state)
     /* exact ties where the tie key picked another block than the lowest */
     fprintf(stderr, "%d keyed queries answered off the lowest index\n", keyed_moved);
     assert_true(keyed_moved >= 50);
+    assert_true(classed_queries >= 300); /* tie classes: see check_ties for their effect */
 }
 
 /* Every query of real syntheses (not made up): a 3-iteration synthesis of
@@ -314,9 +334,10 @@ static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s,
     const gs_qfield *src = c->level[iteration];
     uint64_t bound = UINT64_MAX;
     gs_field_match mb;
-    GS_CALL(gs_field_brute_search_keyed(src, q, opts ? opts->exclude : NULL,
-                                        opts ? opts->nexclude : 0, opts ? opts->tie_key : 0, 0,
-                                        gs_field_block_count(src, q->block), &bound, &mb));
+    GS_CALL(gs_field_brute_search_classed(src, q, opts ? opts->exclude : NULL,
+                                          opts ? opts->nexclude : 0, opts ? opts->tie_key : 0,
+                                          opts ? opts->tie_class : NULL, 0,
+                                          gs_field_block_count(src, q->block), &bound, &mb));
     c->keyed += opts && opts->tie_key;
     c->excluding += opts && opts->nexclude > 0;
     if (mb.index != out->index || mb.dist != out->dist) {
@@ -667,6 +688,42 @@ static void check_ties(const gs_qfield *src, int B, const uint8_t *val, const ui
      * 1/2 with a spread of 1/sqrt(12 KEYS) = 0.036 */
     assert_true(distinct >= KEYS / 3);
     assert_true(mean_pos > 0.3 && mean_pos < 0.7);
+    /* tie classes (field.keep_volume's: a block's inside samples, the most or
+     * the fewest first): every key gives an exact best of the lowest class
+     * among the ties, the classed brute force's block */
+    uint8_t *cls[2] = {gs_malloc((size_t)M), gs_malloc((size_t)M)};
+    for (int64_t g = 0; g < M; g++) {
+        int64_t p[3], in = 0;
+        gs_field_block_position(src, B, g, p);
+        for (int k = 0; k < B; k++)
+            for (int j = 0; j < B; j++)
+                for (int i = 0; i < B; i++)
+                    in += gs_qfield_value(src, src->q[p[0] + i + src->nx * (p[1] + j + src->ny *
+                                                                        (p[2] + k))]) < 0;
+        cls[0][g] = (uint8_t)(in * 255 / (B * B * B));
+        cls[1][g] = (uint8_t)(255 - cls[0][g]);
+    }
+    int moved = 0;
+    for (int k = 0; k < 2 * 8; k++) {
+        gs_field_search_opts o = {0};
+        o.tie_key = k % 8 ? gs_rng_stream_id(5, (uint64_t)k, 0, 0) | 1 : 0;
+        o.tie_class = cls[k / 8];
+        OK(gs_field_tree_best_match(s, &q, &o, &m));
+        gs_field_match b;
+        bound = UINT64_MAX;
+        OK(gs_field_brute_search_classed(src, &q, NULL, 0, o.tie_key, o.tie_class, 0, M, &bound,
+                                         &b));
+        assert_int_equal(m.dist, low.dist); /* exact */
+        assert_int_equal(m.index, b.index);
+        uint8_t lowest = 255;
+        for (int64_t i = 0; i < nt; i++)
+            lowest = o.tie_class[tie[i]] < lowest ? o.tie_class[tie[i]] : lowest;
+        assert_int_equal(o.tie_class[m.index], lowest);
+        moved += o.tie_class[m.index] != o.tie_class[pick[k % 8]];
+    }
+    fprintf(stderr, "tie classes: %d of 16 picks moved to another class\n", moved);
+    gs_free(cls[0]);
+    gs_free(cls[1]);
     gs_free(tie);
     gs_field_searcher_destroy(&s);
     gs_field_tree_destroy(&tree);
@@ -726,12 +783,83 @@ static uint64_t run_all(const gs_qfield *src, const gs_field_synth_config *c, gs
 
 /* Synthesis is deterministic, a resumed run from a copied state gives the
  * same target bit for bit, and every output block comes from the source. */
+/* "Checkpoint": copies b's state, destroys b, resumes from the copy. */
+static gs_field_synth_t checkpoint_resume(const gs_qfield *src, const gs_field_synth_config *c,
+                                          gs_field_synth_t b)
+{
+    const gs_field_synth_state *st = gs_field_synth_get_state(b);
+    gs_field_synth_state copy = *st;
+    size_t n = (size_t)(st->tn[0] * st->tn[1] * st->tn[2]);
+    copy.target = gs_malloc(n);
+    copy.mask = gs_malloc(n);
+    memcpy(copy.target, st->target, n);
+    memcpy(copy.mask, st->mask, n);
+    copy.matches = gs_malloc((size_t)st->blocks_in_iteration * sizeof *copy.matches);
+    memcpy(copy.matches, st->matches, (size_t)st->blocks_in_iteration * sizeof *copy.matches);
+    gs_field_synth_destroy(&b);
+    gs_field_synth_t r = NULL;
+    OK(gs_field_synth_resume(src, c, &copy, &r));
+    gs_free(copy.target);
+    gs_free(copy.mask);
+    gs_free(copy.matches);
+    return r;
+}
+
+/* field.wrap and field.keep_volume (texture.ini): the source blocks wrap
+ * around the source's faces, yet every output sample is the source sample
+ * its provenance names (within the source: the padding is unwrapped), some
+ * pieces do cross a face, and a run resumed mid-way (the volume counts
+ * recounted from the state) gives the same target bit for bit. */
+static void test_synthesis_wrap(void **state)
+{
+    (void)state;
+    gs_qfield *src = make_source(GS_FIELD_BALLS, 32, 5);
+    gs_field_synth_config c = small_config(src);
+    c.mask_unsynthesized = 1;
+    c.region_blocks = 0;
+    c.wrap = 7;
+    c.keep_volume = 1;
+    int64_t n = c.target[0] * c.target[1] * c.target[2], ns = src->nx * src->ny * src->nz;
+    int32_t *prov = gs_malloc((size_t)n * sizeof *prov);
+    for (int64_t i = 0; i < n; i++)
+        prov[i] = -1;
+    c.prov = prov;
+    gs_field_synth_t a = NULL, b = NULL;
+    OK(gs_field_synth_create(src, &c, &a));
+    uint64_t da = run_all(src, &c, a);
+    const gs_field_synth_state *st = gs_field_synth_get_state(a);
+    int64_t across = 0;
+    for (int64_t i = 0; i < n; i++) {
+        assert_true(prov[i] >= 0 && prov[i] < ns);
+        assert_int_equal(st->target[i], src->q[prov[i]]);
+        /* x neighbours copied from the source's last and first column */
+        across += i % c.target[0] + 1 < c.target[0] && prov[i] % src->nx == src->nx - 1 &&
+                  prov[i + 1] == prov[i] - (src->nx - 1);
+    }
+    fprintf(stderr, "wrap: %lld sample pairs continue across the source's x faces\n",
+            (long long)across);
+    assert_true(across > 0);
+    OK(gs_field_synth_create(src, &c, &b));
+    int finished = 0;
+    int64_t steps[] = {9, 200};
+    for (int i = 0; i < 2; i++) {
+        OK(gs_field_synth_run(b, steps[i], &finished));
+        assert_false(finished);
+        b = checkpoint_resume(src, &c, b);
+    }
+    assert_true(run_all(src, &c, b) == da);
+    gs_field_synth_destroy(&a);
+    gs_field_synth_destroy(&b);
+    gs_free(prov);
+    gs_qfield_destroy(&src);
+}
+
 static void test_synthesis_resume(void **state)
 {
     (void)state;
     gs_qfield *src = make_source(GS_FIELD_GRID, 32, 5);
     gs_field_synth_config c = small_config(src);
-    gs_field_synth_t a = NULL, b = NULL, r = NULL;
+    gs_field_synth_t a = NULL, b = NULL;
     OK(gs_field_synth_create(src, &c, &a));
     uint64_t da = run_all(src, &c, a);
     OK(gs_field_synth_create(src, &c, &b));
@@ -740,23 +868,7 @@ static void test_synthesis_resume(void **state)
     for (int i = 0; i < 3; i++) {
         OK(gs_field_synth_run(b, steps[i], &finished));
         assert_false(finished);
-        const gs_field_synth_state *st = gs_field_synth_get_state(b);
-        /* "checkpoint": copy the state, destroy, resume from the copy */
-        gs_field_synth_state copy = *st;
-        size_t n = (size_t)(st->tn[0] * st->tn[1] * st->tn[2]);
-        copy.target = gs_malloc(n);
-        copy.mask = gs_malloc(n);
-        memcpy(copy.target, st->target, n);
-        memcpy(copy.mask, st->mask, n);
-        copy.matches = gs_malloc((size_t)st->blocks_in_iteration * sizeof *copy.matches);
-        memcpy(copy.matches, st->matches, (size_t)st->blocks_in_iteration * sizeof *copy.matches);
-        gs_field_synth_destroy(&b);
-        OK(gs_field_synth_resume(src, &c, &copy, &r));
-        gs_free(copy.target);
-        gs_free(copy.mask);
-        gs_free(copy.matches);
-        b = r;
-        r = NULL;
+        b = checkpoint_resume(src, &c, b);
     }
     assert_int_equal(gs_field_synth_get_state(b)->iteration, 1);
     uint64_t db = run_all(src, &c, b);
@@ -1208,6 +1320,7 @@ int main(void)
         cmocka_unit_test(test_tree_matches_brute_force),
         cmocka_unit_test(test_synthesis_queries_match_brute_force),
         cmocka_unit_test(test_synthesis_resume),
+        cmocka_unit_test(test_synthesis_wrap),
         cmocka_unit_test(test_synthesis_regions),
         cmocka_unit_test(test_seam_cut_minimum),
         cmocka_unit_test(test_seam_cut_follows_agreement),
