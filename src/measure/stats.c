@@ -162,3 +162,51 @@ void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, 
                 euler[c] += 1 - (bx + by + bz) + (sxy + sxz + syz) - cube;
             }
 }
+
+/* Along axis a of v (dims d), each sample becomes the sum of the w samples
+ * from it on, wrapped: (w / d) whole periods plus a wrapped partial run. */
+static void window_sums_axis(double *v, const int64_t d[3], int a, int64_t w, double *line)
+{
+    const int64_t st[3] = {1, d[0], d[0] * d[1]};
+    int64_t n = d[a], k = w / n, r = w % n;
+    int b1 = a == 0 ? 1 : 0, b2 = a == 2 ? 1 : 2;
+    for (int64_t j = 0; j < d[b2]; j++)
+        for (int64_t i = 0; i < d[b1]; i++) {
+            double *p = v + i * st[b1] + j * st[b2], tot = 0;
+            for (int64_t x = 0; x < n; x++)
+                line[x] = p[x * st[a]], tot += line[x];
+            double run = 0; /* partial run of r from x, wrapped */
+            for (int64_t x = 0; x < r; x++)
+                run += line[x];
+            for (int64_t x = 0; x < n; x++) {
+                p[x * st[a]] = (double)k * tot + run;
+                run += line[(x + r) % n] - line[x];
+            }
+        }
+}
+
+gs_err gs_measure_window_share_range(const uint8_t *mask, const int64_t n[3], const int64_t w[3],
+                                     double *lo, double *hi)
+{
+    int64_t cells = n[0] * n[1] * n[2], big = n[0] > n[1] ? n[0] : n[1];
+    big = big > n[2] ? big : n[2];
+    double *v = NULL, *line = NULL;
+    GS_CALL(gs_alloc_array((void **)&v, (size_t)cells, sizeof *v, "window sums"));
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&line, (size_t)big, sizeof *line, "window sums"), done);
+    for (int64_t i = 0; i < cells; i++)
+        v[i] = mask[i] != 0;
+    for (int a = 0; a < 3; a++)
+        window_sums_axis(v, n, a, w[a], line);
+    double vol = (double)w[0] * (double)w[1] * (double)w[2];
+    *lo = 1, *hi = 0;
+    for (int64_t i = 0; i < cells; i++) {
+        double f = v[i] / vol;
+        *lo = f < *lo ? f : *lo;
+        *hi = f > *hi ? f : *hi;
+    }
+done:
+    gs_free(v);
+    gs_free(line);
+    return err;
+}

@@ -911,6 +911,47 @@ static void test_repeats(void **state)
     free(tile);
 }
 
+/* gs_measure_window_share_range: a plane every 4 samples along x, windows 6
+ * long along x: 2/6 or 1/6 of a window set; and a random mask against brute
+ * force over every periodic window (one window larger than the mask, one
+ * smaller). */
+static void test_window_share(void **state)
+{
+    (void)state;
+    uint8_t m[64];
+    for (int i = 0; i < 64; i++)
+        m[i] = i % 4 == 0;
+    double lo, hi;
+    assert_int_equal(gs_measure_window_share_range(m, (const int64_t[3]){4, 4, 4},
+                                                   (const int64_t[3]){6, 4, 4}, &lo, &hi), GS_OK);
+    assert_true(fabs(lo - 1.0 / 6) < 1e-12 && fabs(hi - 2.0 / 6) < 1e-12);
+    enum { NX = 5, NY = 4, NZ = 3 };
+    uint8_t r[NX * NY * NZ];
+    gs_rng g;
+    gs_rng_init(&g, 7, 1);
+    for (int i = 0; i < NX * NY * NZ; i++)
+        r[i] = gs_rng_below(&g, 3) == 0;
+    const int64_t ws[2][3] = {{7, 3, 5}, {2, 4, 1}};
+    for (int t = 0; t < 2; t++) {
+        const int64_t *w = ws[t];
+        double blo = 1, bhi = 0;
+        for (int oz = 0; oz < NZ; oz++)
+            for (int oy = 0; oy < NY; oy++)
+                for (int ox = 0; ox < NX; ox++) {
+                    int64_t c = 0;
+                    for (int64_t z = 0; z < w[2]; z++)
+                        for (int64_t y = 0; y < w[1]; y++)
+                            for (int64_t x = 0; x < w[0]; x++)
+                                c += r[(ox + x) % NX + NX * ((oy + y) % NY + NY * ((oz + z) % NZ))];
+                    double f = (double)c / (double)(w[0] * w[1] * w[2]);
+                    blo = f < blo ? f : blo, bhi = f > bhi ? f : bhi;
+                }
+        assert_int_equal(gs_measure_window_share_range(r, (const int64_t[3]){NX, NY, NZ}, w, &lo,
+                                                       &hi), GS_OK);
+        assert_true(fabs(lo - blo) < 1e-12 && fabs(hi - bhi) < 1e-12);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -930,6 +971,7 @@ int main(void)
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_outline),
         cmocka_unit_test(test_repeats),
+        cmocka_unit_test(test_window_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
