@@ -3,8 +3,9 @@
 # (fibers.ini's 64^3 -> 128^3 at three quarters of the size). The pieces'
 # fibers meet misaligned by about a sample and the seams along the fibers
 # slice them lengthwise, so the synthesized field's fibers are thinner than
-# the source's; field.complete_objects (set here) rebuilds them as tracks of
-# whole source fibers (src/field/fibers.c).
+# the source's; field.complete_objects (on in fibers.ini, not set here: the
+# test fails with it off) rebuilds them as tracks of whole source fibers
+# (src/field/fibers.c).
 # From field.h5 and summary.json alone (the output's figures are
 # src/field/report.c's; the synthesis' own field, /synthesis/levels, is
 # measured here the same way: maxima of an exact Euclidean distance transform
@@ -42,8 +43,7 @@
 source "$GS_ROOT/tests/e2e/lib.bash"
 F=$GS_ROOT/configs/field/fibers.ini
 run_gs 1 field -c "$F" -o fib --set example.size=48 --set example.seed=2 --set field.target=96 \
-  --set output.geometry=none --set output.vdb=no --set output.preview=no \
-  --set field.complete_objects=yes
+  --set output.geometry=none --set output.vdb=no --set output.preview=no
 expect_rc 0 "fibers.ini 48^3 -> 96^3, example seed 2"
 
 fig=$(/usr/bin/python3 - fib <<'PY'
