@@ -63,6 +63,8 @@ def window_figures(regs):
         r = 1 if free[1] < free[0] else 0
         t = free[r]
         cand = [i for i in range(n) if not done[i] and npend[i] == 0 and ready[i] <= t]
+        if free[0] == free[1]:  # both free: rank 0 first, unless only rank 1's regions are ready
+            r = 1 if cand and all(i % 2 == 1 for i in cand) else 0
         own = [i for i in cand if i % 2 == r]
         other = [i for i in cand if i % 2 != r] if free[1 - r] > t else []
         k = own[0] if own else other[0] if other else None

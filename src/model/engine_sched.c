@@ -60,6 +60,14 @@ static double simulate_policy2(const sched_ctx *c, double *fin)
     while (left > 0) {
         int r = free_at[1] < free_at[0] ? 1 : 0;
         double t = free_at[r];
+        if (free_at[0] == free_at[1]) { /* both free: rank 0 first, unless only rank 1's
+                                          * regions are ready (then rank 1 takes one) */
+            int ready0 = 0, ready1 = 0;
+            for (size_t i = 0; i < n && !ready0; i++)
+                if (!done[i] && npend[i] == 0 && ready[i] <= t)
+                    *(i % 2 ? &ready1 : &ready0) = 1;
+            r = !ready0 && ready1;
+        }
         size_t own = SIZE_MAX, other = SIZE_MAX;
         for (size_t i = 0; i < n; i++) {
             if (done[i] || npend[i] > 0 || ready[i] > t)
