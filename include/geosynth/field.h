@@ -654,7 +654,7 @@ typedef struct gs_field_geometry_report {
      * 1, an arc or a ball 0, g rings that touch g or more). genus_*[k]:
      * components with k handles (k = 0..3), [4]: 4 or more; ring_share: the
      * share of components with a handle (whole rings, alone or touching);
-     * open_per_msample: components without one (arcs, stubs; balls) per
+     * open_per_msample: components without one (arcs, short pieces, balls) per
      * 10^6 samples; handles_per_kinside: their handles per 1000 of their
      * inside samples (a ring cut into arcs loses its handle, an arc grown on
      * a ring adds samples, not handles); handles_all_per_kinside: the same
