@@ -112,6 +112,13 @@ typedef struct gs_field_copy_stats {
 gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
                               const gs_field *target, const gs_mesh *base, double snap, int relax,
                               gs_mesh *out, gs_field_copy_stats *st);
+/* The same, base consumed: the copy takes base's triangles (they are the
+ * same) instead of a second array of them, and base is destroyed on
+ * success (its memory freed before the copy is written). */
+gs_err gs_field_copy_geometry_consume(const gs_mesh *src_mesh, const int64_t sn[3],
+                                      const int32_t *prov, const gs_field *target, gs_mesh *base,
+                                      double snap, int relax, gs_mesh *out,
+                                      gs_field_copy_stats *st);
 
 /* The paper's Figure 7c: the surface height of every column (x, y) of f,
  * the highest sign change from inside (< 0) below to outside above, linear

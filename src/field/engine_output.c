@@ -154,11 +154,17 @@ done:
 }
 
 /* Writes m (target sample units) in the world units of f, and the same as
- * glTF binary next to it (NAME.glb, with smooth normals). */
-static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, const char *about)
+ * glTF binary next to it (NAME.glb, with smooth normals). last: m is not
+ * used after (its positions are turned into world units in place, no copy
+ * of them; m->pos is then left in world units). */
+static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, const char *about,
+                               int last)
 {
     float *world = NULL, *unit = m->pos;
-    GS_CALL(gs_alloc_array((void **)&world, 3 * m->nverts + 3, sizeof *world, "world mesh"));
+    if (last)
+        world = m->pos;
+    else
+        GS_CALL(gs_alloc_array((void **)&world, 3 * m->nverts + 3, sizeof *world, "world mesh"));
     for (size_t v = 0; v < m->nverts; v++)
         for (int a = 0; a < 3; a++)
             world[3 * v + a] = (float)(f->origin[a] + unit[3 * v + a] * f->spacing);
@@ -175,8 +181,10 @@ static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, 
             err = gs_mesh_write_glb(glb, &g, NULL, &meta);
         gs_free(g.normals);
     }
-    m->pos = unit;
-    gs_free(world);
+    if (!last) {
+        m->pos = unit;
+        gs_free(world);
+    }
     return err;
 }
 
@@ -214,10 +222,11 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_mesh *cm = copy && c->adaptivity > 0 ? &m : &base;
         snprintf(name, sizeof name, "contour.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)"), done);
+        /* (the area in sample units: before a last write turns them into world units) */
+        gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
+        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)", cm != &base || !copy), done);
         gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
         gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
-        gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
         const int glb = cm->ntris > 0;
         gs_mesh_destroy(&m);
         gs_run_output(run, "mesh", "contour", name, NULL);
@@ -228,11 +237,13 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         const gs_qfield *q = src->q;
         int64_t sn[3] = {q->nx, q->ny, q->nz};
         gs_field_copy_stats st;
-        GS_TRY(err, gs_field_copy_geometry(&src->mesh, sn, prov, &unit, &base, c->snap, (int)c->relax,
-                                           &m, &st), done);
+        /* base is not used after: the copy takes its triangles, and its
+         * positions are freed before the copy is written (peak memory) */
+        GS_TRY(err, gs_field_copy_geometry_consume(&src->mesh, sn, prov, &unit, &base, c->snap,
+                                                   (int)c->relax, &m, &st), done);
         snprintf(name, sizeof name, "copied.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)"), done);
+        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)", 1), done);
         gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_seam_vertices", st.seam_vertices);

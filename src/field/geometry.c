@@ -441,15 +441,18 @@ done:
     return err;
 }
 
-gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
-                              const gs_field *target, const gs_mesh *base, double snap, int relax,
-                              gs_mesh *out, gs_field_copy_stats *st)
+/* gs_field_copy_geometry; take: the copy's triangles are base's own
+ * (borrowed during the work, base->tris moved into *out on success). */
+static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
+                            const gs_field *target, const gs_mesh *base, int take, double snap,
+                            int relax, gs_mesh *out, gs_field_copy_stats *st)
 {
     const int64_t tn[3] = {target->nx, target->ny, target->nz};
     int64_t ns = sn[0] * sn[1] * sn[2];
     size_t T = src_mesh->ntris;
     gs_err err = GS_OK;
     int64_t *start = NULL, *tri_of = NULL, *cell = NULL, *fill = NULL, *cnt = NULL;
+    uint32_t *slot = NULL;
     double *acc = NULL;
     uint8_t *seam = NULL, *copied_flag = NULL;
     gs_mesh m;
@@ -490,8 +493,15 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
     /* the base's connectivity (one welded, manifold sheet); each vertex
      * takes, for each of the 8 samples around it, the point of the source
      * surface that sample's copy puts nearest, blended trilinearly */
-    GS_TRY(err, gs_mesh_alloc(&m, base->nverts, base->ntris, 0), done);
-    memcpy(m.tris, base->tris, 3 * base->ntris * sizeof *m.tris);
+    if (take) {
+        m.nverts = base->nverts, m.ntris = base->ntris;
+        GS_TRY(err, gs_alloc_array((void **)&m.pos, 3 * m.nverts + 3, sizeof *m.pos, "copied mesh"),
+               done);
+        m.tris = base->tris;
+    } else {
+        GS_TRY(err, gs_mesh_alloc(&m, base->nverts, base->ntris, 0), done);
+        memcpy(m.tris, base->tris, 3 * base->ntris * sizeof *m.tris);
+    }
     GS_TRY(err, gs_alloc_array((void **)&seam, m.nverts + 1, 1, "seam flags"), done);
     GS_TRY(err, gs_alloc_array((void **)&copied_flag, m.nverts + 1, 1, "copy flags"), done);
     for (size_t v = 0; v < m.nverts; v++) {
@@ -560,29 +570,49 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
         copied_flag[v] = (uint8_t)copied;
         stats.seam_vertices += mixed;
     }
-    GS_TRY(err, gs_alloc_array((void **)&cnt, m.nverts + 1, sizeof *cnt, "relaxation"), done);
-    GS_TRY(err, gs_alloc_array((void **)&acc, 3 * m.nverts + 3, sizeof *acc, "relaxation"), done);
-    /* the paper's mesh relaxation: Laplacian (weight 0.5) of the seam vertices */
-    for (int it = 0; it < relax; it++) {
-        memset(acc, 0, (3 * m.nverts + 3) * sizeof *acc);
-        memset(cnt, 0, (m.nverts + 1) * sizeof *cnt);
+    /* the paper's mesh relaxation: Laplacian (weight 0.5) of the seam
+     * vertices; sums kept for the seam vertices only (slot: their index
+     * among them), added in the same order as over every vertex */
+    if (relax > 0 && stats.seam_vertices > 0) {
+        size_t ns_v = (size_t)stats.seam_vertices, k = 0;
+        GS_TRY(err, gs_alloc_array((void **)&slot, m.nverts + 1, sizeof *slot, "relaxation"), done);
+        for (size_t v = 0; v < m.nverts; v++)
+            slot[v] = seam[v] ? (uint32_t)k++ : UINT32_MAX;
+        GS_TRY(err, gs_alloc_array((void **)&cnt, ns_v, sizeof *cnt, "relaxation"), done);
+        GS_TRY(err, gs_alloc_array((void **)&acc, 3 * ns_v, sizeof *acc, "relaxation"), done);
+    }
+    for (int it = 0; it < relax && slot; it++) {
+        memset(acc, 0, 3 * (size_t)stats.seam_vertices * sizeof *acc);
+        memset(cnt, 0, (size_t)stats.seam_vertices * sizeof *cnt);
         for (size_t t = 0; t < m.ntris; t++)
             for (int c = 0; c < 3; c++) {
                 uint32_t a = m.tris[3 * t + c], b = m.tris[3 * t + (c + 1) % 3];
-                if (!seam[a] && !seam[b])
+                uint32_t sa = slot[a], sb = slot[b];
+                if (sa == UINT32_MAX && sb == UINT32_MAX)
                     continue;
                 for (int q = 0; q < 3; q++) {
-                    acc[3 * a + q] += m.pos[3 * b + q];
-                    acc[3 * b + q] += m.pos[3 * a + q];
+                    if (sa != UINT32_MAX)
+                        acc[3 * (size_t)sa + q] += m.pos[3 * b + q];
+                    if (sb != UINT32_MAX)
+                        acc[3 * (size_t)sb + q] += m.pos[3 * a + q];
                 }
-                cnt[a]++, cnt[b]++;
+                if (sa != UINT32_MAX)
+                    cnt[sa]++;
+                if (sb != UINT32_MAX)
+                    cnt[sb]++;
             }
-        for (size_t v = 0; v < m.nverts; v++)
-            if (seam[v] && cnt[v] > 0)
+        for (size_t v = 0; v < m.nverts; v++) {
+            uint32_t sv = slot[v];
+            if (sv != UINT32_MAX && cnt[sv] > 0)
                 for (int q = 0; q < 3; q++)
-                    m.pos[3 * v + q] =
-                        (float)(0.5 * m.pos[3 * v + q] + 0.5 * acc[3 * v + q] / (double)cnt[v]);
+                    m.pos[3 * v + q] = (float)(0.5 * m.pos[3 * v + q] +
+                                               0.5 * acc[3 * (size_t)sv + q] / (double)cnt[sv]);
+        }
     }
+    /* the buckets and sums are done with: freed before unfold's own arrays */
+    gs_free(slot), gs_free(cnt), gs_free(acc), gs_free(start), gs_free(fill), gs_free(tri_of),
+        gs_free(cell);
+    slot = NULL, cnt = NULL, acc = NULL, start = fill = tri_of = cell = NULL;
     /* no vertex moves more than 0.45 of the room to the next sheet of the
      * synthesized field: two facing sheets cannot pass through each other */
     for (size_t v = 0; v < m.nverts; v++) {
@@ -619,7 +649,10 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
     *out = m;
     memset(&m, 0, sizeof m);
 done:
+    if (take)
+        m.tris = NULL; /* base's, still */
     gs_mesh_destroy(&m);
+    gs_free(slot);
     gs_free(start);
     gs_free(fill);
     gs_free(tri_of);
@@ -629,6 +662,24 @@ done:
     gs_free(seam);
     gs_free(copied_flag);
     return err;
+}
+
+gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
+                              const gs_field *target, const gs_mesh *base, double snap, int relax,
+                              gs_mesh *out, gs_field_copy_stats *st)
+{
+    return copy_geometry(src_mesh, sn, prov, target, base, 0, snap, relax, out, st);
+}
+
+gs_err gs_field_copy_geometry_consume(const gs_mesh *src_mesh, const int64_t sn[3],
+                                      const int32_t *prov, const gs_field *target, gs_mesh *base,
+                                      double snap, int relax, gs_mesh *out,
+                                      gs_field_copy_stats *st)
+{
+    GS_CALL(copy_geometry(src_mesh, sn, prov, target, base, 1, snap, relax, out, st));
+    base->tris = NULL; /* now out's */
+    gs_mesh_destroy(base);
+    return GS_OK;
 }
 
 /* ------------------------------------------------------ height map out */

@@ -107,15 +107,32 @@ static void test_balls_no_overlap(void **state)
  * vertices on the source's own surface (no seams, nothing moves); a shifted
  * source copied back by its provenance lands on the source's surface too;
  * nothing copied leaves the base as it is. */
+/* The copy tests' source: the spheres example at 24^3, its contour, and a
+ * provenance map for a 24^3 target. */
+typedef struct copy_case {
+    gs_field *f;
+    gs_mesh src;
+    int32_t *prov;
+} copy_case;
+
+static void spheres_source(copy_case *c)
+{
+    c->f = NULL;
+    OK(gs_field_example_make("spheres", 24, 2, &c->f));
+    OK(gs_field_contour(c->f, 0.0, 0.0, &c->src));
+    c->prov = gs_malloc(24 * 24 * 24 * sizeof *c->prov);
+    assert_non_null(c->prov);
+}
+
 static void test_copy_geometry(void **state)
 {
     (void)state;
-    gs_field *f = NULL;
-    OK(gs_field_example_make("spheres", 24, 2, &f));
-    gs_mesh src;
-    OK(gs_field_contour(f, 0.0, 0.0, &src));
+    copy_case cc;
+    spheres_source(&cc);
+    gs_field *f = cc.f;
+    gs_mesh src = cc.src;
+    int32_t *prov = cc.prov;
     int64_t sn[3] = {24, 24, 24};
-    int32_t *prov = gs_malloc(24 * 24 * 24 * sizeof *prov);
     for (int i = 0; i < 24 * 24 * 24; i++)
         prov[i] = i;
     gs_mesh out;
@@ -159,6 +176,54 @@ static void test_copy_geometry(void **state)
     gs_field_destroy(&f);
 }
 
+/* gs_field_copy_geometry_consume (the output's copy: base's triangles
+ * taken, not duplicated) gives the very mesh and figures of
+ * gs_field_copy_geometry, on a target with seams (two halves copied at
+ * different offsets) and relaxation on, and leaves base destroyed. */
+static void test_copy_geometry_consume(void **state)
+{
+    (void)state;
+    copy_case cc;
+    spheres_source(&cc);
+    const int64_t sn[3] = {24, 24, 24};
+    gs_field *f = cc.f, *g = NULL;
+    int32_t *prov = cc.prov;
+    OK(gs_field_create(24, 24, 24, &g));
+    for (int z = 0; z < 24; z++)
+        for (int y = 0; y < 24; y++)
+            for (int x = 0; x < 24; x++) {
+                int k = x < 12 ? 5 : 0; /* the halves' offsets differ: seams at x = 12 */
+                int sx = (x + k) % 24, sy = (y + 2 * k) % 24, sz = z;
+                int s = sx + 24 * (sy + 24 * sz);
+                prov[x + 24 * (y + 24 * z)] = s;
+                g->v[x + 24 * (y + 24 * z)] = f->v[s];
+            }
+    gs_mesh base, out1, out2;
+    gs_field_copy_stats st1, st2;
+    OK(gs_field_contour(g, 0.0, 0.0, &base));
+    OK(gs_field_copy_geometry(&cc.src, sn, prov, g, &base, 1.0, 10, &out1, &st1));
+    assert_true(st1.seam_vertices > 0);
+    size_t nv = base.nverts;
+    OK(gs_field_copy_geometry_consume(&cc.src, sn, prov, g, &base, 1.0, 10, &out2, &st2));
+    assert_int_equal(base.nverts, 0);
+    assert_null(base.pos);
+    assert_null(base.tris);
+    assert_int_equal(out2.nverts, nv);
+    assert_int_equal(out2.ntris, out1.ntris);
+    assert_memory_equal(out2.tris, out1.tris, 3 * out1.ntris * sizeof *out1.tris);
+    assert_memory_equal(out2.pos, out1.pos, 3 * out1.nverts * sizeof *out1.pos);
+    assert_int_equal(st2.seam_vertices, st1.seam_vertices);
+    assert_int_equal(st2.copied_vertices, st1.copied_vertices);
+    assert_int_equal(st2.pulled_back, st1.pulled_back);
+    assert_true(st2.mean_shift == st1.mean_shift);
+    gs_mesh_destroy(&out1);
+    gs_mesh_destroy(&out2);
+    gs_field_destroy(&g);
+    gs_free(prov);
+    gs_mesh_destroy(&cc.src);
+    gs_field_destroy(&f);
+}
+
 /* Height map: inside below the surface, zero crossing at h. */
 static void test_heightmap(void **state)
 {
@@ -193,6 +258,7 @@ int main(void)
         cmocka_unit_test(test_chainmail_jittered_not_periodic),
         cmocka_unit_test(test_balls_no_overlap),
         cmocka_unit_test(test_copy_geometry),
+        cmocka_unit_test(test_copy_geometry_consume),
         cmocka_unit_test(test_heightmap),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
