@@ -126,6 +126,27 @@ def fill(a, nz):
     return np.array([(a[z] != 0).mean() if z < a.shape[0] else 0.0 for z in range(nz)])
 
 
+def fill_classes(ex, nz):
+    """The example's fill per layer over nz layers (fill) and its partly filled layers split at
+    half the fullest partly filled one: (fill, full layers, thin layers). castle.txt: the wall
+    layers z = 2-4 (0.25-0.33) and the keep layers z = 5, 6 (0.062, 0.031)."""
+    fe = fill(ex, nz)
+    part = [v for v in fe if 0 < v < 1]
+    top = max(part) if part else 0.0
+    return (fe, [z for z in range(nz) if part and 0.5 * top <= fe[z] < 1],
+            [z for z in range(nz) if 0 < fe[z] < 0.5 * top])
+
+
+def near_face_labels(ex, margin=2):
+    """Labels every one of whose example cells lies within margin cells of the example's x/y
+    faces (castle.txt: its bushes, and two wall pieces)."""
+    Z, Y, X = ex.shape
+    yy, xx = np.meshgrid(np.arange(Y), np.arange(X), indexing="ij")
+    d = np.minimum(np.minimum(xx, X - 1 - xx), np.minimum(yy, Y - 1 - yy))
+    near = np.broadcast_to(d <= margin, ex.shape)
+    return [l for l in np.unique(ex[ex != 0]).tolist() if (ex[~near] != l).all()]
+
+
 def run_lengths(a):
     """Mean length of the runs of one non-empty label along x, y, z (as gs_model_run_lengths)."""
     out = {}

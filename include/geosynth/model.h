@@ -405,13 +405,19 @@ typedef struct gs_model_params {
 typedef struct gs_model_resem *gs_model_resem_t;
 gs_err gs_model_resem_build(const gs_model_lattice *example, int w, int slack, int layers,
                             gs_model_resem_t *out);
+/* The same with wrap_xy != 0: the example taken as a tile (repeated along x and
+ * y), so a neighbour past its x/y faces is the example's cell a period away;
+ * past its z faces it is outside as above. */
+gs_err gs_model_resem_build_wrap(const gs_model_lattice *example, int w, int slack, int layers,
+                                 int wrap_xy, gs_model_resem_t *out);
 /* What a neighbourhood cell past the example's faces scores against a decided
  * output neighbour: 0 a mismatch (as a defined different label), 1 half a
  * match, 2 a match (the paper's distance over defined cells only), 3 a match
  * when the output neighbour is the example's face background of its layer
  * (the commonest label on the example's x/y faces there: what the example
  * most likely holds past them) and a mismatch otherwise. A defined equal
- * label scores a match. The default after build is 0. */
+ * label scores a match. The default after build is 0. With
+ * gs_model_resem_build_wrap only cells past the z faces are outside. */
 void gs_model_resem_set_outside(gs_model_resem_t r, int weight);
 /* Label-frequency soft constraint on the choice (paper Sec. 4.2: Eq. 6 modified
  * so that labels that fit the constraint better are likelier): every drawn

@@ -340,14 +340,16 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, resemblance_slack, "model.resemblance_slack", 0, 64, 0, "0",
                    "resemblance threshold d0 above the minimum distance (0 = the paper's d0)"),
     GS_CFG_KEY_ENUM(model_config, resemblance_outside, "model.resemblance_outside",
-                    "mismatch|half|match|background|auto", "auto",
+                    "mismatch|half|match|background|wrap|auto", "auto",
                     "resemblance: what a neighbourhood cell past the example's faces scores "
                     "against a decided output cell: a mismatch (before #18 item 2: features near "
                     "the faces, like castle.txt's bushes, never win), half a match, a match "
                     "(the paper's distance over defined cells only: such neighbourhoods then win "
                     "too easily, castle 3x3x3 share 0.26-0.57), or background: a match when the "
                     "output cell holds the commonest label of the example's x/y faces at its "
-                    "layer, else a mismatch; auto = half when the z faces are synthesized (model.fix_z_faces), else "
+                    "layer, else a mismatch; wrap: the example taken as a tile, a cell past its "
+                    "x/y faces is the example's cell a period on (past its z faces a mismatch); "
+                    "auto = half when the z faces are synthesized (model.fix_z_faces), else "
                     "mismatch; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_REAL(model_config, frequency_weight, "model.frequency_weight", -1, 64, 0, "-1",
                     "resemblance: label-frequency soft constraint (paper Sec. 4.2, Eq. 6 "

@@ -731,6 +731,8 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
                  : !strcmp(c->resemblance_outside, "half")   ? 1
                  : !strcmp(c->resemblance_outside, "match")  ? 2
                  : !strcmp(c->resemblance_outside, "background") ? 3
+                 : !strcmp(c->resemblance_outside, "wrap")   ? 0 /* the example as a tile: past
+                                                                  its z faces a mismatch */
                  : zsynth ? 1 : 0;
     /* model.frequency_weight = -1 (auto): 2 with synthesized z faces (the
      * layers' label shares keep the relief: configs/model/DEFAULTS.md), else 0 */
@@ -821,15 +823,19 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     if (c->ground)
         GS_CALL(ground_setup(e));
     if (c->resemblance > 0 && !c->tileset[0] && !c->sample[0]) {
-        GS_CALL(gs_model_resem_build(&e->example, (int)c->resemblance, (int)c->resemblance_slack,
-                                     c->resemblance_layers, &e->resem));
+        GS_CALL(gs_model_resem_build_wrap(&e->example, (int)c->resemblance,
+                                          (int)c->resemblance_slack, c->resemblance_layers,
+                                          !strcmp(c->resemblance_outside, "wrap"), &e->resem));
         gs_model_resem_set_outside(e->resem, e->outside);
         GS_CALL(gs_model_resem_set_frequency(e->resem, &e->example, e->freq_beta));
         e->params.resem = e->resem;
-        gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld",
+        gs_log(GS_LOG_INFO, "resemblance: %d distinct %dx%dx%d example neighbourhoods, slack %lld%s",
                gs_model_resem_patterns(e->resem), 2 * (int)c->resemblance + 1,
                2 * (int)c->resemblance + 1, 2 * (int)c->resemblance + 1,
-               (long long)c->resemblance_slack);
+               (long long)c->resemblance_slack,
+               strcmp(c->resemblance_outside, "wrap") ? ""
+                                                      : ", the example taken as a tile along x and y "
+                                                        "(model.resemblance_outside = wrap)");
     }
     if (!c->overlap3d && !c->tileset[0] && !c->sample[0] && frames == 1 && !e->params.periodic[2])
         GS_CALL(repair_setup(e));

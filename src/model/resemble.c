@@ -7,7 +7,10 @@
  * faces: undefined; per offset q a bitset marks the patterns with OUTSIDE
  * there, which the chooser scores as gs_model_resem_set_outside says: a
  * mismatch by default, half a match, a match, or a match only against the
- * example's face background of that layer (bg), a mismatch against anything else). Equal patterns are merged with a multiplicity.
+ * example's face background of that layer (bg), a mismatch against anything else;
+ * gs_model_resem_build_wrap takes the example as a tile instead: past its x/y
+ * faces lies the example's cell a period on, so only past its z faces is a cell
+ * undefined). Equal patterns are merged with a multiplicity.
  * Patterns are sorted by centre label, so the patterns whose centre is a
  * candidate of a cell form a few runs of bit positions. For every (offset
  * q, label a) that occurs, a bitset over the patterns marks those with label
@@ -101,6 +104,12 @@ done:
 gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int layers,
                             gs_model_resem_t *out)
 {
+    return gs_model_resem_build_wrap(ex, w, slack, layers, 0, out);
+}
+
+gs_err gs_model_resem_build_wrap(const gs_model_lattice *ex, int w, int slack, int layers,
+                                 int wrap_xy, gs_model_resem_t *out)
+{
     GS_CHECK(w >= 1 && w <= 2, GS_ERR_ARG, "model.resemblance window radius %d: expected 1 or 2", w);
     GS_CHECK(slack >= 0 && slack <= 64, GS_ERR_ARG, "model.resemblance_slack = %d: expected 0..64",
              slack);
@@ -142,6 +151,10 @@ gs_err gs_model_resem_build(const gs_model_lattice *ex, int w, int slack, int la
                     L = rw[0] + 1;
                 for (q = 0; q < Q; q++) {
                     int px = x + r->off[3 * q], py = y + r->off[3 * q + 1], pz = z + r->off[3 * q + 2];
+                    if (wrap_xy) { /* the example as a tile: the cell a period on */
+                        px = (px % ex->nx + ex->nx) % ex->nx;
+                        py = (py % ex->ny + ex->ny) % ex->ny;
+                    }
                     rw[1 + q] = px < 0 || py < 0 || pz < 0 || px >= ex->nx || py >= ex->ny ||
                                         pz >= ex->nz
                                     ? OUTSIDE
