@@ -8,14 +8,16 @@ waiting for a core, so a machine shared with other jobs does not move it)?
 Reads RUN_DIR/schedule.jsonl (written with model.schedule_log = true: per
 region run the window, pass, id, colour, the rank that ran it, its place in
 that rank's order (seq), its CPU seconds (cpu_s) and the ids it waited for
-(waits_for: the interacting regions of lower colours)). A window ends with every rank done, so figures add
+(waits_for: the interacting regions of lower colours), and its tries
+(attempts) and backtracks). A window ends with every rank done, so figures add
 up over windows. Per window:
   crit     the longest chain of regions that wait for each other
   bound2   max(crit, cpu / 2): no 2-rank schedule is shorter
   policy2  src/par/regions_flow.c's pick rule on 2 ranks (position k in the
-           window; a free rank takes the lowest ready region with k mod 2 its
-           own, else the lowest ready one of the other rank while that rank is
-           busy), message latency 0
+           window; a free rank takes, of the ready regions with k mod 2 its own
+           and, while the other rank is busy, the other rank's, the one most
+           regions wait for directly or through others, then the lowest k),
+           message latency 0
   replay   each rank runs the regions this run gave it in the order it ran
            them, each once its rank is free and what it waits for is done
 Prints JSON: cpu, crit and the speed-ups cpu / bound2, cpu / policy2,
@@ -36,6 +38,21 @@ def read(path):
     return [wins[k] for k in sorted(wins)]
 
 
+def dependents(succ):
+    """Per region, how many regions wait for it, directly or through others
+    (regions_flow.c's priority)."""
+    out = []
+    for i in range(len(succ)):
+        seen, stack = set(), list(succ[i])
+        while stack:
+            j = stack.pop()
+            if j not in seen:
+                seen.add(j)
+                stack.extend(succ[j])
+        out.append(len(seen))
+    return out
+
+
 def window_figures(regs):
     regs = sorted(regs, key=lambda r: r["id"])
     pos = {r["id"]: i for i, r in enumerate(regs)}
@@ -53,6 +70,7 @@ def window_figures(regs):
     for i, ps in enumerate(preds):
         for p in ps:
             succ[p].append(i)
+    key = [(-d, i) for i, d in enumerate(dependents(succ))]
     npend = [len(ps) for ps in preds]
     ready = [0.0] * n
     done = [False] * n
@@ -65,9 +83,8 @@ def window_figures(regs):
         cand = [i for i in range(n) if not done[i] and npend[i] == 0 and ready[i] <= t]
         if free[0] == free[1]:  # both free: rank 0 first, unless only rank 1's regions are ready
             r = 1 if cand and all(i % 2 == 1 for i in cand) else 0
-        own = [i for i in cand if i % 2 == r]
-        other = [i for i in cand if i % 2 != r] if free[1 - r] > t else []
-        k = own[0] if own else other[0] if other else None
+        pool = [i for i in cand if i % 2 == r or free[1 - r] > t]
+        k = min(pool, key=lambda i: key[i]) if pool else None
         if k is None:
             later = [fin[i] for i in range(n) if done[i] and fin[i] > t]
             later += [ready[i] for i in range(n) if not done[i] and npend[i] == 0 and ready[i] > t]

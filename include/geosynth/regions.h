@@ -92,7 +92,7 @@ gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
  * whose read box meets its write box (model: gs_model_regions_interact).
  * A pair that interacts but is left out makes the result depend on timing.
  * Test hook GS_FLOW_PICK=random:SEED: each rank runs a random ready region
- * of its share instead of the lowest, so such a pair shows at one rank. Regions not listed must not interact. Then
+ * of its share instead of the rule's, so such a pair shows at one rank. Regions not listed must not interact. Then
  * gs_regions_run_pass no longer waits at the end of each color and has no
  * rank-0 queue: every rank runs a region once the results it depends on
  * are applied there, picking among the ready ones (claims sent to all keep
@@ -110,6 +110,17 @@ gs_err gs_regions_run_pass(gs_regions_t s, int pass, gs_region_run_fn run,
  * the pass is kept until the pass ends. Errors: ids not in the list, or of
  * the same or a higher color (GS_ERR_ARG, on every rank). */
 gs_err gs_regions_set_conflicts(gs_regions_t s, const int64_t *offsets, const int64_t *ids);
+
+/* The dataflow's priority (gs_regions_set_conflicts): dep[k] = how many of
+ * the n regions wait for region k, directly or through others, where
+ * succ[succ_off[k] .. succ_off[k+1]) are the regions that wait for k
+ * directly, each later than k (positions in colour order). A free rank runs
+ * the ready region with the most dependents first (then the lowest
+ * position): a region that others wait for starts early, so a region that
+ * turns out long (many tries) does not leave the other ranks idle at the
+ * end. Local, no MPI; GS_ERR_MEM when out of memory. Also used by the model
+ * engine's simulation of the rule (src/model/engine_sched.c). */
+gs_err gs_regions_dependents(int64_t n, const int64_t *succ_off, const int64_t *succ, int64_t *dep);
 
 typedef struct gs_regions_stats {
     int64_t computed;   /* regions this rank ran */

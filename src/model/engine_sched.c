@@ -10,10 +10,12 @@
  *  - crit: the longest chain of dependent regions (its CPU seconds);
  *  - bound2 = max(crit, cpu / 2): no 2-rank schedule is shorter;
  *  - policy2: src/par/regions_flow.c's rule simulated on 2 ranks (serial
- *    index k = position in the window; a free rank takes the lowest ready
- *    region of its own share, k mod 2, else the lowest ready one of the
- *    other rank's share while that rank is busy; nothing ready: wait for the
- *    next region to end), message latency 0;
+ *    index k = position in the window; a free rank takes, of the ready
+ *    regions of its own share, k mod 2, and while the other rank is busy of
+ *    the other rank's share, the one with the most dependents (regions that
+ *    wait for it directly or through others, gs_regions_dependents), then
+ *    the lowest k; nothing ready: wait for the next region to end), message
+ *    latency 0;
  *  - replay: each rank runs the regions this run gave it, in the order it
  *    ran them (region_hdr.rank, seq), each as soon as its rank is free and
  *    its conflicts are done (at one rank: cpu).
@@ -23,13 +25,14 @@
 
 #include "geosynth/log.h"
 #include "geosynth/mem.h"
+#include "geosynth/regions.h"
 #include "model/engine_impl.h"
 
 typedef struct sched_ctx {
     size_t first, n;
     const int64_t *off, *ids;
     const region_hdr *rec; /* rec[first + i] */
-    size_t *succ_off, *succ; /* the conflicts the other way: later regions waiting for i */
+    int64_t *succ_off, *succ; /* the conflicts the other way: later regions waiting for i */
 } sched_ctx;
 
 static double dur(const sched_ctx *c, size_t i) { return c->rec[c->first + i].cpu_s; }
@@ -45,10 +48,13 @@ static double simulate_policy2(const sched_ctx *c, double *fin)
     size_t *npend = gs_calloc(n ? n : 1, sizeof *npend);
     double *ready = gs_calloc(n ? n : 1, sizeof *ready);
     char *done = gs_calloc(n ? n : 1, 1);
-    if (!npend || !ready || !done) {
+    int64_t *dep = gs_calloc(n ? n : 1, sizeof *dep);
+    if (!npend || !ready || !done || !dep ||
+        gs_regions_dependents((int64_t)n, c->succ_off, c->succ, dep) != GS_OK) {
         gs_free(npend);
         gs_free(ready);
         gs_free(done);
+        gs_free(dep);
         return -1;
     }
     /* the scans below are O(n) per region: windows hold at most
@@ -68,19 +74,11 @@ static double simulate_policy2(const sched_ctx *c, double *fin)
                     *(i % 2 ? &ready1 : &ready0) = 1;
             r = !ready0 && ready1;
         }
-        size_t own = SIZE_MAX, other = SIZE_MAX;
-        for (size_t i = 0; i < n; i++) {
-            if (done[i] || npend[i] > 0 || ready[i] > t)
-                continue;
-            if ((int)(i % 2) == r) {
-                if (own == SIZE_MAX)
-                    own = i;
-            } else if (other == SIZE_MAX && free_at[1 - r] > t)
-                other = i; /* the other rank is busy: take it */
-            if (own != SIZE_MAX)
-                break;
-        }
-        size_t k = own != SIZE_MAX ? own : other;
+        size_t k = SIZE_MAX; /* own share; the other's while the other rank is busy */
+        for (size_t i = 0; i < n; i++)
+            if (!done[i] && npend[i] == 0 && ready[i] <= t &&
+                ((int)(i % 2) == r || free_at[1 - r] > t) && (k == SIZE_MAX || dep[i] > dep[k]))
+                k = i;
         if (k == SIZE_MAX) {
             /* nothing for r now: until the next region ends or the other
              * rank frees (then its share may be taken) */
@@ -103,8 +101,8 @@ static double simulate_policy2(const sched_ctx *c, double *fin)
         free_at[r] = fin[k];
         makespan = fin[k] > makespan ? fin[k] : makespan;
         left--;
-        for (size_t q = c->succ_off[k]; q < c->succ_off[k + 1]; q++) {
-            size_t i = c->succ[q];
+        for (int64_t q = c->succ_off[k]; q < c->succ_off[k + 1]; q++) {
+            size_t i = (size_t)c->succ[q];
             npend[i]--;
             ready[i] = fin[k] > ready[i] ? fin[k] : ready[i];
         }
@@ -112,6 +110,7 @@ static double simulate_policy2(const sched_ctx *c, double *fin)
     gs_free(npend);
     gs_free(ready);
     gs_free(done);
+    gs_free(dep);
     return left == 0 ? makespan : -1;
 }
 
@@ -209,8 +208,8 @@ void model_sched_window(model_engine *e, size_t first, size_t n, const int64_t *
     if (n == 0 || !e->rec)
         return;
     const size_t m = (size_t)off[n];
-    sched_ctx c = {first, n, off, ids, e->rec, gs_calloc(n + 1, sizeof(size_t)),
-                   gs_calloc(m ? m : 1, sizeof(size_t))};
+    sched_ctx c = {first, n, off, ids, e->rec, gs_calloc(n + 1, sizeof(int64_t)),
+                   gs_calloc(m ? m : 1, sizeof(int64_t))};
     double *fin = gs_calloc(n, sizeof *fin);
     if (!fin || !c.succ_off || !c.succ) {
         gs_free(fin);
@@ -224,7 +223,7 @@ void model_sched_window(model_engine *e, size_t first, size_t n, const int64_t *
         c.succ_off[i + 1] += c.succ_off[i];
     for (size_t i = 0; i < n; i++) /* fill, then shift the starts back */
         for (int64_t j = off[i]; j < off[i + 1]; j++)
-            c.succ[c.succ_off[pred_at(&c, j)]++] = i;
+            c.succ[c.succ_off[pred_at(&c, j)]++] = (int64_t)i;
     for (size_t i = n; i > 0; i--)
         c.succ_off[i] = c.succ_off[i - 1];
     c.succ_off[0] = 0;
@@ -265,9 +264,10 @@ gs_err model_sched_log(gs_run *run, const model_engine *e, uint64_t window, size
     for (size_t i = 0; i < n; i++) {
         const region_hdr *h = &e->rec[first + i];
         fprintf(f, "{\"window\":%llu,\"pass\":%d,\"id\":%zu,\"color\":%u,\"rank\":%d,"
-                   "\"seq\":%d,\"cpu_s\":%.9f,\"waits_for\":[",
+                   "\"seq\":%d,\"cpu_s\":%.9f,\"attempts\":%d,\"backtracks\":%llu,\"waits_for\":[",
                 (unsigned long long)window, e->pass, first + i, e->plan[first + i].color,
-                (int)h->rank, (int)h->seq, h->cpu_s);
+                (int)h->rank, (int)h->seq, h->cpu_s, (int)h->attempts,
+                (unsigned long long)h->backtracks);
         for (int64_t j = off[i]; j < off[i + 1]; j++)
             fprintf(f, "%s%lld", j > off[i] ? "," : "", (long long)ids[j]);
         fprintf(f, "]}\n");

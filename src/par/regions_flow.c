@@ -13,16 +13,25 @@
  * equals the serial loop's.
  *
  * No coordinator: every rank sees every record, so every rank knows which
- * regions are ready, and picks the lowest ready one nobody claimed, from its
- * own share (k mod size = rank) first, then from the share of a rank that
- * is busy or has left a ready region unclaimed for FLOW_STEAL_AFTER (its
- * process is not running: another job on its core). Before running it
- * sends a claim to everyone. Two ranks can still
+ * regions are ready, and picks one nobody claimed from its own share
+ * (k mod size = rank) and the share of a rank that is busy (its regions
+ * that this rank is the thief() of): the one with the most dependents
+ * (regions that wait for it directly or through others,
+ * gs_regions_dependents), then the lowest k; with none, the best one that
+ * some rank has left unclaimed for FLOW_STEAL_AFTER (its process is not
+ * running: another job on its core). Before running it sends a claim to
+ * everyone. Two ranks can still
  * pick the same region when they choose within a message latency of each
  * other; both then run it, the bytes are the same, receivers keep the first. (A rank-0 work queue
  * that answers only between rank 0's own regions left workers waiting about
  * half a region per region: simulated on castle-10x's region costs, 1.73x
- * on 2 ranks against 1.93x without a coordinator.)
+ * on 2 ranks against 1.93x without a coordinator.) The rule before, the
+ * lowest k of the own share first and a busy rank's only when none was
+ * ready, left the regions of one share to one rank: on castle-10x (seed 1)
+ * its two longest regions (4 and 6 tries, 10-19 ms of the ~60-90 ms) were
+ * both rank 1's and ran one after the other, 1.76x on 2 ranks in the
+ * regions' own CPU seconds (src/model/engine_sched.c) against a 2.00x bound;
+ * this rule gives 1.99x there.
  *
  * Messages on the scheduler's private communicator, to every other rank:
  *   TAG_FLOW_HEADER  int64 {k, FLOW_CLAIM, 0}: k is being run
@@ -175,7 +184,8 @@ typedef struct flow {
     int64_t *npend;         /* [n] preds not applied on this rank */
     int64_t *stack;         /* [2n + 1] apply worklist */
     int64_t *heap[2];       /* [n] each: candidates (preds applied): this rank's share
-                               (min-heap), the others' share (list) */
+                               (heap, best first: before()), the others' share (list) */
+    int64_t *dep;           /* [n] regions waiting for k, directly or not: the priority */
     double *ready_at;       /* [n] when a region of the others' share became a candidate */
     char *busy;             /* [size] last header from that rank was a claim */
     int64_t nheap[2];
@@ -208,26 +218,32 @@ static void fail_local(flow *f, gs_err e)
     f->stop = 1;
 }
 
-static void heap_push(int64_t *h, int64_t *n, int64_t k)
+/* Region a goes before b: more dependents, then the lower serial index. */
+static int before(const flow *f, int64_t a, int64_t b)
+{
+    return f->dep[a] != f->dep[b] ? f->dep[a] > f->dep[b] : a < b;
+}
+
+static void heap_push(const flow *f, int64_t *h, int64_t *n, int64_t k)
 {
     int64_t i = (*n)++;
-    while (i > 0 && h[(i - 1) / 2] > k) {
+    while (i > 0 && before(f, k, h[(i - 1) / 2])) {
         h[i] = h[(i - 1) / 2];
         i = (i - 1) / 2;
     }
     h[i] = k;
 }
 
-static int64_t heap_pop(int64_t *h, int64_t *n)
+static int64_t heap_pop(const flow *f, int64_t *h, int64_t *n)
 {
     int64_t top = h[0], last = h[--*n], i = 0;
     for (;;) {
         int64_t c = 2 * i + 1;
         if (c >= *n)
             break;
-        if (c + 1 < *n && h[c + 1] < h[c])
+        if (c + 1 < *n && before(f, h[c + 1], h[c]))
             c++;
-        if (h[c] >= last)
+        if (!before(f, h[c], last))
             break;
         h[i] = h[c];
         i = c;
@@ -237,13 +253,47 @@ static int64_t heap_pop(int64_t *h, int64_t *n)
     return top;
 }
 
+gs_err gs_regions_dependents(int64_t n, const int64_t *succ_off, const int64_t *succ, int64_t *dep)
+{
+    /* a depth-first walk per region; stamp[j] = the last walk that reached
+     * j. The walks stay near their region (a conflict is a neighbour of a
+     * lower colour), and a window with conflicts holds at most a few
+     * thousand regions. */
+    size_t nn = n > 0 ? (size_t)n : 1;
+    int64_t *stamp = NULL, *stack = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&stamp, nn, sizeof *stamp, "dependents"), done);
+    GS_TRY(err, gs_alloc_array((void **)&stack, nn, sizeof *stack, "dependents"), done);
+    for (int64_t k = 0; k < n; k++)
+        stamp[k] = -1;
+    for (int64_t k = 0; k < n; k++) {
+        int64_t top = 0, count = 0;
+        stack[top++] = k;
+        while (top > 0) {
+            int64_t j = stack[--top];
+            for (int64_t q = succ_off[j]; q < succ_off[j + 1]; q++)
+                if (stamp[succ[q]] != k) {
+                    stamp[succ[q]] = k;
+                    stack[top++] = succ[q];
+                    count++;
+                }
+        }
+        dep[k] = count;
+    }
+done:
+    gs_free(stamp);
+    gs_free(stack);
+    return err;
+}
+
 /* k's preds are applied here: a candidate to run. Class 0 = this rank's
- * share (k mod size = rank), taken first, so ranks rarely pick the same
- * region; class 1 = the others' share, taken when the own share is empty. */
+ * share (k mod size = rank); class 1 = the others' share, taken while its
+ * owner is busy (or does not run), so two idle ranks rarely pick the same
+ * region. */
 static void add_candidate(flow *f, int64_t k)
 {
     if (k % f->s->size == f->s->rank)
-        heap_push(f->heap[0], &f->nheap[0], k);
+        heap_push(f, f->heap[0], &f->nheap[0], k);
     else {
         f->heap[1][f->nheap[1]++] = k; /* scanned by pick() */
         f->ready_at[k] = gs_time_now();
@@ -451,14 +501,30 @@ static gs_err progress(flow *f, int *got)
     }
 }
 
-/* The lowest candidate nobody claimed from this rank's share; else the
- * lowest one of a rank that is busy (its last header was a claim) or that
- * left it unclaimed for FLOW_STEAL_AFTER: an idle owner takes its region
- * itself, so two idle ranks do not both grab the one region that just
- * became ready, unless the owner does not run. -1 if none.
+/* The rank that takes region k of a busy owner's share at once (the others
+ * wait FLOW_STEAL_AFTER): one of the other ranks by k, so two idle ranks
+ * do not both take the busy rank's best region. At 2 ranks: the other
+ * rank. (castle-10x at 3 ranks on 2 loaded cores, duplicate records of its
+ * 63 regions: 15-33 with the rule before; 96-255 with any idle rank taking
+ * a busy rank's region and long-unclaimed ones in the same choice; 12-27
+ * with thief() and those last.) */
+static int thief(const gs_regions_t s, int64_t k)
+{
+    int owner = (int)(k % s->size);
+    return s->size < 2 ? owner
+                       : (owner + 1 + (int)(k / s->size % (s->size - 1))) % s->size;
+}
+
+/* Of the candidates nobody claimed, of this rank's share and of the share
+ * of a rank that is busy (its last header was a claim) when this rank is
+ * the region's thief(), the first by before(); if there is none, the first
+ * one any other rank left unclaimed for FLOW_STEAL_AFTER (its owner or
+ * thief does not run: an idle owner takes its region itself, so two idle
+ * ranks do not both grab the one region that just became ready). -1 if
+ * none.
  * Test hook GS_FLOW_PICK=random:SEED: a random candidate of the own share
- * instead of the lowest (every order the conflicts allow is one a loaded
- * machine could produce; results must not change, even at one rank). */
+ * instead (every order the conflicts allow is one a loaded machine could
+ * produce; results must not change, even at one rank). */
 static int64_t pick(flow *f)
 {
     double now = -1;
@@ -478,29 +544,29 @@ static int64_t pick(flow *f)
             return k;
         }
     }
-    while (!f->pick_random && f->nheap[0] > 0) {
-        int64_t k = heap_pop(f->heap[0], &f->nheap[0]);
-        if (!f->claimed[k])
-            return k;
-    }
-    int64_t best = -1, n = 0;
+    while (!f->pick_random && f->nheap[0] > 0 && f->claimed[f->heap[0][0]])
+        heap_pop(f, f->heap[0], &f->nheap[0]);
+    int64_t own = !f->pick_random && f->nheap[0] > 0 ? f->heap[0][0] : -1;
+    int64_t best = own, stale = -1, n = 0;
     for (int64_t i = 0; i < f->nheap[1]; i++) {
         int64_t k = f->heap[1][i];
         if (f->claimed[k])
             continue;
         f->heap[1][n++] = k;
-        if (best >= 0 && k > best)
-            continue;
-        if (!f->busy[k % f->s->size]) {
+        if (f->busy[k % f->s->size] && thief(f->s, k) == f->s->rank) {
+            if (best < 0 || before(f, k, best))
+                best = k;
+        } else if (stale < 0 || before(f, k, stale)) {
             if (now < 0)
                 now = gs_time_now();
-            if (now - f->ready_at[k] < FLOW_STEAL_AFTER)
-                continue;
+            if (now - f->ready_at[k] >= FLOW_STEAL_AFTER)
+                stale = k;
         }
-        best = k;
     }
     f->nheap[1] = n;
-    return best;
+    if (best >= 0 && best == own)
+        heap_pop(f, f->heap[0], &f->nheap[0]);
+    return best >= 0 ? best : stale;
 }
 
 /* Every rank runs regions until every region has a record here (or a
@@ -563,6 +629,7 @@ static void flow_free(flow *f)
     gs_free(f->stack);
     gs_free(f->heap[0]);
     gs_free(f->heap[1]);
+    gs_free(f->dep);
     gs_free(f->ready_at);
     gs_free(f->claim_msg);
     gs_free(f->sent);
@@ -597,6 +664,7 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
         f->stack = gs_calloc(2 * nn + 1, sizeof *f->stack);
         f->heap[0] = gs_calloc(nn, sizeof *f->heap[0]);
         f->heap[1] = gs_calloc(nn, sizeof *f->heap[1]);
+        f->dep = gs_calloc(nn, sizeof *f->dep);
         f->ready_at = gs_calloc(nn, sizeof *f->ready_at);
         f->claim_msg = gs_calloc(3 * nn, sizeof *f->claim_msg);
         f->sent = gs_calloc(np, sizeof *f->sent);
@@ -604,14 +672,16 @@ gs_err gs_regions_flow_pass(gs_regions_t s, int pass, gs_region_run_fn run,
         f->fin = gs_calloc(2 * np, sizeof *f->fin); /* [0, size): received; [size, 2 size): sent */
         f->busy = gs_calloc(np, 1);
         if (!f->data || !f->hdr || !f->have || !f->applied || !f->claimed || !f->npend ||
-            !f->stack || !f->heap[0] || !f->heap[1] || !f->ready_at || !f->claim_msg || !f->sent || !f->got ||
+            !f->stack || !f->heap[0] || !f->heap[1] || !f->dep || !f->ready_at || !f->claim_msg || !f->sent || !f->got ||
             !f->fin || !f->busy)
             local = gs_error_raise(GS_ERR_MEM, __FILE__, __LINE__, __func__,
                                    "regions: cannot allocate the dataflow state of %lld regions",
                                    (long long)s->count);
-        else
+        else {
             for (size_t r = 0; r < np; r++)
                 f->fin[r] = -1;
+            local = gs_regions_dependents(s->count, s->succ_off, s->succ, f->dep);
+        }
     }
     gs_err err = gs_par_agree(s->comm, local);
     if (err == GS_OK) {
