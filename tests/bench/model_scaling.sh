@@ -34,6 +34,10 @@
 #    whatever the load (control_slowdown_vs_1rank: what 2 busy processes
 #    cost each other here). Open MPI binds rank r to core r, so the control
 #    runs on cores 0 and 1 like the 2 ranks (the second with --cpu-set 1);
+#  - MODEL_SCALING_BASELINE=OTHER_BINARY (e.g. a build of main before a
+#    change): each pair also runs that binary at 1 and 2 ranks, reported as
+#    the case "CONFIG@baseline" with the same figures, so old and new meet
+#    the same load; digest_same_as_baseline says both wrote the same output;
 # and the machine's load: the 1-minute load average and the runnable
 # processes of other jobs before each run (min/median/max), uptime at the
 # start and the end. On 2 cores a third busy process caps 2 ranks near 4/3
@@ -49,6 +53,7 @@ PAIRS=${MODEL_SCALING_PAIRS:-5}
 MIN_SECONDS=${MODEL_SCALING_SECONDS:-3}
 MAX_PAIRS=${MODEL_SCALING_MAX_PAIRS:-40}
 CONTROL=${MODEL_SCALING_CONTROL:-1}
+BASELINE=${MODEL_SCALING_BASELINE:-}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 # one machine: the ob1 PML over shared memory, as tests/bench/run.sh
 export OMPI_MCA_btl=${OMPI_MCA_btl:-self,vader,tcp} OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
@@ -74,7 +79,7 @@ records=$work/records.txt
 one_run() { # NP DIR [mpirun options]
   local np=$1 dir=$2
   shift 2
-  mpirun "$@" -np "$np" "$GS_BIN" model -c "$cfg" -o "$dir" --set model.mesh=none \
+  mpirun "$@" -np "$np" "${RUN_BIN:-$GS_BIN}" model -c "$cfg" -o "$dir" --set model.mesh=none \
     --set model.preview=false --set model.vox=false >"$dir.log" 2>&1
 }
 record() { # NAME KIND PAIR LOAD BUSY DIR RC
@@ -92,7 +97,8 @@ for cfg in "${configs[@]}"; do
   while :; do
     pair=$((pair + 1))
     kinds="1 2"
-    [[ $CONTROL == 1 ]] && kinds="1 2 pa"
+    [[ $CONTROL == 1 ]] && kinds="$kinds pa"
+    [[ -n $BASELINE ]] && kinds="$kinds b1 b2"
     for np in $kinds; do
       dir=$work/$(basename "$cfg" .ini)-$pair-np$np
       load=$(cut -d' ' -f1 /proc/loadavg) busy=$(others)
@@ -107,6 +113,9 @@ for cfg in "${configs[@]}"; do
         wait $pb; rb=$?
         record "$name" pa "$pair" "$load" "$busy" "$dir" $ra
         record "$name" pb "$pair" "$load" "$busy" "$dirb" $rb
+      elif [[ $np == b? ]]; then # the baseline binary, same config and ranks
+        RUN_BIN=$BASELINE one_run "${np#b}" "$dir"
+        record "$name@baseline" "${np#b}" "$pair" "$load" "$busy" "$dir" $?
       else
         one_run "$np" "$dir"
         record "$name" "$np" "$pair" "$load" "$busy" "$dir" $?
@@ -238,6 +247,11 @@ for name in order:
     case["digest"] = sorted(digests)[0] if len(digests) == 1 else sorted(digests)
     ok &= case["digests_agree"]
     out.append(case)
+for case in out:  # MODEL_SCALING_BASELINE: the same output as the binary measured
+    base = [c for c in out if c["config"] == case["config"] + "@baseline"]
+    if base:
+        case["digest_same_as_baseline"] = base[0]["digest"] == case["digest"]
+        ok &= case["digest_same_as_baseline"]
 print(json.dumps({"bench": "model_scaling", "measure": "synthesis phase cells/s",
                   "cores": __import__("os").cpu_count(), "uptime_start": sys.argv[2],
                   "uptime_end": sys.argv[3], "cases": out, "ok": ok}, indent=1))
