@@ -255,11 +255,17 @@ typedef enum gs_model_order {
     GS_MODEL_ORDER_ENTROPY_LOG = 3, /* fewest candidates by binary order of magnitude
                                        (2-3, 4-7, ...), fresh random tie-break per
                                        update: less front growth along one axis */
-    GS_MODEL_ORDER_ENTROPY_LAYERS = 4 /* fewest candidates first; ties go to the
-                                         lowest layer, then to the cell nearest a
-                                         region face with output beyond it, then at
-                                         random (the output grows up from the ground
-                                         and in from the decided shell) */
+    GS_MODEL_ORDER_ENTROPY_LAYERS = 4, /* fewest candidates first; ties go to the
+                                          lowest layer, then to the cell nearest a
+                                          region face with output beyond it, then at
+                                          random (the output grows up from the ground
+                                          and in from the decided shell) */
+    GS_MODEL_ORDER_ENTROPY_COLUMNS = 5 /* fewest candidates first; ties go to the
+                                          cell nearest a region face with output
+                                          beyond it, then to the lowest layer, then at
+                                          random (the region grows in from its decided
+                                          shell ring by ring, each ring's columns from
+                                          the ground up) */
 } gs_model_order;
 
 typedef enum gs_model_weights {

@@ -323,14 +323,16 @@ static const gs_cfg_key model_keys[] = {
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
                    "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
     GS_CFG_KEY_ENUM(model_config, order, "model.order",
-                    "auto|entropy|scan|random|entropy_log|entropy_layers", "auto",
+                    "auto|entropy|scan|random|entropy_log|entropy_layers|entropy_columns", "auto",
                     "cell order: fewest candidates first, the author's scan (z fastest), "
                     "random, fewest candidates by binary order of magnitude with a fresh "
                     "random tie-break (entropy_log: fewer streaks, fewer retries on hard "
-                    "examples), or fewest candidates with ties to the lowest layer, then to "
-                    "the cells nearest the region's decided shell (entropy_layers); auto = "
-                    "entropy_layers when the z faces are synthesized (model.fix_z_faces), "
-                    "else entropy; configs/model/DEFAULTS.md"),
+                    "examples), fewest candidates with ties to the lowest layer, then to "
+                    "the cells nearest the region's decided shell (entropy_layers), or with "
+                    "ties to the cells nearest the shell, then to the lowest layer "
+                    "(entropy_columns: ring by ring in from the shell, each column from the "
+                    "ground up); auto = entropy_columns when the z faces are synthesized "
+                    "(model.fix_z_faces), else entropy; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_ENUM(model_config, weights, "model.weights", "uniform|frequency", "uniform",
                     "label choice: uniform (author) or proportional to the example's counts"),
     GS_CFG_KEY_INT(model_config, resemblance, "model.resemblance", 0, 2, 0, "2",

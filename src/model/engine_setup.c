@@ -28,6 +28,7 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
                : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
                : !strcmp(c->order, "entropy_log") ? GS_MODEL_ORDER_ENTROPY_LOG
                : !strcmp(c->order, "entropy_layers") ? GS_MODEL_ORDER_ENTROPY_LAYERS
+               : !strcmp(c->order, "entropy_columns") ? GS_MODEL_ORDER_ENTROPY_COLUMNS
                                                   : GS_MODEL_ORDER_ENTROPY; /* auto:
                                                   model_setup, after decide_z_faces */
     p->weights = !strcmp(c->weights, "frequency") ? GS_MODEL_WEIGHTS_FREQUENCY
@@ -719,10 +720,11 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
                        !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') &&
                        c->resemblance > 0;
     if (!strcmp(c->order, "auto") && zsynth) {
-        /* synthesized z faces: grow the output from the ground up and from the
-         * regions' shells in (configs/model/DEFAULTS.md, `order = auto`) */
-        e->params.order = GS_MODEL_ORDER_ENTROPY_LAYERS;
-        gs_log(GS_LOG_INFO, "cell order: entropy_layers (model.order = auto, z faces synthesized)");
+        /* synthesized z faces: grow each region in from its decided shell, ring
+         * by ring, each ring's columns from the ground up (configs/model/DEFAULTS.md,
+         * `order = auto`) */
+        e->params.order = GS_MODEL_ORDER_ENTROPY_COLUMNS;
+        gs_log(GS_LOG_INFO, "cell order: entropy_columns (model.order = auto, z faces synthesized)");
     }
     /* model.resemblance_outside = auto: half a match with synthesized z faces
      * (examples whose relief reaches their x/y faces: configs/model/DEFAULTS.md,

@@ -1549,9 +1549,19 @@ static inline int shell_dist(int x, int y, int rx, int ry, const int shell[4])
  * decided shell. With synthesized z faces and the entropy order's random
  * ties, structure started at every height and place at once: roofs decided
  * before the walls under them, hill tops before their flanks (gen-lattice
- * villages: roof sheets over walls that never close; #18 untuned examples). */
+ * villages: roof sheets over walls that never close; #18 untuned examples).
+ * ENTROPY_COLUMNS (columns = 1) swaps the first two: (distance, layer,
+ * random): the region is decided ring by ring in from its decided shell,
+ * each ring's columns from the ground up, so a choice sees whole decided
+ * columns on its shell side. Layer first, a region's whole ground layer was
+ * decided seeing only that layer (and the shell): the size of a stone patch
+ * at z = 0 sets how tall a hill can grow on it (each layer up is 1-2 cells
+ * narrower), and patches chosen without the height above them came out
+ * smaller and more ragged than the example's, so each layer up was narrower
+ * than the example's and the layers the example reaches in a few columns
+ * (hill tops, a keep's top) were never reached (#18, terrain 89 and 92). */
 static void layer_ties(struct gs_model_solver *s, const gs_model_lattice *lat, const gs_model_box *b,
-                       const int periodic[3])
+                       const int periodic[3], int columns)
 {
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
     const int shell[4] = {b->x0 > 0 || periodic[0], b->x1 < lat->nx || periodic[0],
@@ -1575,8 +1585,9 @@ static void layer_ties(struct gs_model_solver *s, const gs_model_lattice *lat, c
     for (int z = 0; z < rz; z++)
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, c++) {
-                const uint32_t key = ((uint32_t)(z >> zs) << db) |
-                                     (uint32_t)(shell_dist(x, y, rx, ry, shell) >> ds);
+                const uint32_t zk = (uint32_t)(z >> zs),
+                               dk = (uint32_t)(shell_dist(x, y, rx, ry, shell) >> ds);
+                const uint32_t key = columns ? (dk << zb) | zk : (zk << db) | dk;
                 s->tie[c] = (key << rb) | (s->tie[c] & ((1u << rb) - 1u));
             }
 }
@@ -1594,14 +1605,15 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
         return GS_OK;
     const int32_t n = (int32_t)s->n;
     const int entropy = p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG ||
-                        p->order == GS_MODEL_ORDER_ENTROPY_LAYERS;
+                        p->order == GS_MODEL_ORDER_ENTROPY_LAYERS ||
+                        p->order == GS_MODEL_ORDER_ENTROPY_COLUMNS;
     s->order_log = p->order == GS_MODEL_ORDER_ENTROPY_LOG;
     s->push_counter = 0;
     if (entropy) {
         for (int32_t c = 0; c < n; c++)
             s->tie[c] = gs_rng_u32(rng);
-        if (p->order == GS_MODEL_ORDER_ENTROPY_LAYERS)
-            layer_ties(s, lat, b, p->periodic);
+        if (p->order == GS_MODEL_ORDER_ENTROPY_LAYERS || p->order == GS_MODEL_ORDER_ENTROPY_COLUMNS)
+            layer_ties(s, lat, b, p->periodic, p->order == GS_MODEL_ORDER_ENTROPY_COLUMNS);
         s->heap_len = 0;
         for (int32_t c = 0; c < n; c++)
             s->hpos[c] = -1;

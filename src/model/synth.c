@@ -41,7 +41,8 @@ static gs_err check_params(const gs_model_params *p)
              "model.max_passes = %d: expected an integer in [1, 100000]", p->max_passes);
     GS_CHECK(p->order == GS_MODEL_ORDER_SCAN || p->order == GS_MODEL_ORDER_RANDOM ||
                  p->order == GS_MODEL_ORDER_ENTROPY || p->order == GS_MODEL_ORDER_ENTROPY_LOG ||
-                 p->order == GS_MODEL_ORDER_ENTROPY_LAYERS,
+                 p->order == GS_MODEL_ORDER_ENTROPY_LAYERS ||
+                 p->order == GS_MODEL_ORDER_ENTROPY_COLUMNS,
              GS_ERR_ARG, "model.order = %d: expected scan, random or entropy", (int)p->order);
     GS_CHECK(p->weights == GS_MODEL_WEIGHTS_UNIFORM || p->weights == GS_MODEL_WEIGHTS_FREQUENCY,
              GS_ERR_ARG, "model.weights = %d: expected uniform or frequency", (int)p->weights);

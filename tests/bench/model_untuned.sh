@@ -5,19 +5,23 @@
 # entropy_layers was chosen on seeds 1-20 and reported on 21-40 as well;
 # resemblance_outside / frequency_weight = auto chosen on 1-40, reported on
 # 41-60; start_column_from = auto chosen on terrains 7 and 44, reported on
-# 1-100, configs/model/DEFAULTS.md: seeds from 101 on are fresh); each
+# 1-100; model.order = auto's entropy_columns chosen on 61-120, reported on
+# 121-160, configs/model/DEFAULTS.md: seeds from 161 on are fresh); each
 # is synthesized at 40x40x8 in 20x20 regions with the default settings, one
 # rank, synthesis seed 1. JSON on stdout: per example, the quality figures of
 # summary.json (non-empty 3x3x3 resemblance, completeness, label L1, labels
-# used, empty share, top layer, unsupported share, failed regions,
+# used, empty share, height-profile error, top layer, unsupported share, failed regions,
 # violations) and synthesis CPU seconds; meets_target: the issue's non-empty
 # 3x3x3 resemblance >= 0.5 with 0 violations and 0 failed regions, and
 # structure (top layer within 1 of the example's, completeness >= 0.1: the
 # flat start model would otherwise pass with a share of 1.0).
+# MODEL_UNTUNED_ARGS: extra arguments for every run (e.g. "--set model.order=entropy_layers"
+# for the order before model.order = auto chose entropy_columns).
 set -u
 cd "$(dirname "$0")/../.."
 GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
 seeds=${MODEL_UNTUNED_SEEDS:-3 4 5}
+read -r -a extra <<<"${MODEL_UNTUNED_ARGS:-}"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
@@ -26,7 +30,7 @@ for kind in village fortress terrain; do
   for s in $seeds; do
     /usr/bin/python3 scripts/gen-lattice.py "$kind" "$s" "$tmp/$kind$s.txt" || exit 1
     printf '[model]\nexample = %s\nsize = 40x40x8\nregion = 20x20x0\n' "$tmp/$kind$s.txt" >"$tmp/$kind$s.ini"
-    "$GS_BIN" model -c "$tmp/$kind$s.ini" -o "$tmp/run-$kind$s" >"$tmp/$kind$s.log" 2>&1 \
+    "$GS_BIN" model -c "$tmp/$kind$s.ini" -o "$tmp/run-$kind$s" ${extra[@]+"${extra[@]}"} >"$tmp/$kind$s.log" 2>&1 \
       || { echo "model run failed: $kind seed $s" >&2; cat "$tmp/$kind$s.log" >&2; exit 1; }
     rows+=("$kind:$s:$tmp/run-$kind$s/summary.json")
   done
@@ -34,7 +38,7 @@ done
 /usr/bin/python3 - "${rows[@]}" <<'PY'
 import json, sys
 keys = ["resemblance_3x3x3", "resemblance_3x3x3_with_empty", "completeness_3x3x3", "label_l1",
-        "labels_used", "labels_example", "empty_share", "empty_share_example", "top_layer",
+        "labels_used", "labels_example", "empty_share", "empty_share_example", "height_fill_mean_abs", "top_layer",
         "top_layer_example", "unsupported_share", "unsupported_share_example", "failed_regions",
         "violations", "synthesis_cpu_seconds_max_rank"]
 out = {"benchmark": "model_untuned", "size": [40, 40, 8], "region": [20, 20, 0], "examples": []}
