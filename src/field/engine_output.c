@@ -268,27 +268,36 @@ done:
 /* The synthesis' own copying and seams (synthesis_*): measured on the
  * field before field.complete_objects rebuilt it from whole source objects
  * (syn), else the output's figures, as that is what the synthesis made. */
-static gs_err report_synthesized(gs_run *run, const gs_qfield *syn, const gs_qfield *src, int B,
-                                 const gs_field_geometry_report *g, gs_json *pm)
+static gs_err measure_synthesized(const gs_qfield *syn, const gs_qfield *src, int B,
+                                  const gs_field_geometry_report *g, gs_measure_copy *cp_out,
+                                  double *seam_out)
 {
-    gs_measure_copy cp = g->copy;
-    double seam = g->seam_ratio_out;
+    *cp_out = g->copy;
+    *seam_out = g->seam_ratio_out;
     if (syn) {
         const int64_t on[3] = {syn->nx, syn->ny, syn->nz}, sn[3] = {src->nx, src->ny, src->nz};
         GS_CALL(gs_measure_copy3(syn->q, on, src->q, sn, GS_FIELD_COPY_WINDOW, (int64_t)B * B * B,
-                                 B, &cp));
+                                 B, cp_out));
         double ph[GS_FIELD_SEAM_PERIOD_MAX];
         gs_field_seam_ratios(syn, g->seam_period, g->seam_axes, ph);
-        seam = ph[g->seam_period - 1];
+        *seam_out = ph[g->seam_period - 1];
     }
-    gs_run_metric_i64(run, "objects_rebuilt", syn != NULL);
+    return GS_OK;
+}
+
+/* Rank 0: the figures of measure_synthesized (syn: the rebuild ran). */
+static void report_synthesized(gs_run *run, int syn, const gs_measure_copy *cpp, double seam,
+                               const gs_field_geometry_report *g, gs_json *pm)
+{
+    const gs_measure_copy cp = *cpp;
+    gs_run_metric_i64(run, "objects_rebuilt", syn);
     gs_run_metric_f64(run, "synthesis_copy_matched_share", cp.matched_share);
     gs_run_metric_f64(run, "synthesis_copy_large_share", cp.large_share);
     gs_run_metric_f64(run, "synthesis_copy_largest_region_of_source", cp.largest_region_of_source);
     gs_run_metric_i64(run, "synthesis_copy_regions", cp.regions);
     gs_run_metric_f64(run, "synthesis_copy_completeness", cp.completeness);
     gs_run_metric_f64(run, "synthesis_seam_ratio", seam);
-    gs_json_i64(pm, "objects_rebuilt", syn != NULL);
+    gs_json_i64(pm, "objects_rebuilt", syn);
     if (syn)
         gs_log(GS_LOG_INFO,
                "the synthesis before the whole-object rebuild: %.3f in regions of one offset "
@@ -297,7 +306,6 @@ static gs_err report_synthesized(gs_run *run, const gs_qfield *syn, const gs_qfi
                cp.large_share, cp.largest_region_of_source, cp.completeness, seam,
                g->copy.large_share, g->copy.largest_region_of_source, g->copy.completeness,
                g->seam_ratio_out, g->seam_ratio_src_max);
-    return GS_OK;
 }
 
 /* Large-scale repetition of a height-field run (#19: "the same mountain
@@ -429,6 +437,16 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
            g->crossing_share_src);
 }
 
+/* The measures of one run, computed on one rank (field_output_op). */
+typedef struct field_measures {
+    gs_field_quality qm;
+    double quality_s, quality_cpu; /* the quality measure's seconds, its tree included */
+    gs_field_geometry_report gr;
+    double geometry_measure_cpu;
+    gs_measure_copy syn_copy; /* the synthesis' own copying (measure_synthesized) */
+    double syn_seam;
+} field_measures;
+
 /* The result, redistanced (each rank its planes, gathered once), field.h5, the quality
  * measures with the distributed matcher, the meshes and pictures (rank 0). */
 /* The source's volume fraction over every box of the output's size (the
@@ -483,23 +501,39 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     t_redist = gs_time_now() - t_redist;
     c_redist = gs_cpu_now() - c_redist;
     GS_TRY(err, write_field_h5(run, d->res, d->resf, q, synthesized), fail);
-    /* quality: coherence needs the nearest source block of every output
-     * block; every rank runs the measure with the distributed matcher of
-     * the synthesis (field_match_block): sharded, each rank searches its slab of
-     * the full-resolution tree; whole, each tries a query alone and the
-     * long ones are spread over the ranks' subtrees. Same figures on every
-     * rank and for any rank count. */
-    gs_field_quality qm;
-    memset(&qm, 0, sizeof qm);
-    gs_err qerr = GS_OK;
-    double tq = gs_time_now(), cq = gs_cpu_now();
-    qerr = gs_field_tree_build_shard(q, (int)c->block, d->ctx.sharded ? run->size : 1, run->rank,
-                                     &d->ctx.qtree);
-    if (!qerr && d->ctx.qtree)
-        qerr = gs_field_searcher_create(d->ctx.qtree, &d->ctx.qsearcher);
-    GS_TRY(err, gs_par_agree(run->comm, qerr), fail);
-    GS_TRY(err, gs_field_quality_measure_with(d->res, q, (int)c->block, field_quality_match, &d->ctx, &qm), fail);
-    double quality_s = gs_time_now() - tq, quality_cpu = gs_cpu_now() - cq;
+    /* The measures (quality, geometry measures, the synthesis' own copying)
+     * and the meshes. Quality: coherence needs the nearest source block of
+     * every output block. With one rank or a sharded tree (each rank
+     * searches its slab) every rank runs it with the distributed matcher of
+     * the synthesis (field_match_block). Otherwise (np > 1, whole tree) the
+     * last rank alone measures everything with its own exact matcher (the
+     * serial answer the distributed one gives too) while rank 0 writes the
+     * meshes, and sends the figures to rank 0: the measures then cost no
+     * wall time beside the meshes, and no rank repeats another's work. Same
+     * figures on every rank count. */
+    field_measures mp;
+    memset(&mp, 0, sizeof mp);
+    const int alone = run->size > 1 && !d->ctx.sharded;
+    const int mrank = alone ? run->size - 1 : 0;
+    gs_err merr = GS_OK;
+    if (!alone || run->rank == mrank) {
+        double tq = gs_time_now(), cq = gs_cpu_now();
+        merr = gs_field_tree_build_shard(q, (int)c->block, d->ctx.sharded ? run->size : 1,
+                                         run->rank, &d->ctx.qtree);
+        if (!merr && d->ctx.qtree)
+            merr = gs_field_searcher_create(d->ctx.qtree, &d->ctx.qsearcher);
+        if (!alone) {
+            GS_TRY(err, gs_par_agree(run->comm, merr), fail);
+            GS_TRY(err, gs_field_quality_measure_with(d->res, q, (int)c->block, field_quality_match,
+                                                      &d->ctx, &mp.qm), fail);
+        } else if (!merr) {
+            merr = gs_field_quality_measure(d->res, q, d->ctx.qtree, &mp.qm);
+        }
+        mp.quality_s = gs_time_now() - tq, mp.quality_cpu = gs_cpu_now() - cq;
+        /* done with the quality tree: not kept beside the meshes */
+        gs_field_searcher_destroy(&d->ctx.qsearcher);
+        gs_field_tree_destroy(&d->ctx.qtree);
+    }
     gs_err lerr = GS_OK;
     if (run->rank == 0) {
         double tg = gs_time_now(), cg = gs_cpu_now();
@@ -514,6 +548,23 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         }
         gs_json_f64(phase, "geometry_seconds", gs_time_now() - tg);
         gs_json_f64(phase, "geometry_cpu_seconds", gs_cpu_now() - cg);
+    }
+    if (run->rank == mrank && !merr && !lerr) {
+        double cm = gs_cpu_now();
+        merr = gs_field_geometry_measure(d->res, q, (int)c->block, &mp.gr);
+        mp.geometry_measure_cpu = gs_cpu_now() - cm;
+        if (!merr)
+            merr = measure_synthesized(synthesized, q, (int)c->block, &mp.gr, &mp.syn_copy,
+                                       &mp.syn_seam);
+    }
+    if (alone) {
+        /* the figures to rank 0 (every rank agrees first: none is left waiting) */
+        GS_TRY(err, gs_par_agree(run->comm, merr ? merr : lerr), fail);
+        GS_TRY(err, GS_PAR_BCAST_VALUE(run->comm, &mp, mrank), fail);
+    }
+    if (run->rank == 0 && !lerr)
+        lerr = merr;
+    if (run->rank == 0) {
         gs_json_f64(phase, "redistance_seconds", t_redist);
         gs_json_f64(phase, "redistance_cpu_seconds", c_redist);
         gs_run_metric_f64(run, "step_violations_synthesized", step_synth);
@@ -564,21 +615,20 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
             }
             gs_run_metric_f64(run, "coarse_departure", worst);
         }
-        gs_field_geometry_report gr;
-        double cm = gs_cpu_now();
+        gs_json_f64(phase, "geometry_measure_cpu_seconds", mp.geometry_measure_cpu);
         if (!lerr)
-            lerr = gs_field_geometry_measure(d->res, q, (int)c->block, &gr);
-        gs_json_f64(phase, "geometry_measure_cpu_seconds", gs_cpu_now() - cm);
+            report_geometry(run, &mp.gr, phase);
         if (!lerr)
-            report_geometry(run, &gr, phase);
-        if (!lerr)
-            lerr = report_synthesized(run, synthesized, q, (int)c->block, &gr, phase);
+            report_synthesized(run, synthesized != NULL, &mp.syn_copy, mp.syn_seam, &mp.gr, phase);
         if (!lerr && field_is_heightmap_example(c))
             lerr = report_repeats(run, d->res, q, phase);
-        /* seconds: rank 0's mesh outputs, the quality measure (its trees included) */
-        gs_json_f64(phase, "quality_seconds", quality_s);
-        gs_json_f64(phase, "quality_cpu_seconds", quality_cpu);
+        /* seconds: rank 0's mesh outputs, the quality measure (its tree included;
+         * measured on the rank that ran it) */
+        gs_json_f64(phase, "quality_seconds", mp.quality_s);
+        gs_json_f64(phase, "quality_cpu_seconds", mp.quality_cpu);
+        gs_json_i64(phase, "measures_rank", mrank);
         if (!lerr) {
+            const gs_field_quality qm = mp.qm;
             gs_run_metric_f64(run, "volume_fraction_out", qm.volume_fraction_out);
             gs_run_metric_f64(run, "volume_fraction_src", qm.volume_fraction_src);
             lerr = report_source_windows(run, q, c->target);
@@ -595,7 +645,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
                    qm.volume_fraction_out, qm.volume_fraction_src, qm.surface_per_volume_out,
                    qm.surface_per_volume_src, qm.coherence, qm.verbatim, (long long)qm.longest_run,
                    st->stat_sum[last] / (double)(st->stat_count[last] ? st->stat_count[last] : 1),
-                   quality_s, quality_cpu);
+                   mp.quality_s, mp.quality_cpu);
         }
     }
     err = gs_par_agree(run->comm, lerr);
