@@ -280,28 +280,32 @@ static int snap_to_source(const copy_src *cs, const double q[3], double snap, do
     return found;
 }
 
-/* Trilinear value of f (sample units) at p, clamped to the box. */
+/* Trilinear value of f (sample units) at p, clamped to the box. (The
+ * corners' weights and indices per axis once, then the same products and
+ * sums in the same order as corner by corner: the same value.) */
 static double field_at(const gs_field *f, const double p[3])
 {
-    int64_t n[3] = {f->nx, f->ny, f->nz}, i0[3];
-    double w[3];
+    const int64_t n[3] = {f->nx, f->ny, f->nz};
+    int64_t lo[3], hi[3];
+    double wl[3], wh[3];
     for (int a = 0; a < 3; a++) {
         double x = fmin(fmax(p[a], 0), (double)(n[a] - 1));
         double fl = fmin(floor(x), (double)(n[a] - 2 < 0 ? 0 : n[a] - 2));
-        i0[a] = (int64_t)fl;
-        w[a] = n[a] > 1 ? x - fl : 0;
+        lo[a] = (int64_t)fl;
+        hi[a] = lo[a] + 1 < n[a] ? lo[a] + 1 : n[a] - 1;
+        wh[a] = n[a] > 1 ? x - fl : 0;
+        wl[a] = 1 - wh[a];
     }
+    const int64_t sy = n[0], sz = n[0] * n[1];
+    const float *fv = f->v;
     double v = 0;
     for (int c = 0; c < 8; c++) {
-        double wt = 1;
-        int64_t idx[3];
-        for (int a = 0; a < 3; a++) {
-            int hi = (c >> a) & 1;
-            idx[a] = i0[a] + hi < n[a] ? i0[a] + hi : n[a] - 1;
-            wt *= hi ? w[a] : 1 - w[a];
-        }
+        int bx = c & 1, by = (c >> 1) & 1, bz = c >> 2;
+        double wt = bx ? wh[0] : wl[0];
+        wt *= by ? wh[1] : wl[1];
+        wt *= bz ? wh[2] : wl[2];
         if (wt > 0)
-            v += wt * f->v[idx[0] + n[0] * (idx[1] + n[1] * idx[2])];
+            v += wt * fv[(bx ? hi[0] : lo[0]) + sy * (by ? hi[1] : lo[1]) + sz * (bz ? hi[2] : lo[2])];
     }
     return v;
 }
