@@ -374,6 +374,11 @@ typedef struct gs_model_params {
                            x = nx - 1, y = 0, y = ny - 1 faces are limited to (the
                            engine's model.fix_xy_faces: the example's own face labels);
                            NULL = none. Not owned */
+    const uint16_t *outside_column; /* the cells past the output's x and y faces
+                           hold this column (nz labels, bottom first; the engine's
+                           model.fix_xy_faces with model.overlap3d: the start model's
+                           own column, Merrell's trivial model around the output), so
+                           face cells must sit next to it; NULL = free. Not owned */
     int periodic[3];    /* 1 = the output wraps along that axis (x, y; z only
                            without fix_z_faces): cell n-1 is adjacent to cell 0
                            and the rules hold across the wrap */

@@ -367,10 +367,12 @@ static const gs_cfg_key model_keys[] = {
                     "arc consistency algorithm (ac3 bitsets, ac4 support counts)"),
     GS_CFG_KEY_BOOL(model_config, fix_xy_faces, "model.fix_xy_faces", "false",
                     "true: each cell on the output's x = 0, x = max, y = 0, y = max faces takes "
-                    "only labels found on the same face of the example (overlap3d: windows at "
-                    "that face), so structure the example keeps off its sides (a fortress wall "
-                    "ring) cannot run out through the output's sides and must close inside; "
-                    "not with periodic x/y, tile sets or samples (configs/model/DEFAULTS.md)"),
+                    "only labels found on the same face of the example (overlap3d: the start "
+                    "column, the example's commonest column on its x/y faces, continues past "
+                    "the output's sides and face windows must overlap it), so structure the "
+                    "example keeps off its sides (a fortress wall ring) cannot run out through "
+                    "the output's sides and must close inside; not with periodic x/y, tile sets "
+                    "or samples (configs/model/DEFAULTS.md)"),
     GS_CFG_KEY_ENUM(model_config, fix_z_faces, "model.fix_z_faces", "auto|true|false", "auto",
                     "true: keep the bottom (ground) and top (empty) layers of the start model "
                     "(nz >= 3); false: synthesize them too; auto: true when the example's bottom "

@@ -141,8 +141,10 @@ typedef struct model_engine {
     int start_commonest;     /* model.start_column_from as decided (auto resolved) */
     uint64_t *zface;         /* model.fix_z_faces = auto, synthesized: [2][W] the labels of
                                 the example's bottom and top layers */
-    uint64_t *xyface;        /* model.fix_xy_faces: [4][W] the labels (overlap3d: patterns)
-                                on the example's x = 0, x = nx-1, y = 0, y = ny-1 faces */
+    uint64_t *xyface;        /* model.fix_xy_faces: [4][W] the labels on the example's
+                                x = 0, x = nx-1, y = 0, y = ny-1 faces (not overlap3d) */
+    uint16_t *outside_col;   /* model.fix_xy_faces with overlap3d: [lat nz] the start
+                                column, taken to lie past the output's x/y faces */
     gs_model_lattice example, lat, start;
     gs_model_palette pal;
     gs_model_tileset ts;     /* model.tileset (pixels on rank 0 only) */

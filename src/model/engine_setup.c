@@ -318,6 +318,29 @@ static gs_err ground_start(model_engine *e)
     return err;
 }
 
+/* The 3D overlapping model's start: a column of layer-filling patterns, its
+ * bottom and top found at the example's bottom and top (the z face masks;
+ * none with fix_z_faces = false). With model.fix_xy_faces it prefers the
+ * commonest window column on the example's x/y faces: the ground outside
+ * the fortress's walls, not the yard's ground inside them (the commonest
+ * layer-filling windows; as the output's surroundings they let an output
+ * be one yard's inside with keeps and no wall: fortress seeds 1 and 4). */
+static gs_err overlap3d_start(model_engine *e, gs_model_lattice *out)
+{
+    const size_t W = ((size_t)gs_model_rules_nlabels(e->rules) + 63) / 64;
+    const uint64_t *bottom = e->zface, *top = e->zface ? e->zface + W : NULL;
+    if (!e->cfg->fix_xy_faces)
+        return gs_model_initial_faces(e->rules, &e->example, NULL, bottom, top, out);
+    uint16_t *prefer = NULL;
+    GS_CALL(gs_alloc_array((void **)&prefer, (size_t)gs_model_frame_nz(&e->example),
+                           sizeof *prefer, "face column"));
+    gs_err err = gs_model_commonest_column(&e->example, 1, prefer);
+    if (!err)
+        err = gs_model_initial_prefer(e->rules, &e->example, NULL, prefer, bottom, top, out);
+    gs_free(prefer);
+    return err;
+}
+
 /* Start model on every rank (deterministic, so no broadcast). */
 static gs_err build_start(model_engine *e)
 {
@@ -345,12 +368,7 @@ static gs_err build_start(model_engine *e)
         return err;
     }
     if (c->overlap3d > 0) {
-        /* a column of layer-filling patterns, its bottom and top found at the
-         * example's bottom and top (the z face masks; none with fix_z_faces =
-         * false) */
-        const size_t W = ((size_t)gs_model_rules_nlabels(e->rules) + 63) / 64;
-        gs_err err = gs_model_initial_faces(e->rules, &e->example, NULL, e->zface,
-                                            e->zface ? e->zface + W : NULL, &e->lat);
+        gs_err err = overlap3d_start(e, &e->lat);
         if (err)
             gs_error_push_frame(__FILE__, __LINE__, __func__);
         return err;
@@ -417,6 +435,7 @@ void model_engine_free(model_engine *e)
     gs_free(e->ground);
     gs_free(e->zface);
     gs_free(e->xyface);
+    gs_free(e->outside_col);
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->region_status);
@@ -644,8 +663,8 @@ static gs_err decide_z_faces(model_engine *e)
 static gs_err decide_xy_faces(model_engine *e)
 {
     const model_config *c = e->cfg;
-    if (!c->fix_xy_faces)
-        return GS_OK;
+    if (!c->fix_xy_faces || c->overlap3d > 0)
+        return GS_OK; /* overlap3d: outside_xy_faces, once the lattice exists */
     const gs_model_lattice *ex = &e->example;
     const int L = gs_model_rules_nlabels(e->rules);
     const size_t W = ((size_t)L + 63) / 64;
@@ -673,6 +692,38 @@ static gs_err decide_xy_faces(model_engine *e)
            "on its x = 0 / x = max / y = 0 / y = max faces",
            distinct[0], distinct[1], distinct[2], distinct[3],
            c->overlap3d > 0 ? "windows" : "labels");
+    return GS_OK;
+}
+
+/* model.fix_xy_faces with the 3D overlapping model: the output lies inside
+ * Merrell's trivial start model, the start column (the same on every rank and
+ * after a restart: built again here) taken to continue past its x/y faces, so
+ * a face cell's window must overlap the start column's (ground and empty
+ * within N - 1 cells of the sides) and a wall ring closes inside. The
+ * example's own face windows (label mode's masks) held the fortress's walls
+ * where they lie within N - 1 cells of its sides (fortress seed 1: every x = 0
+ * window), forcing a wall along the whole output side, and the start
+ * column's ground window lay on none of the faces: every region touching a
+ * side failed at its setup (fortress-yards.ini, 32x32 regions at 96x96: 72 of
+ * 122 failed). */
+static gs_err outside_xy_faces(model_engine *e)
+{
+    if (!e->cfg->fix_xy_faces || e->cfg->overlap3d <= 0)
+        return GS_OK;
+    gs_model_lattice col = {0};
+    GS_CALL(gs_model_lattice_create(&col, 2, 2, e->lat.nz));
+    col.frames = e->lat.frames;
+    gs_err err = overlap3d_start(e, &col);
+    if (!err)
+        err = gs_alloc_array((void **)&e->outside_col, (size_t)e->lat.nz, sizeof *e->outside_col,
+                             "outside column");
+    for (int z = 0; !err && z < e->lat.nz; z++)
+        e->outside_col[z] = col.labels[gs_model_lattice_index(&col, 0, 0, z)];
+    gs_model_lattice_destroy(&col);
+    GS_CALL(err);
+    e->params.outside_column = e->outside_col;
+    gs_log(GS_LOG_INFO, "x/y faces (model.fix_xy_faces): the start column continues past the "
+           "output's sides; face windows must overlap it");
     return GS_OK;
 }
 
@@ -940,5 +991,6 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
         GS_CALL(build_start(e));
         GS_CALL(check_z_faces(e));
     }
+    GS_CALL(outside_xy_faces(e));
     return GS_OK;
 }

@@ -134,6 +134,7 @@ struct gs_model_solver {
     const uint64_t *ground, *ground_only; /* overlapping model ground rows (params) */
     const uint64_t *zface[2]; /* bottom / top layer label masks (params) */
     const uint64_t *xyface[4]; /* x0 / x1 / y0 / y1 face label masks (params) */
+    const uint16_t *outside_col; /* params.outside_column (NULL = free) */
     int order_log;         /* ENTROPY_LOG buckets */
     uint32_t push_counter; /* ENTROPY_LOG fresh tie keys */
     uint32_t *tie;     /* [n] random tie-break keys */

@@ -1026,10 +1026,16 @@ static gs_err setup_region(struct gs_model_solver *s, const gs_model_lattice *la
                         qy = (qy + lat->ny) % lat->ny;
                     if (periodic[2])
                         qz = (qz + lat->nz) % lat->nz;
-                    if (qx < 0 || qy < 0 || qz < 0 || qx >= lat->nx || qy >= lat->ny ||
-                        qz >= lat->nz)
-                        continue; /* outside the output: free */
-                    int m = overlay_label(lat, ov, qx, qy, qz);
+                    if (qz < 0 || qz >= lat->nz)
+                        continue; /* below or above the output: free */
+                    int m;
+                    if (qx < 0 || qy < 0 || qx >= lat->nx || qy >= lat->ny) {
+                        if (!s->outside_col)
+                            continue; /* past the output's sides: free */
+                        m = s->outside_col[qz]; /* past them: the start column */
+                    } else {
+                        m = overlay_label(lat, ov, qx, qy, qz);
+                    }
                     if (m >= s->L) {
                         for (size_t w = 0; w < W; w++)
                             dc[w] = 0;
@@ -1989,6 +1995,7 @@ static gs_err take_params(struct gs_model_solver *s, const gs_model_params *p)
     s->zface[1] = p->zface[1];
     for (int f = 0; f < 4; f++)
         s->xyface[f] = p->xyface[f];
+    s->outside_col = p->outside_column;
     for (int a = 0; a < s->L; a++)
         s->weights[a] = s->rules->count[a];
     return GS_OK;

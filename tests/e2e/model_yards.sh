@@ -1,14 +1,20 @@
-# End-to-end: yards that close (#18, model16). configs/model/fortress-yards.ini (the 3D
-# overlapping model with model.fix_xy_faces on the generated fortress31.txt, whole grid,
-# 40x40x8). Checks from lattice.h5 and the example alone (analysis/lattice_measures.py):
-# - the layer above the ground holds yards of the example's scale (walled in, each at least half
-#   the example's yard): their share of the layer at least half the example's (0.467);
-# - every 3x3x3 output window, empty ones included, is an example window; 0 violations, 0
-#   failed regions;
-# - summary.json's enclosed_* equal the files' figures; the same digest at np 1 and 2.
-# Broken on purpose: the face masks dropped in the solver (solver.c, model.fix_xy_faces a
-# no-op) leave the walls running out through the output's sides: no yard of the example's
-# scale (share 0.000), the first check fails. About 3 s.
+# End-to-end: yards that close, in regions (#18, model16, model24). configs/model/fortress-yards.ini
+# (the 3D overlapping model with model.fix_xy_faces on the generated fortress31.txt, 40x40x8 in
+# 28x28 regions). Checks from lattice.h5 and the example alone (analysis/lattice_measures.py):
+# - region synthesis ran and succeeded: more than one region, 0 failed regions, 0 violations,
+#   every 3x3x3 output window, empty ones included, an example window;
+# - yards of the example's scale: at least one walled-in yard of at least half the example's
+#   largest, and none larger than 1.5x it (the example's 269 cells);
+# - summary.json's enclosed_* equal the files' figures; the same digest at np 1 and 2;
+# - the same checks on fortress seed 1 (scripts/gen-lattice.py), np 1.
+# Broken on purpose (model24), both parts of the fix removed (the start column back to the
+# commonest layer-filling windows, the yard's ground inside the walls; the output's face cells
+# back to the example's own face windows, solver.c's outside column unused): 24 of 26 regions
+# fail at their setup (the start window lies on none of the faces), no yard: the first and
+# third checks fail on both examples. The start column alone back (sides as the fix has them):
+# 0 failed regions, but the output is the yard's ground with keeps and no wall (0 yards): the
+# third check fails on both.
+# About 4 s.
 source "$GS_ROOT/tests/e2e/lib.bash"
 C=$GS_ROOT/configs/model/fortress-yards.ini
 EX=$GS_ROOT/configs/model/fortress31.txt
@@ -23,7 +29,13 @@ done
 d0=$(digest_of y0); d2=$(digest_of y2)
 [[ -n $d0 && $d0 == "$d2" ]] && ok "fortress-yards: digest $d0 at np 1 and 2" \
   || bad "fortress-yards: digests np 1 $d0, np 2 $d2"
-res=$(/usr/bin/python3 - "$EX" y0 <<'EOF'
+# a second fortress, seed 1: its walls lie within 2 cells of its x = 0 and y = 0 sides, so no
+# window of open ground lies on all four of its faces
+/usr/bin/python3 "$GS_ROOT/scripts/gen-lattice.py" fortress 1 f1.txt >/dev/null
+run_gs 0 model -c "$C" -o f1 --set model.mesh=none --set model.example="$PWD/f1.txt"
+expect_rc 0 "fortress-yards on fortress seed 1"
+check_yards() { # check_yards EXAMPLE RUN_DIR
+/usr/bin/python3 - "$1" "$2" <<'PY'
 import json, os, sys
 sys.path.insert(0, os.environ["GS_ROOT"] + "/analysis")
 import lattice_measures as lm
@@ -33,16 +45,20 @@ m = json.load(open(sys.argv[2] + "/summary.json"))["metrics"]
 e = lm.enclosure_figures(ex, out)
 chk = lm.Checks()
 need = chk.need
-need(e["enclosed_large_share"] >= 0.5 * e["enclosed_large_share_example"] > 0,
-     "yards of the example's scale: %.3f of the layer above the ground >= half the example's %.3f "
-     "(%d yards, largest %d cells; the example's %d cells)" % (
-         e["enclosed_large_share"], e["enclosed_large_share_example"], e["enclosed_yards"],
-         e["enclosed_yard_max"], e["enclosed_yard_max_example"]))
+need(m["regions"] > 1 and m["failed_regions"] == 0 and m["violations"] == 0,
+     "region synthesis: %d regions, %d failed, %d violations (0 failed, 0 violations)" % (
+         m["regions"], m["failed_regions"], m["violations"]))
 need(lm.share(ex, out, 3, nonempty=False) == 1.0, "every 3x3x3 output window is an example window")
-need(m["violations"] == 0 and m["failed_regions"] == 0, "0 violations, 0 failed regions")
+ymax, exmax = e["enclosed_yard_max"], e["enclosed_yard_max_example"]
+need(exmax > 0 and 0.5 * exmax <= ymax <= 1.5 * exmax,
+     "yards of the example's scale: largest %d cells within 0.5-1.5x the example's %d "
+     "(%d yards, %.3f of the layer above the ground in yards >= half the example's; the "
+     "example's %.3f)" % (ymax, exmax, e["enclosed_yards"], e["enclosed_large_share"],
+                          e["enclosed_large_share_example"]))
 need(all(abs(e[k] - m[k]) < 1e-12 for k in e), "summary.json's enclosed_* = the files' figures")
 chk.result()
-EOF
-)
-verdict fortress-yards "walls its yards in like its example" "$res"
+PY
+}
+verdict fortress-yards "walls its yards in like its example, in regions" "$(check_yards "$EX" y0)"
+verdict fortress1 "walls its yards in like its example, in regions" "$(check_yards f1.txt f1)"
 finish
