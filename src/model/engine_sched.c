@@ -263,11 +263,13 @@ gs_err model_sched_log(gs_run *run, const model_engine *e, uint64_t window, size
     GS_CHECK(f != NULL, GS_ERR_IO, "%s: cannot open for writing (model.schedule_log)", path);
     for (size_t i = 0; i < n; i++) {
         const region_hdr *h = &e->rec[first + i];
+        const gs_model_box *b = &e->plan[first + i].box;
         fprintf(f, "{\"window\":%llu,\"pass\":%d,\"id\":%zu,\"color\":%u,\"rank\":%d,"
-                   "\"seq\":%d,\"cpu_s\":%.9f,\"attempts\":%d,\"backtracks\":%llu,\"waits_for\":[",
+                   "\"seq\":%d,\"cpu_s\":%.9f,\"attempts\":%d,\"backtracks\":%llu,"
+                   "\"box\":[%d,%d,%d,%d,%d,%d],\"waits_for\":[",
                 (unsigned long long)window, e->pass, first + i, e->plan[first + i].color,
                 (int)h->rank, (int)h->seq, h->cpu_s, (int)h->attempts,
-                (unsigned long long)h->backtracks);
+                (unsigned long long)h->backtracks, b->x0, b->y0, b->z0, b->x1, b->y1, b->z1);
         for (int64_t j = off[i]; j < off[i + 1]; j++)
             fprintf(f, "%s%lld", j > off[i] ? "," : "", (long long)ids[j]);
         fprintf(f, "]}\n");
