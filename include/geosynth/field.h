@@ -439,10 +439,17 @@ typedef struct gs_field_synth_config {
                                         may not take a source block within the level's reach
                                         (repeat_reach halved per coarser level) of a feature
                                         block (relief at or above the median) taken by a
-                                        matched block b - d, d in [0, repeat_span]^3 beyond
-                                        the lower neighbours, while half the source stays
-                                        free (src/field/synth.c repeat_span_exclusions);
-                                        0 = off */
+                                        block b + d, d in [-repeat_span, repeat_span]^3, that
+                                        is matched before b in every order and does not
+                                        overlap b, while half the source stays free
+                                        (src/field/synth.c repeat_span_exclusions); 0 = off */
+    int repeat_pairs;                /* > 0: in every iteration a block may not take, next
+                                        to a lower neighbour, a source block within this
+                                        many positions (halved per coarser level) of the
+                                        one an earlier block took next to a neighbour (the
+                                        same direction) whose source block lies within as
+                                        many of that lower neighbour's: no two-block
+                                        composite recurs; 0 = off */
     int seam_gradient;               /* 1 (needs prov): after the blend, a screened Poisson
                                         correction makes the steps across seams the mean of
                                         the two pieces' own steps there (src/field/synth.c

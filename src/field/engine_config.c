@@ -114,10 +114,18 @@ static const gs_cfg_key field_keys[] = {
                    "with repeat_reach, in every iteration a block may not take a source block "
                    "within the level's reach (repeat_reach, halved per coarser level) of a "
                    "feature block (relief at or above the example's median, not a plain) taken "
-                   "by the matched blocks up to this many positions below it along each "
-                   "axis (beyond the lower neighbours), while half the source stays free: no "
-                   "source feature copied again a few blocks on (a chain of blocks falling "
-                   "into a cycle, stacked summits); 0 = off"),
+                   "by the blocks up to this many positions away along each axis that are "
+                   "matched before it (beyond the lower neighbours), while half the source "
+                   "stays free: no source feature copied again a few blocks on (a chain of "
+                   "blocks falling into a cycle, stacked summits); 0 = off"),
+    GS_CFG_KEY_INT(field_config, repeat_pairs, "field.repeat_pairs", 0, 15, 0, "0",
+                   "in every iteration a block may not take, next to a lower neighbour, a "
+                   "source block within this many positions (halved per coarser level) of the "
+                   "one an earlier block took beside a neighbour in the same direction whose "
+                   "source block lies within as many of that lower neighbour's: no two "
+                   "neighbouring source blocks recur side by side (one place of the example "
+                   "copied twice in the same arrangement of pieces), while half the source "
+                   "stays free; 0 = off; 2 in terrain.ini"),
     GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
                     "minimum-error boundary cut: each block takes the samples of its box that a "
                     "minimum cut between the synthesized overlap and the matched block gives it "

@@ -445,16 +445,19 @@ static gs_err enter_iteration(struct gs_field_synth *s)
     GS_CALL(gs_alloc_array((void **)&s->rbox, (size_t)s->st.blocks_in_iteration, sizeof *s->rbox,
                            "copy boxes"));
     {
-        int64_t K = s->cfg.repeat_span, nb = (K + 1) * (K + 1) * (K + 1);
+        /* repeat_span: a box per block within K positions (every direction);
+         * repeat_pairs: up to one per matched block and lower neighbour */
+        int64_t K = s->cfg.repeat_span, nb = (2 * K + 1) * (2 * K + 1) * (2 * K + 1);
+        int64_t np_ = s->cfg.repeat_pairs > 0 ? 7 * s->st.blocks_in_iteration : 0;
         int64_t nsb = gs_field_block_count(s->level_src, B);
         gs_free(s->ex);
         gs_free(s->exmark);
         gs_free(s->exlist);
         gs_free(s->feature);
         s->ex = NULL, s->exmark = NULL, s->exlist = NULL, s->feature = NULL, s->nexlist = 0;
-        s->nex_cap = (int)((s->cfg.wrap ? MAX_EXCLUSIONS : 14) + (K > 0 ? nb : 0));
+        s->nex_cap = (int)((s->cfg.wrap ? MAX_EXCLUSIONS : 14) + (K > 0 ? nb : 0) + np_);
         GS_CALL(gs_alloc_array((void **)&s->ex, (size_t)s->nex_cap, sizeof *s->ex, "exclusion boxes"));
-        if (K > 0) {
+        if (K > 0 || np_ > 0) {
             GS_CALL(gs_alloc_array((void **)&s->exmark, (size_t)nsb, 1, "repeat marks"));
             memset(s->exmark, 0, (size_t)nsb);
             GS_CALL(gs_alloc_array((void **)&s->exlist, (size_t)nsb, sizeof *s->exlist, "repeat marks"));
@@ -1569,7 +1572,7 @@ static int covers_all(const struct gs_field_synth *s, const int64_t (*ex)[6], in
 
 static int copy_exclusions(struct gs_field_synth *s, int64_t b, int B, int64_t (*ex)[6])
 {
-    if (s->cfg.copy_limit <= 0 && s->cfg.repeat_reach <= 0)
+    if (s->cfg.copy_limit <= 0 && s->cfg.repeat_reach <= 0 && s->cfg.repeat_pairs <= 0)
         return 0;
     const gs_qfield *ls = s->level_src;
     double limit = s->cfg.copy_limit * (double)(s->wn[0] * s->wn[1] * s->wn[2]);
@@ -1620,31 +1623,115 @@ static int copy_exclusions(struct gs_field_synth *s, int64_t b, int B, int64_t (
     return repeat_span_exclusions(s, b, B, ex, ne);
 }
 
+/* Block i is matched before block b whatever the rank count: in the raster
+ * order (region_blocks = 0) i < b; with target regions, i lies in a region of
+ * a lower color (every region of a color is applied on every rank before the
+ * next color starts, see gs_field_synth_color) or in b's own region before b
+ * (a region visits its blocks in the raster order). A region of b's color
+ * may run at the same time as b's, on another rank or before it on this one:
+ * its blocks never count. */
+static int matched_before(const struct gs_field_synth *s, int64_t i, int64_t b)
+{
+    if (!s->reg)
+        return i < b;
+    int64_t ci[3], cb[3], R = s->cfg.region_blocks, col_i = 0, col_b = 0;
+    int same = 1;
+    block_coords(s, i, ci);
+    block_coords(s, b, cb);
+    for (int a = 0; a < 3; a++) {
+        int64_t ri = ci[a] / R < s->nr[a] ? ci[a] / R : s->nr[a] - 1;
+        int64_t rb = cb[a] / R < s->nr[a] ? cb[a] / R : s->nr[a] - 1;
+        col_i += ri, col_b += rb, same &= ri == rb;
+    }
+    return col_i < col_b || (same && i < b);
+}
+
+/* Marks the source blocks of box (bn blocks per axis) and appends it to ex,
+ * unless the marked ones would then pass half of the nsb source blocks
+ * (the box is left out, nothing stays marked) or it adds none. */
+static void try_box(struct gs_field_synth *s, const int64_t bn[3], int64_t nsb, const int64_t box[6],
+                    int64_t (*ex)[6], int *ne)
+{
+    if (*ne >= s->nex_cap)
+        return;
+    int64_t before = s->nexlist;
+    for (int64_t z = box[2]; z <= box[5]; z++)
+        for (int64_t y = box[1]; y <= box[4]; y++)
+            for (int64_t x = box[0]; x <= box[3]; x++) {
+                int64_t k = x + bn[0] * (y + bn[1] * z);
+                if (!s->exmark[k])
+                    s->exmark[k] = 1, s->exlist[s->nexlist++] = k;
+            }
+    if (2 * s->nexlist > nsb) { /* too much: leave this one out */
+        while (s->nexlist > before)
+            s->exmark[s->exlist[--s->nexlist]] = 0;
+        return;
+    }
+    if (s->nexlist > before)
+        memcpy(ex[(*ne)++], box, sizeof *ex);
+}
+
+/* The source blocks within r positions of centre (each axis), clipped to
+ * the level source; 0 when nothing is left. */
+static int clip_box(const int64_t sn[3], int B, const int64_t centre[3], int64_t r, int64_t box[6])
+{
+    for (int a = 0; a < 3; a++) {
+        int64_t hi = sn[a] - B;
+        box[a] = centre[a] - r > 0 ? centre[a] - r : 0;
+        box[a + 3] = centre[a] + r < hi ? centre[a] + r : hi;
+        if (box[a] > box[a + 3])
+            return 0;
+    }
+    return 1;
+}
+
+/* The level's reach: r at the last iteration, halved per coarser level, at
+ * least 1. */
+static int64_t level_reach(const struct gs_field_synth *s, int64_t r)
+{
+    int64_t l = r >> (s->cfg.iterations - 1 - s->st.iteration);
+    return l < 1 ? 1 : l;
+}
+
 /* repeat_span (every iteration): the source blocks within the level's reach
- * (repeat_reach at the last iteration, halved per coarser level, at least 1)
- * of the feature blocks (block_features: not plains) taken by the matched
- * blocks b - d, d in [0, repeat_span]^3 beyond the lower neighbours (some
- * d_a >= 2), nearest first (by max_a d_a, then z, y, x), while they leave at
- * least half the source blocks free (terrain.ini: a box of reach 6 is 13^2
- * of the 49^2 source blocks, so the nearest 7 or more). Those blocks come
- * before b in the raster order and in every region order (componentwise
- * lower: a region of a lower color or b's own, see build_regions), so the
- * result is the same for any rank count. The coarse iteration lays out the
- * summits: in the last iteration alone the span removed the cycles below
- * but left seed 5's stacked summits and seed 2's row of round hills as they
- * were. A chain of blocks each matched on its left neighbour alone (the
- * first rows) falls into a cycle of source blocks: terrain.ini seeds 5, 8,
- * 9, 12 repeated 10-25% of the height map 64 samples on along x (8 block
- * positions; with the span 6-10%). */
+ * of repeat_reach of the feature blocks (block_features: not plains) taken
+ * by the blocks b - d, d in [-repeat_span, repeat_span]^3, that are matched
+ * before b in every order (matched_before) and do not overlap b (some
+ * |d_a| >= 2), nearest first (by max_a |d_a|, then d_z, d_y, d_x), while they
+ * leave at least half the source blocks free (terrain.ini: a box of reach 6
+ * is 13^2 of the 49^2 source blocks, so the nearest 7 or more). The result
+ * is the same for any rank count. The coarse iteration lays out the summits:
+ * in the last iteration alone the span removed the cycles below but left
+ * seed 5's stacked summits and seed 2's row of round hills as they were. A
+ * chain of blocks each matched on its left neighbour alone (the first rows)
+ * falls into a cycle of source blocks: terrain.ini seeds 5, 8, 9, 12
+ * repeated 10-25% of the height map 64 samples on along x (8 block
+ * positions; with the span 6-10%). Up to field22 only the blocks below b
+ * (d_a >= 0) counted: the rows before b to its right (matched earlier, in a
+ * region of a lower color) were free to repeat what b took (#19, field24).
+ *
+ * repeat_pairs (every iteration, reach P halved per coarser level): for each
+ * lower neighbour n = b - e of b and each block j matched before b (not
+ * overlapping b) whose own neighbour j - e took a source block within P of
+ * n's, the source block j took moved by n's minus j - e's (the pair j - e, j
+ * shifted as a whole), and those within P of it. So no two neighbouring
+ * source blocks recur side by side in the same direction, a two-piece
+ * composite in two places (nor shifted a little in the source). Found: the
+ * most alike two places of terrain.ini's height maps (repeat_ncc_out
+ * 0.92-0.99) were such composites: seed 18's two windows 0.993 alike took
+ * 93% of their samples from the same source places (within 3 samples) in the
+ * same arrangement of pieces, seed 2's 82%; the coarse iteration alone
+ * already repeated at 0.98-0.99 on its own scale (its example 0.82) and the
+ * last one followed it. Under the same half-the-source cap. */
 static int repeat_span_exclusions(struct gs_field_synth *s, int64_t b, int B, int64_t (*ex)[6], int ne)
 {
-    int64_t K = s->cfg.repeat_span, rr = s->cfg.repeat_reach;
+    int64_t K = s->cfg.repeat_span, rr = s->cfg.repeat_reach, P = s->cfg.repeat_pairs;
     if (K <= 0 || rr <= 0)
+        K = 0;
+    if (K <= 0 && P <= 0)
         return ne;
     const gs_qfield *ls = s->level_src;
     const int64_t sn[3] = {ls->nx, ls->ny, ls->nz};
-    int64_t rl = rr >> (s->cfg.iterations - 1 - s->st.iteration);
-    rl = rl < 1 ? 1 : rl;
     int64_t bn[3] = {sn[0] - B + 1, sn[1] - B + 1, sn[2] - B + 1}, nsb = bn[0] * bn[1] * bn[2];
     int64_t c[3];
     block_coords(s, b, c);
@@ -1657,37 +1744,63 @@ static int repeat_span_exclusions(struct gs_field_synth *s, int64_t b, int B, in
                     if (!s->exmark[k])
                         s->exmark[k] = 1, s->exlist[s->nexlist++] = k;
                 }
-    /* nearest first: Chebyshev rings r = 2..K of positions b - d */
+    /* repeat_span, nearest first: Chebyshev rings r = 2..K of positions b - d */
+    int64_t rl = level_reach(s, rr);
     for (int64_t r = 2; r <= K; r++)
-        for (int64_t dz = 0; dz <= r && dz <= c[2]; dz++)
-            for (int64_t dy = 0; dy <= r && dy <= c[1]; dy++)
-                for (int64_t dx = 0; dx <= r && dx <= c[0]; dx++) {
-                    if (dx != r && dy != r && dz != r)
+        for (int64_t dz = -r; dz <= r; dz++)
+            for (int64_t dy = -r; dy <= r; dy++)
+                for (int64_t dx = -r; dx <= r; dx++) {
+                    int64_t q[3] = {c[0] - dx, c[1] - dy, c[2] - dz}, box[6], sp[3];
+                    if ((llabs(dx) != r && llabs(dy) != r && llabs(dz) != r) || q[0] < 0 ||
+                        q[1] < 0 || q[2] < 0 || q[0] >= s->npos[0] || q[1] >= s->npos[1] ||
+                        q[2] >= s->npos[2])
                         continue;
-                    int64_t i = c[0] - dx + s->npos[0] * (c[1] - dy + s->npos[1] * (c[2] - dz));
-                    if (!s->match_at[i] || ne >= s->nex_cap || !s->feature[s->match_at[i] - 1])
+                    int64_t i = q[0] + s->npos[0] * (q[1] + s->npos[1] * q[2]);
+                    if (!s->match_at[i] || !matched_before(s, i, b) || !s->feature[s->match_at[i] - 1])
                         continue;
-                    int64_t sp[3], box[6], before = s->nexlist;
                     gs_field_block_position(ls, B, s->match_at[i] - 1, sp);
-                    for (int a = 0; a < 3; a++) {
-                        int64_t hi = sn[a] - B;
-                        box[a] = sp[a] - rl > 0 ? sp[a] - rl : 0;
-                        box[a + 3] = sp[a] + rl < hi ? sp[a] + rl : hi;
-                    }
-                    for (int64_t z = box[2]; z <= box[5]; z++)
-                        for (int64_t y = box[1]; y <= box[4]; y++)
-                            for (int64_t x = box[0]; x <= box[3]; x++) {
-                                int64_t k = x + bn[0] * (y + bn[1] * z);
-                                if (!s->exmark[k])
-                                    s->exmark[k] = 1, s->exlist[s->nexlist++] = k;
-                            }
-                    if (2 * s->nexlist > nsb) { /* too much: leave this one out */
-                        while (s->nexlist > before)
-                            s->exmark[s->exlist[--s->nexlist]] = 0;
-                        continue;
-                    }
-                    memcpy(ex[ne++], box, sizeof box);
+                    if (clip_box(sn, B, sp, rl, box))
+                        try_box(s, bn, nsb, box, ex, &ne);
                 }
+    /* repeat_pairs */
+    if (P > 0) {
+        int64_t pl = level_reach(s, P), nb[7];
+        int nn = lower_neighbours(s, b, nb);
+        for (int q = 0; q < nn; q++) {
+            int64_t cn[3], e[3], sp_n[3];
+            block_coords(s, nb[q], cn);
+            for (int a = 0; a < 3; a++)
+                e[a] = c[a] - cn[a];
+            gs_field_block_position(ls, B, s->match_at[nb[q]] - 1, sp_n);
+            for (int64_t j = 0; j < s->st.blocks_in_iteration; j++) {
+                int64_t cj[3];
+                if (j == b || !s->match_at[j] || !matched_before(s, j, b))
+                    continue;
+                block_coords(s, j, cj);
+                int overlaps = 1, inside = 1;
+                for (int a = 0; a < 3; a++)
+                    overlaps &= llabs(cj[a] - c[a]) <= 1, inside &= cj[a] >= e[a];
+                if (overlaps || !inside)
+                    continue;
+                /* j - e is componentwise below j: matched before it */
+                int64_t jn = cj[0] - e[0] + s->npos[0] * (cj[1] - e[1] + s->npos[1] * (cj[2] - e[2]));
+                if (!s->match_at[jn])
+                    continue;
+                int64_t sp_jn[3], sp_j[3], centre[3], box[6];
+                int far = 0;
+                gs_field_block_position(ls, B, s->match_at[jn] - 1, sp_jn);
+                for (int a = 0; a < 3; a++)
+                    far |= llabs(sp_jn[a] - sp_n[a]) > pl;
+                if (far)
+                    continue;
+                gs_field_block_position(ls, B, s->match_at[j] - 1, sp_j);
+                for (int a = 0; a < 3; a++)
+                    centre[a] = sp_j[a] + sp_n[a] - sp_jn[a];
+                if (clip_box(sn, B, centre, pl, box))
+                    try_box(s, bn, nsb, box, ex, &ne);
+            }
+        }
+    }
     while (s->nexlist > 0)
         s->exmark[s->exlist[--s->nexlist]] = 0;
     return ne;

@@ -6,15 +6,26 @@
 # - the measure rates a 2x2 tiling of the example as repeating: two places
 #   alike to NCC 1 (the example's most alike two: repeat_ncc_src) and one
 #   example feature recurring at least 4 times (the example's own figure: 1);
-# - the measure flags the synthesis without field.repeat_span on seeds 4 and
-#   12 (two places above the example's most alike two: 0.997 and 1.000, seed
-#   12 repeating 25% of its height map 64 samples on along x), and
-#   field.repeat_span (src/field/synth.c repeat_span_exclusions, on in
-#   terrain.ini) lowers it there by more than 0.02 (to 0.943 and 0.927).
+# - the measure flags the synthesis without field.repeat_span and
+#   field.repeat_pairs on seeds 4 and 12 (two places above the example's most
+#   alike two: 0.997 and 1.000, seed 12 repeating 25% of its height map 64
+#   samples on along x), and terrain.ini's exclusions (src/field/synth.c
+#   repeat_span_exclusions) lower it there by more than 0.02; on seed 12 to
+#   within 1.15 times the example's (0.889; 0.952 with the span counting only
+#   the blocks below, field22's);
+# - field.repeat_pairs (field24; no two neighbouring source blocks recur side
+#   by side) on seeds 3 and 6: without it two places are more alike than 1.15
+#   times the example's most alike two (0.920, 0.943; the brief's 10% is not
+#   met on most seeds; within 1.15 times: 10 of seeds 1-12), with it
+#   within 1.15 times (0.868, 0.856), lowered by more than 0.02.
 #   Not checked: the example's own figure as a bound; no seed meets it yet
 #   (terrain.ini's comment has seeds 1-12).
 # Broken on purpose (watched): repeat_span_exclusions returning ne at once
-# (the span ignored): seeds 4 and 12 score as without it, both fail.
+# (the span ignored): seeds 4 and 12 score as without it, both fail
+# (field22). The pairs loop skipped (field24): seeds 3 and 6 score as without
+# it and fail (4 checks); the span counting only the blocks below (field22's
+# loops, d from 0): seed 12 with the exclusions 0.952, fails (and seed 3
+# without pairs 0.917, not flagged).
 source "$GS_ROOT/tests/e2e/lib.bash"
 T=$GS_ROOT/configs/field/terrain.ini
 need_config "terrain.ini" "$T" || finish
@@ -42,17 +53,34 @@ import json, sys; t = json.loads(sys.argv[1])
 sys.exit(0 if t['ncc_out'] >= 0.999 and t['ncc_out'] > t['ncc_src'] and t['recur_out'] >= 4 else 1)" "$tile" &&
   ok "a tiling of the example rated as repeating" || bad "a tiling of the example not flagged: $tile"
 
-for seed in 4 12; do
-  run_gs 0 field -c "$T" -o "on-$seed" --set run.seed=$seed "${FAST[@]}" --set field.repeat_span=8
-  expect_rc 0 "terrain.ini seed $seed, repeat_span 8"
-  run_gs 0 field -c "$T" -o "off-$seed" --set run.seed=$seed "${FAST[@]}" --set field.repeat_span=0
-  expect_rc 0 "terrain.ini seed $seed, repeat_span 0"
-  a=$(m "on-$seed" repeat_ncc_out) b=$(m "off-$seed" repeat_ncc_out) s=$(m "on-$seed" repeat_ncc_src)
-  echo "seed $seed: repeat_ncc_out $a with repeat_span, $b without (the example's $s)"
-  le "$b" "$s" && bad "seed $seed without repeat_span not flagged: $b (the example's $s)" ||
-    ok "seed $seed without repeat_span flagged: $b above the example's $s"
+# on_off NAME SEED F KEY=VALUE...: terrain.ini seed SEED as shipped (NAME on)
+# and with the settings given (NAME off). Without it two places are more
+# alike than F times the example's most alike two, and it lowers that by more
+# than 0.02; with it (F > 1) they are within F times.
+on_off() {
+  local name=$1 seed=$2 f=$3 off=() a b s
+  shift 3
+  for kv in "$@"; do off+=(--set "$kv"); done
+  run_gs 0 field -c "$T" -o "on-$name-$seed" --set run.seed=$seed "${FAST[@]}"
+  expect_rc 0 "terrain.ini seed $seed"
+  run_gs 0 field -c "$T" -o "off-$name-$seed" --set run.seed=$seed "${FAST[@]}" "${off[@]}"
+  expect_rc 0 "terrain.ini seed $seed, $*"
+  a=$(m "on-$name-$seed" repeat_ncc_out) b=$(m "off-$name-$seed" repeat_ncc_out)
+  s=$(m "on-$name-$seed" repeat_ncc_src)
+  echo "seed $seed: repeat_ncc_out $a with $name, $b with $* (the example's $s)"
+  if [[ $f != 1 ]]; then
+    le "$a" "$f * $s" && ok "seed $seed: with $name $a within $f times the example's $s" ||
+      bad "seed $seed: with $name $a above $f times the example's $s"
+  fi
+  le "$b" "$f * $s" && bad "seed $seed without $name not flagged: $b ($f times the example's $s)" ||
+    ok "seed $seed without $name flagged: $b above $f times the example's $s"
   /usr/bin/python3 -c "import sys; sys.exit(0 if $a < $b - 0.02 else 1)" &&
-    ok "seed $seed: repeat_span lowers the repetition $b -> $a" ||
-    bad "seed $seed: repeat_span does not lower the repetition ($b -> $a)"
+    ok "seed $seed: $name lowers the repetition $b -> $a" ||
+    bad "seed $seed: $name does not lower the repetition ($b -> $a)"
+}
+on_off repeat_span 4 1 field.repeat_span=0 field.repeat_pairs=0
+on_off repeat_span 12 1.15 field.repeat_span=0 field.repeat_pairs=0
+for seed in 3 6; do
+  on_off repeat_pairs $seed 1.15 field.repeat_pairs=0
 done
 finish
