@@ -118,10 +118,16 @@ run_gs 0 example knot --out k.obj
 expect_rc 2 "unknown example kind"
 expect_err "grid|chainmail|balls|fibers" "unknown example kind lists the kinds"
 
-# --- height map and texture configs run as they are (small overrides for time) --
+# --- height map and texture configs run as they are (texture smaller, for time) --
+# terrain.ini at full size (about 3 s): shrunk to a 32-sample example its volume
+# fraction drifted 0.092-0.145 from the example's over seeds 1-5 already before
+# field24 (a 32^2 example holds too few blocks for its exclusions), so this
+# check passed on seed 1 by 0.008.
 for c in terrain texture; do
   need_config "configs/field/$c.ini" "$GS_ROOT/configs/field/$c.ini" || continue
-  run_gs 0 field -c "$GS_ROOT/configs/field/$c.ini" -o "$c" --set example.size=32 --set field.target=64x64x16
+  small=(--set example.size=32 --set field.target=64x64x16)
+  [[ $c == terrain ]] && small=()
+  run_gs 0 field -c "$GS_ROOT/configs/field/$c.ini" -o "$c" "${small[@]}"
   expect_rc 0 "configs/field/$c.ini"
   /usr/bin/python3 -c "import json;m=json.load(open('$c/summary.json'))['metrics'];assert abs(m['volume_fraction_out']-m['volume_fraction_src'])<0.1" &&
     ok "$c: volume fraction of the height field kept" || bad "$c: volume fraction drifted"
