@@ -142,6 +142,8 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
              c->block[c->iterations - 1] / 2);
     GS_CHECK(c->repeat_span >= 0 && c->repeat_span <= 16, GS_ERR_ARG,
              "field.repeat_span = %d: expected 0 (off) to 16 block positions", c->repeat_span);
+    GS_CHECK(c->repeat_pairs >= 0 && c->repeat_pairs <= 15, GS_ERR_ARG,
+             "field.repeat_pairs = %d: expected 0 (off) to 15 block positions", c->repeat_pairs);
     GS_CHECK(!c->keep_volume || c->region_blocks == 0, GS_ERR_ARG,
              "field.keep_volume needs region_blocks = 0 (got %d)", c->region_blocks);
     GS_CHECK(c->region_blocks >= 0 && c->region_blocks <= 4096, GS_ERR_ARG,

@@ -365,7 +365,7 @@ static void test_synthesis_queries_match_brute_force(void **state)
     } sizes[3] = {{24, {4, 4, 8}, {28, 24, 20}},
                   {40, {4, 8, 16}, {44, 40, 36}},
                   {48, {4, 8, 32}, {52, 48, 40}}};
-    int64_t total = 0, far = 0, large = 0, excluding = 0;
+    int64_t total = 0, far = 0, large = 0, excluding = 0, repeating = 0;
     for (int sz = 0; sz < 3; sz++)
         for (int kind = 0; kind < 4; kind++)
             for (int st = 0; st < 3; st++) {
@@ -387,6 +387,8 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 cfg.seed_blocks = settings[st][2];
                 cfg.seed = 3 + (uint64_t)st;
                 cfg.copy_limit = st == 2 ? 0.05 : 0; /* the engine's default setting, strict */
+                if (st == 1) /* terrain.ini's repeat exclusions (span on every side, pairs) */
+                    cfg.repeat_reach = 2, cfg.repeat_span = 4, cfg.repeat_pairs = 2;
                 cfg.match = check_hook;
                 cfg.match_ctx = &c;
                 gs_field_synth_t syn = NULL;
@@ -400,6 +402,7 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 assert_int_equal(c.keyed, c.queries);
                 total += c.queries;
                 excluding += c.excluding;
+                repeating += st == 1 ? c.excluding : 0;
                 far += c.far;
                 large += sz > 0 ? c.large : 0;
                 gs_qfield_destroy(&c.level[0]);
@@ -407,9 +410,11 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 gs_qfield_destroy(&src);
             }
     fprintf(stderr, "%lld synthesis queries, %lld far from every block, %lld of 16^3 or 32^3, "
-            "%lld with copy-limit exclusions\n",
-            (long long)total, (long long)far, (long long)large, (long long)excluding);
+            "%lld with exclusions (%lld from repeat_span/repeat_pairs)\n",
+            (long long)total, (long long)far, (long long)large, (long long)excluding,
+            (long long)repeating);
     assert_true(excluding >= 50);
+    assert_true(repeating >= 50);
     assert_true(total >= 2500);
     assert_true(far > 0); /* queries far from any block, where the bounds are weakest */
     assert_true(large >= 100);
