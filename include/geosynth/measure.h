@@ -333,9 +333,11 @@ gs_err gs_measure_grid_crossing_lattice(const uint16_t *labels, const int dims[3
  * of cell^3 window positions (a grid from the origin) holding a unique
  * window: the share of them whose windows occur in out at least once.
  * A periodic source (periods below) is measured modulo its periods:
- * uniqueness, offsets and completeness. k in 2..8. Memory: 4 bytes per output position (union-find) + 12 bytes
- * per source position (hash table); cost O(k^2) per position (up to four window
- * comparisons for a repeated window). */
+ * uniqueness, offsets and completeness. k in 2..8. Memory: 4 bytes per output position (union-find),
+ * per source position 2-4 hash slots of 24 bytes, 4 bytes (its slot's first occurrence) and 2
+ * bytes; cost O(k^2) per position (up to four window comparisons for a repeated window; an
+ * output window found one step on from a lower neighbour's source position needs no table
+ * lookup, and one absent from the source mostly none: a bit filter). */
 typedef struct gs_measure_copy {
     int window;                     /* k */
     int64_t positions;              /* output window positions */
@@ -356,6 +358,12 @@ typedef struct gs_measure_copy {
 } gs_measure_copy;
 gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                         const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m);
+/* The same figures with every output window looked up in the source's
+ * table (no continuation of a neighbour's source position, no filter of
+ * absent windows): slower, the reference gs_measure_copy3 is tested against. */
+gs_err gs_measure_copy3_reference(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                                  const int64_t sn[3], int k, int64_t large, int cell,
+                                  gs_measure_copy *m);
 
 /* Large-scale repetition of a height map out (onx x ony, x fastest)
  * against its example src (snx x sny): "the same mountain twice", which

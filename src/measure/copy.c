@@ -7,7 +7,14 @@
  * mistakes a collision for a copy. Regions are joined with a union-find over
  * the output positions (parent array, path halving). A window the source
  * repeats continues a lower neighbour's offset when the source agrees there
- * (checked byte by byte), so a copy of a repetitive source is seen whole. */
+ * (checked byte by byte), so a copy of a repetitive source is seen whole.
+ * Speed (#19: the table is larger than the caches, its lookups were most of
+ * the cost): an output window equal to the source's one step on from where
+ * a lower neighbour's window was found takes that source position's entry
+ * (recorded when the table was built), and a filter of one bit per hash
+ * class (in cache) skips the lookup of most windows absent from the source;
+ * the figures are those of looking every window up
+ * (gs_measure_copy3_reference). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -133,12 +140,56 @@ static inline uint64_t win_hash(const uint8_t *g, const int64_t n[3], int64_t ba
 static int win_equal(const uint8_t *a, const int64_t an[3], int64_t ab, const uint8_t *b,
                      const int64_t bn[3], int64_t bb, int k)
 {
+    if (k == 4) { /* the engine's window: 32-bit rows, no library call */
+        uint32_t diff = 0;
+        for (int c = 0; c < 4; c++)
+            for (int r = 0; r < 4; r++) {
+                uint32_t ra, rb;
+                memcpy(&ra, a + ab + an[0] * (r + an[1] * c), 4);
+                memcpy(&rb, b + bb + bn[0] * (r + bn[1] * c), 4);
+                diff |= ra ^ rb;
+            }
+        return diff == 0;
+    }
     for (int c = 0; c < k; c++)
         for (int r = 0; r < k; r++)
             if (memcmp(a + ab + an[0] * (r + an[1] * c), b + bb + bn[0] * (r + bn[1] * c),
                        (size_t)k))
                 return 0;
     return 1;
+}
+
+/* The window position (x fastest over sp) of the window at sample index b. */
+static inline int64_t win_index(int64_t b, const int64_t sn[3], const int64_t sp[3])
+{
+    return b % sn[0] + sp[0] * (b / sn[0] % sn[1] + sp[1] * (b / (sn[0] * sn[1])));
+}
+
+/* Values of the lower x, y, z neighbours of plane position pi (cur: this
+ * plane, prev: the one below; -1 outside), and the coordinates of window
+ * position i. */
+static inline void lower_neighbours(const int64_t *cur, const int64_t *prev, int64_t pi, int64_t x,
+                                    int64_t y, int64_t z, int64_t row, int64_t nb[3])
+{
+    nb[0] = x > 0 ? cur[pi - 1] : -1;
+    nb[1] = y > 0 ? cur[pi - row] : -1;
+    nb[2] = z > 0 ? prev[pi] : -1;
+}
+
+static inline void win_coords(int64_t i, const int64_t sp[3], int64_t t[3])
+{
+    t[0] = i % sp[0], t[1] = i / sp[0] % sp[1], t[2] = i / (sp[0] * sp[1]);
+}
+
+/* The table's entry holding the window of g at base, or NULL. */
+static const win_entry *lookup(const win_entry *tab, size_t cap, uint64_t h, const uint8_t *src,
+                               const int64_t sn[3], const uint8_t *g, const int64_t gn[3],
+                               int64_t base, int k)
+{
+    for (size_t i = (size_t)h & (cap - 1); tab[i].count; i = (i + 1) & (cap - 1))
+        if (tab[i].h == h && win_equal(src, sn, tab[i].pos, g, gn, base, k))
+            return &tab[i];
+    return NULL;
 }
 
 static uint32_t uf_find(uint32_t *p, uint32_t x)
@@ -219,8 +270,12 @@ static gs_err find_periods(const win_entry *tab, size_t cap, const uint8_t *src,
     return GS_OK;
 }
 
-gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
-                        const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m)
+/* fast: an output window found one step on from a lower neighbour's source
+ * position takes that position's entry, and a filter skips most absent
+ * windows; 0: every output window is looked up in the table (the reference) */
+static gs_err copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                    const int64_t sn[3], int k, int64_t large, int cell, int fast,
+                    gs_measure_copy *m)
 {
     memset(m, 0, sizeof *m);
     m->window = k;
@@ -248,10 +303,15 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
     win_entry *tab = NULL;
     uint32_t *parent = NULL, *sizes = NULL;
     int64_t *opos = NULL; /* matched source position of the two planes in flight */
+    int64_t *fpos = NULL; /* and a source position holding the same window (a prediction) */
+    uint32_t *first = NULL; /* per source position: its window's entry (first occurrence), or none */
     uint8_t *used = NULL, *uniq = NULL;
+    uint64_t *seen = NULL; /* one bit per hash value class: a window absent from the source
+                              is mostly known absent without a probe of the (large) table */
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&tab, cap, sizeof *tab, "copy measure: window table"), done);
     memset(tab, 0, cap * sizeof *tab);
+    GS_TRY(err, gs_alloc_array((void **)&first, (size_t)ns, sizeof *first, "copy measure: entries"), done);
     periods P;
     memset(&P, 0, sizeof P);
     memcpy(P.sp, sp, sizeof P.sp);
@@ -267,6 +327,7 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                     int flat;
                     uint64_t h = win_hash(src, sn, base, k, mul, &flat);
                     size_t i = (size_t)h & (cap - 1);
+                    int64_t fp = x + sp[0] * (y + sp[1] * z);
                     for (;; i = (i + 1) & (cap - 1)) {
                         win_entry *e = &tab[i];
                         if (!e->count) {
@@ -276,9 +337,15 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                         if (e->h == h && win_equal(src, sn, e->pos, src, sn, base, k)) {
                             if (e->count++ == 1)
                                 e->pos2 = (uint32_t)base;
+                            fp = win_index(e->pos, sn, sp);
                             break;
                         }
                     }
+                    /* each source window's entry (pass 0 holds them all),
+                     * so an output window found at a source position (a
+                     * neighbour's continued) needs no lookup */
+                    if (!pass)
+                        first[x + sp[0] * (y + sp[1] * z)] = flat ? UINT32_MAX : (uint32_t)fp;
                 }
         /* periods: the translations between the first two occurrences of
          * repeated windows, most frequent first, that map the whole source
@@ -294,6 +361,16 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
         memset(tab, 0, cap * sizeof *tab);
     }
     m->periods = P.n;
+    /* the filter: 8 bits per table slot (>= 16 per source window), indexed
+     * by hash bits above the table's; exact (a set bit only means: probe) */
+    size_t seen_words = cap / 8;
+    GS_TRY(err, gs_alloc_array((void **)&seen, seen_words, sizeof *seen, "copy measure: window filter"), done);
+    memset(seen, 0, seen_words * sizeof *seen);
+    for (size_t i = 0; i < cap; i++)
+        if (tab[i].count) {
+            size_t b = (size_t)(tab[i].h >> 32) & (64 * seen_words - 1);
+            seen[b >> 6] |= 1ULL << (b & 63);
+        }
     for (int i = 0; i < P.n; i++) {
         int64_t l2 = P.v[i][0] * P.v[i][0] + P.v[i][1] * P.v[i][1] + P.v[i][2] * P.v[i][2];
         if (!m->shortest_period || (double)l2 < m->shortest_period * m->shortest_period)
@@ -307,10 +384,20 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
     int64_t nuniq = 0;
     for (size_t i = 0; i < cap; i++)
         if (tab[i].count == 1) {
-            int64_t b = tab[i].pos, x = b % sn[0], y = b / sn[0] % sn[1], z = b / (sn[0] * sn[1]);
-            uniq[x + sp[0] * (y + sp[1] * z)] = 1;
+            uniq[win_index(tab[i].pos, sn, sp)] = 1;
             nuniq++;
         }
+    /* a periodic source: the final table holds the reduced positions, so
+     * each position's entry is looked up */
+    for (int64_t z = 0; P.n && z < sp[2]; z++)
+        for (int64_t y = 0; y < sp[1]; y++)
+            for (int64_t x = 0; x < sp[0]; x++) {
+                int64_t base = x + sn[0] * (y + sn[1] * z);
+                int flat;
+                uint64_t h = win_hash(src, sn, base, k, mul, &flat);
+                const win_entry *e = flat ? NULL : lookup(tab, cap, h, src, sn, src, sn, base, k);
+                first[x + sp[0] * (y + sp[1] * z)] = e ? (uint32_t)win_index(e->pos, sn, sp) : UINT32_MAX;
+            }
     int64_t nred = ns;
     if (P.n) {
         nred = 0;
@@ -323,9 +410,11 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
     GS_TRY(err, gs_alloc_array((void **)&parent, (size_t)no, sizeof *parent, "copy measure: regions"), done);
     size_t plane = (size_t)(op[0] * op[1]);
     GS_TRY(err, gs_alloc_array((void **)&opos, 2 * plane, sizeof *opos, "copy measure: planes"), done);
+    GS_TRY(err, gs_alloc_array((void **)&fpos, 2 * plane, sizeof *fpos, "copy measure: planes"), done);
     int64_t matched = 0;
     for (int64_t z = 0; z < op[2]; z++) {
         int64_t *cur = opos + (z & 1) * plane, *prev = opos + ((z + 1) & 1) * plane;
+        int64_t *fcur = fpos + (z & 1) * plane, *fprev = fpos + ((z + 1) & 1) * plane;
         for (int64_t y = 0; y < op[1]; y++)
             for (int64_t x = 0; x < op[0]; x++) {
                 int64_t base = x + on[0] * (y + on[1] * z), pi = x + op[0] * y;
@@ -334,18 +423,41 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                 cur[pi] = -1;
                 int flat, via = 0;
                 uint64_t h = win_hash(out, on, base, k, mul, &flat);
-                const win_entry *e = NULL;
-                for (size_t i = (size_t)h & (cap - 1); !flat && tab[i].count; i = (i + 1) & (cap - 1))
-                    if (tab[i].h == h && win_equal(src, sn, tab[i].pos, out, on, base, k)) {
-                        e = &tab[i];
-                        break;
+                /* the window's entry, as its first occurrence (fi; once: its
+                 * only one): where a lower neighbour's window was found one
+                 * step on in the source (a copy continued: no lookup), else
+                 * looked up (the filter first: most absent windows) */
+                int64_t fi = -1;
+                fcur[pi] = -1;
+                if (!flat && fast) {
+                    int64_t nf[3], t[3];
+                    lower_neighbours(fcur, fprev, pi, x, y, z, op[0], nf);
+                    for (int a = 0; a < 3 && fcur[pi] < 0; a++) {
+                        if (nf[a] < 0)
+                            continue;
+                        win_coords(nf[a], sp, t);
+                        if (++t[a] >= sp[a])
+                            continue;
+                        if (win_equal(src, sn, t[0] + sn[0] * (t[1] + sn[1] * t[2]), out, on, base, k)) {
+                            int64_t tp = t[0] + sp[0] * (t[1] + sp[1] * t[2]);
+                            fcur[pi] = tp;
+                            fi = first[tp] == UINT32_MAX ? -1 : (int64_t)first[tp];
+                        }
                     }
-                if (e && e->count == 1) {
-                    int64_t b = e->pos, sx = b % sn[0], sy = b / sn[0] % sn[1], sz = b / (sn[0] * sn[1]);
-                    cur[pi] = sx + sp[0] * (sy + sp[1] * sz);
+                }
+                if (!flat && fcur[pi] < 0) {
+                    size_t sb = (size_t)(h >> 32) & (64 * seen_words - 1);
+                    const win_entry *e = !fast || (seen[sb >> 6] >> (sb & 63)) & 1
+                                             ? lookup(tab, cap, h, src, sn, out, on, base, k)
+                                             : NULL; /* else not in the source */
+                    if (e)
+                        fcur[pi] = fi = win_index(e->pos, sn, sp);
+                }
+                if (fi >= 0 && uniq[fi]) {
+                    cur[pi] = fi;
                     used[cur[pi]] = 1;
                     matched++;
-                } else if (e) {
+                } else if (fi >= 0) {
                     /* a window that occurs more than once in the source (most
                      * of a repetitive one's, grid.ini's): it continues the
                      * offset of a lower neighbour whose source position one
@@ -353,12 +465,12 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                      * first occurrence. So a verbatim copy of a repetitive
                      * source stays one region wherever its windows are
                      * ambiguous, and an offset chain is still exact */
-                    int64_t nbs[3] = {x > 0 ? cur[pi - 1] : -1, y > 0 ? cur[pi - op[0]] : -1,
-                                      z > 0 ? prev[pi] : -1};
+                    int64_t nbs[3], t[3];
+                    lower_neighbours(cur, prev, pi, x, y, z, op[0], nbs);
                     for (int a = 0; a < 3 && cur[pi] < 0; a++) {
                         if (nbs[a] < 0)
                             continue;
-                        int64_t t[3] = {nbs[a] % sp[0], nbs[a] / sp[0] % sp[1], nbs[a] / (sp[0] * sp[1])};
+                        win_coords(nbs[a], sp, t);
                         t[a]++;
                         int64_t ti = P.n ? reduce(&P, t)
                                          : outside(&P, t) ? -2 : t[0] + sp[0] * (t[1] + sp[1] * t[2]);
@@ -368,10 +480,8 @@ gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *
                         if (win_equal(src, sn, tb, out, on, base, k))
                             cur[pi] = ti, via = 1 << a;
                     }
-                    if (cur[pi] < 0) {
-                        int64_t b = e->pos, sx = b % sn[0], sy = b / sn[0] % sn[1], sz = b / (sn[0] * sn[1]);
-                        cur[pi] = sx + sp[0] * (sy + sp[1] * sz);
-                    }
+                    if (cur[pi] < 0)
+                        cur[pi] = fi;
                 }
                 int64_t s = cur[pi];
                 if (s < 0)
@@ -454,5 +564,21 @@ done:
     gs_free(opos);
     gs_free(used);
     gs_free(uniq);
+    gs_free(seen);
+    gs_free(first);
+    gs_free(fpos);
     return err;
+}
+
+gs_err gs_measure_copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                        const int64_t sn[3], int k, int64_t large, int cell, gs_measure_copy *m)
+{
+    return copy3(out, on, src, sn, k, large, cell, 1, m);
+}
+
+gs_err gs_measure_copy3_reference(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                                  const int64_t sn[3], int k, int64_t large, int cell,
+                                  gs_measure_copy *m)
+{
+    return copy3(out, on, src, sn, k, large, cell, 0, m);
 }

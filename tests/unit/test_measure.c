@@ -787,6 +787,111 @@ static void test_copy_repetitive(void **state)
     free(out);
 }
 
+/* gs_measure_copy3 (an output window continuing a neighbour's source
+ * position takes that position's entry; a filter skips absent windows)
+ * gives the figures of gs_measure_copy3_reference (every window looked up),
+ * bit for bit: sources of blocky low-entropy values with flat zones, a
+ * repeated cell with defects, a periodic (face-centred) pattern; outputs of
+ * blocks copied from random offsets of random sizes, with flat blocks and
+ * sprinkled changed samples, and shifted tilings; windows 3 and 4. */
+static void test_copy_reference(void **state)
+{
+    (void)state;
+    enum { S = 28, O = 44 };
+    uint8_t *src = malloc(S * S * S), *out = malloc(O * O * O), cell[8 * 8 * 8], rnd[4];
+    assert_non_null(src);
+    assert_non_null(out);
+    uint64_t r = 2026;
+    const int64_t sn[3] = {S, S, S}, on[3] = {O, O, O};
+    int compared = 0;
+    for (int kind = 0; kind < 3; kind++) {
+        lcg_bytes(cell, sizeof cell, &r);
+        for (int64_t z = 0; z < S; z++)
+            for (int64_t y = 0; y < S; y++)
+                for (int64_t x = 0; x < S; x++) {
+                    uint8_t *v = &src[x + S * (y + S * z)];
+                    if (kind == 0) { /* 2^3 cells of 3 levels, a flat slab */
+                        *v = z >= 20 ? 7 : (uint8_t)(cell[x / 2 % 8 + 8 * (y / 2 % 8 + 8 * (z / 2 % 8))] % 3);
+                        if (x / 2 >= 8 || y / 2 >= 8) {
+                            lcg_bytes(rnd, 1, &r);
+                            *v = z >= 20 ? 7 : (uint8_t)(rnd[0] % 3);
+                        }
+                    } else if (kind == 1) { /* repeated cell */
+                        *v = cell[x % 8 + 8 * (y % 8 + 8 * (z % 8))];
+                    } else { /* periodic: face-centred with period 8 */
+                        int64_t a = (x + y) % 8, b = (x - y + 8 * S) % 8;
+                        *v = cell[a / 2 + 4 * (b / 2) + 16 * (z % 4)];
+                    }
+                }
+        if (kind == 1)
+            for (int i = 0; i < 5; i++) { /* defects */
+                lcg_bytes(rnd, 3, &r);
+                src[rnd[0] % S + S * (rnd[1] % S + S * (rnd[2] % S))] += 101;
+            }
+        for (int shape = 0; shape < 2; shape++) {
+            if (shape == 0) { /* random blocks from random offsets, flat ones, noise */
+                for (int64_t z0 = 0; z0 < O;) {
+                    lcg_bytes(rnd, 1, &r);
+                    int64_t dz = 3 + rnd[0] % 10;
+                    for (int64_t y0 = 0; y0 < O;) {
+                        lcg_bytes(rnd, 1, &r);
+                        int64_t dy = 3 + rnd[0] % 10;
+                        for (int64_t x0 = 0; x0 < O;) {
+                            lcg_bytes(rnd, 4, &r);
+                            int64_t dx = 3 + rnd[0] % 10, ox = rnd[1] % (S - 12), oy = rnd[2] % (S - 12),
+                                    oz = rnd[3] % (S - 12);
+                            int flat = rnd[0] % 7 == 0;
+                            for (int64_t z = z0; z < z0 + dz && z < O; z++)
+                                for (int64_t y = y0; y < y0 + dy && y < O; y++)
+                                    for (int64_t x = x0; x < x0 + dx && x < O; x++)
+                                        out[x + O * (y + O * z)] =
+                                            flat ? 7
+                                                 : src[ox + x - x0 + S * (oy + y - y0 + S * (oz + z - z0))];
+                            x0 += dx;
+                        }
+                        y0 += dy;
+                    }
+                    z0 += dz;
+                }
+                for (int i = 0; i < O * O * O / 100; i++) {
+                    lcg_bytes(rnd, 4, &r);
+                    out[rnd[0] % O + O * (rnd[1] % O + O * (rnd[2] % O))] = rnd[3] % 4;
+                }
+            } else { /* shifted tilings of a 20^3 piece */
+                lcg_bytes(rnd, 3, &r);
+                for (int64_t z = 0; z < O; z++)
+                    for (int64_t y = 0; y < O; y++)
+                        for (int64_t x = 0; x < O; x++)
+                            out[x + O * (y + O * z)] =
+                                src[rnd[0] % 8 + x % 20 + S * (rnd[1] % 8 + y % 20 + S * (rnd[2] % 8 + z % 20))];
+            }
+            for (int k = 3; k <= 4; k++) {
+                gs_measure_copy a, b;
+                assert_int_equal(gs_measure_copy3(out, on, src, sn, k, 27, 4, &a), GS_OK);
+                assert_int_equal(gs_measure_copy3_reference(out, on, src, sn, k, 27, 4, &b), GS_OK);
+                printf("copy kind %d shape %d k %d: matched %.4f regions %lld largest %lld "
+                       "periods %d\n", kind, shape, k, a.matched_share, (long long)a.regions,
+                       (long long)a.largest_region, a.periods);
+                assert_int_equal(a.window, b.window);
+                assert_int_equal(a.positions, b.positions);
+                assert_true(a.matched_share == b.matched_share);
+                assert_int_equal(a.regions, b.regions);
+                assert_int_equal(a.largest_region, b.largest_region);
+                assert_true(a.largest_region_of_source == b.largest_region_of_source);
+                assert_true(a.large_share == b.large_share);
+                assert_true(a.completeness == b.completeness);
+                assert_true(a.source_unique_share == b.source_unique_share);
+                assert_int_equal(a.periods, b.periods);
+                assert_true(a.shortest_period == b.shortest_period);
+                compared++;
+            }
+        }
+    }
+    assert_int_equal(compared, 12);
+    free(src);
+    free(out);
+}
+
 /* A flat grid mesh of n x n quads (edge h, two triangles each) in the xy
  * plane, and a labelling by whether the vertex lies inside radius r(theta)
  * about the centre. */
@@ -969,6 +1074,7 @@ int main(void)
         cmocka_unit_test(test_layout),
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
+        cmocka_unit_test(test_copy_reference),
         cmocka_unit_test(test_outline),
         cmocka_unit_test(test_repeats),
         cmocka_unit_test(test_window_share),
