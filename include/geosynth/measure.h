@@ -73,6 +73,13 @@ void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, 
 gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, double radius,
                                    uint32_t *label, uint32_t *ncomp, uint64_t **sizes);
 
+/* Distance from each point of a cloud (xyz, stride doubles apart, n
+ * points) to its nearest other point, into dist[i]; INFINITY when none lies
+ * within radius (the cell size of the search). Coincident points give 0.
+ * Cost O(n) cells of radius (27 around each point). */
+gs_err gs_measure_point_nearest(const double *xyz, size_t stride, size_t n, double radius,
+                                double *dist);
+
 /* Pieces of a point cloud inside the xy box [lo, hi): the components
  * (gs_measure_point_components, link radius) of the points inside it,
  * except those with a point within radius of one of its four sides: a

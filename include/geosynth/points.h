@@ -388,6 +388,9 @@ typedef struct gs_points_params {
                               lying wholly in the overlap strips or within the link radius
                               outside their seam edges (a safety net after the blend; the
                               count is gs_points_synth_strip_specks) */
+    int strip_resample;   /* 1: the finish resamples the overlap strips as dart throwing
+                             sampled the example (synth.c resample_strips); 0: the strips'
+                             points as the blend and relaxation leave them */
     int objects;          /* 1: the example's disconnected objects (components no wider than
                              a patch core, away from its edges, of at least
                              GS_POINTS_SPECK_POINTS points) are pasted whole or not at
@@ -510,6 +513,10 @@ size_t gs_points_synth_input_patches(const gs_points_synth *s);
 /* Pieces and points the finish dropped as strip specks (params
  * drop_strip_specks; 0 before gs_points_synth_finish or when off). */
 void gs_points_synth_strip_specks(const gs_points_synth *s, uint64_t *pieces, uint64_t *points);
+/* Whether p (output coordinates, z up, as gs_points_synth_finish gives
+ * them) lies in an overlap strip of the output, where a patch was blended
+ * with what was there (or within the link radius outside its seam edge). */
+int gs_points_synth_in_strip(const gs_points_synth *s, const double p[3]);
 
 /* Whether input patch `chosen` for output patch k continues the source of
  * its left or bottom neighbour verbatim (the example's next patch along x

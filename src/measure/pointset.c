@@ -84,6 +84,42 @@ static gs_err cell_neighbours(const cell_key *k, const long (*cc)[3], const doub
     return GS_OK;
 }
 
+/* The cells (side radius) of n points: each point's integer cell *cc and
+ * the keys *k sorted by cell (both gs_malloc'ed); what names the caller in
+ * errors. */
+static gs_err point_cells(const double *xyz, size_t stride, size_t n, double radius,
+                          const char *what, cell_key **k, long (**cc)[3])
+{
+    *k = NULL;
+    *cc = NULL;
+    double lo[3] = {INFINITY, INFINITY, INFINITY};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            lo[a] = fmin(lo[a], xyz[i * stride + a]);
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            GS_CHECK(isfinite(xyz[i * stride + a]) &&
+                         (xyz[i * stride + a] - lo[a]) / radius < (double)(1L << 19),
+                     GS_ERR_ARG, "%s: point %zu is not finite or too far out", what, i);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)k, n ? n : 1, sizeof **k, "point cells"), fail);
+    GS_TRY(err, gs_alloc_array((void **)cc, n ? n : 1, sizeof **cc, "point cells"), fail);
+    for (size_t i = 0; i < n; i++) {
+        for (int a = 0; a < 3; a++)
+            (*cc)[i][a] = (long)floor((xyz[i * stride + a] - lo[a]) / radius);
+        (*k)[i].cell = cell_code((*cc)[i][0], (*cc)[i][1], (*cc)[i][2]);
+        (*k)[i].idx = (uint32_t)i;
+    }
+    qsort(*k, n, sizeof **k, cell_key_cmp);
+    return GS_OK;
+fail:
+    gs_free(*k);
+    gs_free(*cc);
+    *k = NULL;
+    *cc = NULL;
+    return err;
+}
+
 gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, double radius,
                                    uint32_t *label, uint32_t *ncomp, uint64_t **sizes)
 {
@@ -95,32 +131,16 @@ gs_err gs_measure_point_components(const double *xyz, size_t stride, size_t n, d
     *ncomp = 0;
     if (sizes)
         *sizes = NULL;
-    double lo[3] = {INFINITY, INFINITY, INFINITY};
-    for (size_t i = 0; i < n; i++)
-        for (int a = 0; a < 3; a++)
-            lo[a] = fmin(lo[a], xyz[i * stride + a]);
-    for (size_t i = 0; i < n; i++)
-        for (int a = 0; a < 3; a++)
-            GS_CHECK(isfinite(xyz[i * stride + a]) &&
-                         (xyz[i * stride + a] - lo[a]) / radius < (double)(1L << 19),
-                     GS_ERR_ARG, "point components: point %zu is not finite or too far out", i);
     cell_key *k = NULL;
     uint32_t *par = NULL, *first = NULL, *nb = NULL;
     size_t nbcap = 0;
     uint64_t *sz = NULL;
     long (*cc)[3] = NULL;
     gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&k, n ? n : 1, sizeof *k, "point cells"), done);
+    GS_TRY(err, point_cells(xyz, stride, n, radius, "point components", &k, &cc), done);
     GS_TRY(err, gs_alloc_array((void **)&par, n ? n : 1, sizeof *par, "point components"), done);
-    GS_TRY(err, gs_alloc_array((void **)&cc, n ? n : 1, sizeof *cc, "point cells"), done);
-    for (size_t i = 0; i < n; i++) {
-        for (int a = 0; a < 3; a++)
-            cc[i][a] = (long)floor((xyz[i * stride + a] - lo[a]) / radius);
-        k[i].cell = cell_code(cc[i][0], cc[i][1], cc[i][2]);
-        k[i].idx = (uint32_t)i;
+    for (size_t i = 0; i < n; i++)
         par[i] = (uint32_t)i;
-    }
-    qsort(k, n, sizeof *k, cell_key_cmp);
     double r2 = radius * radius;
     /* Each point against the points of the 27 cells around it (binary
      * search for each cell's run in the sorted keys). */
@@ -164,6 +184,40 @@ done:
     gs_free(first);
     gs_free(nb);
     gs_free(sz);
+    return err;
+}
+
+gs_err gs_measure_point_nearest(const double *xyz, size_t stride, size_t n, double radius,
+                                double *dist)
+{
+    GS_CHECK(radius > 0 && isfinite(radius), GS_ERR_ARG,
+             "point nearest: radius %g, expected > 0", radius);
+    GS_CHECK(n < UINT32_MAX && stride >= 3, GS_ERR_ARG,
+             "point nearest: %zu points with stride %zu, expected < 2^32 and stride >= 3", n,
+             stride);
+    cell_key *k = NULL;
+    uint32_t *nb = NULL;
+    size_t nbcap = 0;
+    long (*cc)[3] = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, point_cells(xyz, stride, n, radius, "point nearest", &k, &cc), done);
+    for (size_t i = 0; i < n; i++) {
+        size_t m;
+        GS_TRY(err, cell_neighbours(k, (const long (*)[3])cc, xyz, stride, n, i, radius * radius,
+                                    0, &nb, &nbcap, &m), done);
+        double best = INFINITY;
+        const double *p = xyz + i * stride;
+        for (size_t j = 0; j < m; j++) {
+            const double *o = xyz + (size_t)nb[j] * stride;
+            double d0 = p[0] - o[0], d1 = p[1] - o[1], d2 = p[2] - o[2];
+            best = fmin(best, d0 * d0 + d1 * d1 + d2 * d2);
+        }
+        dist[i] = sqrt(best);
+    }
+done:
+    gs_free(cc);
+    gs_free(k);
+    gs_free(nb);
     return err;
 }
 

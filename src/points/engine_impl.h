@@ -52,7 +52,7 @@ typedef struct points_config {
     int warp_height_bound;
     char *choices; /* points.choices: a patches.csv, "" = none */
     int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, blend_implicit,
-        drop_strip_specks, warp_select, objects;
+        drop_strip_specks, strip_resample, warp_select, objects;
     /* [output] */
     int write_points;
     char *ply_format;
@@ -139,6 +139,13 @@ typedef struct objects_stats {
     uint32_t small_fragments, example_small_fragments; /* of < GS_POINTS_SPECK_POINTS points */
     uint64_t small_fragment_points;
     double density[2], example_density[2]; /* pieces, specks per unit area (minus-sampling) */
+    /* Nearest-neighbour spacing (points 2 spacings in from the border): of the
+     * strip points [0] and the others [1] (gs_points_synth_in_strip), the
+     * example's inside its box; shares closer than half the spacing and
+     * farther than the link radius (2 spacings), KS against the example's. */
+    uint64_t nn_points[2];
+    double nn_close[2], nn_far[2], nn_ks[2], nn_median[2];
+    double example_nn_close, example_nn_far, example_nn_median, example_nn_ks_halves;
 } objects_stats;
 
 typedef struct run_state {

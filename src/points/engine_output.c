@@ -246,6 +246,86 @@ static gs_err count_fragments(const gs_points *pts, double r, const double *lo, 
     return GS_OK;
 }
 
+static int dbl_cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Shares of v[0, n) below lo and above hi, and its median (sorts v). */
+static void nn_figures(double *v, size_t n, double lo, double hi, double *close, double *far,
+                       double *median)
+{
+    size_t a = 0, b = 0;
+    for (size_t i = 0; i < n; i++) {
+        a += v[i] < lo;
+        b += v[i] > hi;
+    }
+    *close = n ? (double)a / (double)n : 0;
+    *far = n ? (double)b / (double)n : 0;
+    qsort(v, n, sizeof *v, dbl_cmp);
+    *median = n ? v[n / 2] : 0;
+}
+
+/* The nearest-neighbour spacing of the output's strip points and of its
+ * other points against the example's (objects_stats nn_*): each point's
+ * distance to its nearest other point, for the points at least the link
+ * radius (2 spacings) in from the border (output) or the box's sides
+ * (example; their neighbours beyond counted). What the blend leaves shows
+ * there: points packed closer than the example's dart radius, or alone. */
+static gs_err spacing_measures(run_state *rs, const gs_points *zup)
+{
+    objects_stats *o = &rs->obj;
+    const gs_points_texture *t = &rs->tex;
+    double sp = t->spacing, link = 2 * sp, reach = 4 * sp;
+    double *d = NULL, *v[2] = {NULL, NULL}, *e = NULL, *h[2] = {NULL, NULL};
+    size_t nv[2] = {0, 0}, ne = 0, nh[2] = {0, 0};
+    size_t nmax = zup->n > t->pts.n ? zup->n : t->pts.n;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&d, nmax ? nmax : 1, sizeof *d, "spacing"), done);
+    for (int k = 0; k < 2; k++) {
+        GS_TRY(err, gs_alloc_array((void **)&v[k], nmax ? nmax : 1, sizeof *d, "spacing"), done);
+        GS_TRY(err, gs_alloc_array((void **)&h[k], nmax ? nmax : 1, sizeof *d, "spacing"), done);
+    }
+    GS_TRY(err, gs_alloc_array((void **)&e, nmax ? nmax : 1, sizeof *d, "spacing"), done);
+    GS_TRY(err, gs_measure_point_nearest((const double *)zup->v, 6, zup->n, reach, d), done);
+    const double *os = rs->params.out_size;
+    for (size_t i = 0; i < zup->n; i++) {
+        const double *p = zup->v[i].p;
+        if (p[0] < link || p[1] < link || p[0] > os[0] - link || p[1] > os[1] - link)
+            continue;
+        int k = gs_points_synth_in_strip(rs->synth, p) ? 0 : 1;
+        v[k][nv[k]++] = d[i];
+    }
+    GS_TRY(err, gs_measure_point_nearest((const double *)t->pts.v, 6, t->pts.n, reach, d), done);
+    double mid = 0.5 * (t->box_lo[0] + t->box_hi[0]);
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        if (p[0] < t->box_lo[0] + link || p[1] < t->box_lo[1] + link ||
+            p[0] > t->box_hi[0] - link || p[1] > t->box_hi[1] - link)
+            continue;
+        e[ne++] = d[i];
+        int k = p[0] < mid ? 0 : 1;
+        h[k][nh[k]++] = d[i];
+    }
+    for (int k = 0; k < 2; k++) {
+        o->nn_points[k] = nv[k];
+        GS_TRY(err, gs_measure_ks(v[k], nv[k], e, ne, &o->nn_ks[k]), done);
+        nn_figures(v[k], nv[k], 0.5 * sp, link, &o->nn_close[k], &o->nn_far[k], &o->nn_median[k]);
+    }
+    GS_TRY(err, gs_measure_ks(h[0], nh[0], h[1], nh[1], &o->example_nn_ks_halves), done);
+    nn_figures(e, ne, 0.5 * sp, link, &o->example_nn_close, &o->example_nn_far,
+               &o->example_nn_median);
+done:
+    gs_free(d);
+    gs_free(e);
+    for (int k = 0; k < 2; k++) {
+        gs_free(v[k]);
+        gs_free(h[k]);
+    }
+    return err;
+}
+
 /* Heights (KS against the example's inside its box) and fragments. */
 static gs_err object_measures(run_state *rs, const gs_points *zup)
 {
@@ -294,6 +374,7 @@ static gs_err object_measures(run_state *rs, const gs_points *zup)
                                 &o->small_fragment_points, o->density), done);
     GS_TRY(err, count_fragments(&t->pts, r, t->box_lo, t->box_hi, &o->example_fragments,
                                 &o->example_small_fragments, NULL, o->example_density), done);
+    GS_TRY(err, spacing_measures(rs, zup), done);
 done:
     gs_free(hx);
     gs_free(hy);
@@ -521,6 +602,24 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
     gs_run_metric_i64(run, "small_fragment_points", (int64_t)ob->small_fragment_points);
     gs_run_metric_f64(run, "small_fragments_per_area", ob->density[1]);
     gs_run_metric_f64(run, "example_small_fragments_per_area", ob->example_density[1]);
+    static const char *const part[2] = {"strip", "inside"};
+    for (int k = 0; k < 2; k++) {
+        char key[64];
+        snprintf(key, sizeof key, "nn_points_%s", part[k]);
+        gs_run_metric_i64(run, key, (int64_t)ob->nn_points[k]);
+        snprintf(key, sizeof key, "nn_close_%s", part[k]);
+        gs_run_metric_f64(run, key, ob->nn_close[k]);
+        snprintf(key, sizeof key, "nn_far_%s", part[k]);
+        gs_run_metric_f64(run, key, ob->nn_far[k]);
+        snprintf(key, sizeof key, "nn_median_%s", part[k]);
+        gs_run_metric_f64(run, key, ob->nn_median[k]);
+        snprintf(key, sizeof key, "nn_ks_%s", part[k]);
+        gs_run_metric_f64(run, key, ob->nn_ks[k]);
+    }
+    gs_run_metric_f64(run, "example_nn_close", ob->example_nn_close);
+    gs_run_metric_f64(run, "example_nn_far", ob->example_nn_far);
+    gs_run_metric_f64(run, "example_nn_median", ob->example_nn_median);
+    gs_run_metric_f64(run, "example_nn_ks_halves", ob->example_nn_ks_halves);
     gs_run_metric_f64(run, "search_seconds", tm.search);
     gs_run_metric_f64(run, "warp_seconds", tm.warp);
     gs_run_metric_f64(run, "blend_seconds", tm.blend);

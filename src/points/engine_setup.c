@@ -56,6 +56,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->blend_fill = c->blend_fill;
     p->blend_implicit = c->blend_implicit;
     p->drop_strip_specks = c->drop_strip_specks;
+    p->strip_resample = c->strip_resample;
     p->objects = c->objects;
     p->warp_select = c->warp_select;
     p->relax_iterations = (int)c->relax_iterations;
