@@ -92,6 +92,11 @@ static const gs_cfg_key points_keys[] = {
                     "each patch takes the spline of the pairs, the spline of their normal parts, "
                     "or no warp, whichever leaves it closest to the output in the overlap "
                     "(false = always the pairs' spline, the paper's)"),
+    GS_CFG_KEY_BOOL(PC, warp_select_seams, "points.warp_select_seams", "true",
+                    "with warp_select: each of the three is blended and the one whose seams "
+                    "with the output are best (distance and normal angle, each over no warp's) "
+                    "is pasted; false = judged by the gap before the blend (the patch's blend "
+                    "runs once, not three times)"),
     GS_CFG_KEY_PATH(PC, choices, "points.choices", "",
                     "patches.csv of an earlier run (output.patch_metrics) with the same example "
                     "and sizes: each patch takes the source patch that run chose (the search "

@@ -52,7 +52,7 @@ typedef struct points_config {
     int warp_height_bound;
     char *choices; /* points.choices: a patches.csv, "" = none */
     int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, blend_implicit,
-        drop_strip_specks, strip_resample, warp_select, objects;
+        drop_strip_specks, strip_resample, warp_select, warp_select_seams, objects;
     /* [output] */
     int write_points;
     char *ply_format;

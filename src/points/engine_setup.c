@@ -59,6 +59,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->strip_resample = c->strip_resample;
     p->objects = c->objects;
     p->warp_select = c->warp_select;
+    p->warp_select_seams = c->warp_select_seams;
     p->relax_iterations = (int)c->relax_iterations;
     p->seed = (uint64_t)c->run.seed;
     gs_points_params_complete(lx, ly, spacing, p);

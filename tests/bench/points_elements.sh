@@ -162,6 +162,7 @@ declare -A VAR=(
   [no_blend]="--set points.blend=false"
   [no_random]="--set points.eps=0"
   [unbounded_same]="--set points.warp_height_bound=false --set points.choices=CHOICES"
+  [gap_select_same]="--set points.warp_select_seams=false --set points.choices=CHOICES"
 )
 list=$work/runs.tsv
 : >"$list"
