@@ -223,6 +223,54 @@ static void test_point_pieces(void **state)
     free(p);
 }
 
+/* Nearest other point against brute force: random points (stride 6, as the
+ * points engine stores xyz + normal) in a box a few radii wide, so some
+ * points have no neighbour within the radius (INFINITY), a duplicated point
+ * (0), one point alone (INFINITY), and a bad radius refused. */
+static void test_point_nearest(void **state)
+{
+    (void)state;
+    enum { N = 700, S = 6 };
+    double *p = malloc(N * S * sizeof *p), *d = malloc(N * sizeof *d);
+    uint64_t x = 88172645463325252ull;
+    for (size_t i = 0; i < N * S; i++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        p[i] = (double)(x >> 11) / 9007199254740992.0 * 2.0 - 0.5;
+    }
+    memcpy(p + 5 * S, p + 9 * S, 3 * sizeof *p); /* point 5 on point 9 */
+    const double radii[] = {0.05, 0.12, 0.3};
+    for (size_t t = 0; t < sizeof radii / sizeof radii[0]; t++) {
+        double r = radii[t];
+        assert_int_equal(gs_measure_point_nearest(p, S, N, r, d), GS_OK);
+        size_t none = 0;
+        for (size_t i = 0; i < N; i++) {
+            double best = INFINITY;
+            for (size_t j = 0; j < N; j++) {
+                if (j == i)
+                    continue;
+                double a = p[i * S] - p[j * S], b = p[i * S + 1] - p[j * S + 1],
+                       c = p[i * S + 2] - p[j * S + 2], e = sqrt(a * a + b * b + c * c);
+                best = e < best ? e : best;
+            }
+            if (best > r) {
+                assert_true(isinf(d[i]));
+                none++;
+            } else {
+                assert_true(fabs(d[i] - best) < 1e-12);
+            }
+        }
+        assert_true(d[5] == 0.0 && d[9] == 0.0);
+        if (t == 0)
+            assert_true(none > 0); /* the small radius leaves points alone */
+    }
+    assert_int_equal(gs_measure_point_nearest(p, S, 1, 0.3, d), GS_OK);
+    assert_true(isinf(d[0]));
+    assert_int_equal(gs_measure_point_nearest(p, S, N, 0.0, d), GS_ERR_ARG);
+    assert_int_equal(gs_measure_point_nearest(p, 2, N, 0.1, d), GS_ERR_ARG);
+    free(p);
+    free(d);
+}
+
 /* Seams from patch ids: a plane z = 0 sampled on a grid, split at x = 1 into
  * patches 0 and 1. Patch 1 raised by dz: the seam points see the other
  * patch's surface dz away and the inside sees a plane (0); not raised, the
@@ -1065,6 +1113,7 @@ int main(void)
         cmocka_unit_test(test_components),
         cmocka_unit_test(test_component_euler),
         cmocka_unit_test(test_point_pieces),
+        cmocka_unit_test(test_point_nearest),
         cmocka_unit_test(test_point_seams),
         cmocka_unit_test(test_point_seams_curved),
         cmocka_unit_test(test_preview),
