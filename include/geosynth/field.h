@@ -475,7 +475,10 @@ typedef struct gs_field_synth_config {
                                         the synthesized samples' volume fraction toward the
                                         level source's (the most inside first while the
                                         target is short of it, else the fewest; then the
-                                        tie_key order); needs region_blocks 0. 0 = off */
+                                        tie_key order); with target regions the volume
+                                        a region's block reads is its box's plus the samples
+                                        outside every box of its colour (src/field/synth.c
+                                        region_volume: the same for any rank count). 0 = off */
     int wrap;                        /* bit a set: the source is periodic along axis a (a
                                         tile): each iteration's source is continued by
                                         block - 1 samples of itself past its high face, so
@@ -705,6 +708,16 @@ typedef struct gs_field_geometry_report {
      * far chance goes. */
     int seam_period, seam_axes;
     double seam_ratio_out, seam_ratio_src_max;
+    /* layout of separate objects (gs_measure_object_layout, fused = 1.5;
+     * analysis/field_layout.py): for a height field (every sample of the
+     * source's bottom plane inside: layout_height_field = 1) the objects are
+     * the 4-connected components of the columns whose height (the inside
+     * extent along z, sum of clip(0.5 - d, 0, 1), d in samples) is below the
+     * mid-range of that map's heights (texture.ini's discs), else the
+     * 6-connected components of the core (deeper than one sample: balls that
+     * touch are apart there, as for field.complete_objects) */
+    int layout_height_field;
+    gs_measure_objlayout layout;
     double seconds;
 } gs_field_geometry_report;
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,

@@ -63,6 +63,32 @@ gs_err gs_measure_window_share_range(const uint8_t *mask, const int64_t n[3], co
 void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
                                  int64_t *euler);
 
+/* Layout of separate objects: the 6-connected components of the set samples
+ * of an output mask (on[0] x on[1] x on[2], x fastest) and of its example's
+ * (sn), their centres (mean sample position) and sizes (samples). An object
+ * that touches a face of its grid (an axis of one sample has none) is cut by
+ * the box: it counts as a neighbour but is not measured. Per measured
+ * object, nn = the distance of its centre to the nearest other object's
+ * centre. close_share: measured objects whose nn is below the example's
+ * smallest (crowded closer than any two in the example: clumps; the
+ * example's own 0); fused_share: measured objects larger than `fused` times
+ * the example's largest measured one (objects glued into one); nn_ks the KS
+ * distance of the two nn distributions. Quantiles: the sorted value at
+ * round(p (k - 1)). analysis/field_layout.py computes the same. Cost
+ * O(cells) plus the nearest-neighbour sweep (O(n log n) typically); memory
+ * 4 bytes per sample. (src/measure/layout.c) */
+typedef struct gs_measure_objlayout_side {
+    int64_t objects;        /* measured (inner) objects */
+    double nn_p10, nn_p50;  /* nearest-neighbour centre distance, samples */
+    double close_share, fused_share;
+} gs_measure_objlayout_side;
+typedef struct gs_measure_objlayout {
+    gs_measure_objlayout_side out, src;
+    double nn_ks;
+} gs_measure_objlayout;
+gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                                const int64_t sn[3], double fused, gs_measure_objlayout *r);
+
 /* Connected components of a point cloud: points i and j are linked when
  * |p_i - p_j| <= radius; point i is xyz[i * stride .. + 3) (stride >= 3
  * doubles, e.g. 6 for x y z nx ny nz). label[i] (n entries) receives the

@@ -23,10 +23,6 @@ static void validate_config(const void *cfg_, gs_cfg_ctx *ctx)
                           "axis %d = %lld: expected a multiple of 2^(iterations-1) = %lld and at "
                           "least field.block = %lld",
                           a, (long long)c->target[a], (long long)f, (long long)c->block);
-    if (c->keep_volume && c->region_blocks != 0)
-        gs_cfg_report(ctx, "field.keep_volume",
-                      "needs field.region_blocks = 0 (the volume so far is read in the raster "
-                      "order; regions run in parallel)");
     if (c->iterations > 1 && c->coarse_block * (f / 2) > c->target[0] && c->coarse_block * (f / 2) > c->target[1])
         gs_cfg_report(ctx, "field.coarse_block",
                       "%lld does not fit the target at the coarsest iteration (target / %lld)",
@@ -136,8 +132,9 @@ static const gs_cfg_key field_keys[] = {
                     "exact ties of a match (blocks equal where the query is known) go to the "
                     "blocks that bring the synthesized volume fraction toward the source's (the "
                     "most inside first while the output is short of it, else the fewest); the "
-                    "match stays an exact best; needs region_blocks = 0; no = off (ties by the "
-                    "seeded order)"),
+                    "match stays an exact best; with target regions a region reads the volume "
+                    "of its own box and of the samples outside its colour's boxes (any rank "
+                    "count gives one result); no = off (ties by the seeded order)"),
     GS_CFG_KEY_ENUM(field_config, wrap, "field.wrap", "none|xy|xyz", "none",
                     "the example as a tile: source blocks wrap around its faces along these "
                     "axes, so every source sample lies in as many candidate blocks (without it a "

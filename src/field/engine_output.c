@@ -401,6 +401,23 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_i64(run, "seam_axes", g->seam_axes);
     gs_run_metric_f64(run, "seam_ratio_out", g->seam_ratio_out);
     gs_run_metric_f64(run, "seam_ratio_src_max", g->seam_ratio_src_max);
+    gs_run_metric_i64(run, "layout_height_field", g->layout_height_field);
+    const gs_measure_objlayout_side *ls[2] = {&g->layout.out, &g->layout.src};
+    for (int k = 0; k < 2; k++) {
+        const char *tag = k ? "src" : "out";
+        char key[64];
+        snprintf(key, sizeof key, "layout_objects_%s", tag);
+        gs_run_metric_i64(run, key, ls[k]->objects);
+        snprintf(key, sizeof key, "layout_nn_p10_%s", tag);
+        gs_run_metric_f64(run, key, ls[k]->nn_p10);
+        snprintf(key, sizeof key, "layout_nn_p50_%s", tag);
+        gs_run_metric_f64(run, key, ls[k]->nn_p50);
+        snprintf(key, sizeof key, "layout_close_share_%s", tag);
+        gs_run_metric_f64(run, key, ls[k]->close_share);
+        snprintf(key, sizeof key, "layout_fused_share_%s", tag);
+        gs_run_metric_f64(run, key, ls[k]->fused_share);
+    }
+    gs_run_metric_f64(run, "layout_nn_ks", g->layout.nn_ks);
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
            "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "
@@ -435,6 +452,15 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
            g->inscribed_p10_src, g->inscribed_p50_src, g->inscribed_p90_src, g->inscribed_ks,
            (long long)g->crossing_slab, g->crossing_axis, g->crossing_share_out,
            g->crossing_share_src);
+    gs_log(GS_LOG_INFO,
+           "layout (%s): %lld objects (source %lld), nearest centre p10/p50 %.2f/%.2f samples "
+           "(source %.2f/%.2f), KS %.3f; closer than any two of the source %.3f, larger than "
+           "1.5x its largest %.3f",
+           g->layout_height_field ? "discs of the height map" : "cores",
+           (long long)g->layout.out.objects, (long long)g->layout.src.objects,
+           g->layout.out.nn_p10, g->layout.out.nn_p50, g->layout.src.nn_p10,
+           g->layout.src.nn_p50, g->layout.nn_ks, g->layout.out.close_share,
+           g->layout.out.fused_share);
 }
 
 /* The measures of one run, computed on one rank (field_output_op). */

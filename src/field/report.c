@@ -375,6 +375,70 @@ void gs_field_seam_ratios(const gs_qfield *q, int period, int axes, double *rati
     }
 }
 
+/* Whether q is a height field: every sample of its bottom plane inside. */
+static int height_field(const gs_qfield *q)
+{
+    for (int64_t i = 0; i < q->nx * q->ny; i++)
+        if (!(gs_qfield_value(q, q->q[i]) < 0))
+            return 0;
+    return 1;
+}
+
+/* The objects' mask of q (gs_field_geometry_report's layout): with height,
+ * the columns lower than the mid-range of q's heights (*m gets nx*ny
+ * samples, n = {nx, ny, 1}), else the core (deeper than one sample). The
+ * arithmetic is analysis/field_layout.py's: levels in samples, heights
+ * summed from z = 0 up. */
+static gs_err layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t n[3])
+{
+    int64_t nxy = q->nx * q->ny, cells = nxy * q->nz;
+    double d[256];
+    for (int i = 0; i < 256; i++)
+        d[i] = gs_qfield_value(q, (uint8_t)i) / q->spacing;
+    n[0] = q->nx, n[1] = q->ny, n[2] = height ? 1 : q->nz;
+    GS_CALL(gs_alloc_array((void **)m, (size_t)(height ? nxy : cells), 1, "object mask"));
+    if (!height) {
+        for (int64_t i = 0; i < cells; i++)
+            (*m)[i] = d[q->q[i]] < -1.0;
+        return GS_OK;
+    }
+    double *h = NULL;
+    gs_err err = gs_alloc_array((void **)&h, (size_t)nxy, sizeof *h, "column heights");
+    if (err != GS_OK) {
+        gs_free(*m);
+        *m = NULL;
+        return err;
+    }
+    memset(h, 0, (size_t)nxy * sizeof *h);
+    for (int64_t z = 0; z < q->nz; z++)
+        for (int64_t i = 0; i < nxy; i++) {
+            double v = 0.5 - d[q->q[i + nxy * z]];
+            h[i] += v < 0 ? 0 : v > 1 ? 1 : v;
+        }
+    double lo = h[0], hi = h[0];
+    for (int64_t i = 1; i < nxy; i++)
+        lo = h[i] < lo ? h[i] : lo, hi = h[i] > hi ? h[i] : hi;
+    for (int64_t i = 0; i < nxy; i++)
+        (*m)[i] = h[i] < (lo + hi) / 2;
+    gs_free(h);
+    return GS_OK;
+}
+
+static gs_err object_layout(const gs_qfield *out, const gs_qfield *src, gs_field_geometry_report *r)
+{
+    r->layout_height_field = height_field(src);
+    uint8_t *mo = NULL, *ms = NULL;
+    int64_t on[3], sn[3];
+    gs_err err = GS_OK;
+    GS_TRY(err, layout_mask(out, r->layout_height_field, &mo, on), done);
+    GS_TRY(err, layout_mask(src, r->layout_height_field, &ms, sn), done);
+    err = gs_measure_object_layout(mo, on, ms, sn, 1.5, &r->layout);
+done:
+    gs_free(mo);
+    gs_free(ms);
+    return err;
+}
+
 gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int B,
                                  gs_field_geometry_report *r)
 {
@@ -445,6 +509,7 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
         for (int p = 0; p < r->seam_period; p++)
             r->seam_ratio_src_max = ph[p] > r->seam_ratio_src_max ? ph[p] : r->seam_ratio_src_max;
     }
+    GS_TRY(err, object_layout(out, src, r), radii);
 radii:
     gs_free(ro);
     gs_free(rs);

@@ -59,6 +59,14 @@ struct gs_field_synth {
     uint8_t *tie_more, *tie_less;
     uint8_t inside[256];
     int64_t src_in, src_n, vol_in, vol_n;
+    /* keep_volume with target regions (region_volume): vol_in/vol_n hold
+     * region kv_region's counts (-1: none yet); kv_out_* the samples outside
+     * every box of colour kv_color of iteration kv_it; kv_mark marks those
+     * boxes (kv_cap samples) */
+    int64_t kv_region, kv_out_in, kv_out_n;
+    int kv_color, kv_it;
+    uint8_t *kv_mark;
+    size_t kv_cap;
     gs_field_tree_t tree;
     gs_field_searcher_t searcher;
     int64_t pos[3][4096];         /* visit positions per axis */
@@ -144,8 +152,6 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
              "field.repeat_span = %d: expected 0 (off) to 16 block positions", c->repeat_span);
     GS_CHECK(c->repeat_pairs >= 0 && c->repeat_pairs <= 15, GS_ERR_ARG,
              "field.repeat_pairs = %d: expected 0 (off) to 15 block positions", c->repeat_pairs);
-    GS_CHECK(!c->keep_volume || c->region_blocks == 0, GS_ERR_ARG,
-             "field.keep_volume needs region_blocks = 0 (got %d)", c->region_blocks);
     GS_CHECK(c->region_blocks >= 0 && c->region_blocks <= 4096, GS_ERR_ARG,
              "field.region_blocks = %d: expected 0 (one region) or 1..4096 block positions per "
              "region", c->region_blocks);
@@ -370,6 +376,7 @@ static gs_err volume_classes(struct gs_field_synth *s, int B)
             for (int64_t x = 0; x < s->wn[0]; x++)
                 s->src_in += s->inside[l->q[x + l->nx * (y + l->ny * z)]];
     s->vol_in = s->vol_n = 0;
+    s->kv_region = -1, s->kv_color = -1;
     int64_t n = s->st.tn[0] * s->st.tn[1] * s->st.tn[2];
     for (int64_t i = 0; i < n; i++)
         if (s->st.mask[i])
@@ -614,6 +621,7 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_qfield_destroy(&s->level_src);
     gs_free(s->tie_more);
     gs_free(s->tie_less);
+    gs_free(s->kv_mark);
     gs_free(s->st.target);
     gs_free(s->st.mask);
     gs_free(s->qval);
@@ -1887,6 +1895,72 @@ static int random_block(const struct gs_field_synth *s, int64_t b, int B, const 
     return 0;
 }
 
+/* keep_volume with target regions: the volume so far as block b of region
+ * g (colour c) sees it, the same whichever rank runs g and whatever other
+ * regions of c ran before it: the samples outside every box of a region of
+ * colour c (no region of c writes there, so they are as they were when c
+ * began) plus those of g's own box (no other region of c writes into it:
+ * see cut_block). Raster order (no regions): the whole target so far, as
+ * before. Both are functions of the target and its mask alone, so a run
+ * resumed anywhere recounts them. Kept in vol_in/vol_n, recounted when b
+ * starts another region (copy_block updates them in between); the outside
+ * counts once per colour. texture.ini at region_blocks 4: the box of a
+ * region is 40 x 40 x 16 samples, the outside ~85% of the target. */
+static gs_err region_volume(struct gs_field_synth *s, const synth_view *v, int64_t b)
+{
+    if (!s->tie_more || !s->reg)
+        return GS_OK;
+    int B = s->cfg.block[s->st.iteration];
+    int64_t c[3], lo[3], hi[3], R = s->cfg.region_blocks, r[3];
+    int color = 0;
+    block_coords(s, b, c);
+    for (int a = 0; a < 3; a++) {
+        r[a] = c[a] / R < s->nr[a] ? c[a] / R : s->nr[a] - 1;
+        int64_t f = r[a] * R, l = r[a] == s->nr[a] - 1 ? s->npos[a] : f + R;
+        lo[a] = s->pos[a][f], hi[a] = s->pos[a][l - 1] + B;
+        color += (int)r[a];
+    }
+    int64_t id = r[0] + s->nr[0] * (r[1] + s->nr[1] * r[2]);
+    if (id == s->kv_region)
+        return GS_OK;
+    const int64_t *tn = s->st.tn;
+    if (color != s->kv_color || s->st.iteration != s->kv_it) {
+        size_t n = (size_t)(tn[0] * tn[1] * tn[2]);
+        if (n > s->kv_cap) {
+            gs_free(s->kv_mark);
+            s->kv_mark = NULL, s->kv_cap = 0;
+            GS_CALL(gs_alloc_array((void **)&s->kv_mark, n, 1, "region box marks"));
+            s->kv_cap = n;
+        }
+        memset(s->kv_mark, 0, n);
+        for (int64_t k = 0; k < s->nreg; k++) {
+            const gs_field_region *g = &s->reg[k];
+            if (g->color != color)
+                continue;
+            for (int64_t z = g->lo[2]; z < g->hi[2]; z++)
+                for (int64_t y = g->lo[1]; y < g->hi[1]; y++)
+                    memset(s->kv_mark + g->lo[0] + tn[0] * (y + tn[1] * z), 1,
+                           (size_t)(g->hi[0] - g->lo[0]));
+        }
+        s->kv_out_in = s->kv_out_n = 0;
+        for (size_t i = 0; i < n; i++)
+            if (!s->kv_mark[i] && s->st.mask[i])
+                s->kv_out_n++, s->kv_out_in += s->inside[s->st.target[i]];
+        s->kv_color = color, s->kv_it = s->st.iteration;
+    }
+    int64_t in = 0, cnt = 0, vx = v->n[0], vxy = v->n[0] * v->n[1];
+    for (int64_t z = lo[2]; z < hi[2]; z++)
+        for (int64_t y = lo[1]; y < hi[1]; y++) {
+            int64_t o = lo[0] - v->o[0] + vx * (y - v->o[1]) + vxy * (z - v->o[2]);
+            for (int64_t x = 0; x < hi[0] - lo[0]; x++)
+                if (v->mask[o + x])
+                    cnt++, in += s->inside[v->target[o + x]];
+        }
+    s->vol_in = s->kv_out_in + in, s->vol_n = s->kv_out_n + cnt;
+    s->kv_region = id;
+    return GS_OK;
+}
+
 static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
                           int64_t b, int use_hook, block_result *r)
 {
@@ -1921,6 +1995,7 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     opts.nexclude = copy_exclusions(s, b, B, ex);
     opts.exclude = (const int64_t(*)[6])ex;
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
+    GS_CALL(region_volume(s, v, b));
     if (s->cfg.keep_volume && s->vol_n > 0) /* short of inside: vol_in/vol_n < src_in/src_n */
         opts.tie_class = s->vol_in * s->src_n < s->src_in * s->vol_n ? s->tie_more : s->tie_less;
     /* Exact ties (equal distance: a periodic source, flat or empty regions,
@@ -2204,6 +2279,7 @@ gs_err gs_field_synth_region_run(gs_field_synth_t s, int64_t region, void *out)
             memcpy(v.mask + d, s->st.mask + o, (size_t)v.n[0]);
         }
     block_result *res = out;
+    s->kv_region = -1; /* region_volume recounts from this region's copy */
     for (int64_t i = 0; i < g->count; i++) {
         int64_t p[3];
         block_pos(s, g->first + i, p);
@@ -2230,6 +2306,7 @@ gs_err gs_field_synth_region_apply(gs_field_synth_t s, int64_t region, const voi
     int64_t M = gs_field_block_count(s->level_src, s->cfg.block[s->st.iteration]);
     synth_view v = whole_view(s);
     const unsigned char *b = buf;
+    s->kv_region = -1; /* the counts copy_block keeps here are not a region's */
     for (int64_t i = 0; i < g->count; i++) {
         block_result r;
         memcpy(&r, b + (size_t)i * sizeof r, sizeof r);

@@ -1,0 +1,180 @@
+/* Layout of separate objects (see include/geosynth/measure.h,
+ * gs_measure_object_layout): components of a mask, their centres, the
+ * nearest-neighbour distances of the centres, crowded and fused objects of
+ * an output against its example. analysis/field_layout.py is the same in
+ * Python. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geosynth/measure.h"
+#include "geosynth/mem.h"
+
+typedef struct layout_objects {
+    int64_t n;       /* components */
+    double *c;       /* 3 per component: mean x, y, z of its samples */
+    double *size;    /* samples */
+    uint8_t *inner;  /* 1: touches no face of the grid (axes of one sample have none) */
+} layout_objects;
+
+static void objects_free(layout_objects *o)
+{
+    gs_free(o->c);
+    gs_free(o->size);
+    gs_free(o->inner);
+    memset(o, 0, sizeof *o);
+}
+
+static gs_err objects_of(const uint8_t *mask, const int64_t n[3], layout_objects *o)
+{
+    memset(o, 0, sizeof *o);
+    int64_t cells = n[0] * n[1] * n[2];
+    uint32_t *label = NULL, nc = 0;
+    uint64_t *sz = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&label, (size_t)cells, sizeof *label, "object labels"), done);
+    GS_TRY(err, gs_measure_components3(mask, (int)n[0], (int)n[1], (int)n[2], NULL, label, &nc,
+                                       &sz), done);
+    o->n = nc;
+    size_t m = (size_t)nc + 1;
+    GS_TRY(err, gs_alloc_array((void **)&o->c, m, 3 * sizeof *o->c, "object centres"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->size, m, sizeof *o->size, "object sizes"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->inner, m, 1, "object faces"), done);
+    memset(o->c, 0, m * 3 * sizeof *o->c);
+    memset(o->inner, 1, m);
+    for (int64_t z = 0, i = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++)
+            for (int64_t x = 0; x < n[0]; x++, i++) {
+                uint32_t l = label[i];
+                if (!l)
+                    continue;
+                o->c[3 * (l - 1)] += (double)x;
+                o->c[3 * (l - 1) + 1] += (double)y;
+                o->c[3 * (l - 1) + 2] += (double)z;
+                int64_t p[3] = {x, y, z};
+                for (int a = 0; a < 3; a++)
+                    if (n[a] > 1 && (p[a] == 0 || p[a] == n[a] - 1))
+                        o->inner[l - 1] = 0;
+            }
+    for (uint32_t l = 0; l < nc; l++) {
+        o->size[l] = (double)sz[l + 1];
+        for (int a = 0; a < 3; a++)
+            o->c[3 * l + a] /= o->size[l];
+    }
+done:
+    gs_free(label);
+    gs_free(sz);
+    if (err != GS_OK)
+        objects_free(o);
+    return err;
+}
+
+typedef struct by_x {
+    double x;
+    int64_t i;
+} by_x;
+
+static int cmp_by_x(const void *a, const void *b)
+{
+    const by_x *p = a, *q = b;
+    return p->x < q->x ? -1 : p->x > q->x ? 1 : (p->i > q->i) - (p->i < q->i);
+}
+
+static int cmp_f64(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Per inner object, the distance of its centre to the nearest other
+ * object's centre (any object, inner or not), sorted ascending into *nn
+ * (*k values; none when there is no other object). A sweep along x: cost
+ * O(n log n) plus the pairs nearer in x than the best so far. */
+static gs_err nearest(const layout_objects *o, double **nn, int64_t *k)
+{
+    by_x *s = NULL;
+    double *d = NULL;
+    *nn = NULL, *k = 0;
+    gs_err err = GS_OK;
+    size_t m = (size_t)(o->n ? o->n : 1);
+    GS_TRY(err, gs_alloc_array((void **)&s, m, sizeof *s, "objects by x"), done);
+    GS_TRY(err, gs_alloc_array((void **)&d, m, sizeof *d, "nearest distances"), done);
+    for (int64_t i = 0; i < o->n; i++)
+        s[i].x = o->c[3 * i], s[i].i = i;
+    qsort(s, (size_t)o->n, sizeof *s, cmp_by_x);
+    for (int64_t r = 0; r < o->n && o->n > 1; r++) {
+        int64_t i = s[r].i;
+        if (!o->inner[i])
+            continue;
+        const double *ci = o->c + 3 * i;
+        double best = INFINITY;
+        for (int dir = -1; dir <= 1; dir += 2)
+            for (int64_t t = r + dir; t >= 0 && t < o->n; t += dir) {
+                double dx = s[t].x - ci[0];
+                if (dx * dx >= best)
+                    break;
+                const double *cj = o->c + 3 * s[t].i;
+                double dy = cj[1] - ci[1], dz = cj[2] - ci[2], q = dx * dx + dy * dy + dz * dz;
+                if (q < best)
+                    best = q;
+            }
+        d[(*k)++] = sqrt(best);
+    }
+    qsort(d, (size_t)*k, sizeof *d, cmp_f64);
+    *nn = d;
+    d = NULL;
+done:
+    gs_free(s);
+    gs_free(d);
+    return err;
+}
+
+static double quantile(const double *s, int64_t n, double p)
+{
+    return n ? s[(int64_t)(p * (double)(n - 1) + 0.5)] : 0;
+}
+
+static void side_figures(const layout_objects *o, const double *nn, int64_t k, double nn_min,
+                         double big, double fused, gs_measure_objlayout_side *f)
+{
+    f->objects = 0;
+    int64_t over = 0, close = 0;
+    for (int64_t i = 0; i < o->n; i++)
+        if (o->inner[i])
+            f->objects++, over += o->size[i] > fused * big;
+    for (int64_t i = 0; i < k; i++)
+        close += nn[i] < nn_min;
+    f->nn_p10 = quantile(nn, k, 0.1);
+    f->nn_p50 = quantile(nn, k, 0.5);
+    f->close_share = k ? (double)close / (double)k : 0;
+    f->fused_share = f->objects ? (double)over / (double)f->objects : 0;
+}
+
+gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                                const int64_t sn[3], double fused, gs_measure_objlayout *r)
+{
+    memset(r, 0, sizeof *r);
+    layout_objects oo, os;
+    double *no = NULL, *ns = NULL;
+    int64_t ko = 0, ks = 0;
+    gs_err err = GS_OK;
+    memset(&os, 0, sizeof os);
+    GS_CALL(objects_of(out, on, &oo));
+    GS_TRY(err, objects_of(src, sn, &os), done);
+    GS_TRY(err, nearest(&oo, &no, &ko), done);
+    GS_TRY(err, nearest(&os, &ns, &ks), done);
+    double big = 0;
+    for (int64_t i = 0; i < os.n; i++)
+        if (os.inner[i] && os.size[i] > big)
+            big = os.size[i];
+    double nn_min = ks ? ns[0] : 0;
+    side_figures(&oo, no, ko, nn_min, big, fused, &r->out);
+    side_figures(&os, ns, ks, nn_min, big, fused, &r->src);
+    GS_TRY(err, gs_measure_ks(no, (size_t)ko, ns, (size_t)ks, &r->nn_ks), done);
+done:
+    objects_free(&oo);
+    objects_free(&os);
+    gs_free(no);
+    gs_free(ns);
+    return err;
+}
