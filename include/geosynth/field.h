@@ -458,8 +458,8 @@ typedef struct gs_field_synth_config {
                                         minimum cut between the old content and the new
                                         block gives it, not only the unsynthesized ones
                                         (min-error boundary cut in 3D, src/field/synth.c
-                                        cut_block); needs region_blocks 0; 0 = off (the
-                                        paper) */
+                                        cut_block); with target regions the same at any
+                                        rank count; 0 = off (the paper) */
     int complete_objects;            /* 1 (needs prov): after the last iteration (and the
                                         blend), when most of the source's core (samples deeper
                                         than one sample) is in whole objects (core components

@@ -52,6 +52,9 @@ gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const
  * characteristic of the cubical complex that 6-connectivity describes:
  * 1 for a solid ball, 0 for a solid ring (one handle), 1 - g for g handles
  * (a component without cavities: handles = 1 - euler). Cost: O(cells). */
+void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
+                                 int64_t *euler);
+
 /* Share of set samples (mask != 0, n[0] x n[1] x n[2], x fastest) in every
  * window of w[0] x w[1] x w[2] samples of the mask continued periodically
  * (one window per offset within one period): *lo, *hi the smallest and the
@@ -60,8 +63,6 @@ gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const
  * O(cells) (wrapped prefix sums one axis at a time). */
 gs_err gs_measure_window_share_range(const uint8_t *mask, const int64_t n[3], const int64_t w[3],
                                      double *lo, double *hi);
-void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
-                                 int64_t *euler);
 
 /* Layout of separate objects: the 6-connected components of the set samples
  * of an output mask (on[0] x on[1] x on[2], x fastest) and of its example's

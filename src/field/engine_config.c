@@ -125,9 +125,9 @@ static const gs_cfg_key field_keys[] = {
     GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
                     "minimum-error boundary cut: each block takes the samples of its box that a "
                     "minimum cut between the synthesized overlap and the matched block gives it "
-                    "(the seam follows where they agree, not the block grid); needs "
-                    "region_blocks = 0; no = off (the paper: a block fills only unsynthesized "
-                    "samples)"),
+                    "(the seam follows where they agree, not the block grid); with target "
+                    "regions the same at any rank count; no = off (the paper: a block fills "
+                    "only unsynthesized samples)"),
     GS_CFG_KEY_BOOL(field_config, keep_volume, "field.keep_volume", "no",
                     "exact ties of a match (blocks equal where the query is known) go to the "
                     "blocks that bring the synthesized volume fraction toward the source's (the "
