@@ -1848,8 +1848,8 @@ done:
  * blend of a point depend on nothing else that changes, so both run in one
  * map; *warp_seconds gets this process's warp time. */
 static gs_err blend_build(struct gs_points_synth *s, int mode, const double o[2],
-                              const gs_points_tps *tps, gs_points_patch_metrics *met,
-                              double *warp_seconds)
+                          const gs_points_tps *tps, gs_points_patch_metrics *met,
+                          double *warp_seconds)
 {
     double blo[2] = {o[0], o[1]}, bhi[2] = {o[0] + s->ps + s->we, o[1] + s->ps + s->we};
     size_t n = s->F.n;
