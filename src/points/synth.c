@@ -2021,7 +2021,7 @@ static gs_err blend_select_paste(struct gs_points_synth *s, int mode, const doub
 {
     const gs_points_tps *cand[3] = {NULL, tps, alt};
     gs_points_patch_metrics best_met = *met;
-    double ref_d = 1, ref_a = 1, best = INFINITY;
+    double ref_d = 1, ref_a = 1, ref_o = 0, best = INFINITY;
     double sp = s->spacing;
     double elo[2] = {o[0] - 2 * sp, o[1] - 2 * sp};
     double ehi[2] = {o[0] + s->ps + s->we + 2 * sp, o[1] + s->ps + s->we + 2 * sp};
@@ -2047,9 +2047,11 @@ static gs_err blend_select_paste(struct gs_points_synth *s, int mode, const doub
         if (c == 0) {
             ref_d = ms.seam_dist > 0 ? ms.seam_dist : 1;
             ref_a = ms.seam_angle > 0 ? ms.seam_angle : 1;
+            ref_o = ms.seam_open;
         }
         double score = ms.seam_dist / ref_d + ms.seam_angle / ref_a;
-        if (!(score < best) || ms.seam_dist > ref_d || ms.seam_angle > ref_a)
+        if (!(score < best) || ms.seam_dist > ref_d || ms.seam_angle > ref_a ||
+            ms.seam_open > ref_o)
             continue;
         best = score;
         m.warp = (uint32_t)c;
