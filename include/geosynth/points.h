@@ -371,7 +371,8 @@ typedef struct gs_points_params {
     int warp_select;      /* 1: each patch takes the spline (pairs as they are, or their
                              normal parts) or no warp, whichever leaves it closest to N_k */
     int warp_select_seams; /* with warp_select: judged by the seams of the blended patch
-                              with N_k (distance and normal angle), not the strip gap */
+                              with N_k (distance, normal angle, open seam points), not the
+                              strip gap */
     int blend;            /* 1: the overlap strips blend onto N_k (section 5.3); 0: pasted as
                              warped (for measuring what the blend does) */
     int ray_blend;        /* 1: ray intersection for the blend, 0: projection */

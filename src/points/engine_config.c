@@ -94,8 +94,9 @@ static const gs_cfg_key points_keys[] = {
                     "(false = always the pairs' spline, the paper's)"),
     GS_CFG_KEY_BOOL(PC, warp_select_seams, "points.warp_select_seams", "true",
                     "with warp_select: each of the three is blended and the one whose seams "
-                    "with the output are best (distance and normal angle, each over no warp's) "
-                    "is pasted; false = judged by the gap before the blend (the patch's blend "
+                    "with the output are best (distance and normal angle, each over no warp's; "
+                    "a warp no worse than none in either, nor in open seam points) is "
+                    "pasted; false = judged by the gap before the blend (the patch's blend "
                     "runs once, not three times)"),
     GS_CFG_KEY_PATH(PC, choices, "points.choices", "",
                     "patches.csv of an earlier run (output.patch_metrics) with the same example "

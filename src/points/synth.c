@@ -2005,8 +2005,10 @@ static void swap_best(struct gs_points_synth *s)
  * pairs' spline (tps) and with the spline of their normal parts (alt) is
  * pasted on trial, each judged by the seams the output then has along
  * B_k's low edges (edge_seams), and the output put back; a warp is taken
- * only when its seams are no worse than no warp's in distance nor in angle,
- * the best by the sum of the two over no warp's, ties to the earlier. Why:
+ * only when its seams are no worse than no warp's in distance, in angle
+ * and in the share of seam points with no surface across (seam_open: stop
+ * 39's CI, e2e/points_quality's chainmail and weave checks), the best by
+ * the sum of distance and angle over no warp's, ties to the earlier. Why:
  * the strip gap (strip_gap) judges F' before the blend; on chainmail (8 x 8
  * seed 1, the same patches) the pairs' spline took the gap in the strips'
  * outer quarter 0.026 -> 0.018 and the angle of F''s normals to the

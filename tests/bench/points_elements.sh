@@ -140,7 +140,8 @@
 # points20: points.warp_select_seams (default on): no warp, the pairs'
 # spline and their normal parts' spline are each blended and pasted on
 # trial and the output's seams along the patch's low edges measured; a warp
-# is kept only when no worse than none in seam distance and angle. Fresh
+# is kept only when no worse than none in seam distance and angle (since
+# df484b6 also in open seam points; the figures below are from before). Fresh
 # seeds 4-8, 8 x 8 outputs, np 2, full vs no_warp_same (points.choices =
 # the full run's patches.csv), mean seam dist / seam angle / inside angle,
 # (seeds where the warp is <= none):
