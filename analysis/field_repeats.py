@@ -2,7 +2,7 @@
 """Large-scale repetition of a height-field run, from field.h5 alone
 (/field/levels, /source/levels): "the same mountain twice".
 
-  analysis/field_repeats.py RUN_DIR [--tile]   -> one JSON line
+  analysis/field_repeats.py RUN_DIR [--tile | --surrogates N]   -> one JSON line
 
 The same figures as summary.json's repeat_* (src/measure/repeat.c,
 gs_measure_repeats2): the surface height of every column (the highest
@@ -19,8 +19,16 @@ along an axis).
   recur_out: the largest number of output windows, none overlapping another,
     matching one example window (on the grid) with NCC >= ncc_src: how many
     times one example feature recurs (the example's own figure is 1).
+  ncc_out_area, ncc_out_area_max, crops: the equal-area figure, ncc_out
+    within each example-sized crop of the output (crops every half the
+    example's side, the last flush with the far face), the median over the
+    crops that hold a pair and the highest; compares with ncc_src (ncc_out is
+    a maximum over 4x the example's area at 64^2 -> 128^2: more pairs).
 --tile measures a 2x2 tiling of the example instead of the output (a
-repetition the measure must flag).
+repetition the measure must flag; its crops score as the example).
+--surrogates N: instead, the figures of N non-repeating random reliefs with
+the example's spectrum and heights, the example's size and the output's
+(how much a larger area alone raises ncc_out).
 """
 import json
 import sys
@@ -82,10 +90,15 @@ def windows(h, w):
             v.reshape(py * px, w * w).astype(np.float32).astype(np.float64))
 
 
-def best_pair(W, w, st, floor, reach):
+def best_pair(W, w, st, floor, reach, box=None):
     x, y, rms, v = W
     ok = rms >= floor
-    a = np.where(ok & (x % st == 0) & (y % st == 0))[0]
+    if box is not None:
+        bx, by, cx, cy = box
+        ok &= (x >= bx) & (y >= by) & (x + w <= bx + cx) & (y + w <= by + cy)
+    else:
+        bx = by = 0
+    a = np.where(ok & ((x - bx) % st == 0) & ((y - by) % st == 0))[0]
     b = np.where(ok)[0]
     best = -1.0
     for i in a:
@@ -94,6 +107,30 @@ def best_pair(W, w, st, floor, reach):
         if len(sel):
             best = max(best, float((v[sel] @ v[i]).max()))
     return best
+
+
+def crop_origins(n, c):
+    if c >= n:
+        return [0]
+    o = list(range(0, n - c + 1, max(1, c // 2)))
+    if o[-1] != n - c:
+        o.append(n - c)
+    return o
+
+
+def area_figure(O, w, st, relief, reach, ho_shape, hs_shape):
+    """ncc_out_area: median over the output's example-sized crops (every half
+    the example's side, the last flush with the far face) of each crop's most
+    alike two places; crops without a pair left out."""
+    ony, onx = ho_shape
+    cy, cx = min(hs_shape[0], ony), min(hs_shape[1], onx)
+    f = [best_pair(O, w, st, relief, reach, (x0, y0, cx, cy))
+         for y0 in crop_origins(ony, cy) for x0 in crop_origins(onx, cx)]
+    n = len(f)
+    f = sorted(c for c in f if c > -1)
+    if not f:
+        return -1.0, -1.0, n
+    return float(np.median(f)), f[-1], n
 
 
 def measure(hs, ho):
@@ -105,6 +142,8 @@ def measure(hs, ho):
     relief = float(np.median(S[2]))
     r = {"window": int(w), "stride": st, "relief": relief,
          "ncc_src": best_pair(S, w, st, relief, reach), "ncc_out": best_pair(O, w, st, relief, reach)}
+    r["ncc_out_area"], r["ncc_out_area_max"], r["crops"] = area_figure(O, w, st, relief, reach,
+                                                                      ho.shape, hs.shape)
     x, y, rms, v = O
     okb = np.where(rms >= relief)[0]
     sx, sy, srms, sv = S
@@ -125,12 +164,55 @@ def measure(hs, ho):
     return r
 
 
+def surrogate(hs, n, rng):
+    """Non-repeating relief like the example: random phases on the example's
+    radially averaged power spectrum (per cycle per sample: the same feature
+    size at any n), heights rank-matched to the example's."""
+    F = np.abs(np.fft.fft2(hs - hs.mean())) ** 2
+    fy, fx = np.meshgrid(np.fft.fftfreq(hs.shape[0]), np.fft.fftfreq(hs.shape[1]), indexing="ij")
+    fr = np.hypot(fx, fy).ravel()
+    bins = np.linspace(0, fr.max() + 1e-9, 40)
+    k = np.digitize(fr, bins)
+    rad = np.array([F.ravel()[k == i].mean() if (k == i).any() else 0.0 for i in range(1, len(bins))])
+    gy, gx = np.meshgrid(np.fft.fftfreq(n), np.fft.fftfreq(n), indexing="ij")
+    amp = np.sqrt(np.interp(np.hypot(gx, gy), 0.5 * (bins[1:] + bins[:-1]), rad))
+    amp[0, 0] = 0
+    g = np.real(np.fft.ifft2(amp * np.exp(2j * np.pi * rng.random((n, n)))))
+    q = np.interp(np.linspace(0, 1, n * n), np.linspace(0, 1, hs.size), np.sort(hs.ravel()))
+    out = np.empty(n * n)
+    out[np.argsort(g.ravel())] = q
+    return out.reshape(n, n)
+
+
+def surrogates(hs, ho, count):
+    """The area bias of ncc_out: the figures of `count` surrogates the size
+    of the example and `count` the size of the output (seeded: the same
+    every time)."""
+    rng = np.random.default_rng(1)
+    small, large, area = [], [], []
+    for _ in range(count):
+        small.append(measure(hs, surrogate(hs, hs.shape[0], rng))["ncc_out"])
+        r = measure(hs, surrogate(hs, ho.shape[0], rng))
+        large.append(r["ncc_out"])
+        area.append(r["ncc_out_area"])
+    return {"count": count, "example_size": hs.shape[0], "output_size": ho.shape[0],
+            "ncc_out_example_size": [round(c, 3) for c in small],
+            "ncc_out_output_size": [round(c, 3) for c in large],
+            "ncc_out_area_output_size": [round(c, 3) for c in area],
+            "mean_example_size": float(np.mean(small)), "mean_output_size": float(np.mean(large)),
+            "mean_area_output_size": float(np.mean(area))}
+
+
 def main():
     run = sys.argv[1]
     f = h5py.File(run + "/field.h5", "r")
     s, o = f["/source/levels"], f["/field/levels"]
     hs = heights(np.asarray(s), s.attrs["lo"], s.attrs["hi"])
     ho = heights(np.asarray(o), o.attrs["lo"], o.attrs["hi"])
+    if "--surrogates" in sys.argv[2:]:
+        n = int(sys.argv[sys.argv.index("--surrogates") + 1])
+        print(json.dumps(surrogates(hs, ho, n)))
+        return
     if "--tile" in sys.argv[2:]:
         ho = np.tile(hs, (2, 2))
     print(json.dumps(measure(hs, ho)))

@@ -408,7 +408,7 @@ gs_err gs_measure_copy3_reference(const uint8_t *out, const int64_t on[3], const
  * normalized cross-correlation of two residuals. Windows whose residual RMS
  * is below the median of the example's (relief) are left out (flat plains
  * are alike everywhere). Example windows at every position, output windows
- * every `stride` = max(1, w/5) samples; two windows overlap when their
+ * every `stride` = max(1, w/4) samples; two windows overlap when their
  * origins are less than w apart along both axes.
  * ncc_src: the highest NCC between two example windows that do not overlap
  * (how alike two places of the example are); ncc_out: the same over output
@@ -417,15 +417,27 @@ gs_err gs_measure_copy3_reference(const uint8_t *out, const int64_t on[3], const
  * number of output windows, none overlapping another, that match one
  * example window with an NCC >= ncc_src (closer than any other place of the
  * example comes to it): how many times one example feature recurs (the
- * example's own figure is 1; a 2x2 tiling 4). Cost O(windows^2 w^2):
- * about 0.3 s for 64^2 -> 128^2. analysis/field_repeats.py computes the
- * same from field.h5. */
+ * example's own figure is 1; a 2x2 tiling 4).
+ * ncc_out is a maximum over pairs and an output larger than the example holds
+ * more of them: non-repeating random relief of the example's spectrum and
+ * heights (analysis/field_repeats.py --surrogates) scores 0.81 mean at the
+ * example's 64^2 (the example 0.80) and 0.89 at 128^2 (0.85-0.95 over 30).
+ * ncc_out_area, the equal-area figure: the same within each example-sized
+ * crop of the output (crops every half the example's side and flush with the
+ * far faces: 9 for 64^2 -> 128^2), the median over the crops that hold a
+ * pair (-1: none), ncc_out_area_max their highest; the random relief's
+ * 0.82 mean at 128^2. It compares with ncc_src; a repeat farther apart than
+ * a crop (a 2x2 tiling of the example: crops score as the example) is left
+ * to ncc_out and recur_out. Cost O(windows^2 w^2): about 0.3 s for 64^2 ->
+ * 128^2. analysis/field_repeats.py computes the same from field.h5. */
 typedef struct gs_measure_repeats {
     int window, stride;
     int64_t reach;
     double relief;                     /* the floor: median residual RMS of the example's windows */
     int64_t windows_src, windows_out;  /* windows at or above the floor */
     double ncc_src, ncc_out;
+    double ncc_out_area, ncc_out_area_max; /* over the example-sized crops of the output */
+    int crops;
     int recur_out;
 } gs_measure_repeats;
 gs_err gs_measure_repeats2(const double *out, int64_t onx, int64_t ony, const double *src,

@@ -330,12 +330,17 @@ static gs_err report_repeats(gs_run *run, const gs_qfield *out, const gs_qfield 
     gs_run_metric_f64(run, "repeat_relief", m.relief);
     gs_run_metric_f64(run, "repeat_ncc_out", m.ncc_out);
     gs_run_metric_f64(run, "repeat_ncc_src", m.ncc_src);
+    gs_run_metric_f64(run, "repeat_ncc_out_area", m.ncc_out_area);
+    gs_run_metric_f64(run, "repeat_ncc_out_area_max", m.ncc_out_area_max);
+    gs_run_metric_i64(run, "repeat_crops", m.crops);
     gs_run_metric_i64(run, "repeat_recur_out", m.recur_out);
     gs_json_f64(pm, "repeat_measure_cpu_seconds", gs_cpu_now() - t0);
     gs_log(GS_LOG_INFO,
            "repetition (%dx%d windows, feature size): two places of the output alike to NCC "
-           "%.3f (the example's most alike two %.3f); one example feature recurs %d times "
-           "(%.2f s)", m.window, m.window, m.ncc_out, m.ncc_src, m.recur_out, gs_cpu_now() - t0);
+           "%.3f (the example's most alike two %.3f), %.3f within example-sized crops (median of "
+           "%d, highest %.3f); one example feature recurs %d times (%.2f s)", m.window, m.window,
+           m.ncc_out, m.ncc_src, m.ncc_out_area, m.crops, m.ncc_out_area_max, m.recur_out,
+           gs_cpu_now() - t0);
 done:
     gs_field_destroy(&fo);
     gs_field_destroy(&fs);

@@ -126,10 +126,17 @@ static double dot(const float *a, const float *b, int64_t n)
     return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
-/* window k on the grid of stride st (origin multiple of st along x and y) */
-static int on_grid(const windows *W, int64_t k, int st)
+/* window k lies inside the crop box (x0, y0, width, height) and on its grid
+ * of stride st (origin a multiple of st from the crop's along x and y) */
+static int in_box(const windows *W, int64_t k, int w, const int64_t box[4])
 {
-    return W->x[k] % st == 0 && W->y[k] % st == 0;
+    return W->x[k] >= box[0] && W->y[k] >= box[1] && W->x[k] + w <= box[0] + box[2] &&
+           W->y[k] + w <= box[1] + box[3];
+}
+
+static int on_grid(const windows *W, int64_t k, int st, const int64_t box[4])
+{
+    return (W->x[k] - box[0]) % st == 0 && (W->y[k] - box[1]) % st == 0;
 }
 
 static int overlap(const windows *A, int64_t i, const windows *B, int64_t j, int w)
@@ -137,20 +144,22 @@ static int overlap(const windows *A, int64_t i, const windows *B, int64_t j, int
     return llabs(A->x[i] - B->x[j]) < w && llabs(A->y[i] - B->y[j]) < w;
 }
 
-/* Highest NCC between a window of W on the grid of stride st and any other
- * window of W, both with relief >= floor, that do not overlap and whose
- * origins are at most reach apart along each axis (one side on every
- * position: a repeat at any offset is seen whole). */
-static double best_pair(const windows *W, int w, int st, double floor, int64_t reach)
+/* Highest NCC between a window of W inside box on its grid of stride st and
+ * any other window of W inside box, both with relief >= floor, that do not
+ * overlap and whose origins are at most reach apart along each axis (one
+ * side on every position: a repeat at any offset is seen whole); -1 when
+ * there is no such pair. */
+static double best_pair(const windows *W, int w, int st, double floor, int64_t reach,
+                        const int64_t box[4])
 {
     double best = -1;
     int64_t ww = (int64_t)w * w;
     for (int64_t i = 0; i < W->n; i++) {
-        if (W->rms[i] < floor || !on_grid(W, i, st))
+        if (W->rms[i] < floor || !in_box(W, i, w, box) || !on_grid(W, i, st, box))
             continue;
         for (int64_t j = 0; j < W->n; j++) {
-            if (W->rms[j] < floor || overlap(W, i, W, j, w) || llabs(W->x[i] - W->x[j]) > reach ||
-                llabs(W->y[i] - W->y[j]) > reach)
+            if (W->rms[j] < floor || !in_box(W, j, w, box) || overlap(W, i, W, j, w) ||
+                llabs(W->x[i] - W->x[j]) > reach || llabs(W->y[i] - W->y[j]) > reach)
                 continue;
             double c = dot(W->v + i * ww, W->v + j * ww, ww);
             if (c > best)
@@ -158,6 +167,58 @@ static double best_pair(const windows *W, int w, int st, double floor, int64_t r
         }
     }
     return best;
+}
+
+/* Crop origins along an axis of n samples for crops of c (the example's
+ * side, at most n): every c/2 samples from 0, and n - c last, so the crops
+ * cover the axis; returns their count (at most n + 1). */
+static int64_t crop_origins(int64_t n, int64_t c, int64_t *o)
+{
+    if (c >= n) {
+        o[0] = 0;
+        return 1;
+    }
+    int64_t step = c / 2 > 0 ? c / 2 : 1, k = 0;
+    for (int64_t p = 0; p + c <= n; p += step)
+        o[k++] = p;
+    if (o[k - 1] != n - c)
+        o[k++] = n - c;
+    return k;
+}
+
+/* ncc_out_area: the median over the output's example-sized crops of the
+ * most alike two places inside each crop (crops without a pair left out;
+ * -1 when no crop has one). */
+static gs_err area_figure(const windows *O, int64_t onx, int64_t ony, int64_t snx, int64_t sny,
+                          gs_measure_repeats *m)
+{
+    int64_t cx = snx < onx ? snx : onx, cy = sny < ony ? sny : ony, *ox = NULL, *oy = NULL;
+    double *f = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&ox, (size_t)onx + 1, sizeof *ox, "repeat crops"), done);
+    GS_TRY(err, gs_alloc_array((void **)&oy, (size_t)ony + 1, sizeof *oy, "repeat crops"), done);
+    int64_t nx = crop_origins(onx, cx, ox), ny = crop_origins(ony, cy, oy), nf = 0;
+    GS_TRY(err, gs_alloc_array((void **)&f, (size_t)(nx * ny), sizeof *f, "repeat crops"), done);
+    for (int64_t j = 0; j < ny; j++)
+        for (int64_t i = 0; i < nx; i++) {
+            const int64_t box[4] = {ox[i], oy[j], cx, cy};
+            double c = best_pair(O, m->window, m->stride, m->relief, m->reach, box);
+            if (c > -1)
+                f[nf++] = c;
+        }
+    m->crops = (int)(nx * ny);
+    if (nf == 0) {
+        m->ncc_out_area = -1;
+        goto done;
+    }
+    qsort(f, (size_t)nf, sizeof *f, cmp_f64);
+    m->ncc_out_area = nf % 2 ? f[nf / 2] : 0.5 * (f[nf / 2 - 1] + f[nf / 2]);
+    m->ncc_out_area_max = f[nf - 1];
+done:
+    gs_free(ox);
+    gs_free(oy);
+    gs_free(f);
+    return err;
 }
 
 typedef struct hit {
@@ -201,13 +262,15 @@ gs_err gs_measure_repeats2(const double *out, int64_t onx, int64_t ony, const do
         m->windows_src += S.rms[i] >= m->relief;
     for (int64_t i = 0; i < O.n; i++)
         m->windows_out += O.rms[i] >= m->relief;
-    m->ncc_src = best_pair(&S, w, m->stride, m->relief, m->reach);
-    m->ncc_out = best_pair(&O, w, m->stride, m->relief, m->reach);
+    const int64_t sbox[4] = {0, 0, snx, sny}, obox[4] = {0, 0, onx, ony};
+    m->ncc_src = best_pair(&S, w, m->stride, m->relief, m->reach, sbox);
+    m->ncc_out = best_pair(&O, w, m->stride, m->relief, m->reach, obox);
+    GS_TRY(err, area_figure(&O, onx, ony, snx, sny, m), done);
     /* recurrence: distinct output windows matching one example window
      * better than any other example window that does not overlap it does */
     GS_TRY(err, gs_alloc_array((void **)&hits, (size_t)(O.n ? O.n : 1), sizeof *hits, "repeat hits"), done);
     for (int64_t i = 0; i < S.n; i++) {
-        if (S.rms[i] < m->relief || !on_grid(&S, i, m->stride))
+        if (S.rms[i] < m->relief || !on_grid(&S, i, m->stride, sbox))
             continue;
         int64_t nh = 0;
         for (int64_t j = 0; j < O.n; j++) {

@@ -18,9 +18,24 @@
 #   times the example's most alike two (0.920, 0.943; the brief's 10% is not
 #   met on most seeds; within 1.15 times: 10 of seeds 1-12), with it
 #   within 1.15 times (0.868, 0.856), lowered by more than 0.02.
-#   Not checked: the example's own figure as a bound; no seed meets it yet
-#   (terrain.ini's comment has seeds 1-12).
-# Broken on purpose (watched): repeat_span_exclusions returning ne at once
+#   Not checked: the example's own figure as a bound on repeat_ncc_out; a
+#   maximum over pairs, it grows with the area: non-repeating random relief
+#   of the example's spectrum and heights (analysis/field_repeats.py
+#   --surrogates 30) scores 0.81 mean at 64^2 and 0.89 (0.85-0.95) at
+#   128^2, the example 0.80, terrain.ini seeds 1-18 0.899-0.918 mean;
+# - the equal-area figure (field28; repeat_ncc_out_area: the median over the
+#   output's 9 example-sized crops of the most alike two places in each)
+#   within 10% of the example's repeat_ncc_src on every run with the shipped
+#   settings (seeds 3-6, 12: 0.81-0.84; seeds 1-6, 19-30 0.785-0.849, the
+#   random relief 0.79-0.84 at 128^2). It is robust, not sensitive: with
+#   every exclusion off (copy_limit, repeat_*) seeds 4, 5, 12 score 0.82-0.87
+#   (the repeats lie in one or two crops, or farther apart than a crop); the
+#   repeats are left to repeat_ncc_out's on/off checks below.
+# Broken on purpose (watched): the crops ignored (src/measure/repeat.c
+# area_figure measuring the whole output): the equal-area figure becomes
+# repeat_ncc_out, seeds 4, 5, 12 fail the bound (0.923, 0.912, 0.889), seeds 3
+# and 6 pass (0.868, 0.856), and the comparison with the analysis fails
+# (4 checks; unit/test_measure fails too) (field28). repeat_span_exclusions returning ne at once
 # (the span ignored): seeds 4 and 12 score as without it, both fail
 # (field22). The pairs loop skipped (field24): seeds 3 and 6 score as without
 # it and fail (4 checks); the span counting only the blocks below (field22's
@@ -33,17 +48,28 @@ FAST=(--set output.geometry=none --set output.vdb=no --set output.preview=no)
 m() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 le() { /usr/bin/python3 -c "import sys; sys.exit(0 if $1 <= $2 else 1)"; }
 
+# area_within WHAT AREA SRC: the equal-area figure (repeat_ncc_out_area, the
+# median over the output's example-sized crops) within 10% of the example's
+# own figure (one example-sized sample each)
+area_within() {
+  le "$2" "1.10 * $3" && ok "$1: equal-area repetition $2 within 10% of the example's $3" ||
+    bad "$1: equal-area repetition $2 above 1.10 times the example's $3"
+}
+
 run_gs 0 field -c "$T" -o t5 --set run.seed=5 "${FAST[@]}"
 expect_rc 0 "terrain.ini seed 5"
+area_within "seed 5" "$(m t5 repeat_ncc_out_area)" "$(m t5 repeat_ncc_src)"
 py=$(/usr/bin/python3 "$GS_ROOT/analysis/field_repeats.py" t5)
 echo "analysis: $py"
 /usr/bin/python3 - t5 "$py" <<'EOF' && ok "repeat_* of summary.json = analysis/field_repeats.py" || bad "repeat_* differ from analysis/field_repeats.py"
 import json, sys
 m = json.load(open(sys.argv[1] + "/summary.json"))["metrics"]
 p = json.loads(sys.argv[2])
-print({k: m["repeat_" + k] for k in ("window", "relief", "ncc_src", "ncc_out", "recur_out")})
+print({k: m["repeat_" + k] for k in ("window", "relief", "ncc_src", "ncc_out", "ncc_out_area",
+                                     "ncc_out_area_max", "crops", "recur_out")})
 assert m["repeat_window"] == p["window"] and m["repeat_recur_out"] == p["recur_out"]
-for k in ("relief", "ncc_src", "ncc_out"):
+assert m["repeat_crops"] == p["crops"] == 9
+for k in ("relief", "ncc_src", "ncc_out", "ncc_out_area", "ncc_out_area_max"):
     assert abs(m["repeat_" + k] - p[k]) <= 1e-9, k
 EOF
 tile=$(/usr/bin/python3 "$GS_ROOT/analysis/field_repeats.py" t5 --tile)
@@ -66,8 +92,9 @@ on_off() {
   run_gs 0 field -c "$T" -o "off-$name-$seed" --set run.seed=$seed "${FAST[@]}" "${off[@]}"
   expect_rc 0 "terrain.ini seed $seed, $*"
   a=$(m "on-$name-$seed" repeat_ncc_out) b=$(m "off-$name-$seed" repeat_ncc_out)
-  s=$(m "on-$name-$seed" repeat_ncc_src)
-  echo "seed $seed: repeat_ncc_out $a with $name, $b with $* (the example's $s)"
+  s=$(m "on-$name-$seed" repeat_ncc_src) e=$(m "on-$name-$seed" repeat_ncc_out_area)
+  echo "seed $seed: repeat_ncc_out $a with $name, $b with $* (the example's $s); equal-area $e"
+  area_within "seed $seed" "$e" "$s"
   if [[ $f != 1 ]]; then
     le "$a" "$f * $s" && ok "seed $seed: with $name $a within $f times the example's $s" ||
       bad "seed $seed: with $name $a above $f times the example's $s"

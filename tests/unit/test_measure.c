@@ -1023,7 +1023,9 @@ static void test_outline(void **state)
 
 /* gs_measure_repeats2: a 2x2 tiling of a height map (a relief of random
  * bumps) repeats it: two places alike to NCC 1 (the example's own most alike
- * two less), one feature recurring at least 4 times. */
+ * two less), one feature recurring at least 4 times; within example-sized
+ * crops (the equal-area figure) no repeat; the example as output: crops and
+ * whole give the example's own figure. */
 static void smooth_relief(uint64_t seed, int n, double *h)
 {
     gs_rng r;
@@ -1060,6 +1062,15 @@ static void test_repeats(void **state)
     assert_true(m.ncc_src < 0.999);
     assert_true(m.ncc_out > 0.999);
     assert_true(m.recur_out >= 4);
+    /* the equal-area figure: 3 x 3 example-sized crops (every N/2); each
+     * holds the example cyclically shifted, none a repeat of its own */
+    assert_int_equal(m.crops, 9);
+    assert_true(m.ncc_out_area > -1 && m.ncc_out_area < 0.999);
+    assert_true(m.ncc_out_area <= m.ncc_out_area_max && m.ncc_out_area_max <= m.ncc_out);
+    /* an output that is the example: one crop, the example's own figure */
+    assert_int_equal(gs_measure_repeats2(src, N, N, src, N, N, &m), GS_OK);
+    assert_int_equal(m.crops, 1);
+    assert_true(m.ncc_out_area == m.ncc_src && m.ncc_out == m.ncc_src);
     free(src);
     free(tile);
 }
