@@ -301,6 +301,48 @@ def grid_crossing(a, ground, period):
             "region_grid_crossing_ratio": ratio}
 
 
+def plan_boxes(schedule, pass_=0):
+    """The x / y boxes (x0, y0, x1, y1) of one pass's regions from a run's schedule.jsonl
+    (model.schedule_log = true)."""
+    import json
+    boxes = []
+    for line in open(schedule):
+        d = json.loads(line)
+        if d.get("pass") == pass_ and "box" in d:
+            x0, y0, _, x1, y1, _ = d["box"]
+            boxes.append((x0, y0, x1, y1))
+    return boxes
+
+
+def region_lines_crossing(a, ground, boxes):
+    """Structure columns across the x / y sides of a plan's regions (boxes as plan_boxes; #18:
+    with overlap 0 every region closes its castles inside it, so none crosses a region line,
+    whatever the region sizes). As grid_crossing: of the neighbouring column pairs across a
+    region side inside the lattice and of the other pairs, the shares that are both structure
+    columns (a non-empty cell at z >= ground); ratio = across the sides / elsewhere (1:
+    structures ignore the regions; near 0: confined to them; 0 when undefined)."""
+    col = (a[ground:] != 0).any(axis=0)  # (y, x)
+    ny, nx = col.shape
+    onx = np.zeros((ny, nx - 1), bool)  # pair (x - 1, x) on a side x = x0 or x1
+    ony = np.zeros((ny - 1, nx), bool)
+    for x0, y0, x1, y1 in boxes:
+        for x in (x0, x1):
+            if 0 < x < nx:
+                onx[y0:y1, x - 1] = True
+        for y in (y0, y1):
+            if 0 < y < ny:
+                ony[y - 1, x0:x1] = True
+    bx = col[:, 1:] & col[:, :-1]
+    by = col[1:, :] & col[:-1, :]
+    on_pairs, off_pairs = int(onx.sum() + ony.sum()), int((~onx).sum() + (~ony).sum())
+    on_both = int(bx[onx].sum() + by[ony].sum())
+    off_both = int(bx[~onx].sum() + by[~ony].sum())
+    ratio = (on_both / on_pairs) / (off_both / off_pairs) if on_pairs and off_pairs and off_both else 0.0
+    return {"region_lines_crossing": on_both / on_pairs if on_pairs else 0.0,
+            "region_lines_crossing_other": off_both / off_pairs if off_pairs else 0.0,
+            "region_lines_crossing_ratio": ratio}
+
+
 def straight_streets(a, ground):
     """Straight open streets: the lines x = const (y = const) between neighbouring columns
     across which no pair of structure columns (a non-empty cell at z >= ground) meets over

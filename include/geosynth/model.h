@@ -519,6 +519,21 @@ gs_err gs_model_plan(const gs_model_params *p, int nx, int ny, int nz, int pass,
 /* Cells of the plan's largest box (0 for an empty plan). */
 size_t gs_model_plan_max_cells(const gs_model_region *plan, size_t n);
 
+/* Merrell's modify in blocks for a sweep after the first (model.open_blocks,
+ * issue #18): each region of plan[0..n), in plan order, grows along x and y
+ * over every structure of lat with a column in it or in its face-neighbour
+ * shell (the structure's bounding box grown by one), repeated until no more
+ * such structure fits in cap cells per axis (larger ones it rebuilds across);
+ * it is kept only if it interacts with no region kept before it. A structure
+ * = an 8-connected set of columns with a non-empty cell above layer ground
+ * (the example's lowest layer holding an empty cell). The kept regions, one
+ * colour, are moved to the front of plan and renumbered; *n and *ncolors
+ * (1) set. With overlap 0 every region of the first sweep closes its
+ * structures inside it; these regions straddle its lines. */
+gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattice *lat,
+                                 int ground, int cap, gs_model_region *plan, size_t *n,
+                                 int *ncolors);
+
 /* 1 when regions a and b of an nx*ny*nz output interact: one writes a cell
  * the other reads (its box and the face neighbours around it, across
  * periodic wraps and mirror faces as gs_model_region_run reads them; with

@@ -318,6 +318,12 @@ static const gs_cfg_key model_keys[] = {
                    "keep sweeping until every cell was in this many accepted regions"),
     GS_CFG_KEY_INT(model_config, max_passes, "model.max_passes", 1, 100000, 0, "4",
                    "sweeps at most (stops earlier once model.passes is reached)"),
+    GS_CFG_KEY_INT(model_config, open_blocks, "model.open_blocks", 0, MODEL_MAX_EXTENT, 0, "0",
+                   "from the second pass on (Merrell's modify in blocks): each region grows "
+                   "along x and y over the structures it meets (columns non-empty above the "
+                   "example's lowest layer holding an empty cell), up to this many cells per "
+                   "axis, and only regions that interact with no region kept before them are "
+                   "rebuilt (one colour); 0 = off (every region of the pass's plan)"),
     GS_CFG_KEY_INT(model_config, attempts, "model.attempts", 1, 100000, 0, "20",
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",

@@ -60,6 +60,7 @@ typedef struct model_config {
     int64_t region_jitter;
     int64_t passes;
     int64_t max_passes;
+    int64_t open_blocks;
     int64_t attempts;
     int64_t backtracks;
     char *order;

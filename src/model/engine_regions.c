@@ -20,6 +20,17 @@ gs_err model_make_plan(model_engine *e)
     GS_FREE(e->rec);
     GS_CALL(gs_model_plan(&e->params, e->lat.nx, e->lat.ny, e->lat.nz, e->pass, &e->plan,
                           &e->nplan, &e->ncolors));
+    if (e->pass > 0 && e->cfg->open_blocks > 0) { /* made from e->lat: see synth.c */
+        const gs_model_lattice *ex = &e->example;
+        int ground = -1;
+        for (int z = 0; z < ex->nz && ground < 0; z++)
+            for (int y = 0; y < ex->ny && ground < 0; y++)
+                for (int x = 0; x < ex->nx && ground < 0; x++)
+                    if (ex->labels[gs_model_lattice_index(ex, x, y, z)] == 0)
+                        ground = z;
+        GS_CALL(gs_model_plan_open_blocks(&e->params, &e->lat, ground, (int)e->cfg->open_blocks,
+                                          e->plan, &e->nplan, &e->ncolors));
+    }
     for (size_t i = 0; i < e->nplan; i++)
         GS_CHECK(e->plan[i].id == i, GS_ERR_INTERNAL, "plan id %u at %zu", e->plan[i].id, i);
     GS_CALL(gs_alloc_array((void **)&e->region_status, e->nplan, sizeof(int32_t), "region status"));

@@ -525,6 +525,111 @@ done:
     return err;
 }
 
+/* model.open_blocks: see model.h. Structures are labelled once from lat (the
+ * content the pass starts from: every region of the pass shares colour 0,
+ * so the pass runs as one window and a checkpoint sees it only before its
+ * first region, where this plan is the same again on resume). */
+gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattice *lat,
+                                 int ground, int cap, gs_model_region *plan, size_t *n,
+                                 int *ncolors)
+{
+    const int nx = lat->nx, ny = lat->ny, nz = lat->nz;
+    const size_t ncol = (size_t)nx * (size_t)ny;
+    int32_t *comp = NULL, *stack = NULL, *bb = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&comp, ncol ? ncol : 1, sizeof *comp, "open blocks"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&stack, ncol ? ncol : 1, sizeof *stack, "open blocks"),
+           done);
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            int tall = 0;
+            for (int z = ground + 1; z < nz && !tall; z++)
+                tall = lat->labels[gs_model_lattice_index(lat, x, y, z)] != 0;
+            comp[(size_t)y * (size_t)nx + (size_t)x] = tall ? -2 : -1;
+        }
+    int nc = 0; /* structures: 8-connected sets of tall columns */
+    for (size_t c0 = 0; c0 < ncol; c0++)
+        if (comp[c0] == -2) {
+            size_t top = 0;
+            comp[c0] = nc;
+            stack[top++] = (int32_t)c0;
+            while (top) {
+                const int c = stack[--top], x = c % nx, y = c / nx;
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dx = -1; dx <= 1; dx++) {
+                        const int u = x + dx, v = y + dy;
+                        if (u < 0 || v < 0 || u >= nx || v >= ny)
+                            continue;
+                        const size_t q = (size_t)v * (size_t)nx + (size_t)u;
+                        if (comp[q] == -2) {
+                            comp[q] = nc;
+                            stack[top++] = (int32_t)q;
+                        }
+                    }
+            }
+            nc++;
+        }
+    /* each structure's columns grown by one (its shell), clamped to the lattice */
+    GS_TRY(err, gs_alloc_array((void **)&bb, (size_t)(nc ? nc : 1) * 4, sizeof *bb, "open blocks"),
+           done);
+    for (int k = 0; k < nc; k++)
+        bb[4 * k] = nx, bb[4 * k + 1] = ny, bb[4 * k + 2] = 0, bb[4 * k + 3] = 0;
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            const int k = comp[(size_t)y * (size_t)nx + (size_t)x];
+            if (k < 0)
+                continue;
+            int32_t *b = bb + 4 * k;
+            b[0] = x - 1 < b[0] ? (x > 0 ? x - 1 : 0) : b[0];
+            b[1] = y - 1 < b[1] ? (y > 0 ? y - 1 : 0) : b[1];
+            b[2] = x + 2 > b[2] ? (x + 2 < nx ? x + 2 : nx) : b[2];
+            b[3] = y + 2 > b[3] ? (y + 2 < ny ? y + 2 : ny) : b[3];
+        }
+    size_t kept = 0;
+    for (size_t i = 0; i < *n; i++) {
+        gs_model_box b = plan[i].box;
+        int ok = 1;
+        for (int changed = 1; changed;) {
+            changed = 0;
+            const int x0 = b.x0 > 0 ? b.x0 - 1 : 0, x1 = b.x1 < nx ? b.x1 + 1 : nx;
+            const int y0 = b.y0 > 0 ? b.y0 - 1 : 0, y1 = b.y1 < ny ? b.y1 + 1 : ny;
+            for (int y = y0; y < y1; y++)
+                for (int x = x0; x < x1; x++) {
+                    const int k = comp[(size_t)y * (size_t)nx + (size_t)x];
+                    if (k < 0)
+                        continue;
+                    const int32_t *c = bb + 4 * k;
+                    const gs_model_box g = {c[0] < b.x0 ? c[0] : b.x0, c[1] < b.y0 ? c[1] : b.y0,
+                                            b.z0, c[2] > b.x1 ? c[2] : b.x1,
+                                            c[3] > b.y1 ? c[3] : b.y1, b.z1};
+                    if (g.x1 - g.x0 > cap || g.y1 - g.y0 > cap)
+                        continue; /* too large to take in: the region rebuilds across it */
+                    if (g.x0 != b.x0 || g.y0 != b.y0 || g.x1 != b.x1 || g.y1 != b.y1) {
+                        b = g;
+                        changed = 1;
+                    }
+                }
+        }
+        /* kept only if it interacts with no region kept before it */
+        for (size_t j = 0; j < kept && ok; j++)
+            ok = !gs_model_regions_interact(p, nx, ny, nz, &b, &plan[j].box);
+        if (ok) {
+            plan[kept].box = b;
+            plan[kept].color = 0;
+            plan[kept].id = (uint32_t)kept;
+            kept++;
+        }
+    }
+    *n = kept;
+    *ncolors = 1;
+done:
+    gs_free(comp);
+    gs_free(stack);
+    gs_free(bb);
+    return err;
+}
+
 gs_err gs_model_synthesize(const gs_model_rules_t rules, const gs_model_params *p,
                            gs_model_lattice *lat, gs_model_stats *stats)
 {

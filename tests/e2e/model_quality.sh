@@ -203,11 +203,19 @@ fi
 # against 0.25) and the near-face labels (0.0029, 0.0023 against 0.0107); the author's corner
 # start column (a bush layer in the regions not yet synthesized) fails the walls (z = 3 0.198,
 # 0.209), the label L1 (0.192, 0.183 > 0.1826) and seed 1's keeps (z = 5 0.028).
+# Castles across region lines (model29): with overlap 0 each region closes its castles inside it,
+# so none crosses a region side; castle-10x-tile.ini's second sweep (model.open_blocks) rebuilds
+# regions grown over the castles they meet. Check, seeds 1 and 2: of the neighbouring column pairs
+# across the first sweep's region sides (schedule.jsonl) and of all others, the shares that are
+# both structure columns: ratio >= 0.25 (1 = the regions leave no trace; castle-10x.ini 0.00-0.01);
+# stop after the first sweep at np 2, resume at np 1: the digest of the run without a stop.
+# Broken on purpose: model.open_blocks = 0 with one sweep (castle-10x-tile.ini before) fails it
+# (seeds 1, 2: ratio 0.10, 0.08).
 for cfg in castle-10x castle-10x-tile; do
   need_config "$cfg: keeps (and for the tile walls and bushes) at the example's rates" "$GS_ROOT/configs/model/$cfg.ini" || continue
   tag=${cfg#castle-10x}; tag=${tag:+t}
   for s in 1 2; do
-    run_gs 0 model -c "$GS_ROOT/configs/model/$cfg.ini" --set run.seed=$s --set model.mesh=none -o castle10x$tag$s
+    run_gs 0 model -c "$GS_ROOT/configs/model/$cfg.ini" --set run.seed=$s --set model.mesh=none --set model.schedule_log=true -o castle10x$tag$s
     expect_rc 0 "$cfg.ini seed $s"
     [[ $rc -eq 0 ]] || continue
     [[ $cfg == castle-10x ]] || expect_err "the example taken as a tile along x and y" "$cfg seed $s: the log says the example is taken as a tile"
@@ -236,6 +244,9 @@ if sys.argv[3] == "castle-10x-tile":
         need(abs(fo[z] - fe[z]) <= 0.15 * fe[z], "wall layer z = %d: fill %.4f within 15%% of the example's %.4f" % (z, fo[z], fe[z]))
     need(len(labels) > 0 and 0.5 * se <= so <= 2 * se, "near-face labels %s (the bushes): share %.4f within [0.5, 2] x the example's %.4f" % (labels, so, se))
     need(f["label_l1"] <= 1.25 * f["label_l1_stacked_example"], "label L1 %.3f <= 1.25 x the example's layers stacked to the output's height %.3f" % (f["label_l1"], f["label_l1_stacked_example"]))
+    # castles across the first sweep's region lines (model29): model.open_blocks' second sweep
+    rl = lm.region_lines_crossing(out, lm.ground_layer(ex), lm.plan_boxes(sys.argv[2] + "/schedule.jsonl", 0))
+    need(rl["region_lines_crossing_ratio"] >= 0.25, "structures across the first sweep's region sides %.3f >= 0.25 x across other lines %.3f (ratio %.2f; 1 = no region lines, castle-10x.ini 0.00-0.01)" % (rl["region_lines_crossing"], rl["region_lines_crossing_other"], rl["region_lines_crossing_ratio"]))
 else:
     # layout above the ground (#18, model19): castles on open ground, not a labyrinth of walls
     lf = lm.layout_figures(ex, out)
@@ -260,10 +271,19 @@ EOF
   done
 done
 if [[ -f castle10xt1/summary.json ]]; then
-  run_gs 2 model -c "$GS_ROOT/configs/model/castle-10x-tile.ini" --set run.seed=1 --set model.mesh=none -o castle10xt1np2
+  run_gs 2 model -c "$GS_ROOT/configs/model/castle-10x-tile.ini" --set run.seed=1 --set model.mesh=none --set model.schedule_log=true -o castle10xt1np2
   expect_rc 0 "castle-10x-tile.ini seed 1 at np 2"
   [[ $(digest_of castle10xt1np2) == "$(digest_of castle10xt1)" ]] \
     && ok "castle-10x-tile: digest $(digest_of castle10xt1) at np 1 and np 2" || bad "castle-10x-tile: digests differ between np 1 and np 2"
+  # the second sweep's plan is made from the lattice the sweep starts from: a stop at the end of
+  # the first sweep (np 2), resumed at np 1, makes it again from the checkpoint's lattice
+  units=$(grep -c '"pass":0' castle10xt1/schedule.jsonl)
+  GS_STOP_AFTER_UNITS=$units run_gs 2 model -c "$GS_ROOT/configs/model/castle-10x-tile.ini" --set run.seed=1 --set model.mesh=none --set model.schedule_log=true -o castle10xt1stop
+  expect_rc 9 "castle-10x-tile.ini seed 1: stopped after the first sweep's $units regions at np 2"
+  run_gs 0 resume castle10xt1stop
+  expect_rc 0 "castle-10x-tile.ini seed 1: resumed at np 1"
+  [[ $(digest_of castle10xt1stop) == "$(digest_of castle10xt1)" ]] \
+    && ok "castle-10x-tile: digest $(digest_of castle10xt1) after stop + resume" || bad "castle-10x-tile: stop + resume digest $(digest_of castle10xt1stop) != $(digest_of castle10xt1)"
 fi
 # A village nobody tuned for (scripts/gen-lattice.py village 5: houses, roofs, trees; every
 # non-empty cell stands on the ground), 40x40x8 in 20x20 regions, default settings: no floating

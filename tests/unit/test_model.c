@@ -675,6 +675,47 @@ static void test_plan_jitter(void **state)
     }
 }
 
+/* model.open_blocks (issue #18): a region grows over the structures it meets
+ * (their columns and a shell of one), not over one larger than the cap, and
+ * a region that interacts with one kept before it is dropped. */
+static void test_plan_open_blocks(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    gs_model_lattice lat = {0};
+    assert_int_equal(gs_model_lattice_create(&lat, 40, 20, 4), GS_OK);
+    /* ground layer 1: a structure at x 8..11, y 3..5 (z = 2 only at x 8: one
+     * structure through its z = 3 cells), a flat bush at x 30 (z = 1 only) */
+    for (int y = 3; y <= 5; y++)
+        for (int x = 8; x <= 11; x++)
+            lat.labels[gs_model_lattice_index(&lat, x, y, 3)] = 1;
+    lat.labels[gs_model_lattice_index(&lat, 30, 10, 1)] = 2;
+    gs_model_region plan[3] = {{{0, 0, 0, 10, 10, 4}, 0, 0},  /* cuts the structure */
+                               {{12, 0, 0, 20, 10, 4}, 1, 0}, /* its shell meets it */
+                               {{25, 5, 0, 35, 15, 4}, 2, 1}};
+    size_t n = 3;
+    int ncol = 0;
+    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 16, plan, &n, &ncol), GS_OK);
+    assert_int_equal(ncol, 1);
+    /* region 0 takes in x 7..12 (the structure's bounding box grown by one): x1 = 13 */
+    assert_int_equal(n, 2);
+    assert_int_equal(plan[0].box.x0, 0);
+    assert_int_equal(plan[0].box.x1, 13);
+    assert_int_equal(plan[0].box.y1, 10);
+    assert_int_equal(plan[1].box.x0, 25); /* region 1 grew into region 0: dropped */
+    assert_int_equal(plan[1].box.x1, 35); /* the bush is no structure */
+    assert_int_equal(plan[1].id, 1);
+    assert_int_equal(plan[1].color, 0);
+    /* a cap below the grown width: region 0 keeps its box and cuts the structure */
+    gs_model_region small[1] = {{{0, 0, 0, 10, 10, 4}, 0, 0}};
+    n = 1;
+    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 12, small, &n, &ncol), GS_OK);
+    assert_int_equal(n, 1);
+    assert_int_equal(small[0].box.x1, 10);
+    gs_model_lattice_destroy(&lat);
+}
+
 typedef struct sample_case {
     const char *file;
     int nx, ny, nz, bx, by;
@@ -878,6 +919,7 @@ int main(void)
         cmocka_unit_test(test_initial_model_preferred_column),
         cmocka_unit_test(test_plan_colours),
         cmocka_unit_test(test_plan_jitter),
+        cmocka_unit_test(test_plan_open_blocks),
         cmocka_unit_test(test_author_samples_consistent),
         cmocka_unit_test(test_csv_samples_consistent),
         cmocka_unit_test(test_determinism),
