@@ -174,20 +174,26 @@ def ground_layer(a):
     return -1
 
 
+def yard_components(a, z):
+    """Layer z's empty cells labelled by 4-connected component, and the ids of the yards: the
+    components not reaching the layer's border."""
+    from scipy import ndimage
+    lab, n = ndimage.label(a[z] == 0)
+    border = set(np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]])).tolist())
+    return lab, [i for i in range(1, n + 1) if i not in border]
+
+
 def enclosure(a, z, min_large=1):
     """Yards of layer z (as gs_measure_enclosure): the empty cells not 4-connected through
     empty cells of the layer to its border. share = enclosed cells / layer cells, yards =
     their components, yard_max = the largest one's cells, large_share = cells in yards of
     >= min_large cells / layer cells."""
-    from scipy import ndimage
-    e = a[z] == 0
-    lab, n = ndimage.label(e)
-    border = set(np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]])).tolist())
-    sizes = np.bincount(lab.ravel(), minlength=n + 1)
-    yards = [int(sizes[i]) for i in range(1, n + 1) if i not in border]
-    return {"share": sum(yards) / e.size, "yards": len(yards),
+    lab, ids = yard_components(a, z)
+    sizes = np.bincount(lab.ravel(), minlength=max(ids, default=0) + 1)
+    yards = [int(sizes[i]) for i in ids]
+    return {"share": sum(yards) / lab.size, "yards": len(yards),
             "yard_max": max(yards, default=0),
-            "large_share": sum(y for y in yards if y >= min_large) / e.size}
+            "large_share": sum(y for y in yards if y >= min_large) / lab.size}
 
 
 def enclosure_figures(ex, out):
@@ -209,6 +215,38 @@ def enclosure_figures(ex, out):
         f["enclosed_yard_max" + name] = g["yard_max"]
         f["enclosed_large_share" + name] = g["large_share"]
     return f
+
+
+def yard_touches(a, z):
+    """Per yard of layer z (as enclosure): its cells and the set of non-empty labels of layer
+    z 4-adjacent to it (what stands at its edge: walls, towers, a gate, a keep)."""
+    from scipy import ndimage
+    lab, ids = yard_components(a, z)
+    out = []
+    for i in ids:
+        m = lab == i
+        ring = ndimage.binary_dilation(m) & ~m
+        out.append((int(m.sum()), set(np.unique(a[z][ring]).tolist()) - {0}))
+    return out
+
+
+def yard_fittings(ex, out):
+    """The example's yard fittings: the labels at the edge of every yard of the example's
+    ground layer (fortress: wall, tower, gate, keep). For the output's yards of the example's
+    scale (>= half its largest): how many there are, how many touch every fitting, and per
+    fitting label how many touch it (the gate and the keep are what yards lack)."""
+    z = ground_layer(ex)
+    if z < 0 or z >= out.shape[0]:
+        return {"yard_fittings": []}
+    ey = yard_touches(ex, z)
+    if not ey:
+        return {"yard_fittings": []}
+    fit = set.intersection(*[t for _, t in ey])
+    big = max(1, (max(c for c, _ in ey) + 1) // 2)
+    oy = [t for c, t in yard_touches(out, z) if c >= big]
+    return {"yard_fittings": sorted(fit), "yard_fittings_yards": len(oy),
+            "yard_fittings_complete": sum(1 for t in oy if fit <= t),
+            "yard_fittings_per_label": {str(l): sum(1 for t in oy if l in t) for l in sorted(fit)}}
 
 
 def layout(a, ground, large_min=0):
@@ -397,6 +435,7 @@ def figures(ex, out, ks=(2, 3)):
     if min(ex.shape[0], out.shape[0]) > 2:
         f["enclosed_2"], f["enclosed_2_example"] = enclosed(out), enclosed(ex)
     f.update(enclosure_figures(ex, out))
+    f.update(yard_fittings(ex, out))
     f.update(layout_figures(ex, out))
     f["unsupported_share"], f["unsupported_share_example"] = unsupported(out), unsupported(ex)
     f["labels_used"] = int(len(np.unique(out[out != 0])))
