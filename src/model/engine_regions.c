@@ -11,6 +11,7 @@
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 #include "model/engine_impl.h"
+#include "model/model_impl.h"
 
 gs_err model_make_plan(model_engine *e)
 {
@@ -56,6 +57,44 @@ static size_t box_cells(const gs_model_box *b)
     return (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
 }
 
+/* model.open_blocks (Merrell's modify in blocks): is the rebuilt content of
+ * box (e->buf) further from the example's label mix per layer (the L1
+ * distance of its label counts to the example layer's shares, summed over
+ * the box's layers) than the content it replaces? Without resemblance's
+ * layer shares, never. The old content is the pass's start: the regions of
+ * an open-blocks pass never interact. */
+static gs_err open_block_worse(const model_engine *e, const gs_model_box *b, int *worse)
+{
+    const struct gs_model_resem *R = e->params.resem;
+    *worse = 0;
+    if (!R || !R->zshare)
+        return GS_OK;
+    const size_t L = (size_t)R->L;
+    uint32_t *cnt = NULL;
+    GS_CALL(gs_alloc_array((void **)&cnt, 2 * L, sizeof *cnt, "open block counts"));
+    double d[2] = {0, 0};
+    size_t k = 0;
+    for (int z = b->z0; z < b->z1; z++) {
+        memset(cnt, 0, 2 * L * sizeof *cnt);
+        size_t m = 0;
+        for (int y = b->y0; y < b->y1; y++)
+            for (int x = b->x0; x < b->x1; x++, k++, m++) {
+                const uint16_t o = e->lat.labels[gs_model_lattice_index(&e->lat, x, y, z)];
+                const uint16_t n = e->buf[k];
+                cnt[o < L ? o : 0] += o < L;
+                cnt[L + (n < L ? n : 0)] += n < L;
+            }
+        const float *t = R->zshare + (size_t)(z < R->nz ? z : R->nz - 1) * L;
+        for (size_t a = 0; a < L; a++) {
+            d[0] += fabs((double)cnt[a] - (double)t[a] * (double)m);
+            d[1] += fabs((double)cnt[L + a] - (double)t[a] * (double)m);
+        }
+    }
+    gs_free(cnt);
+    *worse = d[1] > d[0];
+    return GS_OK;
+}
+
 static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
                          gs_region_out *out)
 {
@@ -75,6 +114,14 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
      * 3 consistent but not accepted by the Metropolis step (kept) */
+    if (res.ok && pass > 0 && e->cfg->open_blocks > 0) {
+        int worse = 0;
+        GS_CALL(open_block_worse(e, &r->box, &worse));
+        if (worse) { /* kept as it was, counted as not accepted (ok = 3) */
+            res.ok = 0;
+            res.mh_rejected = 1;
+        }
+    }
     region_hdr h = {res.ok ? 1 : res.partial ? 2 : res.mh_rejected ? 3 : 0, res.attempts,
                     res.choices, res.backtracks, e->rank, e->window_seq++, cpu_s};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));

@@ -204,13 +204,15 @@ fi
 # start column (a bush layer in the regions not yet synthesized) fails the walls (z = 3 0.198,
 # 0.209), the label L1 (0.192, 0.183 > 0.1826) and seed 1's keeps (z = 5 0.028).
 # Castles across region lines (model29): with overlap 0 each region closes its castles inside it,
-# so none crosses a region side; castle-10x-tile.ini's second sweep (model.open_blocks) rebuilds
+# so none crosses a region side; castle-10x-tile.ini's later sweeps (model.open_blocks) rebuild
 # regions grown over the castles they meet. Check, seeds 1 and 2: of the neighbouring column pairs
 # across the first sweep's region sides (schedule.jsonl) and of all others, the shares that are
 # both structure columns: ratio >= 0.25 (1 = the regions leave no trace; castle-10x.ini 0.00-0.01);
 # stop after the first sweep at np 2, resume at np 1: the digest of the run without a stop.
 # Broken on purpose: model.open_blocks = 0 with one sweep (castle-10x-tile.ini before) fails it
-# (seeds 1, 2: ratio 0.10, 0.08).
+# (seeds 1, 2: ratio 0.10, 0.08). A rebuilt region is kept only if its label mix per layer is no
+# further from the example's: label L1 <= 0.16 (the author's castle figure); broken on purpose (that
+# test removed in engine_regions.c open_block_worse) it fails (seeds 1, 2: 0.162, 0.168).
 for cfg in castle-10x castle-10x-tile; do
   need_config "$cfg: keeps (and for the tile walls and bushes) at the example's rates" "$GS_ROOT/configs/model/$cfg.ini" || continue
   tag=${cfg#castle-10x}; tag=${tag:+t}
@@ -244,7 +246,8 @@ if sys.argv[3] == "castle-10x-tile":
         need(abs(fo[z] - fe[z]) <= 0.15 * fe[z], "wall layer z = %d: fill %.4f within 15%% of the example's %.4f" % (z, fo[z], fe[z]))
     need(len(labels) > 0 and 0.5 * se <= so <= 2 * se, "near-face labels %s (the bushes): share %.4f within [0.5, 2] x the example's %.4f" % (labels, so, se))
     need(f["label_l1"] <= 1.25 * f["label_l1_stacked_example"], "label L1 %.3f <= 1.25 x the example's layers stacked to the output's height %.3f" % (f["label_l1"], f["label_l1_stacked_example"]))
-    # castles across the first sweep's region lines (model29): model.open_blocks' second sweep
+    need(f["label_l1"] <= 0.16, "label L1 %.3f <= 0.16 (the author's castle figure, issue #18)" % f["label_l1"])
+    # castles across the first sweep's region lines (model29): model.open_blocks' later sweeps
     rl = lm.region_lines_crossing(out, lm.ground_layer(ex), lm.plan_boxes(sys.argv[2] + "/schedule.jsonl", 0))
     need(rl["region_lines_crossing_ratio"] >= 0.25, "structures across the first sweep's region sides %.3f >= 0.25 x across other lines %.3f (ratio %.2f; 1 = no region lines, castle-10x.ini 0.00-0.01)" % (rl["region_lines_crossing"], rl["region_lines_crossing_other"], rl["region_lines_crossing_ratio"]))
 else:
