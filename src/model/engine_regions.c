@@ -95,6 +95,8 @@ static gs_err open_block_worse(const model_engine *e, const gs_model_box *b, int
     return GS_OK;
 }
 
+#define OPEN_BLOCK_TRIES 4
+
 static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
                          gs_region_out *out)
 {
@@ -108,8 +110,21 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
              (long long)id);
     gs_model_region_result res;
     double cpu0 = gs_cpu_now();
-    GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &e->params, r->id, (uint64_t)pass,
-                                e->buf, &res));
+    /* model.open_blocks' later sweeps: a rebuild is optional (the old content
+     * is consistent), so a region gives up after OPEN_BLOCK_TRIES tries and
+     * is not split, and then keeps its content (counted as rejected) */
+    const int open = pass > 0 && e->cfg->open_blocks > 0;
+    gs_model_params q = e->params;
+    if (open) {
+        q.attempts = q.attempts < OPEN_BLOCK_TRIES ? q.attempts : OPEN_BLOCK_TRIES;
+        q.split_depth = 0;
+    }
+    GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &q, r->id, (uint64_t)pass, e->buf,
+                                &res));
+    if (open && !res.ok) {
+        res.partial = 0;
+        res.mh_rejected = 1;
+    }
     double cpu_s = gs_cpu_now() - cpu0;
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
