@@ -22,6 +22,11 @@ summary.json layout_*, for output and source alike:
   (objects crowded closer than any two in the example: clumps).
 - fused share: measured objects larger than 1.5 x the source's largest
   measured object (two or more glued into one).
+- guarded (layout_guard*): the output's measured objects whose centre lies
+  at least the source's largest nn plus its largest object radius (largest
+  distance of a sample from its object's centre) from every face: every
+  object within the source's spacing of them is whole (the box moves a cut
+  object's centre off its own); their close share and nn KS.
 
 With --check it compares every figure with the run's summary.json and exits
 1 on a difference (what e2e tests use to keep the C and Python equal).
@@ -58,12 +63,14 @@ def object_mask(d, height):
     return d < -1.0
 
 
-def objects(mask):
-    """centres [n][3] (x, y, z), sizes, interior flags."""
+def objects(mask, radii=False):
+    """centres [n][3] (x, y, z), sizes, interior flags (and with radii the
+    largest distance of a sample from its centre)."""
     struct = ndimage.generate_binary_structure(3, 1)
     lab, n = ndimage.label(mask, structure=struct)
     if n == 0:
-        return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=bool)
+        e = (np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=bool))
+        return e + (np.zeros(0),) if radii else e
     idx = np.arange(1, n + 1)
     sizes = ndimage.sum(mask, lab, idx)
     zz, yy, xx = np.indices(mask.shape)
@@ -77,6 +84,13 @@ def objects(mask):
         border.update(np.unique(np.take(lab, -1, axis=a)).tolist())
     border.discard(0)
     interior = np.array([i not in border for i in idx], dtype=bool)
+    if radii:
+        zs, ys, xs = np.nonzero(lab)
+        l = lab[zs, ys, xs] - 1
+        r = np.sqrt((xs - c[l, 0]) ** 2 + (ys - c[l, 1]) ** 2 + (zs - c[l, 2]) ** 2)
+        rad = np.zeros(n)
+        np.maximum.at(rad, l, r)
+        return c, np.asarray(sizes, dtype=np.float64), interior, rad
     return c, np.asarray(sizes, dtype=np.float64), interior
 
 
@@ -101,7 +115,7 @@ def figures(h5):
     out, src = levels(h5, "field/levels"), levels(h5, "source/levels")
     height = is_height_field(src)
     co, so, io = objects(object_mask(out, height))
-    cs, ss, is_ = objects(object_mask(src, height))
+    cs, ss, is_, rs = objects(object_mask(src, height), radii=True)
     no, ns = nearest(co, io), nearest(cs, is_)
     no, ns = no[np.isfinite(no)], ns[np.isfinite(ns)]
     nn_min = float(ns.min()) if len(ns) else 0.0
@@ -115,6 +129,21 @@ def figures(h5):
         f[f"layout_fused_share_{tag}"] = float((s[i] > FUSED * big).mean()) if i.any() else 0.0
     # gs_measure_ks: both empty 0, one empty 1
     f["layout_nn_ks"] = 0.0 if len(no) == len(ns) == 0 else field_objects.ks(no, ns)
+    # guarded: output objects whose centre lies at least the source's largest
+    # nn plus its largest object radius from every face (neighbours within the
+    # source's spacing are then whole, not cut by the box)
+    shape = object_mask(out, height).shape  # [z][y][x]
+    guard = (float(ns.max()) if len(ns) else 0.0) + (float(rs[is_].max()) if is_.any() else 0.0)
+    ig = io.copy()
+    for a, n in enumerate((shape[2], shape[1], shape[0])):
+        if n > 1:
+            ig &= (co[:, a] >= guard) & ((n - 1) - co[:, a] >= guard)
+    ng = nearest(co, ig)
+    ng = ng[np.isfinite(ng)]
+    f["layout_guard"] = guard
+    f["layout_guarded_objects_out"] = int(ig.sum())
+    f["layout_guarded_close_share_out"] = float((ng < nn_min).mean()) if len(ng) else 0.0
+    f["layout_guarded_nn_ks"] = 0.0 if len(ng) == len(ns) == 0 else field_objects.ks(ng, ns)
     return f
 
 
@@ -131,7 +160,9 @@ def main(argv):
                   f"nn p10/p50 {f['layout_nn_p10_out']:.2f}/{f['layout_nn_p50_out']:.2f} "
                   f"(source {f['layout_nn_p10_src']:.2f}/{f['layout_nn_p50_src']:.2f}), nn KS "
                   f"{f['layout_nn_ks']:.3f}, close {f['layout_close_share_out']:.3f}, fused "
-                  f"{f['layout_fused_share_out']:.3f}")
+                  f"{f['layout_fused_share_out']:.3f}; guarded (>= {f['layout_guard']:.2f} "
+                  f"from the faces): objects {f['layout_guarded_objects_out']}, close "
+                  f"{f['layout_guarded_close_share_out']:.3f}, nn KS {f['layout_guarded_nn_ks']:.3f}")
         if "--check" in argv:
             with open(run + "/summary.json") as fh:
                 m = json.load(fh)["metrics"]

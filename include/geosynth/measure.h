@@ -86,6 +86,15 @@ typedef struct gs_measure_objlayout_side {
 typedef struct gs_measure_objlayout {
     gs_measure_objlayout_side out, src;
     double nn_ks;
+    /* The same over the output's guarded objects: measured ones whose centre
+     * lies at least `guard` (the example's largest nn plus the largest
+     * distance of one of its objects' samples from its centre) from every
+     * face, so every object within the example's spacing of them is whole
+     * (one the box cuts has a centre moved off its own: texture.ini, most
+     * close pairs left by field.object_spacing had one); nn_ks_guarded
+     * against the example's nn. */
+    gs_measure_objlayout_side out_guarded;
+    double nn_ks_guarded, guard;
 } gs_measure_objlayout;
 gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                                 const int64_t sn[3], double fused, gs_measure_objlayout *r);

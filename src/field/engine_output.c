@@ -423,6 +423,10 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
         gs_run_metric_f64(run, key, ls[k]->fused_share);
     }
     gs_run_metric_f64(run, "layout_nn_ks", g->layout.nn_ks);
+    gs_run_metric_f64(run, "layout_guard", g->layout.guard);
+    gs_run_metric_i64(run, "layout_guarded_objects_out", g->layout.out_guarded.objects);
+    gs_run_metric_f64(run, "layout_guarded_close_share_out", g->layout.out_guarded.close_share);
+    gs_run_metric_f64(run, "layout_guarded_nn_ks", g->layout.nn_ks_guarded);
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
            "copying: %.3f of the output in exact unique %d^3 source windows, %.3f in regions of "

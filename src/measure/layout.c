@@ -14,6 +14,7 @@ typedef struct layout_objects {
     int64_t n;       /* components */
     double *c;       /* 3 per component: mean x, y, z of its samples */
     double *size;    /* samples */
+    double *radius;  /* largest distance of a sample from the centre */
     uint8_t *inner;  /* 1: touches no face of the grid (axes of one sample have none) */
 } layout_objects;
 
@@ -21,8 +22,37 @@ static void objects_free(layout_objects *o)
 {
     gs_free(o->c);
     gs_free(o->size);
+    gs_free(o->radius);
     gs_free(o->inner);
     memset(o, 0, sizeof *o);
+}
+
+/* Over the labelled samples: pass 0 sums each object's sample positions
+ * into its centre and clears inner where it touches a face; pass 1 (the
+ * centres divided) keeps its largest distance from the centre. */
+static void objects_pass(const uint32_t *label, const int64_t n[3], int pass, layout_objects *o)
+{
+    for (int64_t z = 0, i = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++)
+            for (int64_t x = 0; x < n[0]; x++, i++) {
+                uint32_t l = label[i];
+                if (!l)
+                    continue;
+                double *c = o->c + 3 * (l - 1);
+                int64_t p[3] = {x, y, z};
+                if (pass) {
+                    double dx = (double)x - c[0], dy = (double)y - c[1], dz = (double)z - c[2];
+                    double r = sqrt(dx * dx + dy * dy + dz * dz);
+                    if (r > o->radius[l - 1])
+                        o->radius[l - 1] = r;
+                    continue;
+                }
+                for (int a = 0; a < 3; a++) {
+                    c[a] += (double)p[a];
+                    if (n[a] > 1 && (p[a] == 0 || p[a] == n[a] - 1))
+                        o->inner[l - 1] = 0;
+                }
+            }
 }
 
 static gs_err objects_of(const uint8_t *mask, const int64_t n[3], layout_objects *o)
@@ -40,27 +70,17 @@ static gs_err objects_of(const uint8_t *mask, const int64_t n[3], layout_objects
     GS_TRY(err, gs_alloc_array((void **)&o->c, m, 3 * sizeof *o->c, "object centres"), done);
     GS_TRY(err, gs_alloc_array((void **)&o->size, m, sizeof *o->size, "object sizes"), done);
     GS_TRY(err, gs_alloc_array((void **)&o->inner, m, 1, "object faces"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->radius, m, sizeof *o->radius, "object radii"), done);
+    memset(o->radius, 0, m * sizeof *o->radius);
     memset(o->c, 0, m * 3 * sizeof *o->c);
     memset(o->inner, 1, m);
-    for (int64_t z = 0, i = 0; z < n[2]; z++)
-        for (int64_t y = 0; y < n[1]; y++)
-            for (int64_t x = 0; x < n[0]; x++, i++) {
-                uint32_t l = label[i];
-                if (!l)
-                    continue;
-                o->c[3 * (l - 1)] += (double)x;
-                o->c[3 * (l - 1) + 1] += (double)y;
-                o->c[3 * (l - 1) + 2] += (double)z;
-                int64_t p[3] = {x, y, z};
-                for (int a = 0; a < 3; a++)
-                    if (n[a] > 1 && (p[a] == 0 || p[a] == n[a] - 1))
-                        o->inner[l - 1] = 0;
-            }
+    objects_pass(label, n, 0, o);
     for (uint32_t l = 0; l < nc; l++) {
         o->size[l] = (double)sz[l + 1];
         for (int a = 0; a < 3; a++)
             o->c[3 * l + a] /= o->size[l];
     }
+    objects_pass(label, n, 1, o);
 done:
     gs_free(label);
     gs_free(sz);
@@ -90,7 +110,7 @@ static int cmp_f64(const void *a, const void *b)
  * object's centre (any object, inner or not), sorted ascending into *nn
  * (*k values; none when there is no other object). A sweep along x: cost
  * O(n log n) plus the pairs nearer in x than the best so far. */
-static gs_err nearest(const layout_objects *o, double **nn, int64_t *k)
+static gs_err nearest(const layout_objects *o, const uint8_t *measured, double **nn, int64_t *k)
 {
     by_x *s = NULL;
     double *d = NULL;
@@ -104,7 +124,7 @@ static gs_err nearest(const layout_objects *o, double **nn, int64_t *k)
     qsort(s, (size_t)o->n, sizeof *s, cmp_by_x);
     for (int64_t r = 0; r < o->n && o->n > 1; r++) {
         int64_t i = s[r].i;
-        if (!o->inner[i])
+        if (!measured[i])
             continue;
         const double *ci = o->c + 3 * i;
         double best = INFINITY;
@@ -134,13 +154,14 @@ static double quantile(const double *s, int64_t n, double p)
     return n ? s[(int64_t)(p * (double)(n - 1) + 0.5)] : 0;
 }
 
-static void side_figures(const layout_objects *o, const double *nn, int64_t k, double nn_min,
-                         double big, double fused, gs_measure_objlayout_side *f)
+static void side_figures(const layout_objects *o, const uint8_t *measured, const double *nn,
+                         int64_t k, double nn_min, double big, double fused,
+                         gs_measure_objlayout_side *f)
 {
     f->objects = 0;
     int64_t over = 0, close = 0;
     for (int64_t i = 0; i < o->n; i++)
-        if (o->inner[i])
+        if (measured[i])
             f->objects++, over += o->size[i] > fused * big;
     for (int64_t i = 0; i < k; i++)
         close += nn[i] < nn_min;
@@ -155,26 +176,45 @@ gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const u
 {
     memset(r, 0, sizeof *r);
     layout_objects oo, os;
-    double *no = NULL, *ns = NULL;
-    int64_t ko = 0, ks = 0;
+    double *no = NULL, *ns = NULL, *ng = NULL;
+    uint8_t *guarded = NULL;
+    int64_t ko = 0, ks = 0, kg = 0;
     gs_err err = GS_OK;
     memset(&os, 0, sizeof os);
     GS_CALL(objects_of(out, on, &oo));
     GS_TRY(err, objects_of(src, sn, &os), done);
-    GS_TRY(err, nearest(&oo, &no, &ko), done);
-    GS_TRY(err, nearest(&os, &ns, &ks), done);
-    double big = 0;
+    GS_TRY(err, nearest(&oo, oo.inner, &no, &ko), done);
+    GS_TRY(err, nearest(&os, os.inner, &ns, &ks), done);
+    double big = 0, rmax = 0;
     for (int64_t i = 0; i < os.n; i++)
-        if (os.inner[i] && os.size[i] > big)
-            big = os.size[i];
+        if (os.inner[i]) {
+            big = os.size[i] > big ? os.size[i] : big;
+            rmax = os.radius[i] > rmax ? os.radius[i] : rmax;
+        }
     double nn_min = ks ? ns[0] : 0;
-    side_figures(&oo, no, ko, nn_min, big, fused, &r->out);
-    side_figures(&os, ns, ks, nn_min, big, fused, &r->src);
+    side_figures(&oo, oo.inner, no, ko, nn_min, big, fused, &r->out);
+    side_figures(&os, os.inner, ns, ks, nn_min, big, fused, &r->src);
     GS_TRY(err, gs_measure_ks(no, (size_t)ko, ns, (size_t)ks, &r->nn_ks), done);
+    /* guarded: the output's objects whose centre lies at least the example's
+     * largest nn plus its largest object radius from every face */
+    r->guard = (ks ? ns[ks - 1] : 0) + rmax;
+    GS_TRY(err, gs_alloc_array((void **)&guarded, (size_t)(oo.n ? oo.n : 1), 1, "guarded objects"),
+           done);
+    for (int64_t i = 0; i < oo.n; i++) {
+        guarded[i] = oo.inner[i];
+        for (int a = 0; a < 3 && guarded[i]; a++)
+            guarded[i] = on[a] == 1 || (oo.c[3 * i + a] >= r->guard &&
+                                        (double)(on[a] - 1) - oo.c[3 * i + a] >= r->guard);
+    }
+    GS_TRY(err, nearest(&oo, guarded, &ng, &kg), done);
+    side_figures(&oo, guarded, ng, kg, nn_min, big, fused, &r->out_guarded);
+    GS_TRY(err, gs_measure_ks(ng, (size_t)kg, ns, (size_t)ks, &r->nn_ks_guarded), done);
 done:
     objects_free(&oo);
     objects_free(&os);
     gs_free(no);
     gs_free(ns);
+    gs_free(ng);
+    gs_free(guarded);
     return err;
 }
