@@ -243,6 +243,13 @@ gs_err gs_field_brute_search_classed(const gs_qfield *src, const gs_field_query 
                                      const int64_t (*exclude)[6], int nexclude, uint64_t tie_key,
                                      const uint8_t *tie_class, int64_t begin, int64_t end,
                                      uint64_t *bound, gs_field_match *out);
+/* The same under opts' exclude, exclude_mask, tie_key and tie_class (the
+ * rest of opts is ignored; opts may be NULL): the reference for the tree
+ * search with every exclusion and tie order. */
+struct gs_field_search_opts;
+gs_err gs_field_brute_search_opts(const gs_qfield *src, const gs_field_query *q,
+                                  const struct gs_field_search_opts *opts, int64_t begin,
+                                  int64_t end, uint64_t *bound, gs_field_match *out);
 
 typedef struct gs_field_tree *gs_field_tree_t;
 
@@ -356,6 +363,14 @@ typedef struct gs_field_search_opts {
      * that bring the volume fraction toward the source's (src/field/synth.c).
      * NULL: the tie_key order alone. */
     const uint8_t *tie_class;
+    /* Optional, one per block index (global): 1 = no match may take this
+     * block (as if it lay in an exclude box). The cost there is infinite,
+     * nothing else changes: the answer is the exact best of the other
+     * blocks (gs_field_brute_search_opts is the reference). The synthesis'
+     * field.object_spacing excludes with it the blocks that would put an
+     * object too close to one already in the output (src/field/synth.c).
+     * NULL: none. */
+    const uint8_t *exclude_mask;
 } gs_field_search_opts;
 
 /* Rank of block `index` (< 2^32) in the tie order of tie_key: the index
@@ -479,6 +494,16 @@ typedef struct gs_field_synth_config {
                                         a region's block reads is its box's plus the samples
                                         outside every box of its colour (src/field/synth.c
                                         region_volume: the same for any rank count). 0 = off */
+    double object_spacing;           /* > 0 (needs prov, raster order): in the last iteration
+                                        a block may not take a source block that would put a
+                                        source object (gs_field_layout_mask's components) whose
+                                        samples reach the block's unsynthesized box at a centre
+                                        between a quarter and this share of the source's
+                                        smallest centre spacing from one already in the target
+                                        (centres read through prov); exact best of the rest,
+                                        while an eighth of the source stays free
+                                        (src/field/synth.c object_exclusions); 0 = off (the
+                                        paper) */
     int wrap;                        /* bit a set: the source is periodic along axis a (a
                                         tile): each iteration's source is continued by
                                         block - 1 samples of itself past its high face, so

@@ -27,6 +27,11 @@ static void validate_config(const void *cfg_, gs_cfg_ctx *ctx)
         gs_cfg_report(ctx, "field.coarse_block",
                       "%lld does not fit the target at the coarsest iteration (target / %lld)",
                       (long long)c->coarse_block, (long long)f);
+    if (c->object_spacing > 0 && c->region_blocks > 0)
+        gs_cfg_report(ctx, "field.object_spacing",
+                      "needs field.region_blocks = 0, not %lld (it reads the provenance of the "
+                      "whole target, which a region's private copy does not keep)",
+                      (long long)c->region_blocks);
 }
 
 static const gs_cfg_key field_keys[] = {
@@ -135,6 +140,13 @@ static const gs_cfg_key field_keys[] = {
                     "match stays an exact best; with target regions a region reads the volume "
                     "of its own box and of the samples outside its colour's boxes (any rank "
                     "count gives one result); no = off (ties by the seeded order)"),
+    GS_CFG_KEY_REAL(field_config, object_spacing, "field.object_spacing", 0, 2, 0, "0",
+                    "for an example of separate objects (discs of a height field, balls): in "
+                    "the last iteration a block may not take a source block that would put an "
+                    "object's centre closer than this share of the source's smallest centre "
+                    "spacing to an object already in the output (nearer than a quarter of it "
+                    "counts as the same object continued); the match stays the exact best of "
+                    "the other blocks; needs region_blocks = 0; 0 = off (the paper)"),
     GS_CFG_KEY_ENUM(field_config, wrap, "field.wrap", "none|xy|xyz", "none",
                     "the example as a tile: source blocks wrap around its faces along these "
                     "axes, so every source sample lies in as many candidate blocks (without it a "

@@ -56,6 +56,7 @@ typedef struct field_config {
     int complete_objects;
     char *wrap;
     int keep_volume;
+    double object_spacing;
     int64_t region_blocks;
     char *tree;
     char *geometry;

@@ -185,6 +185,7 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.seam_cut = c->seam_cut;
     d->sc.complete_objects = c->complete_objects;
     d->sc.keep_volume = c->keep_volume;
+    d->sc.object_spacing = c->object_spacing;
     d->sc.wrap = !strcmp(c->wrap, "xyz") ? 7 : !strcmp(c->wrap, "xy") ? 3 : 0;
     d->sc.region_blocks = (int)c->region_blocks;
     d->ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;

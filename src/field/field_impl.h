@@ -218,4 +218,12 @@ gs_err gs_field_fibers_rebuild(const gs_qfield *src, const int64_t tn[3], uint8_
                                int32_t *prov, int axis, int64_t S, int64_t *completed,
                                int64_t *removed);
 
+/* Objects of separate-object examples (src/field/report.c): whether q is a
+ * height field (every sample of its bottom plane inside), and the objects'
+ * mask (*m, n samples per axis): for a height field the columns lower than
+ * the mid-range of q's heights (n = {nx, ny, 1}), else the core (deeper than
+ * one sample). The layout measure and field.object_spacing read them. */
+int gs_field_height_field(const gs_qfield *q);
+gs_err gs_field_layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t n[3]);
+
 #endif

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "geosynth/field.h"
+#include "field_impl.h"
 #include "geosynth/log.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
@@ -376,7 +376,7 @@ void gs_field_seam_ratios(const gs_qfield *q, int period, int axes, double *rati
 }
 
 /* Whether q is a height field: every sample of its bottom plane inside. */
-static int height_field(const gs_qfield *q)
+int gs_field_height_field(const gs_qfield *q)
 {
     for (int64_t i = 0; i < q->nx * q->ny; i++)
         if (!(gs_qfield_value(q, q->q[i]) < 0))
@@ -384,12 +384,12 @@ static int height_field(const gs_qfield *q)
     return 1;
 }
 
-/* The objects' mask of q (gs_field_geometry_report's layout): with height,
+/* The objects' mask of q (gs_field_geometry_report's layout; field.object_spacing): with height,
  * the columns lower than the mid-range of q's heights (*m gets nx*ny
  * samples, n = {nx, ny, 1}), else the core (deeper than one sample). The
  * arithmetic is analysis/field_layout.py's: levels in samples, heights
  * summed from z = 0 up. */
-static gs_err layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t n[3])
+gs_err gs_field_layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t n[3])
 {
     int64_t nxy = q->nx * q->ny, cells = nxy * q->nz;
     double d[256];
@@ -426,12 +426,12 @@ static gs_err layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t n
 
 static gs_err object_layout(const gs_qfield *out, const gs_qfield *src, gs_field_geometry_report *r)
 {
-    r->layout_height_field = height_field(src);
+    r->layout_height_field = gs_field_height_field(src);
     uint8_t *mo = NULL, *ms = NULL;
     int64_t on[3], sn[3];
     gs_err err = GS_OK;
-    GS_TRY(err, layout_mask(out, r->layout_height_field, &mo, on), done);
-    GS_TRY(err, layout_mask(src, r->layout_height_field, &ms, sn), done);
+    GS_TRY(err, gs_field_layout_mask(out, r->layout_height_field, &mo, on), done);
+    GS_TRY(err, gs_field_layout_mask(src, r->layout_height_field, &ms, sn), done);
     err = gs_measure_object_layout(mo, on, ms, sn, 1.5, &r->layout);
 done:
     gs_free(mo);

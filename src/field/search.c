@@ -457,13 +457,15 @@ uint64_t gs_field_tie_rank_of(const gs_field_search_opts *o, int64_t index)
 static int64_t leaf_pick(const struct gs_field_tree *t, const gs_field_search_opts *o,
                          const gs_tree_node *nd, uint64_t *rank)
 {
-    if (!o->nexclude && !o->tie_key && !o->tie_class) {
+    if (!o->nexclude && !o->exclude_mask && !o->tie_key && !o->tie_class) {
         *rank = (uint64_t)((int64_t)nd->rep + t->index_offset);
         return nd->rep;
     }
     int64_t pick = -1;
     for (uint32_t i = 0; i < nd->count; i++) {
         int64_t g = (int64_t)t->members[nd->first + i] + t->index_offset;
+        if (o->exclude_mask && o->exclude_mask[g])
+            continue;
         if (o->nexclude) {
             int64_t p[3] = {g % t->bx, g / t->bx % t->by, g / (t->bx * t->by)};
             if (in_boxes(o->exclude, o->nexclude, p))
@@ -786,7 +788,18 @@ gs_err gs_field_brute_search_classed(const gs_qfield *src, const gs_field_query 
                                      uint64_t *bound, gs_field_match *out)
 {
     gs_field_search_opts o = {0};
-    o.tie_key = tie_key, o.tie_class = tie_class;
+    o.exclude = exclude, o.nexclude = nexclude, o.tie_key = tie_key, o.tie_class = tie_class;
+    return gs_field_brute_search_opts(src, q, &o, begin, end, bound, out);
+}
+
+gs_err gs_field_brute_search_opts(const gs_qfield *src, const gs_field_query *q,
+                                  const gs_field_search_opts *opts, int64_t begin, int64_t end,
+                                  uint64_t *bound, gs_field_match *out)
+{
+    gs_field_search_opts o = {0};
+    if (opts)
+        o.exclude = opts->exclude, o.nexclude = opts->nexclude, o.tie_key = opts->tie_key,
+        o.tie_class = opts->tie_class, o.exclude_mask = opts->exclude_mask;
     int B = q->block;
     int64_t M = gs_field_block_count(src, B);
     GS_CHECK(M > 0, GS_ERR_ARG, "query block %d does not fit the source", B);
@@ -802,7 +815,7 @@ gs_err gs_field_brute_search_classed(const gs_qfield *src, const gs_field_query 
     uint64_t best = *bound, best_rank = 0;
     for (int64_t idx = begin; idx < end; idx++) {
         int64_t p[3] = {idx % bx, idx / bx % by, idx / (bx * by)};
-        if (in_boxes(exclude, nexclude, p))
+        if ((o.exclude_mask && o.exclude_mask[idx]) || in_boxes(o.exclude, o.nexclude, p))
             continue;
         uint64_t d = ssd(src->q + gs_block_base(bx, by, src->nx, src->ny, idx), src->nx, nxy,
                          q->values, q->known, wk, wu, B, 0, B);

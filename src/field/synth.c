@@ -93,6 +93,20 @@ struct gs_field_synth {
     gs_field_region *reg;
     uint8_t *scratch;             /* 2 x the largest region box: target, mask */
     size_t scratch_len;
+    /* object_spacing (object_setup, object_exclusions): the source's objects
+     * (components of gs_field_layout_mask: columns of a height field, ob_dims
+     * 2, or cores, 3), ob_label per mask cell (ob_ln), centres ob_c (3 an
+     * object) and boxes ob_box (samples, inclusive); ob_dmin the excluded
+     * spacing, ob_same the same object's; ob_forbid the source blocks the
+     * block being matched may not take (ob_list: the marked ones), ob_e the
+     * target's objects around it (3 an object, ob_ecap) */
+    int ob_ready, ob_dims;
+    int64_t ob_n, ob_ln[3];
+    uint32_t *ob_label;
+    double *ob_c, ob_dmin, ob_same, *ob_e;
+    int64_t (*ob_box)[6];
+    uint8_t *ob_forbid;
+    int64_t *ob_list, ob_nlist, ob_ecap;
     gs_field_cut_scratch cut;     /* seam_cut: the max-flow graph of one block */
     uint8_t *cut_term, *cut_new;  /* per block sample: tie, and the cut's choice */
     uint32_t *cut_cost;           /* per block sample: old/new disagreement */
@@ -155,6 +169,10 @@ static gs_err validate(const gs_qfield *src, const gs_field_synth_config *c)
     GS_CHECK(c->region_blocks >= 0 && c->region_blocks <= 4096, GS_ERR_ARG,
              "field.region_blocks = %d: expected 0 (one region) or 1..4096 block positions per "
              "region", c->region_blocks);
+    GS_CHECK(c->object_spacing >= 0 && c->object_spacing <= 2 &&
+                 (c->object_spacing == 0 || (c->region_blocks == 0 && c->prov)),
+             GS_ERR_ARG, "field.object_spacing = %g: expected 0 (off) or at most 2 with "
+             "region_blocks 0 and a provenance map", c->object_spacing);
     for (int i = 0; i < c->iterations; i++) {
         int B = c->block[i];
         int64_t fi = (int64_t)1 << (c->iterations - 1 - i);
@@ -417,6 +435,8 @@ done:
     return err;
 }
 
+static gs_err object_setup(struct gs_field_synth *s);
+
 /* Builds the level source, tree, searcher and visit order of st.iteration. */
 static gs_err enter_iteration(struct gs_field_synth *s)
 {
@@ -474,6 +494,17 @@ static gs_err enter_iteration(struct gs_field_synth *s)
         }
     }
     GS_CALL(build_regions(s, B));
+    if (s->cfg.object_spacing > 0 && it == s->cfg.iterations - 1) {
+        int64_t nsb = gs_field_block_count(s->level_src, B);
+        GS_CALL(object_setup(s));
+        gs_free(s->ob_forbid);
+        gs_free(s->ob_list);
+        s->ob_forbid = NULL, s->ob_list = NULL, s->ob_nlist = 0;
+        GS_CALL(gs_alloc_array((void **)&s->ob_forbid, (size_t)nsb, 1, "object spacing marks"));
+        memset(s->ob_forbid, 0, (size_t)nsb);
+        GS_CALL(gs_alloc_array((void **)&s->ob_list, (size_t)nsb, sizeof *s->ob_list,
+                               "object spacing marks"));
+    }
     if (s->cfg.seam_cut) {
         size_t nb = (size_t)B * B * B;
         GS_CALL(gs_field_cut_scratch_init(&s->cut, B));
@@ -635,6 +666,12 @@ void gs_field_synth_destroy(gs_field_synth_t *sp)
     gs_free(s->feature);
     gs_free(s->reg);
     gs_free(s->scratch);
+    gs_free(s->ob_label);
+    gs_free(s->ob_c);
+    gs_free(s->ob_box);
+    gs_free(s->ob_e);
+    gs_free(s->ob_forbid);
+    gs_free(s->ob_list);
     gs_field_cut_scratch_free(&s->cut);
     gs_free(s->cut_term);
     gs_free(s->cut_new);
@@ -1851,8 +1888,10 @@ static uint64_t candidate_bound(const struct gs_field_synth *s, int64_t b, const
         if (x >= ex[i][0] && x <= ex[i][3] && bp[1] >= ex[i][1] && bp[1] <= ex[i][4] &&
             bp[2] >= ex[i][2] && bp[2] <= ex[i][5])
             return 0;
-    int64_t bx = ls->nx - B + 1, by = ls->ny - B + 1;
-    uint64_t d = gs_field_block_distance(ls, x + bx * (bp[1] + by * bp[2]), q);
+    int64_t bx = ls->nx - B + 1, by = ls->ny - B + 1, idx = x + bx * (bp[1] + by * bp[2]);
+    if (s->ob_nlist && s->ob_forbid[idx])
+        return 0;
+    uint64_t d = gs_field_block_distance(ls, idx, q);
     return d ? d : 1;
 }
 
@@ -1876,6 +1915,7 @@ static int random_block(const struct gs_field_synth *s, int64_t b, int B, const 
         for (int i = 0; i < nex && !hit; i++)
             hit = bp[0] >= ex[i][0] && bp[0] <= ex[i][3] && bp[1] >= ex[i][1] &&
                   bp[1] <= ex[i][4] && bp[2] >= ex[i][2] && bp[2] <= ex[i][5];
+        hit |= s->ob_nlist && s->ob_forbid[idx];
         if (!hit) { /* the block holds the surface: inside and outside samples */
             int in = 0, out = 0;
             for (int k = 0; k < B; k++)
@@ -1893,6 +1933,241 @@ static int random_block(const struct gs_field_synth *s, int64_t b, int B, const 
         }
     }
     return 0;
+}
+
+/* ------------------------------------------------------- object spacing
+ *
+ * texture.ini's discs lie 12.3-13.0 samples apart in the example (centre to
+ * nearest centre, all 10 of them), but 6-41% of the outputs' discs had one
+ * nearer than any two in the example (seeds 1-12, layout_close_share): the
+ * exact match of a block is the best over its synthesized overlap, and with
+ * 10 discs to choose from it is seldom exact (mean 200-350 squared levels a
+ * sample), so a disc of the new samples lands where the overlap's own disc
+ * leaves no room for it. The overlap term cannot see that (the new disc
+ * lies in the unsynthesized samples). With field.object_spacing (last
+ * iteration) the source's objects are known up front (the components of
+ * gs_field_layout_mask, what the layout measure counts: a height field's
+ * low columns, else cores), and the objects already in the target are read
+ * through prov: a synthesized sample copied from source object l at source
+ * position r lies at target position t, so l's centre lies at t + (c_l - r)
+ * there, whole or cut, wherever its other samples went. A source block at sp
+ * puts object l (an image of it along wrapped axes) at c_l - (sp - p) if
+ * l's box reaches the block's unsynthesized box at sp; that block is
+ * excluded (gs_field_search_opts.exclude_mask) if this centre lies nearer
+ * than ob_dmin (object_spacing times the source's smallest centre spacing)
+ * to a target object's and farther than ob_same (a quarter of ob_dmin: the
+ * same object continued, as a good match of its overlap does). The
+ * exclusions are a function of the target, prov and the source alone, so
+ * the search stays exact over the blocks left (the brute-force reference
+ * takes the same mask) and a resumed run finds the same; while an eighth of
+ * the source stays free (else no exclusion; with half, as repeat_span, 83%
+ * of texture.ini's blocks went without: most blocks have 50-70% of the
+ * source's positions excluded, because the source's discs lie everywhere
+ * about 12.5 apart and its positions put one of them in most places, seed
+ * 3). Raster order only: a region's private copy keeps no provenance.
+ * texture.ini (object_spacing 1), seeds 1-6: close share 0.19-0.38 ->
+ * 0.13-0.23 (the rest mostly beside discs cut by the output's faces, whose
+ * centres the box moves), guarded close share (layout_guarded_*) 0.10-0.42
+ * -> 0-0.10; fresh seeds 13-24 pooled 0.183 -> 0.024; 1.1 spaced the discs
+ * wider than the example's (nn KS 0.35 -> 0.70, s/v -9.6%); a same-object
+ * reach of 0.12 instead of 0.25 left more close pairs (0.21 vs 0.18), 0.4
+ * about as many (0.16). */
+
+/* The source's objects, their centres, boxes and smallest spacing (periodic
+ * along wrapped axes), once. */
+static gs_err object_setup(struct gs_field_synth *s)
+{
+    if (s->ob_ready)
+        return GS_OK;
+    const gs_qfield *src = s->src;
+    const int64_t sn[3] = {src->nx, src->ny, src->nz};
+    int height = gs_field_height_field(src);
+    uint8_t *m = NULL;
+    uint64_t *sz = NULL;
+    uint32_t nc = 0;
+    GS_CALL(gs_field_layout_mask(src, height, &m, s->ob_ln));
+    size_t cells = (size_t)(s->ob_ln[0] * s->ob_ln[1] * s->ob_ln[2]);
+    gs_err err = gs_alloc_array((void **)&s->ob_label, cells, sizeof *s->ob_label, "source objects");
+    if (err == GS_OK)
+        err = gs_measure_components3(m, (int)s->ob_ln[0], (int)s->ob_ln[1], (int)s->ob_ln[2], NULL,
+                                     s->ob_label, &nc, &sz);
+    gs_free(m);
+    gs_free(sz);
+    GS_CALL(err);
+    s->ob_dims = height ? 2 : 3;
+    s->ob_n = nc;
+    size_t n1 = (size_t)nc + 1;
+    GS_CALL(gs_alloc_array((void **)&s->ob_c, n1, 3 * sizeof *s->ob_c, "object centres"));
+    GS_CALL(gs_alloc_array((void **)&s->ob_box, n1, sizeof *s->ob_box, "object boxes"));
+    memset(s->ob_c, 0, n1 * 3 * sizeof *s->ob_c);
+    double *cnt = NULL;
+    GS_CALL(gs_alloc_array((void **)&cnt, n1, sizeof *cnt, "object sizes"));
+    memset(cnt, 0, n1 * sizeof *cnt);
+    for (uint32_t l = 0; l < nc; l++)
+        for (int a = 0; a < 3; a++)
+            s->ob_box[l][a] = INT64_MAX, s->ob_box[l][a + 3] = INT64_MIN;
+    for (size_t i = 0; i < cells; i++) {
+        uint32_t l = s->ob_label[i];
+        if (!l)
+            continue;
+        int64_t v[3];
+        gs_field_coords((int64_t)i, s->ob_ln, v);
+        cnt[l - 1]++;
+        for (int a = 0; a < 3; a++) {
+            s->ob_c[3 * (l - 1) + a] += (double)v[a];
+            if (v[a] < s->ob_box[l - 1][a])
+                s->ob_box[l - 1][a] = v[a];
+            if (v[a] > s->ob_box[l - 1][a + 3])
+                s->ob_box[l - 1][a + 3] = v[a];
+        }
+    }
+    for (uint32_t l = 0; l < nc; l++) {
+        for (int a = 0; a < 3; a++)
+            s->ob_c[3 * l + a] /= cnt[l];
+        if (height) /* a column reaches every z */
+            s->ob_c[3 * l + 2] = 0, s->ob_box[l][2] = 0, s->ob_box[l][5] = sn[2] - 1;
+    }
+    gs_free(cnt);
+    double best = INFINITY;
+    for (int64_t i = 0; i < s->ob_n; i++)
+        for (int64_t j = i + 1; j < s->ob_n; j++) {
+            double q = 0;
+            for (int a = 0; a < s->ob_dims; a++) {
+                double d = fabs(s->ob_c[3 * i + a] - s->ob_c[3 * j + a]);
+                if (s->cfg.wrap >> a & 1 && sn[a] - d < d)
+                    d = (double)sn[a] - d;
+                q += d * d;
+            }
+            best = q < best ? q : best;
+        }
+    s->ob_dmin = isfinite(best) ? s->cfg.object_spacing * sqrt(best) : 0;
+    s->ob_same = 0.25 * s->ob_dmin;
+    s->ob_ready = 1;
+    return GS_OK;
+}
+
+/* Marks in s->ob_forbid the source blocks block p of view v (the whole
+ * target) may not take (see above); returns whether any is marked. nbox:
+ * the positions the exclusion boxes already cover at most. */
+static gs_err object_exclusions(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
+                                int64_t nbox, int *active)
+{
+    *active = 0;
+    for (int64_t i = 0; i < s->ob_nlist; i++)
+        s->ob_forbid[s->ob_list[i]] = 0;
+    s->ob_nlist = 0;
+    if (!(s->ob_dmin > 0) || s->st.iteration != s->cfg.iterations - 1 || !s->cfg.prov ||
+        v->target != s->st.target)
+        return GS_OK;
+    const int B = s->cfg.block[s->st.iteration], D = s->ob_dims;
+    const int64_t *tn = s->st.tn, sn[3] = {s->src->nx, s->src->ny, s->src->nz};
+    const gs_qfield *ls = s->level_src;
+    /* the block's unsynthesized box */
+    int64_t u0[3] = {B, B, B}, u1[3] = {0, 0, 0};
+    for (int64_t k = 0; k < B; k++)
+        for (int64_t j = 0; j < B; j++)
+            for (int64_t i = 0; i < B; i++) {
+                int64_t l[3] = {i, j, k};
+                if (v->mask[p[0] + i + tn[0] * (p[1] + j + tn[1] * (p[2] + k))])
+                    continue;
+                for (int a = 0; a < 3; a++)
+                    u0[a] = l[a] < u0[a] ? l[a] : u0[a], u1[a] = l[a] + 1 > u1[a] ? l[a] + 1 : u1[a];
+            }
+    if (u1[0] == 0)
+        return GS_OK;
+    /* the target's objects within ob_dmin of the block */
+    int64_t R = (int64_t)ceil(s->ob_dmin), lo[3], hi[3], ne = 0;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = p[a] - R > 0 ? p[a] - R : 0;
+        hi[a] = p[a] + B + R < tn[a] ? p[a] + B + R : tn[a];
+    }
+    for (int64_t z = lo[2]; z < hi[2]; z++)
+        for (int64_t y = lo[1]; y < hi[1]; y++)
+            for (int64_t x = lo[0]; x < hi[0]; x++) {
+                int64_t g = x + tn[0] * (y + tn[1] * z), r[3];
+                int32_t pr = s->cfg.prov[g];
+                if (!v->mask[g] || pr < 0)
+                    continue;
+                gs_field_coords(pr, sn, r);
+                uint32_t l = s->ob_label[D == 2 ? r[0] + sn[0] * r[1] : pr];
+                if (!l)
+                    continue;
+                double e[3] = {(double)x + s->ob_c[3 * (l - 1)] - (double)r[0],
+                               (double)y + s->ob_c[3 * (l - 1) + 1] - (double)r[1],
+                               D == 2 ? 0 : (double)z + s->ob_c[3 * (l - 1) + 2] - (double)r[2]};
+                int seen = 0;
+                for (int64_t i = ne - 1; i >= 0 && !seen; i--)
+                    seen = s->ob_e[3 * i] == e[0] && s->ob_e[3 * i + 1] == e[1] &&
+                           s->ob_e[3 * i + 2] == e[2];
+                if (seen)
+                    continue;
+                if (ne == s->ob_ecap) {
+                    int64_t cap = s->ob_ecap ? 2 * s->ob_ecap : 64;
+                    double *ne_ = gs_realloc(s->ob_e, (size_t)cap * 3 * sizeof *ne_);
+                    GS_CHECK(ne_, GS_ERR_MEM, "out of memory for %lld object centres",
+                             (long long)cap);
+                    s->ob_e = ne_, s->ob_ecap = cap;
+                }
+                memcpy(s->ob_e + 3 * ne++, e, sizeof e);
+            }
+    if (!ne)
+        return GS_OK;
+    /* the source blocks that put an object near one of them */
+    const int64_t bn[3] = {ls->nx - B + 1, ls->ny - B + 1, ls->nz - B + 1};
+    const int64_t M = bn[0] * bn[1] * bn[2];
+    const double d2 = s->ob_dmin * s->ob_dmin, s2 = s->ob_same * s->ob_same;
+    for (int64_t l = 0; l < s->ob_n; l++)
+        for (int img = 0; img < 8; img++) {
+            int64_t sh[3];
+            int skip = 0;
+            for (int a = 0; a < 3; a++) {
+                sh[a] = (img >> a & 1) ? s->wn[a] : 0;
+                skip |= (img >> a & 1) && !(s->cfg.wrap >> a & 1);
+            }
+            if (skip)
+                continue;
+            double c[3];
+            int64_t b0[3], b1[3];
+            for (int a = 0; a < 3; a++)
+                c[a] = s->ob_c[3 * l + a] + (double)sh[a];
+            for (int64_t i = 0; i < ne; i++) {
+                const double *e = s->ob_e + 3 * i;
+                int none = 0;
+                for (int a = 0; a < 3 && !none; a++) {
+                    /* reaching the unsynthesized box: box lo <= sp + u1 - 1, box hi >= sp + u0 */
+                    int64_t r0 = s->ob_box[l][a] + sh[a] - u1[a] + 1, r1 = s->ob_box[l][a + 3] + sh[a] - u0[a];
+                    if (a < D) { /* and the centre within ob_dmin */
+                        double m = c[a] + (double)p[a] - e[a];
+                        int64_t c0 = (int64_t)ceil(m - s->ob_dmin), c1 = (int64_t)floor(m + s->ob_dmin);
+                        r0 = c0 > r0 ? c0 : r0, r1 = c1 < r1 ? c1 : r1;
+                    }
+                    b0[a] = r0 > 0 ? r0 : 0, b1[a] = r1 < bn[a] - 1 ? r1 : bn[a] - 1;
+                    none = b0[a] > b1[a];
+                }
+                if (none)
+                    continue;
+                for (int64_t z = b0[2]; z <= b1[2]; z++)
+                    for (int64_t y = b0[1]; y <= b1[1]; y++)
+                        for (int64_t x = b0[0]; x <= b1[0]; x++) {
+                            int64_t sp[3] = {x, y, z};
+                            double q = 0;
+                            for (int a = 0; a < D; a++) {
+                                double d = c[a] - (double)(sp[a] - p[a]) - e[a];
+                                q += d * d;
+                            }
+                            int64_t idx = x + bn[0] * (y + bn[1] * z);
+                            if (q < d2 && q > s2 && !s->ob_forbid[idx])
+                                s->ob_forbid[idx] = 1, s->ob_list[s->ob_nlist++] = idx;
+                        }
+            }
+        }
+    if (8 * (s->ob_nlist + nbox) > 7 * M) { /* an eighth of the source stays free, or none */
+        for (int64_t i = 0; i < s->ob_nlist; i++)
+            s->ob_forbid[s->ob_list[i]] = 0;
+        s->ob_nlist = 0;
+    }
+    *active = s->ob_nlist > 0;
+    return GS_OK;
 }
 
 /* keep_volume with target regions: the volume so far as block b of region
@@ -1994,6 +2269,15 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
     int64_t (*ex)[6] = s->ex;
     opts.nexclude = copy_exclusions(s, b, B, ex);
     opts.exclude = (const int64_t(*)[6])ex;
+    if (s->ob_forbid) { /* object_spacing (last iteration) */
+        int64_t nbox = 0;
+        for (int i = 0; i < opts.nexclude; i++)
+            nbox += (ex[i][3] - ex[i][0] + 1) * (ex[i][4] - ex[i][1] + 1) * (ex[i][5] - ex[i][2] + 1);
+        int on = 0;
+        GS_CALL(object_exclusions(s, v, p, nbox, &on));
+        if (on)
+            opts.exclude_mask = s->ob_forbid;
+    }
     opts.use_upper_bound = s->cfg.use_upper_bound && it > 0; /* no random seeds after iteration 0 */
     GS_CALL(region_volume(s, v, b));
     if (s->cfg.keep_volume && s->vol_n > 0) /* short of inside: vol_in/vol_n < src_in/src_n */

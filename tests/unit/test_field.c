@@ -7,6 +7,7 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/digest.h"
@@ -322,6 +323,7 @@ typedef struct synth_check {
     gs_qfield *level[3];  /* source of each iteration */
     int64_t queries, mismatches, exact_zero, far, large;
     int64_t excluding;    /* queries with the copy limit's exclusions */
+    int64_t spacing;      /* queries with object_spacing's exclusion mask */
     int64_t keyed;        /* queries with a tie key (every synthesis query) */
 } synth_check;
 
@@ -334,12 +336,11 @@ static gs_err check_hook(void *ctx, gs_field_tree_t tree, gs_field_searcher_t s,
     const gs_qfield *src = c->level[iteration];
     uint64_t bound = UINT64_MAX;
     gs_field_match mb;
-    GS_CALL(gs_field_brute_search_classed(src, q, opts ? opts->exclude : NULL,
-                                          opts ? opts->nexclude : 0, opts ? opts->tie_key : 0,
-                                          opts ? opts->tie_class : NULL, 0,
-                                          gs_field_block_count(src, q->block), &bound, &mb));
+    GS_CALL(gs_field_brute_search_opts(src, q, opts, 0, gs_field_block_count(src, q->block),
+                                       &bound, &mb));
     c->keyed += opts && opts->tie_key;
     c->excluding += opts && opts->nexclude > 0;
+    c->spacing += opts && opts->exclude_mask;
     if (mb.index != out->index || mb.dist != out->dist) {
         fprintf(stderr, "MISMATCH iteration %d query %lld: tree (%lld, %llu) brute (%lld, %llu)\n",
                 iteration, (long long)c->queries, (long long)out->index,
@@ -365,14 +366,14 @@ static void test_synthesis_queries_match_brute_force(void **state)
     } sizes[3] = {{24, {4, 4, 8}, {28, 24, 20}},
                   {40, {4, 8, 16}, {44, 40, 36}},
                   {48, {4, 8, 32}, {52, 48, 40}}};
-    int64_t total = 0, far = 0, large = 0, excluding = 0, repeating = 0;
+    int64_t total = 0, far = 0, large = 0, excluding = 0, repeating = 0, spacing = 0;
     for (int sz = 0; sz < 3; sz++)
         for (int kind = 0; kind < 4; kind++)
             for (int st = 0; st < 3; st++) {
                 if (sz > 0 && kind % 2) /* brute force of large blocks is slow: two shapes */
                     continue;
                 gs_qfield *src = make_source((gs_field_shape)kind, sizes[sz].side, 5 + (uint64_t)kind);
-                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0, 0, 0};
+                synth_check c = {src, {NULL, NULL, NULL}, 0, 0, 0, 0, 0, 0, 0, 0};
                 OK(gs_qfield_downsample(src, 4, &c.level[0]));
                 OK(gs_qfield_downsample(src, 2, &c.level[1]));
                 c.level[2] = src;
@@ -389,6 +390,18 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 cfg.copy_limit = st == 2 ? 0.05 : 0; /* the engine's default setting, strict */
                 if (st == 1) /* terrain.ini's repeat exclusions (span on every side, pairs) */
                     cfg.repeat_reach = 2, cfg.repeat_span = 4, cfg.repeat_pairs = 2;
+                /* separate objects in the default setting: object_spacing's
+                 * exclusion mask (it reads the provenance) */
+                int32_t *prov = NULL;
+                if (st == 2 && (kind == GS_FIELD_SPHERES || kind == GS_FIELD_BALLS)) {
+                    size_t nt = (size_t)(sizes[sz].target[0] * sizes[sz].target[1] *
+                                         sizes[sz].target[2]);
+                    prov = malloc(nt * sizeof *prov);
+                    assert_non_null(prov);
+                    for (size_t i = 0; i < nt; i++)
+                        prov[i] = -1;
+                    cfg.prov = prov, cfg.object_spacing = 1;
+                }
                 cfg.match = check_hook;
                 cfg.match_ctx = &c;
                 gs_field_synth_t syn = NULL;
@@ -397,11 +410,13 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 OK(gs_field_synth_run(syn, -1, &finished));
                 assert_true(finished);
                 gs_field_synth_destroy(&syn);
+                free(prov);
                 assert_int_equal(c.mismatches, 0);
                 assert_true(c.queries > (sz == 0 ? 200 : 20));
                 assert_int_equal(c.keyed, c.queries);
                 total += c.queries;
                 excluding += c.excluding;
+                spacing += c.spacing;
                 repeating += st == 1 ? c.excluding : 0;
                 far += c.far;
                 large += sz > 0 ? c.large : 0;
@@ -410,9 +425,11 @@ static void test_synthesis_queries_match_brute_force(void **state)
                 gs_qfield_destroy(&src);
             }
     fprintf(stderr, "%lld synthesis queries, %lld far from every block, %lld of 16^3 or 32^3, "
-            "%lld with exclusions (%lld from repeat_span/repeat_pairs)\n",
+            "%lld with exclusions (%lld from repeat_span/repeat_pairs), %lld with "
+            "object_spacing's mask\n",
             (long long)total, (long long)far, (long long)large, (long long)excluding,
-            (long long)repeating);
+            (long long)repeating, (long long)spacing);
+    assert_true(spacing >= 50);
     assert_true(excluding >= 50);
     assert_true(repeating >= 50);
     assert_true(total >= 2500);
