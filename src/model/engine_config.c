@@ -324,8 +324,8 @@ static const gs_cfg_key model_keys[] = {
                    "example's lowest layer holding an empty cell), up to this many cells per "
                    "axis, and only regions that interact with no region kept before them are "
                    "rebuilt (one colour), each kept only if its label mix per layer is no "
-                   "further from the example's than before; 0 = off (every region of the "
-                   "pass's plan)"),
+                   "further from the example's than before and found in at most 4 tries; "
+                   "0 = off (every region of the pass's plan)"),
     GS_CFG_KEY_INT(model_config, attempts, "model.attempts", 1, 100000, 0, "20",
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
