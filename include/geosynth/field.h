@@ -465,6 +465,9 @@ typedef struct gs_field_synth_config {
                                         same direction) whose source block lies within as
                                         many of that lower neighbour's: no two-block
                                         composite recurs; 0 = off */
+    double repeat_free;              /* the share of the source blocks repeat_span and
+                                        repeat_pairs leave free (0.05-1; 0 = 0.5, the
+                                        share before it was a setting) */
     int seam_gradient;               /* 1 (needs prov): after the blend, a screened Poisson
                                         correction makes the steps across seams the mean of
                                         the two pieces' own steps there (src/field/synth.c

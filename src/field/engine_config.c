@@ -116,8 +116,8 @@ static const gs_cfg_key field_keys[] = {
                    "within the level's reach (repeat_reach, halved per coarser level) of a "
                    "feature block (relief at or above the example's median, not a plain) taken "
                    "by the blocks up to this many positions away along each axis that are "
-                   "matched before it (beyond the lower neighbours), while half the source "
-                   "stays free: no source feature copied again a few blocks on (a chain of "
+                   "matched before it (beyond the lower neighbours), while repeat_free of the "
+                   "source stays free: no source feature copied again a few blocks on (a chain of "
                    "blocks falling into a cycle, stacked summits); 0 = off"),
     GS_CFG_KEY_INT(field_config, repeat_pairs, "field.repeat_pairs", 0, 15, 0, "0",
                    "in every iteration a block may not take, next to a lower neighbour, a "
@@ -125,8 +125,12 @@ static const gs_cfg_key field_keys[] = {
                    "one an earlier block took beside a neighbour in the same direction whose "
                    "source block lies within as many of that lower neighbour's: no two "
                    "neighbouring source blocks recur side by side (one place of the example "
-                   "copied twice in the same arrangement of pieces), while half the source "
-                   "stays free; 0 = off; 2 in terrain.ini"),
+                   "copied twice in the same arrangement of pieces), while repeat_free of the "
+                   "source stays free; 0 = off; 2 in terrain.ini"),
+    GS_CFG_KEY_REAL(field_config, repeat_free, "field.repeat_free", 0.05, 1, 0, "0.5",
+                    "the share of the source blocks repeat_span and repeat_pairs leave free: "
+                    "their exclusions, nearest first, stop before more would be excluded; 0.3 "
+                    "in terrain.ini"),
     GS_CFG_KEY_BOOL(field_config, seam_cut, "field.seam_cut", "no",
                     "minimum-error boundary cut: each block takes the samples of its box that a "
                     "minimum cut between the synthesized overlap and the matched block gives it "

@@ -51,6 +51,7 @@ typedef struct field_config {
     int64_t repeat_reach;
     int64_t repeat_span;
     int64_t repeat_pairs;
+    double repeat_free;
     int seam_gradient;
     int seam_cut;
     int complete_objects;

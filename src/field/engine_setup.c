@@ -181,6 +181,7 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.repeat_reach = (int)c->repeat_reach;
     d->sc.repeat_span = (int)c->repeat_span;
     d->sc.repeat_pairs = (int)c->repeat_pairs;
+    d->sc.repeat_free = c->repeat_free;
     d->sc.seam_gradient = c->seam_gradient;
     d->sc.seam_cut = c->seam_cut;
     d->sc.complete_objects = c->complete_objects;

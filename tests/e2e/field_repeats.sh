@@ -17,12 +17,16 @@
 #   by side) on seeds 3 and 6: without it two places are more alike than 1.15
 #   times the example's most alike two (0.920, 0.943; the brief's 10% is not
 #   met on most seeds; within 1.15 times: 10 of seeds 1-12), with it
-#   within 1.15 times (0.868, 0.856), lowered by more than 0.02.
+#   within 1.15 times (0.868, 0.856), lowered by more than 0.02 (these two
+#   runs with field.repeat_free 0.5, the share field24 had);
 #   Not checked: the example's own figure as a bound on repeat_ncc_out; a
 #   maximum over pairs, it grows with the area: non-repeating random relief
 #   of the example's spectrum and heights (analysis/field_repeats.py
 #   --surrogates 30) scores 0.81 mean at 64^2 and 0.89 (0.85-0.95) at
 #   128^2, the example 0.80, terrain.ini seeds 1-18 0.899-0.918 mean;
+# - field.repeat_free 0.3 (field28; the exclusions of repeat_span and
+#   repeat_pairs may take 70% of the source, not 50%) on seed 2: within 10%
+#   of the example's figure (0.838), with half the source free not (0.928);
 # - the equal-area figure (field28; repeat_ncc_out_area: the median over the
 #   output's 9 example-sized crops of the most alike two places in each)
 #   within 10% of the example's repeat_ncc_src on every run with the shipped
@@ -35,7 +39,9 @@
 # area_figure measuring the whole output): the equal-area figure becomes
 # repeat_ncc_out, seeds 4, 5, 12 fail the bound (0.923, 0.912, 0.889), seeds 3
 # and 6 pass (0.868, 0.856), and the comparison with the analysis fails
-# (4 checks; unit/test_measure fails too) (field28). repeat_span_exclusions returning ne at once
+# (4 checks; unit/test_measure fails too) (field28). repeat_free ignored
+# (try_box keeping half the source free): seed 2 scores 0.928 both ways, 2
+# checks fail (field28). repeat_span_exclusions returning ne at once
 # (the span ignored): seeds 4 and 12 score as without it, both fail
 # (field22). The pairs loop skipped (field24): seeds 3 and 6 score as without
 # it and fail (4 checks); the span counting only the blocks below (field22's
@@ -45,6 +51,7 @@ source "$GS_ROOT/tests/e2e/lib.bash"
 T=$GS_ROOT/configs/field/terrain.ini
 need_config "terrain.ini" "$T" || finish
 FAST=(--set output.geometry=none --set output.vdb=no --set output.preview=no)
+BASE=()
 m() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
 le() { /usr/bin/python3 -c "import sys; sys.exit(0 if $1 <= $2 else 1)"; }
 
@@ -79,17 +86,17 @@ import json, sys; t = json.loads(sys.argv[1])
 sys.exit(0 if t['ncc_out'] >= 0.999 and t['ncc_out'] > t['ncc_src'] and t['recur_out'] >= 4 else 1)" "$tile" &&
   ok "a tiling of the example rated as repeating" || bad "a tiling of the example not flagged: $tile"
 
-# on_off NAME SEED F KEY=VALUE...: terrain.ini seed SEED as shipped (NAME on)
-# and with the settings given (NAME off). Without it two places are more
+# on_off NAME SEED F KEY=VALUE...: terrain.ini seed SEED as shipped (NAME on;
+# plus the --set options in BASE) and with the settings given (NAME off). Without it two places are more
 # alike than F times the example's most alike two, and it lowers that by more
 # than 0.02; with it (F > 1) they are within F times.
 on_off() {
   local name=$1 seed=$2 f=$3 off=() a b s
   shift 3
   for kv in "$@"; do off+=(--set "$kv"); done
-  run_gs 0 field -c "$T" -o "on-$name-$seed" --set run.seed=$seed "${FAST[@]}"
-  expect_rc 0 "terrain.ini seed $seed"
-  run_gs 0 field -c "$T" -o "off-$name-$seed" --set run.seed=$seed "${FAST[@]}" "${off[@]}"
+  run_gs 0 field -c "$T" -o "on-$name-$seed" --set run.seed=$seed "${FAST[@]}" "${BASE[@]}"
+  expect_rc 0 "terrain.ini seed $seed ${BASE[*]}"
+  run_gs 0 field -c "$T" -o "off-$name-$seed" --set run.seed=$seed "${FAST[@]}" "${BASE[@]}" "${off[@]}"
   expect_rc 0 "terrain.ini seed $seed, $*"
   a=$(m "on-$name-$seed" repeat_ncc_out) b=$(m "off-$name-$seed" repeat_ncc_out)
   s=$(m "on-$name-$seed" repeat_ncc_src) e=$(m "on-$name-$seed" repeat_ncc_out_area)
@@ -107,7 +114,12 @@ on_off() {
 }
 on_off repeat_span 4 1 field.repeat_span=0 field.repeat_pairs=0
 on_off repeat_span 12 1.15 field.repeat_span=0 field.repeat_pairs=0
+# repeat_pairs as field24 showed it, with half the source free (with 0.3 the
+# span's farther rings take its part on seed 3: 0.880 with, 0.893 without)
+BASE=(--set field.repeat_free=0.5)
 for seed in 3 6; do
   on_off repeat_pairs $seed 1.15 field.repeat_pairs=0
 done
+BASE=()
+on_off repeat_free 2 1.10 field.repeat_free=0.5
 finish
