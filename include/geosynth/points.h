@@ -391,9 +391,9 @@ typedef struct gs_points_params {
                               lying wholly in the overlap strips or within the link radius
                               outside their seam edges (a safety net after the blend; the
                               count is gs_points_synth_strip_specks) */
-    int strip_resample;   /* 1: the finish resamples the overlap strips as dart throwing
-                             sampled the example (synth.c resample_strips); 0: the strips'
-                             points as the blend and relaxation leave them */
+    int strip_resample;   /* 1 (default): the finish resamples the overlap strips as dart
+                             throwing sampled the example (synth.c resample_strips); 0: the
+                             strips' points as the blend and relaxation leave them */
     int objects;          /* 1: the example's disconnected objects (components no wider than
                              a patch core, away from its edges, of at least
                              GS_POINTS_SPECK_POINTS points) are pasted whole or not at
