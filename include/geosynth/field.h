@@ -652,12 +652,25 @@ typedef struct gs_field_quality {
     double surface_per_volume_out, surface_per_volume_src; /* sign changes between 6-neighbours
                                                               per sample / spacing (area per volume) */
     double coherence;        /* mean over output blocks (grid of stride B) of the
-                                normalized distance to the nearest source block */
-    int64_t coherence_blocks;
-    double verbatim;         /* share of those blocks that exist exactly in the source */
+                                normalized distance to the nearest source block: over
+                                every block up to GS_FIELD_COHERENCE_BLOCKS, else over
+                                whole rows of blocks along x, the first in the order of
+                                a fixed hash of the row number until that many blocks */
+    int64_t coherence_blocks;      /* blocks it is the mean over */
+    int64_t coherence_grid_blocks; /* blocks of the grid */
+    double coherence_stderr; /* the sample's standard error of that mean (sample
+                                standard deviation / sqrt(blocks) times the finite
+                                population factor sqrt(1 - blocks / grid blocks)); 0
+                                when every block was searched. Grid 256^3 (4096 blocks,
+                                1024 searched): error 0.44 of 50.18, 0.5 stderr */
+    double verbatim;         /* share of all the grid's blocks that exist exactly in the
+                                source (every block looked up exactly, no sample) */
     int64_t longest_run;     /* longest run of verbatim blocks along x whose source blocks
                                 are consecutive too (a copied slab), in blocks */
 } gs_field_quality;
+/* Coherence searches at most this many output blocks (about 1/3 of the
+ * synthesis' CPU at grid 256^3 when all 4096 were searched, 1/8 at 512^3). */
+#define GS_FIELD_COHERENCE_BLOCKS 1024
 /* tree: built on src with the block size to measure coherence with. */
 gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_field_tree_t tree,
                                 gs_field_quality *q);

@@ -2690,6 +2690,140 @@ gs_err gs_field_quality_measure(const gs_qfield *out, const gs_qfield *src, gs_f
     return err;
 }
 
+/* Exact lookup of whole blocks in the source (the verbatim blocks of the
+ * quality measure): a polynomial hash of every source block (rolled along
+ * x, y, z: O(source) work), an open-addressing table of the distinct
+ * contents, each with its lowest block index, and every hit verified byte
+ * by byte. */
+typedef struct block_table {
+    uint64_t *h;   /* hash per slot (valid when idx >= 0) */
+    int64_t *idx;  /* lowest block index of that content; -1 empty */
+    size_t cap;
+    const gs_qfield *src;
+    int B;
+} block_table;
+
+static const uint64_t BH_BASE[3] = {0x9e3779b97f4a7c15ULL, 0xc2b2ae3d27d4eb4fULL,
+                                    0x165667b19e3779f9ULL};
+
+/* Whether source block `index` holds the B^3 values at v (rows sy apart,
+ * planes sz apart). */
+static int block_same(const gs_qfield *src, int B, int64_t index, const uint8_t *v, int64_t sy,
+                      int64_t sz)
+{
+    int64_t p[3];
+    gs_field_block_position(src, B, index, p);
+    for (int k = 0; k < B; k++)
+        for (int j = 0; j < B; j++)
+            if (memcmp(src->q + p[0] + src->nx * (p[1] + j + src->ny * (p[2] + k)),
+                       v + sy * j + sz * k, (size_t)B))
+                return 0;
+    return 1;
+}
+
+/* Slot of the content at v (hash h; strides as block_same's) or of the
+ * empty slot where it would go. */
+static size_t block_slot(const block_table *t, uint64_t h, const uint8_t *v, int64_t sy, int64_t sz)
+{
+    size_t i = (size_t)gs_hash_mix64(h) & (t->cap - 1);
+    while (t->idx[i] >= 0 && !(t->h[i] == h && block_same(t->src, t->B, t->idx[i], v, sy, sz)))
+        i = (i + 1) & (t->cap - 1);
+    return i;
+}
+
+/* The hash of a B^3 block of values (x fastest): Horner along x, y, z. */
+static uint64_t block_hash(const uint8_t *val, int B)
+{
+    uint64_t hz = 0;
+    for (int k = 0; k < B; k++) {
+        uint64_t hy = 0;
+        for (int j = 0; j < B; j++) {
+            uint64_t hx = 0;
+            const uint8_t *r = val + (size_t)B * (j + (size_t)B * k);
+            for (int i = 0; i < B; i++)
+                hx = hx * BH_BASE[0] + r[i];
+            hy = hy * BH_BASE[1] + hx;
+        }
+        hz = hz * BH_BASE[2] + hy;
+    }
+    return hz;
+}
+
+/* Along axis a of h (dims n, stride st[a]), each entry becomes the Horner
+ * sum of the B entries from it on with base b (where B fit). */
+static void roll_axis(uint64_t *h, const int64_t n[3], int a, int B, uint64_t b, uint64_t *line)
+{
+    const int64_t st[3] = {1, n[0], n[0] * n[1]};
+    int u = a == 0 ? 1 : 0, w = a == 2 ? 1 : 2;
+    uint64_t bB = 1;
+    for (int i = 0; i < B; i++)
+        bB *= b;
+    for (int64_t j = 0; j < n[w]; j++)
+        for (int64_t i = 0; i < n[u]; i++) {
+            uint64_t *p = h + i * st[u] + j * st[w];
+            for (int64_t x = 0; x < n[a]; x++)
+                line[x] = p[x * st[a]];
+            uint64_t s = 0;
+            for (int64_t x = 0; x < B && x < n[a]; x++)
+                s = s * b + line[x];
+            for (int64_t x = 0; x + B <= n[a]; x++) {
+                p[x * st[a]] = s;
+                if (x + B < n[a])
+                    s = s * b - line[x] * bB + line[x + B];
+            }
+        }
+}
+
+static gs_err block_table_build(const gs_qfield *src, int B, block_table *t)
+{
+    memset(t, 0, sizeof *t);
+    t->src = src, t->B = B;
+    const int64_t n[3] = {src->nx, src->ny, src->nz}, cells = n[0] * n[1] * n[2];
+    int64_t M = gs_field_block_count(src, B);
+    int64_t big = n[0] > n[1] ? n[0] : n[1];
+    big = big > n[2] ? big : n[2];
+    uint64_t *h = NULL, *line = NULL;
+    gs_err err = GS_OK;
+    t->cap = 16;
+    while (t->cap < 2 * (size_t)M)
+        t->cap <<= 1;
+    GS_TRY(err, gs_alloc_array((void **)&h, (size_t)cells, sizeof *h, "source block hashes"), done);
+    GS_TRY(err, gs_alloc_array((void **)&line, (size_t)big, sizeof *line, "hash line"), done);
+    GS_TRY(err, gs_alloc_array((void **)&t->h, t->cap, sizeof *t->h, "block table"), done);
+    GS_TRY(err, gs_alloc_array((void **)&t->idx, t->cap, sizeof *t->idx, "block table"), done);
+    for (size_t i = 0; i < t->cap; i++)
+        t->idx[i] = -1;
+    for (int64_t i = 0; i < cells; i++)
+        h[i] = src->q[i];
+    for (int a = 0; a < 3; a++)
+        roll_axis(h, n, a, B, BH_BASE[a], line);
+    for (int64_t index = 0; index < M; index++) { /* ascending: the lowest index stays */
+        int64_t p[3];
+        gs_field_block_position(src, B, index, p);
+        int64_t at = p[0] + n[0] * (p[1] + n[1] * p[2]);
+        size_t s = block_slot(t, h[at], src->q + at, n[0], n[0] * n[1]);
+        if (t->idx[s] < 0)
+            t->h[s] = h[at], t->idx[s] = index;
+    }
+done:
+    gs_free(h);
+    gs_free(line);
+    return err;
+}
+
+static void block_table_free(block_table *t)
+{
+    gs_free(t->h);
+    gs_free(t->idx);
+    memset(t, 0, sizeof *t);
+}
+
+/* The lowest source block index holding exactly val, or -1. */
+static int64_t block_table_find(const block_table *t, const uint8_t *val)
+{
+    return t->idx[block_slot(t, block_hash(val, t->B), val, t->B, (int64_t)t->B * t->B)];
+}
+
 gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src, int B,
                                      gs_err (*match)(void *ctx, const gs_field_query *q,
                                                      gs_field_match *m),
@@ -2700,40 +2834,76 @@ gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src,
     sign_stats(src, &qm->volume_fraction_src, &qm->surface_per_volume_src);
     GS_CHECK(out->nx >= B && out->ny >= B && out->nz >= B, GS_ERR_ARG,
              "coherence with blocks of %d needs an output of at least %d^3", B, B);
-    uint8_t *val = gs_malloc((size_t)B * B * B);
-    GS_CHECK(val, GS_ERR_MEM, "out of memory for a block of %d^3", B);
-    double sum = 0;
-    int64_t cnt = 0, verb = 0, run = 0, prev[3] = {0, 0, 0};
+    const int64_t nb[3] = {out->nx / B, out->ny / B, out->nz / B}, rows = nb[1] * nb[2];
+    uint8_t *val = NULL, *sampled = NULL;
+    uint64_t *order = NULL;
+    block_table bt;
+    memset(&bt, 0, sizeof bt);
     gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&val, (size_t)B * B * B, 1, "a quality block"), done);
+    GS_TRY(err, gs_alloc_array((void **)&sampled, (size_t)rows, 1, "coherence rows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&order, (size_t)rows, sizeof *order, "coherence rows"), done);
+    /* the rows of blocks along x searched for coherence: all of them up to
+     * GS_FIELD_COHERENCE_BLOCKS blocks, else the first rows in the order of
+     * a fixed hash of their number (a sample the same at any rank count) */
+    int64_t keep = (GS_FIELD_COHERENCE_BLOCKS + nb[0] - 1) / nb[0];
+    keep = keep > rows ? rows : keep;
+    for (int64_t j = 0; j < rows; j++)
+        order[j] = gs_hash_mix64((uint64_t)j + 1);
+    qsort(order, (size_t)rows, sizeof *order, cmp_u64);
+    for (int64_t j = 0; j < rows; j++)
+        sampled[j] = gs_hash_mix64((uint64_t)j + 1) <= order[keep - 1];
+    GS_TRY(err, block_table_build(src, B, &bt), done);
+    double sum = 0, sum2 = 0;
+    int64_t cnt = 0, verb = 0, run = 0, prev[3] = {0, 0, 0};
     for (int64_t z = 0; z + B <= out->nz; z += B)
         for (int64_t y = 0; y + B <= out->ny; y += B)
             for (int64_t x = 0; x + B <= out->nx; x += B) {
                 gs_qfield_block_at(out, B, (const int64_t[3]){x, y, z}, val);
-                gs_field_query q = {B, val, NULL, 0};
-                gs_field_match m;
-                GS_TRY(err, match(ctx, &q, &m), done);
-                sum += (double)m.dist / (double)m.known;
-                cnt++;
-                int64_t bp[3];
-                gs_field_block_position(src, B, m.index, bp);
-                if (m.dist == 0) {
+                /* verbatim: exactly in the source (every block; the index
+                 * is the lowest among equals, as the search's) */
+                int64_t vi = block_table_find(&bt, val);
+                if (sampled[y / B + nb[1] * (z / B)]) {
+                    double d = 0; /* a verbatim block: distance 0, no search */
+                    if (vi < 0) {
+                        gs_field_query q = {B, val, NULL, 0};
+                        gs_field_match m;
+                        GS_TRY(err, match(ctx, &q, &m), done);
+                        d = (double)m.dist / (double)m.known;
+                    }
+                    sum += d, sum2 += d * d;
+                    cnt++;
+                }
+                if (vi >= 0) {
+                    int64_t bp[3];
+                    gs_field_block_position(src, B, vi, bp);
                     verb++;
                     /* the run continues when the source continues, too */
                     run = run > 0 && bp[0] == prev[0] + B && bp[1] == prev[1] && bp[2] == prev[2]
                               ? run + 1 : 1;
                     if (run > qm->longest_run)
                         qm->longest_run = run;
+                    memcpy(prev, bp, sizeof prev);
                 } else {
                     run = 0;
                 }
                 if (x + 2 * B > out->nx)
                     run = 0;
-                memcpy(prev, bp, sizeof prev);
             }
+    int64_t all = nb[0] * nb[1] * nb[2];
     qm->coherence = cnt ? sum / (double)cnt : 0;
-    qm->verbatim = cnt ? (double)verb / (double)cnt : 0;
+    qm->verbatim = all ? (double)verb / (double)all : 0;
     qm->coherence_blocks = cnt;
+    qm->coherence_grid_blocks = all;
+    if (cnt > 1 && cnt < all) {
+        double var = (sum2 - sum * sum / (double)cnt) / (double)(cnt - 1);
+        qm->coherence_stderr =
+            sqrt((var > 0 ? var : 0) / (double)cnt * (1 - (double)cnt / (double)all));
+    }
 done:
+    block_table_free(&bt);
     gs_free(val);
+    gs_free(sampled);
+    gs_free(order);
     return err;
 }

@@ -827,6 +827,106 @@ static gs_field_synth_t checkpoint_resume(const gs_qfield *src, const gs_field_s
     return r;
 }
 
+/* The quality measure against brute force: every block's nearest source
+ * block by gs_field_brute_search, the mean of their distances, the share
+ * found exactly (distance 0) and the longest run along x of such blocks
+ * whose source blocks follow each other. Outputs tiled from source blocks
+ * (half continuing the previous block's source along x, some changed in one
+ * sample) on a periodic source (exact ties: the lowest index) and on chain
+ * mail. Up to GS_FIELD_COHERENCE_BLOCKS blocks every figure is the brute
+ * force one bit for bit; beyond, verbatim share and run still are, and
+ * coherence is the mean over whole rows of at least that many blocks, within
+ * 4 standard errors of the brute force mean. */
+static void test_quality_reference(void **state)
+{
+    (void)state;
+    const int B = 4;
+    int64_t sampled_cases = 0;
+    for (int kind = 0; kind < 2; kind++)
+        for (int big = 0; big < 2; big++) {
+            gs_qfield *src = make_source(kind ? GS_FIELD_CHAINMAIL : GS_FIELD_GRID, 20, 3);
+            const int64_t O = big ? 48 : 40, nb = O / B, M = gs_field_block_count(src, B);
+            const int64_t bs = src->nx - B + 1;
+            gs_qfield *out = NULL;
+            OK(gs_qfield_create(O, O, O, src->lo, src->hi, &out));
+            gs_rng r;
+            gs_rng_init(&r, 19 + (uint64_t)kind, (uint64_t)big);
+            uint8_t val[64];
+            int64_t prev = -1;
+            for (int64_t z = 0; z < O; z += B)
+                for (int64_t y = 0; y < O; y += B)
+                    for (int64_t x = 0; x < O; x += B) {
+                        int64_t p[3], idx = (int64_t)gs_rng_below(&r, (uint64_t)M);
+                        if (prev >= 0 && x > 0 && gs_rng_below(&r, 2)) {
+                            gs_field_block_position(src, B, prev, p);
+                            if (p[0] + B < bs)
+                                idx = prev + B;
+                        }
+                        prev = idx;
+                        gs_field_block_copy(src, B, idx, val);
+                        if (gs_rng_below(&r, 5) < 2)
+                            val[gs_rng_below(&r, 64)] ^= 1;
+                        for (int k = 0; k < B; k++)
+                            for (int j = 0; j < B; j++)
+                                memcpy(out->q + x + O * (y + j + O * (z + k)), val + B * (j + B * k), (size_t)B);
+                    }
+            /* brute force, as the measure was before its table and sample */
+            double sum = 0;
+            int64_t verb = 0, run = 0, longest = 0, pb[3] = {0, 0, 0};
+            for (int64_t z = 0; z < O; z += B)
+                for (int64_t y = 0; y < O; y += B)
+                    for (int64_t x = 0; x < O; x += B) {
+                        gs_qfield_block_at(out, B, (const int64_t[3]){x, y, z}, val);
+                        gs_field_query q = {B, val, NULL, 0};
+                        gs_field_match m;
+                        uint64_t bound = UINT64_MAX;
+                        OK(gs_field_brute_search(src, &q, 0, M, &bound, &m));
+                        sum += (double)m.dist / (double)m.known;
+                        int64_t bp[3];
+                        gs_field_block_position(src, B, m.index, bp);
+                        if (m.dist == 0) {
+                            verb++;
+                            run = run > 0 && bp[0] == pb[0] + B && bp[1] == pb[1] && bp[2] == pb[2] ? run + 1 : 1;
+                            longest = run > longest ? run : longest;
+                        } else {
+                            run = 0;
+                        }
+                        if (x + 2 * B > O)
+                            run = 0;
+                        memcpy(pb, bp, sizeof pb);
+                    }
+            gs_field_tree_t tree = NULL;
+            OK(gs_field_tree_build(src, B, &tree));
+            gs_field_quality qm;
+            OK(gs_field_quality_measure(out, src, tree, &qm));
+            const int64_t all = nb * nb * nb;
+            double full = sum / (double)all;
+            fprintf(stderr, "quality %s %lld^3: coherence %.4f +- %.4f over %lld of %lld (all: %.4f), "
+                    "verbatim %.4f run %lld\n", kind ? "chainmail" : "grid", (long long)O, qm.coherence,
+                    qm.coherence_stderr, (long long)qm.coherence_blocks,
+                    (long long)qm.coherence_grid_blocks, full, qm.verbatim, (long long)qm.longest_run);
+            assert_int_equal(qm.coherence_grid_blocks, all);
+            assert_true(qm.verbatim == (double)verb / (double)all);
+            assert_int_equal(qm.longest_run, longest);
+            assert_true(verb > 0 && verb < all && longest >= 3);
+            if (all <= GS_FIELD_COHERENCE_BLOCKS) {
+                assert_int_equal(qm.coherence_blocks, all);
+                assert_true(qm.coherence == full);
+                assert_true(qm.coherence_stderr == 0);
+            } else {
+                sampled_cases++;
+                assert_true(qm.coherence_blocks >= GS_FIELD_COHERENCE_BLOCKS &&
+                            qm.coherence_blocks < all && qm.coherence_blocks % nb == 0);
+                assert_true(qm.coherence_stderr > 0);
+                assert_true(fabs(qm.coherence - full) <= 4 * qm.coherence_stderr);
+            }
+            gs_field_tree_destroy(&tree);
+            gs_qfield_destroy(&out);
+            gs_qfield_destroy(&src);
+        }
+    assert_int_equal(sampled_cases, 2);
+}
+
 /* field.wrap and field.keep_volume (texture.ini): the source blocks wrap
  * around the source's faces, yet every output sample is the source sample
  * its provenance names (within the source: the padding is unwrapped), some
@@ -1393,6 +1493,7 @@ int main(void)
         cmocka_unit_test(test_tree_matches_brute_force),
         cmocka_unit_test(test_synthesis_queries_match_brute_force),
         cmocka_unit_test(test_synthesis_resume),
+        cmocka_unit_test(test_quality_reference),
         cmocka_unit_test(test_synthesis_wrap),
         cmocka_unit_test(test_synthesis_regions),
         cmocka_unit_test(test_keep_volume_regions),
