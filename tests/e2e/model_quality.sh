@@ -189,6 +189,10 @@ fi
 # a quarter of the region lines. Broken on purpose: model.region_jitter = 0 (the regular grid,
 # castle-10x.ini before: one castle per region) fails both (seeds 1, 2: ratio 0.08, 0.09;
 # 11 + 12, 12 + 12 streets); staggered rows with straight row lines (tried) fail the streets check (seeds 1-3: 11-14).
+# These see the nominal lines only: with region_jitter the real region sides leave them, so they
+# pass while castle-10x.ini's castles stay inside their regions (across the first sweep's real
+# sides / elsewhere 0.00-0.01, model29); castle-10x-tile's region_lines_crossing check below
+# measures the real sides.
 # castle-10x-tile.ini (castle-10x with castle.txt taken as a tile, model.resemblance_outside = wrap;
 # #18, model23): castle.txt's open ground and every bush lie within 2 cells of its x/y faces, so
 # scored as mismatches past the faces (castle-10x.ini) their neighbourhoods lose to the interior
