@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "geosynth/log.h"
+#include "geosynth/measure.h"
 #include "geosynth/mem.h"
 #include "geosynth/par.h"
 #include "model/engine_impl.h"
@@ -23,12 +24,8 @@ gs_err model_make_plan(model_engine *e)
                           &e->nplan, &e->ncolors));
     if (e->pass > 0 && e->cfg->open_blocks > 0) { /* made from e->lat: see synth.c */
         const gs_model_lattice *ex = &e->example;
-        int ground = -1;
-        for (int z = 0; z < ex->nz && ground < 0; z++)
-            for (int y = 0; y < ex->ny && ground < 0; y++)
-                for (int x = 0; x < ex->nx && ground < 0; x++)
-                    if (ex->labels[gs_model_lattice_index(ex, x, y, z)] == 0)
-                        ground = z;
+        const int dims[3] = {ex->nx, ex->ny, ex->nz};
+        const int ground = gs_measure_ground_layer(ex->labels, dims);
         GS_CALL(gs_model_plan_open_blocks(&e->params, &e->lat, ground, (int)e->cfg->open_blocks,
                                           e->plan, &e->nplan, &e->ncolors));
     }
@@ -126,10 +123,9 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
         res.mh_rejected = 1;
     }
     double cpu_s = gs_cpu_now() - cpu0;
-    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept */
     /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
      * 3 consistent but not accepted by the Metropolis step (kept) */
-    if (res.ok && pass > 0 && e->cfg->open_blocks > 0) {
+    if (res.ok && open) {
         int worse = 0;
         GS_CALL(open_block_worse(e, &r->box, &worse));
         if (worse) { /* kept as it was, counted as not accepted (ok = 3) */
