@@ -15,6 +15,7 @@ prints one JSON object: {"output": {...}, "halves": {...}, "shuffled": {...}}
 Arrays are numpy uint16 [z][y][x]; label 0 is empty.
 """
 import json
+import os
 import sys
 
 import numpy as np
@@ -496,6 +497,29 @@ class Checks:
 
     def result(self):
         print("RESULT", "pass" if not self.fails else "fail: " + "; ".join(self.fails))
+
+
+def untuned_checks(example_path, run_dir):
+    """The untuned examples' target (issue #18 item 4, tests/bench/model_untuned.sh) from the
+    example and the run's lattice.h5 alone: non-empty 3x3x3 share >= 0.5, top layer within 1 of
+    the example's, no floating cells where the example has none; 0 violations and 0 failed
+    regions from summary.json. Prints the checks and "L1 x" (label L1); returns the figures."""
+    ex = read_lattice(example_path)
+    out = read_lattice(os.path.join(run_dir, "lattice.h5"))
+    m = json.load(open(os.path.join(run_dir, "summary.json")))["metrics"]
+    f = figures(ex, out, ks=(3,))
+    top = lambda a: max([z for z in range(a.shape[0]) if a[z].any()] or [-1])
+    chk = Checks()
+    need = chk.need
+    need(f["share_3"] >= 0.5, "non-empty 3x3x3 share %.3f >= 0.5 (issue #18 item 4, untuned examples)" % f["share_3"])
+    need(abs(top(out) - top(ex)) <= 1, "top layer %d within 1 of example's %d" % (top(out), top(ex)))
+    need(f["unsupported_share_example"] > 0 or f["unsupported_share"] == 0,
+         "floating share %.4f where the example's is %.4f" % (f["unsupported_share"], f["unsupported_share_example"]))
+    need(m["violations"] == 0 and m["failed_regions"] == 0,
+         "0 violations, 0 failed regions (%d, %d)" % (m["violations"], m["failed_regions"]))
+    print("L1 %.4f" % f["label_l1"])
+    chk.result()
+    return f
 
 
 def main(argv):

@@ -314,8 +314,11 @@ static const gs_cfg_key model_keys[] = {
                    "with model.overlap = 0: x and y region edges drawn per region around "
                    "the edge (+-J; staggered x cuts, staircase lines between rows of "
                    "regions: no region line crosses the output); 0 = a regular grid"),
-    GS_CFG_KEY_INT(model_config, passes, "model.passes", 0, 1000, 0, "1",
-                   "keep sweeping until every cell was in this many accepted regions"),
+    GS_CFG_KEY_INT(model_config, passes, "model.passes", -1, 1000, 0, "-1",
+                   "keep sweeping until every cell was in this many accepted regions; -1 = "
+                   "auto: two sweeps (model.max_passes 2) when the z faces are synthesized "
+                   "(model.fix_z_faces), the second with model.sweep_keep = auto's tests, "
+                   "else 1; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_INT(model_config, max_passes, "model.max_passes", 1, 100000, 0, "4",
                    "sweeps at most (stops earlier once model.passes is reached)"),
     GS_CFG_KEY_INT(model_config, open_blocks, "model.open_blocks", 0, MODEL_MAX_EXTENT, 0, "0",
@@ -326,6 +329,17 @@ static const gs_cfg_key model_keys[] = {
                    "rebuilt (one colour), each kept only if its label mix per layer is no "
                    "further from the example's than before and found in at most 4 tries; "
                    "0 = off (every region of the pass's plan)"),
+    GS_CFG_KEY_STRING(model_config, sweep_keep, "model.sweep_keep", "auto",
+                      "from the second pass on: a rebuilt region is kept only if it is no "
+                      "further from the example than the content it replaces by every test "
+                      "named (comma-separated): mix (its label mix per layer), fill (its share "
+                      "of non-empty cells per layer, the height profile), support (its "
+                      "non-empty cells without a path to the ground inside the region or to a "
+                      "non-empty cell next to it), windows (the share of its non-empty 3x3x3 "
+                      "windows found in the example); a region of such a pass gives up after 4 "
+                      "tries, unsplit, and keeps its content; none = every rebuild kept "
+                      "(model.open_blocks > 0 always tests mix); auto = mix,support,windows when "
+                      "the z faces are synthesized, else none; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_INT(model_config, attempts, "model.attempts", 1, 100000, 0, "20",
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",

@@ -61,6 +61,7 @@ typedef struct model_config {
     int64_t passes;
     int64_t max_passes;
     int64_t open_blocks;
+    char *sweep_keep;
     int64_t attempts;
     int64_t backtracks;
     char *order;
@@ -128,6 +129,11 @@ typedef struct model_engine {
     uint16_t *pins;          /* hard constraints (NULL = none), lattice cells */
     float *shape;            /* soft target shape (NULL = none), lat nx*ny */
     uint8_t *structure;      /* model.shape: [nlabels] structure labels of the example */
+    int keep_tests;          /* model.sweep_keep: KEEP_* bits (engine_regions.c) */
+    uint64_t *keep_keys;     /* windows test: the example's non-empty 3x3x3 window keys,
+                                sorted (nkeep_keys), made with the first later pass's plan */
+    size_t nkeep_keys;
+    int keep_w[3];
     uint8_t *repair_empty;   /* default mode (no overlap3d), example without floating
                                 structure: [nlabels] 1 = empty (label 0); the repair after the
                                 passes resynthesizes floating pieces (engine_regions.c) */
@@ -233,6 +239,11 @@ void model_engine_free(model_engine *e);
 
 /* engine_regions.c: the regions of pass e->pass (plan, status, attempts). */
 gs_err model_make_plan(model_engine *e);
+/* model.sweep_keep: "none" or a comma-separated list of mix, fill, support,
+ * windows -> KEEP_* bits (open_blocks: mix at least) */
+#define KEEP_AUTO_NAMES "mix,support,windows" /* model.sweep_keep = auto, synthesized z faces */
+enum { KEEP_MIX = 1, KEEP_FILL = 2, KEEP_SUPPORT = 4, KEEP_WINDOWS = 8 };
+gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests);
 /* Collective: the next batch of the synthesis (a new pass's plan, then one
  * window of colours); *finished once the passes are done. */
 gs_err model_advance_window(gs_run *run, model_engine *e, int *finished);

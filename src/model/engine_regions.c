@@ -14,8 +14,58 @@
 #include "model/engine_impl.h"
 #include "model/model_impl.h"
 
+gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests)
+{
+    static const char *const name[4] = {"mix", "fill", "support", "windows"};
+    *tests = open_blocks ? KEEP_MIX : 0;
+    if (!strcmp(s, "none"))
+        return GS_OK;
+    const char *p = s;
+    while (*p) {
+        size_t n = strcspn(p, ",");
+        int found = 0;
+        for (int i = 0; i < 4 && !found; i++)
+            if (n == strlen(name[i]) && !strncmp(p, name[i], n)) {
+                *tests |= 1 << i;
+                found = 1;
+            }
+        GS_CHECK(found && n > 0, GS_ERR_ARG,
+                 "model.sweep_keep = \"%s\": expected none or a comma-separated list of mix, "
+                 "fill, support, windows",
+                 s);
+        p += n + (p[n] == ',');
+    }
+    return GS_OK;
+}
+
+/* model.sweep_keep's windows test: the example's non-empty 3x3x3 window keys */
+static gs_err keep_keys_make(model_engine *e)
+{
+    const gs_model_lattice *ex = &e->example;
+    const int ed[3] = {ex->nx, ex->ny, ex->nz}, od[3] = {e->lat.nx, e->lat.ny, e->lat.nz};
+    for (int a = 0; a < 3; a++)
+        e->keep_w[a] = 3 < ed[a] ? (3 < od[a] ? 3 : od[a]) : (ed[a] < od[a] ? ed[a] : od[a]);
+    const size_t n = gs_measure_window_count(ed, e->keep_w);
+    uint8_t *nz = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&e->keep_keys, n ? n : 1, sizeof *e->keep_keys,
+                               "keep test windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&nz, n ? n : 1, 1, "keep test windows"), done);
+    GS_TRY(err, gs_measure_window_keys(ex->labels, ed, e->keep_w, e->keep_keys, nz), done);
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (nz[i])
+            e->keep_keys[m++] = e->keep_keys[i];
+    e->nkeep_keys = gs_measure_keys_sort_unique(e->keep_keys, m);
+done:
+    gs_free(nz);
+    return err;
+}
+
 gs_err model_make_plan(model_engine *e)
 {
+    if (e->pass > 0 && (e->keep_tests & KEEP_WINDOWS) && !e->keep_keys)
+        GS_CALL(keep_keys_make(e));
     GS_FREE(e->plan);
     GS_FREE(e->region_status);
     GS_FREE(e->region_attempts);
@@ -54,41 +104,203 @@ static size_t box_cells(const gs_model_box *b)
     return (size_t)(b->x1 - b->x0) * (size_t)(b->y1 - b->y0) * (size_t)(b->z1 - b->z0);
 }
 
-/* model.open_blocks (Merrell's modify in blocks): is the rebuilt content of
- * box (e->buf) further from the example's label mix per layer (the L1
- * distance of its label counts to the example layer's shares, summed over
- * the box's layers) than the content it replaces? Without resemblance's
- * layer shares, never. The old content is the pass's start: the regions of
- * an open-blocks pass never interact. */
-static gs_err open_block_worse(const model_engine *e, const gs_model_box *b, int *worse)
+/* A later sweep's keep test (model.sweep_keep; model.open_blocks: mix): is
+ * the rebuilt content of box (e->buf) further from the example than the
+ * content it replaces (e->lat's)? The box's old content is settled when the
+ * region runs (every region interacting with it ran before: the same at any
+ * rank count). */
+static uint16_t box_label(const model_engine *e, const gs_model_box *b, int old, size_t k, int x,
+                          int y, int z)
+{
+    return old ? e->lat.labels[gs_model_lattice_index(&e->lat, x, y, z)] : e->buf[k];
+}
+
+/* mix: the L1 distance of the box's label counts per layer to the example
+ * layer's shares (resemblance's layer shares), summed over its layers; fill:
+ * the same of its non-empty count per layer (the height profile's measure,
+ * src/measure/lattice.c). Without resemblance's layer shares, 0. */
+static gs_err box_layer_dist(const model_engine *e, const gs_model_box *b, int old, int fill,
+                             double *dist)
 {
     const struct gs_model_resem *R = e->params.resem;
-    *worse = 0;
+    *dist = 0;
     if (!R || !R->zshare)
         return GS_OK;
     const size_t L = (size_t)R->L;
     uint32_t *cnt = NULL;
-    GS_CALL(gs_alloc_array((void **)&cnt, 2 * L, sizeof *cnt, "open block counts"));
-    double d[2] = {0, 0};
+    GS_CALL(gs_alloc_array((void **)&cnt, L, sizeof *cnt, "keep test counts"));
+    double d = 0;
     size_t k = 0;
     for (int z = b->z0; z < b->z1; z++) {
-        memset(cnt, 0, 2 * L * sizeof *cnt);
+        memset(cnt, 0, L * sizeof *cnt);
         size_t m = 0;
         for (int y = b->y0; y < b->y1; y++)
             for (int x = b->x0; x < b->x1; x++, k++, m++) {
-                const uint16_t o = e->lat.labels[gs_model_lattice_index(&e->lat, x, y, z)];
-                const uint16_t n = e->buf[k];
-                cnt[o < L ? o : 0] += o < L;
-                cnt[L + (n < L ? n : 0)] += n < L;
+                const uint16_t a = box_label(e, b, old, k, x, y, z);
+                cnt[a < L ? a : 0] += a < L;
             }
         const float *t = R->zshare + (size_t)(z < R->nz ? z : R->nz - 1) * L;
-        for (size_t a = 0; a < L; a++) {
-            d[0] += fabs((double)cnt[a] - (double)t[a] * (double)m);
-            d[1] += fabs((double)cnt[L + a] - (double)t[a] * (double)m);
-        }
+        if (fill) {
+            double tf = 0;
+            for (size_t a = 1; a < L; a++)
+                tf += (double)t[a];
+            d += fabs((double)m - (double)cnt[0] - tf * (double)m);
+        } else
+            for (size_t a = 0; a < L; a++)
+                d += fabs((double)cnt[a] - (double)t[a] * (double)m);
     }
     gs_free(cnt);
-    *worse = d[1] > d[0];
+    *dist = d;
+    return GS_OK;
+}
+
+/* support: the box's non-empty cells with no 6-connected path of non-empty
+ * box cells to the ground layer (z = 0) or to a non-empty cell next to the
+ * box (the solver's box_supported, counted). Without the repair's empty
+ * labels (an example with floating structure), 0. */
+static gs_err box_floating(const model_engine *e, const gs_model_box *b, int old, size_t *nf)
+{
+    const uint8_t *empty = e->repair_empty;
+    const gs_model_lattice *l = &e->lat;
+    *nf = 0;
+    if (!empty)
+        return GS_OK;
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
+    uint8_t *st = NULL;
+    int32_t *queue = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&st, n ? n : 1, 1, "keep test support"), done);
+    GS_TRY(err, gs_alloc_array((void **)&queue, n ? n : 1, sizeof *queue, "keep test support"),
+           done);
+    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    size_t head = 0, tail = 0, solid = 0, k = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, k++) {
+                st[k] = !empty[box_label(e, b, old, k, b->x0 + x, b->y0 + y, b->z0 + z)];
+                if (!st[k])
+                    continue;
+                solid++;
+                int grounded = b->z0 + z == 0;
+                for (int d = 0; d < 6 && !grounded; d++) {
+                    int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+                    if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz)
+                        continue;
+                    int gx = b->x0 + px, gy = b->y0 + py, gz = b->z0 + pz;
+                    if (e->params.periodic[0])
+                        gx = (gx % l->nx + l->nx) % l->nx;
+                    if (e->params.periodic[1])
+                        gy = (gy % l->ny + l->ny) % l->ny;
+                    if (gx < 0 || gy < 0 || gz < 0 || gx >= l->nx || gy >= l->ny || gz >= l->nz)
+                        continue;
+                    grounded = !empty[l->labels[gs_model_lattice_index(l, gx, gy, gz)]];
+                }
+                if (grounded) {
+                    st[k] = 2;
+                    queue[tail++] = (int32_t)k;
+                }
+            }
+    while (head < tail) {
+        int32_t u = queue[head++];
+        int x = u % rx, y = (u / rx) % ry, z = u / (rx * ry);
+        for (int d = 0; d < 6; d++) {
+            int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+            if (px < 0 || py < 0 || pz < 0 || px >= rx || py >= ry || pz >= rz)
+                continue;
+            int32_t v = (int32_t)(px + rx * (py + ry * pz));
+            if (st[v] == 1) {
+                st[v] = 2;
+                queue[tail++] = v;
+            }
+        }
+    }
+    *nf = solid - tail;
+done:
+    gs_free(st);
+    gs_free(queue);
+    return err;
+}
+
+/* windows: the share of the non-empty 3x3x3 windows meeting the box found in
+ * the example, in the box grown by 2 cells (1 with resemblance's w < 2: no
+ * further than the regions it interacts with reach), clipped to the lattice */
+static gs_err box_window_share(const model_engine *e, const gs_model_box *b, int old,
+                               double *share)
+{
+    const gs_model_lattice *l = &e->lat;
+    const int g = e->params.resem && e->params.resem->w >= 2 ? 2 : 1;
+    int lo[3] = {b->x0 - g, b->y0 - g, b->z0 - g}, hi[3] = {b->x1 + g, b->y1 + g, b->z1 + g};
+    const int ld[3] = {l->nx, l->ny, l->nz};
+    int d[3];
+    *share = 1;
+    for (int a = 0; a < 3; a++) {
+        lo[a] = lo[a] < 0 ? 0 : lo[a];
+        hi[a] = hi[a] > ld[a] ? ld[a] : hi[a];
+        d[a] = hi[a] - lo[a];
+        if (d[a] < e->keep_w[a])
+            return GS_OK;
+    }
+    const size_t n = (size_t)d[0] * (size_t)d[1] * (size_t)d[2];
+    const size_t nw = gs_measure_window_count(d, e->keep_w);
+    uint16_t *sub = NULL;
+    uint64_t *keys = NULL;
+    uint8_t *nz = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&sub, n, sizeof *sub, "keep test windows"), done);
+    GS_TRY(err, gs_alloc_array((void **)&keys, nw ? nw : 1, sizeof *keys, "keep test windows"),
+           done);
+    GS_TRY(err, gs_alloc_array((void **)&nz, nw ? nw : 1, 1, "keep test windows"), done);
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0;
+    size_t i = 0;
+    for (int z = lo[2]; z < hi[2]; z++)
+        for (int y = lo[1]; y < hi[1]; y++)
+            for (int x = lo[0]; x < hi[0]; x++, i++) {
+                const int in = x >= b->x0 && x < b->x1 && y >= b->y0 && y < b->y1 &&
+                               z >= b->z0 && z < b->z1;
+                sub[i] = in && !old ? e->buf[(size_t)(x - b->x0) +
+                                             (size_t)rx * ((size_t)(y - b->y0) +
+                                                           (size_t)ry * (size_t)(z - b->z0))]
+                                    : l->labels[gs_model_lattice_index(l, x, y, z)];
+            }
+    GS_TRY(err, gs_measure_window_keys(sub, d, e->keep_w, keys, nz), done);
+    size_t ne = 0, found = 0;
+    for (size_t k = 0; k < nw; k++)
+        if (nz[k]) {
+            ne++;
+            found += (size_t)gs_measure_keys_has(e->keep_keys, e->nkeep_keys, keys[k]);
+        }
+    *share = ne ? (double)found / (double)ne : 1;
+done:
+    gs_free(sub);
+    gs_free(keys);
+    gs_free(nz);
+    return err;
+}
+
+static gs_err sweep_keep_worse(const model_engine *e, const gs_model_box *b, int *worse)
+{
+    const int t = e->keep_tests;
+    *worse = 0;
+    for (int fill = 0; fill < 2 && !*worse; fill++)
+        if (t & (fill ? KEEP_FILL : KEEP_MIX)) {
+            double d_old = 0, d_new = 0;
+            GS_CALL(box_layer_dist(e, b, 1, fill, &d_old));
+            GS_CALL(box_layer_dist(e, b, 0, fill, &d_new));
+            *worse = d_new > d_old;
+        }
+    if ((t & KEEP_SUPPORT) && !*worse) {
+        size_t f_old = 0, f_new = 0;
+        GS_CALL(box_floating(e, b, 1, &f_old));
+        GS_CALL(box_floating(e, b, 0, &f_new));
+        *worse = f_new > f_old;
+    }
+    if ((t & KEEP_WINDOWS) && !*worse) {
+        double s_old = 0, s_new = 0;
+        GS_CALL(box_window_share(e, b, 1, &s_old));
+        GS_CALL(box_window_share(e, b, 0, &s_new));
+        *worse = s_new < s_old;
+    }
     return GS_OK;
 }
 
@@ -107,10 +319,10 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
              (long long)id);
     gs_model_region_result res;
     double cpu0 = gs_cpu_now();
-    /* model.open_blocks' later sweeps: a rebuild is optional (the old content
+    /* model.open_blocks' and model.sweep_keep's later sweeps: a rebuild is optional (the old content
      * is consistent), so a region gives up after OPEN_BLOCK_TRIES tries and
      * is not split, and then keeps its content (counted as rejected) */
-    const int open = pass > 0 && e->cfg->open_blocks > 0;
+    const int open = pass > 0 && e->keep_tests;
     gs_model_params q = e->params;
     if (open) {
         q.attempts = q.attempts < OPEN_BLOCK_TRIES ? q.attempts : OPEN_BLOCK_TRIES;
@@ -127,7 +339,7 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
      * 3 consistent but not accepted by the Metropolis step (kept) */
     if (res.ok && open) {
         int worse = 0;
-        GS_CALL(open_block_worse(e, &r->box, &worse));
+        GS_CALL(sweep_keep_worse(e, &r->box, &worse));
         if (worse) { /* kept as it was, counted as not accepted (ok = 3) */
             res.ok = 0;
             res.mh_rejected = 1;

@@ -20,7 +20,7 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->overlap = (int)c->overlap;
     p->region_jitter = (int)c->region_jitter;
     p->attempts = (int)c->attempts;
-    p->min_changes = (int)c->passes;
+    p->min_changes = c->passes < 0 ? 1 : (int)c->passes; /* auto: see model_setup */
     p->max_passes = (int)c->max_passes;
     p->fix_z_faces = strcmp(c->fix_z_faces, "false") != 0 && !strchr(c->periodic, 'z');
     p->backtracks = (int)c->backtracks;
@@ -429,6 +429,7 @@ void model_engine_free(model_engine *e)
     gs_free(e->shape);
     gs_free(e->structure);
     gs_free(e->repair_empty);
+    gs_free(e->keep_keys);
     gs_free(e->rotate_map);
     gs_free(e->mirror_map[0]);
     gs_free(e->mirror_map[1]);
@@ -770,6 +771,23 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     const int zsynth = !e->params.fix_z_faces && frames == 1 && c->overlap3d == 0 &&
                        !c->tileset[0] && !c->sample[0] && !strchr(c->periodic, 'z') &&
                        c->resemblance > 0;
+    /* model.passes = auto, model.sweep_keep = auto: with synthesized z faces a
+     * second sweep on the grid shifted by a quarter region, each rebuilt region
+     * kept only if no further from the example (configs/model/DEFAULTS.md,
+     * `passes = auto`): it takes the first sweep's last-decided lines (the
+     * terrains' ridges) inside a region */
+    GS_CALL(model_parse_sweep_keep(!strcmp(c->sweep_keep, "auto") ? (zsynth ? KEEP_AUTO_NAMES : "none")
+                                                                  : c->sweep_keep,
+                                   c->open_blocks > 0, &e->keep_tests));
+    if (c->passes < 0 && zsynth) {
+        e->params.min_changes = 2;
+        e->params.max_passes = 2;
+    }
+    if (zsynth && (c->passes < 0 || !strcmp(c->sweep_keep, "auto")))
+        gs_log(GS_LOG_INFO, "z faces synthesized: %d sweeps (model.passes = %s), later sweeps keep "
+               "a rebuilt region only if no further from the example by: %s (model.sweep_keep = %s)",
+               e->params.min_changes, c->passes < 0 ? "auto" : "set",
+               !strcmp(c->sweep_keep, "auto") ? KEEP_AUTO_NAMES : c->sweep_keep, c->sweep_keep);
     if (!strcmp(c->order, "auto") && zsynth) {
         /* synthesized z faces: grow each region in from its decided shell, ring
          * by ring, each ring's columns from the ground up (configs/model/DEFAULTS.md,
@@ -847,7 +865,7 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
            "%s, %s",
            (long long)c->size[0], (long long)c->size[1], (long long)c->size[2], cells,
            (long long)c->region[0], (long long)c->region[1], (long long)c->region[2],
-           (long long)c->overlap, (long long)c->passes, (long long)c->max_passes,
+           (long long)c->overlap, (long long)e->params.min_changes, (long long)e->params.max_passes,
            (long long)c->attempts, (long long)c->backtracks, c->order, c->weights, c->ac);
     gs_log(GS_LOG_INFO, "memory estimate per rank: %.1f MiB (lattice + coverage, solver, rules)",
            mem / 1048576.0);

@@ -44,7 +44,7 @@ gs_err model_write_checkpoint(gs_run *run, model_engine *e)
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_choices", e->stats.choices), fail);
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_backtracks", e->stats.backtracks), fail);
     GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_region_cells", e->region_cells), fail);
-    if (e->params.shape || e->cfg->open_blocks > 0) /* rejected rebuilds too */
+    if (e->params.shape || e->keep_tests) /* rejected rebuilds too */
         GS_TRY(err, gs_ckpt_set_u64(h, g, "stat_mh_rejected", e->stats.mh_rejected), fail);
     GS_TRY(err, gs_ckpt_set_f64(h, g, "synthesis_seconds", e->synth_seconds), fail);
     GS_CALL(gs_run_checkpoint_commit(run, &h, e->units));
@@ -82,7 +82,7 @@ gs_err model_read_checkpoint(gs_run *run, model_engine *e)
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_choices", &e->stats.choices), done);
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_backtracks", &e->stats.backtracks), done);
     GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_region_cells", &e->region_cells), done);
-    if (e->params.shape || e->cfg->open_blocks > 0)
+    if (e->params.shape || e->keep_tests)
         GS_TRY(err, gs_ckpt_get_u64(h, g, "stat_mh_rejected", &e->stats.mh_rejected), done);
     GS_TRY(err, gs_ckpt_get_f64(h, g, "synthesis_seconds", &e->synth_seconds), done);
     gs_h5_shape ls = model_lattice_shape(&e->lat);
