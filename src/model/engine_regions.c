@@ -30,7 +30,7 @@ gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests)
                 found = 1;
             }
         GS_CHECK(found && n > 0, GS_ERR_ARG,
-                 "model.sweep_keep = \"%s\": expected none or a comma-separated list of mix, "
+                 "model.sweep_keep = \"%s\": expected auto, none or a comma-separated list of mix, "
                  "fill, support, windows",
                  s);
         p += n + (p[n] == ',');

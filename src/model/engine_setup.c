@@ -774,7 +774,7 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     /* model.passes = auto, model.sweep_keep = auto: with synthesized z faces a
      * second sweep on the grid shifted by a quarter region, each rebuilt region
      * kept only if no further from the example (configs/model/DEFAULTS.md,
-     * `passes = auto`): it takes the first sweep's last-decided lines (the
+     * `passes = -1`): it takes the first sweep's last-decided lines (the
      * terrains' ridges) inside a region */
     GS_CALL(model_parse_sweep_keep(!strcmp(c->sweep_keep, "auto") ? (zsynth ? KEEP_AUTO_NAMES : "none")
                                                                   : c->sweep_keep,

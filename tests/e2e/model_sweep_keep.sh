@@ -1,6 +1,6 @@
 # End-to-end: the second sweep with its keep test, the default with synthesized z faces
-# (model.passes = auto, model.sweep_keep = auto: mix,support,windows; #18 terrain ridges, model32,
-# configs/model/DEFAULTS.md `passes = auto`). Examples nobody tuned for (scripts/gen-lattice.py),
+# (model.passes = -1 = auto, model.sweep_keep = auto: mix,support,windows; #18 terrain ridges, model32,
+# configs/model/DEFAULTS.md `passes = -1` (auto)). Examples nobody tuned for (scripts/gen-lattice.py),
 # 40x40x8 in 20x20 regions, default settings, the untuned benchmark's target from the example
 # alone (tests/bench/model_untuned.sh): non-empty 3x3x3 share >= 0.5, top layer within 1 of the
 # example's, no floating cells where the example has none, 0 violations, 0 failed regions.
