@@ -452,6 +452,28 @@ typedef struct gs_measure_repeats {
 gs_err gs_measure_repeats2(const double *out, int64_t onx, int64_t ony, const double *src,
                            int64_t snx, int64_t sny, gs_measure_repeats *m);
 
+/* Height distribution of a height map out (nout heights) against its
+ * example src (nsrc): how common the example's low and high ground is in the
+ * output (#19: terrain.ini's outputs held the example's highest ground about
+ * half as often as the example). level[k]: the example's heights at the
+ * percentiles gs_measure_height_percentiles (10, 90, 95, 99; numpy's linear
+ * interpolation); low_*: the share at or below level[0]; high_*[k - 1]: the
+ * share at or above level[k] (at or above: an example whose top is a flat
+ * plateau holds more than 1% at its 99th percentile). ks: the two-sample
+ * Kolmogorov-Smirnov distance of the two height sets. An output with the
+ * example's distribution scores the example's shares (about 0.10, 0.10,
+ * 0.05, 0.01 where heights do not tie) and ks 0. */
+#define GS_MEASURE_HEIGHT_LEVELS 4
+extern const double gs_measure_height_percentiles[GS_MEASURE_HEIGHT_LEVELS];
+typedef struct gs_measure_heights_t {
+    double level[GS_MEASURE_HEIGHT_LEVELS];
+    double low_out, low_src;
+    double high_out[GS_MEASURE_HEIGHT_LEVELS - 1], high_src[GS_MEASURE_HEIGHT_LEVELS - 1];
+    double ks;
+} gs_measure_heights_t;
+gs_err gs_measure_heights(const double *out, size_t nout, const double *src, size_t nsrc,
+                          gs_measure_heights_t *m);
+
 /* Outline roughness of a two-sided labelling of a triangle mesh's vertices
  * (side[v] != 0: one side), e.g. micro's regions as mesh.ply shows them.
  * Positions pos (3 floats per vertex) times scale give distances in the

@@ -341,6 +341,28 @@ static gs_err report_repeats(gs_run *run, const gs_qfield *out, const gs_qfield 
            "%d, highest %.3f); one example feature recurs %d times (%.2f s)", m.window, m.window,
            m.ncc_out, m.ncc_src, m.ncc_out_area, m.crops, m.ncc_out_area_max, m.recur_out,
            gs_cpu_now() - t0);
+    /* the height distribution (#19: the example's highest ground half as
+     * common in terrain.ini's outputs) */
+    gs_measure_heights_t hd;
+    GS_TRY(err, gs_measure_heights(ho, (size_t)(out->nx * out->ny), hs, (size_t)(src->nx * src->ny), &hd),
+           done);
+    static const char *const high[GS_MEASURE_HEIGHT_LEVELS - 1] = {"p90", "p95", "p99"};
+    gs_run_metric_f64(run, "height_below_p10_out", hd.low_out);
+    gs_run_metric_f64(run, "height_below_p10_src", hd.low_src);
+    for (int k = 0; k < GS_MEASURE_HEIGHT_LEVELS - 1; k++) {
+        char key[64];
+        snprintf(key, sizeof key, "height_above_%s_out", high[k]);
+        gs_run_metric_f64(run, key, hd.high_out[k]);
+        snprintf(key, sizeof key, "height_above_%s_src", high[k]);
+        gs_run_metric_f64(run, key, hd.high_src[k]);
+    }
+    gs_run_metric_f64(run, "height_ks", hd.ks);
+    gs_log(GS_LOG_INFO,
+           "heights: at or below the example's 10th percentile (%.2f samples) %.3f (example %.3f), "
+           "at or above its 90th/95th/99th (%.2f/%.2f/%.2f) %.3f/%.3f/%.4f (example "
+           "%.3f/%.3f/%.4f), KS %.3f", hd.level[0], hd.low_out, hd.low_src, hd.level[1], hd.level[2],
+           hd.level[3], hd.high_out[0], hd.high_out[1], hd.high_out[2], hd.high_src[0],
+           hd.high_src[1], hd.high_src[2], hd.ks);
 done:
     gs_field_destroy(&fo);
     gs_field_destroy(&fs);

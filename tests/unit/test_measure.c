@@ -1075,6 +1075,49 @@ static void test_repeats(void **state)
     free(tile);
 }
 
+/* gs_measure_heights: a 2x2 tiling of a height map holds its distribution
+ * (the example's own shares, KS 0); the same map with its top flattened to
+ * the 90th percentile and its bottom raised to the 10th (the output's tails
+ * compressed) holds nothing strictly between the levels' sides: 0 at or
+ * above the 95th, all of the old tail at the 90th/10th; the shares of
+ * 1..100 are exact. */
+static void test_heights(void **state)
+{
+    (void)state;
+    enum { N = 40 };
+    double *src = malloc(sizeof(double) * N * N), *out = malloc(sizeof(double) * 4 * N * N);
+    assert_non_null(src);
+    assert_non_null(out);
+    smooth_relief(2, N, src);
+    for (int y = 0; y < 2 * N; y++)
+        for (int x = 0; x < 2 * N; x++)
+            out[x + 2 * N * y] = src[x % N + N * (y % N)];
+    gs_measure_heights_t m;
+    assert_int_equal(gs_measure_heights(out, 4 * N * N, src, N * N, &m), GS_OK);
+    assert_true(m.ks == 0 && m.low_out == m.low_src);
+    for (int k = 0; k < GS_MEASURE_HEIGHT_LEVELS - 1; k++)
+        assert_true(m.high_out[k] == m.high_src[k]);
+    assert_true(fabs(m.high_src[0] - 0.10) < 0.01 && fabs(m.low_src - 0.10) < 0.01);
+    double lo = m.level[0], hi = m.level[1];
+    for (int i = 0; i < 4 * N * N; i++)
+        out[i] = out[i] > hi ? hi : out[i] < lo ? lo : out[i];
+    assert_int_equal(gs_measure_heights(out, 4 * N * N, src, N * N, &m), GS_OK);
+    assert_true(m.high_out[1] == 0 && m.high_out[2] == 0);
+    assert_true(fabs(m.high_out[0] - m.high_src[0]) < 1e-12 && fabs(m.low_out - m.low_src) < 1e-12);
+    assert_true(m.ks > 0.04 && m.ks < 0.11);
+    /* 1..100: the 10th percentile 10.9, the 90th 90.1, the 99th 99.01 */
+    double v[100];
+    for (int i = 0; i < 100; i++)
+        v[i] = i + 1;
+    assert_int_equal(gs_measure_heights(v, 100, v, 100, &m), GS_OK);
+    assert_true(fabs(m.level[0] - 10.9) < 1e-9 && fabs(m.level[1] - 90.1) < 1e-9);
+    assert_true(fabs(m.low_src - 0.10) < 1e-12 && fabs(m.high_src[0] - 0.10) < 1e-12 &&
+                fabs(m.high_src[1] - 0.05) < 1e-12 && fabs(m.high_src[2] - 0.01) < 1e-12);
+    assert_int_equal(gs_measure_heights(v, 0, v, 100, &m), GS_ERR_ARG);
+    free(src);
+    free(out);
+}
+
 /* gs_measure_window_share_range: a plane every 4 samples along x, windows 6
  * long along x: 2/6 or 1/6 of a window set; and a random mask against brute
  * force over every periodic window (one window larger than the mask, one
@@ -1137,6 +1180,7 @@ int main(void)
         cmocka_unit_test(test_copy_reference),
         cmocka_unit_test(test_outline),
         cmocka_unit_test(test_repeats),
+        cmocka_unit_test(test_heights),
         cmocka_unit_test(test_window_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
