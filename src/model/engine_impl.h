@@ -169,7 +169,8 @@ typedef struct model_engine {
     gs_model_region *plan; /* regions of the current pass, index = id */
     size_t nplan;
     int ncolors;
-    int32_t *region_status;   /* pass in progress: -1 not run, 0 failed, 1 accepted */
+    int32_t *region_status;   /* pass in progress: -1 not run, 0 failed, 1 accepted,
+                                 2 kept as it was (rejected: Metropolis or a keep test) */
     int32_t *region_attempts; /* pass in progress: tries used */
     gs_progress pass_prog;    /* regions of the pass in progress (rank 0 prints) */
     uint64_t pass_done;       /* its regions with a result */

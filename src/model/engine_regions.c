@@ -374,7 +374,7 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     e->region_cells += cells;
     if (e->region_status[id] < 0 && e->pass_prog_open)
         gs_progress_update(&e->pass_prog, ++e->pass_done);
-    e->region_status[id] = h.ok == 1;
+    e->region_status[id] = h.ok == 1 ? 1 : h.ok == 3 ? 2 : 0;
     e->region_attempts[id] = h.attempts;
     if (h.ok == 3) {
         e->stats.mh_rejected++;
@@ -725,16 +725,18 @@ gs_err model_advance_window(gs_run *run, model_engine *e, int *finished)
     if (e->color >= e->ncolors) {
         gs_progress_end(&e->pass_prog);
         e->pass_prog_open = 0;
-        uint64_t acc = 0, fail = 0;
+        uint64_t acc = 0, fail = 0, kept = 0;
         for (size_t i = 0; i < e->nplan; i++) {
             acc += e->region_status[i] == 1;
             fail += e->region_status[i] == 0;
+            kept += e->region_status[i] == 2;
         }
         e->stats.min_coverage = min_coverage(e);
         gs_log(GS_LOG_INFO,
-               "pass %d done: %llu accepted, %llu failed; every cell in >= %llu accepted "
-               "regions (goal %d)",
+               "pass %d done: %llu accepted, %llu failed, %llu kept as they were (rejected); "
+               "every cell in >= %llu accepted regions (goal %d)",
                e->pass + 1, (unsigned long long)acc, (unsigned long long)fail,
+               (unsigned long long)kept,
                (unsigned long long)e->stats.min_coverage, e->params.min_changes);
         e->pass++;
         e->color = 0;
