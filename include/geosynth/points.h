@@ -366,6 +366,9 @@ typedef struct gs_points_params {
     int max_pairs;        /* clusters grow so |Q| stays near this (spline size) */
     double variation_radius;
     double tps_lambda;
+    double warp_fade;     /* the warp fades to none ((b / warp_fade)^2) where the blend
+                             weight b falls below this, to 0 at the strips' inner edge;
+                             0 = the spline everywhere */
     int warp_height_bound; /* 1: a warped point stays within the example's height range
                               (or where it was, when it was already beyond) */
     int warp_select;      /* 1: each patch takes the spline (pairs as they are, or their

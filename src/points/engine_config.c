@@ -83,6 +83,12 @@ static const gs_cfg_key points_keys[] = {
                    "relaxation passes over the output at the end"),
     GS_CFG_KEY_REAL(PC, tps_lambda, "points.tps_lambda", 0, 1e6, 0, "0",
                     "thin-plate spline smoothing (0 = interpolate)"),
+    GS_CFG_KEY_REAL(PC, warp_fade, "points.warp_fade", 0, 2, 0, "0",
+                    "the warp fades to none ((weight / this)^2) where the overlap strips' blend "
+                    "weight falls below this, to 0 at their inner edge, so the patch's inside "
+                    "keeps the example's shape (1: rings past the strips stay round, but fewer "
+                    "seams close and whole flowers come out shorter); 0 = the spline everywhere "
+                    "(the paper's)"),
     GS_CFG_KEY_BOOL(PC, warp_height_bound, "points.warp_height_bound", "true",
                     "the warp lifts or lowers no point beyond the example's height range (a "
                     "point already beyond it keeps its own height as the bound); false = the "

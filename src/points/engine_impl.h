@@ -48,7 +48,7 @@ typedef struct points_config {
     double w_p, w_n, w_v, w_l, w_d;
     double max_pair_dist, max_normal, max_variation, coherence_sigma, variation_radius;
     int64_t greedy_iterations, cluster_max, max_pairs, relax_iterations;
-    double tps_lambda;
+    double tps_lambda, warp_fade;
     int warp_height_bound;
     char *choices; /* points.choices: a patches.csv, "" = none */
     int blend, ray_blend, blend_resample, blend_keep_outer, blend_fill, blend_implicit,

@@ -48,6 +48,7 @@ static void params_from_config(const points_config *c, double lx, double ly, dou
     p->max_pairs = (int)c->max_pairs;
     p->variation_radius = c->variation_radius;
     p->tps_lambda = c->tps_lambda;
+    p->warp_fade = c->warp_fade;
     p->warp_height_bound = c->warp_height_bound;
     p->blend = c->blend;
     p->ray_blend = c->ray_blend;

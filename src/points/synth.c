@@ -125,6 +125,7 @@ void gs_points_params_default(double lx, double ly, double s, gs_points_params *
     p->cluster_max = 12;
     p->max_pairs = 48;
     p->tps_lambda = 0;
+    p->warp_fade = 0;
     p->blend = 1;
     p->blend_fill = 1;
     p->blend_implicit = 0;
@@ -177,6 +178,8 @@ static gs_err check_params(const gs_points_params *p, double s)
     NONNEG(p->max_normal);
     NONNEG(p->max_variation);
     NONNEG(p->tps_lambda);
+    GS_CHECK(p->warp_fade >= 0 && p->warp_fade <= 2, GS_ERR_ARG,
+             "points: warp_fade = %g, expected 0..2", p->warp_fade);
 #undef POS
 #undef NONNEG
     GS_CHECK(p->patch_cells >= 3 && p->patch_cells <= 1024, GS_ERR_ARG,
@@ -842,16 +845,60 @@ static gs_err ray_hit(const gs_points_grid *out, double R, gs_points *nb, const 
 }
 
 /* The warp of a point x of F: y, and its Jacobian J when J != NULL (the
- * warped normal, gs_points_tps_normal): the spline t, then
+ * warped normal, gs_points_tps_normal): the spline t, faded to none across
+ * the strips' inner part (points.warp_fade), then
  * (points.warp_height_bound) the height held within the example's range
  * [in_zlo, in_zhi] (or x's own height when x is already beyond it): the
  * spline's swing between pairs lifted ring tops above the example's top
  * (chainmail: 131 points per run above it, 5 without the warp on the same
- * patches). */
-static void warp_eval(const struct gs_points_synth *s, const gs_points_tps *t, const double x[3],
-                      double y[3], double J[9])
+ * patches).
+ * The fade: y = x + a (t(x) - x) with a = (b / f)^2 where the blend weight
+ * b of patch o, mode is below f = warp_fade (1 above), so a = 0 past the
+ * strips' inner edge (b = 0): the patch's inside is the example's own
+ * shape, and the warp is whole at the seam (b = 1), where the blend pulls
+ * onto the output too. Why: the paper's spline (|r| kernel, pairs in the
+ * strips, a few identity anchors far inside) strains the patch where its
+ * displacement decays, in the strips' inner half and just past them
+ * (chainmail full size, seeds 1-2, the normals' angle to their
+ * neighbours' mean, warped patches minus the same unwarped, 0.3-0.6 from
+ * the low edges: +0.3..+1.0 degrees; a ring past the strip ~0.1 wider).
+ * Faded, nothing past the strips moves; a = b^2 rather than smoothstep(b)
+ * keeps the warp's strain low where the blend leaves the warped shape
+ * (weight 1 - b) most (the chainmail 8 x 8 layout of e2e/points_warp,
+ * 0.2-0.3 from the low edges: -0.34 vs +1.02 degrees against none).
+ * Opt-in (default 0): it closes fewer seams (e2e/points_quality's chainmail
+ * open share 0.102 over its 0.096 bound) and whole flowers came out
+ * shorter (tests/bench/points_elements.sh). */
+static void warp_eval(const struct gs_points_synth *s, const gs_points_tps *t, int mode,
+                      const double o[2], const double x[3], double y[3], double J[9])
 {
     gs_points_tps_eval(t, x, y, J);
+    double f = s->p.warp_fade;
+    if (f > 0 && mode) {
+        double b = blend_weight(s, mode, o, x);
+        if (b < f) {
+            double u = b / f, a = u * u, d[3];
+            for (int k = 0; k < 3; k++) {
+                d[k] = y[k] - x[k];
+                y[k] = x[k] + a * d[k];
+            }
+            if (J) {
+                /* b's gradient: the strip whose weight is the larger
+                 * (none where b is clamped at 0 or 1) */
+                double g[3] = {0, 0, 0};
+                if (b > 0 && b < 1) {
+                    double tl = (mode & GS_POINTS_OVERLAP_LEFT) ? 1.0 - (x[0] - o[0]) / s->ow
+                                                                : -INFINITY;
+                    double tb = (mode & GS_POINTS_OVERLAP_BOTTOM) ? 1.0 - (x[1] - o[1]) / s->ow
+                                                                  : -INFINITY;
+                    g[tl >= tb ? 0 : 1] = -2 * u / (f * s->ow);
+                }
+                for (int r = 0; r < 3; r++)
+                    for (int c = 0; c < 3; c++)
+                        J[3 * r + c] = (r == c) + a * (J[3 * r + c] - (r == c)) + d[r] * g[c];
+            }
+        }
+    }
     if (s->p.warp_height_bound) {
         double hi = fmax(x[2], s->in_zhi), lo = fmin(x[2], s->in_zlo);
         double b = y[2] > hi ? hi : y[2] < lo ? lo : y[2];
@@ -886,7 +933,7 @@ static gs_err strip_gap(struct gs_points_synth *s, int mode, const double o[2],
             continue;
         double y[3];
         if (tps)
-            warp_eval(s, tps, x, y, NULL);
+            warp_eval(s, tps, mode, o, x, y, NULL);
         else
             memcpy(y, x, sizeof y);
         gs_points_mls_result r;
@@ -1156,7 +1203,8 @@ typedef struct blend_ctx {
  * per object, numbered 1..) by the warp's displacement of its centre, so it
  * keeps the example's shape: a point-by-point warp stretches a flower and
  * pulls petal tips off it. */
-static gs_err object_moves(struct gs_points_synth *s, const gs_points_tps *tps)
+static gs_err object_moves(struct gs_points_synth *s, int mode, const double o[2],
+                           const gs_points_tps *tps)
 {
     uint32_t nobj = 0;
     for (size_t i = 0; i < s->F.n; i++)
@@ -1181,7 +1229,7 @@ static gs_err object_moves(struct gs_points_synth *s, const gs_points_tps *tps)
                     c[k] += s->F.v[j].p[k];
             for (int k = 0; k < 3; k++)
                 c[k] /= (double)(e - i);
-            warp_eval(s, tps, c, w, J);
+            warp_eval(s, tps, mode, o, c, w, J);
             for (int k = 0; k < 3; k++)
                 s->obj_move[3 * ob + k] = w[k] - c[k];
         }
@@ -1297,7 +1345,7 @@ static gs_err warp_blend_points(void *vctx, size_t lo, size_t hi, void *vout)
                 it->q.p[k] += c->obj_move[3 * ob + k];
         } else if (c->tps) {
             double J[9];
-            warp_eval(s, c->tps, f->p, it->q.p, J);
+            warp_eval(s, c->tps, c->mode, c->o, f->p, it->q.p, J);
             gs_points_tps_normal(J, f->n, it->q.n);
         } else {
             it->q = *f;
@@ -1909,7 +1957,7 @@ static gs_err blend_build(struct gs_points_synth *s, int mode, const double o[2]
             slot[order[j]] = j;
     }
     if (tps && s->ncomp)
-        GS_CALL(object_moves(s, tps));
+        GS_CALL(object_moves(s, mode, o, tps));
     blend_ctx bc = {s, mode, o, tps, order, s->obj_move, 0, 0};
     GS_CALL(par_map(s, n, sizeof(blend_item), warp_blend_points, &bc, s->blend));
     *warp_seconds = bc.warp_seconds;

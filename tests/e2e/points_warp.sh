@@ -21,7 +21,9 @@
 #   same patches put there without it (points_above_example_max; the
 #   spline's swing between pairs put ~130 per run there before
 #   points.warp_height_bound), and the same run with the bound off puts
-#   more there than with it.
+#   more there than with it;
+# - with points.warp_fade = 1 the warp moves only the overlap strips of a
+#   warped patch (its inside stays the example's own: no stretched rings).
 source "$GS_ROOT/tests/e2e/lib.bash"
 C=$GS_ROOT/configs/points/chainmail.ini
 metric() { /usr/bin/python3 -c 'import json,sys;print(json.load(open(sys.argv[1]+"/summary.json"))["metrics"][sys.argv[2]])' "$1" "$2"; }
@@ -37,6 +39,9 @@ expect_rc 0 "chainmail (8 x 8) without the warp, on the warped run's patches"
 run_gs 2 points -c "$C" -o unbound "${small[@]}" --set points.warp_height_bound=false \
   --set points.choices="$PWD/warp/patches.csv"
 expect_rc 0 "chainmail (8 x 8) with the warp unbounded in height, on the same patches"
+run_gs 2 points -c "$C" -o fade "${small[@]}" --set points.warp_fade=1 \
+  --set points.choices="$PWD/warp/patches.csv"
+expect_rc 0 "chainmail (8 x 8) with the warp faded across the strips, on the same patches"
 
 w=$(metric warp patches_warped)
 [[ $w -gt 0 ]] && ok "$w patches warped" || bad "no patch warped"
@@ -56,4 +61,28 @@ au=$(metric unbound points_above_example_max)
   bad "warp: $a1 points above the example's top with the warp, $a0 without on the same patches (expected no more)"
 [[ $au -gt $a1 ]] && ok "height bound: $au points above the example's top without it, $a1 with it" ||
   bad "height bound: $au points above the example's top without it, $a1 with it (expected more without)"
+# With points.warp_fade = 1 the warp stays in the overlap strips: a warped
+# patch's points past its strips' inner edge are the example's own, the
+# same as on the same patches unwarped. The strips cover 1 - (1 - 4/12)^2
+# = 0.56 of a patch's visible area here (overlap 4 of a 12-cell step;
+# 0.53-0.59 moved on the layouts tried); with the spline left everywhere
+# (warp_fade = 0, or the fade broken) every point of a warped patch moves
+# (1.00) and the rings past the strips stretch.
+moved=$(/usr/bin/python3 - "$GS_ROOT/analysis" fade same <<'PY'
+import csv, sys
+import numpy as np
+from scipy.spatial import cKDTree
+sys.path.insert(0, sys.argv[1])
+from point_seams import read_points
+va, pa = read_points(sys.argv[2] + "/points.ply")
+vb, _ = read_points(sys.argv[3] + "/points.ply")
+warped = [int(r["patch"]) for r in csv.DictReader(open(sys.argv[2] + "/patches.csv"))
+          if int(r["warp"]) > 0]
+m = np.isin(pa, warped)
+d, _ = cKDTree(vb[:, :3]).query(va[m, :3])
+print("%.3f" % ((d > 1e-5).mean() if m.any() else 1))
+PY
+)
+lt "$moved" 0.75 && ok "warp fade: $moved of the warped patches' points moved by the warp (the strips: ~0.56 of a patch)" ||
+  bad "warp fade: $moved of the warped patches' points moved by the warp (expected < 0.75: only the strips, ~0.56 of a patch)"
 finish
