@@ -310,10 +310,51 @@ static double field_at(const gs_field *f, const double p[3])
     return v;
 }
 
+/* The steps of room_at's walk: t = 0.05, 0.10, ... up to 2, summed as the
+ * walk always summed them (the same doubles). */
+#define ROOM_STEPS 40
+static int room_steps(double t[ROOM_STEPS + 1])
+{
+    int n = 0;
+    for (double s = 0.05; s <= 2 && n < ROOM_STEPS + 1; s += 0.05)
+        t[n++] = s;
+    return n;
+}
+
+/* A bound on how fast f's trilinear value changes along any unit direction
+ * (sample units): within a cell the derivative along x interpolates the
+ * cell's x differences, so |grad| <= the norm of the largest difference per
+ * axis (with a margin over rounding). room_at skips the steps this bound
+ * says cannot reach the other sign: the same answer with fewer samples. */
+static double field_slope_bound(const gs_field *f)
+{
+    const int64_t n[3] = {f->nx, f->ny, f->nz}, st[3] = {1, f->nx, f->nx * f->ny};
+    double dmax[3] = {0, 0, 0};
+    for (int64_t z = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++) {
+            const float *row = f->v + st[1] * y + st[2] * z;
+            float mx = 0, my = 0, mz = 0;
+            for (int64_t x = 0; x + 1 < n[0]; x++)
+                mx = fmaxf(mx, fabsf(row[x + 1] - row[x]));
+            if (y + 1 < n[1])
+                for (int64_t x = 0; x < n[0]; x++)
+                    my = fmaxf(my, fabsf(row[x + st[1]] - row[x]));
+            if (z + 1 < n[2])
+                for (int64_t x = 0; x < n[0]; x++)
+                    mz = fmaxf(mz, fabsf(row[x + st[2]] - row[x]));
+            dmax[0] = fmax(dmax[0], mx), dmax[1] = fmax(dmax[1], my), dmax[2] = fmax(dmax[2], mz);
+        }
+    return sqrt(dmax[0] * dmax[0] + dmax[1] * dmax[1] + dmax[2] * dmax[2]) * 1.001 + 1e-12;
+}
+
 /* Distance from p (on the zero level of f) to the next surface of f along
  * its gradient, either way, up to 2 samples: the room a vertex at p has
- * before it would pass through another sheet. */
-static double room_at(const gs_field *f, const double p[3])
+ * before it would pass through another sheet. The walk looks at steps of
+ * 0.05 (ts, nt: room_steps) and stops at the first on the other sign; a
+ * step whose value |v| is more than slope (field_slope_bound) times the
+ * distance to a later step cannot change sign before it, so those are
+ * skipped. */
+static double room_at(const gs_field *f, const double p[3], const double *ts, int nt, double slope)
 {
     double g[3], gl = 0;
     for (int a = 0; a < 3; a++) {
@@ -327,8 +368,8 @@ static double room_at(const gs_field *f, const double p[3])
     gl = sqrt(gl);
     double room = 2;
     for (int side = -1; side <= 1; side += 2)
-        for (double t = 0.05; t <= 2; t += 0.05) {
-            double q[3];
+        for (int k = 0; k < nt;) {
+            double t = ts[k], q[3];
             for (int a = 0; a < 3; a++)
                 q[a] = p[a] + side * t * g[a] / gl;
             double v = field_at(f, q);
@@ -336,6 +377,11 @@ static double room_at(const gs_field *f, const double p[3])
                 room = fmin(room, t);
                 break;
             }
+            /* v is on the walk's own sign (or 0): no step within |v| / slope of t changes it */
+            int j = k + 1;
+            while (j < nt && slope * (ts[j] - t) < fabs(v))
+                j++;
+            k = j;
         }
     return room;
 }
@@ -619,6 +665,9 @@ static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const 
     slot = NULL, cnt = NULL, acc = NULL, start = fill = tri_of = cell = NULL;
     /* no vertex moves more than 0.45 of the room to the next sheet of the
      * synthesized field: two facing sheets cannot pass through each other */
+    double ts[ROOM_STEPS + 1];
+    const int nt = room_steps(ts);
+    const double slope = field_slope_bound(target);
     for (size_t v = 0; v < m.nverts; v++) {
         double p[3], d = 0;
         for (int a = 0; a < 3; a++) {
@@ -627,7 +676,7 @@ static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const 
         }
         if (d == 0)
             continue;
-        double lim = 0.45 * room_at(target, p);
+        double lim = 0.45 * room_at(target, p, ts, nt, slope);
         d = sqrt(d);
         if (d > lim)
             for (int a = 0; a < 3; a++)
