@@ -17,6 +17,26 @@
 #include "geosynth/vdb.h"
 #include "field/engine_impl.h"
 
+/* One output step's wall and CPU seconds (this rank, its threads included)
+ * into the phase record as NAME_seconds and NAME_cpu_seconds. */
+typedef struct step_clock {
+    double t, c;
+} step_clock;
+
+static step_clock step_start(void)
+{
+    return (step_clock){gs_time_now(), gs_cpu_now()};
+}
+
+static void step_end(gs_json *pm, const char *name, step_clock s)
+{
+    char k[96];
+    snprintf(k, sizeof k, "%s_seconds", name);
+    gs_json_f64(pm, k, gs_time_now() - s.t);
+    snprintf(k, sizeof k, "%s_cpu_seconds", name);
+    gs_json_f64(pm, k, gs_cpu_now() - s.c);
+}
+
 static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f,
                              const gs_qfield *src, const gs_qfield *synthesized)
 {
@@ -96,13 +116,18 @@ fail:
  * of at most FIELD_REDIST_SAMPLES samples, so memory is bounded by a piece
  * and the ranks share the work; any split gives the same values. The pieces
  * meet once, gathered in place (every rank holds the field for the file and
- * rank 0 for the meshes). Then rank 0 writes field.vdb (grid `surface`,
- * class level set, background = band width, voxel size = sample spacing)
- * when output.vdb = yes. */
+ * the meshes). field.vdb (grid `surface`, class level set, background = band
+ * width, voxel size = sample spacing; output.vdb = yes) is written with the
+ * meshes (write_geometry). */
 #define FIELD_REDIST_SAMPLES ((int64_t)16 << 20)
-static gs_err redistance(gs_run *run, const field_config *c, gs_field *f)
+static int field_redistance_pad(const field_config *c)
 {
-    const int pad = (int)ceil(c->range) + 1;
+    return (int)ceil(c->range) + 1;
+}
+static gs_err redistance(gs_run *run, const field_config *c, gs_field *f, gs_json *pm)
+{
+    step_clock ts = step_start();
+    const int pad = field_redistance_pad(c);
     const int64_t plane = f->nx * f->ny;
     int64_t z0, z1;
     GS_CALL(gs_partition(f->nz, run->size, run->rank, &z0, &z1));
@@ -120,7 +145,13 @@ static gs_err redistance(gs_run *run, const field_config *c, gs_field *f)
         int64_t e = z + step < z1 ? z + step : z1;
         err = gs_vdb_redistance(&d, pad, c->range, (size_t)z, (size_t)e, mine + (z - z0) * plane);
     }
+    if (run->rank == 0)
+        step_end(pm, "redistance_planes", ts);
+    ts = step_start();
     GS_TRY(err, gs_par_agree(run->comm, err), done);
+    if (run->rank == 0)
+        step_end(pm, "redistance_wait", ts);
+    ts = step_start();
     /* every rank has read the synthesized values it needs: its planes replace them */
     if (z1 > z0)
         memcpy(f->v + z0 * plane, mine, (size_t)((z1 - z0) * plane) * sizeof *mine);
@@ -140,14 +171,12 @@ static gs_err redistance(gs_run *run, const field_config *c, gs_field *f)
         gs_free(counts);
         GS_TRY(err, gs_par_agree(run->comm, err), done);
     }
-    if (run->rank == 0 && c->vdb) {
-        char path[PATH_MAX];
-        gs_run_path(run, "field.vdb", path, sizeof path);
-        err = gs_vdb_level_set_write(&d, pad, c->range, "surface", path);
-        if (!err)
-            gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
-    }
-    GS_TRY(err, gs_par_agree(run->comm, err), done);
+    if (run->rank == 0)
+        step_end(pm, "redistance_gather", ts);
+    /* field.vdb: written by write_geometry's contour rank, listed here (the
+     * outputs' order is the digest's) */
+    if (run->rank == 0 && c->vdb)
+        gs_run_output(run, "vdb", "field", "field.vdb", (int64_t[3]){f->nx, f->ny, f->nz});
 done:
     gs_free(mine);
     return err;
@@ -188,62 +217,113 @@ static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, 
     return err;
 }
 
-/* Rank 0: meshes. Fills the metrics object text. */
-static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const field_source *src,
-                                   const gs_field *f, const int32_t *prov, gs_json *pm)
+#define GEOM_STEPS 3
+/* What write_geometry's contour rank wrote, for rank 0 to list (the
+ * outputs in the order of the digest) and report. */
+typedef struct field_geometry_done {
+    int contour, contour_glb;    /* the contour rank's */
+    int preview, copied, copied_glb; /* rank 0's */
+    int64_t contour_triangles;
+    double contour_area;
+    double secs[GEOM_STEPS][2]; /* the contour rank's steps: wall, CPU seconds (-1: not run) */
+} field_geometry_done;
+
+/* the contour rank's steps, as the phase record names them */
+enum { GEOM_VDB, GEOM_CONTOUR, GEOM_CONTOUR_WRITE };
+static const char *const geom_step_names[GEOM_STEPS] = {"vdb_write", "contour", "contour_write"};
+
+static void geom_step_end(field_geometry_done *done, int k, step_clock s)
+{
+    done->secs[k][0] = gs_time_now() - s.t;
+    done->secs[k][1] = gs_cpu_now() - s.c;
+}
+
+/* The meshes, field.vdb and preview.png, shared by two ranks at np > 1:
+ * the copy (the longest) and preview.png (the example's mesh is there) on
+ * rank 0, field.vdb and contour.ply on the contour rank crank (the last;
+ * each rank contours the field itself: the same mesh). At np = 1 rank 0
+ * does both parts. Rank 0's figures go into the phase record pm and the
+ * metrics; the contour rank's into *done, which rank 0 lists after the
+ * ranks met (field_geometry_list). */
+static gs_err write_geometry(gs_run *run, const field_config *c, const field_source *src,
+                             const gs_field *f, const int32_t *prov, gs_json *pm, int crank,
+                             field_geometry_done *done)
 {
     char path[PATH_MAX], name[64];
     int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
     int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
-    if (!contour && !copy && !c->preview)
+    const int mine_contour = run->rank == crank, mine_copy = run->rank == 0 && copy;
+    memset(done, 0, sizeof *done);
+    for (int k = 0; k < GEOM_STEPS; k++)
+        done->secs[k][0] = done->secs[k][1] = -1;
+    gs_err err = GS_OK;
+    if (mine_contour && c->vdb) {
+        step_clock tv = step_start();
+        gs_vdb_dense d = {(size_t)f->nx, (size_t)f->ny, (size_t)f->nz,
+                          {f->origin[0], f->origin[1], f->origin[2]}, f->spacing,
+                          (float)(c->range * f->spacing), f->v};
+        gs_run_path(run, "field.vdb", path, sizeof path);
+        GS_CALL(gs_vdb_level_set_write(&d, field_redistance_pad(c), c->range, "surface", path));
+        geom_step_end(done, GEOM_VDB, tv);
+    }
+    /* preview.png on rank 0, which holds the example's mesh */
+    const int mine_preview = run->rank == 0 && c->preview;
+    const int contour_side = mine_contour && contour;
+    if (!contour_side && !mine_copy && !mine_preview)
         return GS_OK;
     /* the contour in sample units: contour.ply, the copy's connectivity and
      * the preview (also with output.geometry = none: a picture of every run) */
     gs_field unit = *f;
     unit.spacing = 1, unit.origin[0] = unit.origin[1] = unit.origin[2] = 0;
     gs_mesh base;
+    step_clock ts = step_start();
     GS_CALL(gs_field_contour(&unit, 0.0, copy ? 0.0 : c->adaptivity, &base));
-    gs_err err = GS_OK;
+    if (contour_side)
+        geom_step_end(done, GEOM_CONTOUR, ts);
+    else /* rank 0's own contour, for the copy and the preview */
+        step_end(pm, "contour_rank0", ts);
     gs_mesh m;
     memset(&m, 0, sizeof m);
-    if (c->preview) {
+    if (mine_preview) {
         /* The example next to the output's contour (also for output.geometry
          * = copy: the copy lies on it), each fitted to its own box. */
         gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&base, NULL}};
         gs_run_path(run, "preview.png", path, sizeof path);
-        int written;
-        GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &written), done);
-        if (written)
-            gs_run_output(run, "preview", "preview", "preview.png", NULL);
+        ts = step_start();
+        GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &done->preview), out);
+        step_end(pm, "preview", ts);
     }
-    if (contour) {
+    if (contour_side && contour) {
         if (copy && c->adaptivity > 0)
-            GS_TRY(err, gs_field_contour(&unit, 0.0, c->adaptivity, &m), done);
+            GS_TRY(err, gs_field_contour(&unit, 0.0, c->adaptivity, &m), out);
         gs_mesh *cm = copy && c->adaptivity > 0 ? &m : &base;
         snprintf(name, sizeof name, "contour.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
         /* (the area in sample units: before a last write turns them into world units) */
-        gs_json_f64(pm, "contour_area", gs_mesh_area(cm) * f->spacing * f->spacing);
-        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)", cm != &base || !copy), done);
-        gs_json_i64(pm, "contour_triangles", (int64_t)cm->ntris);
-        gs_run_metric_i64(run, "contour_triangles", (int64_t)cm->ntris);
-        const int glb = cm->ntris > 0;
+        done->contour_area = gs_mesh_area(cm) * f->spacing * f->spacing;
+        ts = step_start();
+        GS_TRY(err, write_world_mesh(path, cm, f, "the zero level set of the synthesized field (contoured by OpenVDB)", cm != &base || !mine_copy), out);
+        geom_step_end(done, GEOM_CONTOUR_WRITE, ts);
+        done->contour = 1;
+        done->contour_triangles = (int64_t)cm->ntris;
+        done->contour_glb = cm->ntris > 0;
         gs_mesh_destroy(&m);
-        gs_run_output(run, "mesh", "contour", name, NULL);
-        if (glb)
-            gs_run_output(run, "mesh", "contour", "contour.glb", NULL);
     }
-    if (copy) {
+    if (mine_copy) {
         const gs_qfield *q = src->q;
         int64_t sn[3] = {q->nx, q->ny, q->nz};
         gs_field_copy_stats st;
+        ts = step_start();
         /* base is not used after: the copy takes its triangles, and its
          * positions are freed before the copy is written (peak memory) */
         GS_TRY(err, gs_field_copy_geometry_consume(&src->mesh, sn, prov, &unit, &base, c->snap,
-                                                   (int)c->relax, &m, &st), done);
+                                                   (int)c->relax, &m, &st), out);
+        step_end(pm, "copy", ts);
         snprintf(name, sizeof name, "copied.%s", c->mesh_format);
         gs_run_path(run, name, path, sizeof path);
-        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)", 1), done);
+        ts = step_start();
+        GS_TRY(err, write_world_mesh(path, &m, f, "the example's surface copied along the synthesis (copied geometry)", 1), out);
+        step_end(pm, "copy_write", ts);
         gs_json_i64(pm, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_triangles", (int64_t)m.ntris);
         gs_run_metric_i64(run, "copied_seam_vertices", st.seam_vertices);
@@ -255,14 +335,46 @@ static gs_err write_geometry_rank0(gs_run *run, const field_config *c, const fie
         gs_run_metric_i64(run, "copied_pulled_back", st.pulled_back);
         gs_json_i64(pm, "copied_pulled_back", st.pulled_back);
         gs_json_f64(pm, "copied_mean_shift", st.mean_shift);
-        gs_run_output(run, "mesh", "copied", name, NULL);
-        if (m.ntris)
-            gs_run_output(run, "mesh", "copied", "copied.glb", NULL);
+        done->copied = 1;
+        done->copied_glb = m.ntris > 0;
     }
-done:
+out:
     gs_mesh_destroy(&m);
     gs_mesh_destroy(&base);
     return err;
+}
+
+/* Rank 0, after the ranks met: the contour rank's figures (done) and every
+ * mesh and picture in summary.json's outputs, in the order of the digest. */
+static void field_geometry_list(gs_run *run, const field_config *c, const field_geometry_done *done,
+                                gs_json *pm)
+{
+    char name[64];
+    for (int k = 0; k < GEOM_STEPS; k++)
+        if (done->secs[k][0] >= 0) {
+            char key[96];
+            snprintf(key, sizeof key, "%s_seconds", geom_step_names[k]);
+            gs_json_f64(pm, key, done->secs[k][0]);
+            snprintf(key, sizeof key, "%s_cpu_seconds", geom_step_names[k]);
+            gs_json_f64(pm, key, done->secs[k][1]);
+        }
+    if (done->preview)
+        gs_run_output(run, "preview", "preview", "preview.png", NULL);
+    if (done->contour) {
+        gs_json_f64(pm, "contour_area", done->contour_area);
+        gs_json_i64(pm, "contour_triangles", done->contour_triangles);
+        gs_run_metric_i64(run, "contour_triangles", done->contour_triangles);
+        snprintf(name, sizeof name, "contour.%s", c->mesh_format);
+        gs_run_output(run, "mesh", "contour", name, NULL);
+        if (done->contour_glb)
+            gs_run_output(run, "mesh", "contour", "contour.glb", NULL);
+    }
+    if (done->copied) {
+        snprintf(name, sizeof name, "copied.%s", c->mesh_format);
+        gs_run_output(run, "mesh", "copied", name, NULL);
+        if (done->copied_glb)
+            gs_run_output(run, "mesh", "copied", "copied.glb", NULL);
+    }
 }
 
 /* The synthesis' own copying and seams (synthesis_*): measured on the
@@ -552,7 +664,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     int64_t rn[3] = {d->resf->nx, d->resf->ny, d->resf->nz};
     if (run->rank == 0)
         step_synth = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
-    GS_TRY(err, redistance(run, c, d->resf), fail);
+    GS_TRY(err, redistance(run, c, d->resf, phase), fail);
     if (run->rank == 0)
         step_redist = gs_field_step_violations(d->resf->v, rn, d->resf->spacing, 1.5);
     t_redist = gs_time_now() - t_redist;
@@ -591,20 +703,22 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         gs_field_searcher_destroy(&d->ctx.qsearcher);
         gs_field_tree_destroy(&d->ctx.qtree);
     }
+    /* the meshes: the copy on rank 0, the rest on the last rank (write_geometry) */
     gs_err lerr = GS_OK;
-    if (run->rank == 0) {
-        double tg = gs_time_now(), cg = gs_cpu_now();
-        lerr = write_geometry_rank0(run, c, &d->src, d->resf, d->ctx.prov, phase);
-        if (!lerr && field_is_heightmap_example(c)) {
+    const int crank = run->size - 1;
+    field_geometry_done gd;
+    memset(&gd, 0, sizeof gd);
+    if (run->rank == 0 || run->rank == crank) {
+        step_clock tg = step_start();
+        lerr = write_geometry(run, c, &d->src, d->resf, d->ctx.prov, phase, crank, &gd);
+        if (!lerr && run->rank == 0 && field_is_heightmap_example(c)) {
             /* Figure 7c: the synthesized height map as the example was read */
             char hp[PATH_MAX];
             gs_run_path(run, "heightmap.png", hp, sizeof hp);
             lerr = gs_field_write_heightmap(d->resf, ((double)c->depth - c->height) / 2, c->height, hp);
-            if (!lerr)
-                gs_run_output(run, "image", "heightmap", "heightmap.png", NULL);
         }
-        gs_json_f64(phase, "geometry_seconds", gs_time_now() - tg);
-        gs_json_f64(phase, "geometry_cpu_seconds", gs_cpu_now() - cg);
+        if (run->rank == 0)
+            step_end(phase, "geometry", tg);
     }
     if (run->rank == mrank && !merr && !lerr) {
         double cm = gs_cpu_now();
@@ -618,6 +732,18 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         /* the figures to rank 0 (every rank agrees first: none is left waiting) */
         GS_TRY(err, gs_par_agree(run->comm, merr ? merr : lerr), fail);
         GS_TRY(err, GS_PAR_BCAST_VALUE(run->comm, &mp, mrank), fail);
+    }
+    if (run->size > 1) {
+        /* the contour rank's outputs and figures to rank 0 (after every rank agreed) */
+        field_geometry_done own = gd;
+        GS_TRY(err, gs_par_agree(run->comm, merr ? merr : lerr), fail);
+        GS_TRY(err, GS_PAR_BCAST_VALUE(run->comm, &gd, crank), fail);
+        gd.preview = own.preview, gd.copied = own.copied, gd.copied_glb = own.copied_glb;
+    }
+    if (run->rank == 0 && !lerr) {
+        field_geometry_list(run, c, &gd, phase);
+        if (field_is_heightmap_example(c))
+            gs_run_output(run, "image", "heightmap", "heightmap.png", NULL);
     }
     if (run->rank == 0 && !lerr)
         lerr = merr;
