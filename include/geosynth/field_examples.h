@@ -112,6 +112,13 @@ typedef struct gs_field_copy_stats {
 gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
                               const gs_field *target, const gs_mesh *base, double snap, int relax,
                               gs_mesh *out, gs_field_copy_stats *st);
+/* The room the copy gives a vertex at p (sample units) on the zero level
+ * of f: the distance along f's gradient, either way, to the first of the
+ * steps 0.05, 0.10, ... 2 on the other sign (2 if none); the copy moves a
+ * vertex by at most 0.45 of it. The copy skips the steps f's slope bound
+ * says cannot change sign; walk_every_step = 1 looks at each (the
+ * reference the skipping must equal). */
+double gs_field_copy_room(const gs_field *f, const double p[3], int walk_every_step);
 /* The same, base consumed: the copy takes base's triangles (they are the
  * same) instead of a second array of them, and base is destroyed on
  * success (its memory freed before the copy is written). */

@@ -386,6 +386,13 @@ static double room_at(const gs_field *f, const double p[3], const double *ts, in
     return room;
 }
 
+double gs_field_copy_room(const gs_field *f, const double p[3], int walk_every_step)
+{
+    double ts[ROOM_STEPS + 1];
+    const int nt = room_steps(ts);
+    return room_at(f, p, ts, nt, walk_every_step ? INFINITY : field_slope_bound(f));
+}
+
 /* Twice the area vector of triangle t of positions pos. */
 static void tri_normal(const float *pos, const uint32_t *tr, double n[3])
 {

@@ -176,6 +176,48 @@ static void test_copy_geometry(void **state)
     gs_field_destroy(&f);
 }
 
+/* The copy's room per vertex skips the walk's steps the field's slope bound
+ * rules out: the same answer as every step, on a smooth field (sheets of
+ * sines, many steps skipped), on two sheets 1.4 samples apart (the room
+ * binds) and on noise (a large slope: few skipped), at points on and off
+ * the zero level. */
+static void test_copy_room_skips_exactly(void **state)
+{
+    (void)state;
+    gs_field *f = NULL;
+    OK(gs_field_create(20, 18, 16, &f));
+    uint64_t r = 12345;
+    for (int kind = 0; kind < 3; kind++) {
+        for (int z = 0; z < 16; z++)
+            for (int y = 0; y < 18; y++)
+                for (int x = 0; x < 20; x++) {
+                    double v;
+                    r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+                    if (kind == 0)
+                        v = 2.5 * sin(0.37 * x + 0.2 * y) * cos(0.23 * z) + 0.3;
+                    else if (kind == 1)
+                        v = fabs(z - 7.9) - 0.7; /* two sheets, 1.4 apart */
+                    else
+                        v = (double)(r >> 11) / 9007199254740992.0 * 2 - 1;
+                    f->v[x + 20 * (y + 18 * z)] = (float)v;
+                }
+        int differ = 0, bound = 0;
+        for (int i = 0; i < 400; i++) {
+            double p[3];
+            for (int a = 0; a < 3; a++) {
+                r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+                p[a] = 1 + (double)(r >> 11) / 9007199254740992.0 * 13;
+            }
+            double fast = gs_field_copy_room(f, p, 0), ref = gs_field_copy_room(f, p, 1);
+            differ += fast != ref;
+            bound += ref < 2;
+        }
+        assert_int_equal(differ, 0);
+        assert_true(bound > 20); /* the room binds often enough to matter */
+    }
+    gs_field_destroy(&f);
+}
+
 /* gs_field_copy_geometry_consume (the output's copy: base's triangles
  * taken, not duplicated) gives the very mesh and figures of
  * gs_field_copy_geometry, on a target with seams (two halves copied at
@@ -258,6 +300,7 @@ int main(void)
         cmocka_unit_test(test_chainmail_jittered_not_periodic),
         cmocka_unit_test(test_balls_no_overlap),
         cmocka_unit_test(test_copy_geometry),
+        cmocka_unit_test(test_copy_room_skips_exactly),
         cmocka_unit_test(test_copy_geometry_consume),
         cmocka_unit_test(test_heightmap),
     };
