@@ -265,11 +265,11 @@ gs_err model_sched_log(gs_run *run, const model_engine *e, uint64_t window, size
         const region_hdr *h = &e->rec[first + i];
         const gs_model_box *b = &e->plan[first + i].box;
         fprintf(f, "{\"window\":%llu,\"pass\":%d,\"id\":%zu,\"color\":%u,\"rank\":%d,"
-                   "\"seq\":%d,\"cpu_s\":%.9f,\"attempts\":%d,\"backtracks\":%llu,"
+                   "\"seq\":%d,\"cpu_s\":%.9f,\"attempts\":%d,\"backtracks\":%llu,\"ok\":%d,"
                    "\"box\":[%d,%d,%d,%d,%d,%d],\"waits_for\":[",
                 (unsigned long long)window, e->pass, first + i, e->plan[first + i].color,
                 (int)h->rank, (int)h->seq, h->cpu_s, (int)h->attempts,
-                (unsigned long long)h->backtracks, b->x0, b->y0, b->z0, b->x1, b->y1, b->z1);
+                (unsigned long long)h->backtracks, (int)h->ok, b->x0, b->y0, b->z0, b->x1, b->y1, b->z1);
         for (int64_t j = off[i]; j < off[i + 1]; j++)
             fprintf(f, "%s%lld", j > off[i] ? "," : "", (long long)ids[j]);
         fprintf(f, "]}\n");
