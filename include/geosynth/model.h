@@ -524,15 +524,19 @@ size_t gs_model_plan_max_cells(const gs_model_region *plan, size_t n);
  * over every structure of lat with a column in it or in its face-neighbour
  * shell (the structure's bounding box grown by one), repeated until no more
  * such structure fits in cap cells per axis (larger ones it rebuilds across);
- * it is kept only if it interacts with no region kept before it. A structure
- * = an 8-connected set of columns with a non-empty cell above layer ground
+ * it is kept only if it interacts with no region kept before it and, with
+ * claim (model.open_blocks_largest), meets (a column in its box or shell) no
+ * structure a region kept before it meets; then the kept regions are put
+ * largest first (x/y cells; ties: plan order) and owner[nx * ny] (if not
+ * NULL) gets, per column, the kept region meeting its structure (-1 none).
+ * A structure = an 8-connected set of columns with a non-empty cell above layer ground
  * (the example's lowest layer holding an empty cell). The kept regions, one
  * colour, are moved to the front of plan and renumbered; *n and *ncolors
  * (1) set. With overlap 0 every region of the first sweep closes its
  * structures inside it; these regions straddle its lines. */
 gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattice *lat,
-                                 int ground, int cap, gs_model_region *plan, size_t *n,
-                                 int *ncolors);
+                                 int ground, int cap, int claim, gs_model_region *plan,
+                                 size_t *n, int *ncolors, int32_t *owner);
 
 /* 1 when regions a and b of an nx*ny*nz output interact: one writes a cell
  * the other reads (its box and the face neighbours around it, across

@@ -337,9 +337,25 @@ static const gs_cfg_key model_keys[] = {
                       "non-empty cells without a path to the ground inside the region or to a "
                       "non-empty cell next to it), windows (the share of its non-empty 3x3x3 "
                       "windows found in the example); a region of such a pass gives up after 4 "
-                      "tries, unsplit, and keeps its content; none = every rebuild kept "
-                      "(model.open_blocks > 0 always tests mix); auto = mix,support,windows when "
-                      "the z faces are synthesized, else none; configs/model/DEFAULTS.md"),
+                      "tries, unsplit, and keeps its content; none = every rebuild kept; "
+                      "auto = mix,support,windows when the z faces are synthesized, else mix "
+                      "with model.open_blocks > 0, else none; configs/model/DEFAULTS.md"),
+    GS_CFG_KEY_REAL(model_config, open_blocks_largest, "model.open_blocks_largest", 0, 1000, 0,
+                    "0",
+                    "with model.open_blocks: a region is also dropped when it meets a "
+                    "structure a region kept before it meets; a rebuilt region is kept only "
+                    "if the structures it makes or joins (6-connected cells from the "
+                    "example's ground layer up, as summary.json structure_max) hold at most "
+                    "this many times the example's largest, else it tries again (within "
+                    "model.open_blocks_tries); the kept regions run largest first; 0 = off"),
+    GS_CFG_KEY_INT(model_config, open_blocks_tries, "model.open_blocks_tries", 1, 100000, 0, "4",
+                   "with model.open_blocks: tries of a later sweep's region before it keeps its "
+                   "content (a rebuild a keep test rejects counts as one with "
+                   "model.open_blocks_largest)"),
+    GS_CFG_KEY_INT(model_config, open_blocks_backtracks, "model.open_blocks_backtracks", -1,
+                   100000000, 0, "-1",
+                   "with model.open_blocks: undo budget per try of a later sweep's region; "
+                   "-1 = model.backtracks"),
     GS_CFG_KEY_INT(model_config, attempts, "model.attempts", 1, 100000, 0, "20",
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",

@@ -62,6 +62,9 @@ typedef struct model_config {
     int64_t max_passes;
     int64_t open_blocks;
     char *sweep_keep;
+    double open_blocks_largest;
+    int64_t open_blocks_backtracks;
+    int64_t open_blocks_tries;
     int64_t attempts;
     int64_t backtracks;
     char *order;
@@ -165,6 +168,11 @@ typedef struct model_engine {
     gs_model_solver_t solver;
     uint16_t *coverage;  /* accepted regions per cell (saturating) */
     uint16_t *buf;       /* one region's labels */
+    uint64_t open_largest; /* model.open_blocks_largest: most cells a structure a rebuilt
+                              region makes or joins may hold (0 = no limit) */
+    int open_ground;       /* model.open_blocks: the example's ground layer */
+    int32_t *open_owner;   /* model.open_blocks_largest: per column, the region of the pass
+                              that meets its structure (-1 none) */
     size_t buf_cells;
     gs_model_region *plan; /* regions of the current pass, index = id */
     size_t nplan;
@@ -243,7 +251,8 @@ gs_err model_make_plan(model_engine *e);
 /* model.sweep_keep: "none" or a comma-separated list of mix, fill, support,
  * windows -> KEEP_* bits (open_blocks: mix at least) */
 #define KEEP_AUTO_NAMES "mix,support,windows" /* model.sweep_keep = auto, synthesized z faces */
-enum { KEEP_MIX = 1, KEEP_FILL = 2, KEEP_SUPPORT = 4, KEEP_WINDOWS = 8 };
+/* KEEP_OPEN: model.open_blocks' later sweeps (rebuilds optional, whatever the tests) */
+enum { KEEP_MIX = 1, KEEP_FILL = 2, KEEP_SUPPORT = 4, KEEP_WINDOWS = 8, KEEP_OPEN = 16 };
 gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests);
 /* Collective: the next batch of the synthesis (a new pass's plan, then one
  * window of colours); *finished once the passes are done. */

@@ -17,7 +17,7 @@
 gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests)
 {
     static const char *const name[4] = {"mix", "fill", "support", "windows"};
-    *tests = open_blocks ? KEEP_MIX : 0;
+    *tests = open_blocks ? KEEP_OPEN : 0;
     if (!strcmp(s, "none"))
         return GS_OK;
     const char *p = s;
@@ -76,8 +76,20 @@ gs_err model_make_plan(model_engine *e)
         const gs_model_lattice *ex = &e->example;
         const int dims[3] = {ex->nx, ex->ny, ex->nz};
         const int ground = gs_measure_ground_layer(ex->labels, dims);
+        const int claim = e->cfg->open_blocks_largest > 0;
+        if (claim && !e->open_owner)
+            GS_CALL(gs_alloc_array((void **)&e->open_owner, (size_t)e->lat.nx * (size_t)e->lat.ny,
+                                   sizeof *e->open_owner, "open blocks owners"));
         GS_CALL(gs_model_plan_open_blocks(&e->params, &e->lat, ground, (int)e->cfg->open_blocks,
-                                          e->plan, &e->nplan, &e->ncolors));
+                                          claim, e->plan, &e->nplan, &e->ncolors,
+                                          e->open_owner));
+        e->open_ground = ground;
+        e->open_largest = 0;
+        if (claim && ground >= 0) {
+            gs_measure_layout le;
+            GS_CALL(gs_measure_layout_lattice(ex->labels, dims, ground, 0, &le));
+            e->open_largest = (uint64_t)floor(e->cfg->open_blocks_largest * (double)le.largest);
+        }
     }
     for (size_t i = 0; i < e->nplan; i++)
         GS_CHECK(e->plan[i].id == i, GS_ERR_INTERNAL, "plan id %u at %zu", e->plan[i].id, i);
@@ -304,6 +316,77 @@ static gs_err sweep_keep_worse(const model_engine *e, const gs_model_box *b, int
     return GS_OK;
 }
 
+/* model.open_blocks_largest: does the rebuilt content of box (e->buf) make
+ * or join a structure (6-connected non-empty cells from the example's ground
+ * layer up, holding a cell above it: summary.json structure_max) of more
+ * than e->open_largest cells? Outside the box the flood reads only the
+ * columns of the structures this region meets (e->open_owner == id: no other
+ * region of the pass meets them, so none writes them and the answer does
+ * not depend on the order regions finish in). A region never meets another
+ * kept region's box, so the flood sees every structure the pass leaves
+ * through it, except ones joined through flat cover in the ground layer
+ * alone (a bush beside the box: no structure column, read as empty). */
+static gs_err open_block_too_large(const model_engine *e, int64_t id, const gs_model_box *b,
+                                   int *large)
+{
+    *large = 0;
+    if (!e->open_largest)
+        return GS_OK;
+    const gs_model_lattice *l = &e->lat;
+    const int nx = l->nx, ny = l->ny, nz = l->nz, g0 = e->open_ground;
+    const size_t n = (size_t)nx * (size_t)ny * (size_t)nz;
+    uint8_t *seen = NULL;
+    int32_t *stack = NULL;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&seen, n, 1, "open blocks flood"), done);
+    GS_TRY(err, gs_alloc_array((void **)&stack, n, sizeof *stack, "open blocks flood"), done);
+    memset(seen, 0, n);
+#define CELL_FULL(x, y, z)                                                                       \
+    ((x) >= b->x0 && (x) < b->x1 && (y) >= b->y0 && (y) < b->y1 && (z) >= b->z0 && (z) < b->z1  \
+         ? e->buf[(size_t)((x) - b->x0) +                                                        \
+                  (size_t)(b->x1 - b->x0) *                                                      \
+                      ((size_t)((y) - b->y0) + (size_t)(b->y1 - b->y0) * (size_t)((z) - b->z0))] \
+               != 0                                                                              \
+         : e->open_owner[(size_t)(y) * (size_t)nx + (size_t)(x)] == (int32_t)id &&               \
+               l->labels[gs_model_lattice_index(l, (x), (y), (z))] != 0)
+    for (int z0 = b->z0 > g0 ? b->z0 : g0; z0 < b->z1 && !*large; z0++)
+        for (int y0 = b->y0; y0 < b->y1 && !*large; y0++)
+            for (int x0 = b->x0; x0 < b->x1 && !*large; x0++) {
+                const size_t c0 = gs_model_lattice_index(l, x0, y0, z0);
+                if (seen[c0] || !CELL_FULL(x0, y0, z0))
+                    continue;
+                size_t top = 0, cells = 0;
+                int tall = 0;
+                seen[c0] = 1;
+                stack[top++] = (int32_t)c0;
+                while (top) {
+                    const size_t c = (size_t)stack[--top];
+                    const int x = (int)(c % (size_t)nx), y = (int)(c / (size_t)nx % (size_t)ny),
+                              z = (int)(c / ((size_t)nx * (size_t)ny));
+                    cells++;
+                    tall |= z > g0;
+                    static const int d[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                                {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+                    for (int k = 0; k < 6; k++) {
+                        const int u = x + d[k][0], v = y + d[k][1], w = z + d[k][2];
+                        if (u < 0 || v < 0 || w < g0 || u >= nx || v >= ny || w >= nz)
+                            continue;
+                        const size_t q = gs_model_lattice_index(l, u, v, w);
+                        if (!seen[q] && CELL_FULL(u, v, w)) {
+                            seen[q] = 1;
+                            stack[top++] = (int32_t)q;
+                        }
+                    }
+                }
+                *large = tall && cells > e->open_largest;
+            }
+#undef CELL_FULL
+done:
+    gs_free(seen);
+    gs_free(stack);
+    return err;
+}
+
 #define OPEN_BLOCK_TRIES 4
 
 static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng,
@@ -320,31 +403,52 @@ static gs_err region_run(void *ctx, int64_t id, int color, int pass, gs_rng *rng
     gs_model_region_result res;
     double cpu0 = gs_cpu_now();
     /* model.open_blocks' and model.sweep_keep's later sweeps: a rebuild is optional (the old content
-     * is consistent), so a region gives up after OPEN_BLOCK_TRIES tries and
-     * is not split, and then keeps its content (counted as rejected) */
+     * is consistent), so a region gives up after OPEN_BLOCK_TRIES tries (model.open_blocks_tries) and
+     * is not split, and then keeps its content (counted as rejected); with
+     * model.open_blocks_largest a rebuild the keep tests reject counts as a
+     * failed try (the next round draws other streams) */
     const int open = pass > 0 && e->keep_tests;
     gs_model_params q = e->params;
     if (open) {
-        q.attempts = q.attempts < OPEN_BLOCK_TRIES ? q.attempts : OPEN_BLOCK_TRIES;
         q.split_depth = 0;
+        if (e->cfg->open_blocks_backtracks >= 0)
+            q.backtracks = (int)e->cfg->open_blocks_backtracks;
     }
-    GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &q, r->id, (uint64_t)pass, e->buf,
-                                &res));
-    if (open && !res.ok) {
-        res.partial = 0;
-        res.mh_rejected = 1;
-    }
-    double cpu_s = gs_cpu_now() - cpu0;
-    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
-     * 3 consistent but not accepted by the Metropolis step (kept) */
-    if (res.ok && open) {
+    const int cap = e->cfg->open_blocks > 0 ? (int)e->cfg->open_blocks_tries : OPEN_BLOCK_TRIES;
+    const int tries = open && q.attempts > cap ? cap : q.attempts;
+    int used = 0;
+    uint64_t choices = 0, backtracks = 0;
+    for (uint64_t round = 0;; round++) {
+        q.attempts = tries - used;
+        GS_CALL(gs_model_region_run(e->solver, &e->lat, &r->box, &q, r->id,
+                                    (uint64_t)pass + (round << 32), e->buf, &res));
+        used += res.attempts;
+        choices += res.choices;
+        backtracks += res.backtracks;
+        if (!open)
+            break;
+        if (!res.ok) { /* kept as it was, counted as not accepted (ok = 3) */
+            res.partial = 0;
+            res.mh_rejected = 1;
+            break;
+        }
         int worse = 0;
         GS_CALL(sweep_keep_worse(e, &r->box, &worse));
-        if (worse) { /* kept as it was, counted as not accepted (ok = 3) */
-            res.ok = 0;
-            res.mh_rejected = 1;
-        }
+        if (!worse)
+            GS_CALL(open_block_too_large(e, id, &r->box, &worse));
+        if (!worse)
+            break;
+        res.ok = 0;
+        res.mh_rejected = 1;
+        if (!e->open_largest || used >= tries)
+            break;
     }
+    res.attempts = used;
+    res.choices = choices;
+    res.backtracks = backtracks;
+    double cpu_s = gs_cpu_now() - cpu0;
+    /* ok: 1 accepted, 2 partly resampled (apply, count as failed), 0 kept,
+     * 3 consistent but not accepted by the Metropolis step or a keep test (kept) */
     region_hdr h = {res.ok ? 1 : res.partial ? 2 : res.mh_rejected ? 3 : 0, res.attempts,
                     res.choices, res.backtracks, e->rank, e->window_seq++, cpu_s};
     GS_CALL(gs_region_out_append(out, &h, sizeof h));

@@ -439,6 +439,7 @@ void model_engine_free(model_engine *e)
     gs_free(e->outside_col);
     gs_free(e->buf);
     gs_free(e->plan);
+    gs_free(e->open_owner);
     gs_free(e->region_status);
     gs_free(e->region_attempts);
 }
@@ -776,8 +777,8 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
      * kept only if no further from the example (configs/model/DEFAULTS.md,
      * `passes = -1`): it takes the first sweep's last-decided lines (the
      * terrains' ridges) inside a region */
-    GS_CALL(model_parse_sweep_keep(!strcmp(c->sweep_keep, "auto") ? (zsynth ? KEEP_AUTO_NAMES : "none")
-                                                                  : c->sweep_keep,
+    const char *keep_auto = zsynth ? KEEP_AUTO_NAMES : c->open_blocks > 0 ? "mix" : "none";
+    GS_CALL(model_parse_sweep_keep(!strcmp(c->sweep_keep, "auto") ? keep_auto : c->sweep_keep,
                                    c->open_blocks > 0, &e->keep_tests));
     if (c->passes < 0 && zsynth) {
         e->params.min_changes = 2;

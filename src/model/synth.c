@@ -525,17 +525,31 @@ done:
     return err;
 }
 
+struct cells_idx {
+    size_t cells, idx;
+};
+
+static int cmp_cells_desc(const void *a, const void *b)
+{
+    const struct cells_idx *x = a, *y = b;
+    if (x->cells != y->cells)
+        return x->cells < y->cells ? 1 : -1;
+    return (x->idx > y->idx) - (x->idx < y->idx);
+}
+
 /* model.open_blocks: see model.h. Structures are labelled once from lat (the
  * content the pass starts from: every region of the pass shares colour 0,
  * so the pass runs as one window and a checkpoint sees it only before its
  * first region, where this plan is the same again on resume). */
 gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattice *lat,
-                                 int ground, int cap, gs_model_region *plan, size_t *n,
-                                 int *ncolors)
+                                 int ground, int cap, int claim, gs_model_region *plan,
+                                 size_t *n, int *ncolors, int32_t *owner)
 {
     const int nx = lat->nx, ny = lat->ny, nz = lat->nz;
     const size_t ncol = (size_t)nx * (size_t)ny;
-    int32_t *comp = NULL, *stack = NULL, *bb = NULL;
+    int32_t *comp = NULL, *stack = NULL, *bb = NULL, *claimed = NULL, *rank_of = NULL;
+    struct cells_idx *order = NULL;
+    gs_model_region *moved = NULL;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&comp, ncol ? ncol : 1, sizeof *comp, "open blocks"),
            done);
@@ -586,6 +600,12 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
             b[2] = x + 2 > b[2] ? (x + 2 < nx ? x + 2 : nx) : b[2];
             b[3] = y + 2 > b[3] ? (y + 2 < ny ? y + 2 : ny) : b[3];
         }
+    if (claim) {
+        GS_TRY(err, gs_alloc_array((void **)&claimed, (size_t)(nc ? nc : 1), sizeof *claimed,
+                                   "open blocks"), done);
+        for (int k = 0; k < nc; k++)
+            claimed[k] = -1;
+    }
     size_t kept = 0;
     for (size_t i = 0; i < *n; i++) {
         gs_model_box b = plan[i].box;
@@ -614,6 +634,19 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
         /* kept only if it interacts with no region kept before it */
         for (size_t j = 0; j < kept && ok; j++)
             ok = !gs_model_regions_interact(p, nx, ny, nz, &b, &plan[j].box);
+        /* claim: nor meets a structure one kept before it meets; it claims
+         * the structures it meets */
+        const int sx0 = b.x0 > 0 ? b.x0 - 1 : 0, sx1 = b.x1 < nx ? b.x1 + 1 : nx;
+        const int sy0 = b.y0 > 0 ? b.y0 - 1 : 0, sy1 = b.y1 < ny ? b.y1 + 1 : ny;
+        for (int pass = 0; claim && ok && pass < 2; pass++)
+            for (int y = sy0; y < sy1 && ok; y++)
+                for (int x = sx0; x < sx1 && ok; x++) {
+                    const int k = comp[(size_t)y * (size_t)nx + (size_t)x];
+                    if (k >= 0 && pass == 0)
+                        ok = claimed[k] < 0;
+                    else if (k >= 0)
+                        claimed[k] = (int32_t)kept;
+                }
         if (ok) {
             plan[kept].box = b;
             plan[kept].color = 0;
@@ -623,10 +656,38 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
     }
     *n = kept;
     *ncolors = 1;
+    if (claim && kept > 1) { /* largest first (ties: plan order), the ids renumbered:
+                                the dataflow's pick rule then balances two ranks */
+        GS_TRY(err, gs_alloc_array((void **)&order, kept, sizeof *order, "open blocks"), done);
+        GS_TRY(err, gs_alloc_array((void **)&rank_of, kept, sizeof *rank_of, "open blocks"),
+               done);
+        GS_TRY(err, gs_alloc_array((void **)&moved, kept, sizeof *moved, "open blocks"), done);
+        for (size_t j = 0; j < kept; j++) {
+            const gs_model_box *q = &plan[j].box;
+            order[j].cells = (size_t)(q->x1 - q->x0) * (size_t)(q->y1 - q->y0);
+            order[j].idx = j;
+        }
+        qsort(order, kept, sizeof *order, cmp_cells_desc);
+        for (size_t j = 0; j < kept; j++) {
+            moved[j] = plan[order[j].idx];
+            moved[j].id = (uint32_t)j;
+            rank_of[order[j].idx] = (int32_t)j;
+        }
+        memcpy(plan, moved, kept * sizeof *plan);
+        for (int k = 0; k < nc; k++)
+            if (claimed[k] >= 0)
+                claimed[k] = rank_of[claimed[k]];
+    }
+    for (size_t c = 0; owner && c < ncol; c++)
+        owner[c] = claim && comp[c] >= 0 ? claimed[comp[c]] : -1;
 done:
     gs_free(comp);
     gs_free(stack);
     gs_free(bb);
+    gs_free(claimed);
+    gs_free(rank_of);
+    gs_free(order);
+    gs_free(moved);
     return err;
 }
 

@@ -696,7 +696,7 @@ static void test_plan_open_blocks(void **state)
                                {{25, 5, 0, 35, 15, 4}, 2, 1}};
     size_t n = 3;
     int ncol = 0;
-    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 16, plan, &n, &ncol), GS_OK);
+    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 16, 0, plan, &n, &ncol, NULL), GS_OK);
     assert_int_equal(ncol, 1);
     /* region 0 takes in x 7..12 (the structure's bounding box grown by one): x1 = 13 */
     assert_int_equal(n, 2);
@@ -710,9 +710,52 @@ static void test_plan_open_blocks(void **state)
     /* a cap below the grown width: region 0 keeps its box and cuts the structure */
     gs_model_region small[1] = {{{0, 0, 0, 10, 10, 4}, 0, 0}};
     n = 1;
-    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 12, small, &n, &ncol), GS_OK);
+    assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 12, 0, small, &n, &ncol, NULL), GS_OK);
     assert_int_equal(n, 1);
     assert_int_equal(small[0].box.x1, 10);
+    gs_model_lattice_destroy(&lat);
+}
+
+/* model.open_blocks_largest (issue #18, model34): two regions that cut one
+ * structure too large to take in could both join it in the same sweep;
+ * with claim the later one is dropped, the kept regions run largest first
+ * and owner names, per column, the region meeting its structure. */
+static void test_plan_open_blocks_claim(void **state)
+{
+    (void)state;
+    gs_model_params p;
+    gs_model_params_default(&p);
+    gs_model_lattice lat = {0};
+    assert_int_equal(gs_model_lattice_create(&lat, 60, 20, 4), GS_OK);
+    for (int x = 4; x <= 34; x++) /* a wall along y = 5, 31 cells: above the cap */
+        lat.labels[gs_model_lattice_index(&lat, x, 5, 2)] = 1;
+    for (int claim = 0; claim <= 1; claim++) {
+        gs_model_region plan[3] = {{{0, 0, 0, 8, 10, 4}, 0, 0},   /* cuts the wall */
+                                   {{30, 0, 0, 38, 10, 4}, 1, 0}, /* cuts it too */
+                                   {{44, 4, 0, 60, 16, 4}, 2, 1}};
+        size_t n = 3;
+        int ncol = 0;
+        int32_t owner[60 * 20];
+        assert_int_equal(gs_model_plan_open_blocks(&p, &lat, 1, 16, claim, plan, &n, &ncol,
+                                                   owner),
+                         GS_OK);
+        assert_int_equal(ncol, 1);
+        if (!claim) { /* both rebuild across the wall, plan order */
+            assert_int_equal(n, 3);
+            assert_int_equal(plan[1].box.x0, 30);
+            assert_int_equal(owner[5 * 60 + 10], -1);
+            continue;
+        }
+        assert_int_equal(n, 2); /* the second region meets the wall the first claimed */
+        assert_int_equal(plan[0].box.x0, 44); /* 16 x 12 columns: first */
+        assert_int_equal(plan[0].id, 0);
+        assert_int_equal(plan[1].box.x0, 0);
+        assert_int_equal(plan[1].box.x1, 8);
+        assert_int_equal(plan[1].id, 1);
+        assert_int_equal(owner[5 * 60 + 20], 1); /* the wall's columns: region 1 (renumbered) */
+        assert_int_equal(owner[5 * 60 + 34], 1);
+        assert_int_equal(owner[6 * 60 + 20], -1); /* open ground */
+    }
     gs_model_lattice_destroy(&lat);
 }
 
@@ -920,6 +963,7 @@ int main(void)
         cmocka_unit_test(test_plan_colours),
         cmocka_unit_test(test_plan_jitter),
         cmocka_unit_test(test_plan_open_blocks),
+        cmocka_unit_test(test_plan_open_blocks_claim),
         cmocka_unit_test(test_author_samples_consistent),
         cmocka_unit_test(test_csv_samples_consistent),
         cmocka_unit_test(test_determinism),
