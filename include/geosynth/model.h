@@ -70,9 +70,14 @@
  *
  * Memory: rules hold 8*L*ceil(L/64) words (8 directions) (L = largest label + 1). A solver
  * holds per region cell ceil(L/64)*8 + 48 bytes (AC-3) plus 16*L bytes for
- * AC-4 support counts (only when AC-4 is selected).
+ * AC-4 support counts (only when AC-4 is selected); above 128 labels also the
+ * rules' non-zero words twice (rows and reverse rows, 10 bytes each) and, up
+ * to 512 labels, a cache of 1024 unions (576 KiB at 512 labels).
  * Cost: per region cell roughly one propagation of its choice, each revise
- * O(|D| * L/64) word operations (AC-3) or O(removed * L/64) (AC-4).
+ * O(|D| * L/64) word operations (AC-3; above 128 labels the rows' non-zero
+ * words only, and a cell that lost few labels is revised by those: about
+ * O(removed) row words plus a test per neighbour label they supported) or
+ * O(removed * L/64) (AC-4).
  */
 #ifndef GEOSYNTH_MODEL_H
 #define GEOSYNTH_MODEL_H

@@ -91,6 +91,11 @@ struct gs_model_resem {
 
 
 #define GS_MODEL_UCACHE_BITS 10 /* 1024 cached AC-3 unions (castle.txt: 90% of lookups hit) */
+#define GS_MODEL_UCACHE_MAX_W 8 /* the cache up to 512 labels: 576 KiB at W = 8 */
+/* Without utab, AC-3 revises a cell by the labels removed since its last
+ * revision when they are fewer than 1 / GS_MODEL_AC_DELTA of its candidates
+ * (fortress31 with 3x3x3 window labels: 1-4 all alike, 2.4 removed of 52) */
+#define GS_MODEL_AC_DELTA 2
 #define GS_MODEL_UTAB_MAX_W 2 /* AC-3 union table: 128 KiB at W = 1, 512 KiB at W = 2 */
 
 struct gs_model_solver {
@@ -108,13 +113,27 @@ struct gs_model_solver {
     int ndirs;         /* directions with neighbours in the current problem (6 in 3D) */
     uint64_t *utab;    /* AC-3 unions (W <= GS_MODEL_UTAB_MAX_W, else NULL):
                           [8W byte positions][256 byte values][8][W] */
-    uint64_t *ucache;  /* AC-3 unions of recent candidate sets (with utab): direct-mapped,
+    uint64_t *ucache;  /* AC-3 unions of recent candidate sets (W <= GS_MODEL_UCACHE_MAX_W):
+                          direct-mapped,
                           [1 << GS_MODEL_UCACHE_BITS][W key words, then [8][W] union], 72 KiB
                           at W = 1; a key of zeros is an empty entry (only sets of 2 or more
                           candidates are looked up) */
+    uint32_t *sp_off, *sp_mid; /* AC-3 unions without utab (W > GS_MODEL_UTAB_MAX_W): label a's
+                          non-zero allow words are entries sp_off[a]..sp_off[a + 1] - 1
+                          (sp_mid[a]: past the 3D directions' entries), each a position
+                          sp_k (d W + w) in the union and a word sp_val */
+    uint16_t *sp_k;
+    uint64_t *sp_val;
+    uint32_t *rv_off;  /* AC-3 reverse rows {a : b in allow[a][d]} by non-zero words:
+                          entries rv_off[8 b + d] .. rv_off[8 b + d + 1] - 1, each a word
+                          index rv_k and its word rv_val */
+    uint16_t *rv_k;
+    uint64_t *rv_val;
+    int ac_delta;      /* GS_MODEL_AC_DELTA (tests: 0 = every revision a whole one) */
     int ucache_bits;   /* index bits in use, 1..GS_MODEL_UCACHE_BITS (tests use 1 to force
                           collisions) */
-    uint64_t *pending; /* AC-4: [n][W] labels removed but not yet propagated */
+    uint64_t *pending; /* [n][W] labels removed but not yet propagated (AC-4; AC-3: since
+                          the cell's last revision, non-zero only while it is queued) */
     uint16_t *support; /* AC-4: [n][6][L] support counts */
     size_t support_cap;
     /* cell order */

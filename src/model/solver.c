@@ -5,6 +5,11 @@
  * AC-3 here works on cells, not arcs: a cell whose candidates shrank is
  * queued once; popping it ORs the transition sets of its remaining labels
  * into six support masks and intersects each neighbour with one of them.
+ * With more than 128 labels (no union table) the transition sets are kept
+ * by their non-zero words, and a cell that lost few labels since its last
+ * revision is revised by those alone: only the neighbour labels they
+ * supported are tested against its candidates (AC-3 with removals, as AC-4
+ * without counts): the same removals, so the same queue, trail and heap.
  * AC-4 keeps, per (cell, direction, label), the number of neighbour labels
  * supporting it; a queued cell carries the bitset of labels removed since it
  * was last processed, and each removal decrements the counts it supported.
@@ -92,6 +97,64 @@ gs_err gs_model_solver_reserve(struct gs_model_solver *s, size_t n)
     return GS_OK;
 }
 
+/* Rows of nrows x len words as their non-zero words: row j's are entries
+ * off[j] .. off[j + 1] - 1, each a position k in the row and its word val. */
+static gs_err sparse_pack(const uint64_t *dense, size_t nrows, size_t len, uint32_t **off,
+                          uint16_t **k, uint64_t **val)
+{
+    size_t nz = 0;
+    for (size_t i = 0; i < nrows * len; i++)
+        nz += dense[i] != 0;
+    GS_CHECK(nz < UINT32_MAX && len <= 65536, GS_ERR_ARG, "AC-3 rows: too many labels");
+    GS_CALL(gs_alloc_array((void **)off, nrows + 1, sizeof **off, "AC-3 sparse rows"));
+    GS_CALL(gs_alloc_array((void **)k, nz ? nz : 1, sizeof **k, "AC-3 sparse rows"));
+    GS_CALL(gs_alloc_array((void **)val, nz ? nz : 1, 8, "AC-3 sparse rows"));
+    uint32_t e = 0;
+    for (size_t j = 0; j < nrows; j++) {
+        (*off)[j] = e;
+        for (size_t i = 0; i < len; i++)
+            if (dense[j * len + i]) {
+                (*k)[e] = (uint16_t)i;
+                (*val)[e++] = dense[j * len + i];
+            }
+    }
+    (*off)[nrows] = e;
+    return GS_OK;
+}
+
+/* AC-3 without the union table (more than 128 labels): the allow rows of
+ * each label by their non-zero words (sp_*; sp_mid[a] is label a's first
+ * entry past the six 3D directions), and the reverse rows {a : b in
+ * allow[a][d]} per (b, d) (rv_*) for the revisions by removals. */
+static gs_err sparse_build(struct gs_model_solver *s)
+{
+    const struct gs_model_rules *r = s->rules;
+    const size_t W = (size_t)s->W, L = (size_t)s->L, D = GS_MODEL_DIRS;
+    GS_CALL(sparse_pack(r->allow, L, D * W, &s->sp_off, &s->sp_k, &s->sp_val));
+    GS_CALL(gs_alloc_array((void **)&s->sp_mid, L, sizeof *s->sp_mid, "AC-3 sparse rows"));
+    for (size_t a = 0; a < L; a++) {
+        uint32_t i = s->sp_off[a];
+        while (i < s->sp_off[a + 1] && s->sp_k[i] < 6 * W)
+            i++;
+        s->sp_mid[a] = i;
+    }
+    uint64_t *tr = NULL;
+    GS_CALL(gs_alloc_array((void **)&tr, L * D * W, 8, "AC-3 reverse rows"));
+    memset(tr, 0, L * D * W * 8);
+    for (size_t a = 0; a < L; a++)
+        for (size_t d = 0; d < D; d++) {
+            const uint64_t *al = gs_model_allow(r, (int)a, (int)d);
+            for (size_t w = 0; w < W; w++)
+                for (uint64_t bits = al[w]; bits; bits &= bits - 1) {
+                    const size_t b = w * 64 + (size_t)ctz64(bits);
+                    tr[(b * D + d) * W + a / 64] |= (uint64_t)1 << (a % 64);
+                }
+        }
+    const gs_err err = sparse_pack(tr, L * D, W, &s->rv_off, &s->rv_k, &s->rv_val);
+    gs_free(tr);
+    return err;
+}
+
 gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_model_solver_t *out)
 {
     GS_CHECK(ac == GS_MODEL_AC3 || ac == GS_MODEL_AC4, GS_ERR_ARG,
@@ -106,6 +169,7 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_m
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&s->weights, (size_t)s->L, 8, "label weights"), fail);
     s->ndirs = GS_MODEL_DIRS;
+    s->ac_delta = GS_MODEL_AC_DELTA;
     if (s->W <= GS_MODEL_UTAB_MAX_W) {
         /* AC-3 support unions by bytes: row (byte position j, value v) = the
          * allow rows of every direction ORed over the labels 8j + (bits of v) */
@@ -124,6 +188,11 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_m
                         prev[k] | (a < s->L ? gs_model_allow(rules, a, 0)[k] : 0);
             }
         }
+    } else {
+        GS_TRY(err, sparse_build(s), fail);
+    }
+    if (s->W <= GS_MODEL_UCACHE_MAX_W) {
+        const size_t W = (size_t)s->W;
         GS_TRY(err, gs_alloc_array((void **)&s->ucache, (size_t)1 << GS_MODEL_UCACHE_BITS,
                                    (1 + GS_MODEL_DIRS) * W * 8, "AC-3 union cache"),
                fail);
@@ -155,6 +224,13 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->hpos);
     gs_free(s->utab);
     gs_free(s->ucache);
+    gs_free(s->sp_off);
+    gs_free(s->sp_mid);
+    gs_free(s->sp_k);
+    gs_free(s->sp_val);
+    gs_free(s->rv_off);
+    gs_free(s->rv_k);
+    gs_free(s->rv_val);
     gs_free(s->weights);
     gs_free(s->stamp);
     gs_free(s->trail_cell);
@@ -505,31 +581,90 @@ static inline int32_t dequeue(struct gs_model_solver *s)
     return c;
 }
 
+/* Empties the queue after a wipe-out, with the queued cells' removals (a
+ * stale removal would only widen a later revision by removals). */
 static void queue_clear(struct gs_model_solver *s)
 {
+    const size_t W = (size_t)s->W;
     while (s->qlen)
-        (void)dequeue(s);
+        memset(s->pending + (size_t)dequeue(s) * W, 0, W * 8);
+}
+
+/* ORs into un (zeroed) the allow rows of the labels in dc, by their
+ * non-zero words: the entries of label a up to end[a]. */
+static inline __attribute__((always_inline)) void sparse_union(const struct gs_model_solver *s,
+                                                               const uint64_t *dc, const size_t W,
+                                                               const uint32_t *end, uint64_t *un)
+{
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
+            const size_t a = w * 64 + (size_t)ctz64(bits);
+            for (uint32_t i = s->sp_off[a], e = end[a]; i < e; i++)
+                un[s->sp_k[i]] |= s->sp_val[i];
+        }
+}
+
+/* ORs into un (zeroed) the allow rows of every direction of the labels in
+ * dc, by bytes: a table row per (byte position, byte value), at most 8 W
+ * rows instead of one per label (castle.txt: 23 candidates per revised cell). */
+static inline __attribute__((always_inline)) void utab_union(const struct gs_model_solver *s,
+                                                             const uint64_t *dc, const size_t W,
+                                                             uint64_t *un)
+{
+    for (size_t w = 0; w < W; w++)
+        for (uint64_t bits = dc[w]; bits;) {
+            const unsigned j = (unsigned)ctz64(bits) >> 3;
+            const uint64_t *row =
+                s->utab + ((w * 8 + j) * 256 + ((bits >> (8 * j)) & 0xff)) * GS_MODEL_DIRS * W;
+            bits &= ~((uint64_t)0xff << (8 * j));
+            for (size_t k = 0; k < GS_MODEL_DIRS * W; k++)
+                un[k] |= row[k];
+        }
+}
+
+/* 1 when label b at the neighbour in direction d has a support among the
+ * candidates dc: the reverse row {a : b in allow[a][d]} meets dc. */
+static inline __attribute__((always_inline)) int has_support(const struct gs_model_solver *s,
+                                                             const uint64_t *dc, size_t b, int d)
+{
+    const size_t j = b * GS_MODEL_DIRS + (size_t)d;
+    for (uint32_t i = s->rv_off[j], e = s->rv_off[j + 1]; i < e; i++)
+        if (dc[s->rv_k[i]] & s->rv_val[i])
+            return 1;
+    return 0;
 }
 
 /* Returns 0 on a wipe-out (queue cleared), 1 when the queue drained. */
 /* Bitset AC-3 over the queue. W (64-bit words per domain) is a parameter so
- * that ac3_run() can instantiate it with constant W = 1..4: the example
+ * that ac3_run() can instantiate it with constant W = 1..4 and 8: the example
  * lattices have at most a few hundred labels, and with a constant word
  * count the support accumulation unrolls (castle.txt, 1 word: 1.6x faster
- * in bench_model). */
+ * in bench_model). sparse (constant): no union table, the unions from the
+ * sparse rows and the revisions by removals (pending, then rem).
+ * Why revising by removals gives the same closure: after a cell c's
+ * revision every label of a neighbour u has a support among c's candidates
+ * D; labels c loses later go to pending(c), so each label of u keeps a
+ * support in D + pending(c) until c's next revision. A label of u outside
+ * the union of pending(c)'s rows therefore has one in D, and only the labels
+ * inside it need the test. The first revision after establish (pending = all
+ * ones) and a restore (which returns to a drained queue) keep this true. */
 static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_solver *s,
-                                                               const size_t W)
+                                                               const size_t W, const int sparse)
 {
     const struct gs_model_rules *r = s->rules;
-    uint64_t sup[GS_MODEL_DIRS * 4];
-    uint64_t *big = NULL; /* only for more than 256 labels */
+    uint64_t sup[(GS_MODEL_DIRS + 1) * 8];
+    uint64_t *big = NULL; /* only for more than 512 labels */
     uint64_t *acc = sup;
-    if (W > 4) {
-        big = gs_malloc(GS_MODEL_DIRS * W * 8);
+    if (W > 8) {
+        big = gs_malloc((GS_MODEL_DIRS + 1) * W * 8);
         if (!big)
             return 0;
         acc = big;
     }
+    uint64_t *rem = acc + GS_MODEL_DIRS * W; /* [W] a revised cell's removals */
+    /* removals are kept (pending) only without the union table (sparse): with
+     * it a whole revision takes at most 8 W table rows */
+    const int track = sparse;
     int ok = 1;
     /* directions with neighbours: 6 in 3D, 8 with time or a rotation face */
     const size_t nd = (size_t)s->ndirs;
@@ -541,17 +676,33 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
             break;
         }
         const uint64_t *dc = s->dom + (size_t)c * W;
+        int nrem = 0;
+        if (track) {
+            uint64_t *pc = s->pending + (size_t)c * W;
+            for (size_t w = 0; w < W; w++) {
+                rem[w] = pc[w];
+                nrem += popcount64(pc[w]);
+                pc[w] = 0;
+            }
+        }
         const uint64_t *use;
+        int delta = 0;
         if (s->size[c] == r->npresent) {
             use = r->full_support;
         } else if (s->size[c] == 1) { /* a decided cell: its label's rows as they are */
             use = gs_model_allow(r, first_label(dc), 0);
-        } else if (s->utab) {
-            /* the union by bytes of the candidate set: a table row per
-             * (byte position, byte value), at most 8 W rows instead of one
-             * per candidate (castle.txt: 23 candidates per revised cell).
-             * Unions of recent sets are cached (a pure function of the set;
-             * castle.txt: 90% of the revisions find theirs). */
+        } else if (track && s->ac_delta > 0 && nrem * s->ac_delta < s->size[c]) {
+            /* few labels removed since c's last revision: only the neighbour
+             * labels they supported can have lost their support; the union
+             * of the removed labels' rows names them, and each is tested
+             * against c's candidates (its reverse row, by non-zero words) */
+            memset(acc, 0, nd * W * 8);
+            sparse_union(s, rem, W, nd == 6 ? s->sp_mid : s->sp_off + 1, acc);
+            use = acc;
+            delta = 1;
+        } else if (s->ucache) {
+            /* Unions of recent sets are cached (a pure function of the set;
+             * castle.txt: 90% of the revisions find theirs) */
             uint64_t h = dc[0];
             for (size_t w = 1; w < W; w++)
                 h = h * 0x100000001b3ull ^ dc[w];
@@ -565,26 +716,15 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
             if (miss) {
                 memcpy(ent, dc, W * 8);
                 memset(un, 0, GS_MODEL_DIRS * W * 8);
-                for (size_t w = 0; w < W; w++)
-                    for (uint64_t bits = dc[w]; bits;) {
-                        const unsigned j = (unsigned)ctz64(bits) >> 3;
-                        const uint64_t *row =
-                            s->utab + ((w * 8 + j) * 256 + ((bits >> (8 * j)) & 0xff)) * GS_MODEL_DIRS * W;
-                        bits &= ~((uint64_t)0xff << (8 * j));
-                        for (size_t k = 0; k < GS_MODEL_DIRS * W; k++)
-                            un[k] |= row[k];
-                    }
+                if (!sparse)
+                    utab_union(s, dc, W, un);
+                else /* every direction: the entry serves 3D and 4D boxes */
+                    sparse_union(s, dc, W, s->sp_off + 1, un);
             }
             use = un;
-        } else {
+        } else { /* more labels than the cache takes */
             memset(acc, 0, nd * W * 8);
-            for (size_t w = 0; w < W; w++)
-                for (uint64_t bits = dc[w]; bits; bits &= bits - 1) {
-                    int a = (int)(w * 64) + ctz64(bits);
-                    const uint64_t *al = gs_model_allow(r, a, 0);
-                    for (size_t k = 0; k < nd * W; k++)
-                        acc[k] |= al[k];
-                }
+            sparse_union(s, dc, W, nd == 6 ? s->sp_mid : s->sp_off + 1, acc);
             use = acc;
         }
         const int32_t *nb = s->nbr + (size_t)c * GS_MODEL_DIRS;
@@ -594,9 +734,21 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
                 continue;
             uint64_t *du = s->dom + (size_t)u * W;
             const uint64_t *sd = use + (size_t)d * W;
+            uint64_t *rm = acc + (size_t)d * W; /* d's union is not read again */
             uint64_t diff = 0;
-            for (size_t w = 0; w < W; w++)
-                diff |= du[w] & ~sd[w];
+            if (delta) {
+                for (size_t w = 0; w < W; w++) {
+                    uint64_t out = 0;
+                    for (uint64_t bits = du[w] & sd[w]; bits; bits &= bits - 1)
+                        if (!has_support(s, dc, w * 64 + (size_t)ctz64(bits), d))
+                            out |= bits & -bits;
+                    rm[w] = out;
+                    diff |= out;
+                }
+            } else {
+                for (size_t w = 0; w < W; w++)
+                    diff |= du[w] & ~sd[w];
+            }
             if (!diff)
                 continue;
             if (!trail_save(s, u)) {
@@ -604,13 +756,19 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
                 goto out;
             }
             int k = 0;
+            uint64_t *pu = s->pending + (size_t)u * W;
             for (size_t w = 0; w < W; w++) {
-                du[w] &= sd[w];
+                const uint64_t out = delta ? rm[w] : du[w] & ~sd[w];
+                du[w] &= ~out;
+                if (track)
+                    pu[w] |= out;
                 k += popcount64(du[w]);
             }
             s->size[u] = (uint16_t)k;
             if (k <= 1) {
                 if (k == 0) {
+                    if (track)
+                        memset(pu, 0, W * 8);
                     ok = 0;
                     goto out;
                 }
@@ -628,12 +786,13 @@ out:
 
 GS_HOT_CLONES static int ac3_run(struct gs_model_solver *s)
 {
+    if (s->utab) /* W <= GS_MODEL_UTAB_MAX_W */
+        return s->W == 1 ? ac3_run_words(s, 1, 0) : ac3_run_words(s, 2, 0);
     switch (s->W) {
-    case 1: return ac3_run_words(s, 1);
-    case 2: return ac3_run_words(s, 2);
-    case 3: return ac3_run_words(s, 3);
-    case 4: return ac3_run_words(s, 4);
-    default: return ac3_run_words(s, (size_t)s->W);
+    case 3: return ac3_run_words(s, 3, 1);
+    case 4: return ac3_run_words(s, 4, 1);
+    case 8: return ac3_run_words(s, 8, 1);
+    default: return ac3_run_words(s, (size_t)s->W, 1);
     }
 }
 
@@ -702,6 +861,8 @@ int gs_model_ac_establish(struct gs_model_solver *s)
         if (s->size[c] == 0)
             return 0;
     if (s->ac == GS_MODEL_AC3) {
+        /* every label "removed": each cell's first revision is a whole one */
+        memset(s->pending, 0xff, n * W * 8);
         for (size_t c = 0; c < n; c++)
             enqueue(s, (int32_t)c);
         return ac3_run(s);
@@ -783,6 +944,7 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
     s->dom[(size_t)c * W + (size_t)(k >> 6)] &= ~((uint64_t)1 << (k & 63));
     if (--s->size[c] == 0)
         return 0;
+    s->pending[(size_t)c * W + (size_t)(k >> 6)] |= (uint64_t)1 << (k & 63);
     if (s->size[c] == 1)
         rs_note(s, c);
     enqueue(s, c);
