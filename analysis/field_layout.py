@@ -22,6 +22,9 @@ summary.json layout_*, for output and source alike:
   (objects crowded closer than any two in the example: clumps).
 - fused share: measured objects larger than 1.5 x the source's largest
   measured object (two or more glued into one).
+- fragment share: measured objects smaller than 3/4 of the source's
+  smallest measured object (pieces of an object a later block left:
+  crescents, slivers; the cut ratio of field_discs.py).
 - guarded (layout_guard*): the output's measured objects whose centre lies
   at least the source's largest nn plus its largest object radius (largest
   distance of a sample from its object's centre) from every face: every
@@ -120,6 +123,7 @@ def figures(h5):
     no, ns = no[np.isfinite(no)], ns[np.isfinite(ns)]
     nn_min = float(ns.min()) if len(ns) else 0.0
     big = float(ss[is_].max()) if is_.any() else 0.0
+    small = 0.75 * float(ss[is_].min()) if is_.any() else 0.0
     f = {"layout_height_field": int(height)}
     for tag, nn, s, i in (("out", no, so, io), ("src", ns, ss, is_)):
         f[f"layout_objects_{tag}"] = int(i.sum())
@@ -127,6 +131,7 @@ def figures(h5):
         f[f"layout_nn_p50_{tag}"] = quantile(nn, 0.5)
         f[f"layout_close_share_{tag}"] = float((nn < nn_min).mean()) if len(nn) else 0.0
         f[f"layout_fused_share_{tag}"] = float((s[i] > FUSED * big).mean()) if i.any() else 0.0
+        f[f"layout_fragment_share_{tag}"] = float((s[i] < small).mean()) if i.any() else 0.0
     # gs_measure_ks: both empty 0, one empty 1
     f["layout_nn_ks"] = 0.0 if len(no) == len(ns) == 0 else field_objects.ks(no, ns)
     # guarded: output objects whose centre lies at least the source's largest
@@ -143,6 +148,7 @@ def figures(h5):
     f["layout_guard"] = guard
     f["layout_guarded_objects_out"] = int(ig.sum())
     f["layout_guarded_close_share_out"] = float((ng < nn_min).mean()) if len(ng) else 0.0
+    f["layout_guarded_fragment_share_out"] = float((so[ig] < small).mean()) if ig.any() else 0.0
     f["layout_guarded_nn_ks"] = 0.0 if len(ng) == len(ns) == 0 else field_objects.ks(ng, ns)
     return f
 
@@ -160,9 +166,10 @@ def main(argv):
                   f"nn p10/p50 {f['layout_nn_p10_out']:.2f}/{f['layout_nn_p50_out']:.2f} "
                   f"(source {f['layout_nn_p10_src']:.2f}/{f['layout_nn_p50_src']:.2f}), nn KS "
                   f"{f['layout_nn_ks']:.3f}, close {f['layout_close_share_out']:.3f}, fused "
-                  f"{f['layout_fused_share_out']:.3f}; guarded (>= {f['layout_guard']:.2f} "
+                  f"{f['layout_fused_share_out']:.3f}, fragments {f['layout_fragment_share_out']:.3f}; guarded (>= {f['layout_guard']:.2f} "
                   f"from the faces): objects {f['layout_guarded_objects_out']}, close "
-                  f"{f['layout_guarded_close_share_out']:.3f}, nn KS {f['layout_guarded_nn_ks']:.3f}")
+                  f"{f['layout_guarded_close_share_out']:.3f}, fragments "
+                  f"{f['layout_guarded_fragment_share_out']:.3f}, nn KS {f['layout_guarded_nn_ks']:.3f}")
         if "--check" in argv:
             with open(run + "/summary.json") as fh:
                 m = json.load(fh)["metrics"]

@@ -82,6 +82,9 @@ typedef struct gs_measure_objlayout_side {
     int64_t objects;        /* measured (inner) objects */
     double nn_p10, nn_p50;  /* nearest-neighbour centre distance, samples */
     double close_share, fused_share;
+    /* measured objects smaller than 3/4 of the example's smallest measured
+     * one (a piece of an object: a crescent or sliver a later block left) */
+    double fragment_share;
 } gs_measure_objlayout_side;
 typedef struct gs_measure_objlayout {
     gs_measure_objlayout_side out, src;

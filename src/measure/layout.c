@@ -155,20 +155,21 @@ static double quantile(const double *s, int64_t n, double p)
 }
 
 static void side_figures(const layout_objects *o, const uint8_t *measured, const double *nn,
-                         int64_t k, double nn_min, double big, double fused,
+                         int64_t k, double nn_min, double big, double fused, double small,
                          gs_measure_objlayout_side *f)
 {
     f->objects = 0;
-    int64_t over = 0, close = 0;
+    int64_t over = 0, close = 0, frag = 0;
     for (int64_t i = 0; i < o->n; i++)
         if (measured[i])
-            f->objects++, over += o->size[i] > fused * big;
+            f->objects++, over += o->size[i] > fused * big, frag += o->size[i] < small;
     for (int64_t i = 0; i < k; i++)
         close += nn[i] < nn_min;
     f->nn_p10 = quantile(nn, k, 0.1);
     f->nn_p50 = quantile(nn, k, 0.5);
     f->close_share = k ? (double)close / (double)k : 0;
     f->fused_share = f->objects ? (double)over / (double)f->objects : 0;
+    f->fragment_share = f->objects ? (double)frag / (double)f->objects : 0;
 }
 
 gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
@@ -185,15 +186,19 @@ gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const u
     GS_TRY(err, objects_of(src, sn, &os), done);
     GS_TRY(err, nearest(&oo, oo.inner, &no, &ko), done);
     GS_TRY(err, nearest(&os, os.inner, &ns, &ks), done);
-    double big = 0, rmax = 0;
+    double big = 0, rmax = 0, least = INFINITY;
     for (int64_t i = 0; i < os.n; i++)
         if (os.inner[i]) {
             big = os.size[i] > big ? os.size[i] : big;
+            least = os.size[i] < least ? os.size[i] : least;
             rmax = os.radius[i] > rmax ? os.radius[i] : rmax;
         }
     double nn_min = ks ? ns[0] : 0;
-    side_figures(&oo, oo.inner, no, ko, nn_min, big, fused, &r->out);
-    side_figures(&os, os.inner, ns, ks, nn_min, big, fused, &r->src);
+    /* fragments: smaller than 3/4 of the example's smallest whole object
+     * (analysis/field_discs.py's cut ratio; embark-5's discs 83-90 samples) */
+    double small = isfinite(least) ? 0.75 * least : 0;
+    side_figures(&oo, oo.inner, no, ko, nn_min, big, fused, small, &r->out);
+    side_figures(&os, os.inner, ns, ks, nn_min, big, fused, small, &r->src);
     GS_TRY(err, gs_measure_ks(no, (size_t)ko, ns, (size_t)ks, &r->nn_ks), done);
     /* guarded: the output's objects whose centre lies at least the example's
      * largest nn plus its largest object radius from every face */
@@ -207,7 +212,7 @@ gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const u
                                         (double)(on[a] - 1) - oo.c[3 * i + a] >= r->guard);
     }
     GS_TRY(err, nearest(&oo, guarded, &ng, &kg), done);
-    side_figures(&oo, guarded, ng, kg, nn_min, big, fused, &r->out_guarded);
+    side_figures(&oo, guarded, ng, kg, nn_min, big, fused, small, &r->out_guarded);
     GS_TRY(err, gs_measure_ks(ng, (size_t)kg, ns, (size_t)ks, &r->nn_ks_guarded), done);
 done:
     objects_free(&oo);

@@ -728,6 +728,36 @@ static void test_layout(void **state)
 #undef RAT
 }
 
+/* Fragments of separate objects (gs_measure_object_layout): a 2-D source
+ * (n z = 1) with two 4x4 squares (16 samples); an output with three whole
+ * squares, a 2x4 sliver (8 < 3/4 of 16) and a 2x2 piece cut by the face
+ * (not measured): 4 measured objects, 1 a fragment; the source none. */
+static void test_object_fragments(void **state)
+{
+    (void)state;
+    enum { SN = 20, ON = 30 };
+    uint8_t src[SN * SN] = {0}, out[ON * ON] = {0};
+    for (int y = 0; y < 4; y++)
+        for (int x = 0; x < 4; x++) {
+            src[(3 + x) + SN * (3 + y)] = src[(12 + x) + SN * (12 + y)] = 1;
+            out[(3 + x) + ON * (3 + y)] = out[(15 + x) + ON * (3 + y)] = 1;
+            out[(3 + x) + ON * (15 + y)] = 1;
+            if (x < 2)
+                out[(15 + x) + ON * (15 + y)] = 1;
+            if (x < 2 && y < 2)
+                out[x + ON * (25 + y)] = 1;
+        }
+    const int64_t sn[3] = {SN, SN, 1}, on[3] = {ON, ON, 1};
+    gs_measure_objlayout r;
+    assert_int_equal(gs_measure_object_layout(out, on, src, sn, 1.5, &r), GS_OK);
+    assert_int_equal((int)r.out.objects, 4);
+    assert_true(fabs(r.out.fragment_share - 0.25) < 1e-12);
+    assert_true(r.src.fragment_share == 0);
+    out[(17 + 0) + ON * 15] = out[17 + ON * 16] = out[18 + ON * 15] = out[18 + ON * 16] = 1;
+    assert_int_equal(gs_measure_object_layout(out, on, src, sn, 1.5, &r), GS_OK);
+    assert_true(r.out.fragment_share == 0); /* 12 samples: 3/4 of the smallest, not below */
+}
+
 static void test_copy_periodic(void **state)
 {
     (void)state;
@@ -1175,6 +1205,7 @@ int main(void)
         cmocka_unit_test(test_lattice_measures),
         cmocka_unit_test(test_enclosure),
         cmocka_unit_test(test_layout),
+        cmocka_unit_test(test_object_fragments),
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_copy_reference),
