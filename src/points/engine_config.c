@@ -151,16 +151,17 @@ static const gs_cfg_key points_keys[] = {
                     "measure what the blend leaves)"),
     GS_CFG_KEY_BOOL(PC, strip_resample, "points.strip_resample", "true",
                     "after the synthesis, resample the overlap strips as dart throwing sampled "
-                    "the example: a strip point off the surface of the others goes onto it, "
-                    "the points are kept in a seeded order with no two within a spacing, and "
-                    "darts around the kept ones (onto the surface) fill the holes up to the "
-                    "count the blend left in each cell of 4 spacings, then past it around "
-                    "pieces of fewer than 30 points; the points inside the patches stay. "
-                    "Seeds 1-3, 8 x 8, without the clean-up below: specks per unit area "
-                    "heightfield.ini 0.97, 0.84, 1.27 -> 0.21, 0.32, 0.26 (the example 0.99), "
-                    "chainmail.ini 0.20, 0.15, 0.03 -> 0.03, 0, 0 (the example 0), a ridged "
-                    "field 1.59, 1.77, 1.51 -> 0.10, 0.13, 0.21 (the example 0); points per "
-                    "unit area within 5% of the example's; 0.5-2 s more CPU; "
+                    "the example: a strip point off the surface of the others goes onto it "
+                    "(one with no sheet of the others there is dropped), the points are kept "
+                    "in a seeded order with no two within a spacing, and darts around the kept "
+                    "ones (onto the degree-2 MLS surface, and only where the points sample "
+                    "it, not past a crest or an edge) fill the holes up to the count the "
+                    "blend left in each cell of 4 spacings, then past it around pieces of "
+                    "fewer than 30 points; the points inside the patches stay. Seeds 1-3, "
+                    "8 x 8, without the clean-up below: specks per unit area a ridged field "
+                    "1.59, 1.77, 1.51 -> 0.10, 0.11, 0.13 (the example 0); chainmail.ini "
+                    "seed 1 seam distance ratio 1.21 -> 1.21; points per unit area within "
+                    "5% of the example's; 0.5-2 s more CPU; "
                     "false = the strips as the blend leaves them"),
     GS_CFG_KEY_BOOL(PC, objects, "points.objects", "true",
                     "paste the example's disconnected objects (flowers, rings: pieces no wider "

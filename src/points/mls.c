@@ -227,3 +227,98 @@ double gs_points_surface_variation(const gs_points *nbrs, const double c[3], dou
     double v = sym3_min_eigen(m) / tr;
     return v < 0 ? 0 : v > 1.0 / 3.0 ? 1.0 / 3.0 : v;
 }
+
+/* Solves the symmetric positive definite system m (k x k, row-major) c = b
+ * by Cholesky; 0 when m is not positive definite enough (a pivot below
+ * eps times the largest diagonal entry). */
+static int spd_solve(double *m, double *b, int k, double eps)
+{
+    double dmax = 0;
+    for (int i = 0; i < k; i++)
+        dmax = fmax(dmax, m[i * k + i]);
+    if (!(dmax > 0))
+        return 0;
+    for (int j = 0; j < k; j++) {
+        double d = m[j * k + j];
+        for (int p = 0; p < j; p++)
+            d -= m[j * k + p] * m[j * k + p];
+        if (!(d > eps * dmax))
+            return 0;
+        d = sqrt(d);
+        m[j * k + j] = d;
+        for (int i = j + 1; i < k; i++) {
+            double s = m[i * k + j];
+            for (int p = 0; p < j; p++)
+                s -= m[i * k + p] * m[j * k + p];
+            m[i * k + j] = s / d;
+        }
+    }
+    for (int i = 0; i < k; i++) { /* L z = b */
+        double s = b[i];
+        for (int p = 0; p < i; p++)
+            s -= m[i * k + p] * b[p];
+        b[i] = s / m[i * k + i];
+    }
+    for (int i = k - 1; i >= 0; i--) { /* L^T c = z */
+        double s = b[i];
+        for (int p = i + 1; p < k; p++)
+            s -= m[p * k + i] * b[p];
+        b[i] = s / m[i * k + i];
+    }
+    return 1;
+}
+
+double gs_points_mls_quadric(const gs_points *nb, double R, const double y[3], const double x[3],
+                             double out[3], double nout[3])
+{
+    double a[3], n[3];
+    double w = gs_points_mls_frame(nb, R, y, a, n);
+    if (w <= 0)
+        return 0;
+    double u[3], v[3], ax[3] = {1, 0, 0};
+    if (fabs(n[0]) > 0.9)
+        ax[0] = 0, ax[1] = 1;
+    v3_cross(n, ax, u);
+    v3_normalize(u);
+    v3_cross(n, u, v);
+    /* Weighted normal equations of h = c0 + c1 s + c2 t + c3 s^2 + c4 s t
+     * + c5 t^2 in the frame (s, t along u, v, h along n, origin a), the
+     * coordinates scaled by R (a well-scaled system). */
+    const double inv_r2 = 1.0 / (R * R), ir = 1.0 / R;
+    double m[36] = {0}, b[6] = {0};
+    for (size_t i = 0; i < nb->n; i++) {
+        const gs_opoint *q = &nb->v[i];
+        double t = 1.0 - v3_dist2(q->p, y) * inv_r2;
+        if (!(t > 0))
+            continue;
+        t *= t;
+        double wq = t * t;
+        double d[3] = {q->p[0] - a[0], q->p[1] - a[1], q->p[2] - a[2]};
+        double s = v3_dot(d, u) * ir, r = v3_dot(d, v) * ir, h = v3_dot(d, n) * ir;
+        double f[6] = {1, s, r, s * s, s * r, r * r};
+        for (int j = 0; j < 6; j++) {
+            b[j] += wq * f[j] * h;
+            for (int k = 0; k <= j; k++)
+                m[j * 6 + k] += wq * f[j] * f[k];
+        }
+    }
+    for (int j = 0; j < 6; j++)
+        for (int k = j + 1; k < 6; k++)
+            m[j * 6 + k] = m[k * 6 + j];
+    double c[6];
+    memcpy(c, b, sizeof c);
+    if (!spd_solve(m, c, 6, 1e-9)) { /* too few points around: the plane */
+        memset(c, 0, sizeof c);
+    }
+    double dx[3] = {x[0] - a[0], x[1] - a[1], x[2] - a[2]};
+    double s = v3_dot(dx, u) * ir, r = v3_dot(dx, v) * ir;
+    double h = c[0] + c[1] * s + c[2] * r + c[3] * s * s + c[4] * s * r + c[5] * r * r;
+    double hs = c[1] + 2 * c[3] * s + c[4] * r, hr = c[2] + c[4] * s + 2 * c[5] * r;
+    for (int k = 0; k < 3; k++) {
+        out[k] = a[k] + R * (s * u[k] + r * v[k] + h * n[k]);
+        nout[k] = n[k] - hs * u[k] - hr * v[k];
+    }
+    if (v3_normalize(nout) <= 0)
+        return 0;
+    return w;
+}

@@ -63,6 +63,16 @@ static inline double v3_normalize(double a[3])
 double gs_points_mls_frame(const gs_points *nb, double R, const double y[3], double a[3],
                            double n[3]);
 
+/* Degree-2 MLS (Levin's, over the frame of gs_points_mls_frame at y): the
+ * weighted least-squares height of nb over that frame's plane as a
+ * quadratic in the plane's coordinates, evaluated at x's: out is x moved
+ * along the frame's normal onto it, nout its normal. The plane alone lies
+ * inside a curved sheet (on the chain mail's tubes ~0.2 spacings); the
+ * quadratic does not. Falls back to the plane when the points do not fix
+ * a quadratic. Returns the frame's weight sum (0: no surface). */
+double gs_points_mls_quadric(const gs_points *nb, double R, const double y[3], const double x[3],
+                             double out[3], double nout[3]);
+
 /* Nearest point of g to x within max_reach; *found = 0 when none. */
 gs_err gs_points_grid_nearest(const gs_points_grid *g, const double x[3], double max_reach,
                               gs_points *scratch, gs_opoint *out, int *found);

@@ -196,6 +196,49 @@ static void test_grid_nearest_vs_brute_force(void **state)
     gs_points_free(&scratch);
 }
 
+/* The degree-2 MLS (gs_points_mls_quadric) keeps a tube as thin as the
+ * chain mail's (radius 0.075, spacing 0.033, R = 0.099: the strip
+ * resampling's darts) at its radius, where the frame's plane lies inside
+ * it (the darts sat 0.0045 inside the copied points). */
+static void test_mls_quadric_tube(void **state)
+{
+    (void)state;
+    const double rt = 0.075, R = 0.099;
+    gs_points pts = {0};
+    gs_rng r;
+    gs_rng_init(&r, 9, 9);
+    for (int k = 0; k < 31; k++)
+        for (int i = 0; i < 14; i++) {
+            double th = 2 * GS_PI * (i + 0.5 * (k & 1) + 0.2 * gs_rng_uniform(&r)) / 14;
+            double p[3] = {rt * cos(th), rt * sin(th), 0.033 * k + 0.005 * gs_rng_uniform(&r)};
+            double nn[3] = {cos(th), sin(th), 0};
+            assert_int_equal(gs_points_push(&pts, p, nn), GS_OK);
+        }
+    double worst_q = 0, mean_plane = 0;
+    for (int t = 0; t < 40; t++) {
+        double th = 2 * GS_PI * gs_rng_uniform(&r), rr = rt + 0.02 * (gs_rng_uniform(&r) - 0.5);
+        double x[3] = {rr * cos(th), rr * sin(th), 0.4 + 0.2 * gs_rng_uniform(&r)};
+        double y[3], yq[3], n[3], a[3], np[3];
+        memcpy(y, x, sizeof y);
+        memcpy(yq, x, sizeof yq);
+        for (int it = 0; it < 3; it++) {
+            double z[3];
+            assert_true(gs_points_mls_quadric(&pts, R, yq, x, z, n) > 0);
+            memcpy(yq, z, sizeof z);
+            assert_true(gs_points_mls_frame(&pts, R, y, a, np) > 0);
+            double d = (x[0] - a[0]) * np[0] + (x[1] - a[1]) * np[1] + (x[2] - a[2]) * np[2];
+            for (int b = 0; b < 3; b++)
+                y[b] = x[b] - d * np[b];
+        }
+        worst_q = fmax(worst_q, fabs(hypot(yq[0], yq[1]) - rt));
+        mean_plane += (rt - hypot(y[0], y[1])) / 40;
+        assert_true(n[0] * cos(th) + n[1] * sin(th) > 0.99);
+    }
+    assert_true(mean_plane > 0.003); /* the plane: well inside */
+    assert_true(worst_q < 0.0015);   /* the quadratic: on the tube */
+    gs_points_free(&pts);
+}
+
 static void test_mls_projection_plane_sphere(void **state)
 {
     (void)state;
@@ -664,6 +707,7 @@ int main(void)
         cmocka_unit_test(test_index_grid_vs_brute_force),
         cmocka_unit_test(test_grid_nearest_vs_brute_force),
         cmocka_unit_test(test_mls_projection_plane_sphere),
+        cmocka_unit_test(test_mls_quadric_tube),
         cmocka_unit_test(test_tps_interpolates_and_affine),
         cmocka_unit_test(test_generators_and_padding_check),
         cmocka_unit_test(test_search_partition_matches_serial),
