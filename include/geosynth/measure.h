@@ -55,6 +55,38 @@ gs_err gs_measure_components3(const uint8_t *mask, int nx, int ny, int nz, const
 void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, uint32_t ncomp,
                                  int64_t *euler);
 
+/* The components of two nested sets of a grid in one labelling: v (n[0] x
+ * n[1] x n[2] values, x fastest) classed by cls[v]: 0 neither, 1 the outer
+ * set only, 2 both (the inner set lies within the outer one, e.g. the core
+ * of the inside of a distance field). outer[1 .. nouter] are the
+ * 6-connected components of the samples of class >= 1, inner[1 .. ninner]
+ * those of class 2, each numbered in order of its lowest sample index ([0]
+ * unused) as gs_measure_components3 numbers them, so every figure equals
+ * that of labelling each set alone (src/measure/stats.c checks it in
+ * unit/test_measure). Per component: size, faces (bit 2a: a sample on the
+ * low face of axis a, 2a + 1: on its high face; an axis of one sample sets
+ * both), the sums of the samples' x, y, z and the radius, the largest
+ * distance of a sample from the centre sum / size (inner only: the layout's
+ * objects) and, with euler, the Euler characteristic as
+ * gs_measure_component_euler3 gives it (outer only). One raster pass with a
+ * union-find over provisional labels (each holds samples of one class), one
+ * pass to number the roots, one to count and one for the radii; memory 4
+ * bytes per sample plus 9 per provisional label (no mask, no queue). Grids
+ * of 2^32 - 1 samples or more are GS_ERR_ARG. */
+typedef struct gs_measure_component {
+    uint64_t size;
+    double sum[3], radius;
+    int64_t euler;
+    uint8_t faces;
+} gs_measure_component;
+typedef struct gs_measure_nested {
+    uint32_t nouter, ninner;
+    gs_measure_component *outer, *inner; /* gs_malloc'ed, n + 1 entries */
+} gs_measure_nested;
+gs_err gs_measure_components_nested3(const uint8_t *v, const int64_t n[3], const uint8_t cls[256],
+                                     int euler, gs_measure_nested *r);
+void gs_measure_nested_free(gs_measure_nested *r);
+
 /* Share of set samples (mask != 0, n[0] x n[1] x n[2], x fastest) in every
  * window of w[0] x w[1] x w[2] samples of the mask continued periodically
  * (one window per offset within one period): *lo, *hi the smallest and the
@@ -77,7 +109,8 @@ gs_err gs_measure_window_share_range(const uint8_t *mask, const int64_t n[3], co
  * distance of the two nn distributions. Quantiles: the sorted value at
  * round(p (k - 1)). analysis/field_layout.py computes the same. Cost
  * O(cells) plus the nearest-neighbour sweep (O(n log n) typically); memory
- * 4 bytes per sample. (src/measure/layout.c) */
+ * 9 bytes per sample (gs_measure_components3's labels and queue).
+ * (src/measure/layout.c) */
 typedef struct gs_measure_objlayout_side {
     int64_t objects;        /* measured (inner) objects */
     double nn_p10, nn_p50;  /* nearest-neighbour centre distance, samples */
@@ -101,6 +134,15 @@ typedef struct gs_measure_objlayout {
 } gs_measure_objlayout;
 gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                                 const int64_t sn[3], double fused, gs_measure_objlayout *r);
+/* The same from components labelled elsewhere: out[1 .. nout] of an output
+ * grid of on samples and src[1 .. nsrc] of its example's, with their sizes,
+ * coordinate sums, faces and radii (gs_measure_components_nested3's inner set, so a
+ * grid labelled once for another measure needs no labelling of its own):
+ * the figures of gs_measure_object_layout on masks of those components. */
+gs_err gs_measure_object_layout_components(const gs_measure_component *out, uint32_t nout,
+                                           const int64_t on[3], const gs_measure_component *src,
+                                           uint32_t nsrc, const int64_t sn[3], double fused,
+                                           gs_measure_objlayout *r);
 
 /* Connected components of a point cloud: points i and j are linked when
  * |p_i - p_j| <= radius; point i is xyz[i * stride .. + 3) (stride >= 3

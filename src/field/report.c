@@ -62,59 +62,47 @@ typedef struct inside_topology {
     uint64_t samples, samples_all;
 } inside_topology;
 
-/* Inside components of q that touch none of its faces (one that does may be
- * cut by the box: the output's at its faces are, and the source's would be):
- * count and sizes (sorted ascending, *sizes owned by the caller, *n
- * entries), and their topology *t. */
-static gs_err inside_components(const gs_qfield *q, uint64_t **sizes, int64_t *n,
+/* The inside samples of q and their core (deeper than one sample: the
+ * objects of the layout, gs_field_layout_mask's), labelled once
+ * (gs_measure_components_nested3): *k's outer components are the inside
+ * components, its inner ones the cores. */
+static gs_err label_inside(const gs_qfield *q, gs_measure_nested *k)
+{
+    uint8_t cls[256];
+    for (int i = 0; i < 256; i++) {
+        double v = gs_qfield_value(q, (uint8_t)i);
+        cls[i] = v / q->spacing < -1.0 ? 2 : v < 0;
+        GS_CHECK(cls[i] != 2 || v < 0, GS_ERR_ARG, "layout: a core level %d not inside", i);
+    }
+    const int64_t n[3] = {q->nx, q->ny, q->nz};
+    return gs_measure_components_nested3(q->q, n, cls, 1, k);
+}
+
+/* Inside components (k: label_inside's) that touch none of the grid's faces
+ * (one that does may be cut by the box: the output's at its faces are, and
+ * the source's would be): count and sizes (sorted ascending, *sizes owned by
+ * the caller, *n entries), and their topology *t. */
+static gs_err inside_components(const gs_measure_nested *k, uint64_t **sizes, int64_t *n,
                                 inside_topology *t)
 {
-    int64_t *euler = NULL;
     memset(t, 0, sizeof *t);
-    int64_t cells = q->nx * q->ny * q->nz;
-    uint8_t inside[256];
-    for (int i = 0; i < 256; i++)
-        inside[i] = gs_qfield_value(q, (uint8_t)i) < 0;
-    uint8_t *mask = NULL;
-    uint32_t *label = NULL, nc = 0;
     uint64_t *sz = NULL;
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&mask, (size_t)cells, 1, "inside mask"), done);
-    GS_TRY(err, gs_alloc_array((void **)&label, (size_t)cells, sizeof *label, "component labels"), done);
-    for (int64_t i = 0; i < cells; i++)
-        mask[i] = inside[q->q[i]];
-    GS_TRY(err, gs_measure_components3(mask, (int)q->nx, (int)q->ny, (int)q->nz, NULL, label, &nc,
-                                       &sz), done);
-    GS_TRY(err, gs_alloc_array((void **)&euler, (size_t)nc + 1, sizeof *euler, "component Euler"),
-           done);
-    gs_measure_component_euler3(label, (int)q->nx, (int)q->ny, (int)q->nz, nc, euler);
-    for (uint32_t c = 1; c <= nc; c++)
-        t->handles_all += 1 - euler[c], t->samples_all += sz[c];
-    /* components touching a face: size 0, dropped */
-    for (int64_t z = 0; z < q->nz; z++)
-        for (int64_t y = 0; y < q->ny; y++) {
-            int face = z == 0 || z == q->nz - 1 || y == 0 || y == q->ny - 1;
-            for (int64_t x = 0; x < q->nx; x += face || x == q->nx - 1 ? 1 : q->nx - 1)
-                sz[label[x + q->nx * (y + q->ny * z)]] = 0;
-        }
+    GS_CALL(gs_alloc_array((void **)&sz, (size_t)k->nouter + 1, sizeof *sz, "component sizes"));
     uint32_t keep = 0;
-    for (uint32_t c = 1; c <= nc; c++)
-        if (sz[c]) {
-            int64_t h = 1 - euler[c]; /* a cavity (never in rings) counts as -1 */
-            t->genus[h < 0 ? 0 : h > 4 ? 4 : h]++;
-            t->handles += h, t->samples += sz[c];
-            sz[keep++] = sz[c];
-        }
+    for (uint32_t c = 1; c <= k->nouter; c++) {
+        const gs_measure_component *o = &k->outer[c];
+        t->handles_all += 1 - o->euler, t->samples_all += o->size;
+        if (o->faces) /* touches a face: dropped */
+            continue;
+        int64_t h = 1 - o->euler; /* a cavity (never in rings) counts as -1 */
+        t->genus[h < 0 ? 0 : h > 4 ? 4 : h]++;
+        t->handles += h, t->samples += o->size;
+        sz[keep++] = o->size;
+    }
     qsort(sz, keep, sizeof *sz, cmp_u64);
     *sizes = sz;
     *n = keep;
-    sz = NULL;
-done:
-    gs_free(mask);
-    gs_free(label);
-    gs_free(sz);
-    gs_free(euler);
-    return err;
+    return GS_OK;
 }
 
 /* The topology figures of the report from t (n interior components, cells
@@ -285,14 +273,14 @@ static gs_err crossing_share(const gs_qfield *q, int a, int64_t L, double *share
         return GS_OK;
     m[a] = L;
     size_t cells = (size_t)(m[0] * m[1] * m[2]);
-    uint8_t inside[256], *mask = NULL, *ends = NULL;
+    uint8_t inside[256], *mask = NULL, cls[256] = {0, 1};
     for (int i = 0; i < 256; i++)
         inside[i] = gs_qfield_value(q, (uint8_t)i) < 0;
-    uint32_t *label = NULL, nc = 0;
-    uint64_t *sz = NULL, in = 0, cross = 0;
+    gs_measure_nested k;
+    memset(&k, 0, sizeof k);
+    uint64_t in = 0, cross = 0;
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&mask, cells, 1, "slab mask"), done);
-    GS_TRY(err, gs_alloc_array((void **)&label, cells, sizeof *label, "slab labels"), done);
     for (int64_t s0 = L / 2; s0 + L <= n[a]; s0 += L) {
         for (int64_t z = 0; z < m[2]; z++)
             for (int64_t y = 0; y < m[1]; y++)
@@ -303,32 +291,17 @@ static gs_err crossing_share(const gs_qfield *q, int a, int64_t L, double *share
                     mask[x + m[0] * (y + m[1] * z)] = b;
                     in += b;
                 }
-        gs_free(sz);
-        sz = NULL;
-        GS_TRY(err, gs_measure_components3(mask, (int)m[0], (int)m[1], (int)m[2], NULL, label,
-                                           &nc, &sz), done);
-        gs_free(ends);
-        ends = NULL;
-        GS_TRY(err, gs_alloc_array((void **)&ends, (size_t)nc + 1, 1, "slab ends"), done);
-        memset(ends, 0, (size_t)nc + 1);
-        int64_t st[3] = {1, m[0], m[0] * m[1]};
-        for (int64_t i = 0; i < (int64_t)cells; i++) {
-            int64_t c = i / st[a] % m[a];
-            if (c == 0)
-                ends[label[i]] |= 1;
-            if (c == L - 1)
-                ends[label[i]] |= 2;
-        }
-        for (uint32_t k = 1; k <= nc; k++)
-            if (ends[k] == 3)
-                cross += sz[k];
+        gs_measure_nested_free(&k);
+        GS_TRY(err, gs_measure_components_nested3(mask, m, cls, 0, &k), done);
+        /* components on both faces of the slab along a */
+        for (uint32_t c = 1; c <= k.nouter; c++)
+            if ((k.outer[c].faces >> (2 * a) & 3) == 3)
+                cross += k.outer[c].size;
     }
     *share = in ? (double)cross / (double)in : 0;
 done:
     gs_free(mask);
-    gs_free(label);
-    gs_free(sz);
-    gs_free(ends);
+    gs_measure_nested_free(&k);
     return err;
 }
 
@@ -424,15 +397,22 @@ gs_err gs_field_layout_mask(const gs_qfield *q, int height, uint8_t **m, int64_t
     return GS_OK;
 }
 
-static gs_err object_layout(const gs_qfield *out, const gs_qfield *src, gs_field_geometry_report *r)
+/* ko, ks: label_inside's of out and src (their cores are the objects
+ * unless the example is a height field). */
+static gs_err object_layout(const gs_qfield *out, const gs_qfield *src, const gs_measure_nested *ko,
+                            const gs_measure_nested *ks, gs_field_geometry_report *r)
 {
     r->layout_height_field = gs_field_height_field(src);
+    const int64_t on[3] = {out->nx, out->ny, out->nz}, sn[3] = {src->nx, src->ny, src->nz};
+    if (!r->layout_height_field)
+        return gs_measure_object_layout_components(ko->inner, ko->ninner, on, ks->inner,
+                                                   ks->ninner, sn, 1.5, &r->layout);
     uint8_t *mo = NULL, *ms = NULL;
-    int64_t on[3], sn[3];
+    int64_t mon[3], msn[3];
     gs_err err = GS_OK;
-    GS_TRY(err, gs_field_layout_mask(out, r->layout_height_field, &mo, on), done);
-    GS_TRY(err, gs_field_layout_mask(src, r->layout_height_field, &ms, sn), done);
-    err = gs_measure_object_layout(mo, on, ms, sn, 1.5, &r->layout);
+    GS_TRY(err, gs_field_layout_mask(out, 1, &mo, mon), done);
+    GS_TRY(err, gs_field_layout_mask(src, 1, &ms, msn), done);
+    err = gs_measure_object_layout(mo, mon, ms, msn, 1.5, &r->layout);
 done:
     gs_free(mo);
     gs_free(ms);
@@ -452,8 +432,13 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
     int64_t no = 0, ns = 0;
     gs_err err = GS_OK;
     inside_topology to, ts;
-    GS_TRY(err, inside_components(out, &so, &no, &to), done);
-    GS_TRY(err, inside_components(src, &ss, &ns, &ts), done);
+    gs_measure_nested ko, ks; /* the inside and its core, labelled once */
+    memset(&ko, 0, sizeof ko);
+    memset(&ks, 0, sizeof ks);
+    GS_TRY(err, label_inside(out, &ko), done);
+    GS_TRY(err, label_inside(src, &ks), done);
+    GS_TRY(err, inside_components(&ko, &so, &no, &to), done);
+    GS_TRY(err, inside_components(&ks, &ss, &ns, &ts), done);
     topology_figures(&to, no, on[0] * on[1] * on[2], r->genus_out, &r->ring_share_out,
                      &r->open_per_msample_out, &r->handles_per_kinside_out,
                      &r->handles_all_per_kinside_out);
@@ -509,7 +494,7 @@ gs_err gs_field_geometry_measure(const gs_qfield *out, const gs_qfield *src, int
         for (int p = 0; p < r->seam_period; p++)
             r->seam_ratio_src_max = ph[p] > r->seam_ratio_src_max ? ph[p] : r->seam_ratio_src_max;
     }
-    GS_TRY(err, object_layout(out, src, r), radii);
+    GS_TRY(err, object_layout(out, src, &ko, &ks, r), radii);
 radii:
     gs_free(ro);
     gs_free(rs);
@@ -517,6 +502,8 @@ radii:
         goto done;
     r->seconds = gs_time_now() - t0;
 done:
+    gs_measure_nested_free(&ko);
+    gs_measure_nested_free(&ks);
     gs_free(so);
     gs_free(ss);
     gs_free(xo);

@@ -21,6 +21,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "unionfind.h"
 
 typedef struct win_entry {
     uint64_t h;
@@ -190,24 +191,6 @@ static const win_entry *lookup(const win_entry *tab, size_t cap, uint64_t h, con
         if (tab[i].h == h && win_equal(src, sn, tab[i].pos, g, gn, base, k))
             return &tab[i];
     return NULL;
-}
-
-static uint32_t uf_find(uint32_t *p, uint32_t x)
-{
-    while (p[x] != x) {
-        p[x] = p[p[x]];
-        x = p[x];
-    }
-    return x;
-}
-
-static void uf_union(uint32_t *p, uint32_t a, uint32_t b)
-{
-    a = uf_find(p, a), b = uf_find(p, b);
-    if (a < b)
-        p[b] = a;
-    else if (b < a)
-        p[a] = b;
 }
 
 static int cmp_i64(const void *a, const void *b)

@@ -55,6 +55,26 @@ static void objects_pass(const uint32_t *label, const int64_t n[3], int pass, la
             }
 }
 
+static gs_err objects_alloc(layout_objects *o, int64_t n)
+{
+    memset(o, 0, sizeof *o);
+    o->n = n;
+    size_t m = (size_t)n + 1;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&o->c, m, 3 * sizeof *o->c, "object centres"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->size, m, sizeof *o->size, "object sizes"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->inner, m, 1, "object faces"), done);
+    GS_TRY(err, gs_alloc_array((void **)&o->radius, m, sizeof *o->radius, "object radii"), done);
+    memset(o->radius, 0, m * sizeof *o->radius);
+    memset(o->c, 0, m * 3 * sizeof *o->c);
+    memset(o->inner, 1, m);
+done:
+    if (err != GS_OK)
+        objects_free(o);
+    return err;
+}
+
+/* The objects of a mask, labelled alone (gs_measure_object_layout). */
 static gs_err objects_of(const uint8_t *mask, const int64_t n[3], layout_objects *o)
 {
     memset(o, 0, sizeof *o);
@@ -65,15 +85,7 @@ static gs_err objects_of(const uint8_t *mask, const int64_t n[3], layout_objects
     GS_TRY(err, gs_alloc_array((void **)&label, (size_t)cells, sizeof *label, "object labels"), done);
     GS_TRY(err, gs_measure_components3(mask, (int)n[0], (int)n[1], (int)n[2], NULL, label, &nc,
                                        &sz), done);
-    o->n = nc;
-    size_t m = (size_t)nc + 1;
-    GS_TRY(err, gs_alloc_array((void **)&o->c, m, 3 * sizeof *o->c, "object centres"), done);
-    GS_TRY(err, gs_alloc_array((void **)&o->size, m, sizeof *o->size, "object sizes"), done);
-    GS_TRY(err, gs_alloc_array((void **)&o->inner, m, 1, "object faces"), done);
-    GS_TRY(err, gs_alloc_array((void **)&o->radius, m, sizeof *o->radius, "object radii"), done);
-    memset(o->radius, 0, m * sizeof *o->radius);
-    memset(o->c, 0, m * 3 * sizeof *o->c);
-    memset(o->inner, 1, m);
+    GS_TRY(err, objects_alloc(o, nc), done);
     objects_pass(label, n, 0, o);
     for (uint32_t l = 0; l < nc; l++) {
         o->size[l] = (double)sz[l + 1];
@@ -87,6 +99,28 @@ done:
     if (err != GS_OK)
         objects_free(o);
     return err;
+}
+
+/* The same objects from components labelled elsewhere (c[1 .. nc], their
+ * sizes, coordinate sums, faces and radii: gs_measure_components_nested3's
+ * inner set): the same sums in the same order, so the same figures. */
+static gs_err objects_from(const gs_measure_component *c, uint32_t nc, const int64_t n[3],
+                           layout_objects *o)
+{
+    GS_CALL(objects_alloc(o, nc));
+    uint8_t faces = 0; /* the faces of the axes longer than one sample */
+    for (int a = 0; a < 3; a++)
+        if (n[a] > 1)
+            faces |= (uint8_t)(3u << (2 * a));
+    for (uint32_t l = 0; l < nc; l++) {
+        const gs_measure_component *k = &c[l + 1];
+        o->size[l] = (double)k->size;
+        o->inner[l] = !(k->faces & faces);
+        o->radius[l] = k->radius;
+        for (int a = 0; a < 3; a++)
+            o->c[3 * l + a] = k->sum[a] / o->size[l];
+    }
+    return GS_OK;
 }
 
 typedef struct by_x {
@@ -172,54 +206,83 @@ static void side_figures(const layout_objects *o, const uint8_t *measured, const
     f->fragment_share = f->objects ? (double)frag / (double)f->objects : 0;
 }
 
-gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
-                                const int64_t sn[3], double fused, gs_measure_objlayout *r)
+/* The figures of the objects oo of an output of on samples and os of its
+ * example. */
+static gs_err layout_figures(const layout_objects *oo, const layout_objects *os,
+                             const int64_t on[3], double fused, gs_measure_objlayout *r)
 {
-    memset(r, 0, sizeof *r);
-    layout_objects oo, os;
     double *no = NULL, *ns = NULL, *ng = NULL;
     uint8_t *guarded = NULL;
     int64_t ko = 0, ks = 0, kg = 0;
     gs_err err = GS_OK;
-    memset(&os, 0, sizeof os);
-    GS_CALL(objects_of(out, on, &oo));
-    GS_TRY(err, objects_of(src, sn, &os), done);
-    GS_TRY(err, nearest(&oo, oo.inner, &no, &ko), done);
-    GS_TRY(err, nearest(&os, os.inner, &ns, &ks), done);
+    GS_TRY(err, nearest(oo, oo->inner, &no, &ko), done);
+    GS_TRY(err, nearest(os, os->inner, &ns, &ks), done);
     double big = 0, rmax = 0, least = INFINITY;
-    for (int64_t i = 0; i < os.n; i++)
-        if (os.inner[i]) {
-            big = os.size[i] > big ? os.size[i] : big;
-            least = os.size[i] < least ? os.size[i] : least;
-            rmax = os.radius[i] > rmax ? os.radius[i] : rmax;
+    for (int64_t i = 0; i < os->n; i++)
+        if (os->inner[i]) {
+            big = os->size[i] > big ? os->size[i] : big;
+            least = os->size[i] < least ? os->size[i] : least;
+            rmax = os->radius[i] > rmax ? os->radius[i] : rmax;
         }
     double nn_min = ks ? ns[0] : 0;
     /* fragments: smaller than 3/4 of the example's smallest whole object
      * (analysis/field_discs.py's cut ratio; embark-5's discs 83-90 samples) */
     double small = isfinite(least) ? 0.75 * least : 0;
-    side_figures(&oo, oo.inner, no, ko, nn_min, big, fused, small, &r->out);
-    side_figures(&os, os.inner, ns, ks, nn_min, big, fused, small, &r->src);
+    side_figures(oo, oo->inner, no, ko, nn_min, big, fused, small, &r->out);
+    side_figures(os, os->inner, ns, ks, nn_min, big, fused, small, &r->src);
     GS_TRY(err, gs_measure_ks(no, (size_t)ko, ns, (size_t)ks, &r->nn_ks), done);
     /* guarded: the output's objects whose centre lies at least the example's
      * largest nn plus its largest object radius from every face */
     r->guard = (ks ? ns[ks - 1] : 0) + rmax;
-    GS_TRY(err, gs_alloc_array((void **)&guarded, (size_t)(oo.n ? oo.n : 1), 1, "guarded objects"),
+    GS_TRY(err, gs_alloc_array((void **)&guarded, (size_t)(oo->n ? oo->n : 1), 1, "guarded objects"),
            done);
-    for (int64_t i = 0; i < oo.n; i++) {
-        guarded[i] = oo.inner[i];
+    for (int64_t i = 0; i < oo->n; i++) {
+        guarded[i] = oo->inner[i];
         for (int a = 0; a < 3 && guarded[i]; a++)
-            guarded[i] = on[a] == 1 || (oo.c[3 * i + a] >= r->guard &&
-                                        (double)(on[a] - 1) - oo.c[3 * i + a] >= r->guard);
+            guarded[i] = on[a] == 1 || (oo->c[3 * i + a] >= r->guard &&
+                                        (double)(on[a] - 1) - oo->c[3 * i + a] >= r->guard);
     }
-    GS_TRY(err, nearest(&oo, guarded, &ng, &kg), done);
-    side_figures(&oo, guarded, ng, kg, nn_min, big, fused, small, &r->out_guarded);
+    GS_TRY(err, nearest(oo, guarded, &ng, &kg), done);
+    side_figures(oo, guarded, ng, kg, nn_min, big, fused, small, &r->out_guarded);
     GS_TRY(err, gs_measure_ks(ng, (size_t)kg, ns, (size_t)ks, &r->nn_ks_guarded), done);
 done:
-    objects_free(&oo);
-    objects_free(&os);
     gs_free(no);
     gs_free(ns);
     gs_free(ng);
     gs_free(guarded);
+    return err;
+}
+
+gs_err gs_measure_object_layout(const uint8_t *out, const int64_t on[3], const uint8_t *src,
+                                const int64_t sn[3], double fused, gs_measure_objlayout *r)
+{
+    memset(r, 0, sizeof *r);
+    layout_objects oo, os;
+    gs_err err = GS_OK;
+    memset(&os, 0, sizeof os);
+    GS_CALL(objects_of(out, on, &oo));
+    GS_TRY(err, objects_of(src, sn, &os), done);
+    err = layout_figures(&oo, &os, on, fused, r);
+done:
+    objects_free(&oo);
+    objects_free(&os);
+    return err;
+}
+
+gs_err gs_measure_object_layout_components(const gs_measure_component *out, uint32_t nout,
+                                           const int64_t on[3], const gs_measure_component *src,
+                                           uint32_t nsrc, const int64_t sn[3], double fused,
+                                           gs_measure_objlayout *r)
+{
+    memset(r, 0, sizeof *r);
+    layout_objects oo, os;
+    gs_err err = GS_OK;
+    memset(&os, 0, sizeof os);
+    GS_CALL(objects_from(out, nout, on, &oo));
+    GS_TRY(err, objects_from(src, nsrc, sn, &os), done);
+    err = layout_figures(&oo, &os, on, fused, r);
+done:
+    objects_free(&oo);
+    objects_free(&os);
     return err;
 }

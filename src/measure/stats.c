@@ -5,6 +5,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "unionfind.h"
 
 double gs_measure_l1(const double *a, const double *b, size_t n)
 {
@@ -161,6 +162,171 @@ void gs_measure_component_euler3(const uint32_t *label, int nx, int ny, int nz, 
                 int cube = sxy && sxz && syz && label[i + 1 + sy + sz];
                 euler[c] += 1 - (bx + by + bz) + (sxy + sxz + syz) - cube;
             }
+}
+
+/* Provisional label arrays: parents in the outer and the inner set, and
+ * the class of each label's samples. */
+typedef struct nest_labels {
+    uint32_t *po, *pi;
+    uint8_t *k;
+    size_t n, cap;
+} nest_labels;
+
+static gs_err nest_new(nest_labels *L, uint8_t k, uint32_t *l)
+{
+    if (L->n + 1 >= L->cap) {
+        size_t cap = L->cap ? 2 * L->cap : 1024;
+        void **arr[3] = {(void **)&L->po, (void **)&L->pi, (void **)&L->k};
+        const size_t size[3] = {sizeof *L->po, sizeof *L->pi, sizeof *L->k};
+        for (int a = 0; a < 3; a++) {
+            void *g = gs_realloc(*arr[a], cap * size[a]);
+            GS_CHECK(g, GS_ERR_MEM, "components: out of memory for %zu labels", cap);
+            *arr[a] = g;
+        }
+        L->cap = cap;
+    }
+    *l = (uint32_t)++L->n;
+    L->po[*l] = L->pi[*l] = *l;
+    L->k[*l] = k;
+    return GS_OK;
+}
+
+/* Labels -> component numbers in place (p[l] becomes the number of l's
+ * component, numbered in order of their lowest label), for the labels of
+ * class >= kmin; returns the count. */
+static uint32_t nest_number(uint32_t *p, const uint8_t *k, size_t n, uint8_t kmin)
+{
+    uint32_t c = 0;
+    for (size_t l = 1; l <= n; l++) {
+        if (k[l] < kmin)
+            continue;
+        uint32_t r = p[l]; /* r < l was numbered already */
+        p[l] = r == l ? ++c : p[r];
+    }
+    return c;
+}
+
+void gs_measure_nested_free(gs_measure_nested *r)
+{
+    gs_free(r->outer);
+    gs_free(r->inner);
+    memset(r, 0, sizeof *r);
+}
+
+gs_err gs_measure_components_nested3(const uint8_t *v, const int64_t n[3], const uint8_t cls[256],
+                                     int euler, gs_measure_nested *r)
+{
+    memset(r, 0, sizeof *r);
+    GS_CHECK(n[0] > 0 && n[1] > 0 && n[2] > 0, GS_ERR_ARG, "components: grid %lldx%lldx%lld",
+             (long long)n[0], (long long)n[1], (long long)n[2]);
+    const int64_t nx = n[0], ny = n[1], nz = n[2], sy = nx, sz = nx * ny, cells = sz * nz;
+    GS_CHECK(cells < (int64_t)UINT32_MAX, GS_ERR_ARG,
+             "components: grid of %lld samples is too large", (long long)cells);
+    uint32_t *lab = NULL;
+    double *ctr = NULL;
+    nest_labels L;
+    memset(&L, 0, sizeof L);
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&lab, (size_t)cells, sizeof *lab, "component labels"), done);
+    /* pass 1: a sample takes the label of a lower neighbour of its class
+     * (else a new one) and joins every lower neighbour's in the outer set,
+     * the inner one's in the inner set */
+    for (int64_t z = 0, i = 0; z < nz; z++)
+        for (int64_t y = 0; y < ny; y++)
+            for (int64_t x = 0; x < nx; x++, i++) {
+                uint8_t k = cls[v[i]];
+                lab[i] = 0;
+                if (!k)
+                    continue;
+                int64_t nb[3] = {x > 0 ? i - 1 : -1, y > 0 ? i - sy : -1, z > 0 ? i - sz : -1};
+                uint8_t kb[3];
+                uint32_t l = 0;
+                for (int a = 0; a < 3; a++) {
+                    kb[a] = nb[a] < 0 ? 0 : cls[v[nb[a]]];
+                    if (!l && kb[a] == k)
+                        l = lab[nb[a]];
+                }
+                if (!l)
+                    GS_TRY(err, nest_new(&L, k, &l), done);
+                lab[i] = l;
+                for (int a = 0; a < 3; a++) {
+                    if (!kb[a])
+                        continue;
+                    uint32_t m = lab[nb[a]];
+                    if (m == l)
+                        continue;
+                    uf_union(L.po, l, m);
+                    if (k == 2 && kb[a] == 2)
+                        uf_union(L.pi, l, m);
+                }
+            }
+    r->nouter = nest_number(L.po, L.k, L.n, 1);
+    r->ninner = nest_number(L.pi, L.k, L.n, 2);
+    GS_TRY(err, gs_alloc_array((void **)&r->outer, (size_t)r->nouter + 1, sizeof *r->outer,
+                               "outer components"), done);
+    GS_TRY(err, gs_alloc_array((void **)&r->inner, (size_t)r->ninner + 1, sizeof *r->inner,
+                               "inner components"), done);
+    memset(r->outer, 0, ((size_t)r->nouter + 1) * sizeof *r->outer);
+    memset(r->inner, 0, ((size_t)r->ninner + 1) * sizeof *r->inner);
+    /* pass 3: count (the Euler terms as gs_measure_component_euler3's, a
+     * sample of the outer set being a set cell there) */
+    for (int64_t z = 0, i = 0; z < nz; z++)
+        for (int64_t y = 0; y < ny; y++) {
+            uint8_t fyz = (uint8_t)((y == 0) << 2 | (y == ny - 1) << 3 | (z == 0) << 4 |
+                                    (z == nz - 1) << 5);
+            for (int64_t x = 0; x < nx; x++, i++) {
+                uint32_t l = lab[i];
+                if (!l)
+                    continue;
+                uint8_t f = fyz | (uint8_t)((x == 0) | (x == nx - 1) << 1);
+                gs_measure_component *o = &r->outer[L.po[l]];
+                o->size++;
+                o->faces |= f;
+                if (euler) {
+                    int bx = x + 1 < nx && lab[i + 1], by = y + 1 < ny && lab[i + sy],
+                        bz = z + 1 < nz && lab[i + sz];
+                    int sxy = bx && by && lab[i + 1 + sy], sxz = bx && bz && lab[i + 1 + sz],
+                        syz = by && bz && lab[i + sy + sz];
+                    int cube = sxy && sxz && syz && lab[i + 1 + sy + sz];
+                    o->euler += 1 - (bx + by + bz) + (sxy + sxz + syz) - cube;
+                }
+                if (L.k[l] == 2) {
+                    gs_measure_component *c = &r->inner[L.pi[l]];
+                    c->size++;
+                    c->faces |= f;
+                    c->sum[0] += (double)x, c->sum[1] += (double)y, c->sum[2] += (double)z;
+                }
+            }
+        }
+    /* pass 4: each core's largest distance from its centre (the sums
+     * divided as the layout divides them) */
+    GS_TRY(err, gs_alloc_array((void **)&ctr, (size_t)r->ninner + 1, 3 * sizeof *ctr,
+                               "core centres"), done);
+    for (uint32_t c = 1; c <= r->ninner; c++)
+        for (int a = 0; a < 3; a++)
+            ctr[3 * c + a] = r->inner[c].sum[a] / (double)r->inner[c].size;
+    for (int64_t z = 0, i = 0; z < nz; z++)
+        for (int64_t y = 0; y < ny; y++)
+            for (int64_t x = 0; x < nx; x++, i++) {
+                uint32_t l = lab[i];
+                if (!l || L.k[l] != 2)
+                    continue;
+                uint32_t c = L.pi[l];
+                const double *m = ctr + 3 * c;
+                double dx = (double)x - m[0], dy = (double)y - m[1], dz = (double)z - m[2];
+                double d = sqrt(dx * dx + dy * dy + dz * dz);
+                if (d > r->inner[c].radius)
+                    r->inner[c].radius = d;
+            }
+done:
+    gs_free(lab);
+    gs_free(ctr);
+    gs_free(L.po);
+    gs_free(L.pi);
+    gs_free(L.k);
+    if (err != GS_OK)
+        gs_measure_nested_free(r);
+    return err;
 }
 
 /* Along axis a of v (dims d), each sample becomes the sum of the w samples

@@ -655,6 +655,209 @@ static void lcg_bytes(uint8_t *a, size_t n, uint64_t *r)
     }
 }
 
+/* gs_measure_components_nested3 (one labelling of an outer set and the
+ * inner set within it) against labelling each set alone
+ * (gs_measure_components3, gs_measure_component_euler3, the faces and
+ * coordinate sums read off the labels), and
+ * gs_measure_object_layout_components on its inner components against
+ * gs_measure_object_layout on the inner mask, bit for bit: blurred noise
+ * (blobs, most touching others), raw noise (the most provisional labels),
+ * grids with an axis of one or two samples, classes from random thresholds
+ * (an empty inner set, an empty outer set). */
+static void nested_reference(const uint8_t *v, const int64_t n[3], const uint8_t cls[256],
+                             int want, gs_measure_component **ref, uint32_t *nref, uint8_t **mask)
+{
+    int64_t cells = n[0] * n[1] * n[2];
+    uint8_t *m = malloc((size_t)cells);
+    uint32_t *lab = malloc((size_t)cells * sizeof *lab), nc = 0;
+    uint64_t *sz = NULL;
+    assert_non_null(m);
+    assert_non_null(lab);
+    for (int64_t i = 0; i < cells; i++)
+        m[i] = cls[v[i]] >= want;
+    assert_int_equal(gs_measure_components3(m, (int)n[0], (int)n[1], (int)n[2], NULL, lab, &nc, &sz),
+                     GS_OK);
+    gs_measure_component *c = calloc((size_t)nc + 1, sizeof *c);
+    int64_t *eu = calloc((size_t)nc + 1, sizeof *eu);
+    assert_non_null(c);
+    assert_non_null(eu);
+    gs_measure_component_euler3(lab, (int)n[0], (int)n[1], (int)n[2], nc, eu);
+    for (int64_t z = 0, i = 0; z < n[2]; z++)
+        for (int64_t y = 0; y < n[1]; y++)
+            for (int64_t x = 0; x < n[0]; x++, i++) {
+                if (!lab[i])
+                    continue;
+                gs_measure_component *k = &c[lab[i]];
+                int64_t p[3] = {x, y, z};
+                for (int a = 0; a < 3; a++)
+                    k->faces |= (uint8_t)((p[a] == 0) << (2 * a) | (p[a] == n[a] - 1) << (2 * a + 1));
+                if (want == 2)
+                    k->sum[0] += (double)x, k->sum[1] += (double)y, k->sum[2] += (double)z;
+            }
+    for (uint32_t l = 1; l <= nc; l++) {
+        c[l].size = sz[l];
+        c[l].euler = want == 1 ? eu[l] : 0;
+    }
+    free(lab);
+    gs_free(sz);
+    free(eu);
+    *ref = c, *nref = nc, *mask = m;
+}
+
+static void nested_compare(const gs_measure_component *a, uint32_t na,
+                           const gs_measure_component *b, uint32_t nb)
+{
+    assert_int_equal(na, nb);
+    for (uint32_t l = 1; l <= na; l++) {
+        assert_int_equal(a[l].size, b[l].size);
+        assert_int_equal(a[l].faces, b[l].faces);
+        assert_int_equal(a[l].euler, b[l].euler);
+        for (int k = 0; k < 3; k++)
+            assert_true(a[l].sum[k] == b[l].sum[k]);
+    }
+}
+
+static void test_components_nested(void **state)
+{
+    (void)state;
+    const int64_t dims[][3] = {{23, 19, 17}, {31, 29, 1}, {40, 1, 9}, {1, 1, 30}, {2, 26, 21},
+                               {24, 24, 24}};
+    uint64_t r = 1919;
+    int cases = 0, inner_objects = 0;
+    for (size_t d = 0; d < sizeof dims / sizeof dims[0]; d++)
+        for (int kind = 0; kind < 2; kind++) {
+            const int64_t *n = dims[d];
+            int64_t cells = n[0] * n[1] * n[2];
+            uint8_t *v = malloc((size_t)cells), *w = malloc((size_t)cells);
+            assert_non_null(v);
+            assert_non_null(w);
+            lcg_bytes(v, (size_t)cells, &r);
+            for (int pass = 0; kind == 0 && pass < 3; pass++) { /* blur: blobs */
+                for (int64_t z = 0, i = 0; z < n[2]; z++)
+                    for (int64_t y = 0; y < n[1]; y++)
+                        for (int64_t x = 0; x < n[0]; x++, i++) {
+                            int s = 0, c = 0;
+                            for (int dz = -1; dz <= 1; dz++)
+                                for (int dy = -1; dy <= 1; dy++)
+                                    for (int dx = -1; dx <= 1; dx++) {
+                                        int64_t p[3] = {x + dx, y + dy, z + dz};
+                                        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= n[0] ||
+                                            p[1] >= n[1] || p[2] >= n[2])
+                                            continue;
+                                        s += v[p[0] + n[0] * (p[1] + n[1] * p[2])], c++;
+                                    }
+                            w[i] = (uint8_t)(s / c);
+                        }
+                memcpy(v, w, (size_t)cells);
+            }
+            uint8_t lo = 255, hi = 0;
+            for (int64_t i = 0; i < cells; i++)
+                lo = v[i] < lo ? v[i] : lo, hi = v[i] > hi ? v[i] : hi;
+            for (int t = 0; t < 4; t++) {
+                /* thresholds within the values' range (t = 3: no inner set) */
+                uint8_t b[2];
+                lcg_bytes(b, 2, &r);
+                int t2 = lo + b[0] % (hi - lo + 1), t1 = lo + b[1] % (t2 - lo + 1);
+                if (t == 3)
+                    t1 = -1;
+                uint8_t cls[256];
+                for (int i = 0; i < 256; i++)
+                    cls[i] = i <= t1 ? 2 : i <= t2 ? 1 : 0;
+                gs_measure_nested k;
+                assert_int_equal(gs_measure_components_nested3(v, n, cls, 1, &k), GS_OK);
+                gs_measure_component *ro, *ri;
+                uint32_t nro, nri;
+                uint8_t *mo, *mi;
+                nested_reference(v, n, cls, 1, &ro, &nro, &mo);
+                nested_reference(v, n, cls, 2, &ri, &nri, &mi);
+                nested_compare(k.outer, k.nouter, ro, nro);
+                nested_compare(k.inner, k.ninner, ri, nri);
+                /* the layout of these inner components against the previous
+                 * case's (or their own) */
+                gs_measure_objlayout la, lb;
+                assert_int_equal(gs_measure_object_layout_components(k.inner, k.ninner, n, k.inner,
+                                                                     k.ninner, n, 1.5, &la), GS_OK);
+                assert_int_equal(gs_measure_object_layout(mi, n, mi, n, 1.5, &lb), GS_OK);
+                assert_memory_equal(&la, &lb, sizeof la);
+                inner_objects += (int)la.out.objects;
+                /* without the Euler terms: the same but euler 0 */
+                gs_measure_nested k0;
+                assert_int_equal(gs_measure_components_nested3(v, n, cls, 0, &k0), GS_OK);
+                for (uint32_t l = 1; l <= nro; l++)
+                    ro[l].euler = 0;
+                nested_compare(k0.outer, k0.nouter, ro, nro);
+                gs_measure_nested_free(&k0);
+                gs_measure_nested_free(&k);
+                free(ro);
+                free(ri);
+                free(mo);
+                free(mi);
+                cases++;
+            }
+            free(v);
+            free(w);
+        }
+    printf("nested components: %d cases, %d inner objects measured\n", cases, inner_objects);
+    assert_true(inner_objects > 20);
+}
+
+/* The layout of an output's cores against its example's from one
+ * labelling (gs_measure_object_layout_components) equals the layout of the
+ * two masks (gs_measure_object_layout), for two different grids. */
+static void test_layout_components(void **state)
+{
+    (void)state;
+    const int64_t on[3] = {30, 26, 22}, sn[3] = {20, 18, 16};
+    uint64_t r = 77;
+    uint8_t *g[2], *m[2];
+    gs_measure_nested k[2];
+    const int64_t *n[2] = {on, sn};
+    uint8_t cls[256];
+    for (int i = 0; i < 256; i++)
+        cls[i] = i < 90 ? 2 : i < 130;
+    for (int s = 0; s < 2; s++) {
+        int64_t cells = n[s][0] * n[s][1] * n[s][2];
+        g[s] = malloc((size_t)cells), m[s] = malloc((size_t)cells);
+        uint8_t *w = malloc((size_t)cells);
+        assert_non_null(g[s]);
+        assert_non_null(m[s]);
+        assert_non_null(w);
+        lcg_bytes(g[s], (size_t)cells, &r);
+        for (int pass = 0; pass < 2; pass++) {
+            for (int64_t i = 0; i < cells; i++) {
+                int64_t x = i % n[s][0], sum = g[s][i], c = 1;
+                if (x > 0)
+                    sum += g[s][i - 1], c++;
+                if (x + 1 < n[s][0])
+                    sum += g[s][i + 1], c++;
+                if (i >= n[s][0])
+                    sum += g[s][i - n[s][0]], c++;
+                if (i + n[s][0] * n[s][1] < cells)
+                    sum += g[s][i + n[s][0] * n[s][1]], c++;
+                w[i] = (uint8_t)(sum / c);
+            }
+            memcpy(g[s], w, (size_t)cells);
+        }
+        free(w);
+        for (int64_t i = 0; i < cells; i++)
+            m[s][i] = cls[g[s][i]] == 2;
+        assert_int_equal(gs_measure_components_nested3(g[s], n[s], cls, 1, &k[s]), GS_OK);
+    }
+    gs_measure_objlayout a, b;
+    assert_int_equal(gs_measure_object_layout_components(k[0].inner, k[0].ninner, on, k[1].inner,
+                                                         k[1].ninner, sn, 1.5, &a), GS_OK);
+    assert_int_equal(gs_measure_object_layout(m[0], on, m[1], sn, 1.5, &b), GS_OK);
+    printf("layout from components: %lld/%lld objects, nn KS %.4f\n", (long long)a.out.objects,
+           (long long)a.src.objects, a.nn_ks);
+    assert_true(a.out.objects > 3 && a.src.objects > 3);
+    assert_memory_equal(&a, &b, sizeof a);
+    for (int s = 0; s < 2; s++) {
+        gs_measure_nested_free(&k[s]);
+        free(g[s]);
+        free(m[s]);
+    }
+}
+
 /* Copy measure on a periodic source: a face-centred pattern (periods
  * (8,8,0), (8,0,8), (0,8,8): every window repeats, none is unique in the
  * plain sense) tiled into the output is one copied region larger than the
@@ -1209,6 +1412,8 @@ int main(void)
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_copy_reference),
+        cmocka_unit_test(test_components_nested),
+        cmocka_unit_test(test_layout_components),
         cmocka_unit_test(test_outline),
         cmocka_unit_test(test_repeats),
         cmocka_unit_test(test_heights),
