@@ -421,8 +421,9 @@ gs_err gs_measure_grid_crossing_lattice(const uint16_t *labels, const int dims[3
  * of cell^3 window positions (a grid from the origin) holding a unique
  * window: the share of them whose windows occur in out at least once.
  * A periodic source (periods below) is measured modulo its periods:
- * uniqueness, offsets and completeness. k in 2..8. Memory: 4 bytes per output position (union-find),
- * per source position 2-4 hash slots of 24 bytes, 4 bytes (its slot's first occurrence) and 2
+ * uniqueness, offsets and completeness. k in 2..8. Memory: two planes of output positions (a
+ * region's size is counted when its last plane is done: 12 bytes per position of a plane), per
+ * source position 2-4 hash slots of 24 bytes, 4 bytes (its slot's first occurrence) and 2
  * bytes; cost O(k^2) per position (up to four window comparisons for a repeated window; an
  * output window found one step on from a lower neighbour's source position needs no table
  * lookup, and one absent from the source mostly none: a bit filter). */

@@ -5,7 +5,8 @@
  * uint64, the k^2 rows are combined with fixed random odd multipliers and a
  * final mix, and every hit is verified byte by byte, so the measure never
  * mistakes a collision for a copy. Regions are joined with a union-find over
- * the output positions (parent array, path halving). A window the source
+ * two planes of output positions (path halving), each region's size counted
+ * when it ends (the reference keeps every plane: the same figures). A window the source
  * repeats continues a lower neighbour's offset when the source agrees there
  * (checked byte by byte), so a copy of a repetitive source is seen whole.
  * Speed (#19: the table is larger than the caches, its lookups were most of
@@ -253,6 +254,60 @@ static gs_err find_periods(const win_entry *tab, size_t cap, const uint8_t *src,
     return GS_OK;
 }
 
+/* Copied regions counted as they end (positions join only lower neighbours,
+ * so a region with no position in the plane just done has ended): the
+ * union-find holds two planes of positions, each root the region's size. */
+typedef struct region_sizes {
+    int64_t regions, largest, in_large, large;
+} region_sizes;
+
+static void region_union(uint32_t *p, uint64_t *size, uint32_t a, uint32_t b)
+{
+    a = uf_find(p, a), b = uf_find(p, b);
+    if (a == b)
+        return;
+    if (b < a) {
+        uint32_t t = a;
+        a = b, b = t;
+    }
+    p[b] = a;
+    size[a] += size[b];
+}
+
+static void region_end(region_sizes *rs, uint64_t size)
+{
+    rs->regions++;
+    if ((int64_t)size > rs->largest)
+        rs->largest = (int64_t)size;
+    if ((int64_t)size > rs->large)
+        rs->in_large += (int64_t)size;
+}
+
+/* A plane done: its positions (slots [cb, cb + n); UINT32_MAX: none) take
+ * roots among themselves (a region's root below moves up to its first
+ * position here) and point at them directly, so the plane below (slots
+ * [pb, pb + n); UINT32_MAX: none) can be overwritten; the regions still
+ * rooted there have ended. */
+static void planes_done(uint32_t *p, uint64_t *size, uint32_t cb, uint32_t pb, uint32_t n,
+                        region_sizes *rs)
+{
+    for (uint32_t i = cb; cb != UINT32_MAX && i < cb + n; i++) {
+        if (p[i] == UINT32_MAX)
+            continue;
+        uint32_t r = uf_find(p, i);
+        if (pb != UINT32_MAX && r >= pb && r < pb + n) {
+            p[r] = i, p[i] = i;
+            size[i] = size[r];
+        }
+    }
+    for (uint32_t i = cb; cb != UINT32_MAX && i < cb + n; i++)
+        if (p[i] != UINT32_MAX)
+            p[i] = uf_find(p, i);
+    for (uint32_t i = pb; pb != UINT32_MAX && i < pb + n; i++)
+        if (p[i] == i)
+            region_end(rs, size[i]);
+}
+
 /* fast: an output window found one step on from a lower neighbour's source
  * position takes that position's entry, and a filter skips most absent
  * windows; 0: every output window is looked up in the table (the reference) */
@@ -284,7 +339,8 @@ static gs_err copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
     while (cap < 2 * (size_t)ns)
         cap <<= 1;
     win_entry *tab = NULL;
-    uint32_t *parent = NULL, *sizes = NULL;
+    uint32_t *parent = NULL; /* union-find over the two planes of positions in flight */
+    uint64_t *rsize = NULL;  /* positions of the region at each root */
     int64_t *opos = NULL; /* matched source position of the two planes in flight */
     int64_t *fpos = NULL; /* and a source position holding the same window (a prediction) */
     uint32_t *first = NULL; /* per source position: its window's entry (first occurrence), or none */
@@ -390,19 +446,28 @@ static gs_err copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                     nred += reduce(&P, (int64_t[3]){x, y, z}) == x + sp[0] * (y + sp[1] * z);
     }
     m->source_unique_share = (double)nuniq / (double)nred;
-    GS_TRY(err, gs_alloc_array((void **)&parent, (size_t)no, sizeof *parent, "copy measure: regions"), done);
     size_t plane = (size_t)(op[0] * op[1]);
+    /* the reference keeps every plane's positions (a region's size counted
+     * at the end), the fast one two planes in flight */
+    size_t slots = fast ? 2 * plane : (size_t)no;
+    GS_TRY(err, gs_alloc_array((void **)&parent, slots, sizeof *parent, "copy measure: regions"), done);
+    GS_TRY(err, gs_alloc_array((void **)&rsize, slots, sizeof *rsize, "copy measure: region sizes"), done);
+    region_sizes rs = {0, 0, 0, large};
     GS_TRY(err, gs_alloc_array((void **)&opos, 2 * plane, sizeof *opos, "copy measure: planes"), done);
     GS_TRY(err, gs_alloc_array((void **)&fpos, 2 * plane, sizeof *fpos, "copy measure: planes"), done);
     int64_t matched = 0;
     for (int64_t z = 0; z < op[2]; z++) {
         int64_t *cur = opos + (z & 1) * plane, *prev = opos + ((z + 1) & 1) * plane;
         int64_t *fcur = fpos + (z & 1) * plane, *fprev = fpos + ((z + 1) & 1) * plane;
+        /* this plane's positions are slots [cb, cb + plane), the plane
+         * below's [pb, pb + plane) */
+        const uint32_t cb = (uint32_t)((fast ? z & 1 : z) * (int64_t)plane),
+                       pb = (uint32_t)((fast ? (z + 1) & 1 : z - 1) * (int64_t)plane);
         for (int64_t y = 0; y < op[1]; y++)
             for (int64_t x = 0; x < op[0]; x++) {
                 int64_t base = x + on[0] * (y + on[1] * z), pi = x + op[0] * y;
-                uint32_t id = (uint32_t)(pi + (int64_t)plane * z);
-                parent[id] = id;
+                uint32_t id = cb + (uint32_t)pi;
+                parent[id] = UINT32_MAX; /* unmatched positions never join */
                 cur[pi] = -1;
                 int flat, via = 0;
                 uint64_t h = win_hash(out, on, base, k, mul, &flat);
@@ -469,59 +534,48 @@ static gs_err copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
                 int64_t s = cur[pi];
                 if (s < 0)
                     continue;
+                parent[id] = id, rsize[id] = 1;
+                const uint32_t below = pb + (uint32_t)pi;
                 if (via & 1)
-                    uf_union(parent, id, id - 1);
+                    region_union(parent, rsize, id, id - 1);
                 if (via & 2)
-                    uf_union(parent, id, id - (uint32_t)op[0]);
+                    region_union(parent, rsize, id, id - (uint32_t)op[0]);
                 if (via & 4)
-                    uf_union(parent, id, id - (uint32_t)plane);
+                    region_union(parent, rsize, id, below);
                 /* same offset as a lower neighbour (modulo the periods): the
                  * same piece */
                 if (!P.n) {
                     /* (not across a source row or plane: s - 1 at x = 0 is
                      * the previous row's end, another offset) */
                     if (x > 0 && s % sp[0] > 0 && cur[pi - 1] == s - 1)
-                        uf_union(parent, id, id - 1);
+                        region_union(parent, rsize, id, id - 1);
                     if (y > 0 && s / sp[0] % sp[1] > 0 && cur[pi - op[0]] == s - sp[0])
-                        uf_union(parent, id, id - (uint32_t)op[0]);
-                    if (z > 0 && prev[pi] == s - sp[0] * sp[1])
-                        uf_union(parent, id, id - (uint32_t)plane);
+                        region_union(parent, rsize, id, id - (uint32_t)op[0]);
+                    if (z > 0 && prev[pi] >= 0 && prev[pi] == s - sp[0] * sp[1])
+                        region_union(parent, rsize, id, below);
                 } else {
                     int64_t c[3] = {s % sp[0], s / sp[0] % sp[1], s / (sp[0] * sp[1])};
                     int64_t cx[3] = {c[0] - 1, c[1], c[2]}, cy[3] = {c[0], c[1] - 1, c[2]},
                             cz[3] = {c[0], c[1], c[2] - 1};
                     if (x > 0 && cur[pi - 1] >= 0 && cur[pi - 1] == reduce(&P, cx))
-                        uf_union(parent, id, id - 1);
+                        region_union(parent, rsize, id, id - 1);
                     if (y > 0 && cur[pi - op[0]] >= 0 && cur[pi - op[0]] == reduce(&P, cy))
-                        uf_union(parent, id, id - (uint32_t)op[0]);
+                        region_union(parent, rsize, id, id - (uint32_t)op[0]);
                     if (z > 0 && prev[pi] >= 0 && prev[pi] == reduce(&P, cz))
-                        uf_union(parent, id, id - (uint32_t)plane);
+                        region_union(parent, rsize, id, below);
                 }
             }
-        /* unmatched positions never join: mark them so they are not counted */
-        for (int64_t i = 0; i < (int64_t)plane; i++)
-            if (cur[i] < 0)
-                parent[i + (int64_t)plane * z] = UINT32_MAX;
+        if (fast)
+            planes_done(parent, rsize, cb, z > 0 ? pb : UINT32_MAX, (uint32_t)plane, &rs);
     }
+    /* the last plane's regions end there (the reference: every region) */
+    planes_done(parent, rsize, UINT32_MAX,
+                fast ? (uint32_t)(((op[2] - 1) & 1) * plane) : 0, fast ? (uint32_t)plane : (uint32_t)no,
+                &rs);
     m->matched_share = no ? (double)matched / (double)no : 0;
-    /* region sizes at their roots (reuse the table as no longer needed) */
-    gs_free(tab);
-    tab = NULL;
-    GS_TRY(err, gs_alloc_array((void **)&sizes, (size_t)no, sizeof *sizes, "copy measure: sizes"), done);
-    memset(sizes, 0, (size_t)no * sizeof *sizes);
-    for (int64_t i = 0; i < no; i++)
-        if (parent[i] != UINT32_MAX)
-            sizes[uf_find(parent, (uint32_t)i)]++;
-    int64_t in_large = 0;
-    for (int64_t i = 0; i < no; i++)
-        if (sizes[i]) {
-            m->regions++;
-            if ((int64_t)sizes[i] > m->largest_region)
-                m->largest_region = sizes[i];
-            if ((int64_t)sizes[i] > large)
-                in_large += sizes[i];
-        }
-    m->large_share = no ? (double)in_large / (double)no : 0;
+    m->regions = rs.regions;
+    m->largest_region = rs.largest;
+    m->large_share = no ? (double)rs.in_large / (double)no : 0;
     m->largest_region_of_source = (double)m->largest_region / (double)ns;
     /* completeness over source cells holding a unique window */
     int64_t cells = 0, hit = 0;
@@ -543,7 +597,7 @@ static gs_err copy3(const uint8_t *out, const int64_t on[3], const uint8_t *src,
 done:
     gs_free(tab);
     gs_free(parent);
-    gs_free(sizes);
+    gs_free(rsize);
     gs_free(opos);
     gs_free(used);
     gs_free(uniq);

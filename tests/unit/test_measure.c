@@ -1016,6 +1016,37 @@ static void test_copy_periodic(void **state)
     free(out);
 }
 
+/* A copied window right above an unmatched one whose source position is
+ * the last of the source's first plane (its offset one plane down would be
+ * -1, the value of an unmatched neighbour): it must not join that neighbour
+ * (main before field30 read the union-find outside its array there). */
+static void test_copy_below_unmatched(void **state)
+{
+    (void)state;
+    enum { S = 12, O = 6, K = 3 };
+    uint8_t *src = malloc(S * S * S), out[O * O * O];
+    assert_non_null(src);
+    uint64_t r = 5;
+    lcg_bytes(src, S * S * S, &r);
+    for (int i = 0; i < S * S * S; i++)
+        src[i] %= 200;
+    memset(out, 255, sizeof out); /* never in src: no window holding one matches */
+    for (int z = 0; z < K; z++)
+        for (int y = 0; y < K; y++)
+            for (int x = 0; x < K; x++)
+                out[x + O * (y + O * (z + 1))] = src[S - K + x + S * (S - K + y + S * z)];
+    const int64_t sn[3] = {S, S, S}, on[3] = {O, O, O};
+    for (int ref = 0; ref < 2; ref++) {
+        gs_measure_copy m;
+        assert_int_equal((ref ? gs_measure_copy3_reference : gs_measure_copy3)(out, on, src, sn, K,
+                                                                              8, 2, &m), GS_OK);
+        assert_int_equal(m.regions, 1);
+        assert_int_equal(m.largest_region, 1);
+        assert_true(m.matched_share == 1.0 / 64);
+    }
+    free(src);
+}
+
 /* Copy measure on a repetitive source that is not periodic (grid.ini's
  * kind): a random 8^3 cell repeated, with a few samples changed, so most
  * windows occur several times and only those around the changes are unique.
@@ -1412,6 +1443,7 @@ int main(void)
         cmocka_unit_test(test_copy_periodic),
         cmocka_unit_test(test_copy_repetitive),
         cmocka_unit_test(test_copy_reference),
+        cmocka_unit_test(test_copy_below_unmatched),
         cmocka_unit_test(test_components_nested),
         cmocka_unit_test(test_layout_components),
         cmocka_unit_test(test_outline),
