@@ -170,68 +170,34 @@ static gs_err box_layer_dist(const model_engine *e, const gs_model_box *b, int o
  * box cells to the ground layer (z = 0) or to a non-empty cell next to the
  * box (the solver's box_supported, counted). Without the repair's empty
  * labels (an example with floating structure), 0. */
+static int lattice_solid(const void *ctx, int x, int y, int z)
+{
+    const model_engine *e = ctx;
+    return !e->repair_empty[e->lat.labels[gs_model_lattice_index(&e->lat, x, y, z)]];
+}
+
 static gs_err box_floating(const model_engine *e, const gs_model_box *b, int old, size_t *nf)
 {
     const uint8_t *empty = e->repair_empty;
-    const gs_model_lattice *l = &e->lat;
     *nf = 0;
     if (!empty)
         return GS_OK;
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
     const size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
     uint8_t *st = NULL;
-    int32_t *queue = NULL;
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&st, n ? n : 1, 1, "keep test support"), done);
-    GS_TRY(err, gs_alloc_array((void **)&queue, n ? n : 1, sizeof *queue, "keep test support"),
-           done);
-    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    size_t head = 0, tail = 0, solid = 0, k = 0;
+    GS_CALL(gs_alloc_array((void **)&st, n ? n : 1, 1, "keep test support"));
+    size_t solid = 0, k = 0;
     for (int z = 0; z < rz; z++)
         for (int y = 0; y < ry; y++)
             for (int x = 0; x < rx; x++, k++) {
                 st[k] = !empty[box_label(e, b, old, k, b->x0 + x, b->y0 + y, b->z0 + z)];
-                if (!st[k])
-                    continue;
-                solid++;
-                int grounded = b->z0 + z == 0;
-                for (int d = 0; d < 6 && !grounded; d++) {
-                    int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
-                    if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz)
-                        continue;
-                    int gx = b->x0 + px, gy = b->y0 + py, gz = b->z0 + pz;
-                    if (e->params.periodic[0])
-                        gx = (gx % l->nx + l->nx) % l->nx;
-                    if (e->params.periodic[1])
-                        gy = (gy % l->ny + l->ny) % l->ny;
-                    if (gx < 0 || gy < 0 || gz < 0 || gx >= l->nx || gy >= l->ny || gz >= l->nz)
-                        continue;
-                    grounded = !empty[l->labels[gs_model_lattice_index(l, gx, gy, gz)]];
-                }
-                if (grounded) {
-                    st[k] = 2;
-                    queue[tail++] = (int32_t)k;
-                }
+                solid += st[k];
             }
-    while (head < tail) {
-        int32_t u = queue[head++];
-        int x = u % rx, y = (u / rx) % ry, z = u / (rx * ry);
-        for (int d = 0; d < 6; d++) {
-            int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
-            if (px < 0 || py < 0 || pz < 0 || px >= rx || py >= ry || pz >= rz)
-                continue;
-            int32_t v = (int32_t)(px + rx * (py + ry * pz));
-            if (st[v] == 1) {
-                st[v] = 2;
-                queue[tail++] = v;
-            }
-        }
-    }
-    *nf = solid - tail;
-done:
+    size_t reached = gs_model_box_support(st, b, &e->lat, e->params.periodic, lattice_solid, e);
     gs_free(st);
-    gs_free(queue);
-    return err;
+    GS_CHECK(reached != SIZE_MAX, GS_ERR_MEM, "keep test support: %zu cells", n);
+    *nf = solid - reached;
+    return GS_OK;
 }
 
 /* windows: the share of the non-empty 3x3x3 windows meeting the box found in

@@ -240,4 +240,16 @@ gs_err gs_model_resem_choose_at(struct gs_model_solver *s, const gs_model_lattic
                                 const gs_model_box *b, const gs_model_params *p,
                                 const uint64_t *dom, int32_t c, gs_rng *rng, int *label);
 
+/* Support inside a box: st holds the box's cells (x fastest), 1 non-empty, 0
+ * empty. Every non-empty cell with a 6-connected path of non-empty box cells
+ * to the ground layer (global z = 0) or to a cell next to the box for which
+ * solid_at(ctx, x, y, z) is non-zero (lattice coordinates, x / y wrapped where
+ * periodic) becomes 2. Returns how many became 2 (cells marked 1 stay 1:
+ * floating), SIZE_MAX without memory. The solver's acceptance test and the
+ * sweeps' keep test share it. */
+size_t gs_model_box_support(uint8_t *st, const gs_model_box *b, const gs_model_lattice *lat,
+                            const int periodic[3],
+                            int (*solid_at)(const void *ctx, int x, int y, int z),
+                            const void *ctx);
+
 #endif

@@ -1895,6 +1895,75 @@ done:
     return GS_OK;
 }
 
+size_t gs_model_box_support(uint8_t *st, const gs_model_box *b, const gs_model_lattice *lat,
+                            const int periodic[3],
+                            int (*solid_at)(const void *ctx, int x, int y, int z),
+                            const void *ctx)
+{
+    const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
+    const size_t n = (size_t)rx * (size_t)ry * (size_t)rz;
+    int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
+    if (!queue)
+        return SIZE_MAX;
+    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    size_t head = 0, tail = 0, k = 0;
+    for (int z = 0; z < rz; z++)
+        for (int y = 0; y < ry; y++)
+            for (int x = 0; x < rx; x++, k++) {
+                if (!st[k])
+                    continue;
+                int grounded = b->z0 + z == 0;
+                for (int d = 0; d < 6 && !grounded; d++) {
+                    int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+                    if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz)
+                        continue;
+                    int gx = b->x0 + px, gy = b->y0 + py, gz = b->z0 + pz;
+                    if (periodic[0])
+                        gx = (gx % lat->nx + lat->nx) % lat->nx;
+                    if (periodic[1])
+                        gy = (gy % lat->ny + lat->ny) % lat->ny;
+                    if (gx < 0 || gy < 0 || gz < 0 || gx >= lat->nx || gy >= lat->ny ||
+                        gz >= lat->nz)
+                        continue;
+                    grounded = solid_at(ctx, gx, gy, gz);
+                }
+                if (grounded) {
+                    st[k] = 2;
+                    queue[tail++] = (int32_t)k;
+                }
+            }
+    while (head < tail) {
+        int32_t u = queue[head++];
+        int x = u % rx, y = (u / rx) % ry, z = u / (rx * ry);
+        for (int d = 0; d < 6; d++) {
+            int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
+            if (px < 0 || py < 0 || pz < 0 || px >= rx || py >= ry || pz >= rz)
+                continue;
+            int32_t v = (int32_t)(px + rx * (py + ry * pz));
+            if (st[v] == 1) {
+                st[v] = 2;
+                queue[tail++] = v;
+            }
+        }
+    }
+    gs_free(queue);
+    return tail;
+}
+
+typedef struct support_ctx {
+    const gs_model_lattice *lat;
+    const overlay *ov;
+    const uint8_t *empty;
+    int L;
+} support_ctx;
+
+static int overlay_solid(const void *ctx, int x, int y, int z)
+{
+    const support_ctx *c = ctx;
+    int m = overlay_label(c->lat, c->ov, x, y, z);
+    return m < c->L && !c->empty[m];
+}
+
 /* 1 when every non-empty cell of the solved box reaches, through 6-connected
  * non-empty box cells, the ground layer (global z = 0) or a non-empty cell
  * next to the box (outside it; taken as supported): no floating structure
@@ -1904,60 +1973,18 @@ static int box_supported(struct gs_model_solver *s, const gs_model_lattice *lat,
 {
     const int rx = b->x1 - b->x0, ry = b->y1 - b->y0, rz = b->z1 - b->z0;
     const size_t n = (size_t)rx * (size_t)ry * (size_t)rz, W = (size_t)s->W;
-    uint8_t *seen = gs_calloc(n ? n : 1, 1);
-    int32_t *queue = gs_malloc((n ? n : 1) * sizeof *queue);
-    if (!seen || !queue) {
-        gs_free(seen);
-        gs_free(queue);
+    uint8_t *st = gs_malloc(n ? n : 1);
+    if (!st)
         return -1;
+    size_t solid = 0;
+    for (size_t c = 0; c < n; c++) {
+        st[c] = !empty[first_label(s->dom + c * W)];
+        solid += st[c];
     }
-    static const int st[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    size_t head = 0, tail = 0, solid = 0;
-    int32_t c = 0;
-    for (int z = 0; z < rz; z++)
-        for (int y = 0; y < ry; y++)
-            for (int x = 0; x < rx; x++, c++) {
-                if (empty[first_label(s->dom + (size_t)c * W)])
-                    continue;
-                solid++;
-                int grounded = b->z0 + z == 0;
-                for (int d = 0; d < 6 && !grounded; d++) {
-                    int px = x + st[d][0], py = y + st[d][1], pz = z + st[d][2];
-                    if (px >= 0 && py >= 0 && pz >= 0 && px < rx && py < ry && pz < rz)
-                        continue;
-                    int gx = b->x0 + px, gy = b->y0 + py, gz = b->z0 + pz;
-                    if (s->periodic[0])
-                        gx = (gx % lat->nx + lat->nx) % lat->nx;
-                    if (s->periodic[1])
-                        gy = (gy % lat->ny + lat->ny) % lat->ny;
-                    if (gx < 0 || gy < 0 || gz < 0 || gx >= lat->nx || gy >= lat->ny ||
-                        gz >= lat->nz)
-                        continue;
-                    int m = overlay_label(lat, ov, gx, gy, gz);
-                    grounded = m < s->L && !empty[m];
-                }
-                if (grounded) {
-                    seen[c] = 1;
-                    queue[tail++] = c;
-                }
-            }
-    while (head < tail) {
-        int32_t u = queue[head++];
-        int x = u % rx, y = (u / rx) % ry, z = u / (rx * ry);
-        for (int d = 0; d < 6; d++) {
-            int px = x + st[d][0], py = y + st[d][1], pz = z + st[d][2];
-            if (px < 0 || py < 0 || pz < 0 || px >= rx || py >= ry || pz >= rz)
-                continue;
-            int32_t v = (int32_t)(px + rx * (py + ry * pz));
-            if (!seen[v] && !empty[first_label(s->dom + (size_t)v * W)]) {
-                seen[v] = 1;
-                queue[tail++] = v;
-            }
-        }
-    }
-    gs_free(seen);
-    gs_free(queue);
-    return tail == solid;
+    const support_ctx ctx = {lat, ov, empty, s->L};
+    size_t reached = gs_model_box_support(st, b, lat, s->periodic, overlay_solid, &ctx);
+    gs_free(st);
+    return reached == SIZE_MAX ? -1 : reached == solid;
 }
 
 /* st (x fastest) 1 = non-empty, 0 = empty: every non-empty cell with a
