@@ -1309,6 +1309,14 @@ static void smooth_relief(uint64_t seed, int n, double *h)
         }
 }
 
+/* out (2n x 2n, x fastest) = src (n x n) tiled twice along x and y */
+static void tile_2x2(const double *src, int n, double *out)
+{
+    for (int y = 0; y < 2 * n; y++)
+        for (int x = 0; x < 2 * n; x++)
+            out[x + 2 * n * y] = src[x % n + n * (y % n)];
+}
+
 static void test_repeats(void **state)
 {
     (void)state;
@@ -1317,9 +1325,7 @@ static void test_repeats(void **state)
     assert_non_null(src);
     assert_non_null(tile);
     smooth_relief(1, N, src);
-    for (int y = 0; y < 2 * N; y++)
-        for (int x = 0; x < 2 * N; x++)
-            tile[x + 2 * N * y] = src[x % N + N * (y % N)];
+    tile_2x2(src, N, tile);
     gs_measure_repeats m;
     assert_int_equal(gs_measure_repeats2(tile, 2 * N, 2 * N, src, N, N, &m), GS_OK);
     assert_true(m.window >= 3 && m.window <= N / 2);
@@ -1353,9 +1359,7 @@ static void test_heights(void **state)
     assert_non_null(src);
     assert_non_null(out);
     smooth_relief(2, N, src);
-    for (int y = 0; y < 2 * N; y++)
-        for (int x = 0; x < 2 * N; x++)
-            out[x + 2 * N * y] = src[x % N + N * (y % N)];
+    tile_2x2(src, N, out);
     gs_measure_heights_t m;
     assert_int_equal(gs_measure_heights(out, 4 * N * N, src, N * N, &m), GS_OK);
     assert_true(m.ks == 0 && m.low_out == m.low_src);
