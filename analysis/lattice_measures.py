@@ -314,6 +314,68 @@ def layout_figures(ex, out):
     return f
 
 
+def column_heights(a):
+    """Per column (y, x): its top non-empty layer, -1 for an empty column (the height map)."""
+    nz = a.shape[0]
+    solid = a != 0
+    top = nz - 1 - np.argmax(solid[::-1], axis=0)
+    return np.where(solid.any(axis=0), top, -1)
+
+
+def land(a, ground):
+    """Land bodies of the height map (terrain's hills and domes, issue #18 item 4): land
+    columns reach z >= ground (their top non-empty layer); bodies are their 4-connected components.
+    share = land columns / columns; sizes = body columns, largest first; size_median =
+    column-weighted median (half the land is in bodies of at least this size); interior =
+    over every level z >= ground, the columns at least that high whose 4 neighbours are too
+    (past the lattice's sides counts as high), over the columns at least that high: a ridge
+    or band a cell or two wide has little, a round dome much."""
+    from scipy import ndimage
+    h = column_heights(a)
+    lc = h >= ground
+    lab, n = ndimage.label(lc)
+    sizes = sorted(np.bincount(lab.ravel(), minlength=n + 1)[1:].tolist(), reverse=True)
+    cells, median, cum = sum(sizes), 0, 0
+    for v in sizes:
+        cum += v
+        if 2 * cum >= cells:
+            median = v
+            break
+    four = ndimage.generate_binary_structure(2, 1)
+    inner = high = 0
+    for z in range(ground, a.shape[0]):
+        m = h >= z
+        high += int(m.sum())
+        inner += int(ndimage.binary_erosion(m, structure=four, border_value=1).sum())
+    return {"share": float(lc.mean()), "sizes": [int(v) for v in sizes], "size_median": median,
+            "interior": inner / high if high else 0.0}
+
+
+def land_figures(ex, out):
+    """The height map against the example's (issue #18 item 4: the example's few large round
+    domes, not long ridges): height_hist_l1 = L1 distance of the column-height histograms
+    (shares of columns whose top non-empty layer is z, empty columns apart; 0 same, 2
+    disjoint); land_* of land() one layer above the example's lowest column (terrain: land
+    rises above the water; a village's houses above the street), for the output and the
+    example; land_body_max_share = the largest body's
+    columns / columns; land_body_median_share the same of the column-weighted median body."""
+    nz = max(ex.shape[0], out.shape[0])
+    hist = lambda a: np.bincount(column_heights(a).ravel() + 1, minlength=nz + 1) / (a.shape[1] * a.shape[2])
+    f = {"height_hist_l1": float(np.abs(hist(ex) - hist(out)).sum())}
+    z = int(column_heights(ex).min()) + 1
+    if z >= out.shape[0]:
+        return f
+    for name, a in (("", out), ("_example", ex)):
+        g = land(a, z)
+        cols = a.shape[1] * a.shape[2]
+        f["land_share" + name] = g["share"]
+        f["land_bodies_per_kcell" + name] = 1000.0 * len(g["sizes"]) / cols
+        f["land_body_max_share" + name] = (g["sizes"][0] if g["sizes"] else 0) / cols
+        f["land_body_median_share" + name] = g["size_median"] / cols
+        f["land_interior" + name] = g["interior"]
+    return f
+
+
 def grid_crossing(a, ground, period):
     """Structure columns across a regular grid's lines (as gs_measure_grid_crossing_lattice,
     issue #18: one castle per region, open streets along the region lines). A structure
@@ -446,6 +508,7 @@ def figures(ex, out, ks=(2, 3)):
     fo, fe = fill(out, out.shape[0]), fill(ex, out.shape[0])
     f["height_fill_mean_abs"] = float(np.abs(fo - fe).mean())
     f["height_fill_example_mean"] = float(fe.mean())
+    f.update(land_figures(ex, out))
     ro, re_ = run_lengths(out), run_lengths(ex)
     for a in "xyz":
         f["run_length_%s_ratio" % a] = ro[a] / re_[a] if re_[a] else 0.0

@@ -242,6 +242,40 @@ int gs_measure_ground_layer(const uint16_t *labels, const int dims[3])
     return -1;
 }
 
+gs_err gs_measure_land_interior(const uint16_t *labels, const int dims[3], double *interior)
+{
+    const int nx = dims[0], ny = dims[1], nz = dims[2];
+    const size_t layer = (size_t)nx * (size_t)ny;
+    *interior = 0;
+    if (!layer || nz < 1)
+        return GS_OK;
+    int *h = NULL;
+    GS_CALL(gs_alloc_array((void **)&h, layer, sizeof *h, "land interior heights"));
+    int hmin = nz;
+    for (size_t i = 0; i < layer; i++) {
+        h[i] = -1;
+        for (int z = nz - 1; z >= 0 && h[i] < 0; z--)
+            if (labels[layer * (size_t)z + i])
+                h[i] = z;
+        hmin = h[i] < hmin ? h[i] : hmin;
+    }
+    uint64_t high = 0, inner = 0;
+    for (int z = hmin + 1; z < nz; z++)
+        for (int y = 0; y < ny; y++)
+            for (int x = 0; x < nx; x++) {
+                const size_t i = (size_t)y * (size_t)nx + (size_t)x;
+                if (h[i] < z)
+                    continue;
+                high++;
+                inner += (x == 0 || h[i - 1] >= z) && (x == nx - 1 || h[i + 1] >= z) &&
+                         (y == 0 || h[i - (size_t)nx] >= z) &&
+                         (y == ny - 1 || h[i + (size_t)nx] >= z);
+            }
+    gs_free(h);
+    *interior = high ? (double)inner / (double)high : 0;
+    return GS_OK;
+}
+
 gs_err gs_measure_enclosure_layer(const uint16_t *labels, const int dims[3], int z,
                                   uint64_t min_large, gs_measure_enclosure *out)
 {

@@ -595,6 +595,51 @@ static void test_lattice_measures(void **state)
     gs_measure_profile_free(&p);
 }
 
+/* Land interior (gs_measure_land_interior, lattice_measures.py land()): a
+ * one-column post (the example above) is all edge; a 2x2 hill two layers
+ * high on a 4x4 ground has no column with 4 raised neighbours; a layer
+ * raised everywhere is all interior (past the sides counts as high); a 3x3
+ * plateau in a 5x5 layer has its centre inside: 1 of 9. */
+static void test_land_interior(void **state)
+{
+    (void)state;
+    enum { N = 5, Z = 3 };
+    uint16_t a[N * N * Z];
+    const int d[3] = {N, N, Z}, d4[3] = {4, 4, Z};
+    double in = -1;
+    memset(a, 0, sizeof a);
+    for (int i = 0; i < N * N; i++)
+        a[i] = 1;
+    assert_int_equal(gs_measure_land_interior(a, d, &in), GS_OK);
+    assert_true(in == 0); /* nothing above the lowest column */
+    for (int y = 1; y < 4; y++)
+        for (int x = 1; x < 4; x++)
+            a[N * N + y * N + x] = 2;
+    assert_int_equal(gs_measure_land_interior(a, d, &in), GS_OK);
+    assert_true(fabs(in - 1.0 / 9) < 1e-12);
+    uint16_t b[4 * 4 * Z];
+    memset(b, 0, sizeof b);
+    for (int i = 0; i < 16; i++)
+        b[i] = 1;
+    for (int z = 1; z < 3; z++)
+        for (int y = 1; y < 3; y++)
+            for (int x = 1; x < 3; x++)
+                b[z * 16 + y * 4 + x] = 2;
+    assert_int_equal(gs_measure_land_interior(b, d4, &in), GS_OK);
+    assert_true(in == 0);
+    for (int i = 16; i < 32; i++)
+        b[i] = 2; /* layer 1 everywhere: the lowest column rises, the 2x2 stands on it */
+    assert_int_equal(gs_measure_land_interior(b, d4, &in), GS_OK);
+    assert_true(in == 0); /* only the 2x2 above the (now higher) lowest column */
+    for (int i = 32; i < 48; i++)
+        b[i] = 2;
+    assert_int_equal(gs_measure_land_interior(b, d4, &in), GS_OK);
+    assert_true(in == 0); /* every column equal: nothing rises */
+    b[32] = 0; /* one column lower: the other 15 are land at layer 2 */
+    assert_int_equal(gs_measure_land_interior(b, d4, &in), GS_OK);
+    assert_true(fabs(in - 13.0 / 15) < 1e-12);
+}
+
 /* Enclosure: a closed 6x6 wall ring on a 12x12 layer (z = 1 over a ground
  * layer) encloses its 4x4 yard; the same ring with one wall cell gone
  * encloses nothing; a second, 1-cell ring is a small yard (not large). */
@@ -1441,6 +1486,7 @@ int main(void)
         cmocka_unit_test(test_preview),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
+        cmocka_unit_test(test_land_interior),
         cmocka_unit_test(test_enclosure),
         cmocka_unit_test(test_layout),
         cmocka_unit_test(test_object_fragments),
