@@ -336,9 +336,12 @@ static const gs_cfg_key model_keys[] = {
                       "of non-empty cells per layer, the height profile), support (its "
                       "non-empty cells without a path to the ground inside the region or to a "
                       "non-empty cell next to it), windows (the share of its non-empty 3x3x3 "
-                      "windows found in the example); a region of such a pass gives up after 4 "
+                      "windows found in the example), land (with windows: a rebuild windows "
+                      "rejects passes when its share of non-empty cells per layer is closer to "
+                      "the example's); a region of such a pass gives up after 4 "
                       "tries, unsplit, and keeps its content; none = every rebuild kept; "
-                      "auto = mix,support,windows when the z faces are synthesized, else mix "
+                      "auto = mix,support,windows when the z faces are synthesized (plus land "
+                      "when the example's raised land is broad: a terrain's domes), else mix "
                       "with model.open_blocks > 0, else none; configs/model/DEFAULTS.md"),
     GS_CFG_KEY_REAL(model_config, open_blocks_largest, "model.open_blocks_largest", 0, 1000, 0,
                     "0",

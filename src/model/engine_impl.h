@@ -252,7 +252,12 @@ gs_err model_make_plan(model_engine *e);
  * windows -> KEEP_* bits (open_blocks: mix at least) */
 #define KEEP_AUTO_NAMES "mix,support,windows" /* model.sweep_keep = auto, synthesized z faces */
 /* KEEP_OPEN: model.open_blocks' later sweeps (rebuilds optional, whatever the tests) */
-enum { KEEP_MIX = 1, KEEP_FILL = 2, KEEP_SUPPORT = 4, KEEP_WINDOWS = 8, KEEP_OPEN = 16 };
+/* KEEP_LAND: a rebuild the windows test rejects is kept when it brings the box's
+ * non-empty share per layer (fill) closer to the example's */
+enum { KEEP_MIX = 1, KEEP_FILL = 2, KEEP_SUPPORT = 4, KEEP_WINDOWS = 8, KEEP_OPEN = 16, KEEP_LAND = 32 };
+/* model.sweep_keep = auto adds land when the example's raised land is at least
+ * this broad (gs_measure_land_interior: its round hills and domes) */
+#define KEEP_LAND_INTERIOR 0.5
 gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests);
 /* Collective: the next batch of the synthesis (a new pass's plan, then one
  * window of colours); *finished once the passes are done. */

@@ -16,7 +16,8 @@
 
 gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests)
 {
-    static const char *const name[4] = {"mix", "fill", "support", "windows"};
+    static const char *const name[5] = {"mix", "fill", "support", "windows", "land"};
+    static const int bit[5] = {KEEP_MIX, KEEP_FILL, KEEP_SUPPORT, KEEP_WINDOWS, KEEP_LAND};
     *tests = open_blocks ? KEEP_OPEN : 0;
     if (!strcmp(s, "none"))
         return GS_OK;
@@ -24,14 +25,14 @@ gs_err model_parse_sweep_keep(const char *s, int open_blocks, int *tests)
     while (*p) {
         size_t n = strcspn(p, ",");
         int found = 0;
-        for (int i = 0; i < 4 && !found; i++)
+        for (int i = 0; i < 5 && !found; i++)
             if (n == strlen(name[i]) && !strncmp(p, name[i], n)) {
-                *tests |= 1 << i;
+                *tests |= bit[i];
                 found = 1;
             }
         GS_CHECK(found && n > 0, GS_ERR_ARG,
                  "model.sweep_keep = \"%s\": expected auto, none or a comma-separated list of mix, "
-                 "fill, support, windows",
+                 "fill, support, windows, land",
                  s);
         p += n + (p[n] == ',');
     }
@@ -278,6 +279,15 @@ static gs_err sweep_keep_worse(const model_engine *e, const gs_model_box *b, int
         GS_CALL(box_window_share(e, b, 1, &s_old));
         GS_CALL(box_window_share(e, b, 0, &s_new));
         *worse = s_new < s_old;
+        /* land: flat water's windows are always found in a terrain's example, so
+         * windows alone keeps the rebuilds with less land (terrain 144, 152: too
+         * little land); a rebuild closer to the example's fill passes */
+        if (*worse && (t & KEEP_LAND)) {
+            double d_old = 0, d_new = 0;
+            GS_CALL(box_layer_dist(e, b, 1, 1, &d_old));
+            GS_CALL(box_layer_dist(e, b, 0, 1, &d_new));
+            *worse = d_new >= d_old;
+        }
     }
     return GS_OK;
 }

@@ -780,6 +780,17 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
     const char *keep_auto = zsynth ? KEEP_AUTO_NAMES : c->open_blocks > 0 ? "mix" : "none";
     GS_CALL(model_parse_sweep_keep(!strcmp(c->sweep_keep, "auto") ? keep_auto : c->sweep_keep,
                                    c->open_blocks > 0, &e->keep_tests));
+    /* auto with broad raised land in the example (a terrain's domes; not a
+     * village's houses or a fortress's walls): land too (configs/model/DEFAULTS.md,
+     * `sweep_keep = auto`'s land test) */
+    double land_interior = 0;
+    if (zsynth && !strcmp(c->sweep_keep, "auto")) {
+        const gs_model_lattice *ex = &e->example;
+        const int dims[3] = {ex->nx, ex->ny, ex->nz};
+        GS_CALL(gs_measure_land_interior(ex->labels, dims, &land_interior));
+        if (land_interior >= KEEP_LAND_INTERIOR)
+            e->keep_tests |= KEEP_LAND;
+    }
     if (c->passes < 0 && zsynth) {
         e->params.min_changes = 2;
         e->params.max_passes = 2;
@@ -788,7 +799,13 @@ gs_err model_setup(gs_run *run, model_engine *e, int resume)
         gs_log(GS_LOG_INFO, "z faces synthesized: %d sweeps (model.passes = %s), later sweeps keep "
                "a rebuilt region only if no further from the example by: %s (model.sweep_keep = %s)",
                e->params.min_changes, c->passes < 0 ? "auto" : "set",
-               !strcmp(c->sweep_keep, "auto") ? KEEP_AUTO_NAMES : c->sweep_keep, c->sweep_keep);
+               !strcmp(c->sweep_keep, "auto")
+                   ? (e->keep_tests & KEEP_LAND ? KEEP_AUTO_NAMES ",land" : KEEP_AUTO_NAMES)
+                   : c->sweep_keep,
+               c->sweep_keep);
+    if (e->keep_tests & KEEP_LAND && !strcmp(c->sweep_keep, "auto"))
+        gs_log(GS_LOG_INFO, "the example's raised land is broad (interior %.2f >= %.2f): "
+               "model.sweep_keep = auto adds land", land_interior, KEEP_LAND_INTERIOR);
     if (!strcmp(c->order, "auto") && zsynth) {
         /* synthesized z faces: grow each region in from its decided shell, ring
          * by ring, each ring's columns from the ground up (configs/model/DEFAULTS.md,

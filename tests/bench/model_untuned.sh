@@ -7,7 +7,8 @@
 # 41-60; start_column_from = auto chosen on terrains 7 and 44, reported on
 # 1-100; model.order = auto's entropy_columns chosen on 61-120, reported on
 # 121-160; model.passes / sweep_keep = auto chosen on 121-160, reported on
-# 161-200, configs/model/DEFAULTS.md: seeds from 201 on are fresh); each
+# 161-200; sweep_keep = auto's land test chosen on 121-160, reported on 201-240,
+# configs/model/DEFAULTS.md: seeds from 241 on are fresh); each
 # is synthesized at 40x40x8 in 20x20 regions with the default settings, one
 # rank, synthesis seed 1. JSON on stdout: per example, the quality figures of
 # summary.json (non-empty 3x3x3 resemblance, completeness, label L1, labels
