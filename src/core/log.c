@@ -148,10 +148,10 @@ void gs_progress_update(gs_progress *p, uint64_t done)
     if (frac > 1.0)
         frac = 1.0;
     char eta[48];
-    format_eta(p, now, eta, sizeof eta);
     if (p->is_tty) {
         if (now - p->last_print < 0.1 && done < p->total)
             return;
+        format_eta(p, now, eta, sizeof eta);
         int width = 30, fill = (int)(frac * width);
         char bar[31];
         for (int i = 0; i < width; i++)
@@ -165,6 +165,9 @@ void gs_progress_update(gs_progress *p, uint64_t done)
     }
     int decile = (int)(frac * 10.0);
     if (decile != p->last_decile || now - p->last_print > 10.0) {
+        /* formatted only for a line printed: the model engine updates per
+         * region on rank 0, inside the synthesis */
+        format_eta(p, now, eta, sizeof eta);
         fprintf(stderr, "%s: %llu/%llu (%.0f%%) after %.1fs%s\n", p->label,
                 (unsigned long long)done, (unsigned long long)p->total, 100.0 * frac,
                 now - p->start_time, eta);

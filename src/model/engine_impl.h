@@ -173,6 +173,8 @@ typedef struct model_engine {
     int open_ground;       /* model.open_blocks: the example's ground layer */
     int32_t *open_owner;   /* model.open_blocks_largest: per column, the region of the pass
                               that meets its structure (-1 none) */
+    uint8_t *open_seen;    /* open_block_too_large's flood: lattice cells, all 0 between calls */
+    int32_t *open_queue;   /* its cells reached (lattice cells); both made on first use */
     size_t buf_cells;
     gs_model_region *plan; /* regions of the current pass, index = id */
     size_t nplan;

@@ -302,7 +302,7 @@ static gs_err sweep_keep_worse(const model_engine *e, const gs_model_box *b, int
  * kept region's box, so the flood sees every structure the pass leaves
  * through it, except ones joined through flat cover in the ground layer
  * alone (a bush beside the box: no structure column, read as empty). */
-static gs_err open_block_too_large(const model_engine *e, int64_t id, const gs_model_box *b,
+static gs_err open_block_too_large(model_engine *e, int64_t id, const gs_model_box *b,
                                    int *large)
 {
     *large = 0;
@@ -311,12 +311,16 @@ static gs_err open_block_too_large(const model_engine *e, int64_t id, const gs_m
     const gs_model_lattice *l = &e->lat;
     const int nx = l->nx, ny = l->ny, nz = l->nz, g0 = e->open_ground;
     const size_t n = (size_t)nx * (size_t)ny * (size_t)nz;
-    uint8_t *seen = NULL;
-    int32_t *stack = NULL;
-    gs_err err = GS_OK;
-    GS_TRY(err, gs_alloc_array((void **)&seen, n, 1, "open blocks flood"), done);
-    GS_TRY(err, gs_alloc_array((void **)&stack, n, sizeof *stack, "open blocks flood"), done);
-    memset(seen, 0, n);
+    /* made once and left all 0 (the cells reached are cleared at the end):
+     * a whole-lattice calloc per try was ~0.8 MB zeroed on castle-10x */
+    if (!e->open_seen)
+        GS_CALL(gs_alloc_array((void **)&e->open_seen, n, 1, "open blocks flood"));
+    if (!e->open_queue)
+        GS_CALL(gs_alloc_array((void **)&e->open_queue, n, sizeof *e->open_queue,
+                               "open blocks flood"));
+    uint8_t *seen = e->open_seen;
+    int32_t *queue = e->open_queue;
+    size_t tail = 0; /* every cell reached by this call: queue[0, tail) */
 #define CELL_FULL(x, y, z)                                                                       \
     ((x) >= b->x0 && (x) < b->x1 && (y) >= b->y0 && (y) < b->y1 && (z) >= b->z0 && (z) < b->z1  \
          ? e->buf[(size_t)((x) - b->x0) +                                                        \
@@ -331,15 +335,17 @@ static gs_err open_block_too_large(const model_engine *e, int64_t id, const gs_m
                 const size_t c0 = gs_model_lattice_index(l, x0, y0, z0);
                 if (seen[c0] || !CELL_FULL(x0, y0, z0))
                     continue;
-                size_t top = 0, cells = 0;
+                /* the structure of c0: breadth first (the cells reached do
+                 * not depend on the order) */
+                size_t head = tail;
+                const size_t first = tail;
                 int tall = 0;
                 seen[c0] = 1;
-                stack[top++] = (int32_t)c0;
-                while (top) {
-                    const size_t c = (size_t)stack[--top];
+                queue[tail++] = (int32_t)c0;
+                while (head < tail) {
+                    const size_t c = (size_t)queue[head++];
                     const int x = (int)(c % (size_t)nx), y = (int)(c / (size_t)nx % (size_t)ny),
                               z = (int)(c / ((size_t)nx * (size_t)ny));
-                    cells++;
                     tall |= z > g0;
                     static const int d[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
                                                 {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
@@ -350,17 +356,16 @@ static gs_err open_block_too_large(const model_engine *e, int64_t id, const gs_m
                         const size_t q = gs_model_lattice_index(l, u, v, w);
                         if (!seen[q] && CELL_FULL(u, v, w)) {
                             seen[q] = 1;
-                            stack[top++] = (int32_t)q;
+                            queue[tail++] = (int32_t)q;
                         }
                     }
                 }
-                *large = tall && cells > e->open_largest;
+                *large = tall && tail - first > e->open_largest;
             }
 #undef CELL_FULL
-done:
-    gs_free(seen);
-    gs_free(stack);
-    return err;
+    for (size_t i = 0; i < tail; i++)
+        seen[queue[i]] = 0;
+    return GS_OK;
 }
 
 #define OPEN_BLOCK_TRIES 4
@@ -468,13 +473,14 @@ static gs_err region_apply(void *ctx, int64_t id, const void *buf, size_t len)
     }
     e->stats.accepted++;
     gs_model_region_apply(&e->lat, b, (const uint16_t *)((const char *)buf + sizeof h));
+    /* every rank applies every region: rows, not cells */
+    const size_t row = (size_t)(b->x1 - b->x0);
     for (int z = b->z0; z < b->z1; z++)
-        for (int y = b->y0; y < b->y1; y++)
-            for (int x = b->x0; x < b->x1; x++) {
-                uint16_t *cv = &e->coverage[gs_model_lattice_index(&e->lat, x, y, z)];
-                if (*cv < UINT16_MAX)
-                    (*cv)++;
-            }
+        for (int y = b->y0; y < b->y1; y++) {
+            uint16_t *cv = e->coverage + gs_model_lattice_index(&e->lat, b->x0, y, z);
+            for (size_t x = 0; x < row; x++)
+                cv[x] = (uint16_t)(cv[x] + (cv[x] < UINT16_MAX));
+        }
     return GS_OK;
 }
 
@@ -483,15 +489,16 @@ static uint64_t min_coverage(const model_engine *e)
 {
     const gs_model_lattice *l = &e->lat;
     int fix = e->params.fix_z_faces && l->nz >= 3;
-    uint64_t m = UINT64_MAX;
-    for (int z = fix; z < (fix ? l->nz - 1 : l->nz); z++)
-        for (int y = 0; y < l->ny; y++)
-            for (int x = 0; x < l->nx; x++) {
-                uint64_t cv = e->coverage[gs_model_lattice_index(l, x, y, z)];
-                if (cv < m)
-                    m = cv;
-            }
-    return m == UINT64_MAX ? 0 : m;
+    const int z0 = fix, z1 = fix ? l->nz - 1 : l->nz;
+    if (z1 <= z0 || l->nx <= 0 || l->ny <= 0)
+        return 0;
+    /* layers z0..z1-1 are contiguous */
+    const uint16_t *cv = e->coverage + gs_model_lattice_index(l, 0, 0, z0);
+    const size_t n = (size_t)l->nx * (size_t)l->ny * (size_t)(z1 - z0);
+    uint16_t m = UINT16_MAX;
+    for (size_t i = 0; i < n; i++)
+        m = cv[i] < m ? cv[i] : m;
+    return m;
 }
 
 /* Colours run together at most this many regions at a time (one colour

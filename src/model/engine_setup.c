@@ -440,6 +440,8 @@ void model_engine_free(model_engine *e)
     gs_free(e->buf);
     gs_free(e->plan);
     gs_free(e->open_owner);
+    gs_free(e->open_seen);
+    gs_free(e->open_queue);
     gs_free(e->region_status);
     gs_free(e->region_attempts);
 }

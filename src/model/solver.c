@@ -2002,25 +2002,42 @@ static size_t support_flood(uint8_t *st, int nx, int ny, int nz, const int perio
             st[i] = 2;
             queue[tail++] = (int32_t)i;
         }
-    static const int d6[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    /* the reached set does not depend on the visiting order; neighbours by
+     * index offsets (every rank runs this after the last pass: serial work) */
+#define FLOOD_VISIT(v)                                                                           \
+    do {                                                                                         \
+        const size_t v_ = (v);                                                                   \
+        if (st[v_] == 1) {                                                                       \
+            st[v_] = 2;                                                                          \
+            queue[tail++] = (int32_t)v_;                                                         \
+        }                                                                                        \
+    } while (0)
+    const size_t sx = (size_t)nx, sy = (size_t)ny;
     while (head < tail) {
-        int32_t u = queue[head++];
-        int x = u % nx, y = (u / nx) % ny, z = u / (nx * ny);
-        for (int d = 0; d < 6; d++) {
-            int px = x + d6[d][0], py = y + d6[d][1], pz = z + d6[d][2];
-            if (periodic[0])
-                px = (px % nx + nx) % nx;
-            if (periodic[1])
-                py = (py % ny + ny) % ny;
-            if (px < 0 || py < 0 || pz < 0 || px >= nx || py >= ny || pz >= nz)
-                continue;
-            size_t v = (size_t)px + (size_t)nx * ((size_t)py + (size_t)ny * (size_t)pz);
-            if (st[v] == 1) {
-                st[v] = 2;
-                queue[tail++] = (int32_t)v;
-            }
-        }
+        const size_t u = (size_t)queue[head++], xy = u % layer, x = xy % sx, y = xy / sx;
+        const size_t z = u / layer;
+        if (x + 1 < sx)
+            FLOOD_VISIT(u + 1);
+        else if (periodic[0])
+            FLOOD_VISIT(u + 1 - sx);
+        if (x > 0)
+            FLOOD_VISIT(u - 1);
+        else if (periodic[0])
+            FLOOD_VISIT(u + sx - 1);
+        if (y + 1 < sy)
+            FLOOD_VISIT(u + sx);
+        else if (periodic[1])
+            FLOOD_VISIT(u + sx - layer);
+        if (y > 0)
+            FLOOD_VISIT(u - sx);
+        else if (periodic[1])
+            FLOOD_VISIT(u + layer - sx);
+        if (z + 1 < (size_t)nz)
+            FLOOD_VISIT(u + layer);
+        if (z > 0)
+            FLOOD_VISIT(u - layer);
     }
+#undef FLOOD_VISIT
     gs_free(queue);
     return tail;
 }

@@ -547,7 +547,7 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
 {
     const int nx = lat->nx, ny = lat->ny, nz = lat->nz;
     const size_t ncol = (size_t)nx * (size_t)ny;
-    int32_t *comp = NULL, *stack = NULL, *bb = NULL, *claimed = NULL, *rank_of = NULL;
+    int32_t *comp = NULL, *stack = NULL, *bb = NULL, *claimed = NULL, *rank_of = NULL, *seen = NULL;
     struct cells_idx *order = NULL;
     gs_model_region *moved = NULL;
     gs_err err = GS_OK;
@@ -555,13 +555,16 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
            done);
     GS_TRY(err, gs_alloc_array((void **)&stack, ncol ? ncol : 1, sizeof *stack, "open blocks"),
            done);
-    for (int y = 0; y < ny; y++)
-        for (int x = 0; x < nx; x++) {
-            int tall = 0;
-            for (int z = ground + 1; z < nz && !tall; z++)
-                tall = lat->labels[gs_model_lattice_index(lat, x, y, z)] != 0;
-            comp[(size_t)y * (size_t)nx + (size_t)x] = tall ? -2 : -1;
-        }
+    /* a column is tall when it holds a non-empty cell above the ground
+     * layer: layer by layer (contiguous; every rank plans, so this is serial
+     * work at any rank count) */
+    for (size_t c = 0; c < ncol; c++)
+        comp[c] = -1;
+    for (int z = ground + 1; z < nz; z++) {
+        const uint16_t *layer = lat->labels + gs_model_lattice_index(lat, 0, 0, z);
+        for (size_t c = 0; c < ncol; c++)
+            comp[c] = layer[c] != 0 ? -2 : comp[c];
+    }
     int nc = 0; /* structures: 8-connected sets of tall columns */
     for (size_t c0 = 0; c0 < ncol; c0++)
         if (comp[c0] == -2) {
@@ -606,6 +609,13 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
         for (int k = 0; k < nc; k++)
             claimed[k] = -1;
     }
+    /* seen[k] = 1 + the candidate that last took structure k in or left it
+     * out: b only grows, so a structure b took in stays inside it and one
+     * too large to take in stays too large; looking at it again changes
+     * nothing */
+    GS_TRY(err, gs_alloc_array((void **)&seen, (size_t)(nc ? nc : 1), sizeof *seen, "open blocks"),
+           done);
+    memset(seen, 0, (size_t)(nc ? nc : 1) * sizeof *seen);
     size_t kept = 0;
     for (size_t i = 0; i < *n; i++) {
         gs_model_box b = plan[i].box;
@@ -617,8 +627,9 @@ gs_err gs_model_plan_open_blocks(const gs_model_params *p, const gs_model_lattic
             for (int y = y0; y < y1; y++)
                 for (int x = x0; x < x1; x++) {
                     const int k = comp[(size_t)y * (size_t)nx + (size_t)x];
-                    if (k < 0)
+                    if (k < 0 || seen[k] == (int32_t)i + 1)
                         continue;
+                    seen[k] = (int32_t)i + 1;
                     const int32_t *c = bb + 4 * k;
                     const gs_model_box g = {c[0] < b.x0 ? c[0] : b.x0, c[1] < b.y0 ? c[1] : b.y0,
                                             b.z0, c[2] > b.x1 ? c[2] : b.x1,
@@ -684,6 +695,7 @@ done:
     gs_free(comp);
     gs_free(stack);
     gs_free(bb);
+    gs_free(seen);
     gs_free(claimed);
     gs_free(rank_of);
     gs_free(order);

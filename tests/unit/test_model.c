@@ -1020,6 +1020,86 @@ static void test_support_floating_above(void **state)
     assert_int_equal(st[8], 2);
 }
 
+/* gs_model_support_floating's flood (neighbours by index offsets, x / y
+ * wrapping where periodic) against a plain one with coordinates: the same
+ * reached cells on random lattices, narrow ones (1 and 2 cells: a wrap
+ * meets the cell itself or its one neighbour) included. */
+static size_t floating_reference(const uint16_t *lab, int nx, int ny, int nz, const int per[3],
+                                 const uint8_t *empty, uint8_t *st)
+{
+    const size_t n = (size_t)nx * (size_t)ny * (size_t)nz;
+    size_t solid = 0, reached = 0;
+    for (size_t i = 0; i < n; i++) {
+        st[i] = !empty[lab[i]];
+        solid += st[i];
+    }
+    for (size_t i = 0; i < (size_t)nx * (size_t)ny; i++)
+        if (st[i] == 1)
+            st[i] = 2;
+    for (int changed = 1; changed;) { /* until nothing more is reached */
+        changed = 0;
+        for (int z = 0; z < nz; z++)
+            for (int y = 0; y < ny; y++)
+                for (int x = 0; x < nx; x++) {
+                    uint8_t *c = &st[(size_t)x + (size_t)nx * ((size_t)y + (size_t)ny * (size_t)z)];
+                    if (*c != 1)
+                        continue;
+                    static const int d[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                                {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+                    for (int k = 0; k < 6 && *c == 1; k++) {
+                        int u = x + d[k][0], v = y + d[k][1], w = z + d[k][2];
+                        if (per[0])
+                            u = (u + nx) % nx;
+                        if (per[1])
+                            v = (v + ny) % ny;
+                        if (u < 0 || v < 0 || w < 0 || u >= nx || v >= ny || w >= nz)
+                            continue;
+                        if (st[(size_t)u + (size_t)nx * ((size_t)v + (size_t)ny * (size_t)w)] == 2) {
+                            *c = 2;
+                            changed = 1;
+                        }
+                    }
+                }
+    }
+    for (size_t i = 0; i < n; i++)
+        reached += st[i] == 2;
+    return solid - reached;
+}
+
+static void test_support_floating_flood(void **state)
+{
+    (void)state;
+    const uint8_t empty[3] = {1, 0, 0};
+    uint64_t r = 12345;
+    for (int t = 0; t < 300; t++) {
+        r = r * 6364136223846793005ull + 1442695040888963407ull;
+        const int nx = 1 + (int)(r >> 33) % 9, ny = 1 + (int)(r >> 45) % 9, nz = 1 + (int)(r >> 57) % 6;
+        const int per[3] = {(int)(r >> 20) & 1, (int)(r >> 21) & 1, 0};
+        const size_t n = (size_t)nx * (size_t)ny * (size_t)nz;
+        uint16_t *lab = malloc(n * sizeof *lab);
+        uint8_t *st = malloc(n), *ref = malloc(n);
+        assert_non_null(lab);
+        assert_non_null(st);
+        assert_non_null(ref);
+        const unsigned fill = 40 + (unsigned)(r >> 24) % 40; /* percent non-empty */
+        for (size_t i = 0; i < n; i++) {
+            r = r * 6364136223846793005ull + 1442695040888963407ull;
+            lab[i] = (uint16_t)((unsigned)(r >> 40) % 100 < fill ? 1 + (r >> 60) % 2 : 0);
+        }
+        gs_model_params p;
+        memset(&p, 0, sizeof p);
+        p.support_empty = empty;
+        p.periodic[0] = per[0];
+        p.periodic[1] = per[1];
+        const size_t want = floating_reference(lab, nx, ny, nz, per, empty, ref);
+        assert_int_equal(gs_model_support_floating(lab, nx, ny, nz, &p, st), want);
+        assert_memory_equal(st, ref, n);
+        free(lab);
+        free(st);
+        free(ref);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1041,6 +1121,7 @@ int main(void)
         cmocka_unit_test(test_region_api_matches_driver),
         cmocka_unit_test(test_write_read_roundtrip),
         cmocka_unit_test(test_support_floating_above),
+        cmocka_unit_test(test_support_floating_flood),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
