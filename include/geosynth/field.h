@@ -478,6 +478,10 @@ typedef struct gs_field_synth_config {
                                         (min-error boundary cut in 3D, src/field/synth.c
                                         cut_block); with target regions the same at any
                                         rank count; 0 = off (the paper) */
+    int seam_columns;                /* with seam_cut: the cut keeps every column (x, y)
+                                        of a block whole (a height field's objects are
+                                        columns: a cut between them in z left discs of
+                                        mixed columns); 0 = the 3D cut */
     int complete_objects;            /* 1 (needs prov): after the last iteration (and the
                                         blend), when most of the source's core (samples deeper
                                         than one sample) is in whole objects (core components

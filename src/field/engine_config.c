@@ -137,6 +137,10 @@ static const gs_cfg_key field_keys[] = {
                     "(the seam follows where they agree, not the block grid); with target "
                     "regions the same at any rank count; no = off (the paper: a block fills "
                     "only unsynthesized samples)"),
+    GS_CFG_KEY_BOOL(field_config, seam_columns, "field.seam_columns", "no",
+                    "with seam_cut: the cut keeps every column (x, y) of a block whole, so a "
+                    "height field's seams are vertical (no column assembled from two pieces at "
+                    "different heights); yes in texture.ini; no = the 3D cut"),
     GS_CFG_KEY_BOOL(field_config, keep_volume, "field.keep_volume", "no",
                     "exact ties of a match (blocks equal where the query is known) go to the "
                     "blocks that bring the synthesized volume fraction toward the source's (the "

@@ -54,6 +54,7 @@ typedef struct field_config {
     double repeat_free;
     int seam_gradient;
     int seam_cut;
+    int seam_columns;
     int complete_objects;
     char *wrap;
     int keep_volume;

@@ -184,6 +184,7 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.repeat_free = c->repeat_free;
     d->sc.seam_gradient = c->seam_gradient;
     d->sc.seam_cut = c->seam_cut;
+    d->sc.seam_columns = c->seam_columns;
     d->sc.complete_objects = c->complete_objects;
     d->sc.keep_volume = c->keep_volume;
     d->sc.object_spacing = c->object_spacing;

@@ -147,8 +147,14 @@ void gs_step_layout_free(gs_step_layout *lay);
  * cost[i] is the disagreement of old and new at i (an edge costs the sum of
  * its ends', an edge from a GS_CUT_NEW sample to another twice the other's).
  * take_new[i] = 1 where the minimum cut gives the sample to the
- * new block (always for GS_CUT_NEW, never for GS_CUT_OLD). Deterministic. */
+ * new block (always for GS_CUT_NEW, never for GS_CUT_OLD). Deterministic.
+ * columns: every edge along z costs GS_CUT_COLUMN, more than all the other
+ * edges of a 32^3 block together (32^3 x 6 edges of at most 2 x (255 + 1275)
+ * levels, the sign term's 1275 at field.range 0.1: < 2^30), so the cut
+ * keeps each column (x, y) whole unless its own ties force it apart: the cut
+ * of the column sums, a height field's seams vertical (field.seam_columns). */
 enum { GS_CUT_FREE = 0, GS_CUT_OLD = 1, GS_CUT_NEW = 2 };
+#define GS_CUT_COLUMN (1u << 30)
 typedef struct gs_field_cut_scratch {
     int B;
     uint32_t *cap;                /* residual capacity per node and direction */
@@ -158,7 +164,7 @@ typedef struct gs_field_cut_scratch {
 gs_err gs_field_cut_scratch_init(gs_field_cut_scratch *c, int B);
 void gs_field_cut_scratch_free(gs_field_cut_scratch *c);
 gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uint32_t *cost,
-                         uint8_t *take_new);
+                         int columns, uint8_t *take_new);
 
 /* Distance to a torus with major radius R, minor r, centre c, axis a (0..2):
  * the chain mail rings of src/field/shapes.c and src/field/examples.c. */

@@ -131,7 +131,7 @@ static void augment_from(gs_field_cut_scratch *c, const uint8_t *term, int32_t s
 }
 
 gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uint32_t *cost,
-                         uint8_t *take_new)
+                         int columns, uint8_t *take_new)
 {
     int B = c->B;
     int32_t n = B * B * B;
@@ -146,6 +146,7 @@ gs_err gs_field_seam_cut(gs_field_cut_scratch *c, const uint8_t *term, const uin
         for (int d = 0; d < 6; d++) {
             int32_t v = nb(B, i, d);
             c->cap[6 * (size_t)i + d] = v < 0 ? 0
+                                        : columns && d >= 4 ? GS_CUT_COLUMN
                                         : term[v] == GS_CUT_NEW && term[i] != GS_CUT_NEW ? 2 * cost[i]
                                         : term[i] == GS_CUT_NEW && term[v] != GS_CUT_NEW ? 2 * cost[v]
                                                                                           : cost[i] + cost[v];

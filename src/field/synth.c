@@ -2354,7 +2354,8 @@ static gs_err match_block(struct gs_field_synth *s, const synth_view *v, const i
  * levels, plus one sample's worth of levels where they differ in sign (a
  * surface there would move); 0 where nothing is synthesized yet. Reads
  * only the block's box, the same on a region's private copy as on the
- * whole target. */
+ * whole target. With seam_columns the cut keeps every column whole
+ * (gs_field_seam_cut's columns): a height field's objects are its columns. */
 static void cut_block(struct gs_field_synth *s, const synth_view *v, const int64_t p[3],
                       int64_t b, const int64_t bp[3])
 {
@@ -2420,7 +2421,7 @@ static void cut_block(struct gs_field_synth *s, const synth_view *v, const int64
                 s->cut_term[n] = old ? GS_CUT_OLD : GS_CUT_FREE;
             }
         }
-    gs_field_seam_cut(&s->cut, s->cut_term, s->cut_cost, s->cut_new);
+    gs_field_seam_cut(&s->cut, s->cut_term, s->cut_cost, s->cfg.seam_columns, s->cut_new);
 }
 
 /* Copies source block `index` into the unsynthesized samples of the block

@@ -35,6 +35,18 @@
 # (0.21); object_exclusions in src/field/synth.c returning before it marks
 # fails it too. field.object_spacing with region_blocks > 0 is refused by
 # name (it reads the whole target's provenance).
+# Also (#19 whole objects, field36): discs not cut into fragments. Over seeds
+# 1-6 (pooled) the share of the measured discs (touching no face) smaller
+# than 3/4 of the example's smallest (layout_fragment_share_out; the
+# example's own: 0) is at most one disc in four examples' worth of discs
+# (1/(4 layout_objects_src): 0.025 for embark-5's 10). With the 3D seam cut
+# 9 of 233 (0.039): a column's lower samples from one piece and its upper
+# ones from another cut discs; field.seam_columns (the cut keeps columns
+# whole) 2 of 235 (0.009). Broken on purpose (watched):
+# TEXTURE_SET="--set field.seam_columns=no" fails it (0.039); the column
+# edges' capacity in src/field/seamcut.c left at the 3D cut's fails it too.
+# Fresh seeds still show fragments (13-24: 11 of 459, 25-36: 18 of 450):
+# the bound holds for these seeds, not for every six.
 source "$GS_ROOT/tests/e2e/lib.bash"
 X=$GS_ROOT/configs/field/texture.ini
 if need_config "texture.ini statistics" "$X"; then
@@ -55,22 +67,29 @@ EOF
     [[ ${r##* } == 1 ]] && ok "texture seed $seed: ${r% *}" ||
       bad "texture seed $seed: ${r% *} (each within 10%, copy at most 0.25)"
   done
-  r=$(/usr/bin/python3 - ${TEXTURE_SEEDS:-1 2 3 4 5 6} <<'EOF'
+  # pooled over the seeds: SHARE_KEY x COUNT_KEY of each run against the bound
+  # 1/(DIV x the example's disc count)
+  pooled() {
+    /usr/bin/python3 - "$@" ${TEXTURE_SEEDS:-1 2 3 4 5 6} <<'EOF'
 import json, sys
-close = n = 0
-src = None
-for seed in sys.argv[1:]:
+share_key, count_key, div, what = sys.argv[1:5]
+hit = n = 0
+for seed in sys.argv[5:]:
     m = json.load(open(f"texture-{seed}/summary.json"))["metrics"]
-    k = m["layout_guarded_objects_out"]
-    close += round(m["layout_guarded_close_share_out"] * k)
+    k = m[count_key]
+    hit += round(m[share_key] * k)
     n += k
     src = m["layout_objects_src"]
-share, bound = close / max(n, 1), 1.0 / src
-print(f"{close} of {n} guarded discs closer than any two in the example ({share:.3f}, bound "
-      f"1/{src} = {bound:.3f})", int(n > 0 and share <= bound))
+share, bound = hit / max(n, 1), 1.0 / (int(div) * src)
+print(f"{hit} of {n} {what} ({share:.3f}, bound 1/({div} x {src}) = {bound:.3f})",
+      int(n > 0 and share <= bound))
 EOF
-)
+  }
+  r=$(pooled layout_guarded_close_share_out layout_guarded_objects_out 1 \
+    "guarded discs closer than any two in the example")
   [[ ${r##* } == 1 ]] && ok "texture disc spacing: ${r% *}" || bad "texture disc spacing: ${r% *}"
+  r=$(pooled layout_fragment_share_out layout_objects_out 4 "discs cut into fragments")
+  [[ ${r##* } == 1 ]] && ok "texture whole discs: ${r% *}" || bad "texture whole discs: ${r% *}"
   first=${TEXTURE_SEEDS:-1}; first=${first%% *}
   r=$(/usr/bin/python3 "$GS_ROOT/analysis/field_layout.py" "texture-$first" --check 2>&1)
   [[ $r == *"layout check: ok"* ]] && ok "texture seed $first: layout_* = field_layout.py's (${r%%$'\n'*})" ||

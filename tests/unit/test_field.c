@@ -1325,7 +1325,7 @@ static void test_seam_cut_minimum(void **state)
             term[i] = (uint8_t)gs_rng_below(&r, 3);
             cost[i] = (uint32_t)gs_rng_below(&r, 50);
         }
-        OK(gs_field_seam_cut(&cs, term, cost, take));
+        OK(gs_field_seam_cut(&cs, term, cost, 0, take));
         int any_old = 0;
         for (int i = 0; i < 8; i++) {
             any_old |= term[i] == GS_CUT_OLD;
@@ -1374,7 +1374,7 @@ static void cut_by_x(const uint8_t term_x[8], const uint32_t cost_x[8], int from
     uint32_t cost[B * B * B];
     for (int i = 0; i < B * B * B; i++)
         term[i] = term_x[i % B], cost[i] = cost_x[i % B];
-    OK(gs_field_seam_cut(&cs, term, cost, take));
+    OK(gs_field_seam_cut(&cs, term, cost, 0, take));
     for (int i = 0; i < B * B * B; i++)
         assert_int_equal(take[i], i % B >= from ? 1 : 0);
     gs_field_cut_scratch_free(&cs);
@@ -1409,6 +1409,66 @@ static void test_seam_cut_leaves_grid(void **state)
     const uint8_t term[8] = {O, F, F, F, N, N, N, N};
     const uint32_t cost[8] = {100, 100, 60, 100, 0, 0, 0, 0};
     cut_by_x(term, cost, 2);
+}
+
+/* field.seam_columns (texture.ini, #19 whole objects): on 3^3 blocks whose
+ * ties are the same down each column (a slab's block: its unsynthesized
+ * samples and faces span every z) and whose costs are random per sample,
+ * the cut with columns keeps every column whole and costs the least of
+ * every column labelling that respects the ties (brute force over the 9
+ * columns, edges along x and y); the 3D cut splits some column on these
+ * blocks (what made mixed columns, fragments of discs, in texture.ini). */
+static void test_seam_cut_columns(void **state)
+{
+    (void)state;
+    enum { B = 3, N = B * B * B, C = B * B };
+    gs_field_cut_scratch cs = {0};
+    OK(gs_field_cut_scratch_init(&cs, B));
+    gs_rng r;
+    gs_rng_init(&r, 7, 0);
+    int split3d = 0;
+    for (int trial = 0; trial < 300; trial++) {
+        uint8_t term[N], take[N], tc[C];
+        uint32_t cost[N];
+        int any_old = 0;
+        for (int c = 0; c < C; c++)
+            tc[c] = (uint8_t)gs_rng_below(&r, 3), any_old |= tc[c] == GS_CUT_OLD;
+        if (!any_old)
+            tc[0] = GS_CUT_OLD;
+        for (int i = 0; i < N; i++)
+            term[i] = tc[i % C], cost[i] = (uint32_t)gs_rng_below(&r, 50);
+        OK(gs_field_seam_cut(&cs, term, cost, 0, take));
+        for (int i = C; i < N; i++)
+            split3d |= take[i] != take[i % C];
+        OK(gs_field_seam_cut(&cs, term, cost, 1, take));
+        for (int i = C; i < N; i++)
+            assert_int_equal(take[i], take[i % C]);
+        uint64_t best = UINT64_MAX, got = 0;
+        for (int m = 0; m < 1 << C; m++) {
+            int okm = 1;
+            for (int c = 0; c < C && okm; c++)
+                okm = !((tc[c] == GS_CUT_NEW && !(m >> c & 1)) || (tc[c] == GS_CUT_OLD && (m >> c & 1)));
+            if (!okm)
+                continue;
+            uint64_t sum = 0;
+            for (int i = 0; i < N; i++)
+                for (int a = 0; a < 2; a++) {
+                    int x = i % B, y = i / B % B, j = i + (a ? B : 1);
+                    if ((a ? y : x) + 1 < B && (m >> (i % C) & 1) != (m >> (j % C) & 1))
+                        sum += edge_cost(term, cost, i, j);
+                }
+            best = sum < best ? sum : best;
+        }
+        for (int i = 0; i < N; i++)
+            for (int a = 0; a < 2; a++) {
+                int x = i % B, y = i / B % B, j = i + (a ? B : 1);
+                if ((a ? y : x) + 1 < B && take[i] != take[j])
+                    got += edge_cost(term, cost, i, j);
+            }
+        assert_true(got == best);
+    }
+    assert_true(split3d);
+    gs_field_cut_scratch_free(&cs);
 }
 
 /* Object measures of gs_field_geometry_measure on known shapes: inscribed
@@ -1499,6 +1559,7 @@ int main(void)
         cmocka_unit_test(test_keep_volume_regions),
         cmocka_unit_test(test_seam_cut_minimum),
         cmocka_unit_test(test_seam_cut_follows_agreement),
+        cmocka_unit_test(test_seam_cut_columns),
         cmocka_unit_test(test_seam_cut_leaves_grid),
         cmocka_unit_test(test_geometry_objects),
     };
