@@ -468,6 +468,13 @@ typedef struct gs_field_synth_config {
     double repeat_free;              /* the share of the source blocks repeat_span and
                                         repeat_pairs leave free (0.05-1; 0 = 0.5, the
                                         share before it was a setting) */
+    int height_match;                /* bits, height-field examples only: 1 = the coarse
+                                        result, before it guides the next iteration, 2 = the
+                                        result of the last iteration (after the blend and the
+                                        seam correction), has its column heights mapped onto
+                                        the level source's height distribution (rank for
+                                        rank; each column shifted along z: src/field/synth.c
+                                        height_match); 0 = off (the paper) */
     int seam_gradient;               /* 1 (needs prov): after the blend, a screened Poisson
                                         correction makes the steps across seams the mean of
                                         the two pieces' own steps there (src/field/synth.c

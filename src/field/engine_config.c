@@ -105,6 +105,12 @@ static const gs_cfg_key field_keys[] = {
                     "what two pieces still disagree by across a seam over both pieces (decaying "
                     "over about a block), so the step across the seam is the pieces' own; no = "
                     "off (the paper)"),
+    GS_CFG_KEY_ENUM(field_config, height_match, "field.height_match", "none|coarse|final|both", "none",
+                    "height-map examples: the column heights of the coarse result (coarse: "
+                    "before it guides the next iteration), of the last iteration's result "
+                    "(final), or of both, mapped rank for rank onto the example's height "
+                    "distribution at that level, each column shifted along z (histogram "
+                    "matching); none = off (the paper); final in terrain.ini"),
     GS_CFG_KEY_INT(field_config, repeat_reach, "field.repeat_reach", 0, 15, 0, "0",
                    "in the last iteration a block may not take a source block within this many "
                    "positions (each axis) of the one a lower neighbour took (no source block "

@@ -53,6 +53,7 @@ typedef struct field_config {
     int64_t repeat_pairs;
     double repeat_free;
     int seam_gradient;
+    char *height_match;
     int seam_cut;
     int seam_columns;
     int complete_objects;

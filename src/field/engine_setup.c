@@ -157,8 +157,15 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
      * source panel) */
     int want_mesh = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both") || c->preview;
     gs_err err = GS_OK;
+    GS_CHECK(!strcmp(c->height_match, "none") || field_is_heightmap_example(c), GS_ERR_ARG,
+             "field.height_match = %s: expected none unless the example is a height map "
+             "(example.kind = file, example.path .png or .jpg)", c->height_match);
     GS_CALL(build_source(run, c, want_mesh, &d->src));
     const gs_qfield *q = d->src.q;
+    GS_CHECK(!strcmp(c->height_match, "none") || c->target[2] == q->nz, GS_ERR_ARG,
+             "field.height_match = %s: expected field.target's z (%lld) equal to the example's "
+             "depth (example.depth = %lld): a column's height is matched within its own depth",
+             c->height_match, (long long)c->target[2], (long long)q->nz);
     d->src_digest = gs_digest_bytes(q->q, (size_t)(q->nx * q->ny * q->nz));
     gs_field_synth_config_default(&d->sc, q);
     d->sc.iterations = (int)c->iterations;
@@ -183,6 +190,8 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.repeat_pairs = (int)c->repeat_pairs;
     d->sc.repeat_free = c->repeat_free;
     d->sc.seam_gradient = c->seam_gradient;
+    d->sc.height_match = !strcmp(c->height_match, "both") ? 3 : !strcmp(c->height_match, "final") ? 2
+                         : !strcmp(c->height_match, "coarse") ? 1 : 0;
     d->sc.seam_cut = c->seam_cut;
     d->sc.seam_columns = c->seam_columns;
     d->sc.complete_objects = c->complete_objects;
