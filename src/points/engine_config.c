@@ -87,8 +87,8 @@ static const gs_cfg_key points_keys[] = {
                     "the warp fades to none ((weight / this)^2) where the overlap strips' blend "
                     "weight falls below this, to 0 at their inner edge, so the patch's inside "
                     "keeps the example's shape (1: rings past the strips stay round, but fewer "
-                    "seams close and whole flowers come out shorter); 0 = the spline everywhere "
-                    "(the paper's)"),
+                    "seams close); whole objects (points.objects) move by the spline at their "
+                    "centre unfaded; 0 = the spline everywhere (the paper's)"),
     GS_CFG_KEY_BOOL(PC, warp_height_bound, "points.warp_height_bound", "true",
                     "the warp lifts or lowers no point beyond the example's height range (a "
                     "point already beyond it keeps its own height as the bound); false = the "

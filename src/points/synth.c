@@ -856,19 +856,40 @@ static gs_err ray_hit(const gs_points_grid *out, double R, gs_points *nb, const 
  * b of patch o, mode is below f = warp_fade (1 above), so a = 0 past the
  * strips' inner edge (b = 0): the patch's inside is the example's own
  * shape, and the warp is whole at the seam (b = 1), where the blend pulls
- * onto the output too. Why: the paper's spline (|r| kernel, pairs in the
- * strips, a few identity anchors far inside) strains the patch where its
- * displacement decays, in the strips' inner half and just past them
- * (chainmail full size, seeds 1-2, the normals' angle to their
- * neighbours' mean, warped patches minus the same unwarped, 0.3-0.6 from
- * the low edges: +0.3..+1.0 degrees; a ring past the strip ~0.1 wider).
- * Faded, nothing past the strips moves; a = b^2 rather than smoothstep(b)
- * keeps the warp's strain low where the blend leaves the warped shape
- * (weight 1 - b) most (the chainmail 8 x 8 layout of e2e/points_warp,
- * 0.2-0.3 from the low edges: -0.34 vs +1.02 degrees against none).
- * Opt-in (default 0): it closes fewer seams (e2e/points_quality's chainmail
- * open share 0.102 over its 0.096 bound) and whole flowers came out
- * shorter (tests/bench/points_elements.sh). */
+ * onto the output too. mode = 0: no fade, for a whole object (moved by
+ * the spline at its centre, one translation: nothing to strain; faded,
+ * flowers.ini's heights drifted from the example's, KS 0.077 -> 0.125 on
+ * seed 1, over the 0.081 of the example's halves).
+ * Why the fade: the paper's spline (|r| kernel, pairs in the strips, a few
+ * identity anchors far inside) strains the patch where its displacement
+ * decays, in the strips' inner half and just past them (chainmail full
+ * size, seeds 1-2, the normals' angle to their neighbours' mean, warped
+ * patches minus the same unwarped, 0.3-0.6 from the low edges: +0.3..+1.0
+ * degrees; a ring past the strip ~0.1 wider). Faded, nothing past the
+ * strips moves; a = b^2 rather than smoothstep(b) keeps the warp's strain
+ * low where the blend leaves the warped shape (weight 1 - b) most (the
+ * chainmail 8 x 8 layout of e2e/points_warp, 0.2-0.3 from the low edges:
+ * -0.34 vs +1.02 degrees against none).
+ * Opt-in (default 0). On the same patches it closes the seams as well as
+ * the spline everywhere (chainmail 8 x 8, blend fill and strip resampling
+ * off, seeds 1-3 and 11-14, means: share of seam points with no surface
+ * across 0.0839 vs 0.0834 (no warp 0.0909), seam distance and angle
+ * ratios to no warp 0.984, 0.995 vs 0.989, 0.997) with the strain gone
+ * (inside angle ratio 1.0023 vs 1.0077); on the layouts each run draws
+ * the share varies more from seed to seed than between the two (seeds
+ * 1-8, 11-14: 0.060-0.114 vs 0.057-0.122, means 0.0887 vs 0.0856; the
+ * spline everywhere is under e2e/points_quality's 0.096 bound on 8 of the
+ * 12), and seed 1's, the one that test runs, is 0.102 (0.092): not the
+ * default. Tried and no better on the same patches (points27, seeds 1-3):
+ * a = smoothstep(b / f); f = 0.5 (full strength on the strips' outer
+ * half: the strain comes back in their inner half, +0.7 degrees); fading
+ * to the pairs' mean displacement instead of none (the inside moved by
+ * one translation; seeds 1-3, 11-14: open share 0.0829, strain as faded
+ * to none); twice or half the pairs; 48 identity anchors from 0.05 or 32
+ * from 0.15 patch widths past the strips instead of 16 from 0.5 (the
+ * strain lies in the strips' inner half: unchanged); points.tps_lambda
+ * 0.001-0.1 (0.1: the spline turns near-affine and strains the whole
+ * patch, up to +4.6 degrees). */
 static void warp_eval(const struct gs_points_synth *s, const gs_points_tps *t, int mode,
                       const double o[2], const double x[3], double y[3], double J[9])
 {
@@ -932,8 +953,8 @@ static gs_err strip_gap(struct gs_points_synth *s, int mode, const double o[2],
         if (seen++ % stride)
             continue;
         double y[3];
-        if (tps)
-            warp_eval(s, tps, mode, o, x, y, NULL);
+        if (tps) /* a whole object's point unfaded, as object_moves moves it */
+            warp_eval(s, tps, s->ncomp && s->Fobj[i] ? 0 : mode, o, x, y, NULL);
         else
             memcpy(y, x, sizeof y);
         gs_points_mls_result r;
@@ -1229,7 +1250,7 @@ static gs_err object_moves(struct gs_points_synth *s, int mode, const double o[2
                     c[k] += s->F.v[j].p[k];
             for (int k = 0; k < 3; k++)
                 c[k] /= (double)(e - i);
-            warp_eval(s, tps, mode, o, c, w, J);
+            warp_eval(s, tps, 0, o, c, w, J); /* unfaded: one translation */
             for (int k = 0; k < 3; k++)
                 s->obj_move[3 * ob + k] = w[k] - c[k];
         }

@@ -218,6 +218,18 @@
 # their centre) height KS 0.125 / mean 0.108 over seeds 1-3 (bound the
 # example halves' 0.081): not the default. b^3 on its own layout: inside
 # 1.005, seam angle 1.004 (not kept).
+# points27: whole objects now move by the spline at their centre unfaded
+# (flowers.ini with warp_fade = 1: the same digest as without). Chainmail
+# 8 x 8 (blend fill and strip resampling off) on each seed's default-run
+# patches (points.choices), seeds 1-3 and fresh 11-14, means, default /
+# b^2 / none: seam open .0834/.0839/.0909, seam dist ratio .989/.984,
+# angle .997/.995, inside angle 1.0077/1.0023; on each run's own layout
+# (seeds 1-8, 11-14) seam open means .0856/.0887, per seed .057-.122 /
+# .060-.114 (the bound 0.096 met on 8 / 7 of 12 seeds; seam_open_segments
+# < 0.2 on 6 / 4): the gap between the two is below the seed-to-seed
+# spread, but seed 1 (e2e/points_quality) stays .092/.102. Fading to the
+# pairs' mean displacement, f = 0.5, smoothstep, more identity anchors
+# nearer the strips, more or fewer pairs, tps_lambda: no better (synth.c).
 # env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four and
 # flowers_cut: flowers.ini with points.objects = false),
 # VARIANTS (default full no_warp paper_warp no_blend no_blend_no_warp no_random;
