@@ -201,15 +201,28 @@ gs_err gs_measure_point_pieces(const double *xyz, size_t stride, size_t n, doubl
  * evenly over [0, band), a fit kept when a point beyond the line lies within
  * band in x y, as a seam point is found): the seam's one-sided geometry at
  * its distances, so a seamless output has seam_* close to inside_* also on a
- * curved surface. inside_fits counts those fits. Serial;
+ * curved surface. inside_fits counts those fits. seam_broken (inside_broken):
+ * the share of seam points (inside fits) that are open or lie farther than
+ * far_dist from the other side's surface; far_dist as passed to
+ * gs_measure_point_seams_far (e.g. the example's inside_dist_p90), else the
+ * points' own inside_dist_p90. Unlike seam_dist and seam_angle, which are
+ * means over the matched points only, it counts the points a seam leaves
+ * with no surface across, so closing a seam cannot raise it by adding its
+ * hardest points to the mean. Serial;
  * O(n log n) plus the pairs within radius (src/measure/pointset.c). */
 typedef struct gs_measure_seams {
     double seam_dist, seam_angle, seam_dist_p90, seam_open;
     double inside_dist, inside_angle, inside_dist_p90, inside_open;
+    double seam_broken, inside_broken, far_dist;
     uint64_t seam_points, inside_fits;
 } gs_measure_seams;
 gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, double radius,
                               double band, double min_weight, gs_measure_seams *out);
+/* The same with the broken shares against far_dist (> 0; 0 = the points' own
+ * inside_dist_p90). */
+gs_err gs_measure_point_seams_far(const double *v, size_t n, const int32_t *id, double radius,
+                                  double band, double min_weight, double far_dist,
+                                  gs_measure_seams *out);
 
 /* ------------------------------------------ geodesics on triangle meshes -- */
 

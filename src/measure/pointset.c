@@ -363,9 +363,18 @@ static double seam_spread(size_t i, int d)
 gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, double radius,
                               double band, double min_weight, gs_measure_seams *out)
 {
+    return gs_measure_point_seams_far(v, n, id, radius, band, min_weight, 0, out);
+}
+
+gs_err gs_measure_point_seams_far(const double *v, size_t n, const int32_t *id, double radius,
+                                  double band, double min_weight, double far_dist,
+                                  gs_measure_seams *out)
+{
     memset(out, 0, sizeof *out);
     GS_CHECK(radius > 0 && isfinite(radius) && band > 0 && band <= radius, GS_ERR_ARG,
              "point seams: radius %g, band %g: expected 0 < band <= radius", radius, band);
+    GS_CHECK(far_dist >= 0 && isfinite(far_dist), GS_ERR_ARG,
+             "point seams: far distance %g, expected >= 0", far_dist);
     GS_CHECK(n < UINT32_MAX, GS_ERR_ARG, "point seams: %zu points, expected < 2^32", n);
     if (n == 0)
         return GS_OK;
@@ -485,6 +494,16 @@ gs_err gs_measure_point_seams(const double *v, size_t n, const int32_t *id, doub
         *ang = s[2] > 0 ? s[1] / s[2] : 0;
         *open = tot > 0 ? s[3] / tot : 0;
         *p90 = seam_p90(dl[w], nd[w]);
+    }
+    /* Broken: open, or farther than far_dist (sorted lists: the tail). */
+    out->far_dist = far_dist > 0 ? far_dist : out->inside_dist_p90;
+    for (int w = 0; w < 2; w++) {
+        double *s = sum[w], tot = s[2] + s[3];
+        size_t far = 0;
+        while (far < nd[w] && dl[w][nd[w] - 1 - far] > out->far_dist)
+            far++;
+        *(w ? &out->inside_broken : &out->seam_broken) =
+            tot > 0 ? (s[3] + (double)far) / tot : 0;
     }
     out->seam_points = (uint64_t)(sum[0][2] + sum[0][3]);
     out->inside_fits = (uint64_t)(sum[1][2] + sum[1][3]);

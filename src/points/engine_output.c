@@ -440,8 +440,10 @@ static gs_err example_patch_seams(run_state *rs, const gs_points_lines *ex, doub
                 GS_TRY(err, gs_points_append(&all, &q, 1), done);
             }
         }
-        GS_TRY(err, gs_measure_point_seams((const double *)all.v, all.n, ida, R, band,
-                                           GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam_ex_all), done);
+        GS_TRY(err, gs_measure_point_seams_far((const double *)all.v, all.n, ida, R, band,
+                                               GS_POINTS_SEAM_MIN_WEIGHT,
+                                               rs->pseam_ex.inside_dist_p90, &rs->pseam_ex_all),
+               done);
     }
 done:
     gs_points_free(&all);
@@ -465,9 +467,12 @@ static gs_err seam_measures(run_state *rs, const gs_points *zup)
     GS_TRY(err, gs_points_synth_lines(rs->synth, 2, &ex), done);
     GS_TRY(err, gs_points_seam_measure(zup, R, band, &seams, &inside, &rs->seam), done);
     GS_TRY(err, gs_points_seam_measure(&rs->tex.pts, R, band, &ex, &none, &rs->seam_ex), done);
-    GS_TRY(err, gs_measure_point_seams((const double *)zup->v, zup->n, rs->out_id, R, pband,
-                                       GS_POINTS_SEAM_MIN_WEIGHT, &rs->pseam), done);
+    /* The example first: its inside fits' 90th percentile distance is
+     * where the output's seam and inside points count as broken. */
     GS_TRY(err, example_patch_seams(rs, &ex, pband), done);
+    GS_TRY(err, gs_measure_point_seams_far((const double *)zup->v, zup->n, rs->out_id, R, pband,
+                                           GS_POINTS_SEAM_MIN_WEIGHT, rs->pseam_ex.inside_dist_p90,
+                                           &rs->pseam), done);
 done:
     gs_points_lines_free(&seams);
     gs_points_lines_free(&inside);
@@ -485,6 +490,8 @@ static void example_seam_metrics(gs_run *run, const gs_measure_seams *pe, const 
     gs_run_metric_f64(run, k, pe->inside_angle > 0 ? pe->seam_angle / pe->inside_angle : 0);
     snprintf(k, sizeof k, "example_patch_seam_open%s", suffix);
     gs_run_metric_f64(run, k, pe->seam_open);
+    snprintf(k, sizeof k, "example_patch_seam_broken%s", suffix);
+    gs_run_metric_f64(run, k, pe->seam_broken);
 }
 
 static void record_metrics(gs_run *run, const points_config *c, run_state *rs, double dens_out)
@@ -582,8 +589,14 @@ static void record_metrics(gs_run *run, const points_config *c, run_state *rs, d
                       ps->inside_dist > 0 ? ps->seam_dist / ps->inside_dist : 0);
     gs_run_metric_f64(run, "patch_seam_angle_ratio",
                       ps->inside_angle > 0 ? ps->seam_angle / ps->inside_angle : 0);
+    /* Broken: open or farther from the other side's surface than 9 in 10
+     * of the example's inside fits (patch_far_dist), seams and inside. */
+    gs_run_metric_f64(run, "patch_far_dist", ps->far_dist);
+    gs_run_metric_f64(run, "patch_seam_broken", ps->seam_broken);
+    gs_run_metric_f64(run, "patch_inside_broken", ps->inside_broken);
     example_seam_metrics(run, &rs->pseam_ex, "");
     gs_run_metric_f64(run, "example_patch_inside_open", rs->pseam_ex.inside_open);
+    gs_run_metric_f64(run, "example_patch_inside_broken", rs->pseam_ex.inside_broken);
     if (rs->c->example_seam_shifts != 1)
         example_seam_metrics(run, &rs->pseam_ex_all, "_shifted");
     gs_run_metric_f64(run, "example_line_dist", rs->seam_ex.seam_dist);

@@ -300,8 +300,12 @@ for cfg in $CONFIGS; do
 done
 /usr/bin/python3 - "$list" <<'PY'
 import json, sys, collections
+sys.path.insert(0, "analysis")
+import point_seams
 keys = ["patch_seam_dist_ratio", "patch_seam_angle_ratio", "patch_seam_dist", "patch_inside_dist",
         "patch_seam_angle", "patch_inside_angle", "patch_seam_open", "patch_inside_open",
+        "patch_seam_broken", "patch_inside_broken", "patch_far_dist", "example_patch_seam_broken",
+        "example_patch_inside_broken", "example_patch_seam_broken_shifted",
         "patch_seam_points", "example_patch_seam_open", "example_patch_seam_dist_ratio",
         "example_patch_seam_angle_ratio", "example_patch_seam_open_shifted",
         "example_patch_seam_dist_ratio_shifted", "example_patch_seam_angle_ratio_shifted",
@@ -317,8 +321,22 @@ for line in open(sys.argv[1]):
     m = json.load(open(d + "/summary.json"))["metrics"]
     r = {"config": cfg, "variant": v, "seed": int(seed)}
     r.update({k: m[k] for k in keys if k in m})
+    # The seams by a patch the full run at this seed warped (its
+    # patches.csv), in the full run and on the same patches without the
+    # warp: where the warp acted (analysis/point_seams.py --patches).
+    pc = d.rsplit("-", 2)[0] + "-full-" + seed + "/patches.csv"
+    if v in ("full", "no_warp_same") and "patch_far_dist" in m:
+        pts, pid = point_seams.read_points(d + "/points.ply")
+        cf = {l.split("=")[0].strip(): l.split("=", 1)[1].strip() for l in
+              json.load(open(d + "/summary.json"))["config"].splitlines()
+              if "=" in l and not l.startswith("#")}
+        rad = float(cf.get("mls_radius", "0") or 0) or 3 * m["input_spacing"]
+        ws = point_seams.measure(pts, pid, rad, min(1.5 * m["input_spacing"], rad),
+                                 m["patch_far_dist"], point_seams.warped_patches(pc))
+        for k in ("dist", "angle", "open", "broken", "points"):
+            r["warped_seam_" + k] = m["warped_seam_" + k] = ws["patch_seam_" + k]
     runs.append(r)
-    for k in keys:
+    for k in keys + ["warped_seam_" + k for k in ("dist", "angle", "open", "broken", "points")]:
         if k in m:
             acc[(cfg, v)][k].append(m[k])
 mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}}
@@ -326,8 +344,9 @@ mean = [{"config": c, "variant": v, **{k: sum(x) / len(x) for k, x in a.items()}
 # The warp against none on the same patches (full vs no_warp_same, when
 # both ran): the means' ratio full / no_warp_same and the seeds where the
 # warp is no worse (<=), for the seam measure and the inside angle.
-warp_keys = ["patch_seam_dist", "patch_seam_angle", "patch_seam_open", "patch_inside_angle",
-             "patch_seam_dist_ratio", "patch_seam_angle_ratio"]
+warp_keys = ["warped_seam_broken", "warped_seam_dist", "warped_seam_angle", "warped_seam_open",
+             "patch_seam_broken", "patch_seam_dist", "patch_seam_angle", "patch_seam_open",
+             "patch_inside_angle", "patch_seam_dist_ratio", "patch_seam_angle_ratio"]
 by = {(r["config"], r["variant"], r["seed"]): r for r in runs}
 warp = []
 for c in dict.fromkeys(r["config"] for r in runs):
@@ -363,8 +382,8 @@ if warp:
     for e in warp:
         print("%-12s " % e["config"] + "  ".join(
             "%s %.4g/%.4g (%s, %d/%d)" % (
-                k[6:], e[k]["warp"], e[k]["no_warp"],
+                k.replace("patch_", "")[:13], e[k]["warp"], e[k]["no_warp"],
                 "%.3f" % e[k]["ratio"] if e[k]["ratio"] is not None else "-",
                 e[k]["seeds_no_worse"], len(e["seeds"]))
-            for k in warp_keys[:4] if k in e), file=sys.stderr)
+            for k in warp_keys[:9] if k in e), file=sys.stderr)
 PY

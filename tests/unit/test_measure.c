@@ -316,9 +316,21 @@ static void test_point_seams(void **state)
         } else {
             assert_true(ms.seam_dist < 1e-12 && ms.seam_angle < 1e-5);
         }
+        /* Broken against a far distance of dz / 2: the raised seam's points
+         * all (dz away), the open ones all, a seam like the inside none;
+         * against 2 dz the raised seam is whole again, the open one not. */
+        gs_measure_seams mf;
+        assert_int_equal(gs_measure_point_seams_far(v, n, id, R, band, 0.15, dz / 2, &mf), GS_OK);
+        assert_true(mf.far_dist == dz / 2 && mf.seam_points == ms.seam_points);
+        assert_true(mf.seam_dist == ms.seam_dist && mf.seam_open == ms.seam_open);
+        assert_true(mf.seam_broken == (raise == 1 || raise == 3 ? 1 : 0));
+        assert_true(raise == 2 || mf.inside_broken == 0);
+        assert_int_equal(gs_measure_point_seams_far(v, n, id, R, band, 0.15, 2 * dz, &mf), GS_OK);
+        assert_true(mf.seam_broken == (raise == 3 ? 1 : 0));
     }
     gs_measure_seams ms;
     assert_int_equal(gs_measure_point_seams(v, 10, id, R, 2 * R, 0.15, &ms), GS_ERR_ARG);
+    assert_int_equal(gs_measure_point_seams_far(v, 10, id, R, band, 0.15, -1, &ms), GS_ERR_ARG);
     free(v);
     free(id);
 }
