@@ -230,6 +230,34 @@
 # spread, but seed 1 (e2e/points_quality) stays .092/.102. Fading to the
 # pairs' mean displacement, f = 0.5, smoothstep, more identity anchors
 # nearer the strips, more or fewer pairs, tps_lambda: no better (synth.c).
+# points26: the default output (strip resampling on), 8 x 8, np 1, full vs
+# no_warp_same, the broken share (open, or farther than the example's
+# inside p90: patch_far_dist) at the seams by the patches the full run
+# warped (warped_seam_broken) and over the whole output (patch_seam_broken),
+# warp / none. Measure chosen on chainmail seeds 1-3; seeds 1-3 then 4-6:
+#   chainmail   warped .169/.192 .150/.154 .120/.137 | .190/.212 .179/.181 .185/.193
+#               whole  .196/.205 .151/.151 .142/.147 | .215/.215 .174/.167 .189/.198
+#   heightfield warped .120/.128 .104/.119 .122/.127 | .127/.138 .140/.153 .128/.135
+#               whole  .144/.155 .100/.106 .125/.130 | .146/.149 .131/.134 .128/.131
+#   weave       warped .341/.319 .336/.354 .281/.297 | .298/.302 (seed 4 only)
+#               whole  .320/.314 .329/.338 .277/.286 | .301/.305
+#   quick       warped (not run)                     | .226/.228 .155/.159 .158/.162
+#               whole                                | .233/.231 .163/.164 .159/.162
+#   flowers     whole objects: 90-117 seam points, all open (no other
+#               patch's surface within reach): nothing for the warp to mend
+# Lower with the warp where it acted on 18 of 19; by more than the sampling
+# error on 9 (chainmail 1, 3, 4, 6, heightfield 2, 4, 5, weave 2, 3; quick
+# by 0.002-0.004, within it). Weave seed 1 is
+# worse (.341 vs .319; with the resampling off too, .325 vs .314): one
+# patch (42, the pairs' spline) 207 of 365 broken at its seam with patch
+# 43, pasted after it, against 131 of 314 unwarped; its seam with 35 (the
+# one its trial paste judged) 3/48 vs 7/45. The seams a later patch makes
+# with a warped one are not judged. The whole output's share is lower on
+# 14 of 19 (chainmail 2 and 4 equal; chainmail 5, weave 1, quick 4
+# higher): at the seams between
+# unwarped patches the two runs differ by noise (the resampling's darts are
+# drawn in one order over the whole output; warp / none there on 14 pairs:
+# 7 higher, 7 lower, each within 1.5 sampling errors).
 # env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four and
 # flowers_cut: flowers.ini with points.objects = false),
 # VARIANTS (default full no_warp paper_warp no_blend no_blend_no_warp no_random;
