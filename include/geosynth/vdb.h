@@ -110,9 +110,12 @@ gs_err gs_vdb_mesh_to_distance(const gs_mesh *m, const char *what,
 gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adaptivity,
                             gs_mesh *out);
 
-/* Redistancing (OpenVDB levelSetRebuild: surface mesh of the zero
- * iso-surface, then the exact distance to it within half_width voxels,
- * >= 1), its magnitudes then lowered where they exceed a bound of the
+/* Redistancing (the zero iso-surface meshed by OpenVDB volumeToMesh, the
+ * mesh contour.ply has; then the distance to its triangles within
+ * half_width voxels, >= 1, our own: each triangle's exact distance to the
+ * samples of its bounding box, then ceil(half_width) + 1 layers in which a
+ * sample tries the triangles its 26 neighbours took, all at once; signs are
+ * the field's own, so the inside is unchanged), its magnitudes then lowered where they exceed a bound of the
  * distance to that surface (the distance to a zero crossing on an edge,
  * |b| + voxel from a neighbour of the same sign), so no neighbour step
  * exceeds one voxel; values beyond the band are +-half_width * voxel.

@@ -107,10 +107,10 @@ fail:
     return err;
 }
 
-/* The synthesized field f redistanced into a distance field (the exact
- * distance to its zero surface within field.range samples, OpenVDB
- * levelSetRebuild on the field padded with its edge values so the surface
- * stays open at the box faces, then bounded so no neighbour step exceeds a
+/* The synthesized field f redistanced into a distance field (the distance
+ * to its zero surface, as OpenVDB volumeToMesh meshes it, within
+ * field.range samples, signed as f, on the field padded with its edge
+ * values so the surface stays open at the box faces, then bounded so no neighbour step exceeds a
  * sample; gs_vdb_redistance), in place on every rank. Each rank rebuilds the
  * z-planes it writes into field.h5 (field_write_slabs' partition), in pieces
  * of at most FIELD_REDIST_SAMPLES samples, so memory is bounded by a piece
