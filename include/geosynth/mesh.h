@@ -118,8 +118,13 @@ gs_err gs_mesh_topology_check(const gs_mesh *m, gs_mesh_topology *topo);
 gs_err gs_mesh_require_closed(const gs_mesh *m, const char *what, const char *purpose);
 
 /* Area-weighted vertex normals (unit length; zero for isolated vertices).
- * Allocates m->normals when NULL. */
+ * Allocates m->normals when NULL. Each vertex's sum is taken in double, in
+ * triangle order; the sums of at most 2^22 vertices are held at once (larger
+ * meshes: one pass over the triangles per range of vertices, same bits). */
 gs_err gs_mesh_compute_normals(gs_mesh *m);
+/* The same with ranges of `range` vertices (>= 1): equal bits for any range
+ * (tests/unit/test_mesh.c checks this). */
+gs_err gs_mesh_compute_normals_ranged(gs_mesh *m, size_t range);
 
 /* Merges vertices within tol (tol = 0: identical positions): in vertex
  * order, a vertex joins the lowest kept vertex within tol, or is kept (with

@@ -291,10 +291,54 @@ double gs_mesh_volume(const gs_mesh *m)
     return s;
 }
 
+/* Vertices whose double sums gs_mesh_compute_normals holds at once (24
+ * bytes each): larger meshes are done in ranges of this many vertices, one
+ * pass over the triangles per range. */
+#define NORMAL_RANGE_VERTS ((size_t)1 << 22)
+
+/* The normals of vertices [v0, v1) into m->normals: each vertex's double sum
+ * of its triangles' cross products, in triangle order and corner order (the
+ * same additions, so the same bits, whatever the range). acc: 3 * (v1 - v0). */
+static void normals_range(gs_mesh *m, size_t v0, size_t v1, double *acc)
+{
+    memset(acc, 0, 3 * (v1 - v0) * sizeof *acc);
+    const int whole = v0 == 0 && v1 == m->nverts;
+    for (size_t t = 0; t < m->ntris; t++) {
+        const uint32_t *c3 = m->tris + 3 * t;
+        if (!whole && !((c3[0] >= v0 && c3[0] < v1) || (c3[1] >= v0 && c3[1] < v1) ||
+                        (c3[2] >= v0 && c3[2] < v1)))
+            continue;
+        double n[3]; /* |cross| = 2 * area: area weighting for free */
+        tri_cross(m, t, n);
+        for (int c = 0; c < 3; c++)
+            if (c3[c] >= v0 && c3[c] < v1)
+                for (int k = 0; k < 3; k++)
+                    acc[3 * (size_t)(c3[c] - v0) + k] += n[k];
+    }
+    for (size_t i = v0; i < v1; i++) {
+        const double *a = acc + 3 * (i - v0);
+        double l = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        for (int k = 0; k < 3; k++)
+            m->normals[3 * i + k] = l > 0 ? (float)(a[k] / l) : 0.0f;
+    }
+}
+
+/* Memory: the float normals plus the double sums of at most
+ * NORMAL_RANGE_VERTS vertices (96 MiB), not of every vertex (24 bytes a
+ * vertex: ~560 MB for a 512^3 contour); time: one pass over the triangles
+ * per range. */
 gs_err gs_mesh_compute_normals(gs_mesh *m)
 {
+    return gs_mesh_compute_normals_ranged(m, NORMAL_RANGE_VERTS);
+}
+
+gs_err gs_mesh_compute_normals_ranged(gs_mesh *m, size_t range)
+{
+    GS_CHECK(range >= 1, GS_ERR_ARG, "normals: a range of %zu vertices, expected at least 1", range);
+    if (m->nverts < range)
+        range = m->nverts;
     double *acc = NULL;
-    GS_CALL(gs_alloc_array((void **)&acc, m->nverts * 3, sizeof(double), "normal accumulator"));
+    GS_CALL(gs_alloc_array((void **)&acc, range * 3, sizeof(double), "normal accumulator"));
     if (!m->normals) {
         gs_err err = gs_alloc_array((void **)&m->normals, m->nverts * 3, sizeof(float),
                                     "mesh normals");
@@ -303,19 +347,8 @@ gs_err gs_mesh_compute_normals(gs_mesh *m)
             GS_CALL(err);
         }
     }
-    for (size_t t = 0; t < m->ntris; t++) {
-        double n[3]; /* |cross| = 2 * area: area weighting for free */
-        tri_cross(m, t, n);
-        for (int c = 0; c < 3; c++)
-            for (int k = 0; k < 3; k++)
-                acc[3 * (size_t)m->tris[3 * t + c] + k] += n[k];
-    }
-    for (size_t i = 0; i < m->nverts; i++) {
-        double *a = acc + 3 * i;
-        double l = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-        for (int k = 0; k < 3; k++)
-            m->normals[3 * i + k] = l > 0 ? (float)(a[k] / l) : 0.0f;
-    }
+    for (size_t v0 = 0; v0 < m->nverts; v0 += range)
+        normals_range(m, v0, m->nverts - v0 < range ? m->nverts : v0 + range, acc);
     gs_free(acc);
     return GS_OK;
 }

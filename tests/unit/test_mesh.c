@@ -319,6 +319,44 @@ static void expect_mesh_error(const char *text, const char *name, const char *ne
     gs_error_clear();
 }
 
+/* gs_mesh_compute_normals in ranges of vertices (the memory bound of large
+ * contours): the same bits as all vertices at once, for ranges that split
+ * triangles' corners between passes (random triangles over scattered
+ * vertices, each vertex in several triangles). */
+static void test_normals_ranged(void **state)
+{
+    (void)state;
+    enum { NV = 997, NT = 4000 };
+    gs_mesh m, r;
+    assert_int_equal(gs_mesh_alloc(&m, NV, NT, 0), GS_OK);
+    gs_rng g;
+    gs_rng_init(&g, 19, 34);
+    for (size_t i = 0; i < 3 * (size_t)NV; i++)
+        m.pos[i] = (float)(gs_rng_u32(&g) % 100000) / 1000.0f;
+    for (size_t t = 0; t < NT; t++)
+        for (int c = 0; c < 3; c++)
+            m.tris[3 * t + c] = (uint32_t)(c ? gs_rng_u32(&g) % NV : t % NV);
+    assert_int_equal(gs_mesh_compute_normals(&m), GS_OK);
+    const size_t ranges[] = {1, 2, 7, 100, NV - 1, NV, 5000};
+    for (size_t k = 0; k < sizeof ranges / sizeof *ranges; k++) {
+        r = m;
+        r.normals = NULL;
+        assert_int_equal(gs_mesh_compute_normals_ranged(&r, ranges[k]), GS_OK);
+        assert_memory_equal(r.normals, m.normals, 3 * (size_t)NV * sizeof(float));
+        gs_free(r.normals);
+    }
+    /* not every normal is zero or axis-aligned: the comparison means something */
+    size_t tilted = 0;
+    for (size_t i = 0; i < NV; i++)
+        tilted += fabsf(m.normals[3 * i]) > 0.1f && fabsf(m.normals[3 * i + 1]) > 0.1f;
+    assert_true(tilted > NV / 4);
+    r = m;
+    r.normals = NULL;
+    assert_int_equal(gs_mesh_compute_normals_ranged(&r, 0), GS_ERR_ARG);
+    gs_error_clear();
+    gs_mesh_destroy(&m);
+}
+
 static void test_bounded_readers(void **state)
 {
     (void)state;
@@ -385,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_misoriented_and_nonmanifold),
         cmocka_unit_test(test_write_read_roundtrip),
         cmocka_unit_test(test_bounded_readers),
+        cmocka_unit_test(test_normals_ranged),
     };
     return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }
