@@ -275,7 +275,7 @@ static gs_err cmd_preview(const cli_args *a)
     gs_err err = GS_OK;
     for (; loaded < n && !err; loaded++) {
         err = gs_mesh_read(files[loaded], &meshes[loaded]);
-        panels[loaded] = (gs_preview_panel){&meshes[loaded], NULL};
+        panels[loaded] = (gs_preview_panel){&meshes[loaded], NULL, NULL};
     }
     if (err)
         loaded--; /* the failed read left nothing to free */

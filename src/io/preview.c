@@ -26,6 +26,25 @@ static gs_err y_up_copy(const gs_mesh *m, gs_mesh *out, float **pos)
     return GS_OK;
 }
 
+/* (x, y, z) -> (x, z, -y) in place, and back: (x, y, z) -> (x, -z, y). */
+static void turn_y_up(gs_mesh *m)
+{
+    for (size_t v = 0; v < m->nverts; v++) {
+        float *p = m->pos + 3 * v, y = p[1];
+        p[1] = p[2];
+        p[2] = -y;
+    }
+}
+
+static void turn_z_up(gs_mesh *m)
+{
+    for (size_t v = 0; v < m->nverts; v++) {
+        float *p = m->pos + 3 * v, y = p[1];
+        p[1] = -p[2];
+        p[2] = y;
+    }
+}
+
 gs_err gs_preview_write(const char *path, const gs_preview_panel *panels, int n, int side)
 {
     GS_CHECK(n >= 1 && n <= GS_PREVIEW_MAX_PANELS, GS_ERR_ARG,
@@ -49,12 +68,23 @@ gs_err gs_preview_write(const char *path, const gs_preview_panel *panels, int n,
         const gs_mesh *m = panels[i].mesh;
         if (!m || m->ntris == 0)
             continue;
+        GS_TRY_CHECK(err, !panels[i].turn || panels[i].turn == m, GS_ERR_ARG, done,
+                     "preview %s: panel %d's turn is not its mesh", path, i);
         gs_mesh up;
         float *pos = NULL;
         gs_image pic = {0};
-        GS_TRY(err, y_up_copy(m, &up, &pos), next);
+        if (panels[i].turn) { /* the same positions as the copy's, no copy */
+            turn_y_up(panels[i].turn);
+            up = *panels[i].turn;
+            up.normals = NULL;
+        } else {
+            GS_TRY(err, y_up_copy(m, &up, &pos), next);
+        }
         o.colors = panels[i].colors;
-        GS_TRY(err, gs_render_mesh(&up, &o, &pic, NULL), next);
+        err = gs_render_mesh(&up, &o, &pic, NULL);
+        if (panels[i].turn)
+            turn_z_up(panels[i].turn);
+        GS_TRY(err, err, next);
         for (int y = 0; y < side; y++)
             memcpy(all.data8 + 3 * ((size_t)y * width + (size_t)i * (side + GUTTER)),
                    pic.data8 + 3 * (size_t)y * side, 3 * (size_t)side);

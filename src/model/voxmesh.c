@@ -711,7 +711,7 @@ gs_err gs_model_write_preview(const char *path, const gs_model_lattice *example,
     if (err == GS_OK)
         err = lattice_mesh(output, pal, &m[1], &rgb[1]);
     if (err == GS_OK) {
-        gs_preview_panel panels[2] = {{&m[0], rgb[0]}, {&m[1], rgb[1]}};
+        gs_preview_panel panels[2] = {{&m[0], rgb[0], NULL}, {&m[1], rgb[1], NULL}};
         err = gs_preview_write(path, panels, 2, side);
     }
     for (int i = 0; i < 2; i++) {

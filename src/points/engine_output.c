@@ -191,7 +191,7 @@ static gs_err write_preview(const points_config *c, const gs_points_texture *tex
     double voxel = fmax(c->mesh_voxel, 1.5) * tex->spacing;
     GS_TRY(err, mesh_points(&ex, voxel, R, tex->spacing, c->mesh_max_samples, &me), done);
     GS_TRY(err, mesh_points(&out, voxel, R, tex->spacing, c->mesh_max_samples, &mo), done);
-    gs_preview_panel panels[2] = {{&me, NULL}, {&mo, NULL}};
+    gs_preview_panel panels[2] = {{&me, NULL, NULL}, {&mo, NULL, NULL}};
     err = gs_preview_write_optional(path, panels, 2, 512, written);
 done:
     gs_points_free(&ex);

@@ -394,7 +394,7 @@ static void test_preview(void **state)
     float pos[9] = {0, 0, 0, 1, 0, 0, 0, 0, 1};
     uint32_t tris[3] = {0, 1, 2};
     gs_mesh m = {.nverts = 3, .ntris = 1, .pos = pos, .tris = tris};
-    gs_preview_panel p[2] = {{&m, NULL}, {NULL, NULL}};
+    gs_preview_panel p[2] = {{&m, NULL, NULL}, {NULL, NULL, NULL}};
     char dir[] = "/tmp/gs-test-preview-XXXXXX", path[64];
     assert_non_null(mkdtemp(dir));
     snprintf(path, sizeof path, "%s/p.png", dir);
@@ -423,6 +423,62 @@ static void test_preview(void **state)
     assert_int_equal(gs_preview_write(path, p, 0, 64), GS_ERR_ARG);
     assert_int_equal(gs_preview_write(path, p, 2, 8), GS_ERR_ARG);
     gs_error_clear();
+}
+
+static unsigned char *read_all(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(*n);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, *n, f), *n);
+    fclose(f);
+    return b;
+}
+
+/* A panel given as `turn` (the field's contour: turned y-up in place, no
+ * copy) draws the same bytes as one drawn from a y-up copy, and its mesh
+ * is left exactly as it was, normals included. The mesh is lopsided (a
+ * pyramid leaning towards +y and +z, -0 coordinates included), so a wrong
+ * turn shows. */
+static void test_preview_turn(void **state)
+{
+    (void)state;
+    float pos[15] = {0, 0, 0, 2, -0.0f, 0, 2, 1, 0, 0, 1, -0.0f, 1.4f, 1.6f, 2.5f};
+    uint32_t tris[18] = {0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4, 0, 2, 1, 0, 3, 2};
+    float keep[15], normals[15], nkeep[15];
+    for (int i = 0; i < 15; i++)
+        normals[i] = (float)i, nkeep[i] = (float)i;
+    memcpy(keep, pos, sizeof pos);
+    gs_mesh m = {.nverts = 5, .ntris = 6, .pos = pos, .tris = tris, .normals = normals};
+    gs_mesh plain = m; /* the same positions, drawn from a copy */
+    plain.normals = NULL;
+    char dir[] = "/tmp/gs-test-preview-XXXXXX", a[64], b[64];
+    assert_non_null(mkdtemp(dir));
+    snprintf(a, sizeof a, "%s/copy.png", dir);
+    snprintf(b, sizeof b, "%s/turn.png", dir);
+    gs_preview_panel pc[2] = {{&plain, NULL, NULL}, {&plain, NULL, NULL}};
+    gs_preview_panel pt[2] = {{&plain, NULL, NULL}, {&m, NULL, &m}};
+    assert_int_equal(gs_preview_write(a, pc, 2, 96), GS_OK);
+    assert_int_equal(gs_preview_write(b, pt, 2, 96), GS_OK);
+    assert_memory_equal(pos, keep, sizeof pos); /* bits: -0 stays -0 */
+    assert_memory_equal(normals, nkeep, sizeof normals);
+    size_t na, nb;
+    unsigned char *da = read_all(a, &na), *db = read_all(b, &nb);
+    assert_int_equal(na, nb);
+    assert_memory_equal(da, db, na);
+    free(da);
+    free(db);
+    /* a turn that is not the panel's mesh is refused */
+    gs_preview_panel bad[1] = {{&plain, NULL, &m}};
+    assert_int_equal(gs_preview_write(b, bad, 1, 96), GS_ERR_ARG);
+    gs_error_clear();
+    unlink(a);
+    unlink(b);
+    rmdir(dir);
 }
 
 /* A flat (2n x n) grid of unit squares in [-n, n] x [0, n], each split into
@@ -1496,6 +1552,7 @@ int main(void)
         cmocka_unit_test(test_point_seams),
         cmocka_unit_test(test_point_seams_curved),
         cmocka_unit_test(test_preview),
+        cmocka_unit_test(test_preview_turn),
         cmocka_unit_test(test_geodesic),
         cmocka_unit_test(test_lattice_measures),
         cmocka_unit_test(test_land_interior),
