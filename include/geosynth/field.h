@@ -603,6 +603,12 @@ const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s);
 /* Copy of the final (or current) target as a quantized field with the
  * source's range, spacing and origin 0. */
 gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out);
+/* The same values once the synthesis is finished, without a copy: the
+ * target is handed over to *out and the mask freed (memory of the output
+ * phase: 2 bytes a sample less). Afterwards the synthesis keeps only its
+ * statistics (get_state's target and mask are NULL): it can be destroyed,
+ * not run, checkpointed or asked for its result again (GS_ERR_ARG). */
+gs_err gs_field_synth_take_result(gs_field_synth_t s, gs_qfield **out);
 /* field.complete_objects (cfg.complete_objects and cfg.prov given) once the
  * synthesis is finished: rebuilds the target from the source's whole objects
  * (src/field/synth.c), the same on every rank. *before receives the

@@ -18,7 +18,10 @@
 #include "field/engine_impl.h"
 
 /* One output step's wall and CPU seconds (this rank, its threads included)
- * into the phase record as NAME_seconds and NAME_cpu_seconds. */
+ * into the phase record as NAME_seconds and NAME_cpu_seconds, and this
+ * rank's tracked peak memory and peak resident size so far as
+ * NAME_mem_peak_bytes and NAME_rss_peak_bytes (where a peak is reached: the
+ * first step whose figure equals the run's). */
 typedef struct step_clock {
     double t, c;
 } step_clock;
@@ -35,6 +38,10 @@ static void step_end(gs_json *pm, const char *name, step_clock s)
     gs_json_f64(pm, k, gs_time_now() - s.t);
     snprintf(k, sizeof k, "%s_cpu_seconds", name);
     gs_json_f64(pm, k, gs_cpu_now() - s.c);
+    snprintf(k, sizeof k, "%s_mem_peak_bytes", name);
+    gs_json_u64(pm, k, (uint64_t)gs_mem_peak());
+    snprintf(k, sizeof k, "%s_rss_peak_bytes", name);
+    gs_json_u64(pm, k, (uint64_t)gs_mem_rss_peak());
 }
 
 static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *f,
@@ -217,6 +224,12 @@ static gs_err write_world_mesh(const char *path, gs_mesh *m, const gs_field *f, 
     return err;
 }
 
+/* output.geometry makes the copied mesh (rank 0's, from the provenance) */
+static int field_geometry_copies(const field_config *c)
+{
+    return !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+}
+
 #define GEOM_STEPS 3
 /* What write_geometry's contour rank wrote, for rank 0 to list (the
  * outputs in the order of the digest) and report. */
@@ -225,7 +238,8 @@ typedef struct field_geometry_done {
     int preview, copied, copied_glb; /* rank 0's */
     int64_t contour_triangles;
     double contour_area;
-    double secs[GEOM_STEPS][2]; /* the contour rank's steps: wall, CPU seconds (-1: not run) */
+    double secs[GEOM_STEPS][4]; /* the contour rank's steps: wall, CPU seconds (-1: not run),
+                                   its tracked and resident peaks after the step (bytes) */
 } field_geometry_done;
 
 /* the contour rank's steps, as the phase record names them */
@@ -236,6 +250,8 @@ static void geom_step_end(field_geometry_done *done, int k, step_clock s)
 {
     done->secs[k][0] = gs_time_now() - s.t;
     done->secs[k][1] = gs_cpu_now() - s.c;
+    done->secs[k][2] = (double)gs_mem_peak();
+    done->secs[k][3] = (double)gs_mem_rss_peak();
 }
 
 /* The meshes, field.vdb and preview.png, shared by two ranks at np > 1:
@@ -251,7 +267,7 @@ static gs_err write_geometry(gs_run *run, const field_config *c, const field_sou
 {
     char path[PATH_MAX], name[64];
     int contour = !strcmp(c->geometry, "contour") || !strcmp(c->geometry, "both");
-    int copy = !strcmp(c->geometry, "copy") || !strcmp(c->geometry, "both");
+    int copy = field_geometry_copies(c);
     const int mine_contour = run->rank == crank, mine_copy = run->rank == 0 && copy;
     memset(done, 0, sizeof *done);
     for (int k = 0; k < GEOM_STEPS; k++)
@@ -287,7 +303,9 @@ static gs_err write_geometry(gs_run *run, const field_config *c, const field_sou
     if (mine_preview) {
         /* The example next to the output's contour (also for output.geometry
          * = copy: the copy lies on it), each fitted to its own box. */
-        gs_preview_panel panels[2] = {{&src->mesh, NULL}, {&base, NULL}};
+        /* the output's contour turned y-up in place, not copied (12 bytes
+         * a vertex; ~280 MB at 512^3) */
+        gs_preview_panel panels[2] = {{&src->mesh, NULL, NULL}, {&base, NULL, &base}};
         gs_run_path(run, "preview.png", path, sizeof path);
         ts = step_start();
         GS_TRY(err, gs_preview_write_optional(path, panels, 2, 512, &done->preview), out);
@@ -357,6 +375,10 @@ static void field_geometry_list(gs_run *run, const field_config *c, const field_
             gs_json_f64(pm, key, done->secs[k][0]);
             snprintf(key, sizeof key, "%s_cpu_seconds", geom_step_names[k]);
             gs_json_f64(pm, key, done->secs[k][1]);
+            snprintf(key, sizeof key, "%s_mem_peak_bytes", geom_step_names[k]);
+            gs_json_u64(pm, key, (uint64_t)done->secs[k][2]);
+            snprintf(key, sizeof key, "%s_rss_peak_bytes", geom_step_names[k]);
+            gs_json_u64(pm, key, (uint64_t)done->secs[k][3]);
         }
     if (done->preview)
         gs_run_output(run, "preview", "preview", "preview.png", NULL);
@@ -661,7 +683,15 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         gs_run_metric_i64(run, "objects_completed", st->objects_completed);
         gs_run_metric_i64(run, "objects_removed", st->objects_removed);
     }
-    GS_TRY(err, gs_field_synth_result(d->synth, &d->res), fail);
+    /* the target handed over and the mask freed: not held beside the
+     * meshes (2 bytes a sample; 268 MB at 512^3) */
+    GS_TRY(err, gs_field_synth_take_result(d->synth, &d->res), fail);
+    /* the provenance: only rank 0's copied mesh needs it from here on (4
+     * bytes a sample; the synthesis, done, no longer reads it) */
+    if (!(run->rank == 0 && field_geometry_copies(c))) {
+        gs_free(d->ctx.prov);
+        d->ctx.prov = NULL;
+    }
     d->res->spacing = q->spacing;
     GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
     uint64_t digest = gs_digest_bytes(d->res->q, (size_t)(d->res->nx * d->res->ny * d->res->nz));
@@ -707,6 +737,15 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         /* done with the quality tree: not kept beside the meshes */
         gs_field_searcher_destroy(&d->ctx.qsearcher);
         gs_field_tree_destroy(&d->ctx.qtree);
+    }
+    /* the quantized result and the synthesized field before the rebuild:
+     * only the measures' rank (and rank 0's repeat figures of a height map)
+     * read them from here on, not held beside another rank's meshes */
+    const int rebuilt = synthesized != NULL;
+    if (run->rank != mrank) {
+        gs_qfield_destroy(&synthesized);
+        if (!(run->rank == 0 && field_is_heightmap_example(c)))
+            gs_qfield_destroy(&d->res);
     }
     /* the meshes: the copy on rank 0, the rest on the last rank (write_geometry) */
     gs_err lerr = GS_OK;
@@ -807,7 +846,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         if (!lerr)
             report_geometry(run, &mp.gr, phase);
         if (!lerr)
-            report_synthesized(run, synthesized != NULL, &mp.syn_copy, mp.syn_seam, &mp.gr, phase);
+            report_synthesized(run, rebuilt, &mp.syn_copy, mp.syn_seam, &mp.gr, phase);
         if (!lerr && field_is_heightmap_example(c))
             lerr = report_repeats(run, d->res, q, phase);
         /* seconds: rank 0's mesh outputs, the quality measure (its tree included;

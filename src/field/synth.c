@@ -1411,6 +1411,7 @@ gs_err gs_field_synth_complete_objects(gs_field_synth_t s, gs_qfield **before)
     GS_CHECK(s->st.iteration >= s->cfg.iterations, GS_ERR_ARG,
              "whole objects: the synthesis is not finished (iteration %d of %d)",
              s->st.iteration, s->cfg.iterations);
+    GS_CHECK(s->st.target, GS_ERR_ARG, "whole objects: the result was already taken");
     if (s->objects_done || !s->cfg.complete_objects || !s->cfg.prov)
         return GS_OK;
     gs_qfield *b = NULL;
@@ -2743,11 +2744,31 @@ const gs_field_synth_state *gs_field_synth_get_state(gs_field_synth_t s)
 
 gs_err gs_field_synth_result(gs_field_synth_t s, gs_qfield **out)
 {
+    GS_CHECK(s->st.target, GS_ERR_ARG, "synthesis result: already taken (gs_field_synth_take_result)");
     gs_qfield *r = NULL;
     GS_CALL(gs_qfield_create(s->st.tn[0], s->st.tn[1], s->st.tn[2], s->src->lo, s->src->hi, &r));
     memcpy(r->q, s->st.target, (size_t)(s->st.tn[0] * s->st.tn[1] * s->st.tn[2]));
     int64_t f = s->cfg.target[0] / s->st.tn[0];
     r->spacing = s->src->spacing * (double)f;
+    *out = r;
+    return GS_OK;
+}
+
+gs_err gs_field_synth_take_result(gs_field_synth_t s, gs_qfield **out)
+{
+    GS_CHECK(s->st.target, GS_ERR_ARG, "synthesis result: already taken (gs_field_synth_take_result)");
+    GS_CHECK(s->st.iteration >= s->cfg.iterations, GS_ERR_ARG,
+             "synthesis result: the synthesis is not finished (iteration %d of %d)",
+             s->st.iteration, s->cfg.iterations);
+    gs_qfield *r = gs_calloc(1, sizeof *r);
+    GS_CHECK(r, GS_ERR_MEM, "out of memory for a field header");
+    r->nx = s->st.tn[0], r->ny = s->st.tn[1], r->nz = s->st.tn[2];
+    r->lo = s->src->lo, r->hi = s->src->hi;
+    r->spacing = s->src->spacing * (double)(s->cfg.target[0] / s->st.tn[0]);
+    r->q = s->st.target; /* handed over, not copied */
+    s->st.target = NULL;
+    gs_free(s->st.mask);
+    s->st.mask = NULL;
     *out = r;
     return GS_OK;
 }

@@ -1025,6 +1025,26 @@ static void test_synthesis_resume(void **state)
     OK(gs_field_synth_create(src, &c, &o));
     run_all(src, &c, o);
     OK(gs_field_synth_result(o, &res));
+    {
+        /* the output phase's take: the same field and header, handed over
+         * (the synthesis' target), then nothing more to take or rebuild */
+        const uint8_t *target = gs_field_synth_get_state(o)->target;
+        gs_qfield *taken = NULL, *again = NULL;
+        OK(gs_field_synth_take_result(o, &taken));
+        assert_ptr_equal(taken->q, target);
+        assert_null(gs_field_synth_get_state(o)->target);
+        assert_null(gs_field_synth_get_state(o)->mask);
+        assert_true(taken->nx == res->nx && taken->ny == res->ny && taken->nz == res->nz);
+        assert_true(taken->lo == res->lo && taken->hi == res->hi && taken->spacing == res->spacing);
+        assert_memory_equal(taken->origin, res->origin, sizeof res->origin);
+        assert_memory_equal(taken->q, res->q, (size_t)(res->nx * res->ny * res->nz));
+        assert_int_equal(gs_field_synth_take_result(o, &again), GS_ERR_ARG);
+        assert_int_equal(gs_field_synth_result(o, &again), GS_ERR_ARG);
+        assert_int_equal(gs_field_synth_complete_objects(o, &again), GS_ERR_ARG);
+        assert_null(again);
+        gs_error_clear();
+        gs_qfield_destroy(&taken);
+    }
     gs_field_synth_destroy(&o);
     c.mask_unsynthesized = 0;
     gs_field_quality qm;
