@@ -639,14 +639,18 @@ void mesh_band_distance(const std::vector<redist_tri> &tris, const int64_t lo[3]
     // layers: the samples next to one that changed in the last layer, each
     // against the triangles those took (the others' it has tried before)
     const float cut = (float)(half_width * half_width);
-    // sample i = (x, y, z)'s neighbour at (dx, dy, dz) into j, if inside the box
-    auto neighbour = [&](size_t i, size_t x, size_t y, size_t z, int dx, int dy, int dz,
-                         size_t &j) -> bool {
-        if ((dx < 0 && x == 0) || (dx > 0 && x + 1 == n[0]) || (dy < 0 && y == 0) ||
-            (dy > 0 && y + 1 == n[1]) || (dz < 0 && z == 0) || (dz > 0 && z + 1 == n[2]))
-            return false;
-        j = i + (size_t)((int64_t)dx + (int64_t)sy * dy + (int64_t)sz * dz);
-        return true;
+    // f(j) for every sample j of the 3x3x3 block around sample i (i itself
+    // included) that lies inside the box, z, then y, then x ascending
+    auto each_neighbour = [&](size_t i, auto &&f) {
+        const size_t x = i % sy, y = (i / sy) % n[1], z = i / sz;
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    if ((dx < 0 && x == 0) || (dx > 0 && x + 1 == n[0]) || (dy < 0 && y == 0) ||
+                        (dy > 0 && y + 1 == n[1]) || (dz < 0 && z == 0) || (dz > 0 && z + 1 == n[2]))
+                        continue;
+                    f(i + (size_t)((int64_t)dx + (int64_t)sy * dy + (int64_t)sz * dz));
+                }
     };
     std::vector<uint32_t> todo;
     struct redist_upd {
@@ -661,18 +665,12 @@ void mesh_band_distance(const std::vector<redist_tri> &tris, const int64_t lo[3]
             if (bd2[i] >= cut)
                 continue; // beyond the band: carries nothing in
             mark[i] |= 2; // a carrier
-            size_t x = i % sy, y = (i / sy) % n[1], z = i / sz;
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        size_t j;
-                        if (!neighbour(i, x, y, z, dx, dy, dz, j))
-                            continue;
-                        if (!(mark[j] & 1)) {
-                            mark[j] |= 1;
-                            todo.push_back((uint32_t)j);
-                        }
-                    }
+            each_neighbour(i, [&](size_t j) {
+                if (!(mark[j] & 1)) {
+                    mark[j] |= 1;
+                    todo.push_back((uint32_t)j);
+                }
+            });
         }
         upd.clear();
         for (size_t j : todo) {
@@ -683,29 +681,22 @@ void mesh_band_distance(const std::vector<redist_tri> &tris, const int64_t lo[3]
             float eb = bd2[j];
             uint32_t seen[27];
             int ns = 0;
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        size_t k;
-                        if (!neighbour(j, x, y, z, dx, dy, dz, k))
-                            continue;
-                        if (!(mark[k] & 2))
-                            continue;
-                        uint32_t t = best[k];
-                        if (t == own)
-                            continue;
-                        bool dup = false;
-                        for (int s = 0; s < ns && !dup; s++)
-                            dup = seen[s] == t;
-                        if (dup)
-                            continue;
-                        seen[ns++] = t;
-                        if (far_from(tris[t], q, eb))
-                            continue;
-                        float e = (float)tri_dist2(tris[t], q);
-                        if (e < eb || (e == eb && tb != none && tri_before(tris[t], tris[tb])))
-                            tb = t, eb = e;
-                    }
+            each_neighbour(j, [&](size_t k) {
+                if (!(mark[k] & 2))
+                    return;
+                uint32_t t = best[k];
+                if (t == own)
+                    return;
+                for (int s = 0; s < ns; s++)
+                    if (seen[s] == t)
+                        return;
+                seen[ns++] = t;
+                if (far_from(tris[t], q, eb))
+                    return;
+                float e = (float)tri_dist2(tris[t], q);
+                if (e < eb || (e == eb && tb != none && tri_before(tris[t], tris[tb])))
+                    tb = t, eb = e;
+            });
             if (tb != own)
                 upd.push_back({(uint32_t)j, tb, eb});
         }
