@@ -471,7 +471,8 @@ typedef struct gs_field_synth_config {
     int height_match;                /* bits, height-field examples only: 1 = the coarse
                                         result, before it guides the next iteration, 2 = the
                                         result of the last iteration (after the blend and the
-                                        seam correction), has its column heights mapped onto
+                                        seam correction, in the output phase:
+                                        gs_field_synth_height_match), has its column heights mapped onto
                                         the level source's height distribution (rank for
                                         rank; each column shifted along z: src/field/synth.c
                                         height_match); 0 = off (the paper) */
@@ -618,6 +619,16 @@ gs_err gs_field_synth_take_result(gs_field_synth_t s, gs_qfield **out);
  * before). Not part of the checkpointed state: a run resumed after the
  * synthesis rebuilds in its output phase as one that was not stopped. */
 gs_err gs_field_synth_complete_objects(gs_field_synth_t s, gs_qfield **before);
+/* cfg.height_match's last step (bit 2) once the synthesis is finished: the
+ * result's column heights mapped onto the level source's (src/field/synth.c
+ * height_match), the same on every rank. *before receives the target as the
+ * synthesis made it (gs_field_synth_result's form): a monotone remap of the
+ * heights moves every column along z, so the output's levels no longer
+ * equal the source's where a piece was copied verbatim and the copy measure
+ * reads the synthesis from *before (#19: "measures that cannot be fooled").
+ * NULL when nothing was matched (bit 2 off, or called before). Not part of
+ * the checkpointed state, as gs_field_synth_complete_objects. */
+gs_err gs_field_synth_height_match(gs_field_synth_t s, gs_qfield **before);
 
 /* Target regions (DESIGN.md). With region_blocks = R > 0 an iteration's block
  * positions (a grid of npos[0] x npos[1] x npos[2], stride B/2) are cut into

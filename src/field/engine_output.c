@@ -84,16 +84,18 @@ static gs_err write_field_h5(gs_run *run, const gs_qfield *res, const gs_field *
                                 "quantized distance of the cropped example: lo + q * (hi - lo) / 255"),
            fail);
     if (synthesized) {
-        /* field.complete_objects: the synthesized field before the rebuild,
-         * so the synthesis' own copying and seams can be measured from this
-         * file too (analysis/field_seams.py --dataset /synthesis/levels) */
+        /* field.complete_objects or field.height_match: the synthesized
+         * field before the rebuild or the height match, so the synthesis'
+         * own copying and seams can be measured from this file too
+         * (analysis/field_seams.py --dataset /synthesis/levels) */
         GS_TRY(err, field_write_slabs(h, run, "/synthesis/levels", n, GS_H5_U8, synthesized->q), fail);
         GS_TRY(err, gs_ckpt_set_f64(h, "/synthesis/levels", "lo", synthesized->lo), fail);
         GS_TRY(err, gs_ckpt_set_f64(h, "/synthesis/levels", "hi", synthesized->hi), fail);
         GS_TRY(err, gs_ckpt_set_str(h, "/synthesis/levels", "index_order", order), fail);
         GS_TRY(err, gs_ckpt_set_str(h, "/synthesis/levels", "units",
                                     "quantized distance of the synthesized field before "
-                                    "field.complete_objects rebuilt it: lo + q * (hi - lo) / 255"),
+                                    "field.height_match or field.complete_objects changed it: "
+                                    "lo + q * (hi - lo) / 255"),
                fail);
     }
     GS_CALL(gs_ckpt_commit(&h));
@@ -400,8 +402,13 @@ static void field_geometry_list(gs_run *run, const field_config *c, const field_
 }
 
 /* The synthesis' own copying and seams (synthesis_*): measured on the
- * field before field.complete_objects rebuilt it from whole source objects
- * (syn), else the output's figures, as that is what the synthesis made. */
+ * field before field.height_match moved its columns along z or
+ * field.complete_objects rebuilt it from whole source objects (syn; both
+ * written to field.h5's /synthesis/levels), else the output's figures, as
+ * that is what the synthesis made. A verbatim copy whose heights were then
+ * remapped no longer equals the source sample for sample, so the output's
+ * copy_* read ~0 where the synthesis copied (field39): with a height match
+ * the synthesis_copy_* are the honest figures of copying. */
 static gs_err measure_synthesized(const gs_qfield *syn, const gs_qfield *src, int B,
                                   const gs_field_geometry_report *g, gs_measure_copy *cp_out,
                                   double *seam_out)
@@ -419,24 +426,30 @@ static gs_err measure_synthesized(const gs_qfield *syn, const gs_qfield *src, in
     return GS_OK;
 }
 
-/* Rank 0: the figures of measure_synthesized (syn: the rebuild ran). */
-static void report_synthesized(gs_run *run, int syn, const gs_measure_copy *cpp, double seam,
-                               const gs_field_geometry_report *g, gs_json *pm)
+/* Rank 0: the figures of measure_synthesized (rebuilt: the rebuild ran,
+ * matched: the height match). */
+static void report_synthesized(gs_run *run, int rebuilt, int matched, const gs_measure_copy *cpp,
+                               double seam, const gs_field_geometry_report *g, gs_json *pm)
 {
     const gs_measure_copy cp = *cpp;
-    gs_run_metric_i64(run, "objects_rebuilt", syn);
+    gs_run_metric_i64(run, "objects_rebuilt", rebuilt);
+    gs_run_metric_i64(run, "heights_matched", matched);
     gs_run_metric_f64(run, "synthesis_copy_matched_share", cp.matched_share);
     gs_run_metric_f64(run, "synthesis_copy_large_share", cp.large_share);
     gs_run_metric_f64(run, "synthesis_copy_largest_region_of_source", cp.largest_region_of_source);
     gs_run_metric_i64(run, "synthesis_copy_regions", cp.regions);
     gs_run_metric_f64(run, "synthesis_copy_completeness", cp.completeness);
     gs_run_metric_f64(run, "synthesis_seam_ratio", seam);
-    gs_json_i64(pm, "objects_rebuilt", syn);
-    if (syn)
+    gs_json_i64(pm, "objects_rebuilt", rebuilt);
+    gs_json_i64(pm, "heights_matched", matched);
+    if (rebuilt || matched)
         gs_log(GS_LOG_INFO,
-               "the synthesis before the whole-object rebuild: %.3f in regions of one offset "
+               "the synthesis before the %s: %.3f in regions of one offset "
                "larger than a block, largest region %.3f of the source, completeness %.3f, seam "
                "ratio %.3f (the output: %.3f, %.3f, %.3f, %.3f; source up to %.3f)",
+               rebuilt && matched ? "height match and the whole-object rebuild"
+               : matched ? "height match (the copy figures to judge copying by)"
+                         : "whole-object rebuild",
                cp.large_share, cp.largest_region_of_source, cp.completeness, seam,
                g->copy.large_share, g->copy.largest_region_of_source, g->copy.completeness,
                g->seam_ratio_out, g->seam_ratio_src_max);
@@ -673,9 +686,18 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     const gs_qfield *q = d->src.q;
     const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
     gs_err err = GS_OK;
-    gs_qfield *synthesized = NULL;
-    /* whole objects (field.complete_objects): every rank rebuilds alike */
+    gs_qfield *synthesized = NULL, *unmatched = NULL;
+    /* the last result's height match (field.height_match final or both),
+     * then whole objects (field.complete_objects): every rank alike. The
+     * synthesis' own measures read the field before either changed it. */
+    GS_TRY(err, gs_field_synth_height_match(d->synth, &unmatched), fail);
     GS_TRY(err, gs_field_synth_complete_objects(d->synth, &synthesized), fail);
+    const int rebuilt = synthesized != NULL, matched = unmatched != NULL;
+    if (unmatched) {
+        gs_qfield_destroy(&synthesized);
+        synthesized = unmatched;
+        unmatched = NULL;
+    }
     if (run->rank == 0 && d->sc.complete_objects) {
         gs_log(GS_LOG_INFO, "objects: %lld source objects pasted whole, %lld left out "
                "(field.complete_objects)", (long long)st->objects_completed,
@@ -741,7 +763,6 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     /* the quantized result and the synthesized field before the rebuild:
      * only the measures' rank (and rank 0's repeat figures of a height map)
      * read them from here on, not held beside another rank's meshes */
-    const int rebuilt = synthesized != NULL;
     if (run->rank != mrank) {
         gs_qfield_destroy(&synthesized);
         if (!(run->rank == 0 && field_is_heightmap_example(c)))
@@ -846,7 +867,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
         if (!lerr)
             report_geometry(run, &mp.gr, phase);
         if (!lerr)
-            report_synthesized(run, rebuilt, &mp.syn_copy, mp.syn_seam, &mp.gr, phase);
+            report_synthesized(run, rebuilt, matched, &mp.syn_copy, mp.syn_seam, &mp.gr, phase);
         if (!lerr && field_is_heightmap_example(c))
             lerr = report_repeats(run, d->res, q, phase);
         /* seconds: rank 0's mesh outputs, the quality measure (its tree included;

@@ -82,6 +82,7 @@ struct gs_field_synth {
     int32_t (*rbox)[6];           /* per matched block position: bounding box (samples, lo
                                      x y z, hi x y z) of the copy it belongs to (copy_limit) */
     int objects_done;             /* gs_field_synth_complete_objects ran */
+    int heights_done;             /* gs_field_synth_height_match ran */
     int64_t (*ex)[6];             /* exclusion boxes of the block being matched (copy_exclusions) */
     int nex_cap;
     uint8_t *exmark;              /* repeat_span: source blocks its boxes cover (level source) */
@@ -1442,7 +1443,9 @@ static int cmp_ranked(const void *a_, const void *b_)
 /* cfg.height_match (height-field examples): a result gets the level
  * source's height distribution, the coarse one (bit 1) before it is
  * upsampled to guide the next iteration, the last one (bit 2) after the
- * blend and the seam correction. The column of rank r (heights ascending,
+ * blend and the seam correction, once the synthesis is finished
+ * (gs_field_synth_height_match, run by the output phase: the field before
+ * it is what the copy measures read, field39). The column of rank r (heights ascending,
  * ties by position) among the N of the target takes the level source's
  * height at quantile (r + 1/2) / N (linear between its sorted column
  * heights), and the whole column moves along z by the difference (levels
@@ -1459,13 +1462,15 @@ static int cmp_ranked(const void *a_, const void *b_)
  * cannot follow guidance the exclusions leave no pieces for); the last
  * result's: 0.050, 0.096, KS 0.023. A function of the target and the source
  * alone: the same on every rank and across resume. */
-static gs_err height_match(struct gs_field_synth *s, uint8_t *t, const int64_t tn[3])
+static gs_err height_match(struct gs_field_synth *s, uint8_t *t, const int64_t tn[3], int last)
 {
-    int last = s->st.iteration == s->cfg.iterations - 1;
     if (!(s->cfg.height_match & (last ? 2 : 1)))
         return GS_OK;
-    const gs_qfield *ls = s->level_src;
-    int64_t M = s->wn[0] * s->wn[1], N = tn[0] * tn[1], nz = tn[2], L = ls->nx * ls->ny;
+    /* the level source's own columns (not the wrap's); once the synthesis
+     * is finished (the last step) the source itself */
+    const gs_qfield *ls = last ? s->src : s->level_src;
+    const int64_t wn[2] = {last ? ls->nx : s->wn[0], last ? ls->ny : s->wn[1]};
+    int64_t M = wn[0] * wn[1], N = tn[0] * tn[1], nz = tn[2], L = ls->nx * ls->ny;
     GS_CHECK(ls->nz == nz, GS_ERR_ARG, "field.height_match: the level source's depth %lld "
              "differs from the target's %lld (expected a height-field example and target as deep)",
              (long long)ls->nz, (long long)nz);
@@ -1483,9 +1488,9 @@ static gs_err height_match(struct gs_field_synth *s, uint8_t *t, const int64_t t
     GS_TRY(err, gs_alloc_array((void **)&r, (size_t)N, sizeof *r, "height match"), done);
     GS_TRY(err, gs_alloc_array((void **)&col, (size_t)nz, sizeof *col, "height match"), done);
     gs_field_surface_heights(fs, hl); /* the level source's own columns (not the wrap's) */
-    for (int64_t y = 0; y < s->wn[1]; y++)
-        for (int64_t x = 0; x < s->wn[0]; x++)
-            hs[x + s->wn[0] * y] = hl[x + ls->nx * y];
+    for (int64_t y = 0; y < wn[1]; y++)
+        for (int64_t x = 0; x < wn[0]; x++)
+            hs[x + wn[0] * y] = hl[x + ls->nx * y];
     qsort(hs, (size_t)M, sizeof *hs, cmp_f64);
     gs_field_surface_heights(ft, ht);
     for (int64_t i = 0; i < N; i++)
@@ -1520,6 +1525,26 @@ done:
     return err;
 }
 
+gs_err gs_field_synth_height_match(gs_field_synth_t s, gs_qfield **before)
+{
+    *before = NULL;
+    GS_CHECK(s->st.iteration >= s->cfg.iterations, GS_ERR_ARG,
+             "height match: the synthesis is not finished (iteration %d of %d)", s->st.iteration,
+             s->cfg.iterations);
+    GS_CHECK(s->st.target, GS_ERR_ARG, "height match: the result was already taken");
+    if (s->heights_done || !(s->cfg.height_match & 2))
+        return GS_OK;
+    gs_qfield *b = NULL;
+    GS_CALL(gs_field_synth_result(s, &b));
+    gs_err err = height_match(s, s->st.target, s->st.tn, 1);
+    s->heights_done = 1;
+    if (err != GS_OK)
+        gs_qfield_destroy(&b);
+    GS_CALL(err);
+    *before = b;
+    return GS_OK;
+}
+
 /* Next iteration: upsample the result by 2 as the new seed. */
 static gs_err advance_iteration(struct gs_field_synth *s)
 {
@@ -1527,7 +1552,7 @@ static gs_err advance_iteration(struct gs_field_synth *s)
     if (next >= s->cfg.iterations) {
         GS_CALL(blend_seams(s));
         GS_CALL(seam_gradient(s));
-        GS_CALL(height_match(s, s->st.target, s->st.tn));
+        /* the last result's height match: gs_field_synth_height_match */
         s->st.iteration = next;
         s->st.cursor = 0;
         return enter_iteration(s);
@@ -1535,7 +1560,7 @@ static gs_err advance_iteration(struct gs_field_synth *s)
     int64_t old[3];
     memcpy(old, s->st.tn, sizeof old);
     uint8_t *prev = s->st.target;
-    GS_CALL(height_match(s, prev, old));
+    GS_CALL(height_match(s, prev, old, 0));
     s->st.target = NULL;
     int64_t tn[3] = {old[0] * 2, old[1] * 2, old[2] * 2};
     gs_err err = alloc_state(s, tn);
