@@ -376,6 +376,38 @@ def land_figures(ex, out):
     return f
 
 
+def houses(a, parts=(3, 4, 5, 6), roof=6, ring=(3, 4), door=4):
+    """Whole houses (issue #18 item 4, "houses, not speckle"; scripts/gen-lattice.py village
+    labels by default: wall 3, door 4, window 5, roof 6). Houses are the 6-connected components
+    of the part labels. A house is a roofed box when its footprint is a filled rectangle at least
+    3x3 with roof over every column; whole when it is also closed: at z = 1 its footprint's
+    border is wall or door, its inside empty, and it has a door (every house of the generator's
+    villages is whole). Returns the shares of part cells in roofed boxes and in whole houses, and
+    whole houses per 1000 columns."""
+    from scipy import ndimage
+    hm = np.isin(a, parts)
+    lab, n = ndimage.label(hm)
+    box = whole = count = 0
+    for i, sl in enumerate(ndimage.find_objects(lab), 1):
+        m = lab[sl] == i
+        sub = a[sl]
+        fp = m.any(axis=0)
+        if not (fp.all() and min(fp.shape) >= 3 and ((sub == roof) & m).any(axis=0).all()):
+            continue
+        box += int(m.sum())
+        z1 = 1 - sl[0].start
+        if z1 < 0 or z1 >= sub.shape[0]:
+            continue
+        edge = np.ones(fp.shape, bool)
+        edge[1:-1, 1:-1] = False
+        if np.isin(sub[z1][edge], ring).all() and (sub[z1][~edge] == 0).all() and (sub == door).any():
+            whole += int(m.sum())
+            count += 1
+    cells = int(hm.sum()) or 1
+    return {"box_share": box / cells, "whole_share": whole / cells,
+            "whole_per_kcell": 1000.0 * count / (a.shape[1] * a.shape[2])}
+
+
 def grid_crossing(a, ground, period):
     """Structure columns across a regular grid's lines (as gs_measure_grid_crossing_lattice,
     issue #18: one castle per region, open streets along the region lines). A structure
