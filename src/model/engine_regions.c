@@ -724,6 +724,49 @@ done:
     return err;
 }
 
+/* Default mode (e->repair_empty), the last resort when no repair box keeps the
+ * output supported: the floating cells become empty (label 0) when that breaks
+ * no rule. A floating piece is a 6-connected component of non-empty cells with
+ * no path to z = 0, so every neighbour outside it is empty: emptied, each of its
+ * cells sits among empty cells only, which the rules allow wherever the example
+ * has empty next to empty along every axis (checked on the whole lattice; no
+ * carving with pins or label-limited x/y faces, and none on the top layer
+ * unless its face set holds empty). Village 267 at synthesis seed 2: one leaves
+ * cell alone on the output's y = 0 face, which every resynthesized box up to the
+ * whole grid left floating somewhere (#18 untuned, configs/model/DEFAULTS.md).
+ * Returns the cells emptied (0: none could be, the lattice unchanged). */
+static size_t carve_floating(model_engine *e, const gs_model_params *p)
+{
+    gs_model_lattice *l = &e->lat;
+    if (p->pins || p->xyface[0] || p->xyface[1] || p->xyface[2] || p->xyface[3] ||
+        p->support_layers_above > 0)
+        return 0;
+    const size_t layer = (size_t)l->nx * (size_t)l->ny, n = layer * (size_t)l->nz;
+    uint8_t *st = gs_malloc(n ? n : 1);
+    uint16_t *old = gs_malloc((n ? n : 1) * sizeof *old);
+    size_t nf = st && old ? gs_model_support_floating(l->labels, l->nx, l->ny, l->nz, p, st)
+                          : SIZE_MAX;
+    size_t carved = 0;
+    if (nf != SIZE_MAX && nf > 0) {
+        memcpy(old, l->labels, n * sizeof *old);
+        int ok = 1;
+        for (size_t i = 0; i < n; i++)
+            if (st[i] == 1) {
+                if (i / layer == (size_t)l->nz - 1 && p->zface[1] && !(p->zface[1][0] & 1u))
+                    ok = 0;
+                l->labels[i] = 0;
+                carved++;
+            }
+        if (!ok || gs_model_rules_violations(e->rules, l) != 0) {
+            memcpy(l->labels, old, n * sizeof *old);
+            carved = 0;
+        }
+    }
+    gs_free(st);
+    gs_free(old);
+    return carved;
+}
+
 static gs_err support_repair(model_engine *e)
 {
     const uint8_t *empty = e->params.support_empty ? e->params.support_empty : e->repair_empty;
@@ -747,6 +790,12 @@ static gs_err support_repair(model_engine *e)
         if (nf == 0)
             break;
         if (tries == MODEL_REPAIR_MAX_TRIES) {
+            size_t carved = carve_floating(e, &p);
+            if (carved) {
+                gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty "
+                       "cells only, no rule broken) after %d boxes", carved, tries);
+                break;
+            }
             e->stats.failed++;
             gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain after %d boxes", nf,
                    tries);
@@ -772,7 +821,13 @@ static gs_err support_repair(model_engine *e)
             gs_model_region_apply(&e->lat, &b, buf);
             continue;
         }
-        if (whole) { /* nothing left to grow: the floating cells stay, a failed region */
+        if (whole) { /* nothing left to grow: emptied if no rule breaks, else a failed region */
+            size_t carved = carve_floating(e, &p);
+            if (carved) {
+                gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty "
+                       "cells only, no rule broken) after the whole grid", carved);
+                break;
+            }
             e->stats.failed++;
             gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain", nf);
             break;
