@@ -68,6 +68,13 @@ def read_lattice(path):
     return read_h5(path)
 
 
+def read_run(example_path, run_dir):
+    """The example, a model run's lattice.h5 and its summary.json metrics."""
+    with open(os.path.join(run_dir, "summary.json")) as f:
+        metrics = json.load(f)["metrics"]
+    return read_lattice(example_path), read_lattice(os.path.join(run_dir, "lattice.h5")), metrics
+
+
 def windows(a, k, nonempty=True):
     """Every k^3 window of a as one bytes key each (the non-empty ones only by default)."""
     if min(a.shape) < k:

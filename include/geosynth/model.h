@@ -299,6 +299,12 @@ typedef struct gs_model_params {
     int max_passes;     /* sweeps at most */
     int fix_z_faces;    /* keep bottom/top layers of the initial model (nz >= 3) */
     int backtracks;     /* undo budget per attempt (AC-3 only); 0 = none, as in the paper */
+    int backjump;       /* > 0: on a wipe-out undo back to the latest decision within this
+                           many cells (each axis) of the emptied cell and refute that one,
+                           not the latest decision (0 = chronological, as before) */
+    int rewinds;        /* > 0: when the undo budget runs out, undo the latest 30% of the
+                           decisions unrefuted and go on with a fresh budget, up to this
+                           many times per try, before the try fails (0 = fail, as before) */
     gs_model_order order;
     gs_model_weights weights;
     gs_model_ac ac;

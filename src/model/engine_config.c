@@ -363,6 +363,14 @@ static const gs_cfg_key model_keys[] = {
                    "tries per region before it keeps its old (consistent) content"),
     GS_CFG_KEY_INT(model_config, backtracks, "model.backtracks", 0, 100000000, 0, "1000",
                    "undo budget per try on a wipe-out (ac3 only); 0 = none, as in the paper"),
+    GS_CFG_KEY_INT(model_config, backjump, "model.backjump", 0, 64, 0, "0",
+                   "on a wipe-out undo back to the latest decision within this many cells "
+                   "(each axis) of the emptied cell and refute it (ac3 with backtracks); 0 = "
+                   "the latest decision (chronological)"),
+    GS_CFG_KEY_INT(model_config, rewinds, "model.rewinds", 0, 1000, 0, "0",
+                   "when a try's undo budget runs out: undo its latest 30% of decisions and go "
+                   "on with a fresh budget, up to this many times, before the try fails (ac3 "
+                   "with backtracks); 0 = the try fails"),
     GS_CFG_KEY_ENUM(model_config, order, "model.order",
                     "auto|entropy|scan|random|entropy_log|entropy_layers|entropy_columns", "auto",
                     "cell order: fewest candidates first, the author's scan (z fastest), "

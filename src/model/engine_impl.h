@@ -67,6 +67,8 @@ typedef struct model_config {
     int64_t open_blocks_tries;
     int64_t attempts;
     int64_t backtracks;
+    int64_t backjump;
+    int64_t rewinds;
     char *order;
     char *weights;
     int64_t resemblance;

@@ -24,6 +24,8 @@ static gs_err engine_params(const model_config *c, gs_model_params *p)
     p->max_passes = (int)c->max_passes;
     p->fix_z_faces = strcmp(c->fix_z_faces, "false") != 0 && !strchr(c->periodic, 'z');
     p->backtracks = (int)c->backtracks;
+    p->backjump = (int)c->backjump;
+    p->rewinds = (int)c->rewinds;
     p->order = !strcmp(c->order, "scan")          ? GS_MODEL_ORDER_SCAN
                : !strcmp(c->order, "random")      ? GS_MODEL_ORDER_RANDOM
                : !strcmp(c->order, "entropy_log") ? GS_MODEL_ORDER_ENTROPY_LOG

@@ -188,6 +188,7 @@ struct gs_model_solver {
     size_t rs_lab_cap, rs_pidx_cap, rs_dq_cap, rs_bgq_cap;
     uint64_t revisions; /* statistics: cells processed by propagation */
     uint64_t backtracks_done; /* statistics: decisions undone */
+    int32_t wipe_cell;    /* the cell the last wipe-out emptied (-1 = none; backjump) */
     /* chronological backtracking (AC-3 only): a cell's candidates are saved
      * on the trail the first time they change at a decision level */
     int trail_on;

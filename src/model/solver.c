@@ -16,6 +16,7 @@
  * Both compute the same (unique) arc-consistent closure.
  */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geosynth/mem.h"
@@ -769,6 +770,7 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
                 if (k == 0) {
                     if (track)
                         memset(pu, 0, W * 8);
+                    s->wipe_cell = u;
                     ok = 0;
                     goto out;
                 }
@@ -942,13 +944,40 @@ static int ac_refute(struct gs_model_solver *s, int32_t c, int k)
     if (!trail_save(s, c))
         return 0;
     s->dom[(size_t)c * W + (size_t)(k >> 6)] &= ~((uint64_t)1 << (k & 63));
-    if (--s->size[c] == 0)
+    if (--s->size[c] == 0) {
+        s->wipe_cell = c;
         return 0;
+    }
     s->pending[(size_t)c * W + (size_t)(k >> 6)] |= (uint64_t)1 << (k & 63);
     if (s->size[c] == 1)
         rs_note(s, c);
     enqueue(s, c);
     return ac3_run(s);
+}
+
+/* model.backjump R: which decision a wipe-out refutes. Chronological
+ * backtracking refutes the latest one; when the emptied cell lies farther
+ * than R cells (each axis) from it, the cause is mostly an older decision
+ * next to that cell (a wall run that cannot close inside pinned faces), and
+ * refuting the later, unrelated decisions one by one used up the undo budget
+ * (castle-yards.ini: new tries, configs/model/DEFAULTS.md). Returns how many
+ * decisions stay on the stack with the one to refute on top: the latest
+ * within R of the emptied cell (the later ones are undone unrefuted and
+ * decided again), or the latest when none of those the trail can still undo
+ * (trail_compact keeps the undo budget's) is near. */
+static size_t backjump_to(const struct gs_model_solver *s, int R)
+{
+    const int32_t w = s->wipe_cell, rx = s->box_rx, rxy = s->box_rx * s->box_ry;
+    if (R <= 0 || w < 0)
+        return s->ndec;
+    const int wx = w % rx, wy = (w / rx) % s->box_ry, wz = w / rxy;
+    for (size_t j = s->ndec; j > 0 && s->dec[j - 1].mark >= s->trail_base; j--) {
+        const int32_t c = s->dec[j - 1].cell;
+        const int cx = c % rx, cy = (c / rx) % s->box_ry, cz = c / rxy;
+        if (abs(cx - wx) <= R && abs(cy - wy) <= R && abs(cz - wz) <= R)
+            return j;
+    }
+    return s->ndec;
 }
 
 /* ---- one region ------------------------------------------------------------------- */
@@ -1823,7 +1852,10 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
     const int budget = budget64 > 100000000 ? 100000000 : (int)budget64;
     s->trail_on = budget > 0;
     s->trail_undo_left = (size_t)budget;
-    int backtracks = 0;
+    int backtracks = 0, rewinds = 0;
+    uint64_t spent = 0; /* undone before a rewind */
+    if (p->rewinds > 0) /* a rewind reaches back past the undo budget: keep the trail */
+        s->trail_undo_left = SIZE_MAX;
     size_t pos = 0;
     *ok = 0;
     for (;;) {
@@ -1874,13 +1906,34 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
             d->pos = pos;
             s->level = d->level;
         }
+        s->wipe_cell = -1;
         int good = gs_model_ac_assign(s, c, label);
         while (!good) {
+            if (budget && backtracks >= budget && rewinds < p->rewinds && s->ndec > 0) {
+                /* model.rewinds: the budget ran out (the cause lies further back
+                 * than the undo reached); undo the latest 30% of the decisions
+                 * unrefuted and go on with a fresh budget, not a new try */
+                const size_t t = s->ndec - (s->ndec * 3 + 9) / 10;
+                struct gs_model_decision d = s->dec[t];
+                s->ndec = t;
+                GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM,
+                         "rewind: cannot allocate the region heap, or the trail entries are gone");
+                s->level = s->ndec ? s->dec[s->ndec - 1].level : 1;
+                pos = d.pos;
+                spent += backtracks;
+                backtracks = 0;
+                rewinds++;
+                s->wipe_cell = -1;
+                good = 1;
+                break;
+            }
             if (!budget || s->ndec == 0 || backtracks >= budget)
                 goto done;
+            s->ndec = backjump_to(s, p->backjump);
             struct gs_model_decision d = s->dec[--s->ndec];
+            s->wipe_cell = -1;
             backtracks++;
-            s->trail_undo_left = (size_t)(budget - backtracks);
+            s->trail_undo_left = p->rewinds > 0 ? SIZE_MAX : (size_t)(budget - backtracks);
             GS_CHECK(trail_restore(s, d.mark), GS_ERR_MEM,
                      "undo: cannot allocate the region heap, or the trail entries are gone");
             s->level = s->ndec ? s->dec[s->ndec - 1].level : 1;
@@ -1891,7 +1944,7 @@ static gs_err attempt_region(struct gs_model_solver *s, const gs_model_lattice *
 done:
     s->heap_on = 0;
     s->trail_on = 0;
-    s->backtracks_done += (uint64_t)backtracks;
+    s->backtracks_done += (uint64_t)backtracks + spent;
     return GS_OK;
 }
 
