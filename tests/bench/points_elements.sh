@@ -258,11 +258,47 @@
 # unwarped patches the two runs differ by noise (the resampling's darts are
 # drawn in one order over the whole output; warp / none there on 14 pairs:
 # 7 higher, 7 lower, each within 1.5 sampling errors).
-# env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four and
-# flowers_cut: flowers.ini with points.objects = false),
-# VARIANTS (default full no_warp paper_warp no_blend no_blend_no_warp no_random;
-# no_warp_same and unbounded_same (the warp without points.warp_height_bound
-# on the full run's patches) on request, after full),
+# points28: full size (the configs as they are, strip resampling on, main
+# at d06b392), fresh seeds 21-23, np 1, VARIANTS="full no_warp_same"
+# (CONFIGS run as four parallel invocations, runs.tsv joined, this script's
+# analysis on the whole), the broken share of seam points by the patches
+# the full run warped and over the whole output, pooled over the seeds
+# (counts summed) +- the binomial sampling error, warp / none (diff, ratio,
+# seeds lower / lower by more than the error / higher by more than it):
+#   weave        warped .3391/.3441 (-.0050 +- .0051, .985, 3/3 1 0)  whole .3348/.3380 (-.0031 +- .0032, .991, 3/3 0 0)
+#   chainmail    warped .1662/.1719 (-.0057 +- .0034, .967, 3/3 1 0)  whole .1711/.1718 (-.0006 +- .0021, .996, 2/3 0 0)
+#   heightfield  warped .1274/.1431 (-.0157 +- .0045, .890, 3/3 3 0)  whole .1359/.1465 (-.0107 +- .0033, .927, 3/3 3 0)
+#   flowers_cut  warped .2143/.2444 (-.0302 +- .0084, .877, 3/3 3 0)  whole .2411/.2506 (-.0095 +- .0050, .962, 3/3 2 0)
+#   quick        warped .1589/.1609 (-.0020 +- .0126, .988, 3/3 0 0)  whole .1953/.1991 (-.0038 +- .0084, .981, 2/3 0 0)
+#   flowers      whole objects: 0-3 seam points a run, all open: no seam
+# Lower with the warp on every config, by more than the error on
+# heightfield and cut flowers; weave and chainmail by about one error,
+# quick within it. Patches warped per run: weave 12 of 64, chainmail 39 of
+# 169, heightfield 32 of 100, cut flowers 13 of 64, quick 8 of 36.
+# Weave seed 1 at 8 x 8 (the loss points26 traced: patch 42 warped, the
+# seam patch 43 then makes with it 207 of 365 broken, 145 of them open, vs
+# 131 of 314, 83 open) tried in the trial paste (not landed): besides B_k's
+# low edges, the seams of its right and top neighbours simulated by the
+# patch's own unwarped points beyond x, y = o + step (a verbatim
+# continuation), a warp kept when the broken (or open) points at the low
+# and simulated seams together are no more than no warp's. Broken: weave 1
+# whole .313/.314 (was .320/.314), but the warp then acts on 2-3 of 48
+# patches on weave and the gains go (warped seams chainmail seed 2
+# .152/.149, 3 .126/.127, heightfield 1 .113/.106; before .150/.154,
+# .120/.137, .120/.128); open: patch 42 still warped (its simulated seam's
+# open share .097 vs .119 unwarped: the continuation against the warped
+# patch does not foretell what the later patch's search, warp and blend
+# make there), weave 1 whole .322/.314.
+# The JSON's warp_vs_none holds, per config, the means' ratios and, for
+# the broken share (warped_seam_broken_table, patch_seam_broken_table),
+# each seed's share, seam points and sampling error, the pooled figures,
+# their difference with its error and the ratio (stderr: the table above).
+# env: SEEDS (default "1 2"), NP (default 2), CONFIGS (default the four,
+# flowers_cut: flowers.ini with points.objects = false, and quick;
+# chainmail-large on request: 2.9M points),
+# VARIANTS (default full no_warp_same no_warp paper_warp no_blend
+# no_blend_no_warp no_random; unbounded_same (the warp without
+# points.warp_height_bound on the full run's patches) on request, after full),
 # ARGS (more --set options for every run), KEEP (a directory: the runs
 # stay there), GS_DATA (heightfield needs textures/embark-1.jpg; skipped without it).
 set -u
@@ -270,7 +306,7 @@ cd "$(dirname "$0")/../.."
 GS_BIN=${GS_BIN:-$PWD/bin/geosynth}
 SEEDS=${SEEDS:-1 2}
 NP=${NP:-2}
-CONFIGS=${CONFIGS:-heightfield chainmail weave flowers flowers_cut}
+CONFIGS=${CONFIGS:-heightfield chainmail weave flowers flowers_cut quick}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 export OMPI_MCA_pml=${OMPI_MCA_pml:-ob1}
 if [[ -n ${KEEP:-} ]]; then # KEEP=DIR: the runs stay in DIR (to look at them)
@@ -301,7 +337,7 @@ for cfg in $CONFIGS; do
     continue
   fi
   first=1
-  for v in ${VARIANTS:-full no_warp paper_warp no_blend no_blend_no_warp no_random}; do
+  for v in ${VARIANTS:-full no_warp_same no_warp paper_warp no_blend no_blend_no_warp no_random}; do
     for seed in $SEEDS; do
       d=$work/$cfg-$v-$seed
       # the example's measure over every shift of its cut (the same in
@@ -342,7 +378,9 @@ keys = ["patch_seam_dist_ratio", "patch_seam_angle_ratio", "patch_seam_dist", "p
         "seam_unmatched_excess", "seam_dist_ratio", "seam_normal_ratio",
         "height_ks", "example_height_ks_halves", "height_max", "example_height_max",
         "points_above_example_max", "fragments_per_area", "example_fragments_per_area",
-        "small_fragments_per_area", "example_small_fragments_per_area", "output_points"]
+        "small_fragments_per_area", "example_small_fragments_per_area", "output_points",
+        "verbatim_share_random", "candidates_mean", "patches", "patches_warped",
+        "strip_specks_dropped", "strip_speck_points_dropped", "small_fragments"]
 runs, acc = [], collections.defaultdict(lambda: collections.defaultdict(list))
 for line in open(sys.argv[1]):
     cfg, v, seed, d = line.rstrip("\n").split("\t")
@@ -391,6 +429,43 @@ for c in dict.fromkeys(r["config"] for r in runs):
         ma, mb = sum(a) / len(a), sum(b) / len(b)
         e[k] = {"warp": ma, "no_warp": mb, "ratio": ma / mb if mb else None,
                 "seeds_no_worse": sum(x <= y for x, y in zip(a, b))}
+    # The broken shares with their sampling error (binomial, over the
+    # seam points counted), per seed and pooled over the seeds: where the
+    # warp acted (warped_seam_*) and over the whole output (patch_seam_*).
+    for w in ("warped_seam", "patch_seam"):
+        rows, tot = [], {"full": [0.0, 0], "no_warp_same": [0.0, 0]}
+        for x in seeds:
+            row = {"seed": x}
+            for v in ("full", "no_warp_same"):
+                r = by[(c, v, x)]
+                p, n = r.get(w + "_broken"), r.get(w + "_points")
+                if p is None or not n:
+                    break
+                row[v] = {"broken": p, "points": n, "se": (p * (1 - p) / n) ** 0.5}
+                tot[v][0] += p * n
+                tot[v][1] += n
+            else:
+                a, b = row["full"], row["no_warp_same"]
+                row["diff"] = a["broken"] - b["broken"]
+                row["diff_se"] = (a["se"] ** 2 + b["se"] ** 2) ** 0.5
+                row["ratio"] = a["broken"] / b["broken"] if b["broken"] else None
+                row["warped_patches"] = by[(c, "full", x)].get("patches_warped")
+                rows.append(row)
+        if not rows:
+            continue
+        pool = {}
+        for v, (k, n) in tot.items():
+            p = k / n
+            pool[v] = {"broken": p, "points": n, "se": (p * (1 - p) / n) ** 0.5}
+        d = pool["full"]["broken"] - pool["no_warp_same"]["broken"]
+        dse = (pool["full"]["se"] ** 2 + pool["no_warp_same"]["se"] ** 2) ** 0.5
+        e[w + "_broken_table"] = {
+            "per_seed": rows, "pooled": pool, "diff": d, "diff_se": dse,
+            "ratio": pool["full"]["broken"] / pool["no_warp_same"]["broken"]
+            if pool["no_warp_same"]["broken"] else None,
+            "seeds_lower": sum(r["diff"] < 0 for r in rows),
+            "seeds_lower_beyond_error": sum(r["diff"] < -r["diff_se"] for r in rows),
+            "seeds_higher_beyond_error": sum(r["diff"] > r["diff_se"] for r in rows)}
     warp.append(e)
 json.dump({"benchmark": "points_elements", "runs": runs, "mean": mean, "warp_vs_none": warp},
           sys.stdout, indent=1)
@@ -414,4 +489,20 @@ if warp:
                 "%.3f" % e[k]["ratio"] if e[k]["ratio"] is not None else "-",
                 e[k]["seeds_no_worse"], len(e["seeds"]))
             for k in warp_keys[:9] if k in e), file=sys.stderr)
+    print("broken seam share, warp / none on the same patches (pooled over the seeds, "
+          "+- sampling error; ratio; seeds lower, lower beyond the error, higher beyond it)",
+          file=sys.stderr)
+    for e in warp:
+        for w in ("warped_seam", "patch_seam"):
+            t = e.get(w + "_broken_table")
+            if t:
+                print("%-12s %-11s %.4f / %.4f  diff %+.4f +- %.4f  ratio %.3f  %d/%d %d %d  per seed %s" % (
+                    e["config"], w.replace("patch_seam", "whole").replace("warped_seam", "warped"),
+                    t["pooled"]["full"]["broken"], t["pooled"]["no_warp_same"]["broken"],
+                    t["diff"], t["diff_se"], t["ratio"] or float("nan"), t["seeds_lower"],
+                    len(t["per_seed"]), t["seeds_lower_beyond_error"],
+                    t["seeds_higher_beyond_error"],
+                    " ".join("%d:%.3f/%.3f" % (r["seed"], r["full"]["broken"],
+                             r["no_warp_same"]["broken"]) for r in t["per_seed"])),
+                    file=sys.stderr)
 PY
