@@ -1,5 +1,6 @@
 /* Unit tests for the points engine's input side: uniform mesh sampling,
- * spacing estimate, reference-plane permutations, implicit grid. */
+ * spacing estimate, non-periodic generated examples, reference-plane
+ * permutations, implicit grid. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -132,6 +133,57 @@ static void test_spacing_estimate_generators(void **state)
     gs_points_free(&few);
 }
 
+/* Share of the points in [0.25, 0.75] x [0.25, 1.75] that, moved by the
+ * pattern's period (2 lattice cells: rings lean, threads go over and under,
+ * alternately) along x (and dy along y: threads along x move onto others),
+ * lie farther than far from every point of t:
+ * a tileable example lies on itself (two samplings of one surface), a
+ * jittered one does not. */
+static double shifted_nn(const gs_points_texture *t, double dy, double far)
+{
+    double sum = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < t->pts.n; i++) {
+        const double *p = t->pts.v[i].p;
+        if (p[0] < 0.25 || p[0] > 0.75 || p[1] < 0.25 || p[1] > 1.75)
+            continue;
+        double q[3] = {p[0] + 2, p[1] + dy, p[2]}, best = INFINITY;
+        for (size_t j = 0; j < t->pts.n; j++) {
+            const double *r = t->pts.v[j].p;
+            double d = (r[0] - q[0]) * (r[0] - q[0]) + (r[1] - q[1]) * (r[1] - q[1]) +
+                       (r[2] - q[2]) * (r[2] - q[2]);
+            best = d < best ? d : best;
+        }
+        sum += sqrt(best) > far;
+        n++;
+    }
+    assert_true(n > 100);
+    return sum / (double)n;
+}
+
+/* #21: chain mail and weave are not tileable by default (the paper's
+ * examples are not), and exactly periodic with periodic = 1. */
+static void test_generators_periodic(void **state)
+{
+    (void)state;
+    double s = 0.04;
+    for (int kind = 0; kind < 2; kind++) {
+        double d[2];
+        for (int per = 0; per < 2; per++) {
+            gs_points_gen_params gp = {{4, 4}, 0.5, s, 7, per, NULL, NULL, NULL};
+            gs_points_texture t;
+            assert_int_equal(kind ? gs_points_gen_weave(&gp, 4, &t) : gs_points_gen_chainmail(&gp, 4, &t),
+                             GS_OK);
+            d[per] = shifted_nn(&t, kind ? 2 : 0, s);
+            gs_points_texture_free(&t);
+        }
+        printf("%s: shifted by one period, %.4f of the points farther than a spacing from "
+               "the example (periodic: %.4f)\n", kind ? "weave" : "chain mail", d[0], d[1]);
+        assert_true(d[1] < 0.05);         /* periodic: on itself but for sampling gaps */
+        assert_true(d[0] > 4 * d[1] + 0.05); /* jittered: off itself */
+    }
+}
+
 static void test_permutations(void **state)
 {
     (void)state;
@@ -193,6 +245,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_mesh_sampling),
         cmocka_unit_test(test_spacing_estimate_generators),
+        cmocka_unit_test(test_generators_periodic),
         cmocka_unit_test(test_permutations),
         cmocka_unit_test(test_implicit_grid),
     };
