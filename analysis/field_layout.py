@@ -25,6 +25,10 @@ summary.json layout_*, for output and source alike:
 - fragment share: measured objects smaller than 3/4 of the source's
   smallest measured object (pieces of an object a later block left:
   crescents, slivers; the cut ratio of field_discs.py).
+- merged share: measured objects reaching farther from their centre (largest
+  distance of a sample from it) than the source's largest such radius plus
+  half a sample (two objects glued, or one grown by a piece of another at a
+  seam: elongated or bulging discs).
 - guarded (layout_guard*): the output's measured objects whose centre lies
   at least the source's largest nn plus its largest object radius (largest
   distance of a sample from its object's centre) from every face: every
@@ -117,21 +121,23 @@ def quantile(s, p):
 def figures(h5):
     out, src = levels(h5, "field/levels"), levels(h5, "source/levels")
     height = is_height_field(src)
-    co, so, io = objects(object_mask(out, height))
+    co, so, io, ro = objects(object_mask(out, height), radii=True)
     cs, ss, is_, rs = objects(object_mask(src, height), radii=True)
     no, ns = nearest(co, io), nearest(cs, is_)
     no, ns = no[np.isfinite(no)], ns[np.isfinite(ns)]
     nn_min = float(ns.min()) if len(ns) else 0.0
     big = float(ss[is_].max()) if is_.any() else 0.0
     small = 0.75 * float(ss[is_].min()) if is_.any() else 0.0
+    reach = (float(rs[is_].max()) if is_.any() else 0.0) + 0.5
     f = {"layout_height_field": int(height)}
-    for tag, nn, s, i in (("out", no, so, io), ("src", ns, ss, is_)):
+    for tag, nn, s, i, r in (("out", no, so, io, ro), ("src", ns, ss, is_, rs)):
         f[f"layout_objects_{tag}"] = int(i.sum())
         f[f"layout_nn_p10_{tag}"] = quantile(nn, 0.1)
         f[f"layout_nn_p50_{tag}"] = quantile(nn, 0.5)
         f[f"layout_close_share_{tag}"] = float((nn < nn_min).mean()) if len(nn) else 0.0
         f[f"layout_fused_share_{tag}"] = float((s[i] > FUSED * big).mean()) if i.any() else 0.0
         f[f"layout_fragment_share_{tag}"] = float((s[i] < small).mean()) if i.any() else 0.0
+        f[f"layout_merged_share_{tag}"] = float((r[i] > reach).mean()) if i.any() else 0.0
     # gs_measure_ks: both empty 0, one empty 1
     f["layout_nn_ks"] = 0.0 if len(no) == len(ns) == 0 else field_objects.ks(no, ns)
     # guarded: output objects whose centre lies at least the source's largest
@@ -149,6 +155,7 @@ def figures(h5):
     f["layout_guarded_objects_out"] = int(ig.sum())
     f["layout_guarded_close_share_out"] = float((ng < nn_min).mean()) if len(ng) else 0.0
     f["layout_guarded_fragment_share_out"] = float((so[ig] < small).mean()) if ig.any() else 0.0
+    f["layout_guarded_merged_share_out"] = float((ro[ig] > reach).mean()) if ig.any() else 0.0
     f["layout_guarded_nn_ks"] = 0.0 if len(ng) == len(ns) == 0 else field_objects.ks(ng, ns)
     return f
 
@@ -166,10 +173,12 @@ def main(argv):
                   f"nn p10/p50 {f['layout_nn_p10_out']:.2f}/{f['layout_nn_p50_out']:.2f} "
                   f"(source {f['layout_nn_p10_src']:.2f}/{f['layout_nn_p50_src']:.2f}), nn KS "
                   f"{f['layout_nn_ks']:.3f}, close {f['layout_close_share_out']:.3f}, fused "
-                  f"{f['layout_fused_share_out']:.3f}, fragments {f['layout_fragment_share_out']:.3f}; guarded (>= {f['layout_guard']:.2f} "
+                  f"{f['layout_fused_share_out']:.3f}, fragments {f['layout_fragment_share_out']:.3f}, merged "
+                  f"{f['layout_merged_share_out']:.3f}; guarded (>= {f['layout_guard']:.2f} "
                   f"from the faces): objects {f['layout_guarded_objects_out']}, close "
                   f"{f['layout_guarded_close_share_out']:.3f}, fragments "
-                  f"{f['layout_guarded_fragment_share_out']:.3f}, nn KS {f['layout_guarded_nn_ks']:.3f}")
+                  f"{f['layout_guarded_fragment_share_out']:.3f}, merged "
+                  f"{f['layout_guarded_merged_share_out']:.3f}, nn KS {f['layout_guarded_nn_ks']:.3f}")
         if "--check" in argv:
             with open(run + "/summary.json") as fh:
                 m = json.load(fh)["metrics"]

@@ -118,6 +118,12 @@ typedef struct gs_measure_objlayout_side {
     /* measured objects smaller than 3/4 of the example's smallest measured
      * one (a piece of an object: a crescent or sliver a later block left) */
     double fragment_share;
+    /* measured objects reaching farther from their centre than the example's
+     * largest object radius (largest distance of a sample from its object's
+     * centre) plus half a sample: merged (two objects glued into one that is
+     * not larger than `fused` times, or one with a piece of another at a
+     * seam: an elongated or bulging disc) */
+    double merged_share;
 } gs_measure_objlayout_side;
 typedef struct gs_measure_objlayout {
     gs_measure_objlayout_side out, src;

@@ -592,6 +592,8 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
         gs_run_metric_f64(run, key, ls[k]->fused_share);
         snprintf(key, sizeof key, "layout_fragment_share_%s", tag);
         gs_run_metric_f64(run, key, ls[k]->fragment_share);
+        snprintf(key, sizeof key, "layout_merged_share_%s", tag);
+        gs_run_metric_f64(run, key, ls[k]->merged_share);
     }
     gs_run_metric_f64(run, "layout_nn_ks", g->layout.nn_ks);
     gs_run_metric_f64(run, "layout_guard", g->layout.guard);
@@ -599,6 +601,7 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_run_metric_f64(run, "layout_guarded_close_share_out", g->layout.out_guarded.close_share);
     gs_run_metric_f64(run, "layout_guarded_fragment_share_out",
                       g->layout.out_guarded.fragment_share);
+    gs_run_metric_f64(run, "layout_guarded_merged_share_out", g->layout.out_guarded.merged_share);
     gs_run_metric_f64(run, "layout_guarded_nn_ks", g->layout.nn_ks_guarded);
     gs_json_f64(pm, "geometry_measure_seconds", g->seconds);
     gs_log(GS_LOG_INFO,
@@ -637,13 +640,15 @@ static void report_geometry(gs_run *run, const gs_field_geometry_report *g, gs_j
     gs_log(GS_LOG_INFO,
            "layout (%s): %lld objects (source %lld), nearest centre p10/p50 %.2f/%.2f samples "
            "(source %.2f/%.2f), KS %.3f; closer than any two of the source %.3f, larger than "
-           "1.5x its largest %.3f, smaller than 3/4 of its smallest (fragments) %.3f (guarded %.3f)",
+           "1.5x its largest %.3f, smaller than 3/4 of its smallest (fragments) %.3f (guarded %.3f), "
+           "reaching half a sample past its largest radius (merged) %.3f (guarded %.3f)",
            g->layout_height_field ? "discs of the height map" : "cores",
            (long long)g->layout.out.objects, (long long)g->layout.src.objects,
            g->layout.out.nn_p10, g->layout.out.nn_p50, g->layout.src.nn_p10,
            g->layout.src.nn_p50, g->layout.nn_ks, g->layout.out.close_share,
            g->layout.out.fused_share, g->layout.out.fragment_share,
-           g->layout.out_guarded.fragment_share);
+           g->layout.out_guarded.fragment_share, g->layout.out.merged_share,
+           g->layout.out_guarded.merged_share);
 }
 
 /* The measures of one run, computed on one rank (field_output_op). */

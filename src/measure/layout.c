@@ -190,13 +190,14 @@ static double quantile(const double *s, int64_t n, double p)
 
 static void side_figures(const layout_objects *o, const uint8_t *measured, const double *nn,
                          int64_t k, double nn_min, double big, double fused, double small,
-                         gs_measure_objlayout_side *f)
+                         double reach, gs_measure_objlayout_side *f)
 {
     f->objects = 0;
-    int64_t over = 0, close = 0, frag = 0;
+    int64_t over = 0, close = 0, frag = 0, merged = 0;
     for (int64_t i = 0; i < o->n; i++)
         if (measured[i])
-            f->objects++, over += o->size[i] > fused * big, frag += o->size[i] < small;
+            f->objects++, over += o->size[i] > fused * big, frag += o->size[i] < small,
+                merged += o->radius[i] > reach;
     for (int64_t i = 0; i < k; i++)
         close += nn[i] < nn_min;
     f->nn_p10 = quantile(nn, k, 0.1);
@@ -204,6 +205,7 @@ static void side_figures(const layout_objects *o, const uint8_t *measured, const
     f->close_share = k ? (double)close / (double)k : 0;
     f->fused_share = f->objects ? (double)over / (double)f->objects : 0;
     f->fragment_share = f->objects ? (double)frag / (double)f->objects : 0;
+    f->merged_share = f->objects ? (double)merged / (double)f->objects : 0;
 }
 
 /* The figures of the objects oo of an output of on samples and os of its
@@ -228,8 +230,13 @@ static gs_err layout_figures(const layout_objects *oo, const layout_objects *os,
     /* fragments: smaller than 3/4 of the example's smallest whole object
      * (analysis/field_discs.py's cut ratio; embark-5's discs 83-90 samples) */
     double small = isfinite(least) ? 0.75 * least : 0;
-    side_figures(oo, oo->inner, no, ko, nn_min, big, fused, small, &r->out);
-    side_figures(os, os->inner, ns, ks, nn_min, big, fused, small, &r->src);
+    /* merged: reaching farther from its centre than half a sample beyond
+     * the example's largest object radius (two objects glued, or one with a
+     * piece of another; texture.ini's discs 5.07-5.33, a disc grown by a
+     * piece of another at a seam 5.9-6.7) */
+    double reach = rmax + 0.5;
+    side_figures(oo, oo->inner, no, ko, nn_min, big, fused, small, reach, &r->out);
+    side_figures(os, os->inner, ns, ks, nn_min, big, fused, small, reach, &r->src);
     GS_TRY(err, gs_measure_ks(no, (size_t)ko, ns, (size_t)ks, &r->nn_ks), done);
     /* guarded: the output's objects whose centre lies at least the example's
      * largest nn plus its largest object radius from every face */
@@ -243,7 +250,7 @@ static gs_err layout_figures(const layout_objects *oo, const layout_objects *os,
                                         (double)(on[a] - 1) - oo->c[3 * i + a] >= r->guard);
     }
     GS_TRY(err, nearest(oo, guarded, &ng, &kg), done);
-    side_figures(oo, guarded, ng, kg, nn_min, big, fused, small, &r->out_guarded);
+    side_figures(oo, guarded, ng, kg, nn_min, big, fused, small, reach, &r->out_guarded);
     GS_TRY(err, gs_measure_ks(ng, (size_t)kg, ns, (size_t)ks, &r->nn_ks_guarded), done);
 done:
     gs_free(no);

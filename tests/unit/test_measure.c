@@ -1044,7 +1044,7 @@ static void test_layout(void **state)
 #undef RAT
 }
 
-/* Fragments of separate objects (gs_measure_object_layout): a 2-D source
+/* Fragments and merged objects (gs_measure_object_layout): a 2-D source
  * (n z = 1) with two 4x4 squares (16 samples); an output with three whole
  * squares, a 2x4 sliver (8 < 3/4 of 16) and a 2x2 piece cut by the face
  * (not measured): 4 measured objects, 1 a fragment; the source none. */
@@ -1072,6 +1072,19 @@ static void test_object_fragments(void **state)
     out[(17 + 0) + ON * 15] = out[17 + ON * 16] = out[18 + ON * 15] = out[18 + ON * 16] = 1;
     assert_int_equal(gs_measure_object_layout(out, on, src, sn, 1.5, &r), GS_OK);
     assert_true(r.out.fragment_share == 0); /* 12 samples: 3/4 of the smallest, not below */
+    assert_true(r.out.merged_share == 0 && r.src.merged_share == 0);
+    /* that object made a 5x4 rectangle (2.50 from its centre: within the
+     * source's 2.12 plus half a sample), then 6x4 (two glued pieces, 24
+     * samples: not over 1.5x the largest; 2.92: merged) */
+    for (int y = 0; y < 4; y++)
+        for (int x = 15; x < 20; x++)
+            out[x + ON * (15 + y)] = 1;
+    assert_int_equal(gs_measure_object_layout(out, on, src, sn, 1.5, &r), GS_OK);
+    assert_true(r.out.merged_share == 0 && r.out.fused_share == 0);
+    for (int y = 0; y < 4; y++)
+        out[20 + ON * (15 + y)] = 1;
+    assert_int_equal(gs_measure_object_layout(out, on, src, sn, 1.5, &r), GS_OK);
+    assert_true(fabs(r.out.merged_share - 0.25) < 1e-12 && r.out.fused_share == 0);
 }
 
 static void test_copy_periodic(void **state)
