@@ -519,6 +519,16 @@ typedef struct gs_field_synth_config {
                                         while an eighth of the source stays free
                                         (src/field/synth.c object_exclusions); 0 = off (the
                                         paper) */
+    double object_same;              /* with object_spacing: centres nearer than this share of
+                                        the spacing count as the same object continued (not
+                                        excluded); in (0, 1), 0 = 0.25 (field.object_same's
+                                        default) */
+    int object_continue;             /* with object_spacing: a block may only take a source
+                                        block that continues every target object reaching its
+                                        unsynthesized box (one of the source's objects within
+                                        object_same of its centre), while one outside the
+                                        exclusions does (src/field/synth.c object_continue);
+                                        nothing without object_spacing */
     int wrap;                        /* bit a set: the source is periodic along axis a (a
                                         tile): each iteration's source is continued by
                                         block - 1 samples of itself past its high face, so

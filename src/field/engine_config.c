@@ -161,6 +161,16 @@ static const gs_cfg_key field_keys[] = {
                     "spacing to an object already in the output (nearer than a quarter of it "
                     "counts as the same object continued); the match stays the exact best of "
                     "the other blocks; needs region_blocks = 0; 0 = off (the paper)"),
+    GS_CFG_KEY_REAL(field_config, object_same, "field.object_same", 0.01, 0.99, 0, "0.25",
+                    "with object_spacing: centres nearer than this share of the source's "
+                    "smallest centre spacing count as the same object continued (a block may "
+                    "put one there); farther ones, up to object_spacing, are excluded"),
+    GS_CFG_KEY_BOOL(field_config, object_continue, "field.object_continue", "no",
+                    "with object_spacing: a block whose unsynthesized samples an object of the "
+                    "output reaches may only take a source block that continues it (puts one "
+                    "of the source's objects within object_same of its centre), for every such "
+                    "object at once, while a source block outside the other exclusions does "
+                    "(else it is matched as without); without object_spacing off; no = off"),
     GS_CFG_KEY_ENUM(field_config, wrap, "field.wrap", "none|xy|xyz", "none",
                     "the example as a tile: source blocks wrap around its faces along these "
                     "axes, so every source sample lies in as many candidate blocks (without it a "

@@ -60,6 +60,8 @@ typedef struct field_config {
     char *wrap;
     int keep_volume;
     double object_spacing;
+    double object_same;
+    int object_continue;
     int64_t region_blocks;
     char *tree;
     char *geometry;

@@ -197,6 +197,8 @@ gs_err field_setup_op(gs_run *run, const void *cfg_, int resume, void **state,
     d->sc.complete_objects = c->complete_objects;
     d->sc.keep_volume = c->keep_volume;
     d->sc.object_spacing = c->object_spacing;
+    d->sc.object_same = c->object_same;
+    d->sc.object_continue = c->object_continue;
     d->sc.wrap = !strcmp(c->wrap, "xyz") ? 7 : !strcmp(c->wrap, "xy") ? 3 : 0;
     d->sc.region_blocks = (int)c->region_blocks;
     d->ctx.sharded = !strcmp(c->tree, "sharded") && run->size > 1;
