@@ -289,6 +289,26 @@
 # open share .097 vs .119 unwarped: the continuation against the warped
 # patch does not foretell what the later patch's search, warp and blend
 # make there), weave 1 whole .322/.314.
+# points29: the default output, 8 x 8, np 1, seeds 1-3, on the default
+# run's patches (points.choices): default warp (D) / points.warp_fade = 1
+# (F) / no warp (N). Broken share at the seams by the patches D warped
+# (analysis/point_seams.py --patches), and the strain: each point's normal
+# against its own patch's neighbours' weighted mean normal (radius 3
+# spacings), mean over the non-seam points of the patches D warped, over N's:
+#   chainmail   broken .169/.163/.192 .150/.145/.154 .120/.128/.137
+#               strain D 1.031 1.007 0.973, F 0.989 0.988 0.986
+#   weave       broken .341/.320/.319 .336/.351/.354 .281/.284/.297
+#               strain D 1.115 1.165 1.150, F 0.945 1.032 1.072 (N's
+#               per-patch sd of that angle 0.16-0.25 degrees; D +0.09..+0.11)
+#   heightfield broken .120/.127/.128 .104/.121/.119 .122/.117/.127
+#               strain D 0.970 0.979 0.949 (smoother), F 1.005 0.992 1.004
+# The fade strains less (chainmail none, weave about half) and closes as
+# many seams there (F below D on 3 of 6), but gives back the gain on
+# heightfield (F above D on 2 of 3, mean .121 vs .115, N .125); the
+# default strains weave visibly (seed 2 patch 17: a thread edge kinked
+# inside the patch). Fading to the pairs' mean shift instead of none (the
+# inside moved by one translation; seed 1): chainmail broken .186, weave
+# .328, worse than F. None beats the default on both: not changed.
 # The JSON's warp_vs_none holds, per config, the means' ratios and, for
 # the broken share (warped_seam_broken_table, patch_seam_broken_table),
 # each seed's share, seam points and sampling error, the pooled figures,
