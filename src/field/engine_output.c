@@ -659,6 +659,8 @@ typedef struct field_measures {
     double geometry_measure_cpu; /* gs_field_geometry_measure and measure_synthesized */
     gs_measure_copy syn_copy; /* the synthesis' own copying (measure_synthesized) */
     double syn_seam;
+    gs_field_quality syn_qm; /* verbatim blocks and coherence of the field before
+                                field.height_match or field.complete_objects changed it */
 } field_measures;
 
 /* The result, redistanced (each rank its planes, gathered once), field.h5, the quality
@@ -753,12 +755,23 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
                                          run->rank, &d->ctx.qtree);
         if (!merr && d->ctx.qtree)
             merr = gs_field_searcher_create(d->ctx.qtree, &d->ctx.qsearcher);
+        /* verbatim blocks and coherence of the synthesis too, before the
+         * height match or the rebuild changed it (synthesis_verbatim_share,
+         * synthesis_coherence): a verbatim block whose columns the height
+         * match moved along z is no longer in the source sample for sample,
+         * so the output's verbatim_share reads ~0 whatever was copied */
         if (!alone) {
             GS_TRY(err, gs_par_agree(run->comm, merr), fail);
             GS_TRY(err, gs_field_quality_measure_with(d->res, q, (int)c->block, field_quality_match,
                                                       &d->ctx, &mp.qm), fail);
+            if (synthesized)
+                GS_TRY(err, gs_field_quality_measure_with(synthesized, q, (int)c->block,
+                                                          field_quality_match, &d->ctx, &mp.syn_qm),
+                       fail);
         } else if (!merr) {
             merr = gs_field_quality_measure(d->res, q, d->ctx.qtree, &mp.qm);
+            if (!merr && synthesized)
+                merr = gs_field_quality_measure(synthesized, q, d->ctx.qtree, &mp.syn_qm);
         }
         mp.quality_s = gs_time_now() - tq, mp.quality_cpu = gs_cpu_now() - cq;
         /* done with the quality tree: not kept beside the meshes */
@@ -908,6 +921,16 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
             gs_run_metric_f64(run, "coherence_stderr", qm.coherence_stderr);
             gs_run_metric_f64(run, "verbatim_share", qm.verbatim);
             gs_run_metric_i64(run, "verbatim_run", qm.longest_run);
+            /* the synthesis' own (the output's when nothing changed it after) */
+            const gs_field_quality *sq = rebuilt || matched ? &mp.syn_qm : &mp.qm;
+            gs_run_metric_f64(run, "synthesis_verbatim_share", sq->verbatim);
+            gs_run_metric_i64(run, "synthesis_verbatim_run", sq->longest_run);
+            gs_run_metric_f64(run, "synthesis_coherence", sq->coherence);
+            if (rebuilt || matched)
+                gs_log(GS_LOG_INFO, "the synthesis before the %s: coherence %.2f, verbatim "
+                       "blocks %.3f (longest copied run %lld)",
+                       matched ? "height match" : "whole-object rebuild", sq->coherence,
+                       sq->verbatim, (long long)sq->longest_run);
             gs_log(GS_LOG_INFO,
                    "quality: volume fraction %.4f (source %.4f), surface/volume %.4f (source "
                    "%.4f), coherence %.2f (+- %.2f over %lld of %lld blocks), verbatim blocks "

@@ -221,9 +221,13 @@ for pair in "h4 on-repeat_span-4" "h12 on-repeat_span-12"; do
   for k in "${COPY[@]}"; do
     [[ "$(m "$1" synthesis_copy_$k)" == "$(m "$2" copy_$k)" ]] || same=0
   done
+  # the quality measure's verbatim blocks and coherence too (field41)
+  for k in verbatim_share verbatim_run coherence; do
+    [[ "$(m "$1" synthesis_$k)" == "$(m "$2" $k)" ]] || same=0
+  done
   [[ "$(m "$1" heights_matched)" == 1 && "$(m "$2" heights_matched)" == 0 && $same == 1 ]] &&
-    ok "$1: synthesis_copy_* (before the height match) = copy_* without it ($2)" ||
-    bad "$1: synthesis_copy_* differ from copy_* of $2 without the height match, or heights_matched wrong"
+    ok "$1: synthesis_copy_*, synthesis_verbatim_*, synthesis_coherence (before the height match) = copy_*, verbatim_*, coherence without it ($2)" ||
+    bad "$1: synthesis_copy_*/verbatim_*/coherence differ from those of $2 without the height match, or heights_matched wrong"
 done
 for r in t5 h4 h12 h2; do
   l=$(m "$r" synthesis_copy_largest_region_of_source)
@@ -233,6 +237,16 @@ done
 l=$(m u12 synthesis_copy_largest_region_of_source)
 le "$l" 0.25 && bad "unlimited synthesis hidden by the height match: synthesis_copy_largest_region_of_source $l (output's $(m u12 copy_largest_region_of_source))" ||
   ok "unlimited synthesis flagged after the height match: $l of the example (output's copy_* $(m u12 copy_largest_region_of_source))"
+# The quality measure's verbatim blocks, blind the same way: u12's synthesis
+# has 4 of its 64 blocks verbatim in the example (0.062), its height-matched
+# output none. synthesis_verbatim_share (measured before the match) must see
+# at least one block, more than the output's. Broken on purpose (field41:
+# the synthesis' quality measured on the output): fails.
+vs=$(m u12 synthesis_verbatim_share)
+vo=$(m u12 verbatim_share)
+/usr/bin/python3 -c "import sys; sys.exit(0 if $vs >= 1/64 and $vs > $vo else 1)" &&
+  ok "u12: verbatim blocks of the synthesis seen after the height match: $vs (output's $vo)" ||
+  bad "u12: verbatim blocks hidden by the height match: synthesis_verbatim_share $vs (output's $vo)"
 # The same from the output's heights alone, blind to any increasing remap of
 # them (analysis/field_copies.py: 8x8 windows of height ranks, an output
 # window copied from the example window it is more alike to than any other
