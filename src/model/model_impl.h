@@ -47,7 +47,7 @@ struct gs_model_resem_view {
     const uint32_t *mult;   /* [P] */
     const uint16_t *center; /* [P] non-decreasing */
     const int32_t *range;   /* [L + 1] */
-    const int32_t *slot;    /* [Q][L + 1] (column L: no label, none) */
+    const int32_t *slot;    /* [L + 1][Q] (row L: no label, none) */
     const uint64_t *bits;   /* [slots][PW] */
     const int32_t *oslot;   /* [Q] */
     void *mem;              /* the layer view's own allocation (NULL for all) */
@@ -64,7 +64,8 @@ struct gs_model_resem {
     uint16_t *center;  /* [P] centre label, non-decreasing */
     int L;             /* largest label + 1 */
     int32_t *range;    /* [L + 1] patterns with centre l: [range[l], range[l+1]) */
-    int32_t *slot;     /* [Q][L + 1] bitset of (offset, label), -1 = none (column L: no label) */
+    int32_t *slot;     /* [L + 1][Q] bitset of (label, offset), -1 = none (row L: no label);
+                          numbered label-major (resemble.c, number_slots) */
     uint64_t *bits;    /* [nslots][PW] */
     size_t nslots;
     int B;             /* bits of the match counters (<= GS_MODEL_RESEM_MAX_B) */
@@ -112,12 +113,14 @@ struct gs_model_solver {
     size_t qhead, qlen;
     int ndirs;         /* directions with neighbours in the current problem (6 in 3D) */
     uint64_t *utab;    /* AC-3 unions (W <= GS_MODEL_UTAB_MAX_W, else NULL):
-                          [8W byte positions][256 byte values][8][W] */
+                          [8W byte positions][256 byte values][8][W], on cache-line
+                          boundaries (a row at W = 1 is one line; utab_mem: the block) */
     uint64_t *ucache;  /* AC-3 unions of recent candidate sets (W <= GS_MODEL_UCACHE_MAX_W):
-                          direct-mapped,
-                          [1 << GS_MODEL_UCACHE_BITS][W key words, then [8][W] union], 72 KiB
-                          at W = 1; a key of zeros is an empty entry (only sets of 2 or more
-                          candidates are looked up) */
+                          direct-mapped, [1 << GS_MODEL_UCACHE_BITS][8][W] unions (on line
+                          boundaries) keyed by ukey [..][W], 72 KiB at W = 1; a key of zeros
+                          is an empty entry (only sets of 2 or more candidates are looked up) */
+    uint64_t *ukey;
+    void *utab_mem, *ucache_mem;
     uint32_t *sp_off, *sp_mid; /* AC-3 unions without utab (W > GS_MODEL_UTAB_MAX_W): label a's
                           non-zero allow words are entries sp_off[a]..sp_off[a + 1] - 1
                           (sp_mid[a]: past the 3D directions' entries), each a position
@@ -206,6 +209,13 @@ struct gs_model_solver {
     struct gs_model_decision *dec;
     size_t ndec, dec_cap;
 };
+
+/* p rounded up to the next 64-byte (cache line) boundary: tables whose rows are read
+ * whole are allocated 64 bytes longer and used from there. */
+static inline void *gs_model_line_align(void *p)
+{
+    return (void *)(((uintptr_t)p + 63) & ~(uintptr_t)63);
+}
 
 struct gs_model_decision {
     int32_t cell;

@@ -26,6 +26,21 @@
 
 #define OUTSIDE 0xffffu
 
+/* Numbers the (label, offset) pairs marked 0 in slot ([L + 1][Q], label-major; -1 =
+ * none) in that order: the bitsets of one label at neighbouring offsets lie side by
+ * side, so a cell whose decided neighbours mostly hold a few labels (air, ground)
+ * reads a few runs of the slot table and of the bitsets instead of one cache line per
+ * neighbour (the counts are the same: only where each bitset is stored changes).
+ * Returns how many were numbered. */
+static size_t number_slots(int32_t *slot, size_t n)
+{
+    size_t ns = 0;
+    for (size_t k = 0; k < n; k++)
+        if (slot[k] == 0)
+            slot[k] = (int32_t)ns++;
+    return ns;
+}
+
 /* The layer views (struct gs_model_resem_view): layer z's patterns (zbits) in the
  * index's order, their multiplicities there (zmult), and bitsets over them of the
  * (offset, label) pairs and the past-the-faces cells that occur among them. Left out
@@ -54,13 +69,13 @@ static gs_err build_layer_views(struct gs_model_resem *r, const uint16_t *rows, 
         const size_t PWz = (Pz + 63) / 64;
         for (size_t k = 0; k < Q * LS; k++)
             slot[k] = -1;
-        size_t ns = 0;
         for (size_t j = 0; j < Pz; j++)
             for (size_t q = 0; q < Q; q++) {
                 uint16_t a = rows[idx[j] * row + 1 + q];
-                if (a != OUTSIDE && slot[q * LS + a] < 0)
-                    slot[q * LS + a] = (int32_t)ns++;
+                if (a != OUTSIDE)
+                    slot[a * Q + q] = 0;
             }
+        size_t ns = number_slots(slot, Q * LS);
         for (size_t q = 0; q < Q; q++) {
             oslot[q] = -1;
             for (size_t j = 0; j < Pz && oslot[q] < 0; j++)
@@ -70,9 +85,10 @@ static gs_err build_layer_views(struct gs_model_resem *r, const uint16_t *rows, 
         /* one block: bits, slot, oslot, range, mult, center */
         const size_t nb = (ns ? ns : 1) * PWz, bytes = nb * 8 + (Q * LS + Q + L + 1) * 4 +
                                                        (Pz ? Pz : 1) * 4 + (Pz ? Pz : 1) * 2;
-        uint64_t *mem = gs_calloc(1, bytes);
-        GS_TRY_CHECK(err, mem != NULL, GS_ERR_MEM, done,
+        void *raw = gs_calloc(1, bytes + 64);
+        GS_TRY_CHECK(err, raw != NULL, GS_ERR_MEM, done,
                      "resemblance layer index: cannot allocate %zu bytes", bytes);
+        uint64_t *mem = gs_model_line_align(raw); /* the bitsets' rows on line boundaries */
         int32_t *vslot = (int32_t *)(mem + nb), *voslot = vslot + Q * LS, *vrange = voslot + Q;
         uint32_t *vmult = (uint32_t *)(vrange + L + 1);
         uint16_t *vcenter = (uint16_t *)(vmult + (Pz ? Pz : 1));
@@ -85,14 +101,14 @@ static gs_err build_layer_views(struct gs_model_resem *r, const uint16_t *rows, 
             vrange[vcenter[j] + 1]++;
             for (size_t q = 0; q < Q; q++) {
                 uint16_t a = rows[i * row + 1 + q];
-                int32_t sl = a == OUTSIDE ? oslot[q] : slot[q * LS + a];
+                int32_t sl = a == OUTSIDE ? oslot[q] : slot[a * Q + q];
                 mem[(size_t)sl * PWz + (j >> 6)] |= (uint64_t)1 << (j & 63);
             }
         }
         for (size_t l = 0; l < L; l++)
             vrange[l + 1] += vrange[l];
         r->lv[z] = (struct gs_model_resem_view){(int)Pz, (int)PWz, vmult, vcenter, vrange,
-                                                vslot, mem, voslot, mem};
+                                                vslot, mem, voslot, raw};
     }
 done:
     gs_free(idx);
@@ -198,13 +214,13 @@ gs_err gs_model_resem_build_wrap(const gs_model_lattice *ex, int w, int slack, i
            fail);
     for (size_t k = 0; k < (size_t)Q * (size_t)(L + 1); k++)
         r->slot[k] = -1;
-    size_t nslots = 0;
     for (i = 0; i < P; i++)
         for (q = 0; q < Q; q++) {
             uint16_t a = rows[i * row + 1 + (size_t)q];
-            if (a != OUTSIDE && r->slot[(size_t)q * (L + 1) + a] < 0)
-                r->slot[(size_t)q * (L + 1) + a] = (int32_t)nslots++;
+            if (a != OUTSIDE)
+                r->slot[(size_t)a * (size_t)Q + (size_t)q] = 0;
         }
+    size_t nslots = number_slots(r->slot, (size_t)Q * (size_t)(L + 1));
     GS_TRY(err, gs_alloc_array((void **)&r->bits, nslots ? nslots : 1, (size_t)r->PW * 8, "pattern bitsets"),
            fail);
     memset(r->bits, 0, (nslots ? nslots : 1) * (size_t)r->PW * 8);
@@ -213,7 +229,7 @@ gs_err gs_model_resem_build_wrap(const gs_model_lattice *ex, int w, int slack, i
             uint16_t a = rows[i * row + 1 + (size_t)q];
             if (a == OUTSIDE)
                 continue;
-            uint64_t *b = r->bits + (size_t)r->slot[(size_t)q * (L + 1) + a] * (size_t)r->PW;
+            uint64_t *b = r->bits + (size_t)r->slot[(size_t)a * (size_t)Q + (size_t)q] * (size_t)r->PW;
             b[i >> 6] |= (uint64_t)1 << (i & 63);
         }
     /* the patterns with OUTSIDE at q: one more bitset per such offset */

@@ -175,8 +175,9 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_m
         /* AC-3 support unions by bytes: row (byte position j, value v) = the
          * allow rows of every direction ORed over the labels 8j + (bits of v) */
         const size_t W = (size_t)s->W, row = GS_MODEL_DIRS * W, nchunk = 8 * W;
-        GS_TRY(err, gs_alloc_array((void **)&s->utab, nchunk * 256 * row, 8, "AC-3 union table"),
+        GS_TRY(err, gs_alloc_array(&s->utab_mem, nchunk * 256 * row + 8, 8, "AC-3 union table"),
                fail);
+        s->utab = gs_model_line_align(s->utab_mem);
         for (size_t j = 0; j < nchunk; j++) {
             uint64_t *t = s->utab + j * 256 * row;
             memset(t, 0, row * 8);
@@ -194,10 +195,13 @@ gs_err gs_model_solver_create(const gs_model_rules_t rules, gs_model_ac ac, gs_m
     }
     if (s->W <= GS_MODEL_UCACHE_MAX_W) {
         const size_t W = (size_t)s->W;
-        GS_TRY(err, gs_alloc_array((void **)&s->ucache, (size_t)1 << GS_MODEL_UCACHE_BITS,
-                                   (1 + GS_MODEL_DIRS) * W * 8, "AC-3 union cache"),
+        const size_t ents = (size_t)1 << GS_MODEL_UCACHE_BITS;
+        GS_TRY(err, gs_alloc_array(&s->ucache_mem, ents * (1 + GS_MODEL_DIRS) * W + 8, 8,
+                                   "AC-3 union cache"),
                fail);
-        memset(s->ucache, 0, ((size_t)1 << GS_MODEL_UCACHE_BITS) * (1 + GS_MODEL_DIRS) * W * 8);
+        s->ucache = gs_model_line_align(s->ucache_mem);
+        s->ukey = s->ucache + ents * GS_MODEL_DIRS * W;
+        memset(s->ukey, 0, ents * W * 8);
         s->ucache_bits = GS_MODEL_UCACHE_BITS;
     }
     *out = s;
@@ -223,8 +227,8 @@ void gs_model_solver_destroy(gs_model_solver_t *ps)
     gs_free(s->support);
     gs_free(s->heap);
     gs_free(s->hpos);
-    gs_free(s->utab);
-    gs_free(s->ucache);
+    gs_free(s->utab_mem);
+    gs_free(s->ucache_mem);
     gs_free(s->sp_off);
     gs_free(s->sp_mid);
     gs_free(s->sp_k);
@@ -708,9 +712,8 @@ static inline __attribute__((always_inline)) int ac3_run_words(struct gs_model_s
             for (size_t w = 1; w < W; w++)
                 h = h * 0x100000001b3ull ^ dc[w];
             h *= 0x9e3779b97f4a7c15ull;
-            uint64_t *ent = s->ucache + (size_t)(h >> (64 - s->ucache_bits)) *
-                                            (1 + GS_MODEL_DIRS) * W;
-            uint64_t *un = ent + W;
+            const size_t e = (size_t)(h >> (64 - s->ucache_bits));
+            uint64_t *ent = s->ukey + e * W, *un = s->ucache + e * GS_MODEL_DIRS * W;
             uint64_t miss = 0;
             for (size_t w = 0; w < W; w++)
                 miss |= ent[w] ^ dc[w];
@@ -1546,14 +1549,14 @@ GS_HOT_CLONES static int choose_label_resem(struct gs_model_solver *s, int32_t c
     const int z = c / (s->box_rx * s->box_ry);
     const uint16_t *lab = s->rs_lab + s->rs_pidx[c];
     const int32_t *dq = s->rs_dq, *vslot = V->slot, *voslot = V->oslot;
-    const size_t LS = (size_t)R->L + 1; /* slot rows: label R->L (none) has none */
+    const size_t Q = (size_t)R->Q; /* slot rows: one per label, R->L (none) has none */
     if (R->outside_bg) {
         /* past the example's faces lies its face background of the
          * neighbour's layer (a match), nothing else */
         const int32_t *bgq = s->rs_bgq + (size_t)z * (size_t)R->Q;
         for (int q = 0; q < R->Q; q++) {
             const unsigned l = lab[dq[q]];
-            const int32_t sl = vslot[(size_t)q * LS + l], os = voslot[q];
+            const int32_t sl = vslot[l * Q + (size_t)q], os = voslot[q];
             nbl[nn] = (uint64_t)sl * VPW;
             nn += sl >= 0;
             nbl[nn] = (uint64_t)os * VPW;
@@ -1562,7 +1565,7 @@ GS_HOT_CLONES static int choose_label_resem(struct gs_model_solver *s, int32_t c
     } else {
         for (int q = 0; q < R->Q; q++) {
             const unsigned l = lab[dq[q]];
-            const int32_t sl = vslot[(size_t)q * LS + l];
+            const int32_t sl = vslot[l * Q + (size_t)q];
             nbl[nn] = (uint64_t)sl * VPW;
             nn += sl >= 0;
             if (R->outside && l < (unsigned)R->L && voslot[q] >= 0) {
