@@ -25,6 +25,7 @@
 #define GEOSYNTH_VDB_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "geosynth/error.h"
 #include "geosynth/mesh.h"
@@ -125,7 +126,12 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
  * (nx * ny * (z1 - z0) values), rebuilding only those planes plus a margin
  * (the bound's reach, ceil(half_width) + 1, and pad more): memory and time
  * grow with z1 - z0, and any split of the planes gives the same values as
- * one call over [0, nz) (tests/unit/test_vdb.c checks it).
+ * one call over [0, nz) (tests/unit/test_vdb.c checks it). The work
+ * indexes the samples of a piece's padded box ((nx + 2 pad) (ny + 2 pad)
+ * times its planes with their margins) and its triangles with 32 bits: a
+ * piece whose box holds more than GS_VDB_REDIST_MAX_SAMPLES samples (or
+ * whose contour has that many triangles) is refused with GS_ERR_ARG, never
+ * wrapped; the caller splits the planes into smaller pieces.
  * gs_vdb_level_set_write writes d (already redistanced) as a .vdb file: a
  * level set grid named `name` (class level set, background = half_width *
  * voxel, voxel size d->voxel, samples at +-background inactive, index space
@@ -133,6 +139,7 @@ gs_err gs_vdb_dense_to_mesh(const gs_vdb_dense *d, double isovalue, double adapt
  * sdfToFogVolume: 0 outside, 1 inside, a ramp across the band; what
  * renderers' default volume shaders read) and grid metadata up_axis = "z"
  * and units on both. */
+#define GS_VDB_REDIST_MAX_SAMPLES ((uint64_t)UINT32_MAX)
 gs_err gs_vdb_redistance(const gs_vdb_dense *d, int pad, double half_width, size_t z0, size_t z1,
                          float *out);
 gs_err gs_vdb_level_set_write(const gs_vdb_dense *d, int pad, double half_width, const char *name,

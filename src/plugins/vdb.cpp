@@ -852,6 +852,14 @@ extern "C" gs_err gs_vdbp_redistance(const gs_vdb_dense *d, int pad, double half
         // the box, padded with the field's edge values (x, y and beyond its
         // z ends) so the surface stays open at the box faces
         const size_t px = (size_t)(nx + 2 * pad), py = (size_t)(ny + 2 * pad), pz = (size_t)(b1 - b0);
+        // mesh_band_distance indexes the box's samples (and the triangles)
+        // with uint32: a larger piece is refused, not wrapped
+        const double box = (double)px * (double)py * (double)pz;
+        GS_CHECK(box <= (double)GS_VDB_REDIST_MAX_SAMPLES, GS_ERR_ARG,
+                 "redistance: planes [%zu, %zu) of a %zux%zux%zu field need a padded box of "
+                 "%zux%zux%zu = %.0f samples: expected at most %llu (32-bit sample indices); "
+                 "split the planes into smaller pieces", z0, z1, d->nx, d->ny, d->nz, px, py, pz,
+                 box, (unsigned long long)GS_VDB_REDIST_MAX_SAMPLES);
         std::vector<redist_tri> tris;
         {
             std::vector<float> box(px * py * pz);
@@ -907,6 +915,11 @@ extern "C" gs_err gs_vdbp_redistance(const gs_vdb_dense *d, int pad, double half
                 }
             }
         }
+        GS_CHECK(tris.size() < (size_t)UINT32_MAX, GS_ERR_ARG,
+                 "redistance: planes [%zu, %zu) of a %zux%zux%zu field: %zu contour triangles: "
+                 "expected fewer than %llu (32-bit triangle indices); split the planes into "
+                 "smaller pieces", z0, z1, d->nx, d->ny, d->nz, tris.size(),
+                 (unsigned long long)UINT32_MAX);
         // in raster order of their centres' samples, as the samples are
         // visited (the order changes no value: ties go by geometry)
         std::stable_sort(tris.begin(), tris.end(), [](const redist_tri &a, const redist_tri &b) {

@@ -591,6 +591,37 @@ static void test_redistance_exact(void **state)
     gs_vdb_dense_destroy(&d);
 }
 
+/* The redistancing indexes a piece's padded box with 32 bits: a call whose
+ * box holds more than GS_VDB_REDIST_MAX_SAMPLES samples is a clear error
+ * (GS_ERR_ARG naming the planes, the box and the limit), refused before
+ * any of the field is read (the field here claims 65536 x 65536 x 2
+ * samples over a buffer of one: a wrap would read far past it); a call
+ * within the limit on the same planes' shape is taken. */
+static void test_redistance_oversize_refused(void **state)
+{
+    (void)state;
+    float one = 1.0f;
+    gs_vdb_dense d;
+    memset(&d, 0, sizeof d);
+    d.nx = 65536, d.ny = 65536, d.nz = 2;
+    d.voxel = 1, d.background = 3;
+    d.v = &one;
+    assert_int_equal(gs_vdb_redistance(&d, 4, 3, 0, 1, &one), GS_ERR_ARG);
+    printf("refused: %s\n", gs_error_message());
+    assert_non_null(strstr(gs_error_message(), "planes [0, 1)"));
+    assert_non_null(strstr(gs_error_message(), "32-bit sample indices"));
+    gs_error_clear();
+    /* the same shape, small enough: taken */
+    gs_vdb_dense s;
+    assert_int_equal(gs_vdb_dense_alloc(&s, 16, 16, 2), GS_OK);
+    s.voxel = 1, s.background = 3;
+    for (size_t i = 0; i < 16 * 16 * 2; i++)
+        s.v[i] = (float)((double)(i % 16) - 7.5);
+    float out[16 * 16];
+    assert_int_equal(gs_vdb_redistance(&s, 4, 3, 0, 1, out), GS_OK);
+    gs_vdb_dense_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -602,6 +633,7 @@ int main(void)
         cmocka_unit_test(test_open_bunny_signed_refused),
         cmocka_unit_test(test_redistance_pieces),
         cmocka_unit_test(test_redistance_exact),
+        cmocka_unit_test(test_redistance_oversize_refused),
     };
     return cmocka_run_group_tests(tests, gs_test_tmpdir_setup, gs_test_tmpdir_teardown);
 }
