@@ -264,7 +264,7 @@ static void geom_step_end(field_geometry_done *done, int k, step_clock s)
  * metrics; the contour rank's into *done, which rank 0 lists after the
  * ranks met (field_geometry_list). */
 static gs_err write_geometry(gs_run *run, const field_config *c, const field_source *src,
-                             const gs_field *f, const int32_t *prov, gs_json *pm, int crank,
+                             const gs_field *f, gs_field_prov *prov, gs_json *pm, int crank,
                              field_geometry_done *done)
 {
     char path[PATH_MAX], name[64];
@@ -334,8 +334,9 @@ static gs_err write_geometry(gs_run *run, const field_config *c, const field_sou
         int64_t sn[3] = {q->nx, q->ny, q->nz};
         gs_field_copy_stats st;
         ts = step_start();
-        /* base is not used after: the copy takes its triangles, and its
-         * positions are freed before the copy is written (peak memory) */
+        /* base and prov are not used after: the copy takes base's
+         * triangles, frees prov once read and base's positions before the
+         * copy is written (peak memory) */
         GS_TRY(err, gs_field_copy_geometry_consume(&src->mesh, sn, prov, &unit, &base, c->snap,
                                                    (int)c->relax, &m, &st), out);
         step_end(pm, "copy", ts);
@@ -694,6 +695,8 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     const gs_field_synth_state *st = gs_field_synth_get_state(d->synth);
     gs_err err = GS_OK;
     gs_qfield *synthesized = NULL, *unmatched = NULL;
+    gs_field_prov packed;
+    memset(&packed, 0, sizeof packed);
     /* the last result's height match (field.height_match final or both),
      * then whole objects (field.complete_objects): every rank alike. The
      * synthesis' own measures read the field before either changed it. */
@@ -715,12 +718,18 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     /* the target handed over and the mask freed: not held beside the
      * meshes (2 bytes a sample; 268 MB at 512^3) */
     GS_TRY(err, gs_field_synth_take_result(d->synth, &d->res), fail);
-    /* the provenance: only rank 0's copied mesh needs it from here on (4
-     * bytes a sample; the synthesis, done, no longer reads it) */
-    if (!(run->rank == 0 && field_geometry_copies(c))) {
-        gs_free(d->ctx.prov);
-        d->ctx.prov = NULL;
+    /* the provenance: only rank 0's copied mesh needs it from here on, and
+     * packed (runs along x, lossless: gs_field_prov_pack), not 4 bytes a
+     * sample (537 MB at 512^3) beside the field and the meshes; the
+     * synthesis, done, no longer reads it */
+    if (run->rank == 0 && field_geometry_copies(c)) {
+        const int64_t tn[3] = {d->res->nx, d->res->ny, d->res->nz};
+        GS_TRY(err, gs_field_prov_pack(d->ctx.prov, tn, &packed), fail);
+        gs_json_i64(phase, "provenance_runs", packed.runs);
+        gs_json_u64(phase, "provenance_packed_bytes", (uint64_t)gs_field_prov_bytes(&packed));
     }
+    gs_free(d->ctx.prov);
+    d->ctx.prov = NULL;
     d->res->spacing = q->spacing;
     GS_TRY(err, gs_qfield_dequantize(d->res, &d->resf), fail);
     uint64_t digest = gs_digest_bytes(d->res->q, (size_t)(d->res->nx * d->res->ny * d->res->nz));
@@ -793,7 +802,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     memset(&gd, 0, sizeof gd);
     if (run->rank == 0 || run->rank == crank) {
         step_clock tg = step_start();
-        lerr = write_geometry(run, c, &d->src, d->resf, d->ctx.prov, phase, crank, &gd);
+        lerr = write_geometry(run, c, &d->src, d->resf, &packed, phase, crank, &gd);
         if (!lerr && run->rank == 0 && field_is_heightmap_example(c)) {
             /* Figure 7c: the synthesized height map as the example was read */
             char hp[PATH_MAX];
@@ -947,6 +956,7 @@ gs_err field_output_op(void *state, gs_run *run, gs_json *phase, uint64_t *diges
     err = gs_par_agree(run->comm, lerr);
     *digest_out = digest;
 fail:
+    gs_field_prov_destroy(&packed);
     gs_qfield_destroy(&synthesized);
     return err;
 }

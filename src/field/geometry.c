@@ -242,6 +242,88 @@ static double closest_on_triangle(const double p[3], const double a[3], const do
     return d;
 }
 
+gs_err gs_field_prov_pack(const int32_t *prov, const int64_t n[3], gs_field_prov *out)
+{
+    memset(out, 0, sizeof *out);
+    GS_CHECK(n[0] >= 1 && n[1] >= 1 && n[2] >= 1 && n[0] <= INT32_MAX, GS_ERR_ARG,
+             "provenance of %lldx%lldx%lld samples: expected 1..2^31 along x", (long long)n[0],
+             (long long)n[1], (long long)n[2]);
+    const int64_t nx = n[0], rows = n[1] * n[2];
+    /* a run goes on at x while prov[x] is its value there */
+#define PROV_GOES_ON(r, x) ((r)[x] == ((r)[(x) - 1] < 0 ? (int64_t)(r)[(x) - 1] : (int64_t)(r)[(x) - 1] + 1))
+    int64_t runs = 0;
+    for (int64_t y = 0; y < rows; y++) {
+        const int32_t *r = prov + nx * y;
+        runs++;
+        for (int64_t x = 1; x < nx; x++)
+            runs += !PROV_GOES_ON(r, x);
+    }
+    gs_field_prov p;
+    memset(&p, 0, sizeof p);
+    memcpy(p.n, n, sizeof p.n);
+    p.runs = runs;
+    gs_err err = GS_OK;
+    GS_TRY(err, gs_alloc_array((void **)&p.row, (size_t)rows + 1, sizeof *p.row, "packed provenance"), fail);
+    GS_TRY(err, gs_alloc_array((void **)&p.run, 2 * (size_t)runs, sizeof *p.run, "packed provenance"), fail);
+    int64_t k = 0;
+    for (int64_t y = 0; y < rows; y++) {
+        const int32_t *r = prov + nx * y;
+        p.row[y] = k;
+        for (int64_t x = 0; x < nx; x++)
+            if (x == 0 || !PROV_GOES_ON(r, x))
+                p.run[2 * k] = (int32_t)x, p.run[2 * k + 1] = r[x], k++;
+    }
+#undef PROV_GOES_ON
+    p.row[rows] = k;
+    *out = p;
+    return GS_OK;
+fail:
+    gs_field_prov_destroy(&p);
+    return err;
+}
+
+int32_t gs_field_prov_at(const gs_field_prov *p, int64_t t)
+{
+    const int64_t y = t / p->n[0], x = t - y * p->n[0];
+    /* the last run of row y starting at or before x */
+    int64_t lo = p->row[y], hi = p->row[y + 1] - 1;
+    while (lo < hi) {
+        int64_t mid = (lo + hi + 1) / 2;
+        if (p->run[2 * mid] <= x)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    const int32_t v = p->run[2 * lo + 1];
+    return v < 0 ? v : (int32_t)(v + (x - p->run[2 * lo]));
+}
+
+size_t gs_field_prov_bytes(const gs_field_prov *p)
+{
+    return p->row ? (size_t)(p->n[1] * p->n[2] + 1) * sizeof *p->row +
+                        2 * (size_t)p->runs * sizeof *p->run
+                  : 0;
+}
+
+void gs_field_prov_destroy(gs_field_prov *p)
+{
+    gs_free(p->row);
+    gs_free(p->run);
+    memset(p, 0, sizeof *p);
+}
+
+/* The copy's provenance: dense (one int32 a sample) or packed (owned:
+ * destroyed by copy_geometry once read) */
+typedef struct copy_prov {
+    const int32_t *dense;
+    gs_field_prov *packed;
+} copy_prov;
+
+static inline int32_t copy_prov_at(const copy_prov *cp, int64_t t)
+{
+    return cp->dense ? cp->dense[t] : gs_field_prov_at(cp->packed, t);
+}
+
 typedef struct copy_src {
     const gs_mesh *m;
     int64_t sn[3];
@@ -411,18 +493,30 @@ static int same_point(const float *a, const float *b)
     return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
 }
 
-typedef struct vkey {
-    float p[3];
-    uint32_t v;
-} vkey;
+/* Vertex indices ordered by their positions (x, y, z; -0 == +0), then by
+ * index: a total order, so the sorted indices are the very order of the
+ * (position, index) pairs it replaced (4 bytes a vertex instead of 16; and
+ * qsort's own buffer as large). The positions: those of the sort running
+ * on this thread (qsort has no context argument in C11). */
+static _Thread_local const float *vorder_pos;
 
-static int cmp_vkey(const void *x, const void *y)
+static int cmp_vorder(const void *x, const void *y)
 {
-    const vkey *a = x, *b = y;
+    const uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
+    const float *pa = vorder_pos + 3 * (size_t)a, *pb = vorder_pos + 3 * (size_t)b;
     for (int k = 0; k < 3; k++)
-        if (a->p[k] != b->p[k])
-            return a->p[k] < b->p[k] ? -1 : 1;
-    return a->v < b->v ? -1 : a->v > b->v;
+        if (pa[k] != pb[k])
+            return pa[k] < pb[k] ? -1 : 1;
+    return a < b ? -1 : a > b;
+}
+
+/* Vertices a and b of pos at the very same point (-0 == +0, as bits) */
+static int same_bits(const float *pos, uint32_t a, uint32_t b)
+{
+    float p[3], q[3];
+    for (int k = 0; k < 3; k++)
+        p[k] = pos[3 * (size_t)a + k] + 0.0f, q[k] = pos[3 * (size_t)b + k] + 0.0f;
+    return !memcmp(p, q, sizeof p);
 }
 
 /* Moved vertices must not fold the base: a triangle whose normal turned by
@@ -435,7 +529,7 @@ static gs_err unfold(gs_mesh *m, const gs_mesh *base, uint8_t *reverted, int64_t
 {
     gs_err err = GS_OK;
     uint8_t *bad = NULL, *ever = NULL;
-    vkey *order = NULL;
+    uint32_t *order = NULL;
     GS_TRY(err, gs_alloc_array((void **)&bad, m->nverts + 1, 1, "unfold flags"), done);
     GS_TRY(err, gs_alloc_array((void **)&ever, m->nverts + 1, 1, "unfold flags"), done);
     GS_TRY(err, gs_alloc_array((void **)&order, m->nverts + 1, sizeof *order, "unfold order"), done);
@@ -459,19 +553,19 @@ static gs_err unfold(gs_mesh *m, const gs_mesh *base, uint8_t *reverted, int64_t
         }
         /* vertices at the very same position (once no triangle folds) */
         int64_t folds = nbad;
-        for (size_t v = 0; v < m->nverts && folds == 0; v++) {
-            for (int a = 0; a < 3; a++)
-                order[v].p[a] = m->pos[3 * v + a] + 0.0f; /* -0 == +0 */
-            order[v].v = (uint32_t)v;
+        for (size_t v = 0; v < m->nverts && folds == 0; v++)
+            order[v] = (uint32_t)v;
+        if (folds == 0) {
+            vorder_pos = m->pos;
+            qsort(order, m->nverts, sizeof *order, cmp_vorder);
+            vorder_pos = NULL;
         }
-        if (folds == 0)
-            qsort(order, m->nverts, sizeof *order, cmp_vkey);
         for (size_t i = 1; i < m->nverts && folds == 0; i++)
-            if (!memcmp(order[i - 1].p, order[i].p, sizeof order[i].p) &&
-                !same_point(base->pos + 3 * (size_t)order[i - 1].v,
-                            base->pos + 3 * (size_t)order[i].v)) /* (one point in the base: left) */
+            if (same_bits(m->pos, order[i - 1], order[i]) &&
+                !same_point(base->pos + 3 * (size_t)order[i - 1],
+                            base->pos + 3 * (size_t)order[i])) /* (one point in the base: left) */
                 for (int q = 0; q < 2; q++)
-                    nbad += !bad[order[i - q].v], bad[order[i - q].v] = 1;
+                    nbad += !bad[order[i - q]], bad[order[i - q]] = 1;
         double keep = round < 8 ? 0.5 : 0.0;
         if (keep == 0) /* only vertices still off the base can be pulled back */
             for (size_t v = 0; v < m->nverts; v++)
@@ -500,7 +594,7 @@ done:
 
 /* gs_field_copy_geometry; take: the copy's triangles are base's own
  * (borrowed during the work, base->tris moved into *out on success). */
-static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const int32_t *prov,
+static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], copy_prov prov,
                             const gs_field *target, const gs_mesh *base, int take, double snap,
                             int relax, gs_mesh *out, gs_field_copy_stats *st)
 {
@@ -592,8 +686,8 @@ static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const 
             }
             int64_t ti = t[0] + tn[0] * (t[1] + tn[1] * t[2]);
             double cand[3] = {p[0], p[1], p[2]};
-            if (prov[ti] >= 0 && prov[ti] < ns) {
-                int64_t s = prov[ti];
+            const int64_t s = copy_prov_at(&prov, ti);
+            if (s >= 0 && s < ns) {
                 int64_t o[3] = {t[0] - s % sn[0], t[1] - s / sn[0] % sn[1], t[2] - s / (sn[0] * sn[1])};
                 if (first)
                     memcpy(off0, o, sizeof o), first = 0;
@@ -627,6 +721,10 @@ static gs_err copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], const 
         copied_flag[v] = (uint8_t)copied;
         stats.seam_vertices += mixed;
     }
+    /* the provenance is read: a packed one (consumed) freed before the
+     * relaxation's, the room's and the unfolding's arrays */
+    if (prov.packed)
+        gs_field_prov_destroy(prov.packed);
     /* the paper's mesh relaxation: Laplacian (weight 0.5) of the seam
      * vertices; sums kept for the seam vertices only (slot: their index
      * among them), added in the same order as over every vertex */
@@ -728,15 +826,19 @@ gs_err gs_field_copy_geometry(const gs_mesh *src_mesh, const int64_t sn[3], cons
                               const gs_field *target, const gs_mesh *base, double snap, int relax,
                               gs_mesh *out, gs_field_copy_stats *st)
 {
-    return copy_geometry(src_mesh, sn, prov, target, base, 0, snap, relax, out, st);
+    return copy_geometry(src_mesh, sn, (copy_prov){prov, NULL}, target, base, 0, snap, relax, out,
+                         st);
 }
 
 gs_err gs_field_copy_geometry_consume(const gs_mesh *src_mesh, const int64_t sn[3],
-                                      const int32_t *prov, const gs_field *target, gs_mesh *base,
+                                      gs_field_prov *prov, const gs_field *target, gs_mesh *base,
                                       double snap, int relax, gs_mesh *out,
                                       gs_field_copy_stats *st)
 {
-    GS_CALL(copy_geometry(src_mesh, sn, prov, target, base, 1, snap, relax, out, st));
+    gs_err err = copy_geometry(src_mesh, sn, (copy_prov){NULL, prov}, target, base, 1, snap, relax,
+                               out, st);
+    gs_field_prov_destroy(prov);
+    GS_CALL(err);
     base->tris = NULL; /* now out's */
     gs_mesh_destroy(base);
     return GS_OK;

@@ -219,7 +219,7 @@ static void test_copy_room_skips_exactly(void **state)
 }
 
 /* gs_field_copy_geometry_consume (the output's copy: base's triangles
- * taken, not duplicated) gives the very mesh and figures of
+ * taken, not duplicated, the provenance packed and consumed) gives the very mesh and figures of
  * gs_field_copy_geometry, on a target with seams (two halves copied at
  * different offsets) and relaxation on, and leaves base destroyed. */
 static void test_copy_geometry_consume(void **state)
@@ -246,7 +246,11 @@ static void test_copy_geometry_consume(void **state)
     OK(gs_field_copy_geometry(&cc.src, sn, prov, g, &base, 1.0, 10, &out1, &st1));
     assert_true(st1.seam_vertices > 0);
     size_t nv = base.nverts;
-    OK(gs_field_copy_geometry_consume(&cc.src, sn, prov, g, &base, 1.0, 10, &out2, &st2));
+    gs_field_prov packed;
+    OK(gs_field_prov_pack(prov, (int64_t[3]){24, 24, 24}, &packed));
+    OK(gs_field_copy_geometry_consume(&cc.src, sn, &packed, g, &base, 1.0, 10, &out2, &st2));
+    assert_null(packed.row); /* consumed */
+    assert_null(packed.run);
     assert_int_equal(base.nverts, 0);
     assert_null(base.pos);
     assert_null(base.tris);
@@ -264,6 +268,58 @@ static void test_copy_geometry_consume(void **state)
     gs_free(prov);
     gs_mesh_destroy(&cc.src);
     gs_field_destroy(&f);
+}
+
+/* The packed provenance (the output copy's) is lossless: on a target made
+ * of pieces copied along x at random offsets and lengths, some rows
+ * crossing a source row's end (the run goes on: its values are consecutive),
+ * stretches of -1 and of another negative value, single samples, rows of
+ * one sample and a whole-row run, every sample reads back its value; the
+ * runs are the pieces (counted here independently), so it is small. */
+static void test_prov_pack(void **state)
+{
+    (void)state;
+    const int64_t dims[3][3] = {{37, 5, 4}, {1, 7, 3}, {64, 3, 2}};
+    uint64_t r = 99;
+#define RND(m) (r = r * 6364136223846793005ULL + 1442695040888963407ULL, (int64_t)((r >> 33) % (uint64_t)(m)))
+    for (int k = 0; k < 3; k++) {
+        const int64_t *n = dims[k], total = n[0] * n[1] * n[2];
+        int32_t *prov = gs_malloc((size_t)total * sizeof *prov);
+        assert_non_null(prov);
+        int64_t pieces = 0;
+        for (int64_t row = 0; row < n[1] * n[2]; row++)
+            for (int64_t x = 0; x < n[0]; pieces++) {
+                int64_t len = 1 + RND(k == 2 && row == 0 ? 1000 : 12), kind = RND(6);
+                int32_t v = kind == 0 ? -1 : kind == 1 ? -7 : (int32_t)RND(100000);
+                for (int64_t i = 0; i < len && x < n[0]; i++, x++)
+                    prov[x + n[0] * row] = v < 0 ? v : v + (int32_t)i;
+            }
+        gs_field_prov p;
+        OK(gs_field_prov_pack(prov, n, &p));
+        int64_t differ = 0;
+        for (int64_t t = 0; t < total; t++)
+            differ += gs_field_prov_at(&p, t) != prov[t];
+        printf("packed provenance %lldx%lldx%lld: %lld runs (%lld pieces written), %zu bytes, "
+               "%lld samples differ\n", (long long)n[0], (long long)n[1], (long long)n[2],
+               (long long)p.runs, (long long)pieces, gs_field_prov_bytes(&p), (long long)differ);
+        assert_int_equal(differ, 0);
+        /* adjacent pieces may join (a piece going on where the last ended,
+         * -1 after -1): never more runs than pieces */
+        assert_true(p.runs <= pieces && p.runs >= n[1] * n[2]);
+        gs_field_prov_destroy(&p);
+        assert_null(p.row);
+        gs_free(prov);
+    }
+#undef RND
+    /* a whole row copied in order: one run a row */
+    int32_t line[50];
+    for (int i = 0; i < 50; i++)
+        line[i] = 1000 + i;
+    gs_field_prov p;
+    OK(gs_field_prov_pack(line, (int64_t[3]){50, 1, 1}, &p));
+    assert_int_equal(p.runs, 1);
+    assert_int_equal(gs_field_prov_at(&p, 49), 1049);
+    gs_field_prov_destroy(&p);
 }
 
 /* Height map: inside below the surface, zero crossing at h. */
@@ -302,6 +358,7 @@ int main(void)
         cmocka_unit_test(test_copy_geometry),
         cmocka_unit_test(test_copy_room_skips_exactly),
         cmocka_unit_test(test_copy_geometry_consume),
+        cmocka_unit_test(test_prov_pack),
         cmocka_unit_test(test_heightmap),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
