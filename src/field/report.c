@@ -9,6 +9,7 @@
 #include "geosynth/log.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 double gs_field_step_violations(const float *v, const int64_t n[3], double spacing, double limit)
 {
@@ -47,12 +48,6 @@ static double level_step_violations(const gs_qfield *q, double limit)
                     pairs++, bad += abs(v[i + nxy] - v[i]) > lim;
             }
     return pairs ? (double)bad / (double)pairs : 0;
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return (x > y) - (x < y);
 }
 
 /* Topology of the inside components (gs_field_geometry_report's genus_*,
@@ -99,7 +94,7 @@ static gs_err inside_components(const gs_measure_nested *k, uint64_t **sizes, in
         t->handles += h, t->samples += o->size;
         sz[keep++] = o->size;
     }
-    qsort(sz, keep, sizeof *sz, cmp_u64);
+    gs_sort_u64(sz, keep);
     *sizes = sz;
     *n = keep;
     return GS_OK;
@@ -132,12 +127,6 @@ static double share_below(const uint64_t *s, int64_t n, double t)
     while (c < n && (double)s[c] < t)
         c++;
     return n ? (double)c / (double)n : 0;
-}
-
-static int cmp_f64(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
 }
 
 /* Squared Euclidean distance transform along one line of n values
@@ -237,7 +226,7 @@ static gs_err inscribed_radii(const gs_qfield *q, double **r, int64_t *n)
                 }
                 v[cnt++] = sqrt((double)e);
             }
-    qsort(v, (size_t)cnt, sizeof *v, cmp_f64);
+    gs_sort_f64(v, (size_t)cnt);
     *r = v, *n = cnt;
     v = NULL;
 done:

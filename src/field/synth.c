@@ -38,6 +38,7 @@
 #include "geosynth/field_examples.h"
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 #define SYNTH_SEED_DOMAIN 0x53594eu /* "SYN" */
 #define FIRST_BLOCK_DOMAIN 0x465242u /* "FRB" */
@@ -290,18 +291,6 @@ static gs_err build_regions(struct gs_field_synth *s, int B)
     return GS_OK;
 }
 
-static int cmp_f64(const void *a_, const void *b_)
-{
-    double a = *(const double *)a_, b = *(const double *)b_;
-    return (a > b) - (a < b);
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return (x > y) - (x < y);
-}
-
 /* repeat_span: the level's source blocks that are features, whose relief
  * (summed |level step| along x and y inside the block) is at or above the
  * median over its blocks. A plain (a flat stretch of a height field, no step
@@ -331,7 +320,7 @@ static gs_err block_features(struct gs_field_synth *s, int B)
                 }
         r[k] = t[k] = sum;
     }
-    qsort(t, (size_t)n, sizeof *t, cmp_u64);
+    gs_sort_u64(t, (size_t)n);
     for (int64_t k = 0; k < n; k++)
         s->feature[k] = r[k] >= t[n / 2];
 done:
@@ -1499,7 +1488,7 @@ static gs_err height_match(struct gs_field_synth *s, uint8_t *t, const int64_t t
     for (int64_t y = 0; y < wn[1]; y++)
         for (int64_t x = 0; x < wn[0]; x++)
             hs[x + wn[0] * y] = hl[x + ls->nx * y];
-    qsort(hs, (size_t)M, sizeof *hs, cmp_f64);
+    gs_sort_f64(hs, (size_t)M);
     gs_field_surface_heights(ft, ht);
     for (int64_t i = 0; i < N; i++)
         r[i].h = ht[i], r[i].i = i;
@@ -3123,7 +3112,7 @@ gs_err gs_field_quality_measure_with(const gs_qfield *out, const gs_qfield *src,
     keep = keep > rows ? rows : keep;
     for (int64_t j = 0; j < rows; j++)
         order[j] = gs_hash_mix64((uint64_t)j + 1);
-    qsort(order, (size_t)rows, sizeof *order, cmp_u64);
+    gs_sort_u64(order, (size_t)rows);
     for (int64_t j = 0; j < rows; j++)
         sampled[j] = gs_hash_mix64((uint64_t)j + 1) <= order[keep - 1];
     GS_TRY(err, block_table_build(src, B, &bt), done);

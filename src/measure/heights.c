@@ -7,12 +7,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
-
-static int cmp_f64(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
+#include "geosynth/sort.h"
 
 /* numpy.percentile's default (linear between the closest ranks) of sorted a */
 static double percentile(const double *a, size_t n, double p)
@@ -48,7 +43,7 @@ gs_err gs_measure_heights(const double *out, size_t nout, const double *src, siz
     gs_err err = GS_OK;
     GS_TRY(err, gs_alloc_array((void **)&a, nsrc, sizeof *a, "sorted example heights"), done);
     memcpy(a, src, nsrc * sizeof *a);
-    qsort(a, nsrc, sizeof *a, cmp_f64);
+    gs_sort_f64(a, nsrc);
     for (int k = 0; k < GS_MEASURE_HEIGHT_LEVELS; k++)
         m->level[k] = percentile(a, nsrc, gs_measure_height_percentiles[k]);
     shares(out, nout, m->level, &m->low_out, m->high_out);

@@ -2,17 +2,12 @@
 #include <stdlib.h>
 
 #include "geosynth/measure.h"
-
-static int cmp_u64(const void *pa, const void *pb)
-{
-    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
-    return (a > b) - (a < b);
-}
+#include "geosynth/sort.h"
 
 void gs_measure_keys_sort(uint64_t *keys, size_t n)
 {
     if (n > 1)
-        qsort(keys, n, sizeof *keys, cmp_u64);
+        gs_sort_u64(keys, n);
 }
 
 size_t gs_measure_keys_sort_unique(uint64_t *keys, size_t n)

@@ -9,6 +9,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 typedef struct layout_objects {
     int64_t n;       /* components */
@@ -134,12 +135,6 @@ static int cmp_by_x(const void *a, const void *b)
     return p->x < q->x ? -1 : p->x > q->x ? 1 : (p->i > q->i) - (p->i < q->i);
 }
 
-static int cmp_f64(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* Per inner object, the distance of its centre to the nearest other
  * object's centre (any object, inner or not), sorted ascending into *nn
  * (*k values; none when there is no other object). A sweep along x: cost
@@ -174,7 +169,7 @@ static gs_err nearest(const layout_objects *o, const uint8_t *measured, double *
             }
         d[(*k)++] = sqrt(best);
     }
-    qsort(d, (size_t)*k, sizeof *d, cmp_f64);
+    gs_sort_f64(d, (size_t)*k);
     *nn = d;
     d = NULL;
 done:

@@ -8,6 +8,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 /* Length of the colour boundary of side[] (one flag per vertex): in a
  * triangle whose corners differ it runs between the midpoints of the two
@@ -147,12 +148,6 @@ static void invert(uint8_t *s, size_t n)
         s[i] = !s[i];
 }
 
-static int cmp_double(const void *pa, const void *pb)
-{
-    double a = *(const double *)pa, b = *(const double *)pb;
-    return (a > b) - (a < b);
-}
-
 gs_err gs_measure_outline(const float *pos, size_t nv, const uint32_t *tris, size_t nt, double scale,
                           const uint8_t *side, double rho, gs_measure_outline_t *out)
 {
@@ -192,7 +187,7 @@ gs_err gs_measure_outline(const float *pos, size_t nv, const uint32_t *tris, siz
         double *copy = NULL;
         GS_TRY(err, gs_alloc_array((void **)&copy, nv, sizeof *copy, "outline radii"), done);
         memcpy(copy, rad, nv * sizeof *copy);
-        qsort(copy, nv, sizeof *copy, cmp_double);
+        gs_sort_f64(copy, nv);
         double R = nv % 2 ? copy[nv / 2] : 0.5 * (copy[nv / 2 - 1] + copy[nv / 2]);
         gs_free(copy);
         for (size_t v = 0; v < nv; v++)

@@ -6,6 +6,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 static uint32_t uf_find(uint32_t *par, uint32_t i)
 {
@@ -337,17 +338,11 @@ static void seam_fit_score(const seam_fit *f, const double *p, double min_w, dou
     dl[(*nd)++] = fabs(d);
 }
 
-static int seam_dbl_cmp(const void *pa, const void *pb)
-{
-    double a = *(const double *)pa, b = *(const double *)pb;
-    return (a > b) - (a < b);
-}
-
 static double seam_p90(double *v, size_t n)
 {
     if (!n)
         return 0;
-    qsort(v, n, sizeof *v, seam_dbl_cmp);
+    gs_sort_f64(v, n);
     return v[(size_t)floor(0.9 * (double)(n - 1))];
 }
 

@@ -12,6 +12,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 
 /* Window size: the first lag at which the example's autocorrelation (the
  * mean of the x and y ones, mean removed) falls below 1/e, in
@@ -106,12 +107,6 @@ static gs_err windows_make(const double *h, int64_t nx, int64_t ny, int w, windo
 fail:
     windows_free(W);
     return err;
-}
-
-static int cmp_f64(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
 }
 
 static double dot(const float *a, const float *b, int64_t n)
@@ -211,7 +206,7 @@ static gs_err area_figure(const windows *O, int64_t onx, int64_t ony, int64_t sn
         m->ncc_out_area = -1;
         goto done;
     }
-    qsort(f, (size_t)nf, sizeof *f, cmp_f64);
+    gs_sort_f64(f, (size_t)nf);
     m->ncc_out_area = nf % 2 ? f[nf / 2] : 0.5 * (f[nf / 2 - 1] + f[nf / 2]);
     m->ncc_out_area_max = f[nf - 1];
 done:
@@ -256,7 +251,7 @@ gs_err gs_measure_repeats2(const double *out, int64_t onx, int64_t ony, const do
     /* relief floor: the median residual RMS of the example's windows */
     GS_TRY(err, gs_alloc_array((void **)&r, (size_t)S.n, sizeof *r, "window relief"), done);
     memcpy(r, S.rms, (size_t)S.n * sizeof *r);
-    qsort(r, (size_t)S.n, sizeof *r, cmp_f64);
+    gs_sort_f64(r, (size_t)S.n);
     m->relief = S.n % 2 ? r[S.n / 2] : 0.5 * (r[S.n / 2 - 1] + r[S.n / 2]);
     for (int64_t i = 0; i < S.n; i++)
         m->windows_src += S.rms[i] >= m->relief;

@@ -5,6 +5,7 @@
 
 #include "geosynth/measure.h"
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 #include "unionfind.h"
 
 double gs_measure_l1(const double *a, const double *b, size_t n)
@@ -22,12 +23,6 @@ double gs_measure_l1(const double *a, const double *b, size_t n)
     return d;
 }
 
-static int cmp_double(const void *pa, const void *pb)
-{
-    double a = *(const double *)pa, b = *(const double *)pb;
-    return (a > b) - (a < b);
-}
-
 /* Sorted copy of the non-NaN values of x. */
 static gs_err sorted_copy(const double *x, size_t n, double **out, size_t *m)
 {
@@ -39,7 +34,7 @@ static gs_err sorted_copy(const double *x, size_t n, double **out, size_t *m)
     for (size_t i = 0; i < n; i++)
         if (!isnan(x[i]))
             (*out)[(*m)++] = x[i];
-    qsort(*out, *m, sizeof **out, cmp_double);
+    gs_sort_f64(*out, *m);
     return GS_OK;
 }
 

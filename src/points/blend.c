@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 #include "points/points_impl.h"
 
 /* The points of a grid within rc of c (a query's answer, in the grid's
@@ -221,12 +222,6 @@ done:
     return err;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 gs_err gs_points_blend_implicit(gs_points_sheet_point *v, size_t n, const gs_points_grid *F,
                                 const gs_points_grid *N, double R, double reach,
                                 gs_points_map_fn map, void *map_user, size_t *done_n)
@@ -286,7 +281,7 @@ gs_err gs_points_blend_implicit(gs_points_sheet_point *v, size_t n, const gs_poi
                 }
                 if (mm < 3)
                     break;
-                qsort(tmp, mm, sizeof *tmp, cmp_double);
+                gs_sort_f64(tmp, mm);
                 med[3 * k + a] = mm % 2 ? tmp[mm / 2] : 0.5 * (tmp[mm / 2 - 1] + tmp[mm / 2]);
                 has[k] = a == 2;
             }

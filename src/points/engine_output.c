@@ -13,6 +13,7 @@
 #include "geosynth/pointply.h"
 #include "geosynth/preview.h"
 #include "geosynth/vdb.h"
+#include "geosynth/sort.h"
 #include "points/engine_impl.h"
 
 static gs_err write_patch_csv(const char *path, const gs_points_patch_metrics *m, size_t n)
@@ -201,12 +202,6 @@ done:
     return err;
 }
 
-static int u64_cmp(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* Distinct input patches among the chosen ones (0 on no memory). */
 static size_t distinct_sources(const gs_points_patch_metrics *m, size_t n)
 {
@@ -215,7 +210,7 @@ static size_t distinct_sources(const gs_points_patch_metrics *m, size_t n)
         return 0;
     for (size_t k = 0; k < n; k++)
         v[k] = m[k].chosen;
-    qsort(v, n, sizeof *v, u64_cmp);
+    gs_sort_u64(v, n);
     size_t d = 0;
     for (size_t k = 0; k < n; k++)
         d += k == 0 || v[k] != v[k - 1];
@@ -246,12 +241,6 @@ static gs_err count_fragments(const gs_points *pts, double r, const double *lo, 
     return GS_OK;
 }
 
-static int dbl_cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* Shares of v[0, n) below lo and above hi, and its median (sorts v). */
 static void nn_figures(double *v, size_t n, double lo, double hi, double *close, double *far,
                        double *median)
@@ -263,7 +252,7 @@ static void nn_figures(double *v, size_t n, double lo, double hi, double *close,
     }
     *close = n ? (double)a / (double)n : 0;
     *far = n ? (double)b / (double)n : 0;
-    qsort(v, n, sizeof *v, dbl_cmp);
+    gs_sort_f64(v, n);
     *median = n ? v[n / 2] : 0;
 }
 

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 #include "points/points_impl.h"
 
 #define RNG_DOMAIN_SAMPLE 0x50545341u /* "PTSA" */
@@ -102,12 +103,6 @@ done:
     return err;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 gs_err gs_points_estimate_spacing(const gs_points *pts, double *spacing)
 {
     GS_CHECK(pts->n >= 16, GS_ERR_ARG,
@@ -159,7 +154,7 @@ gs_err gs_points_estimate_spacing(const gs_points *pts, double *spacing)
     }
     GS_TRY_CHECK(err, ns >= 8, GS_ERR_ARG, done,
                  "point set: cannot estimate the spacing (points coincide)");
-    qsort(nn, ns, sizeof *nn, cmp_double);
+    gs_sort_f64(nn, ns);
     /* For a (near-)maximal Poisson-disk set of radius s the nearest-neighbour
      * distances lie in [s, 2s) and crowd near s: their median is 1.07-1.09 s
      * on the generators and the mesh sampler (tests/unit/test_points_input.c). */

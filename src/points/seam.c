@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "geosynth/mem.h"
+#include "geosynth/sort.h"
 #include "points/points_impl.h"
 
 
@@ -95,12 +96,6 @@ static gs_err segments_alloc(const gs_points_lines *L, const double *lo, const d
     return GS_OK;
 }
 
-static int dbl_cmp(const void *pa, const void *pb)
-{
-    double a = *(const double *)pa, b = *(const double *)pb;
-    return (a > b) - (a < b);
-}
-
 /* The unmatched share of each segment of >= SEGMENT_MIN_POINTS band
  * points into v (sized for every segment); returns how many. */
 static size_t segment_shares(const seam_acc *acc, const gs_points_lines *L, double *v)
@@ -157,7 +152,7 @@ gs_err gs_points_seam_measure(const gs_points *pts, double R, double band,
         out->seam_segments = ns[0];
         out->inside_segments = ns[1];
         if (ns[0] > 0 && ns[1] > 0) {
-            qsort(sh[1], ns[1], sizeof *sh[1], dbl_cmp);
+            gs_sort_f64(sh[1], ns[1]);
             double p90 = sh[1][(size_t)floor(0.9 * (double)(ns[1] - 1))];
             size_t above = 0;
             for (size_t j = 0; j < ns[0]; j++)
