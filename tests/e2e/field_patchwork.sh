@@ -98,8 +98,11 @@ for seed in ${TERRAIN_SEEDS:-1 2 3 4 5 6}; do
   /usr/bin/python3 - "terrain-$seed/summary.json" <<'EOF3' && ok "terrain seed $seed: largest copy <= 0.25, vf within 10%" || bad "terrain seed $seed: largest copy or vf out of bounds"
 import json, sys
 m = json.load(open(sys.argv[1]))["metrics"]
-print("largest copy", round(m["copy_largest_region_of_source"], 3), "vf", round(m["volume_fraction_out"], 3), "source", round(m["volume_fraction_src"], 3))
-assert m["copy_largest_region_of_source"] <= 0.25
+# terrain.ini's height match moves columns along z after the synthesis, which
+# hides copied pieces from the output's copy_*: judge the synthesis' own
+# (synthesis_copy_*, measured before the match; equal to copy_* without it)
+print("largest copy", round(m["synthesis_copy_largest_region_of_source"], 3), "(output's", round(m["copy_largest_region_of_source"], 3), ") vf", round(m["volume_fraction_out"], 3), "source", round(m["volume_fraction_src"], 3))
+assert m["synthesis_copy_largest_region_of_source"] <= 0.25
 assert abs(m["volume_fraction_out"] / m["volume_fraction_src"] - 1) <= 0.10
 EOF3
 done
