@@ -36,7 +36,7 @@ HEADER_LAYER = {
     "error.h": ("core", None), "file.h": ("core", None), "json.h": ("core", None),
     "log.h": ("core", None), "mem.h": ("core", None), "parse.h": ("core", None),
     "rng.h": ("core", None), "version.h": ("core", None), "measure.h": ("core", None),
-    "killpoint.h": ("core", None),
+    "killpoint.h": ("core", None), "sort.h": ("core", None),
     "par.h": ("par", None), "partition.h": ("par", None), "psearch.h": ("par", None),
     "regions.h": ("par", None), "pmap.h": ("par", None),
     "h5.h": ("io", None), "image.h": ("io", None), "mesh.h": ("io", None),
