@@ -767,6 +767,29 @@ static size_t carve_floating(model_engine *e, const gs_model_params *p)
     return carved;
 }
 
+/* The repair's end with nf cells still floating after tries boxes (whole: the
+ * last box was the whole grid): emptied if no rule breaks (carve_floating),
+ * else a failed region. */
+static void support_last_resort(model_engine *e, const gs_model_params *p, size_t nf, int tries,
+                                int whole)
+{
+    size_t carved = carve_floating(e, p);
+    if (carved) {
+        if (whole)
+            gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty cells "
+                   "only, no rule broken) after the whole grid", carved);
+        else
+            gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty cells "
+                   "only, no rule broken) after %d boxes", carved, tries);
+        return;
+    }
+    e->stats.failed++;
+    if (whole)
+        gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain", nf);
+    else
+        gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain after %d boxes", nf, tries);
+}
+
 static gs_err support_repair(model_engine *e)
 {
     const uint8_t *empty = e->params.support_empty ? e->params.support_empty : e->repair_empty;
@@ -790,15 +813,7 @@ static gs_err support_repair(model_engine *e)
         if (nf == 0)
             break;
         if (tries == MODEL_REPAIR_MAX_TRIES) {
-            size_t carved = carve_floating(e, &p);
-            if (carved) {
-                gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty "
-                       "cells only, no rule broken) after %d boxes", carved, tries);
-                break;
-            }
-            e->stats.failed++;
-            gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain after %d boxes", nf,
-                   tries);
+            support_last_resort(e, &p, nf, tries, 0);
             break;
         }
         gs_model_box b = repair_box(l, bb, margin);
@@ -821,15 +836,8 @@ static gs_err support_repair(model_engine *e)
             gs_model_region_apply(&e->lat, &b, buf);
             continue;
         }
-        if (whole) { /* nothing left to grow: emptied if no rule breaks, else a failed region */
-            size_t carved = carve_floating(e, &p);
-            if (carved) {
-                gs_log(GS_LOG_INFO, "support repair: %zu floating cells emptied (among empty "
-                       "cells only, no rule broken) after the whole grid", carved);
-                break;
-            }
-            e->stats.failed++;
-            gs_log(GS_LOG_WARN, "support repair: %zu floating cells remain", nf);
+        if (whole) { /* nothing left to grow */
+            support_last_resort(e, &p, nf, tries, 1);
             break;
         }
         margin *= 2;
